@@ -1,0 +1,2 @@
+//! The pod simulator (placeholder until the acquisition demo lands).
+fn main() {}

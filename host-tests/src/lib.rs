@@ -1,0 +1,1 @@
+//! Host side of ballpod: independent f64 oracles, the virtual machine tool and the simulator.

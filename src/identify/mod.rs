@@ -1,0 +1,1 @@
+//! Identification: test results → machine geometric deviations and NC corrections.

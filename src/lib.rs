@@ -1,0 +1,31 @@
+//! ballpod core: the hardware-independent measurement maths of the pod.
+//!
+//! `#![no_std]`, allocation-free and panic-free: every fallible operation returns a typed error,
+//! buffers are fixed at compile time, and clippy denies `unwrap`/`expect`/`panic`/unchecked
+//! indexing in this crate. The embassy firmware (`src/main.rs`, feature `firmware`) only moves
+//! data between peripherals and these functions; `host-tests/` tests them against independent
+//! oracles and drives them from the virtual machine tool.
+//!
+//! One folder per concern (see `../shared/DESIGN.md` §4):
+//! - [`acquisition`]: raw sensor readings → calibrated, flagged [`acquisition::Sample`]s;
+//! - [`config`]: the pod's configuration with units, defaults, ranges and a CRC'd binary encoding;
+//! - [`metrology`]: samples → SSM position errors, circle fits, ISO 230-4 figures;
+//! - [`identify`]: test results → machine deviations and corrections;
+//! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC).
+#![no_std]
+#![deny(missing_docs)]
+#![deny(
+    clippy::unwrap_used,
+    clippy::expect_used,
+    clippy::panic,
+    clippy::indexing_slicing,
+    clippy::unreachable,
+    clippy::todo,
+    clippy::unimplemented
+)]
+
+pub mod acquisition;
+pub mod config;
+pub mod identify;
+pub mod metrology;
+pub mod num;

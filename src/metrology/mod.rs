@@ -1,0 +1,1 @@
+//! Metrology: samples → SSM position errors, running circle fits, ISO 230-4 figures, point fits.

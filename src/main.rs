@@ -1,0 +1,3 @@
+//! ballpod firmware (placeholder until the board layer lands).
+#![no_std]
+#![no_main]

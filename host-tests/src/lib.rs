@@ -1,1 +1,4 @@
 //! Host side of ballpod: independent f64 oracles, the virtual machine tool and the simulator.
+
+pub mod lvdt_model;
+pub mod rng;

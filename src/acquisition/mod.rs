@@ -1,5 +1,18 @@
-//! Acquisition: raw sensor readings → calibrated, validated [`Sample`]s.
+//! Acquisition: raw sensor readings → calibrated, validated [`Sample`]s (DESIGN §5).
+//!
+//! - [`lvdt`]: ratiometric synchronous demodulation, DC-input mode, calibration polynomial;
+//! - [`encoder`]: hardware counter → exact 64-bit count → mm / degrees, glitch detection;
+//! - [`probe`]: touch-trigger latch, debounce, re-seat lock-out;
+//! - [`thermal`]: thermistor → °C, bar expansion correction;
+//! - [`pipeline`]: all of the above → one flagged [`Sample`] per sample period;
+//! - [`sample`]: the sample and its validity flags.
 
+pub mod encoder;
+pub mod lvdt;
+pub mod pipeline;
+pub mod probe;
 pub mod sample;
+pub mod thermal;
 
+pub use pipeline::{Acquisition, AcquisitionCounters};
 pub use sample::{MAX_AXES, Sample, SampleFlags};

@@ -1,0 +1,107 @@
+//! Configuration: ranges, atomic updates, the binary encoding and its CRC.
+use ballpod::config::{AxisName, Config, ConfigError, ENCODED_LEN, Field};
+
+#[test]
+fn crc_is_crc32_iso_hdlc() {
+    // The standard check value of CRC-32/ISO-HDLC (zlib, Ethernet).
+    assert_eq!(ballpod::num::crc32(b"123456789"), 0xCBF4_3926);
+}
+
+#[test]
+fn defaults_are_valid() {
+    Config::default().validate().unwrap();
+}
+
+#[test]
+fn out_of_range_is_rejected_naming_field_and_range_and_changes_nothing() {
+    let mut c = Config::default();
+    let before = c;
+    let e = c.try_update(|c| c.bar_length_mm = 20.0).unwrap_err();
+    assert_eq!(e, ConfigError::OutOfRange { field: Field::BarLengthMm, value: 20.0, min: 50.0, max: 600.0 });
+    assert_eq!(c, before);
+    let e = c.try_update(|c| c.can_node_id = 0).unwrap_err();
+    assert!(matches!(e, ConfigError::OutOfRange { field: Field::CanNodeId, min: 1.0, max: 127.0, .. }));
+    let e = c.try_update(|c| c.axes[3].counts_per_unit = f64::NAN).unwrap_err();
+    assert!(matches!(e, ConfigError::OutOfRange { field: Field::AxisCountsPerUnit(3), .. }));
+    let e = c.try_update(|c| c.axes[4].name = AxisName::X).unwrap_err();
+    assert_eq!(e, ConfigError::Duplicate { field: Field::AxisNameDuplicate(4) });
+    // 20 kHz × 64 samples = 1.28 MS/s is beyond the ADC budget although each field is in range
+    let e = c
+        .try_update(|c| {
+            c.excitation_hz = 20_000.0;
+            c.samples_per_period = 64;
+        })
+        .unwrap_err();
+    assert!(matches!(e, ConfigError::OutOfRange { field: Field::AdcRate, .. }));
+    assert_eq!(c, before);
+    // a valid change goes through
+    c.try_update(|c| c.bar_length_mm = 300.0).unwrap();
+    assert_eq!(c.bar_length_mm, 300.0);
+    // units are documented in the table
+    let i = Config::field_info(Field::BarLengthMm).unwrap();
+    assert_eq!((i.name, i.unit), ("bar_length", "mm"));
+}
+
+#[test]
+fn encoding_round_trips() {
+    let mut c = Config::default();
+    c.try_update(|c| {
+        c.bar_length_mm = 300.0;
+        c.lvdt_poly_um = [0.5, 2001.25, -3.0, 0.125];
+        c.axes[1].reversed = true;
+        c.axes[4] = ballpod::config::AxisConfig { name: AxisName::A, counts_per_unit: 36_000.5, reversed: false, max_speed_per_s: 720.0 };
+        c.can_node_id = 42;
+    })
+    .unwrap();
+    let mut buf = [0u8; ENCODED_LEN];
+    assert_eq!(c.encode(&mut buf).unwrap(), ENCODED_LEN);
+    assert_eq!(&buf[..4], b"BPOD");
+    assert_eq!(Config::decode(&buf).unwrap(), c);
+    // the CRC trailer is the CRC of everything before it, little-endian
+    let crc = ballpod::num::crc32(&buf[..ENCODED_LEN - 4]);
+    assert_eq!(buf[ENCODED_LEN - 4..], crc.to_le_bytes());
+}
+
+#[test]
+fn every_corruption_is_detected() {
+    let mut buf = [0u8; ENCODED_LEN];
+    Config::default().encode(&mut buf).unwrap();
+    // any single flipped bit anywhere is caught (by magic, version, length or CRC)
+    for i in 0..ENCODED_LEN {
+        for bit in 0..8 {
+            let mut b = buf;
+            b[i] ^= 1 << bit;
+            assert!(Config::decode(&b).is_err(), "flip at byte {i} bit {bit} accepted");
+        }
+    }
+    assert!(matches!(Config::decode(&buf[..ENCODED_LEN - 1]), Err(ConfigError::BadLength { .. })));
+    let mut b = buf;
+    b[0] = b'X';
+    assert_eq!(Config::decode(&b), Err(ConfigError::BadMagic));
+    let mut b = buf;
+    b[4] = 2;
+    assert_eq!(Config::decode(&b), Err(ConfigError::UnsupportedVersion(2)));
+    let mut small = [0u8; 10];
+    assert!(matches!(Config::default().encode(&mut small), Err(ConfigError::BadLength { .. })));
+}
+
+fn reseal(b: &mut [u8; ENCODED_LEN]) {
+    let crc = ballpod::num::crc32(&b[..ENCODED_LEN - 4]);
+    b[ENCODED_LEN - 4..].copy_from_slice(&crc.to_le_bytes());
+}
+
+#[test]
+fn well_sealed_but_invalid_content_is_rejected() {
+    let mut buf = [0u8; ENCODED_LEN];
+    Config::default().encode(&mut buf).unwrap();
+    // bar length field (first payload field, at offset 8) set to 10 mm, CRC recomputed
+    let mut b = buf;
+    b[8..12].copy_from_slice(&10.0f32.to_le_bytes());
+    reseal(&mut b);
+    assert!(matches!(Config::decode(&b), Err(ConfigError::OutOfRange { field: Field::BarLengthMm, .. })));
+    // LVDT input mode byte (offset 16) set to 9
+    let mut b = buf;
+    b[16] = 9;
+    reseal(&mut b);
+    assert_eq!(Config::decode(&b), Err(ConfigError::BadEnum { offset: 16 }));
+}

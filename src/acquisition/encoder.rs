@@ -1,0 +1,123 @@
+//! Quadrature encoders: hardware counter → 64-bit count → position in mm or degrees.
+
+/// Extends a wrapping hardware counter of `bits` bits (16 for TIM3/4/8, 32 for TIM2/5) to an
+/// exact 64-bit count, and flags jumps no real axis can make (a quadrature glitch or a missed
+/// read).
+///
+/// Exact as long as it is read at least once per half counter range of travel: the difference
+/// between two reads is taken modulo 2^bits and interpreted as signed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CountExtender {
+    bits: u32,
+    last_raw: u32,
+    count: i64,
+    max_step: u32,
+    glitches: u32,
+    primed: bool,
+}
+
+/// Result of one counter read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CountUpdate {
+    /// The extended count after this read.
+    pub count: i64,
+    /// The step from the previous read exceeded the plausible maximum (the count still
+    /// follows the hardware; the sample is flagged).
+    pub glitch: bool,
+}
+
+impl CountExtender {
+    /// A new extender for a `bits`-bit counter (1…32; larger values are clamped to 32).
+    /// `max_step` is the largest plausible change between two reads (axis max speed × read
+    /// interval × counts per unit, with margin); 0 disables the check.
+    pub const fn new(bits: u32, max_step: u32) -> Self {
+        let bits = if bits == 0 {
+            1
+        } else if bits > 32 {
+            32
+        } else {
+            bits
+        };
+        Self {
+            bits,
+            last_raw: 0,
+            count: 0,
+            max_step,
+            glitches: 0,
+            primed: false,
+        }
+    }
+
+    /// Sets the extended count to `count` at the hardware value `raw` (homing / reference).
+    pub fn set(&mut self, raw: u32, count: i64) {
+        self.last_raw = raw & self.mask();
+        self.count = count;
+        self.primed = true;
+    }
+
+    const fn mask(&self) -> u32 {
+        if self.bits >= 32 {
+            u32::MAX
+        } else {
+            (1u32 << self.bits) - 1
+        }
+    }
+
+    /// Feeds the current hardware counter value. The first read defines count 0 unless
+    /// [`CountExtender::set`] was called.
+    pub fn update(&mut self, raw: u32) -> CountUpdate {
+        let raw = raw & self.mask();
+        if !self.primed {
+            self.set(raw, 0);
+            return CountUpdate {
+                count: self.count,
+                glitch: false,
+            };
+        }
+        // Signed difference modulo 2^bits: shift the value into the top bits of an i32 so the
+        // wrap-around of the subtraction is the hardware's.
+        let shift = 32 - self.bits;
+        let step = ((raw.wrapping_sub(self.last_raw) << shift) as i32) >> shift;
+        self.last_raw = raw;
+        self.count = self.count.wrapping_add(i64::from(step));
+        let glitch = self.max_step != 0 && step.unsigned_abs() > self.max_step;
+        if glitch {
+            self.glitches = self.glitches.saturating_add(1);
+        }
+        CountUpdate {
+            count: self.count,
+            glitch,
+        }
+    }
+
+    /// The extended count.
+    pub const fn count(&self) -> i64 {
+        self.count
+    }
+
+    /// Implausible steps seen since start.
+    pub const fn glitches(&self) -> u32 {
+        self.glitches
+    }
+}
+
+/// Scaling of one axis: counts → mm (linear) or degrees (rotary).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisScale {
+    /// Counts per mm (linear axis) or per degree (rotary axis), > 0.
+    pub counts_per_unit: f64,
+    /// Counting direction: `false` = counts up in the axis' positive direction.
+    pub reversed: bool,
+    /// Position at count 0, mm or degrees.
+    pub offset: f64,
+}
+
+impl AxisScale {
+    /// Position in mm or degrees of an extended count (computed in f64, returned as f32: exact
+    /// to the f32 ulp for any count of a realistic axis).
+    pub fn position(&self, count: i64) -> f32 {
+        let c = count as f64;
+        let p = if self.reversed { -c } else { c } / self.counts_per_unit + self.offset;
+        if p.is_finite() { p as f32 } else { 0.0 }
+    }
+}

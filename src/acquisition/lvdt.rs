@@ -1,0 +1,276 @@
+//! LVDT: ratiometric synchronous demodulation of the two secondaries (AC mode) and the DC-input
+//! mode for an external conditioner, then the calibration polynomial to µm.
+//!
+//! # AC mode
+//! The DAC drives the primary with a sine of `P` samples per period; both secondaries are
+//! sampled by the ADCs in sync with it (sample `k` of a block is at excitation phase
+//! `2πk/P`). Over a block of whole periods, each secondary `s` is projected on the in-phase and
+//! quadrature references:
+//!
+//! ```text
+//! I_s = Σ v_s[k]·sin(2πk/P),  Q_s = Σ v_s[k]·cos(2πk/P),  A_s = (2/n)·√(I_s² + Q_s²)
+//! ```
+//!
+//! A DC offset sums to zero over whole periods, and taking the magnitude makes `A_s`
+//! independent of the phase between excitation and secondaries (cable, coil inductance). The
+//! position is the **ratiometric** figure
+//!
+//! ```text
+//! r = (A_a − A_b) / (A_a + A_b)          (−1 … 1, 0 at the electrical null)
+//! ```
+//!
+//! which does not change when the excitation amplitude drifts: both secondaries scale alike.
+//! `A_a + A_b` is nearly constant over the stroke of a standard LVDT, so it serves as the
+//! signal-level (open coil / unplugged bar) check. Noise: with white noise σ_v per ADC sample,
+//! each amplitude has σ_A = σ_v·√(2/n), and `r` has σ_r = 2·σ_A·√(A_a² + A_b²)/(A_a + A_b)²
+//! (the averaging gain the host tests check).
+//!
+//! # DC mode
+//! An external LVDT conditioner delivers a voltage proportional to position; the ratio is
+//! `r = (v − v_zero)/v_span` and the same calibration polynomial applies.
+
+/// Why a block could not be demodulated (the caller flags the sample; nothing is guessed).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DemodError {
+    /// The block is empty or not a whole number of excitation periods.
+    NotWholePeriods {
+        /// Samples in the block.
+        len: usize,
+        /// Samples per excitation period.
+        period: usize,
+    },
+    /// The two secondaries' blocks differ in length.
+    LengthMismatch,
+}
+
+/// One ADC sample of a secondary: its value and whether it sits on a converter rail
+/// (clipping makes the amplitude wrong, so the block is flagged over-range).
+pub trait AdcSample: Copy {
+    /// The sample as `f32` (ADC counts or volts; only ratios are used).
+    fn value(self) -> f32;
+    /// True if the converter clipped (at 0 or full scale).
+    fn at_rail(self) -> bool;
+}
+
+/// Full-scale code of the STM32G4's 12-bit ADCs.
+pub const ADC12_FULL_SCALE: u16 = 4095;
+
+impl AdcSample for u16 {
+    #[inline(always)]
+    fn value(self) -> f32 {
+        f32::from(self)
+    }
+    #[inline(always)]
+    fn at_rail(self) -> bool {
+        self == 0 || self >= ADC12_FULL_SCALE
+    }
+}
+
+impl AdcSample for f32 {
+    #[inline(always)]
+    fn value(self) -> f32 {
+        self
+    }
+    #[inline(always)]
+    fn at_rail(self) -> bool {
+        false
+    }
+}
+
+/// Sine/cosine reference of the excitation, `P` samples per period (the same table the DAC
+/// plays, so demodulation is phase-locked by construction).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExcitationTable<const P: usize> {
+    /// sin(2πk/P).
+    pub sin: [f32; P],
+    /// cos(2πk/P).
+    pub cos: [f32; P],
+}
+
+impl<const P: usize> ExcitationTable<P> {
+    /// Builds the table (libm at start-up; never on the hot path).
+    pub fn new() -> Self {
+        let mut t = Self {
+            sin: [0.0; P],
+            cos: [0.0; P],
+        };
+        let step = 2.0 * core::f64::consts::PI / P as f64;
+        for (k, (s, c)) in t.sin.iter_mut().zip(t.cos.iter_mut()).enumerate() {
+            let ph = step * k as f64;
+            *s = libm::sin(ph) as f32;
+            *c = libm::cos(ph) as f32;
+        }
+        t
+    }
+
+    /// The DAC codes of one excitation period for a 12-bit DAC: mid-scale ± `amplitude_counts`.
+    pub fn dac_codes(&self, amplitude_counts: u16) -> [u16; P] {
+        let mut out = [0u16; P];
+        let mid = f32::from(ADC12_FULL_SCALE / 2 + 1);
+        let amp = f32::from(amplitude_counts.min(ADC12_FULL_SCALE / 2));
+        for (o, s) in out.iter_mut().zip(self.sin.iter()) {
+            // round to nearest; clamped to the DAC's range
+            let v = mid + amp * s + 0.5;
+            *o = if v <= 0.0 {
+                0
+            } else if v >= f32::from(ADC12_FULL_SCALE) {
+                ADC12_FULL_SCALE
+            } else {
+                v as u16
+            };
+        }
+        out
+    }
+}
+
+impl<const P: usize> Default for ExcitationTable<P> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// Result of demodulating one block (AC mode) or reading one DC value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LvdtReading {
+    /// Ratiometric position figure `r` (dimensionless, −1 … 1); 0 when the signal is too weak.
+    pub ratio: f32,
+    /// Signal level `A_a + A_b` in input units (ADC counts or volts), for the open check.
+    pub signal_level: f32,
+    /// Phase of secondary A relative to the excitation sine, degrees (−180 … 180): a quality
+    /// figure (a jump means a wiring fault or a core outside the coil).
+    pub phase_deg: f32,
+    /// An input sample sat on a converter rail (clipping).
+    pub clipped: bool,
+}
+
+/// Demodulates one block of both secondaries (see the module doc for the equations).
+///
+/// `a` and `b` hold the same whole number of excitation periods, sample `k` taken at phase
+/// `2πk/P`. The per-sample work is two multiply-accumulates per channel.
+pub fn demodulate<S: AdcSample, const P: usize>(
+    a: &[S],
+    b: &[S],
+    table: &ExcitationTable<P>,
+) -> Result<LvdtReading, DemodError> {
+    if a.len() != b.len() {
+        return Err(DemodError::LengthMismatch);
+    }
+    if P == 0 || a.is_empty() || a.len() % P != 0 {
+        return Err(DemodError::NotWholePeriods {
+            len: a.len(),
+            period: P,
+        });
+    }
+    let (mut ia, mut qa, mut ib, mut qb) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+    let mut clipped = false;
+    for (ca, cb) in a.chunks_exact(P).zip(b.chunks_exact(P)) {
+        // Per-period partial sums keep f32 rounding small on long blocks.
+        let (mut pia, mut pqa, mut pib, mut pqb) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
+        for (((&va, &vb), &s), &c) in ca
+            .iter()
+            .zip(cb.iter())
+            .zip(table.sin.iter())
+            .zip(table.cos.iter())
+        {
+            let (xa, xb) = (va.value(), vb.value());
+            pia += xa * s;
+            pqa += xa * c;
+            pib += xb * s;
+            pqb += xb * c;
+            clipped |= va.at_rail() | vb.at_rail();
+        }
+        ia += pia;
+        qa += pqa;
+        ib += pib;
+        qb += pqb;
+    }
+    let scale = 2.0 / a.len() as f32;
+    let amp_a = scale * crate::num::sqrtf(ia * ia + qa * qa);
+    let amp_b = scale * crate::num::sqrtf(ib * ib + qb * qb);
+    let level = amp_a + amp_b;
+    let ratio = if level > 0.0 {
+        (amp_a - amp_b) / level
+    } else {
+        0.0
+    };
+    let phase_deg = if amp_a > 0.0 {
+        libm::atan2f(qa, ia).to_degrees()
+    } else {
+        0.0
+    };
+    Ok(LvdtReading {
+        ratio,
+        signal_level: level,
+        phase_deg,
+        clipped,
+    })
+}
+
+/// DC-input mode: the ratio of an external conditioner's output voltage.
+///
+/// `r = (v − zero_v)/span_v`; `clipped` when `v` is outside `[min_v, max_v]` (the conditioner
+/// saturates there). The signal level is reported as `|span_v|` (a DC conditioner gives no
+/// open-coil information).
+pub fn dc_reading(v: f32, zero_v: f32, span_v: f32, min_v: f32, max_v: f32) -> LvdtReading {
+    let ok = v.is_finite() && span_v.is_finite() && span_v != 0.0;
+    let ratio = if ok { (v - zero_v) / span_v } else { 0.0 };
+    LvdtReading {
+        ratio: if ratio.is_finite() { ratio } else { 0.0 },
+        signal_level: if ok { libm::fabsf(span_v) } else { 0.0 },
+        phase_deg: 0.0,
+        clipped: !ok || !(min_v..=max_v).contains(&v),
+    }
+}
+
+/// Calibration of the LVDT: polynomial ratio → displacement in µm, the usable stroke and the
+/// open-coil threshold.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LvdtCalibration {
+    /// Polynomial coefficients `c_k` in µm: `x_um = Σ c_k · r^k` (k = 0…3).
+    pub poly_um: [f32; 4],
+    /// Largest |r| inside the calibrated stroke; beyond it the reading is over-range.
+    pub max_abs_ratio: f32,
+    /// Smallest signal level `A_a + A_b` (input units) of a connected, excited LVDT.
+    pub min_signal_level: f32,
+}
+
+/// Validity of an LVDT displacement.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LvdtStatus {
+    /// Inside the calibrated stroke with a healthy signal.
+    Ok,
+    /// Outside the calibrated stroke or clipped: the value is the stroke-limit value.
+    OverRange,
+    /// Signal too weak (open coil, bar unplugged): the value is 0.
+    Open,
+}
+
+impl LvdtCalibration {
+    /// Displacement in µm of a reading, with its status. Never NaN: a weak signal gives 0 µm
+    /// and [`LvdtStatus::Open`]; an out-of-stroke or clipped reading gives the value at the
+    /// stroke limit and [`LvdtStatus::OverRange`].
+    pub fn displacement_um(&self, reading: &LvdtReading) -> (f32, LvdtStatus) {
+        if !(reading.signal_level >= self.min_signal_level) || !reading.ratio.is_finite() {
+            return (0.0, LvdtStatus::Open);
+        }
+        let over = reading.clipped || libm::fabsf(reading.ratio) > self.max_abs_ratio;
+        let r = reading.ratio.clamp(-self.max_abs_ratio, self.max_abs_ratio);
+        // Horner, in f32: coefficients in µm, r dimensionless.
+        let x = self
+            .poly_um
+            .iter()
+            .rev()
+            .fold(0.0f32, |acc, &c| acc * r + c);
+        if !x.is_finite() {
+            return (0.0, LvdtStatus::OverRange);
+        }
+        (
+            x,
+            if over {
+                LvdtStatus::OverRange
+            } else {
+                LvdtStatus::Ok
+            },
+        )
+    }
+}

@@ -1,0 +1,236 @@
+//! The acquisition pipeline: one LVDT reading + the encoder counters + the last temperature →
+//! one calibrated, flagged [`Sample`]. The firmware and the simulator both call this; neither
+//! has maths of its own.
+
+use super::encoder::{AxisScale, CountExtender};
+use super::lvdt::{DemodError, LvdtCalibration, LvdtReading, LvdtStatus, dc_reading};
+use super::probe::{ProbeDebouncer, ProbeLatch, TriggerOutcome};
+use super::sample::{MAX_AXES, Sample, SampleFlags};
+use super::thermal::{REFERENCE_TEMP_C, Thermistor, ThermistorFault, bar_expansion_um};
+use crate::config::Config;
+
+/// Margin on the plausible count step between two samples (×2 the step at maximum speed).
+const GLITCH_MARGIN: f64 = 2.0;
+
+/// Counters of everything acquisition flagged or lost (nothing is dropped silently).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AcquisitionCounters {
+    /// Samples produced.
+    pub samples: u32,
+    /// Samples with an LVDT over-range.
+    pub lvdt_over_range: u32,
+    /// Samples with an open / weak LVDT.
+    pub lvdt_open: u32,
+    /// Samples with a quadrature error on any axis.
+    pub quadrature_errors: u32,
+    /// Samples that used a faulty (or no) temperature.
+    pub temperature_faults: u32,
+    /// Items lost upstream (ADC blocks or samples), as reported by the queues' overrun counters.
+    pub lost_upstream: u32,
+}
+
+/// Acquisition state of the pod (calibrations derived from the [`Config`], counter extension,
+/// probe bookkeeping, temperature, counters).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Acquisition {
+    lvdt: LvdtCalibration,
+    dc: (f32, f32),
+    thermistor: Thermistor,
+    bar_length_mm: f32,
+    cte_ppm_per_k: f32,
+    scales: [AxisScale; MAX_AXES],
+    counters_hw: [CountExtender; MAX_AXES],
+    /// Touch-probe debounce and lock-out.
+    pub probe: ProbeDebouncer,
+    temp_c: Option<f32>,
+    temp_fault: bool,
+    last_lost: u32,
+    seq: u32,
+    /// What was flagged or lost so far.
+    pub counters: AcquisitionCounters,
+}
+
+impl Acquisition {
+    /// Builds the pipeline from a (validated) configuration; `counter_bits[i]` is the width of
+    /// the hardware counter of encoder input i (16 or 32).
+    pub fn new(cfg: &Config, counter_bits: [u32; MAX_AXES]) -> Self {
+        let mut scales = [AxisScale {
+            counts_per_unit: 1.0,
+            reversed: false,
+            offset: 0.0,
+        }; MAX_AXES];
+        let mut counters_hw = [CountExtender::new(16, 0); MAX_AXES];
+        let rate = f64::from(cfg.sample_rate_hz).max(1.0);
+        for (((s, c), a), bits) in scales
+            .iter_mut()
+            .zip(counters_hw.iter_mut())
+            .zip(cfg.axes.iter())
+            .zip(counter_bits)
+        {
+            *s = AxisScale {
+                counts_per_unit: a.counts_per_unit,
+                reversed: a.reversed,
+                offset: 0.0,
+            };
+            let step = f64::from(a.max_speed_per_s) * a.counts_per_unit / rate * GLITCH_MARGIN;
+            let max_step = if step >= f64::from(u32::MAX) {
+                0
+            } else {
+                (step as u32).max(1)
+            };
+            *c = CountExtender::new(bits, max_step);
+        }
+        Self {
+            lvdt: LvdtCalibration {
+                poly_um: cfg.lvdt_poly_um,
+                max_abs_ratio: cfg.lvdt_max_abs_ratio,
+                min_signal_level: cfg.lvdt_min_signal,
+            },
+            dc: (cfg.lvdt_dc_zero_v, cfg.lvdt_dc_span_v),
+            thermistor: Thermistor {
+                r0_ohm: cfg.thermistor_r25_ohm,
+                t0_c: 25.0,
+                beta_k: cfg.thermistor_beta_k,
+                r_fixed_ohm: cfg.thermistor_r_fixed_ohm,
+                min_c: -10.0,
+                max_c: 60.0,
+            },
+            bar_length_mm: cfg.bar_length_mm,
+            cte_ppm_per_k: cfg.bar_cte_ppm_per_k,
+            scales,
+            counters_hw,
+            probe: ProbeDebouncer::new(
+                u64::from(cfg.probe_debounce_us),
+                u64::from(cfg.probe_reseat_us),
+            ),
+            temp_c: None,
+            temp_fault: true,
+            last_lost: 0,
+            seq: 0,
+            counters: AcquisitionCounters::default(),
+        }
+    }
+
+    /// The LVDT reading of a DC conditioner voltage under the configured zero and span
+    /// (saturation limits ±10.5 V, the conditioner class's rails).
+    pub fn dc_reading(&self, volts: f32) -> LvdtReading {
+        dc_reading(volts, self.dc.0, self.dc.1, -10.5, 10.5)
+    }
+
+    /// Feeds a thermistor ADC code (12-bit). A fault keeps the last good temperature (or 20 °C
+    /// if none yet) and flags the following samples until a good reading arrives.
+    pub fn update_temperature(&mut self, code: u16) -> Result<f32, ThermistorFault> {
+        match self
+            .thermistor
+            .temperature_c(code, super::lvdt::ADC12_FULL_SCALE)
+        {
+            Ok(t) => {
+                self.temp_c = Some(t);
+                self.temp_fault = false;
+                Ok(t)
+            }
+            Err(e) => {
+                self.temp_fault = true;
+                Err(e)
+            }
+        }
+    }
+
+    /// The temperature the expansion correction uses, °C.
+    pub fn temperature_c(&self) -> f32 {
+        self.temp_c.unwrap_or(REFERENCE_TEMP_C)
+    }
+
+    /// Extends and scales the raw encoder counters without producing a sample (for the probe
+    /// latch and for reading faster than the sample rate). Returns the extended counts and
+    /// whether any axis glitched.
+    pub fn update_counts(&mut self, raw: [u32; MAX_AXES]) -> ([i64; MAX_AXES], bool) {
+        let mut counts = [0i64; MAX_AXES];
+        let mut glitch = false;
+        for ((c, ext), r) in counts.iter_mut().zip(self.counters_hw.iter_mut()).zip(raw) {
+            let u = ext.update(r);
+            *c = u.count;
+            glitch |= u.glitch;
+        }
+        (counts, glitch)
+    }
+
+    /// Axis positions (mm / degrees) of extended counts.
+    pub fn positions(&self, counts: &[i64; MAX_AXES]) -> [f32; MAX_AXES] {
+        let mut p = [0.0f32; MAX_AXES];
+        for ((p, s), &c) in p.iter_mut().zip(self.scales.iter()).zip(counts.iter()) {
+            *p = s.position(c);
+        }
+        p
+    }
+
+    /// Handles a probe trigger edge whose raw counters were latched in the interrupt.
+    pub fn probe_trigger(&mut self, t_us: u64, raw: [u32; MAX_AXES]) -> TriggerOutcome {
+        let (counts, _) = self.update_counts(raw);
+        self.probe.trigger(ProbeLatch { counts, t_us })
+    }
+
+    /// Produces the next sample.
+    ///
+    /// - `lvdt`: the block's demodulation (or a DC reading); an error flags the sample open.
+    /// - `raw`: the hardware encoder counters now.
+    /// - `lost_total`: the cumulative overrun count of the queues feeding this sample; if it
+    ///   grew since the previous sample, this one carries [`SampleFlags::OVERRUN`].
+    /// - `probe_event`: a probe trigger was accepted since the previous sample.
+    pub fn sample(
+        &mut self,
+        t_us: u64,
+        lvdt: Result<LvdtReading, DemodError>,
+        raw: [u32; MAX_AXES],
+        lost_total: u32,
+        probe_event: bool,
+    ) -> Sample {
+        let mut flags = SampleFlags::NONE;
+        let (x_um, status) = match lvdt {
+            Ok(r) => self.lvdt.displacement_um(&r),
+            Err(_) => (0.0, LvdtStatus::Open),
+        };
+        match status {
+            LvdtStatus::Ok => {}
+            LvdtStatus::OverRange => {
+                flags.insert(SampleFlags::LVDT_OVER_RANGE);
+                self.counters.lvdt_over_range = self.counters.lvdt_over_range.saturating_add(1);
+            }
+            LvdtStatus::Open => {
+                flags.insert(SampleFlags::LVDT_OPEN);
+                self.counters.lvdt_open = self.counters.lvdt_open.saturating_add(1);
+            }
+        }
+        let (counts, glitch) = self.update_counts(raw);
+        if glitch {
+            flags.insert(SampleFlags::QUADRATURE_ERROR);
+            self.counters.quadrature_errors = self.counters.quadrature_errors.saturating_add(1);
+        }
+        if self.temp_fault {
+            flags.insert(SampleFlags::TEMPERATURE_FAULT);
+            self.counters.temperature_faults = self.counters.temperature_faults.saturating_add(1);
+        }
+        let lost = lost_total.wrapping_sub(self.last_lost);
+        if lost != 0 {
+            flags.insert(SampleFlags::OVERRUN);
+            self.counters.lost_upstream = self.counters.lost_upstream.saturating_add(lost);
+            self.last_lost = lost_total;
+        }
+        if probe_event {
+            flags.insert(SampleFlags::PROBE_EVENT);
+        }
+        let temp_c = self.temperature_c();
+        let delta_l_um = x_um + bar_expansion_um(self.bar_length_mm, self.cte_ppm_per_k, temp_c);
+        let s = Sample {
+            seq: self.seq,
+            t_us,
+            delta_l_um,
+            axes: self.positions(&counts),
+            temp_c,
+            flags,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        self.counters.samples = self.counters.samples.saturating_add(1);
+        s
+    }
+}

@@ -165,6 +165,18 @@ fn pipeline_builds_a_calibrated_sample() {
 }
 
 #[test]
+fn homing_references_the_axes() {
+    let mut acq = Acquisition::new(&Config::default(), [16; 5]);
+    // X homed at 150 mm where its 16-bit counter reads 1 500 000 mod 65 536
+    let raw_x = (1_500_000u32) % 65_536;
+    acq.reference_axes([raw_x, 0, 0, 0, 0], [150.0, -20.0, 0.0, 0.0, 0.0]);
+    let (counts, _) = acq.update_counts([(raw_x + 30_000) % 65_536, 65_535, 0, 0, 0]);
+    let p = acq.positions(&counts);
+    assert_eq!(p[0], 153.0);
+    assert!((p[1] - -20.0001).abs() < 1e-6);
+}
+
+#[test]
 fn every_bad_input_sets_its_flag() {
     let cfg = Config::default();
     let mut acq = Acquisition::new(&cfg, [16; 5]);

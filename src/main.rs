@@ -1,3 +1,116 @@
-//! ballpod firmware (placeholder until the board layer lands).
+//! ballpod firmware for the NUCLEO-G474RE (STM32G474RE, Cortex-M4F at 170 MHz).
+//!
+//! Clocks: 24 MHz HSE (ST-LINK MCO) → PLL → 170 MHz system clock; 42.5 MHz FDCAN kernel clock
+//! from PLL Q; ADC clocks from the system clock; 48 MHz USB from HSI48 with clock recovery.
+//! The tasks are in `board/`; the pin table is in `board/mod.rs` and README.md.
 #![no_std]
 #![no_main]
+
+mod board;
+
+use embassy_executor::Spawner;
+use embassy_stm32::time::Hertz;
+use embassy_stm32::usb::Driver;
+use {defmt_rtt as _, panic_probe as _};
+
+use ballpod::acquisition::Acquisition;
+use ballpod::config::Config;
+
+fn clocks() -> embassy_stm32::Config {
+    use embassy_stm32::rcc::*;
+    let mut config = embassy_stm32::Config::default();
+    config.rcc.hse = Some(Hse {
+        freq: Hertz(24_000_000),
+        mode: HseMode::Oscillator,
+    });
+    config.rcc.pll = Some(Pll {
+        source: PllSource::HSE,
+        prediv: PllPreDiv::DIV6,
+        mul: PllMul::MUL85,
+        divp: None,
+        divq: Some(PllQDiv::DIV8), // 42.5 MHz FDCAN kernel clock
+        divr: Some(PllRDiv::DIV2), // 170 MHz system clock
+    });
+    config.rcc.sys = Sysclk::PLL1_R;
+    config.rcc.boost = true;
+    config.rcc.hsi48 = Some(Hsi48Config {
+        sync_from_usb: true,
+    });
+    config.rcc.mux.clk48sel = mux::Clk48sel::HSI48;
+    config.rcc.mux.fdcansel = mux::Fdcansel::PLL1_Q;
+    config.rcc.mux.adc12sel = mux::Adcsel::SYS;
+    config.rcc.mux.adc345sel = mux::Adcsel::SYS;
+    config
+}
+
+#[embassy_executor::main]
+async fn main(spawner: Spawner) {
+    let p = embassy_stm32::init(clocks());
+    // Settings persistence comes later: boot with the validated defaults.
+    let cfg = Config::default();
+    defmt::info!(
+        "ballpod up: bar {} mm, node {}",
+        cfg.bar_length_mm,
+        cfg.can_node_id
+    );
+
+    let encoders = board::encoders::Encoders::new(board::encoders::EncoderPeripherals {
+        e1: (p.TIM1, p.PA8, p.PA9),
+        e2: (p.TIM3, p.PA6, p.PA7),
+        e3: (p.TIM4, p.PB6, p.PB7),
+        e4: (p.TIM8, p.PC6, p.PC7),
+        e5: (p.TIM5, p.PB2, p.PC12),
+    });
+    let probe_in = board::probe::input(p.PB4, p.EXTI4);
+    let acq = Acquisition::new(&cfg, board::encoders::COUNTER_BITS);
+
+    let (dac, ring_a, ring_b) = board::lvdt::start(
+        board::lvdt::LvdtPeripherals {
+            tim6: p.TIM6,
+            dac: (p.DAC1, p.DMA1_CH1, p.PA4),
+            adc_a: (p.ADC1, p.DMA1_CH2, p.PA0),
+            adc_b: (p.ADC2, p.DMA1_CH3, p.PA1),
+        },
+        &cfg,
+    );
+    let can = board::can::start(p.FDCAN1, p.PB8, p.PB9, cfg.can_bitrate.bits_per_s());
+    let usb = Driver::new(p.USB, board::Irqs, p.PA12, p.PA11);
+
+    spawn(
+        &spawner,
+        "compute",
+        board::compute::compute_task(acq, encoders, probe_in),
+    );
+    spawn(
+        &spawner,
+        "lvdt",
+        board::lvdt::lvdt_task(
+            ring_a,
+            ring_b,
+            cfg.lvdt_input,
+            cfg.lvdt_dc_zero_v,
+            cfg.lvdt_dc_span_v,
+        ),
+    );
+    spawn(&spawner, "dac", board::lvdt::dac_task(dac));
+    spawn(
+        &spawner,
+        "thermistor",
+        board::thermistor::thermistor_task(p.ADC3, p.PB0),
+    );
+    spawn(&spawner, "can", board::can::can_task(can, cfg.can_node_id));
+    spawn(&spawner, "usb", board::usb::usb_task(usb));
+}
+
+/// Spawns a task; a task fn only fails when its pool is exhausted, which a single spawn per
+/// task cannot do — logged rather than panicked on all the same.
+fn spawn<S>(
+    spawner: &Spawner,
+    name: &str,
+    token: Result<embassy_executor::SpawnToken<S>, embassy_executor::SpawnError>,
+) {
+    match token {
+        Ok(t) => spawner.spawn(t),
+        Err(_) => defmt::error!("cannot spawn task {}", name),
+    }
+}

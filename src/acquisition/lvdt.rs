@@ -155,7 +155,7 @@ pub fn demodulate<S: AdcSample, const P: usize>(
     if a.len() != b.len() {
         return Err(DemodError::LengthMismatch);
     }
-    if P == 0 || a.is_empty() || a.len() % P != 0 {
+    if P == 0 || a.is_empty() || !a.len().is_multiple_of(P) {
         return Err(DemodError::NotWholePeriods {
             len: a.len(),
             period: P,
@@ -222,6 +222,32 @@ pub fn dc_reading(v: f32, zero_v: f32, span_v: f32, min_v: f32, max_v: f32) -> L
     }
 }
 
+/// Mean of a block of ADC samples (DC mode: the conditioner's output averaged over one sample
+/// period), in input units; 0 for an empty block.
+pub fn block_mean<S: AdcSample>(block: &[S]) -> f32 {
+    if block.is_empty() {
+        return 0.0;
+    }
+    block.iter().map(|v| v.value()).sum::<f32>() / block.len() as f32
+}
+
+/// The analogue front end of the DC input: conditioner volts from ADC counts,
+/// `v = counts · volts_per_count + offset_v` (a property of the board's input divider).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DcFrontEnd {
+    /// Conditioner volts per ADC count, V.
+    pub volts_per_count: f32,
+    /// Conditioner volts at ADC count 0, V.
+    pub offset_v: f32,
+}
+
+impl DcFrontEnd {
+    /// Conditioner voltage, V, of a (mean) ADC count.
+    pub fn volts(&self, counts: f32) -> f32 {
+        counts * self.volts_per_count + self.offset_v
+    }
+}
+
 /// Calibration of the LVDT: polynomial ratio → displacement in µm, the usable stroke and the
 /// open-coil threshold.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -250,7 +276,12 @@ impl LvdtCalibration {
     /// and [`LvdtStatus::Open`]; an out-of-stroke or clipped reading gives the value at the
     /// stroke limit and [`LvdtStatus::OverRange`].
     pub fn displacement_um(&self, reading: &LvdtReading) -> (f32, LvdtStatus) {
-        if !(reading.signal_level >= self.min_signal_level) || !reading.ratio.is_finite() {
+        // NaN signal levels count as open, hence the explicit comparison.
+        let healthy = matches!(
+            reading.signal_level.partial_cmp(&self.min_signal_level),
+            Some(core::cmp::Ordering::Greater | core::cmp::Ordering::Equal)
+        );
+        if !healthy || !reading.ratio.is_finite() {
             return (0.0, LvdtStatus::Open);
         }
         let over = reading.clipped || libm::fabsf(reading.ratio) > self.max_abs_ratio;

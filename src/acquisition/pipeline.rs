@@ -158,10 +158,20 @@ impl Acquisition {
     /// References the axes (homing): the hardware counters reading `raw` are at `positions`
     /// (mm / degrees). Later counts extend from there.
     pub fn reference_axes(&mut self, raw: [u32; MAX_AXES], positions: [f64; MAX_AXES]) {
-        for (((ext, s), r), p) in self.counters_hw.iter_mut().zip(self.scales.iter()).zip(raw).zip(positions) {
+        for (((ext, s), r), p) in self
+            .counters_hw
+            .iter_mut()
+            .zip(self.scales.iter())
+            .zip(raw)
+            .zip(positions)
+        {
             let c = p * s.counts_per_unit;
             let c = if s.reversed { -c } else { c };
-            let c = if c.is_finite() && c.abs() < 9.0e18 { libm::round(c) as i64 } else { 0 };
+            let c = if c.is_finite() && c.abs() < 9.0e18 {
+                libm::round(c) as i64
+            } else {
+                0
+            };
             ext.set(r, c);
         }
     }

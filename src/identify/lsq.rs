@@ -309,10 +309,8 @@ impl<const N: usize> JacobiSvd<N> {
             if let Some(s) = out.sigma.get_mut(k) {
                 *s = sigma;
             }
-            if let (Some(u), Some(c)) = (out.u_cols.get_mut(k), cols.get(j)) {
-                if sigma > 0.0 {
-                    u.iter_mut().zip(c.iter()).for_each(|(u, c)| *u = c / sigma);
-                }
+            if let (Some(u), Some(c), true) = (out.u_cols.get_mut(k), cols.get(j), sigma > 0.0) {
+                u.iter_mut().zip(c.iter()).for_each(|(u, c)| *u = c / sigma);
             }
             if let (Some(dst), Some(src)) = (out.v_rows.get_mut(k), v.get(j)) {
                 *dst = *src;

@@ -1,0 +1,70 @@
+//! The NUCLEO-G474RE board layer: which peripheral does what, the queues between interrupt /
+//! DMA side and the compute task, and their overrun counters. Tasks here only configure, read,
+//! hand over and send; every computation is in the `ballpod` core.
+//!
+//! Pin table (also in README.md):
+//!
+//! | pin | function | peripheral |
+//! |---|---|---|
+//! | PA4 | LVDT primary excitation (sine) | DAC1 CH1, DMA1 CH1, triggered by TIM6 TRGO |
+//! | PA0 | LVDT secondary A (or DC conditioner input) | ADC1 IN1, DMA1 CH2, TIM6 TRGO |
+//! | PA1 | LVDT secondary B | ADC2 IN2, DMA1 CH3, TIM6 TRGO |
+//! | PB0 | bar thermistor (divider to 3.3 V) | ADC3 IN12 |
+//! | PA8 / PA9 | encoder 1 A / B | TIM1 CH1 / CH2 |
+//! | PA6 / PA7 | encoder 2 A / B | TIM3 CH1 / CH2 |
+//! | PB6 / PB7 | encoder 3 A / B | TIM4 CH1 / CH2 |
+//! | PC6 / PC7 | encoder 4 A / B | TIM8 CH1 / CH2 |
+//! | PB2 / PC12 | encoder 5 A / B | TIM5 CH1 / CH2 |
+//! | PB4 | touch probe (NC contact to GND, pull-up: seated = low, trigger = rising edge) | EXTI4 |
+//! | PB8 / PB9 | CAN RX / TX (to a transceiver) | FDCAN1 |
+//! | PA11 / PA12 | USB DM / DP | USB FS (CDC-ACM) |
+
+pub mod can;
+pub mod compute;
+pub mod encoders;
+pub mod lvdt;
+pub mod probe;
+pub mod thermistor;
+pub mod usb;
+
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use embassy_stm32::{bind_interrupts, can as stm_can, dma, peripherals, usb as stm_usb};
+
+bind_interrupts!(pub struct Irqs {
+    DMA1_CHANNEL1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
+    DMA1_CHANNEL2 => dma::InterruptHandler<peripherals::DMA1_CH2>;
+    DMA1_CHANNEL3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
+    EXTI4 => probe::ProbeEdgeIsr;
+    FDCAN1_IT0 => stm_can::IT0InterruptHandler<peripherals::FDCAN1>;
+    FDCAN1_IT1 => stm_can::IT1InterruptHandler<peripherals::FDCAN1>;
+    USB_LP => stm_usb::InterruptHandler<peripherals::USB>;
+});
+
+/// An overrun counter of a bounded queue: incremented when a producer finds the queue full
+/// (the item is dropped and counted, never silently).
+pub struct Overruns(AtomicU32);
+
+impl Overruns {
+    /// A counter at zero.
+    pub const fn new() -> Self {
+        Self(AtomicU32::new(0))
+    }
+    /// Counts one lost item.
+    pub fn count(&self) {
+        self.0.fetch_add(1, Ordering::Relaxed);
+    }
+    /// Items lost so far.
+    pub fn get(&self) -> u32 {
+        self.0.load(Ordering::Relaxed)
+    }
+}
+
+/// Items lost by every queue feeding the samples (ADC DMA ring, LVDT block queue): the compute
+/// task hands this total to the core, which flags the next sample `OVERRUN`.
+pub fn lost_upstream() -> u32 {
+    lvdt::ADC_RING_OVERRUNS
+        .get()
+        .wrapping_add(lvdt::BLOCK_QUEUE_OVERRUNS.get())
+        .wrapping_add(probe::PROBE_QUEUE_OVERRUNS.get())
+}

@@ -18,7 +18,12 @@ pub struct LvdtModel {
 
 impl Default for LvdtModel {
     fn default() -> Self {
-        Self { gain_um: 2000.0, amplitude_sum: 3000.0, phase_rad: 0.0, offset: 2048.0 }
+        Self {
+            gain_um: 2000.0,
+            amplitude_sum: 3000.0,
+            phase_rad: 0.0,
+            offset: 2048.0,
+        }
     }
 }
 
@@ -26,7 +31,10 @@ impl LvdtModel {
     /// Amplitudes (A, B) in counts at displacement `x_um`.
     pub fn amplitudes(&self, x_um: f64) -> (f64, f64) {
         let r = x_um / self.gain_um;
-        (self.amplitude_sum * 0.5 * (1.0 + r), self.amplitude_sum * 0.5 * (1.0 - r))
+        (
+            self.amplitude_sum * 0.5 * (1.0 + r),
+            self.amplitude_sum * 0.5 * (1.0 - r),
+        )
     }
 
     /// Noise-free sample k (of `period` per excitation period) of both secondaries, in counts.
@@ -38,7 +46,10 @@ impl LvdtModel {
 
     /// A block of `periods` excitation periods as f32 values (noise-free, not quantised).
     pub fn block_f32(&self, x_um: f64, period: usize, periods: usize) -> (Vec<f32>, Vec<f32>) {
-        (0..period * periods).map(|k| self.sample(x_um, k % period, period)).map(|(a, b)| (a as f32, b as f32)).unzip()
+        (0..period * periods)
+            .map(|k| self.sample(x_um, k % period, period))
+            .map(|(a, b)| (a as f32, b as f32))
+            .unzip()
     }
 
     /// A block as 12-bit ADC codes with Gaussian noise `sigma` counts per sample (rounded,

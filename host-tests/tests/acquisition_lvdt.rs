@@ -9,7 +9,11 @@ const PERIODS: usize = 5; // 5 kHz excitation, 100 kS/s, one block per 1 kHz sam
 
 fn cal() -> LvdtCalibration {
     // The model's transfer is x = 2000 µm · r, so the calibration polynomial is [0, 2000, 0, 0].
-    LvdtCalibration { poly_um: [0.0, 2000.0, 0.0, 0.0], max_abs_ratio: 0.55, min_signal_level: 200.0 }
+    LvdtCalibration {
+        poly_um: [0.0, 2000.0, 0.0, 0.0],
+        max_abs_ratio: 0.55,
+        min_signal_level: 200.0,
+    }
 }
 
 fn position_um(model: &LvdtModel, x_um: f64) -> (f32, LvdtStatus) {
@@ -37,7 +41,10 @@ fn noise_free_position_within_10_nm_over_the_stroke() {
 fn excitation_amplitude_change_of_20_percent_changes_nothing() {
     let nominal = LvdtModel::default();
     for scale in [0.8, 1.2] {
-        let m = LvdtModel { amplitude_sum: nominal.amplitude_sum * scale, ..nominal };
+        let m = LvdtModel {
+            amplitude_sum: nominal.amplitude_sum * scale,
+            ..nominal
+        };
         for x in stroke() {
             let (p0, _) = position_um(&nominal, x);
             let (p1, s) = position_um(&m, x);
@@ -51,7 +58,10 @@ fn excitation_amplitude_change_of_20_percent_changes_nothing() {
 fn phase_shift_of_30_degrees_changes_nothing() {
     let nominal = LvdtModel::default();
     for ph in [30.0f64, -30.0] {
-        let m = LvdtModel { phase_rad: ph.to_radians(), ..nominal };
+        let m = LvdtModel {
+            phase_rad: ph.to_radians(),
+            ..nominal
+        };
         for x in stroke() {
             let (p0, _) = position_um(&nominal, x);
             let (p1, _) = position_um(&m, x);
@@ -61,7 +71,11 @@ fn phase_shift_of_30_degrees_changes_nothing() {
         let table = ExcitationTable::<P>::new();
         let (a, b) = m.block_f32(0.0, P, PERIODS);
         let r = demodulate(&a, &b, &table).unwrap();
-        assert!((f64::from(r.phase_deg) - ph).abs() < 1e-3, "phase {}", r.phase_deg);
+        assert!(
+            (f64::from(r.phase_deg) - ph).abs() < 1e-3,
+            "phase {}",
+            r.phase_deg
+        );
     }
 }
 
@@ -76,7 +90,8 @@ fn quantised_noisy_scatter_matches_the_averaging_gain() {
         let n = (P * PERIODS) as f64;
         let sigma_v = (sigma * sigma + 1.0 / 12.0f64).sqrt();
         let (a, b) = m.amplitudes(x);
-        let sigma_x = m.gain_um * 2.0 * sigma_v * (2.0 / n).sqrt() * (a * a + b * b).sqrt() / (a + b).powi(2);
+        let sigma_x =
+            m.gain_um * 2.0 * sigma_v * (2.0 / n).sqrt() * (a * a + b * b).sqrt() / (a + b).powi(2);
         let runs = 4000;
         let xs: Vec<f64> = (0..runs)
             .map(|_| {
@@ -88,8 +103,15 @@ fn quantised_noisy_scatter_matches_the_averaging_gain() {
         let mean = xs.iter().sum::<f64>() / runs as f64;
         let sd = (xs.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (runs - 1) as f64).sqrt();
         // the std of 4000 samples is known to ±1.1 % (1σ); allow 6 %
-        assert!((sd / sigma_x - 1.0).abs() < 0.06, "σ={sigma}: scatter {sd:.4} µm vs predicted {sigma_x:.4} µm");
-        assert!((mean - x).abs() < 4.0 * sigma_x / (runs as f64).sqrt() + 0.01, "bias {}", mean - x);
+        assert!(
+            (sd / sigma_x - 1.0).abs() < 0.06,
+            "σ={sigma}: scatter {sd:.4} µm vs predicted {sigma_x:.4} µm"
+        );
+        assert!(
+            (mean - x).abs() < 4.0 * sigma_x / (runs as f64).sqrt() + 0.01,
+            "bias {}",
+            mean - x
+        );
     }
 }
 
@@ -101,17 +123,31 @@ fn bad_signals_are_flagged_never_nan() {
     let (a, b) = m.block_f32(1200.0, P, PERIODS);
     let (p, s) = cal().displacement_um(&demodulate(&a, &b, &table).unwrap());
     assert_eq!(s, LvdtStatus::OverRange);
-    assert!((p - 1100.0).abs() < 0.01, "clamped to the stroke limit: {p}");
+    assert!(
+        (p - 1100.0).abs() < 0.01,
+        "clamped to the stroke limit: {p}"
+    );
     // open coil: no signal at all (ADC sits at its offset)
     let flat = vec![2048u16; P * PERIODS];
     let (p, s) = cal().displacement_um(&demodulate(&flat, &flat, &table).unwrap());
     assert_eq!((p, s), (0.0, LvdtStatus::Open));
     // weak signal: 5 % of nominal
-    let weak = LvdtModel { amplitude_sum: 150.0, ..m };
+    let weak = LvdtModel {
+        amplitude_sum: 150.0,
+        ..m
+    };
     let (a, b) = weak.block_f32(0.0, P, PERIODS);
-    assert_eq!(cal().displacement_um(&demodulate(&a, &b, &table).unwrap()).1, LvdtStatus::Open);
+    assert_eq!(
+        cal()
+            .displacement_um(&demodulate(&a, &b, &table).unwrap())
+            .1,
+        LvdtStatus::Open
+    );
     // clipping: an amplitude that drives the ADC into its rails
-    let loud = LvdtModel { amplitude_sum: 6000.0, ..m };
+    let loud = LvdtModel {
+        amplitude_sum: 6000.0,
+        ..m
+    };
     let (a, b) = loud.block_adc(300.0, P, PERIODS, 0.0, &mut Rng::new(1));
     let r = demodulate(&a, &b, &table).unwrap();
     assert!(r.clipped);
@@ -129,7 +165,10 @@ fn bad_signals_are_flagged_never_nan() {
 fn dc_mode_maps_volts_through_zero_and_span() {
     // conditioner: 0 V at null, 10 V per unit ratio → 2000 µm per 10 V = 200 µm/V
     // in DC mode the open threshold is in volts of span
-    let cal = LvdtCalibration { min_signal_level: 1.0, ..cal() };
+    let cal = LvdtCalibration {
+        min_signal_level: 1.0,
+        ..cal()
+    };
     let r = ballpod::acquisition::lvdt::dc_reading(2.5, 0.0, 10.0, -10.5, 10.5);
     let (p, s) = cal.displacement_um(&r);
     assert_eq!(s, LvdtStatus::Ok);
@@ -144,6 +183,9 @@ fn dac_table_is_a_mid_scale_sine() {
     let codes = t.dac_codes(1000);
     for (k, &c) in codes.iter().enumerate() {
         let want = 2048.0 + 1000.0 * (2.0 * std::f64::consts::PI * k as f64 / P as f64).sin();
-        assert!((f64::from(c) - want).abs() <= 0.5 + 1e-6, "k {k}: {c} vs {want}");
+        assert!(
+            (f64::from(c) - want).abs() <= 0.5 + 1e-6,
+            "k {k}: {c} vs {want}"
+        );
     }
 }

@@ -20,9 +20,15 @@ fn extension_is_exact(bits: u32, max_step: i64, seed: u64) {
     let mut pos = start;
     let mut wraps = 0i64;
     for leg in 0..6 {
-        let target = if leg % 2 == 0 { start + 1_000_000 } else { start - 1_000_000 };
+        let target = if leg % 2 == 0 {
+            start + 1_000_000
+        } else {
+            start - 1_000_000
+        };
         while pos != target {
-            let step = (rng.range(0.0, max_step as f64) as i64).min((target - pos).abs()).max(1);
+            let step = (rng.range(0.0, max_step as f64) as i64)
+                .min((target - pos).abs())
+                .max(1);
             let before = pos.div_euclid(1 << bits.min(62));
             pos += step * (target - pos).signum();
             wraps += (pos.div_euclid(1 << bits.min(62)) - before).abs();
@@ -33,7 +39,10 @@ fn extension_is_exact(bits: u32, max_step: i64, seed: u64) {
         }
     }
     if bits == 16 {
-        assert!(wraps > 150, "the test must cross the wrap many times ({wraps})");
+        assert!(
+            wraps > 150,
+            "the test must cross the wrap many times ({wraps})"
+        );
     }
 }
 
@@ -65,9 +74,17 @@ fn implausible_step_is_a_glitch() {
 
 #[test]
 fn axis_scaling_and_sign() {
-    let s = AxisScale { counts_per_unit: 10_000.0, reversed: false, offset: 0.0 };
+    let s = AxisScale {
+        counts_per_unit: 10_000.0,
+        reversed: false,
+        offset: 0.0,
+    };
     assert_eq!(s.position(1_234_567), 123.4567);
-    let r = AxisScale { counts_per_unit: 10_000.0, reversed: true, offset: 5.0 };
+    let r = AxisScale {
+        counts_per_unit: 10_000.0,
+        reversed: true,
+        offset: 5.0,
+    };
     assert!((r.position(20_000) - 3.0).abs() < 1e-6);
 }
 
@@ -82,7 +99,14 @@ fn thermal_correction_hand_computed() {
 }
 
 fn ntc() -> Thermistor {
-    Thermistor { r0_ohm: 10_000.0, t0_c: 25.0, beta_k: 3950.0, r_fixed_ohm: 10_000.0, min_c: -10.0, max_c: 60.0 }
+    Thermistor {
+        r0_ohm: 10_000.0,
+        t0_c: 25.0,
+        beta_k: 3950.0,
+        r_fixed_ohm: 10_000.0,
+        min_c: -10.0,
+        max_c: 60.0,
+    }
 }
 
 #[test]
@@ -101,17 +125,26 @@ fn thermistor_reads_the_beta_curve() {
 fn thermistor_faults() {
     assert_eq!(ntc().temperature_c(4095, 4095), Err(ThermistorFault::Open));
     assert_eq!(ntc().temperature_c(0, 4095), Err(ThermistorFault::Short));
-    assert_eq!(ntc().temperature_c(50, 4095), Err(ThermistorFault::OutOfRange));
+    assert_eq!(
+        ntc().temperature_c(50, 4095),
+        Err(ThermistorFault::OutOfRange)
+    );
 }
 
 fn latch(t_us: u64) -> ProbeLatch {
-    ProbeLatch { counts: [1, 2, 3, 4, 5], t_us }
+    ProbeLatch {
+        counts: [1, 2, 3, 4, 5],
+        t_us,
+    }
 }
 
 #[test]
 fn probe_debounce_and_reseat() {
     let mut p = ProbeDebouncer::new(2_000, 50_000);
-    assert_eq!(p.trigger(latch(1_000)), TriggerOutcome::Accepted(latch(1_000)));
+    assert_eq!(
+        p.trigger(latch(1_000)),
+        TriggerOutcome::Accepted(latch(1_000))
+    );
     // bounce within 2 ms
     assert_eq!(p.trigger(latch(1_500)), TriggerOutcome::Bounce);
     assert_eq!(p.trigger(latch(2_900)), TriggerOutcome::Bounce);
@@ -126,7 +159,10 @@ fn probe_debounce_and_reseat() {
     assert!(matches!(p.state(), ProbeState::LockedOut { .. }));
     p.poll(100_000, true);
     assert_eq!(p.state(), ProbeState::Armed);
-    assert!(matches!(p.trigger(latch(120_000)), TriggerOutcome::Accepted(_)));
+    assert!(matches!(
+        p.trigger(latch(120_000)),
+        TriggerOutcome::Accepted(_)
+    ));
     assert_eq!((p.accepted, p.bounces, p.not_reseated), (2, 2, 1));
     // deflected while waiting restarts the seated stretch
     p.poll(130_000, true);
@@ -139,7 +175,12 @@ fn probe_debounce_and_reseat() {
 }
 
 fn good_reading(ratio: f32) -> Result<LvdtReading, DemodError> {
-    Ok(LvdtReading { ratio, signal_level: 3000.0, phase_deg: 0.0, clipped: false })
+    Ok(LvdtReading {
+        ratio,
+        signal_level: 3000.0,
+        phase_deg: 0.0,
+        clipped: false,
+    })
 }
 
 fn code_for(t: f64) -> u16 {
@@ -155,10 +196,20 @@ fn pipeline_builds_a_calibrated_sample() {
     let raw = [0, 0, 0, 0, 0];
     let s0 = acq.sample(0, good_reading(0.0), raw, 0, false);
     assert_eq!(s0.flags, SampleFlags::NONE);
-    let s = acq.sample(1_000, good_reading(0.005), [10_000, 65_536 - 20_000, 5, 0, 0], 0, false);
+    let s = acq.sample(
+        1_000,
+        good_reading(0.005),
+        [10_000, 65_536 - 20_000, 5, 0, 0],
+        0,
+        false,
+    );
     // ΔL = 2000 µm · 0.005 + 150 mm · 11.5 ppm/K · (T − 20 K) · 1e-3
     let want = 10.0 + 150.0 * 11.5 * (t - 20.0) * 1e-3;
-    assert!((f64::from(s.delta_l_um) - want).abs() < 1e-4, "{} vs {want}", s.delta_l_um);
+    assert!(
+        (f64::from(s.delta_l_um) - want).abs() < 1e-4,
+        "{} vs {want}",
+        s.delta_l_um
+    );
     assert_eq!(s.axes, [1.0, -2.0, 0.0005, 0.0, 0.0]);
     assert_eq!((s0.seq, s.seq), (0, 1));
     assert_eq!(s.flags, SampleFlags::NONE);
@@ -186,7 +237,10 @@ fn every_bad_input_sets_its_flag() {
     assert!(s.flags.contains(SampleFlags::TEMPERATURE_FAULT));
     assert_eq!(s.temp_c, 20.0);
     acq.update_temperature(code_for(21.0)).unwrap();
-    assert_eq!(acq.sample(1, good_reading(0.0), raw, 0, false).flags, SampleFlags::NONE);
+    assert_eq!(
+        acq.sample(1, good_reading(0.0), raw, 0, false).flags,
+        SampleFlags::NONE
+    );
     // thermistor open: flagged, last good temperature kept
     assert!(acq.update_temperature(4095).is_err());
     let s = acq.sample(2, good_reading(0.0), raw, 0, false);
@@ -198,7 +252,18 @@ fn every_bad_input_sets_its_flag() {
     assert_eq!(s.flags, SampleFlags::LVDT_OVER_RANGE);
     assert!(s.delta_l_um.is_finite());
     // open
-    let s = acq.sample(4, Ok(LvdtReading { ratio: 0.1, signal_level: 10.0, phase_deg: 0.0, clipped: false }), raw, 0, false);
+    let s = acq.sample(
+        4,
+        Ok(LvdtReading {
+            ratio: 0.1,
+            signal_level: 10.0,
+            phase_deg: 0.0,
+            clipped: false,
+        }),
+        raw,
+        0,
+        false,
+    );
     assert_eq!(s.flags, SampleFlags::LVDT_OPEN);
     let s = acq.sample(5, Err(DemodError::LengthMismatch), raw, 0, false);
     assert_eq!(s.flags, SampleFlags::LVDT_OPEN);
@@ -219,7 +284,14 @@ fn every_bad_input_sets_its_flag() {
     assert!(s.flags.is_valid_for_metrology());
     let c = acq.counters;
     assert_eq!(
-        (c.samples, c.lvdt_over_range, c.lvdt_open, c.quadrature_errors, c.temperature_faults, c.lost_upstream),
+        (
+            c.samples,
+            c.lvdt_over_range,
+            c.lvdt_open,
+            c.quadrature_errors,
+            c.temperature_faults,
+            c.lost_upstream
+        ),
         (11, 1, 3, 1, 2, 3)
     );
 }

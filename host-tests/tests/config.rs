@@ -17,14 +17,43 @@ fn out_of_range_is_rejected_naming_field_and_range_and_changes_nothing() {
     let mut c = Config::default();
     let before = c;
     let e = c.try_update(|c| c.bar_length_mm = 20.0).unwrap_err();
-    assert_eq!(e, ConfigError::OutOfRange { field: Field::BarLengthMm, value: 20.0, min: 50.0, max: 600.0 });
+    assert_eq!(
+        e,
+        ConfigError::OutOfRange {
+            field: Field::BarLengthMm,
+            value: 20.0,
+            min: 50.0,
+            max: 600.0
+        }
+    );
     assert_eq!(c, before);
     let e = c.try_update(|c| c.can_node_id = 0).unwrap_err();
-    assert!(matches!(e, ConfigError::OutOfRange { field: Field::CanNodeId, min: 1.0, max: 127.0, .. }));
-    let e = c.try_update(|c| c.axes[3].counts_per_unit = f64::NAN).unwrap_err();
-    assert!(matches!(e, ConfigError::OutOfRange { field: Field::AxisCountsPerUnit(3), .. }));
+    assert!(matches!(
+        e,
+        ConfigError::OutOfRange {
+            field: Field::CanNodeId,
+            min: 1.0,
+            max: 127.0,
+            ..
+        }
+    ));
+    let e = c
+        .try_update(|c| c.axes[3].counts_per_unit = f64::NAN)
+        .unwrap_err();
+    assert!(matches!(
+        e,
+        ConfigError::OutOfRange {
+            field: Field::AxisCountsPerUnit(3),
+            ..
+        }
+    ));
     let e = c.try_update(|c| c.axes[4].name = AxisName::X).unwrap_err();
-    assert_eq!(e, ConfigError::Duplicate { field: Field::AxisNameDuplicate(4) });
+    assert_eq!(
+        e,
+        ConfigError::Duplicate {
+            field: Field::AxisNameDuplicate(4)
+        }
+    );
     // 20 kHz × 64 samples = 1.28 MS/s is beyond the ADC budget although each field is in range
     let e = c
         .try_update(|c| {
@@ -32,7 +61,13 @@ fn out_of_range_is_rejected_naming_field_and_range_and_changes_nothing() {
             c.samples_per_period = 64;
         })
         .unwrap_err();
-    assert!(matches!(e, ConfigError::OutOfRange { field: Field::AdcRate, .. }));
+    assert!(matches!(
+        e,
+        ConfigError::OutOfRange {
+            field: Field::AdcRate,
+            ..
+        }
+    ));
     assert_eq!(c, before);
     // a valid change goes through
     c.try_update(|c| c.bar_length_mm = 300.0).unwrap();
@@ -49,7 +84,12 @@ fn encoding_round_trips() {
         c.bar_length_mm = 300.0;
         c.lvdt_poly_um = [0.5, 2001.25, -3.0, 0.125];
         c.axes[1].reversed = true;
-        c.axes[4] = ballpod::config::AxisConfig { name: AxisName::A, counts_per_unit: 36_000.5, reversed: false, max_speed_per_s: 720.0 };
+        c.axes[4] = ballpod::config::AxisConfig {
+            name: AxisName::A,
+            counts_per_unit: 36_000.5,
+            reversed: false,
+            max_speed_per_s: 720.0,
+        };
         c.can_node_id = 42;
     })
     .unwrap();
@@ -71,10 +111,16 @@ fn every_corruption_is_detected() {
         for bit in 0..8 {
             let mut b = buf;
             b[i] ^= 1 << bit;
-            assert!(Config::decode(&b).is_err(), "flip at byte {i} bit {bit} accepted");
+            assert!(
+                Config::decode(&b).is_err(),
+                "flip at byte {i} bit {bit} accepted"
+            );
         }
     }
-    assert!(matches!(Config::decode(&buf[..ENCODED_LEN - 1]), Err(ConfigError::BadLength { .. })));
+    assert!(matches!(
+        Config::decode(&buf[..ENCODED_LEN - 1]),
+        Err(ConfigError::BadLength { .. })
+    ));
     let mut b = buf;
     b[0] = b'X';
     assert_eq!(Config::decode(&b), Err(ConfigError::BadMagic));
@@ -82,7 +128,10 @@ fn every_corruption_is_detected() {
     b[4] = 2;
     assert_eq!(Config::decode(&b), Err(ConfigError::UnsupportedVersion(2)));
     let mut small = [0u8; 10];
-    assert!(matches!(Config::default().encode(&mut small), Err(ConfigError::BadLength { .. })));
+    assert!(matches!(
+        Config::default().encode(&mut small),
+        Err(ConfigError::BadLength { .. })
+    ));
 }
 
 fn reseal(b: &mut [u8; ENCODED_LEN]) {
@@ -98,7 +147,13 @@ fn well_sealed_but_invalid_content_is_rejected() {
     let mut b = buf;
     b[8..12].copy_from_slice(&10.0f32.to_le_bytes());
     reseal(&mut b);
-    assert!(matches!(Config::decode(&b), Err(ConfigError::OutOfRange { field: Field::BarLengthMm, .. })));
+    assert!(matches!(
+        Config::decode(&b),
+        Err(ConfigError::OutOfRange {
+            field: Field::BarLengthMm,
+            ..
+        })
+    ));
     // LVDT input mode byte (offset 16) set to 9
     let mut b = buf;
     b[16] = 9;

@@ -21,7 +21,9 @@ fn normal_equations<const N: usize>(rows: &[([f64; N], f64)]) -> ([f64; N], [[f6
     }
     let mut a = m;
     for c in 0..N {
-        let p = (c..N).max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs())).unwrap();
+        let p = (c..N)
+            .max_by(|&x, &y| a[x][c].abs().total_cmp(&a[y][c].abs()))
+            .unwrap();
         a.swap(c, p);
         inv.swap(c, p);
         let d = a[c][c];
@@ -92,7 +94,10 @@ fn noisy_fit_matches_normal_equation_oracle_with_uncertainties() {
     for i in 0..4 {
         assert!((s.x[i] - x_ref[i]).abs() < 1e-12);
         let u_ref = (s2 * inv[i][i]).sqrt();
-        assert!((s.std_uncertainty[i] - u_ref).abs() < 1e-9 * u_ref.max(1e-12), "{i}");
+        assert!(
+            (s.std_uncertainty[i] - u_ref).abs() < 1e-9 * u_ref.max(1e-12),
+            "{i}"
+        );
     }
     assert!((s.residual_rms - (rss / rows.len() as f64).sqrt()).abs() < 1e-12);
 }
@@ -117,12 +122,24 @@ fn rank_deficiency_names_the_inseparable_combination() {
         l.add_row(&[1.0, 1.0, t], 2.0 + 0.5 * t, 1.0).unwrap();
     }
     let e = l.solve_full_rank(DEFAULT_RANK_TOL).unwrap_err();
-    assert!(matches!(e, LsqError::RankDeficient { rank: 2, weakest_param: 0 | 1 }));
+    assert!(matches!(
+        e,
+        LsqError::RankDeficient {
+            rank: 2,
+            weakest_param: 0 | 1
+        }
+    ));
     let s = l.solve(DEFAULT_RANK_TOL).unwrap();
     let w = s.right_singular_vectors[2];
-    assert!((w[0].abs() - 0.5f64.sqrt()).abs() < 1e-9 && (w[0] + w[1]).abs() < 1e-9 && w[2].abs() < 1e-9);
+    assert!(
+        (w[0].abs() - 0.5f64.sqrt()).abs() < 1e-9
+            && (w[0] + w[1]).abs() < 1e-9
+            && w[2].abs() < 1e-9
+    );
     // minimum-norm solution splits the sum equally
-    assert!((s.x[0] - 1.0).abs() < 1e-9 && (s.x[1] - 1.0).abs() < 1e-9 && (s.x[2] - 0.5).abs() < 1e-9);
+    assert!(
+        (s.x[0] - 1.0).abs() < 1e-9 && (s.x[1] - 1.0).abs() < 1e-9 && (s.x[2] - 0.5).abs() < 1e-9
+    );
 }
 
 #[test]
@@ -130,8 +147,20 @@ fn bad_input_is_rejected_and_changes_nothing() {
     let mut l = GivensLsq::<2>::new();
     l.add_row(&[1.0, 0.0], 1.0, 1.0).unwrap();
     let before = l;
-    assert_eq!(l.add_row(&[f64::NAN, 0.0], 1.0, 1.0), Err(LsqError::NonFinite { row: 1 }));
-    assert_eq!(l.add_row(&[1.0, 0.0], f64::INFINITY, 1.0), Err(LsqError::NonFinite { row: 1 }));
+    assert_eq!(
+        l.add_row(&[f64::NAN, 0.0], 1.0, 1.0),
+        Err(LsqError::NonFinite { row: 1 })
+    );
+    assert_eq!(
+        l.add_row(&[1.0, 0.0], f64::INFINITY, 1.0),
+        Err(LsqError::NonFinite { row: 1 })
+    );
     assert_eq!(l, before);
-    assert_eq!(l.solve(DEFAULT_RANK_TOL), Err(LsqError::TooFewRows { rows: 1, unknowns: 2 }));
+    assert_eq!(
+        l.solve(DEFAULT_RANK_TOL),
+        Err(LsqError::TooFewRows {
+            rows: 1,
+            unknowns: 2
+        })
+    );
 }

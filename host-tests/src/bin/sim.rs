@@ -31,7 +31,11 @@ fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> Result<
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let parsed = (|| -> Result<(u64, f64, f64), String> {
-        Ok((arg(&args, "--seed", 1)?, arg(&args, "--noise", 1.0)?, arg(&args, "--temp", 22.5)?))
+        Ok((
+            arg(&args, "--seed", 1)?,
+            arg(&args, "--noise", 1.0)?,
+            arg(&args, "--temp", 22.5)?,
+        ))
     })();
     let (seed, noise, temp_c) = match parsed {
         Ok(v) => v,
@@ -59,7 +63,9 @@ fn main() {
     let (ex_um, ey_um) = (5.0, -3.0);
     let rate = f64::from(cfg.sample_rate_hz);
     let n = (2.0 * std::f64::consts::PI * radius_mm / (1000.0 / 60.0) * rate) as usize;
-    println!("ballpod acquisition demo (seed {seed}, ADC noise {noise} counts, bar at {temp_c} °C)");
+    println!(
+        "ballpod acquisition demo (seed {seed}, ADC noise {noise} counts, bar at {temp_c} °C)"
+    );
     println!(
         "circle R = {radius_mm} mm about the socket, F1000 mm/min, centre offset ({ex_um}, {ey_um}) µm, {n} samples at {rate} Hz"
     );
@@ -68,8 +74,14 @@ fn main() {
         Err(e) => println!("bar thermistor fault: {e:?}"),
     }
     let counts = |mm: f64| ((mm * 10_000.0).round() as i64).rem_euclid(1 << 16) as u32;
-    acq.reference_axes([counts(radius_mm), counts(0.0), 0, 0, 0], [radius_mm, 0.0, 0.0, 0.0, 0.0]);
-    println!("{:>6} {:>10} {:>10} {:>10} {:>10} {:>6}", "seq", "x_mm", "y_mm", "dl_um", "truth_um", "flags");
+    acq.reference_axes(
+        [counts(radius_mm), counts(0.0), 0, 0, 0],
+        [radius_mm, 0.0, 0.0, 0.0, 0.0],
+    );
+    println!(
+        "{:>6} {:>10} {:>10} {:>10} {:>10} {:>6}",
+        "seq", "x_mm", "y_mm", "dl_um", "truth_um", "flags"
+    );
     let (mut sum2, mut worst, mut valid) = (0.0f64, 0.0f64, 0usize);
     let mut flagged = 0usize;
     for k in 0..n {
@@ -78,7 +90,12 @@ fn main() {
         // true ball-to-ball distance minus the calibrated length, µm
         let truth_um = ((x + ex_um * 1e-3).hypot(y + ey_um * 1e-3) - radius_mm) * 1e3;
         // the LVDT sees the distance minus the thermally grown bar body
-        let lvdt_um = truth_um - f64::from(bar_expansion_um(cfg.bar_length_mm, cfg.bar_cte_ppm_per_k, temp_c as f32));
+        let lvdt_um = truth_um
+            - f64::from(bar_expansion_um(
+                cfg.bar_length_mm,
+                cfg.bar_cte_ppm_per_k,
+                temp_c as f32,
+            ));
         let (a, b) = lvdt.block_adc(lvdt_um, P, periods, noise, &mut rng);
         let reading = demodulate(&a, &b, &table);
         let raw = [counts(x), counts(y), 0, 0, 0];

@@ -3,5 +3,8 @@
 //!
 //! - [`lsq`]: streaming Givens least squares with rank, conditioning and uncertainties, shared
 //!   by every method.
+//! - [`two_step`]: seed 000 two-step orientation errors of RRTTT / TTTRR / RTTTR machines from two
+//!   SSM measurements (exact inversion and corrected paper formulas).
 
 pub mod lsq;
+pub mod two_step;

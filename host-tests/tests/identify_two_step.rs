@@ -66,7 +66,7 @@ fn table1_all_40_numbers_paper_mode() {
             close(round(dv2[k] / 1e3, 3), dv2_mm[k], 1e-9, "Table 1 ΔV2");
             checked += 1;
         }
-        let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: a, beta_deg: b, dv1_um: [0.0; 3], dv2_um: dv2 };
+        let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: a, beta_deg: b, dv1_um: [0.0; 3], dv2_um: dv2, ssm_std_um: 0.0 };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
         close(round(r.delta_alpha_urad / URAD_PER_DEG, 5), out[0], 1e-12, "Table 1 Δα′");
         close(round(r.delta_beta_urad / URAD_PER_DEG, 5), out[1], 1e-12, "Table 1 Δβ′");
@@ -98,7 +98,7 @@ fn table1_full_precision_vectors() {
             close(nom[k], nom_p[k], 6e-7, "C.2 nominal");
         }
         let dv2 = [dv2_mm[0] * 1e3, dv2_mm[1] * 1e3, dv2_mm[2] * 1e3];
-        let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: a, beta_deg: b, dv1_um: [0.0; 3], dv2_um: dv2 };
+        let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: a, beta_deg: b, dv1_um: [0.0; 3], dv2_um: dv2, ssm_std_um: 0.0 };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
         let e = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         // inputs printed to 0.1 nm: 1e-7 mm / 250 mm = 2.3e-8 deg. The C.2 "eq 7" column is
@@ -148,7 +148,7 @@ fn table1_plus_zr_convention() {
             fwd::rrttt_tip(T1_PIVOT, [0.0; 3], (a + da) * D2R, (b + db) * D2R, 250.0),
             fwd::rrttt_tip(T1_PIVOT, [0.0; 3], a * D2R, b * D2R, 250.0),
         );
-        let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: a, beta_deg: b, dv1_um: [0.0; 3], dv2_um: dv2 };
+        let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: a, beta_deg: b, dv1_um: [0.0; 3], dv2_um: dv2, ssm_std_um: 0.0 };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
         close(round(r.delta_alpha_urad / URAD_PER_DEG, 5), out[0], 1e-12, "+z_r Δα′");
         close(round(r.delta_beta_urad / URAD_PER_DEG, 5), out[1], 1e-12, "+z_r Δβ′");
@@ -172,7 +172,7 @@ fn tv_rrttt_6() {
     for k in 0..3 {
         close(dv2[k] / 1e3, dv2_exp[k], 1e-9, "TV-RRTTT-6 ΔV2");
     }
-    let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: 25.0, beta_deg: -35.0, dv1_um: dv1, dv2_um: dv2 };
+    let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: 25.0, beta_deg: -35.0, dv1_um: dv1, dv2_um: dv2, ssm_std_um: 0.0 };
     let p = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
     close(p.delta_alpha_urad / URAD_PER_DEG, 0.050000013, 1e-9, "eq 7");
     close(p.delta_beta_urad / URAD_PER_DEG, -0.029994499, 1e-9, "eq 6");
@@ -213,7 +213,7 @@ fn tv_tttrr_1() {
     for k in 0..3 {
         close(dv2[k] / 1e3, dv2_exp[k], 1e-9, "TV-TTTRR-1 ΔV2");
     }
-    let m = TttrrMeasurement { origin_mm: p1, alpha_deg: a, gamma_deg: g, dv1_um: [10.0, -5.0, 8.0], dv2_um: dv2 };
+    let m = TttrrMeasurement { origin_mm: p1, alpha_deg: a, gamma_deg: g, dv1_um: [10.0, -5.0, 8.0], dv2_um: dv2, ssm_std_um: 0.0 };
     let p = two_step::identify_tttrr(&cfg, &m, Mode::Paper).unwrap();
     close(p.delta_gamma_urad / URAD_PER_DEG, 0.080001797, 1e-9, "corrected eq 11");
     close(p.delta_alpha_urad / URAD_PER_DEG, 0.050067779, 1e-9, "corrected eq 12");
@@ -270,7 +270,7 @@ fn tv_rtttr_a_b() {
     for k in 0..3 {
         close(dv2[k] / 1e3, exp[k], 1e-9, "TV-RTTTR-B ΔV2");
     }
-    let m = SingleAxisMeasurement { origin_mm: p1, angle_deg: 30.0, dv1_um: [4.0, 2.0, -6.0], dv2_um: dv2 };
+    let m = SingleAxisMeasurement { origin_mm: p1, angle_deg: 30.0, dv1_um: [4.0, 2.0, -6.0], dv2_um: dv2, ssm_std_um: 0.0 };
     let p = two_step::identify_rtttr_spindle(&scfg, &m, Mode::Paper).unwrap();
     close(p.delta_urad / URAD_PER_DEG, 0.059981851, 1e-9, "eq 17");
     let e = two_step::identify_rtttr_spindle(&scfg, &m, Mode::Exact).unwrap();
@@ -288,7 +288,7 @@ fn tv_rtttr_a_b() {
     for k in 0..3 {
         close(dv2[k] / 1e3, exp[k], 1e-9, "TV-RTTTR-A ΔtV2");
     }
-    let m = SingleAxisMeasurement { origin_mm: pt1, angle_deg: 40.0, dv1_um: [3.0, -9.0, 5.0], dv2_um: dv2 };
+    let m = SingleAxisMeasurement { origin_mm: pt1, angle_deg: 40.0, dv1_um: [3.0, -9.0, 5.0], dv2_um: dv2, ssm_std_um: 0.0 };
     let p = two_step::identify_rtttr_table(&tcfg, &m, Mode::Paper).unwrap();
     close(p.delta_urad / URAD_PER_DEG, -0.069986693, 1e-9, "eq 18");
     let e = two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact).unwrap();
@@ -303,7 +303,7 @@ fn reference_end_flips_sign() {
     let nom = two_step::rrttt_nominal_tip_mm(&cfg, p1, 25.0, -35.0);
     let dv2 = fwd::diff_um(fwd::rrttt_tip(p1, [0.0; 3], 25.05 * D2R, -35.03 * D2R, 200.0), nom);
     cfg.reference_end = ReferenceEnd::RotatedMember;
-    let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: 25.0, beta_deg: -35.0, dv1_um: [0.0; 3], dv2_um: dv2.map(|v| -v) };
+    let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: 25.0, beta_deg: -35.0, dv1_um: [0.0; 3], dv2_um: dv2.map(|v| -v), ssm_std_um: 0.0 };
     let e = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
     close(e.delta_alpha_urad / URAD_PER_DEG, 0.05, 1e-9, "flipped Δα");
     close(e.delta_beta_urad / URAD_PER_DEG, -0.03, 1e-9, "flipped Δβ");
@@ -313,7 +313,7 @@ fn reference_end_flips_sign() {
 #[test]
 fn singularities_and_bad_input() {
     let cfg = rrttt_cfg(-250.0);
-    let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: 10.0, beta_deg: 90.0, dv1_um: [0.0; 3], dv2_um: [1.0, 2.0, 3.0] };
+    let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: 10.0, beta_deg: 90.0, dv1_um: [0.0; 3], dv2_um: [1.0, 2.0, 3.0], ssm_std_um: 0.0 };
     for mode in [Mode::Exact, Mode::Paper] {
         assert_eq!(two_step::identify_rrttt(&cfg, &m, mode), Err(TwoStepError::Singular(Singularity::ToolAlongFirstAxis)));
     }
@@ -333,7 +333,7 @@ fn singularities_and_bad_input() {
     // TTTRR: x_r sin γ + y_r cos γ = 0 at γ = atan2(−y_r, x_r)
     let tc = tttrr_cfg();
     let g0 = (-80.0f64).atan2(60.0) / D2R;
-    let tm = TttrrMeasurement { origin_mm: [0.0; 3], alpha_deg: 20.0, gamma_deg: g0, dv1_um: [0.0; 3], dv2_um: [0.0; 3] };
+    let tm = TttrrMeasurement { origin_mm: [0.0; 3], alpha_deg: 20.0, gamma_deg: g0, dv1_um: [0.0; 3], dv2_um: [0.0; 3], ssm_std_um: 0.0 };
     for mode in [Mode::Exact, Mode::Paper] {
         assert_eq!(two_step::identify_tttrr(&tc, &tm, mode), Err(TwoStepError::Singular(Singularity::GammaLever)));
     }
@@ -351,7 +351,7 @@ fn singularities_and_bad_input() {
 
     // RTTTR spindle: eq 17 singular at β = 90°, exact not
     let sc = RtttrSpindleConfig { tool_z_mm: 180.0, reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
-    let sm = SingleAxisMeasurement { origin_mm: [0.0; 3], angle_deg: 90.0, dv1_um: [0.0; 3], dv2_um: [0.0, 0.0, -10.0] };
+    let sm = SingleAxisMeasurement { origin_mm: [0.0; 3], angle_deg: 90.0, dv1_um: [0.0; 3], dv2_um: [0.0, 0.0, -10.0], ssm_std_um: 0.0 };
     assert_eq!(two_step::identify_rtttr_spindle(&sc, &sm, Mode::Paper), Err(TwoStepError::Singular(Singularity::SpindleBetaLever)));
     let e = two_step::identify_rtttr_spindle(&sc, &sm, Mode::Exact).unwrap();
     close(e.delta_urad, 0.01 / 180.0 * 1e6, 1e-3, "β = 90° exact");
@@ -382,7 +382,7 @@ fn round_trip_random() {
         let cfg = rrttt_cfg(z);
         let nom = fwd::rrttt_tip(p1, [0.0; 3], a, b, z);
         let act = fwd::rrttt_tip(p1, e1, a + d1, b + d2, z);
-        let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: a / D2R, beta_deg: b / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom) };
+        let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: a / D2R, beta_deg: b / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom), ssm_std_um: 0.0 };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         close(r.delta_alpha_urad * 1e-6, d1, 1e-12, "RRTTT exact Δα");
         close(r.delta_beta_urad * 1e-6, d2, 1e-12, "RRTTT exact Δβ");
@@ -406,7 +406,7 @@ fn round_trip_random() {
         let tc = TttrrConfig { z_alpha_gamma_mm: zag, reference_point_mm: r_pt, ..tttrr_cfg() };
         let nom = fwd::tttrr_point(p1, [0.0; 3], a, g, zag, r_pt);
         let act = fwd::tttrr_point(p1, e1, a + d1, g + d2, zag, r_pt);
-        let m = TttrrMeasurement { origin_mm: p1, alpha_deg: a / D2R, gamma_deg: g / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom) };
+        let m = TttrrMeasurement { origin_mm: p1, alpha_deg: a / D2R, gamma_deg: g / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom), ssm_std_um: 0.0 };
         let r = two_step::identify_tttrr(&tc, &m, Mode::Exact).unwrap();
         close(r.delta_alpha_urad * 1e-6, d1, 1e-11, "TTTRR exact Δα");
         close(r.delta_gamma_urad * 1e-6, d2, 1e-11, "TTTRR exact Δγ");
@@ -423,7 +423,7 @@ fn round_trip_random() {
         let sc = RtttrSpindleConfig { tool_z_mm: z, reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
         let nom = fwd::rtttr_tip(p1, [0.0; 3], b, z);
         let act = fwd::rtttr_tip(p1, e1, b + d2, z);
-        let m = SingleAxisMeasurement { origin_mm: p1, angle_deg: b / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom) };
+        let m = SingleAxisMeasurement { origin_mm: p1, angle_deg: b / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom), ssm_std_um: 0.0 };
         close(two_step::identify_rtttr_spindle(&sc, &m, Mode::Exact).unwrap().delta_urad * 1e-6, d2, 1e-12, "RTTTR exact Δβ");
         let bound = (0.5 * b.tan().abs() + 1.0) * d2 * d2 + 1e-12;
         close(two_step::identify_rtttr_spindle(&sc, &m, Mode::Paper).unwrap().delta_urad * 1e-6, d2, bound, "RTTTR eq 17");
@@ -435,9 +435,127 @@ fn round_trip_random() {
         let tcfg = RtttrTableConfig { reference_point_mm: tr, reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
         let nom = fwd::rtttr_table_point(p1, [0.0; 3], a, tr);
         let act = fwd::rtttr_table_point(p1, e1, a + d1, tr);
-        let m = SingleAxisMeasurement { origin_mm: p1, angle_deg: a / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom) };
+        let m = SingleAxisMeasurement { origin_mm: p1, angle_deg: a / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom), ssm_std_um: 0.0 };
         close(two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact).unwrap().delta_urad * 1e-6, d1, 1e-12, "RTTTR exact Δα");
         let bound = (0.5 * tr[1].hypot(tr[2]) / den.abs() + 1.0) * d1 * d1 + 1e-12;
         close(two_step::identify_rtttr_table(&tcfg, &m, Mode::Paper).unwrap().delta_urad * 1e-6, d1, bound, "RTTTR eq 18");
     }
+}
+
+/// Gaussian-like noise of standard deviation `sd` (sum of 12 uniforms).
+fn noise(rng: &mut fwd::Rng, sd: f64) -> f64 {
+    (0..12).map(|_| rng.uniform(0.0, 1.0)).sum::<f64>() * sd - 6.0 * sd
+}
+
+/// The propagated standard uncertainties agree with a Monte-Carlo spread of the identified
+/// angles under independent SSM noise of σ = 1 µm per component (within 10 %).
+#[test]
+fn propagated_uncertainty_matches_monte_carlo() {
+    let mut rng = fwd::Rng(0xabcdef);
+    let sigma = 1.0;
+    let trials = 4000;
+    let spread = |v: &[f64]| {
+        let m = v.iter().sum::<f64>() / v.len() as f64;
+        (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (v.len() - 1) as f64).sqrt()
+    };
+    let noisy = |rng: &mut fwd::Rng, v: [f64; 3]| v.map(|x| x + noise(rng, sigma));
+
+    // RRTTT
+    let cfg = rrttt_cfg(-250.0);
+    let p1 = [10.0, 20.0, 400.0];
+    let nom = two_step::rrttt_nominal_tip_mm(&cfg, p1, 30.0, 50.0);
+    let dv2 = fwd::diff_um(fwd::rrttt_tip(p1, [0.0; 3], 30.1 * D2R, 50.05 * D2R, -250.0), nom);
+    let (mut da, mut db, mut reported) = (vec![], vec![], [0.0; 2]);
+    for _ in 0..trials {
+        let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: 30.0, beta_deg: 50.0, dv1_um: noisy(&mut rng, [0.0; 3]), dv2_um: noisy(&mut rng, dv2), ssm_std_um: sigma };
+        let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
+        da.push(r.delta_alpha_urad);
+        db.push(r.delta_beta_urad);
+        reported = r.std_uncertainty_urad;
+    }
+    close(spread(&da) / reported[0], 1.0, 0.1, "RRTTT σ(Δα)");
+    close(spread(&db) / reported[1], 1.0, 0.1, "RRTTT σ(Δβ)");
+
+    // TTTRR
+    let tc = tttrr_cfg();
+    let p1 = [100.0, 50.0, 200.0];
+    let nom = two_step::tttrr_nominal_point_mm(&tc, p1, 20.0, 35.0);
+    let dv2 = fwd::diff_um(fwd::tttrr_point(p1, [0.0; 3], 20.05 * D2R, 35.08 * D2R, 40.0, [60.0, 80.0, 30.0]), nom);
+    let (mut da, mut dg) = (vec![], vec![]);
+    for _ in 0..trials {
+        let m = TttrrMeasurement { origin_mm: p1, alpha_deg: 20.0, gamma_deg: 35.0, dv1_um: noisy(&mut rng, [0.0; 3]), dv2_um: noisy(&mut rng, dv2), ssm_std_um: sigma };
+        let r = two_step::identify_tttrr(&tc, &m, Mode::Exact).unwrap();
+        da.push(r.delta_alpha_urad);
+        dg.push(r.delta_gamma_urad);
+        reported = r.std_uncertainty_urad;
+    }
+    close(spread(&da) / reported[0], 1.0, 0.1, "TTTRR σ(Δα)");
+    close(spread(&dg) / reported[1], 1.0, 0.1, "TTTRR σ(Δγ)");
+
+    // RTTTR table
+    let tcfg = RtttrTableConfig { reference_point_mm: [25.0, 70.0, 45.0], reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
+    let (mut d, mut rep) = (vec![], 0.0);
+    for _ in 0..trials {
+        let m = SingleAxisMeasurement { origin_mm: [0.0; 3], angle_deg: 40.0, dv1_um: noisy(&mut rng, [0.0; 3]), dv2_um: noisy(&mut rng, [0.0; 3]), ssm_std_um: sigma };
+        let r = two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact).unwrap();
+        d.push(r.delta_urad);
+        rep = r.std_uncertainty_urad;
+    }
+    close(spread(&d) / rep, 1.0, 0.1, "RTTTR σ(Δα)");
+    let bad = SingleAxisMeasurement { origin_mm: [0.0; 3], angle_deg: 40.0, dv1_um: [0.0; 3], dv2_um: [0.0; 3], ssm_std_um: -1.0 };
+    assert_eq!(two_step::identify_rtttr_table(&tcfg, &bad, Mode::Exact), Err(TwoStepError::NegativeUncertainty));
+}
+
+/// β-then-α head (Ry·Rx, exact mode only): round trip through literal HTMs, and its
+/// propagated uncertainties against a Monte-Carlo spread.
+#[test]
+fn beta_then_alpha_round_trip() {
+    let tip = |p: [f64; 3], e: [f64; 3], a: f64, b: f64, z: f64| {
+        let t = fwd::mul(&fwd::mul(&fwd::trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &fwd::ry(b)), &fwd::rx(a));
+        fwd::apply(&t, [0.0, 0.0, z])
+    };
+    let mut rng = fwd::Rng(99);
+    for _ in 0..200 {
+        let z = rng.uniform(100.0, 300.0) * if rng.uniform(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
+        let cfg = RrtttConfig { rotation_order: RotationOrder::BetaThenAlpha, ..rrttt_cfg(z) };
+        let p1 = [rng.uniform(-200.0, 200.0), rng.uniform(-200.0, 200.0), rng.uniform(0.0, 500.0)];
+        let (a, b) = (rng.uniform(-1.2, 1.2), rng.uniform(-3.0, 3.0));
+        let (d1, d2) = (rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3));
+        let e1 = [rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05)];
+        let nom = two_step::rrttt_nominal_tip_mm(&cfg, p1, a / D2R, b / D2R);
+        let n2 = tip(p1, [0.0; 3], a, b, z);
+        for k in 0..3 {
+            close(nom[k], n2[k], 1e-12, "Ry·Rx nominal");
+        }
+        let m = RrtttMeasurement {
+            pivot_mm: p1,
+            alpha_deg: a / D2R,
+            beta_deg: b / D2R,
+            dv1_um: e1.map(|v| v * 1e3),
+            dv2_um: fwd::diff_um(tip(p1, e1, a + d1, b + d2, z), nom),
+            ssm_std_um: 0.0,
+        };
+        let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
+        close(r.delta_alpha_urad * 1e-6, d1, 1e-12, "Ry·Rx Δα");
+        close(r.delta_beta_urad * 1e-6, d2, 1e-12, "Ry·Rx Δβ");
+    }
+    let cfg = RrtttConfig { rotation_order: RotationOrder::BetaThenAlpha, ..rrttt_cfg(-200.0) };
+    let (mut da, mut db, mut rep) = (vec![], vec![], [0.0; 2]);
+    for _ in 0..4000 {
+        let m = RrtttMeasurement {
+            pivot_mm: [0.0; 3],
+            alpha_deg: 50.0,
+            beta_deg: 20.0,
+            dv1_um: [0.0; 3].map(|_| noise(&mut rng, 1.0)),
+            dv2_um: [0.0; 3].map(|_| noise(&mut rng, 1.0)),
+            ssm_std_um: 1.0,
+        };
+        let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
+        da.push(r.delta_alpha_urad);
+        db.push(r.delta_beta_urad);
+        rep = r.std_uncertainty_urad;
+    }
+    let sd = |v: &[f64]| (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt();
+    close(sd(&da) / rep[0], 1.0, 0.1, "Ry·Rx σ(Δα)");
+    close(sd(&db) / rep[1], 1.0, 0.1, "Ry·Rx σ(Δβ)");
 }

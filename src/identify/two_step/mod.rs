@@ -29,9 +29,10 @@
 //!   (eq 4: `Trans(x_1 + Δx_V1, …)`);
 //! - [`ReferenceEnd`] says on which member the ball-bar socket (the SSM reference point) sits.
 //!
-//! Quality figure: both modes report the residual of the full three-row model evaluated with the
-//! identified angles against the measured position (the "unused equation": three rows, two
-//! unknowns for RRTTT/TTTRR, three rows and one unknown for RTTTR).
+//! Quality figures: both modes report the residual of the full three-row model evaluated with
+//! the identified angles against the measured position (the "unused equation": three rows, two
+//! unknowns for RRTTT/TTTRR, three rows and one unknown for RTTTR), and the first-order standard
+//! uncertainty of each angle propagated from the SSM component uncertainty `ssm_std_um`.
 
 use core::f64::consts::PI;
 
@@ -112,6 +113,8 @@ pub enum TwoStepError {
     ZeroLength,
     /// `min_lever_arm_mm` is not a positive finite number.
     BadMinLeverArm,
+    /// `ssm_std_um` is negative.
+    NegativeUncertainty,
     /// The geometry makes an error unobservable (see [`Singularity`]).
     Singular(Singularity),
     /// The measured displacement is inconsistent with the model: the x row asks for
@@ -164,6 +167,21 @@ fn finite3(v: &[f64; 3]) -> bool {
 fn wrap_pi(a: f64) -> f64 {
     let r = libm::remainder(a, 2.0 * PI);
     if r <= -PI { r + 2.0 * PI } else { r }
+}
+
+fn check_std(ssm_std_um: f64) -> Result<(), TwoStepError> {
+    if ssm_std_um < 0.0 {
+        Err(TwoStepError::NegativeUncertainty)
+    } else {
+        Ok(())
+    }
+}
+
+/// First-order standard uncertainty (µrad) of an angle read on a lever arm (mm) from the
+/// difference of two SSM vectors with component uncertainty σ (µm): √2·σ/lever
+/// (µm/mm = mrad, hence ×1e3).
+fn angle_std_urad(ssm_std_um: f64, lever_mm: f64) -> f64 {
+    core::f64::consts::SQRT_2 * ssm_std_um / libm::fabs(lever_mm) * 1e3
 }
 
 fn check_lever(min_lever_arm_mm: f64) -> Result<(), TwoStepError> {
@@ -343,6 +361,9 @@ pub struct RrtttMeasurement {
     pub dv1_um: [f64; 3],
     /// SSM total position error after the rotation (ΔV2), µm.
     pub dv2_um: [f64; 3],
+    /// Standard uncertainty of each SSM component (ΔV1 and ΔV2 alike, independent), µm; 0 if
+    /// unknown. Propagated to the angles' `std_uncertainty_urad`.
+    pub ssm_std_um: f64,
 }
 
 /// Identified RRTTT orientation errors.
@@ -352,6 +373,10 @@ pub struct RrtttResult {
     pub delta_alpha_urad: f64,
     /// Δβ = β_actual − β_nominal, µrad.
     pub delta_beta_urad: f64,
+    /// Standard uncertainties of (Δα, Δβ) from `ssm_std_um`, µrad: √2·σ / lever arm, the lever
+    /// being |z_r| for the inner rotation (β for Rx·Ry) and |z_r|·cos(inner angle) for the
+    /// outer one (first order).
+    pub std_uncertainty_urad: [f64; 2],
     /// Measured minus modelled tool-tip position with the identified angles, µm (exact mode:
     /// only the radial component, |v| − |z_r|, can be non-zero).
     pub residual_um: [f64; 3],
@@ -398,10 +423,12 @@ pub fn identify_rrttt(
         && m.alpha_deg.is_finite()
         && m.beta_deg.is_finite()
         && finite3(&m.dv1_um)
-        && finite3(&m.dv2_um))
+        && finite3(&m.dv2_um)
+        && m.ssm_std_um.is_finite())
     {
         return Err(TwoStepError::NonFinite);
     }
+    check_std(m.ssm_std_um)?;
     if cfg.tool_z_mm == 0.0 {
         return Err(TwoStepError::ZeroLength);
     }
@@ -457,9 +484,22 @@ pub fn identify_rrttt(
         }
     };
     let model = rrttt_tool(cfg, alpha + d_alpha, beta + d_beta);
+    // ∂v/∂(inner angle) has length |z_r|; ∂v/∂(outer angle) has length |z_r|·cos(inner angle)
+    let sd_z = angle_std_urad(m.ssm_std_um, cfg.tool_z_mm);
+    let std_uncertainty_urad = match cfg.rotation_order {
+        RotationOrder::AlphaThenBeta => [
+            angle_std_urad(m.ssm_std_um, cfg.tool_z_mm * libm::cos(beta + d_beta)),
+            sd_z,
+        ],
+        RotationOrder::BetaThenAlpha => [
+            sd_z,
+            angle_std_urad(m.ssm_std_um, cfg.tool_z_mm * libm::cos(alpha + d_alpha)),
+        ],
+    };
     Ok(RrtttResult {
         delta_alpha_urad: d_alpha * 1e6,
         delta_beta_urad: d_beta * 1e6,
+        std_uncertainty_urad,
         residual_um: residual_um(v, model),
         mode,
     })
@@ -496,6 +536,9 @@ pub struct TttrrMeasurement {
     pub dv1_um: [f64; 3],
     /// SSM error after the rotation (ΔV2), µm.
     pub dv2_um: [f64; 3],
+    /// Standard uncertainty of each SSM component (ΔV1 and ΔV2 alike, independent), µm; 0 if
+    /// unknown. Propagated to the angles' `std_uncertainty_urad`.
+    pub ssm_std_um: f64,
 }
 
 /// Identified TTTRR orientation errors.
@@ -505,6 +548,9 @@ pub struct TttrrResult {
     pub delta_alpha_urad: f64,
     /// Δγ = γ_actual − γ_nominal, µrad.
     pub delta_gamma_urad: f64,
+    /// Standard uncertainties of (Δα, Δγ) from `ssm_std_um`, µrad (first order: Δγ lever
+    /// |Q′|; Δα lever hypot(H, Q′) plus the Δγ coupling through Q′).
+    pub std_uncertainty_urad: [f64; 2],
     /// Measured minus modelled reference-point position with the identified angles, µm.
     pub residual_um: [f64; 3],
     /// The formulas used.
@@ -551,10 +597,12 @@ pub fn identify_tttrr(
         && m.alpha_deg.is_finite()
         && m.gamma_deg.is_finite()
         && finite3(&m.dv1_um)
-        && finite3(&m.dv2_um))
+        && finite3(&m.dv2_um)
+        && m.ssm_std_um.is_finite())
     {
         return Err(TwoStepError::NonFinite);
     }
+    check_std(m.ssm_std_um)?;
     let [xr, yr, zr] = cfg.reference_point_mm;
     let rho = libm::hypot(xr, yr);
     if rho == 0.0 {
@@ -628,9 +676,19 @@ pub fn identify_tttrr(
         }
     };
     let model = tttrr_offset(cfg, alpha + d_alpha, gamma + d_gamma);
+    let g1 = gamma + d_gamma;
+    let q1 = xr * libm::sin(g1) + yr * libm::cos(g1);
+    let c1 = xr * libm::cos(g1) - yr * libm::sin(g1);
+    let sd_gamma = angle_std_urad(m.ssm_std_um, q1);
+    // α′ = atan2(v_z, v_y) − atan2(H, Q′): direct term on hypot(H, Q′), plus Q′ = Q′(γ′)
+    let h2q2 = h * h + q1 * q1;
+    let sd_direct = angle_std_urad(m.ssm_std_um, crate::num::sqrt(h2q2));
+    let coupling = h * c1 / h2q2 * sd_gamma;
+    let sd_alpha = crate::num::sqrt(sd_direct * sd_direct + coupling * coupling);
     Ok(TttrrResult {
         delta_alpha_urad: d_alpha * 1e6,
         delta_gamma_urad: d_gamma * 1e6,
+        std_uncertainty_urad: [sd_alpha, sd_gamma],
         residual_um: residual_um(v, model),
         mode,
     })
@@ -671,6 +729,9 @@ pub struct SingleAxisMeasurement {
     pub dv1_um: [f64; 3],
     /// SSM error after the rotation (ΔV2 or ΔtV2), µm.
     pub dv2_um: [f64; 3],
+    /// Standard uncertainty of each SSM component (ΔV1 and ΔV2 alike, independent), µm; 0 if
+    /// unknown. Propagated to the angles' `std_uncertainty_urad`.
+    pub ssm_std_um: f64,
 }
 
 /// Identified orientation error of one rotary axis.
@@ -678,6 +739,9 @@ pub struct SingleAxisMeasurement {
 pub struct SingleAxisResult {
     /// Δθ = θ_actual − θ_nominal, µrad.
     pub delta_urad: f64,
+    /// Standard uncertainty of Δθ from `ssm_std_um`, µrad: √2·σ / lever arm (|z_r| for the
+    /// spindle, hypot(y_tr, z_tr) for the table).
+    pub std_uncertainty_urad: f64,
     /// Measured minus modelled position with the identified angle, µm (three rows, one
     /// unknown: the axial row and the radial length are unused by the inversion).
     pub residual_um: [f64; 3],
@@ -686,7 +750,11 @@ pub struct SingleAxisResult {
 }
 
 fn single_inputs_ok(m: &SingleAxisMeasurement) -> bool {
-    finite3(&m.origin_mm) && m.angle_deg.is_finite() && finite3(&m.dv1_um) && finite3(&m.dv2_um)
+    finite3(&m.origin_mm)
+        && m.angle_deg.is_finite()
+        && finite3(&m.dv1_um)
+        && finite3(&m.dv2_um)
+        && m.ssm_std_um.is_finite()
 }
 
 /// Nominal RTTTR tool-tip position, mm (eq 13).
@@ -724,6 +792,7 @@ pub fn identify_rtttr_spindle(
     if !(cfg.tool_z_mm.is_finite() && single_inputs_ok(m)) {
         return Err(TwoStepError::NonFinite);
     }
+    check_std(m.ssm_std_um)?;
     if !(libm::fabs(cfg.tool_z_mm) >= cfg.min_lever_arm_mm) {
         return Err(TwoStepError::ZeroLength);
     }
@@ -757,6 +826,7 @@ pub fn identify_rtttr_spindle(
     let model = rot_y(beta + d_beta, [0.0, 0.0, cfg.tool_z_mm]);
     Ok(SingleAxisResult {
         delta_urad: d_beta * 1e6,
+        std_uncertainty_urad: angle_std_urad(m.ssm_std_um, cfg.tool_z_mm),
         residual_um: residual_um(v, model),
         mode,
     })
@@ -773,6 +843,7 @@ pub fn identify_rtttr_table(
     if !(finite3(&cfg.reference_point_mm) && single_inputs_ok(m)) {
         return Err(TwoStepError::NonFinite);
     }
+    check_std(m.ssm_std_um)?;
     let [_, ytr, ztr] = cfg.reference_point_mm;
     let sgn = cfg.reference_end.sign();
     let dv1 = scale(sgn, m.dv1_um);
@@ -807,6 +878,7 @@ pub fn identify_rtttr_table(
     let model = rot_x(alpha + d_alpha, cfg.reference_point_mm);
     Ok(SingleAxisResult {
         delta_urad: d_alpha * 1e6,
+        std_uncertainty_urad: angle_std_urad(m.ssm_std_um, libm::hypot(ytr, ztr)),
         residual_um: residual_um(v, model),
         mode,
     })

@@ -482,3 +482,63 @@ fn model_bad_input() {
     e.y.a_urad[1] = f64::INFINITY;
     assert_eq!(volumetric::position_error_um(Configuration::Xyfz, &e, [1.0; 3], [0.0; 3]), Err(VolumetricError::NonFinite));
 }
+
+/// A controller table from a measured curve: interpolated, sign-flipped, mm; out-of-range and
+/// unsorted curves refused.
+#[test]
+fn table_from_curve() {
+    let pos = [0.0, 100.0, 200.0, 300.0];
+    let err = [0.0, 4.0, 6.0, 3.0];
+    let mut out = [0.0; 7];
+    let n = compensation::fill_compensation_table_from_curve_mm(0.0, 300.0, 50.0, &pos, &err, &mut out).unwrap();
+    assert_eq!(n, 7);
+    let want = [0.0, -0.002, -0.004, -0.005, -0.006, -0.0045, -0.003];
+    for (g, w) in out.iter().zip(want) {
+        close(*g, w, 1e-15, "table from curve");
+    }
+    let mut out = [1.0; 9];
+    assert_eq!(
+        compensation::fill_compensation_table_from_curve_mm(-50.0, 350.0, 50.0, &pos, &err, &mut out),
+        Err(VolumetricError::OutsideGrid { axis: 0 })
+    );
+    assert_eq!(out, [1.0; 9]);
+    assert_eq!(compensation::curve_value_um(&[0.0, 0.0], &[1.0, 2.0], 0.0), Err(VolumetricError::LengthNotPositive));
+    assert_eq!(compensation::TravelDirection::Negative.siemens_code(), -1);
+}
+
+/// Body-diagonal readings of every configuration equal u · E from the literal matrix forms to
+/// second order, and the XYZF angular terms have the opposite sign to FXYZ's (spec A.6).
+#[test]
+fn diagonal_readings_all_configurations() {
+    let mut rng = Rng(4242);
+    for (ci, cfg) in CFGS.iter().enumerate() {
+        for _ in 0..100 {
+            let mut e = fwd::Errors::default();
+            for u in 0..3 {
+                for i in 0..3 {
+                    e.d[u][i] = rng.uniform(-0.02, 0.02);
+                    e.a[u][i] = rng.uniform(-5e-5, 5e-5);
+                }
+                e.s[u] = rng.uniform(-2e-5, 2e-5);
+            }
+            let s = vector::DIAGONAL_SIGNS[(rng.uniform(0.0, 4.0) as usize).min(3)];
+            let off = [0, 1, 2].map(|i| s[i] * rng.uniform(10.0, 400.0));
+            let act = fwd::actual_position(ci, off, &e, [0.0; 3]);
+            let r = (off[0] * off[0] + off[1] * off[1] + off[2] * off[2]).sqrt();
+            let want: f64 = (0..3).map(|i| off[i] / r * (act[i] - off[i]) * 1e3).sum();
+            let got = volumetric::body_diagonal_reading_um(*cfg, &to_core(&e), off).unwrap();
+            close(got, want, 0.01, "diagonal vs matrix form");
+        }
+    }
+    // only A_y(x): FXYZ ppp gets +A_y(x)·ac/r, XYZF −A_y(x)·ac/r
+    let mut e = RigidBodyErrors::default();
+    e.x.a_urad[1] = 10.0;
+    let off = [100.0, 100.0, 100.0];
+    let f = volumetric::body_diagonal_reading_um(Configuration::Fxyz, &e, off).unwrap();
+    let x = volumetric::body_diagonal_reading_um(Configuration::Xyzf, &e, off).unwrap();
+    let r = 300.0f64.sqrt() * 10.0;
+    close(f, 10.0 * 100.0 * 100.0 / r * 1e-3, 1e-12, "FXYZ +A_y(x)ac/r");
+    close(x, -f, 1e-12, "XYZF opposite sign");
+    // XFYZ and XYFZ: insensitive to A_y(x) on ppp (the text's conclusion)
+    close(volumetric::body_diagonal_reading_um(Configuration::Xfyz, &e, off).unwrap(), 0.0, 1e-12, "XFYZ");
+}

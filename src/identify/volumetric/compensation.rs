@@ -335,3 +335,86 @@ pub fn fill_compensation_table_mm(
     }
     Ok(n)
 }
+
+/// Linear interpolation of a measured error curve (`positions_mm` strictly increasing, paired
+/// with `errors_um`) at `x_mm`, µm. Outside the measured range is an error (no extrapolation).
+pub fn curve_value_um(
+    positions_mm: &[f64],
+    errors_um: &[f64],
+    x_mm: f64,
+) -> Result<f64, VolumetricError> {
+    if positions_mm.len() != errors_um.len() || positions_mm.len() < 2 {
+        return Err(VolumetricError::EmptyData);
+    }
+    if !x_mm.is_finite()
+        || positions_mm
+            .iter()
+            .chain(errors_um.iter())
+            .any(|v| !v.is_finite())
+    {
+        return Err(VolumetricError::NonFinite);
+    }
+    if positions_mm
+        .windows(2)
+        .any(|w| matches!(w, [a, b] if !(a < b)))
+    {
+        return Err(VolumetricError::LengthNotPositive);
+    }
+    let seg = positions_mm
+        .windows(2)
+        .zip(errors_um.windows(2))
+        .find(|(p, _)| matches!(p, [a, b] if *a <= x_mm && x_mm <= *b));
+    match seg {
+        Some(([p0, p1], [e0, e1])) => Ok(e0 + (e1 - e0) * (x_mm - p0) / (p1 - p0)),
+        _ => Err(VolumetricError::OutsideGrid { axis: 0 }),
+    }
+}
+
+/// Fills a controller table (MIN..MAX by STEP, see [`table_point_count`]) from a measured error
+/// curve (e.g. a vector-method curve of [`super::vector::error_curves_um`]) by linear
+/// interpolation: value = −error/1000 mm (compensation = −error). The table range must lie
+/// inside the measured range. Nothing is written on error.
+pub fn fill_compensation_table_from_curve_mm(
+    min_mm: f64,
+    max_mm: f64,
+    step_mm: f64,
+    positions_mm: &[f64],
+    errors_um: &[f64],
+    out_mm: &mut [f64],
+) -> Result<usize, VolumetricError> {
+    let n = table_point_count(min_mm, max_mm, step_mm)?;
+    // validate every point before writing
+    for i in 0..n {
+        curve_value_um(positions_mm, errors_um, min_mm + i as f64 * step_mm)?;
+    }
+    fill_compensation_table_mm(
+        min_mm,
+        max_mm,
+        step_mm,
+        |x| curve_value_um(positions_mm, errors_um, x).unwrap_or(f64::NAN),
+        out_mm,
+    )
+}
+
+/// Travel direction a direction-dependent table applies to (Siemens `$AN_CEC_DIRECTION`,
+/// MDSI `axLSCompDirPos/Neg`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TravelDirection {
+    /// Both directions (one table).
+    Both,
+    /// Positive travel only.
+    Positive,
+    /// Negative travel only.
+    Negative,
+}
+
+impl TravelDirection {
+    /// Siemens 840D `$AN_CEC_DIRECTION` code: 0 both, 1 positive, −1 negative (Table 8.3).
+    pub fn siemens_code(&self) -> i8 {
+        match self {
+            Self::Both => 0,
+            Self::Positive => 1,
+            Self::Negative => -1,
+        }
+    }
+}

@@ -191,6 +191,20 @@ fn vector_rank_deficiency_and_bad_input() {
     let steps = [[Some(1.0); 4], [Some(1.0), None, None, Some(2.0)]];
     assert!(vector::error_curves_um([50.0, 40.0, 30.0], &steps, &mut out).is_err());
     assert_eq!(out, [[9.0; 3]; 3]);
+    // whole method: a short buffer for z, or a bad z step, writes nothing for x either
+    let good = [[Some(1.0), Some(0.5), Some(0.2), Some(0.7)]; 3];
+    let (mut ox, mut oy, mut oz) = ([[9.0; 3]; 4], [[9.0; 3]; 4], [[9.0; 3]; 3]);
+    assert_eq!(
+        vector::identify_vector_method([50.0, 40.0, 30.0], [&good, &good, &good], [&mut ox, &mut oy, &mut oz]),
+        Err(VolumetricError::TableTooSmall { needed: 4 })
+    );
+    let bad = [good[0], good[1], [None, None, Some(1.0), None]];
+    let mut oz = [[9.0; 3]; 4];
+    assert!(matches!(
+        vector::identify_vector_method([50.0, 40.0, 30.0], [&good, &good, &bad], [&mut ox, &mut oy, &mut oz]),
+        Err(VolumetricError::CannotSeparate { .. })
+    ));
+    assert_eq!(ox, [[9.0; 3]; 4]);
 }
 
 /// Round trip of the vector method: random straightness / displacement curves over a box of
@@ -257,9 +271,32 @@ fn vector_round_trip() {
                 }
             }
         }
+        // the whole method at once: squareness from the crossed slopes
+        let (mut ox, mut oy, mut oz) = ([[0.0; 3]; N + 1], [[0.0; 3]; N + 1], [[0.0; 3]; N + 1]);
+        let summary =
+            vector::identify_vector_method(step, [&readings[0], &readings[1], &readings[2]], [&mut ox, &mut oy, &mut oz])
+                .unwrap();
+        if !with_angles {
+            // textbook least-squares slope of the injected curve D_i(u) (+ folded squareness), µrad
+            let slope = |u: usize, i: usize, s_rad: f64| {
+                let xs: Vec<f64> = (0..=N).map(|k| k as f64 * step[u]).collect();
+                let ys: Vec<f64> = (0..=N).map(|k| d_curve[u][k][i] + s_rad * xs[k] * 1e3).collect();
+                let (mx, my) = (xs.iter().sum::<f64>() / xs.len() as f64, ys.iter().sum::<f64>() / ys.len() as f64);
+                let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
+                let sxx: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
+                sxy / sxx * 1e3
+            };
+            let want_xy = slope(0, 1, 0.0) + slope(1, 0, sq[0]);
+            let want_yz = slope(1, 2, 0.0) + slope(2, 1, sq[1]);
+            let want_zx = slope(0, 2, 0.0) + slope(2, 0, sq[2]);
+            close(summary.squareness.xy_urad, want_xy, 1e-9 * want_xy.abs().max(1.0), "S_xy");
+            close(summary.squareness.yz_urad, want_yz, 1e-9 * want_yz.abs().max(1.0), "S_yz");
+            close(summary.squareness.zx_urad, want_zx, 1e-9 * want_zx.abs().max(1.0), "S_zx");
+        }
         for axis in 0..3 {
             let mut out = [[0.0; 3]; N + 1];
             let q = vector::error_curves_um(step, &readings[axis], &mut out).unwrap();
+            assert_eq!(out, [ox, oy, oz][axis]);
             assert_eq!(q.steps, N);
             if !with_angles {
                 assert!(q.worst_residual_rms_um < 1e-9, "{}", q.worst_residual_rms_um);

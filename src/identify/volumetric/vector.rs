@@ -152,10 +152,18 @@ pub fn line_fit(positions_mm: &[f64], values_um: &[f64]) -> Result<LineFit, Volu
     if positions_mm.len() != values_um.len() || positions_mm.len() < 2 {
         return Err(VolumetricError::EmptyData);
     }
+    line_fit_pairs(positions_mm.iter().copied().zip(values_um.iter().copied()))
+}
+
+/// [`line_fit`] over (position mm, value µm) pairs.
+fn line_fit_pairs(pairs: impl Iterator<Item = (f64, f64)>) -> Result<LineFit, VolumetricError> {
     let mut lsq = GivensLsq::<2>::new();
-    for (p, v) in positions_mm.iter().zip(values_um.iter()) {
-        lsq.add_row(&[1.0, *p], *v, 1.0)
+    for (p, v) in pairs {
+        lsq.add_row(&[1.0, p], v, 1.0)
             .map_err(|_| VolumetricError::NonFinite)?;
+    }
+    if lsq.rows() < 2 {
+        return Err(VolumetricError::EmptyData);
     }
     let sol = lsq
         .solve_full_rank(DEFAULT_RANK_TOL)
@@ -187,4 +195,81 @@ pub struct LineFit {
 /// E.g. S_xy = slope[D_y(x)] + slope[D_x(y)].
 pub fn squareness_urad(slope_dv_of_u_urad: f64, slope_du_of_v_urad: f64) -> f64 {
     slope_dv_of_u_urad + slope_du_of_v_urad
+}
+
+/// Summary of a complete vector-method run (all three axes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct VectorMethodSummary {
+    /// Squareness from the crossed straightness slopes ([`squareness_urad`]), µrad:
+    /// S_xy = slope[D_y(x)] + slope[D_x(y)], S_yz = slope[D_z(y)] + slope[D_y(z)],
+    /// S_zx = slope[D_z(x)] + slope[D_x(z)].
+    pub squareness: super::Squareness,
+    /// Least-squares slope of each curve, µrad: `slopes_urad[u][i]` = slope of D_i(u). Only the
+    /// crossed sums above are independent of the beam alignment (spec A.6).
+    pub slopes_urad: [[f64; 3]; 3],
+    /// Per-axis inversion quality.
+    pub quality: [CurveQuality; 3],
+}
+
+/// The whole vector method (spec A.6): for each axis u = x, y, z, `steps[u]` holds the four
+/// diagonal readings of every step of u (indexed by position, see the module doc) and
+/// `out_um[u]` receives the curves (D_x(u), D_y(u), D_z(u)) at the step boundaries
+/// (`steps[u].len() + 1` points, zero at the start). `step_mm` = (a, b, c) are the per-step
+/// increments of x, y, z (also the diagonal's direction). The 9 curves are the 3 displacement +
+/// 6 straightness errors; the 3 squareness errors come from their slopes. Nothing is written
+/// unless every step of every axis inverts.
+pub fn identify_vector_method(
+    step_mm: [f64; 3],
+    steps: [&[[Option<f64>; 4]]; 3],
+    out_um: [&mut [[f64; 3]]; 3],
+) -> Result<VectorMethodSummary, VolumetricError> {
+    // validate everything first
+    for (s, o) in steps.iter().zip(out_um.iter()) {
+        if s.len() < 2 {
+            return Err(VolumetricError::EmptyData);
+        }
+        let needed = s.len() + 1;
+        if o.len() < needed {
+            return Err(VolumetricError::TableTooSmall { needed });
+        }
+        for st in s.iter() {
+            invert_step(step_mm, *st)?;
+        }
+    }
+    let mut quality = [CurveQuality {
+        steps: 0,
+        worst_residual_rms_um: 0.0,
+    }; 3];
+    let mut slopes_urad = [[0.0f64; 3]; 3];
+    for ((((s, o), q), sl), h) in steps
+        .iter()
+        .zip(out_um)
+        .zip(quality.iter_mut())
+        .zip(slopes_urad.iter_mut())
+        .zip(step_mm.iter())
+    {
+        *q = error_curves_um(step_mm, s, o)?;
+        let n = s.len() + 1;
+        for (i, slope) in sl.iter_mut().enumerate() {
+            let pairs = o
+                .iter()
+                .take(n)
+                .enumerate()
+                .map(|(k, v)| (k as f64 * h, v.get(i).copied().unwrap_or(f64::NAN)));
+            *slope = line_fit_pairs(pairs)?.slope_urad;
+        }
+    }
+    let [sx, sy, sz] = slopes_urad;
+    let [_, syx, szx] = sx; // D_y(x), D_z(x)
+    let [sxy, _, szy] = sy; // D_x(y), D_z(y)
+    let [sxz, syz, _] = sz; // D_x(z), D_y(z)
+    Ok(VectorMethodSummary {
+        squareness: super::Squareness {
+            xy_urad: squareness_urad(syx, sxy),
+            yz_urad: squareness_urad(szy, syz),
+            zx_urad: squareness_urad(szx, sxz),
+        },
+        slopes_urad,
+        quality,
+    })
 }

@@ -346,6 +346,10 @@ fn singularities_and_bad_input() {
     // inconsistent x row
     let tm2 = TttrrMeasurement { gamma_deg: 35.0, alpha_deg: 20.0, dv2_um: [1e6, 0.0, 0.0], ..tm };
     assert!(matches!(two_step::identify_tttrr(&tc, &tm2, Mode::Exact), Err(TwoStepError::Inconsistent { .. })));
+    // data that rotate the point onto the γ lever singularity (v_x = ρ): refused, not a huge σ
+    let nom = two_step::tttrr_nominal_point_mm(&tc, [0.0; 3], 20.0, 35.0);
+    let to_singular = TttrrMeasurement { dv2_um: [(100.0 - nom[0]) * 1e3, 0.0, 0.0], ..tm2 };
+    assert_eq!(two_step::identify_tttrr(&tc, &to_singular, Mode::Exact), Err(TwoStepError::Singular(Singularity::GammaLever)));
     let zero = TttrrConfig { reference_point_mm: [0.0, 0.0, 30.0], ..tc };
     assert_eq!(two_step::identify_tttrr(&zero, &tm2, Mode::Exact), Err(TwoStepError::ZeroLength));
 

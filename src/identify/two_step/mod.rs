@@ -125,6 +125,9 @@ pub enum TwoStepError {
     },
     /// The paper's formulas exist only for the paper's rotation order (Rx·Ry).
     PaperModeUnsupported,
+    /// The identified angles put the actual lever arm at zero (data far outside the model):
+    /// an uncertainty or residual would not be finite, so nothing is returned.
+    NonFiniteResult,
 }
 
 /// Nominal rotation of a 3-vector by Rx(a) (right-handed, radians).
@@ -167,6 +170,25 @@ fn finite3(v: &[f64; 3]) -> bool {
 fn wrap_pi(a: f64) -> f64 {
     let r = libm::remainder(a, 2.0 * PI);
     if r <= -PI { r + 2.0 * PI } else { r }
+}
+
+/// Refuses a result with a non-finite figure (DESIGN §9: never a NaN result).
+fn all_finite(angles: &[f64], stds: &[f64], residual: &[f64; 3]) -> Result<(), TwoStepError> {
+    if angles
+        .iter()
+        .chain(stds.iter())
+        .chain(residual.iter())
+        .all(|v| v.is_finite())
+    {
+        Ok(())
+    } else {
+        Err(TwoStepError::NonFiniteResult)
+    }
+}
+
+fn single_result(r: SingleAxisResult) -> Result<SingleAxisResult, TwoStepError> {
+    all_finite(&[r.delta_urad], &[r.std_uncertainty_urad], &r.residual_um)?;
+    Ok(r)
 }
 
 fn check_std(ssm_std_um: f64) -> Result<(), TwoStepError> {
@@ -496,13 +518,19 @@ pub fn identify_rrttt(
             angle_std_urad(m.ssm_std_um, cfg.tool_z_mm * libm::cos(alpha + d_alpha)),
         ],
     };
-    Ok(RrtttResult {
+    let out = RrtttResult {
         delta_alpha_urad: d_alpha * 1e6,
         delta_beta_urad: d_beta * 1e6,
         std_uncertainty_urad,
         residual_um: residual_um(v, model),
         mode,
-    })
+    };
+    all_finite(
+        &[out.delta_alpha_urad, out.delta_beta_urad],
+        &out.std_uncertainty_urad,
+        &out.residual_um,
+    )?;
+    Ok(out)
 }
 
 // ---------------------------------------------------------------------------------------- TTTRR
@@ -679,19 +707,29 @@ pub fn identify_tttrr(
     let g1 = gamma + d_gamma;
     let q1 = xr * libm::sin(g1) + yr * libm::cos(g1);
     let c1 = xr * libm::cos(g1) - yr * libm::sin(g1);
+    // the actual lever arm must be usable too (data far off the nominal can drive it to zero)
+    if !(libm::fabs(q1) >= cfg.min_lever_arm_mm) {
+        return Err(TwoStepError::Singular(Singularity::GammaLever));
+    }
     let sd_gamma = angle_std_urad(m.ssm_std_um, q1);
     // α′ = atan2(v_z, v_y) − atan2(H, Q′): direct term on hypot(H, Q′), plus Q′ = Q′(γ′)
     let h2q2 = h * h + q1 * q1;
     let sd_direct = angle_std_urad(m.ssm_std_um, crate::num::sqrt(h2q2));
     let coupling = h * c1 / h2q2 * sd_gamma;
     let sd_alpha = crate::num::sqrt(sd_direct * sd_direct + coupling * coupling);
-    Ok(TttrrResult {
+    let out = TttrrResult {
         delta_alpha_urad: d_alpha * 1e6,
         delta_gamma_urad: d_gamma * 1e6,
         std_uncertainty_urad: [sd_alpha, sd_gamma],
         residual_um: residual_um(v, model),
         mode,
-    })
+    };
+    all_finite(
+        &[out.delta_alpha_urad, out.delta_gamma_urad],
+        &out.std_uncertainty_urad,
+        &out.residual_um,
+    )?;
+    Ok(out)
 }
 
 // ---------------------------------------------------------------------------------------- RTTTR
@@ -824,7 +862,7 @@ pub fn identify_rtttr_spindle(
         }
     };
     let model = rot_y(beta + d_beta, [0.0, 0.0, cfg.tool_z_mm]);
-    Ok(SingleAxisResult {
+    single_result(SingleAxisResult {
         delta_urad: d_beta * 1e6,
         std_uncertainty_urad: angle_std_urad(m.ssm_std_um, cfg.tool_z_mm),
         residual_um: residual_um(v, model),
@@ -876,7 +914,7 @@ pub fn identify_rtttr_table(
         }
     };
     let model = rot_x(alpha + d_alpha, cfg.reference_point_mm);
-    Ok(SingleAxisResult {
+    single_result(SingleAxisResult {
         delta_urad: d_alpha * 1e6,
         std_uncertainty_urad: angle_std_urad(m.ssm_std_um, libm::hypot(ytr, ztr)),
         residual_um: residual_um(v, model),

@@ -21,8 +21,8 @@
 //! Conventions (spec part D 1, 8), all explicit configuration:
 //! - error = actual − nominal; ΔV in µm, positions in mm, nominal angles in degrees, identified
 //!   orientation errors in µrad (`Δθ = θ_actual − θ_nominal`);
-//! - rotations are right-handed: Rx(a) = [[1,0,0],[0,c,−s],[0,s,c]], Ry(b) = [[c,0,s],[0,1,0],
-//!   [−s,0,c]], Rz(g) = [[c,−s,0],[s,c,0],[0,0,1]];
+//! - rotations are right-handed: `Rx(a) = [[1,0,0],[0,c,−s],[0,s,c]]`,
+//!   `Ry(b) = [[c,0,s],[0,1,0],[−s,0,c]]`, `Rz(g) = [[c,−s,0],[s,c,0],[0,0,1]]` (rows);
 //! - the tool vector is *signed*: seed 000 Table 1 needs the tool along −z of the spindle frame,
 //!   i.e. `tool_z_mm = −250` (spec B.7 item 1);
 //! - ΔV1 is the translation error and is carried unchanged into the after-rotation state

@@ -242,8 +242,8 @@ impl TableKind {
         self.moving == self.comp
     }
 
-    /// Fanuc 30i/31i/32i name, D<moving><comp> (DXX, DYY, DZZ pitch; DXY = D_y(x), DYX = D_x(y),
-    /// DZX = D_x(z), DZY = D_y(z), DXZ = D_z(x), DYZ = D_z(y); spec A.7 with the two [sic]
+    /// Fanuc 30i/31i/32i name, `D<moving><comp>` (DXX, DYY, DZZ pitch; DXY = D_y(x), DYX = D_x(y),
+    /// DZX = D_x(z), DZY = D_y(z), DXZ = D_z(x), DYZ = D_z(y); spec A.7 with the two "sic"
     /// moving-axis typos of the seed's list corrected).
     pub fn fanuc_name(&self) -> &'static str {
         match (self.moving, self.comp) {

@@ -1,4 +1,6 @@
 //! Host side of ballpod: independent f64 oracles, the virtual machine tool and the simulator.
 
+pub mod forward_seed000;
+pub mod forward_seed001;
 pub mod lvdt_model;
 pub mod rng;

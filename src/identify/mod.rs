@@ -3,5 +3,11 @@
 //!
 //! - [`lsq`]: streaming Givens least squares with rank, conditioning and uncertainties, shared
 //!   by every method.
+//! - [`two_step`]: seed 000 two-step orientation errors of RRTTT / TTTRR / RTTTR machines from two
+//!   SSM measurements (exact inversion and corrected paper formulas).
+//! - [`volumetric`]: seed 001 rigid-body volumetric error model, body-diagonal and vector
+//!   diagonal methods, grid/thermal compensation, volumetric-error definitions, table conventions.
 
 pub mod lsq;
+pub mod two_step;
+pub mod volumetric;

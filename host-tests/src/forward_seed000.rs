@@ -72,14 +72,27 @@ pub fn apply(t: &Htm, p: [f64; 3]) -> [f64; 3] {
 
 /// RRTTT tip (eqs 2/4): Trans(p + e) · Rx(α) · Ry(β) · (0, 0, z_r).
 pub fn rrttt_tip(p: [f64; 3], e: [f64; 3], alpha: f64, beta: f64, z_r: f64) -> [f64; 3] {
-    let t = mul(&mul(&trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &rx(alpha)), &ry(beta));
+    let t = mul(
+        &mul(&trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &rx(alpha)),
+        &ry(beta),
+    );
     apply(&t, [0.0, 0.0, z_r])
 }
 
 /// TTTRR point (eq 8): Trans(p + e) · Rx(α) · Trans(0, 0, z_αγ) · Rz(γ) · r.
-pub fn tttrr_point(p: [f64; 3], e: [f64; 3], alpha: f64, gamma: f64, z_ag: f64, r: [f64; 3]) -> [f64; 3] {
+pub fn tttrr_point(
+    p: [f64; 3],
+    e: [f64; 3],
+    alpha: f64,
+    gamma: f64,
+    z_ag: f64,
+    r: [f64; 3],
+) -> [f64; 3] {
     let t = mul(
-        &mul(&mul(&trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &rx(alpha)), &trans(0.0, 0.0, z_ag)),
+        &mul(
+            &mul(&trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &rx(alpha)),
+            &trans(0.0, 0.0, z_ag),
+        ),
         &rz(gamma),
     );
     apply(&t, r)
@@ -87,12 +100,18 @@ pub fn tttrr_point(p: [f64; 3], e: [f64; 3], alpha: f64, gamma: f64, z_ag: f64, 
 
 /// RTTTR spindle tip (eqs 13/15): Trans(p + e) · Ry(β) · (0, 0, z_r).
 pub fn rtttr_tip(p: [f64; 3], e: [f64; 3], beta: f64, z_r: f64) -> [f64; 3] {
-    apply(&mul(&trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &ry(beta)), [0.0, 0.0, z_r])
+    apply(
+        &mul(&trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &ry(beta)),
+        [0.0, 0.0, z_r],
+    )
 }
 
 /// RTTTR table point (eqs 14/16): Trans(p + e) · Rx(α) · r_t.
 pub fn rtttr_table_point(p: [f64; 3], e: [f64; 3], alpha: f64, r: [f64; 3]) -> [f64; 3] {
-    apply(&mul(&trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &rx(alpha)), r)
+    apply(
+        &mul(&trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &rx(alpha)),
+        r,
+    )
 }
 
 /// actual − nominal, in µm, from two positions in mm.

@@ -71,13 +71,19 @@ pub fn actual_position(cfg: usize, p: [f64; 3], e: &Errors, t: [f64; 3]) -> [f64
     let tool = matvec(&matmul(&matmul(&rx, &ry), &rz), t);
     let pos = match cfg {
         0 => add(add(xs, matvec(&rx, ys)), matvec(&matmul(&rx, &ry), zs)), // 8.63
-        1 => add(add(matvec(&rx, xs), matvec(&rx, ys)), matvec(&matmul(&rx, &ry), zs)), // 8.64
+        1 => add(
+            add(matvec(&rx, xs), matvec(&rx, ys)),
+            matvec(&matmul(&rx, &ry), zs),
+        ), // 8.64
         2 => add(
             add(matvec(&matmul(&ry, &rx), xs), matvec(&ry, ys)),
             matvec(&matmul(&ry, &rx), zs),
         ), // 8.65
         _ => add(
-            add(matvec(&matmul(&matmul(&rz, &ry), &rx), xs), matvec(&matmul(&rz, &ry), ys)),
+            add(
+                matvec(&matmul(&matmul(&rz, &ry), &rx), xs),
+                matvec(&matmul(&rz, &ry), ys),
+            ),
             matvec(&rz, zs),
         ), // 8.66
     };

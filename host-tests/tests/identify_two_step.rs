@@ -3,9 +3,9 @@
 //! TV-T2-nominal, TV-RTTTR-A/B, the singularities of spec part D 9, and round trips through
 //! the independent HTM forward model in `ballpod_host::forward_seed000`.
 use ballpod::identify::two_step::{
-    self, Mode, ReferenceEnd, RotationOrder, RrtttConfig, RrtttMeasurement, RtttrSpindleConfig,
-    RtttrTableConfig, SingleAxisMeasurement, Singularity, TttrrConfig, TttrrMeasurement,
-    TwoStepError, DEFAULT_MIN_LEVER_ARM_MM, URAD_PER_DEG,
+    self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, RotationOrder, RrtttConfig,
+    RrtttMeasurement, RtttrSpindleConfig, RtttrTableConfig, SingleAxisMeasurement, Singularity,
+    TttrrConfig, TttrrMeasurement, TwoStepError, URAD_PER_DEG,
 };
 use ballpod_host::forward_seed000 as fwd;
 
@@ -36,11 +36,36 @@ fn rrttt_cfg(z: f64) -> RrtttConfig {
 type Case = ([f64; 4], [f64; 3], [f64; 3], [f64; 2]);
 
 const TABLE1: [Case; 5] = [
-    ([30.0, 0.0, 0.1, 0.0], [-50.0, 110.0, 283.494], [0.0, 0.378, 0.218], [0.1, 0.0]),
-    ([0.0, 40.0, 0.0, 0.08], [-210.697, -15.0, 308.489], [-0.267, 0.0, 0.225], [0.0, 0.07995]),
-    ([45.0, 60.0, 0.12, 0.1], [-266.506, 73.388, 411.612], [-0.218, -0.083, 0.452], [0.12, 0.09985]),
-    ([60.0, 50.0, 0.15, 0.09], [-241.511, 124.168, 419.652], [-0.252, -0.051, 0.514], [0.15, 0.08992]),
-    ([30.0, 60.0, 0.1, 0.1], [-266.506, 47.5, 391.747], [-0.218, -0.001, 0.436], [0.1, 0.09985]),
+    (
+        [30.0, 0.0, 0.1, 0.0],
+        [-50.0, 110.0, 283.494],
+        [0.0, 0.378, 0.218],
+        [0.1, 0.0],
+    ),
+    (
+        [0.0, 40.0, 0.0, 0.08],
+        [-210.697, -15.0, 308.489],
+        [-0.267, 0.0, 0.225],
+        [0.0, 0.07995],
+    ),
+    (
+        [45.0, 60.0, 0.12, 0.1],
+        [-266.506, 73.388, 411.612],
+        [-0.218, -0.083, 0.452],
+        [0.12, 0.09985],
+    ),
+    (
+        [60.0, 50.0, 0.15, 0.09],
+        [-241.511, 124.168, 419.652],
+        [-0.252, -0.051, 0.514],
+        [0.15, 0.08992],
+    ),
+    (
+        [30.0, 60.0, 0.1, 0.1],
+        [-266.506, 47.5, 391.747],
+        [-0.218, -0.001, 0.436],
+        [0.1, 0.09985],
+    ),
 ];
 const T1_PIVOT: [f64; 3] = [-50.0, -15.0, 500.0];
 
@@ -66,16 +91,37 @@ fn table1_all_40_numbers_paper_mode() {
             close(round(dv2[k] / 1e3, 3), dv2_mm[k], 1e-9, "Table 1 ΔV2");
             checked += 1;
         }
-        let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: a, beta_deg: b, dv1_um: [0.0; 3], dv2_um: dv2, ssm_std_um: 0.0 };
+        let m = RrtttMeasurement {
+            pivot_mm: T1_PIVOT,
+            alpha_deg: a,
+            beta_deg: b,
+            dv1_um: [0.0; 3],
+            dv2_um: dv2,
+            ssm_std_um: 0.0,
+        };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
-        close(round(r.delta_alpha_urad / URAD_PER_DEG, 5), out[0], 1e-12, "Table 1 Δα′");
-        close(round(r.delta_beta_urad / URAD_PER_DEG, 5), out[1], 1e-12, "Table 1 Δβ′");
+        close(
+            round(r.delta_alpha_urad / URAD_PER_DEG, 5),
+            out[0],
+            1e-12,
+            "Table 1 Δα′",
+        );
+        close(
+            round(r.delta_beta_urad / URAD_PER_DEG, 5),
+            out[1],
+            1e-12,
+            "Table 1 Δβ′",
+        );
         checked += 2;
         // exact mode recovers the injected angles, not the truncated ones
         let e = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         close(e.delta_alpha_urad / URAD_PER_DEG, da, 1e-9, "exact Δα");
         close(e.delta_beta_urad / URAD_PER_DEG, db, 1e-9, "exact Δβ");
-        assert!(e.residual_um.iter().all(|v| v.abs() < 1e-6), "{:?}", e.residual_um);
+        assert!(
+            e.residual_um.iter().all(|v| v.abs() < 1e-6),
+            "{:?}",
+            e.residual_um
+        );
     }
     assert_eq!(checked, 40);
 }
@@ -85,11 +131,36 @@ fn table1_all_40_numbers_paper_mode() {
 fn table1_full_precision_vectors() {
     let cfg = rrttt_cfg(-250.0);
     let cases: [Case; 5] = [
-        ([30.0, 0.0, 0.1, 0.0], [-50.0, 110.0, 283.493649], [0.0, 0.3776843, 0.2184958], [0.1, 0.0]),
-        ([0.0, 40.0, 0.0, 0.08], [-210.696902, -15.0, 308.488889], [-0.2672432, 0.0, 0.2245618], [0.0, 0.0799531]),
-        ([45.0, 60.0, 0.12, 0.1], [-266.506351, 73.388348, 411.611652], [-0.2178363, -0.0829656, 0.4520857], [0.12, 0.0998488]),
-        ([60.0, 50.0, 0.15, 0.09], [-241.511111, 124.1676, 419.651549], [-0.2521857, -0.0512122, 0.5144434], [0.15, 0.0899157]),
-        ([30.0, 60.0, 0.1, 0.1], [-266.506351, 47.5, 391.746825], [-0.2178363, -0.0007615, 0.4363314], [0.1, 0.0998488]),
+        (
+            [30.0, 0.0, 0.1, 0.0],
+            [-50.0, 110.0, 283.493649],
+            [0.0, 0.3776843, 0.2184958],
+            [0.1, 0.0],
+        ),
+        (
+            [0.0, 40.0, 0.0, 0.08],
+            [-210.696902, -15.0, 308.488889],
+            [-0.2672432, 0.0, 0.2245618],
+            [0.0, 0.0799531],
+        ),
+        (
+            [45.0, 60.0, 0.12, 0.1],
+            [-266.506351, 73.388348, 411.611652],
+            [-0.2178363, -0.0829656, 0.4520857],
+            [0.12, 0.0998488],
+        ),
+        (
+            [60.0, 50.0, 0.15, 0.09],
+            [-241.511111, 124.1676, 419.651549],
+            [-0.2521857, -0.0512122, 0.5144434],
+            [0.15, 0.0899157],
+        ),
+        (
+            [30.0, 60.0, 0.1, 0.1],
+            [-266.506351, 47.5, 391.746825],
+            [-0.2178363, -0.0007615, 0.4363314],
+            [0.1, 0.0998488],
+        ),
     ];
     for (ang, nom_p, dv2_mm, out) in cases {
         let [a, b, _, _] = ang;
@@ -98,16 +169,38 @@ fn table1_full_precision_vectors() {
             close(nom[k], nom_p[k], 6e-7, "C.2 nominal");
         }
         let dv2 = [dv2_mm[0] * 1e3, dv2_mm[1] * 1e3, dv2_mm[2] * 1e3];
-        let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: a, beta_deg: b, dv1_um: [0.0; 3], dv2_um: dv2, ssm_std_um: 0.0 };
+        let m = RrtttMeasurement {
+            pivot_mm: T1_PIVOT,
+            alpha_deg: a,
+            beta_deg: b,
+            dv1_um: [0.0; 3],
+            dv2_um: dv2,
+            ssm_std_um: 0.0,
+        };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
         let e = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         // inputs printed to 0.1 nm: 1e-7 mm / 250 mm = 2.3e-8 deg. The C.2 "eq 7" column is
         // atan(eq 7) (= exact Δα): eq 7 as printed is tan Δα, 1.0e-7° higher at 0.1° (Δα³/3),
         // which is what TV-RRTTT-6 quotes (0.050000013°).
-        close(e.delta_alpha_urad / URAD_PER_DEG, out[0], 1e-7, "C.2 Δα′ atan(eq 7)");
+        close(
+            e.delta_alpha_urad / URAD_PER_DEG,
+            out[0],
+            1e-7,
+            "C.2 Δα′ atan(eq 7)",
+        );
         let tan_da = (out[0] * D2R).tan() / D2R;
-        close(r.delta_alpha_urad / URAD_PER_DEG, tan_da, 1e-7, "C.2 Δα′ eq 7 = tan Δα");
-        close(r.delta_beta_urad / URAD_PER_DEG, out[1], 1e-7, "C.2 Δβ′ eq 6");
+        close(
+            r.delta_alpha_urad / URAD_PER_DEG,
+            tan_da,
+            1e-7,
+            "C.2 Δα′ eq 7 = tan Δα",
+        );
+        close(
+            r.delta_beta_urad / URAD_PER_DEG,
+            out[1],
+            1e-7,
+            "C.2 Δβ′ eq 6",
+        );
     }
 }
 
@@ -119,8 +212,19 @@ fn table1_rounded_input_regression() {
     let exp_da = [0.10005, 0.00000, 0.11996, 0.15011, 0.09987];
     for (i, (ang, xyz2, dv2_mm, _)) in TABLE1.iter().enumerate() {
         let dv2 = [dv2_mm[0] * 1e3, dv2_mm[1] * 1e3, dv2_mm[2] * 1e3];
-        let db = two_step::paper::eq6_delta_beta_rad(T1_PIVOT[0], xyz2[0], 0.0, dv2[0], -250.0, ang[1] * D2R, 1.0).unwrap();
-        let da = two_step::paper::eq7_delta_alpha_rad(T1_PIVOT, *xyz2, [0.0; 3], dv2, ang[0] * D2R, 1.0).unwrap();
+        let db = two_step::paper::eq6_delta_beta_rad(
+            T1_PIVOT[0],
+            xyz2[0],
+            0.0,
+            dv2[0],
+            -250.0,
+            ang[1] * D2R,
+            1.0,
+        )
+        .unwrap();
+        let da =
+            two_step::paper::eq7_delta_alpha_rad(T1_PIVOT, *xyz2, [0.0; 3], dv2, ang[0] * D2R, 1.0)
+                .unwrap();
         close(db / D2R, exp_db[i], 1e-5, "rounded-input Δβ′");
         close(da / D2R, exp_da[i], 1e-5, "rounded-input Δα′");
     }
@@ -148,10 +252,27 @@ fn table1_plus_zr_convention() {
             fwd::rrttt_tip(T1_PIVOT, [0.0; 3], (a + da) * D2R, (b + db) * D2R, 250.0),
             fwd::rrttt_tip(T1_PIVOT, [0.0; 3], a * D2R, b * D2R, 250.0),
         );
-        let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: a, beta_deg: b, dv1_um: [0.0; 3], dv2_um: dv2, ssm_std_um: 0.0 };
+        let m = RrtttMeasurement {
+            pivot_mm: T1_PIVOT,
+            alpha_deg: a,
+            beta_deg: b,
+            dv1_um: [0.0; 3],
+            dv2_um: dv2,
+            ssm_std_um: 0.0,
+        };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
-        close(round(r.delta_alpha_urad / URAD_PER_DEG, 5), out[0], 1e-12, "+z_r Δα′");
-        close(round(r.delta_beta_urad / URAD_PER_DEG, 5), out[1], 1e-12, "+z_r Δβ′");
+        close(
+            round(r.delta_alpha_urad / URAD_PER_DEG, 5),
+            out[0],
+            1e-12,
+            "+z_r Δα′",
+        );
+        close(
+            round(r.delta_beta_urad / URAD_PER_DEG, 5),
+            out[1],
+            1e-12,
+            "+z_r Δβ′",
+        );
     }
 }
 
@@ -172,7 +293,14 @@ fn tv_rrttt_6() {
     for k in 0..3 {
         close(dv2[k] / 1e3, dv2_exp[k], 1e-9, "TV-RRTTT-6 ΔV2");
     }
-    let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: 25.0, beta_deg: -35.0, dv1_um: dv1, dv2_um: dv2, ssm_std_um: 0.0 };
+    let m = RrtttMeasurement {
+        pivot_mm: p1,
+        alpha_deg: 25.0,
+        beta_deg: -35.0,
+        dv1_um: dv1,
+        dv2_um: dv2,
+        ssm_std_um: 0.0,
+    };
     let p = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
     close(p.delta_alpha_urad / URAD_PER_DEG, 0.050000013, 1e-9, "eq 7");
     close(p.delta_beta_urad / URAD_PER_DEG, -0.029994499, 1e-9, "eq 6");
@@ -207,16 +335,40 @@ fn tv_tttrr_1() {
         close(nom[k], exp[k], 1e-9, "TV-TTTRR-1 nominal");
     }
     let dv1_mm = [0.010, -0.005, 0.008];
-    let act = fwd::tttrr_point(p1, dv1_mm, 20.05 * D2R, 35.08 * D2R, 40.0, [60.0, 80.0, 30.0]);
+    let act = fwd::tttrr_point(
+        p1,
+        dv1_mm,
+        20.05 * D2R,
+        35.08 * D2R,
+        40.0,
+        [60.0, 80.0, 30.0],
+    );
     let dv2 = fwd::diff_um(act, nom);
     let dv2_exp = [-0.129555124, -0.088071812, 0.070557675];
     for k in 0..3 {
         close(dv2[k] / 1e3, dv2_exp[k], 1e-9, "TV-TTTRR-1 ΔV2");
     }
-    let m = TttrrMeasurement { origin_mm: p1, alpha_deg: a, gamma_deg: g, dv1_um: [10.0, -5.0, 8.0], dv2_um: dv2, ssm_std_um: 0.0 };
+    let m = TttrrMeasurement {
+        origin_mm: p1,
+        alpha_deg: a,
+        gamma_deg: g,
+        dv1_um: [10.0, -5.0, 8.0],
+        dv2_um: dv2,
+        ssm_std_um: 0.0,
+    };
     let p = two_step::identify_tttrr(&cfg, &m, Mode::Paper).unwrap();
-    close(p.delta_gamma_urad / URAD_PER_DEG, 0.080001797, 1e-9, "corrected eq 11");
-    close(p.delta_alpha_urad / URAD_PER_DEG, 0.050067779, 1e-9, "corrected eq 12");
+    close(
+        p.delta_gamma_urad / URAD_PER_DEG,
+        0.080001797,
+        1e-9,
+        "corrected eq 11",
+    );
+    close(
+        p.delta_alpha_urad / URAD_PER_DEG,
+        0.050067779,
+        1e-9,
+        "corrected eq 12",
+    );
     let e = two_step::identify_tttrr(&cfg, &m, Mode::Exact).unwrap();
     close(e.delta_gamma_urad / URAD_PER_DEG, 0.08, 1e-9, "exact Δγ");
     close(e.delta_alpha_urad / URAD_PER_DEG, 0.05, 1e-9, "exact Δα");
@@ -227,7 +379,8 @@ fn tv_tttrr_1() {
     let (x1, y1) = (p1[0], p1[1]);
     let (x2, y2) = (nom[0], nom[1]);
     let (dx1, dy1, dx2, dy2) = (0.010, -0.005, dv2[0] / 1e3, dv2[1] / 1e3);
-    let printed11 = (x1 + x2 + dx1 - dx2 + xr * gr.cos() - yr * gr.sin()) / (yr * gr.cos() + xr * gr.sin());
+    let printed11 =
+        (x1 + x2 + dx1 - dx2 + xr * gr.cos() - yr * gr.sin()) / (yr * gr.cos() + xr * gr.sin());
     close(printed11 / D2R, 118.474, 5e-4, "printed eq 11");
     let k = xr * xr + yr * yr + (x1 - x2 + dx2) * (xr * gr.cos() - yr * gr.sin());
     let q = yr * gr.cos() + xr * gr.sin();
@@ -240,7 +393,11 @@ fn tv_tttrr_1() {
 #[test]
 fn tv_t2_nominal() {
     let p = [-49.275, -14.312, -177.777];
-    let cfg = TttrrConfig { z_alpha_gamma_mm: 0.0, reference_point_mm: p, ..tttrr_cfg() };
+    let cfg = TttrrConfig {
+        z_alpha_gamma_mm: 0.0,
+        reference_point_mm: p,
+        ..tttrr_cfg()
+    };
     let cases = [
         ((0.0, 30.0), [-35.517, -37.032, -177.777]),
         ((15.0, 0.0), [-49.275, 32.188, -175.424]),
@@ -258,37 +415,63 @@ fn tv_t2_nominal() {
 /// TV-RTTTR-B (spindle β, eq 17) and TV-RTTTR-A (table α, eq 18).
 #[test]
 fn tv_rtttr_a_b() {
-    let scfg = RtttrSpindleConfig { tool_z_mm: 180.0, reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
+    let scfg = RtttrSpindleConfig {
+        tool_z_mm: 180.0,
+        reference_end: ReferenceEnd::OtherMember,
+        min_lever_arm_mm: 1.0,
+    };
     let p1 = [20.0, 10.0, 350.0];
     let nom = two_step::rtttr_spindle_nominal_tip_mm(&scfg, p1, 30.0);
     let exp = [110.0, 10.0, 505.884572681];
     for k in 0..3 {
         close(nom[k], exp[k], 1e-9, "TV-RTTTR-B nominal");
     }
-    let dv2 = fwd::diff_um(fwd::rtttr_tip(p1, [0.004, 0.002, -0.006], 30.06 * D2R, 180.0), nom);
+    let dv2 = fwd::diff_um(
+        fwd::rtttr_tip(p1, [0.004, 0.002, -0.006], 30.06 * D2R, 180.0),
+        nom,
+    );
     let exp = [0.167192565, 0.002, -0.100333236];
     for k in 0..3 {
         close(dv2[k] / 1e3, exp[k], 1e-9, "TV-RTTTR-B ΔV2");
     }
-    let m = SingleAxisMeasurement { origin_mm: p1, angle_deg: 30.0, dv1_um: [4.0, 2.0, -6.0], dv2_um: dv2, ssm_std_um: 0.0 };
+    let m = SingleAxisMeasurement {
+        origin_mm: p1,
+        angle_deg: 30.0,
+        dv1_um: [4.0, 2.0, -6.0],
+        dv2_um: dv2,
+        ssm_std_um: 0.0,
+    };
     let p = two_step::identify_rtttr_spindle(&scfg, &m, Mode::Paper).unwrap();
     close(p.delta_urad / URAD_PER_DEG, 0.059981851, 1e-9, "eq 17");
     let e = two_step::identify_rtttr_spindle(&scfg, &m, Mode::Exact).unwrap();
     close(e.delta_urad / URAD_PER_DEG, 0.06, 1e-9, "exact Δβ");
 
-    let tcfg = RtttrTableConfig { reference_point_mm: [25.0, 70.0, 45.0], reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
+    let tcfg = RtttrTableConfig {
+        reference_point_mm: [25.0, 70.0, 45.0],
+        reference_end: ReferenceEnd::OtherMember,
+        min_lever_arm_mm: 1.0,
+    };
     let pt1 = [-30.0, 15.0, 120.0];
     let nom = two_step::rtttr_table_nominal_point_mm(&tcfg, pt1, 40.0);
     let exp = [-5.0, 39.697668582, 199.467132618];
     for k in 0..3 {
         close(nom[k], exp[k], 1e-9, "TV-RTTTR-A nominal");
     }
-    let dv2 = fwd::diff_um(fwd::rtttr_table_point(pt1, [0.003, -0.009, 0.005], 39.93 * D2R, [25.0, 70.0, 45.0]), nom);
+    let dv2 = fwd::diff_um(
+        fwd::rtttr_table_point(pt1, [0.003, -0.009, 0.005], 39.93 * D2R, [25.0, 70.0, 45.0]),
+        nom,
+    );
     let exp = [0.003, 0.088068961, -0.025233194];
     for k in 0..3 {
         close(dv2[k] / 1e3, exp[k], 1e-9, "TV-RTTTR-A ΔtV2");
     }
-    let m = SingleAxisMeasurement { origin_mm: pt1, angle_deg: 40.0, dv1_um: [3.0, -9.0, 5.0], dv2_um: dv2, ssm_std_um: 0.0 };
+    let m = SingleAxisMeasurement {
+        origin_mm: pt1,
+        angle_deg: 40.0,
+        dv1_um: [3.0, -9.0, 5.0],
+        dv2_um: dv2,
+        ssm_std_um: 0.0,
+    };
     let p = two_step::identify_rtttr_table(&tcfg, &m, Mode::Paper).unwrap();
     close(p.delta_urad / URAD_PER_DEG, -0.069986693, 1e-9, "eq 18");
     let e = two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact).unwrap();
@@ -301,9 +484,19 @@ fn reference_end_flips_sign() {
     let mut cfg = rrttt_cfg(200.0);
     let p1 = [100.0, -40.0, 300.0];
     let nom = two_step::rrttt_nominal_tip_mm(&cfg, p1, 25.0, -35.0);
-    let dv2 = fwd::diff_um(fwd::rrttt_tip(p1, [0.0; 3], 25.05 * D2R, -35.03 * D2R, 200.0), nom);
+    let dv2 = fwd::diff_um(
+        fwd::rrttt_tip(p1, [0.0; 3], 25.05 * D2R, -35.03 * D2R, 200.0),
+        nom,
+    );
     cfg.reference_end = ReferenceEnd::RotatedMember;
-    let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: 25.0, beta_deg: -35.0, dv1_um: [0.0; 3], dv2_um: dv2.map(|v| -v), ssm_std_um: 0.0 };
+    let m = RrtttMeasurement {
+        pivot_mm: p1,
+        alpha_deg: 25.0,
+        beta_deg: -35.0,
+        dv1_um: [0.0; 3],
+        dv2_um: dv2.map(|v| -v),
+        ssm_std_um: 0.0,
+    };
     let e = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
     close(e.delta_alpha_urad / URAD_PER_DEG, 0.05, 1e-9, "flipped Δα");
     close(e.delta_beta_urad / URAD_PER_DEG, -0.03, 1e-9, "flipped Δβ");
@@ -313,59 +506,179 @@ fn reference_end_flips_sign() {
 #[test]
 fn singularities_and_bad_input() {
     let cfg = rrttt_cfg(-250.0);
-    let m = RrtttMeasurement { pivot_mm: T1_PIVOT, alpha_deg: 10.0, beta_deg: 90.0, dv1_um: [0.0; 3], dv2_um: [1.0, 2.0, 3.0], ssm_std_um: 0.0 };
+    let m = RrtttMeasurement {
+        pivot_mm: T1_PIVOT,
+        alpha_deg: 10.0,
+        beta_deg: 90.0,
+        dv1_um: [0.0; 3],
+        dv2_um: [1.0, 2.0, 3.0],
+        ssm_std_um: 0.0,
+    };
     for mode in [Mode::Exact, Mode::Paper] {
-        assert_eq!(two_step::identify_rrttt(&cfg, &m, mode), Err(TwoStepError::Singular(Singularity::ToolAlongFirstAxis)));
+        assert_eq!(
+            two_step::identify_rrttt(&cfg, &m, mode),
+            Err(TwoStepError::Singular(Singularity::ToolAlongFirstAxis))
+        );
     }
-    let bad = RrtttMeasurement { beta_deg: f64::NAN, ..m };
-    assert_eq!(two_step::identify_rrttt(&cfg, &bad, Mode::Exact), Err(TwoStepError::NonFinite));
-    assert_eq!(two_step::identify_rrttt(&rrttt_cfg(0.0), &RrtttMeasurement { beta_deg: 0.0, ..m }, Mode::Exact), Err(TwoStepError::ZeroLength));
-    let neg = RrtttConfig { min_lever_arm_mm: -1.0, ..cfg };
-    assert_eq!(two_step::identify_rrttt(&neg, &m, Mode::Exact), Err(TwoStepError::BadMinLeverArm));
-    let ba = RrtttConfig { rotation_order: RotationOrder::BetaThenAlpha, ..cfg };
-    assert_eq!(two_step::identify_rrttt(&ba, &RrtttMeasurement { beta_deg: 10.0, ..m }, Mode::Paper), Err(TwoStepError::PaperModeUnsupported));
+    let bad = RrtttMeasurement {
+        beta_deg: f64::NAN,
+        ..m
+    };
+    assert_eq!(
+        two_step::identify_rrttt(&cfg, &bad, Mode::Exact),
+        Err(TwoStepError::NonFinite)
+    );
+    assert_eq!(
+        two_step::identify_rrttt(
+            &rrttt_cfg(0.0),
+            &RrtttMeasurement { beta_deg: 0.0, ..m },
+            Mode::Exact
+        ),
+        Err(TwoStepError::ZeroLength)
+    );
+    let neg = RrtttConfig {
+        min_lever_arm_mm: -1.0,
+        ..cfg
+    };
+    assert_eq!(
+        two_step::identify_rrttt(&neg, &m, Mode::Exact),
+        Err(TwoStepError::BadMinLeverArm)
+    );
+    let ba = RrtttConfig {
+        rotation_order: RotationOrder::BetaThenAlpha,
+        ..cfg
+    };
+    assert_eq!(
+        two_step::identify_rrttt(
+            &ba,
+            &RrtttMeasurement {
+                beta_deg: 10.0,
+                ..m
+            },
+            Mode::Paper
+        ),
+        Err(TwoStepError::PaperModeUnsupported)
+    );
     // β-then-α head: singular when α = 90°
     assert_eq!(
-        two_step::identify_rrttt(&ba, &RrtttMeasurement { alpha_deg: 90.0, beta_deg: 10.0, ..m }, Mode::Exact),
+        two_step::identify_rrttt(
+            &ba,
+            &RrtttMeasurement {
+                alpha_deg: 90.0,
+                beta_deg: 10.0,
+                ..m
+            },
+            Mode::Exact
+        ),
         Err(TwoStepError::Singular(Singularity::ToolAlongFirstAxis))
     );
 
     // TTTRR: x_r sin γ + y_r cos γ = 0 at γ = atan2(−y_r, x_r)
     let tc = tttrr_cfg();
     let g0 = (-80.0f64).atan2(60.0) / D2R;
-    let tm = TttrrMeasurement { origin_mm: [0.0; 3], alpha_deg: 20.0, gamma_deg: g0, dv1_um: [0.0; 3], dv2_um: [0.0; 3], ssm_std_um: 0.0 };
+    let tm = TttrrMeasurement {
+        origin_mm: [0.0; 3],
+        alpha_deg: 20.0,
+        gamma_deg: g0,
+        dv1_um: [0.0; 3],
+        dv2_um: [0.0; 3],
+        ssm_std_um: 0.0,
+    };
     for mode in [Mode::Exact, Mode::Paper] {
-        assert_eq!(two_step::identify_tttrr(&tc, &tm, mode), Err(TwoStepError::Singular(Singularity::GammaLever)));
+        assert_eq!(
+            two_step::identify_tttrr(&tc, &tm, mode),
+            Err(TwoStepError::Singular(Singularity::GammaLever))
+        );
     }
     // TTTRR paper eq 12: H cos α + Q sin α = 0 (point level with the A axis); exact still works
-    let (h, q) = (70.0f64, 60.0 * 35f64.to_radians().sin() + 80.0 * 35f64.to_radians().cos());
+    let (h, q) = (
+        70.0f64,
+        60.0 * 35f64.to_radians().sin() + 80.0 * 35f64.to_radians().cos(),
+    );
     let a0 = (-h).atan2(q) / D2R;
-    let tm = TttrrMeasurement { alpha_deg: a0, gamma_deg: 35.0, ..tm };
-    assert_eq!(two_step::identify_tttrr(&tc, &tm, Mode::Paper), Err(TwoStepError::Singular(Singularity::AlphaLever)));
+    let tm = TttrrMeasurement {
+        alpha_deg: a0,
+        gamma_deg: 35.0,
+        ..tm
+    };
+    assert_eq!(
+        two_step::identify_tttrr(&tc, &tm, Mode::Paper),
+        Err(TwoStepError::Singular(Singularity::AlphaLever))
+    );
     assert!(two_step::identify_tttrr(&tc, &tm, Mode::Exact).is_ok());
     // inconsistent x row
-    let tm2 = TttrrMeasurement { gamma_deg: 35.0, alpha_deg: 20.0, dv2_um: [1e6, 0.0, 0.0], ..tm };
-    assert!(matches!(two_step::identify_tttrr(&tc, &tm2, Mode::Exact), Err(TwoStepError::Inconsistent { .. })));
+    let tm2 = TttrrMeasurement {
+        gamma_deg: 35.0,
+        alpha_deg: 20.0,
+        dv2_um: [1e6, 0.0, 0.0],
+        ..tm
+    };
+    assert!(matches!(
+        two_step::identify_tttrr(&tc, &tm2, Mode::Exact),
+        Err(TwoStepError::Inconsistent { .. })
+    ));
     // data that rotate the point onto the γ lever singularity (v_x = ρ): refused, not a huge σ
     let nom = two_step::tttrr_nominal_point_mm(&tc, [0.0; 3], 20.0, 35.0);
-    let to_singular = TttrrMeasurement { dv2_um: [(100.0 - nom[0]) * 1e3, 0.0, 0.0], ..tm2 };
-    assert_eq!(two_step::identify_tttrr(&tc, &to_singular, Mode::Exact), Err(TwoStepError::Singular(Singularity::GammaLever)));
-    let zero = TttrrConfig { reference_point_mm: [0.0, 0.0, 30.0], ..tc };
-    assert_eq!(two_step::identify_tttrr(&zero, &tm2, Mode::Exact), Err(TwoStepError::ZeroLength));
+    let to_singular = TttrrMeasurement {
+        dv2_um: [(100.0 - nom[0]) * 1e3, 0.0, 0.0],
+        ..tm2
+    };
+    assert_eq!(
+        two_step::identify_tttrr(&tc, &to_singular, Mode::Exact),
+        Err(TwoStepError::Singular(Singularity::GammaLever))
+    );
+    let zero = TttrrConfig {
+        reference_point_mm: [0.0, 0.0, 30.0],
+        ..tc
+    };
+    assert_eq!(
+        two_step::identify_tttrr(&zero, &tm2, Mode::Exact),
+        Err(TwoStepError::ZeroLength)
+    );
 
     // RTTTR spindle: eq 17 singular at β = 90°, exact not
-    let sc = RtttrSpindleConfig { tool_z_mm: 180.0, reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
-    let sm = SingleAxisMeasurement { origin_mm: [0.0; 3], angle_deg: 90.0, dv1_um: [0.0; 3], dv2_um: [0.0, 0.0, -10.0], ssm_std_um: 0.0 };
-    assert_eq!(two_step::identify_rtttr_spindle(&sc, &sm, Mode::Paper), Err(TwoStepError::Singular(Singularity::SpindleBetaLever)));
+    let sc = RtttrSpindleConfig {
+        tool_z_mm: 180.0,
+        reference_end: ReferenceEnd::OtherMember,
+        min_lever_arm_mm: 1.0,
+    };
+    let sm = SingleAxisMeasurement {
+        origin_mm: [0.0; 3],
+        angle_deg: 90.0,
+        dv1_um: [0.0; 3],
+        dv2_um: [0.0, 0.0, -10.0],
+        ssm_std_um: 0.0,
+    };
+    assert_eq!(
+        two_step::identify_rtttr_spindle(&sc, &sm, Mode::Paper),
+        Err(TwoStepError::Singular(Singularity::SpindleBetaLever))
+    );
     let e = two_step::identify_rtttr_spindle(&sc, &sm, Mode::Exact).unwrap();
     close(e.delta_urad, 0.01 / 180.0 * 1e6, 1e-3, "β = 90° exact");
     // RTTTR table: z_tr cos α + y_tr sin α = 0
-    let tcfg = RtttrTableConfig { reference_point_mm: [25.0, 70.0, 45.0], reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
+    let tcfg = RtttrTableConfig {
+        reference_point_mm: [25.0, 70.0, 45.0],
+        reference_end: ReferenceEnd::OtherMember,
+        min_lever_arm_mm: 1.0,
+    };
     let a0 = (-45.0f64).atan2(70.0) / D2R;
-    let tm = SingleAxisMeasurement { angle_deg: a0, dv2_um: [0.0; 3], ..sm };
-    assert_eq!(two_step::identify_rtttr_table(&tcfg, &tm, Mode::Paper), Err(TwoStepError::Singular(Singularity::TableAlphaLever)));
-    let on_axis = RtttrTableConfig { reference_point_mm: [25.0, 0.0, 0.0], ..tcfg };
-    assert_eq!(two_step::identify_rtttr_table(&on_axis, &tm, Mode::Exact), Err(TwoStepError::Singular(Singularity::TableAlphaLever)));
+    let tm = SingleAxisMeasurement {
+        angle_deg: a0,
+        dv2_um: [0.0; 3],
+        ..sm
+    };
+    assert_eq!(
+        two_step::identify_rtttr_table(&tcfg, &tm, Mode::Paper),
+        Err(TwoStepError::Singular(Singularity::TableAlphaLever))
+    );
+    let on_axis = RtttrTableConfig {
+        reference_point_mm: [25.0, 0.0, 0.0],
+        ..tcfg
+    };
+    assert_eq!(
+        two_step::identify_rtttr_table(&on_axis, &tm, Mode::Exact),
+        Err(TwoStepError::Singular(Singularity::TableAlphaLever))
+    );
 }
 
 /// Round trip: random geometry, angles and errors → HTM forward model → exact inversion
@@ -374,19 +687,38 @@ fn singularities_and_bad_input() {
 fn round_trip_random() {
     let mut rng = fwd::Rng(0x5eed_0000_0000_0001);
     for _ in 0..500 {
-        let e1 = [rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05)];
-        let p1 = [rng.uniform(-300.0, 300.0), rng.uniform(-300.0, 300.0), rng.uniform(0.0, 600.0)];
+        let e1 = [
+            rng.uniform(-0.05, 0.05),
+            rng.uniform(-0.05, 0.05),
+            rng.uniform(-0.05, 0.05),
+        ];
+        let p1 = [
+            rng.uniform(-300.0, 300.0),
+            rng.uniform(-300.0, 300.0),
+            rng.uniform(0.0, 600.0),
+        ];
         let (d1, d2) = (rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3));
         let dmax = d1.abs().max(d2.abs());
         let e1_um = e1.map(|v| v * 1e3);
 
         // RRTTT
-        let z = if rng.uniform(0.0, 1.0) < 0.5 { -rng.uniform(50.0, 400.0) } else { rng.uniform(50.0, 400.0) };
+        let z = if rng.uniform(0.0, 1.0) < 0.5 {
+            -rng.uniform(50.0, 400.0)
+        } else {
+            rng.uniform(50.0, 400.0)
+        };
         let (a, b) = (rng.uniform(-1.2, 1.2), rng.uniform(-1.2, 1.2));
         let cfg = rrttt_cfg(z);
         let nom = fwd::rrttt_tip(p1, [0.0; 3], a, b, z);
         let act = fwd::rrttt_tip(p1, e1, a + d1, b + d2, z);
-        let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: a / D2R, beta_deg: b / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom), ssm_std_um: 0.0 };
+        let m = RrtttMeasurement {
+            pivot_mm: p1,
+            alpha_deg: a / D2R,
+            beta_deg: b / D2R,
+            dv1_um: e1_um,
+            dv2_um: fwd::diff_um(act, nom),
+            ssm_std_um: 0.0,
+        };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         close(r.delta_alpha_urad * 1e-6, d1, 1e-12, "RRTTT exact Δα");
         close(r.delta_beta_urad * 1e-6, d2, 1e-12, "RRTTT exact Δβ");
@@ -397,7 +729,11 @@ fn round_trip_random() {
         close(p.delta_alpha_urad * 1e-6, d1, bound, "RRTTT eq 7");
 
         // TTTRR
-        let r_pt = [rng.uniform(-150.0, 150.0), rng.uniform(-150.0, 150.0), rng.uniform(-50.0, 150.0)];
+        let r_pt = [
+            rng.uniform(-150.0, 150.0),
+            rng.uniform(-150.0, 150.0),
+            rng.uniform(-50.0, 150.0),
+        ];
         let zag = rng.uniform(0.0, 100.0);
         let (a, g) = (rng.uniform(-1.5, 1.5), rng.uniform(-3.1, 3.1));
         let q0 = r_pt[0] * g.sin() + r_pt[1] * g.cos();
@@ -407,42 +743,119 @@ fn round_trip_random() {
         if q0.abs() < 20.0 || den.abs() < 20.0 {
             continue;
         }
-        let tc = TttrrConfig { z_alpha_gamma_mm: zag, reference_point_mm: r_pt, ..tttrr_cfg() };
+        let tc = TttrrConfig {
+            z_alpha_gamma_mm: zag,
+            reference_point_mm: r_pt,
+            ..tttrr_cfg()
+        };
         let nom = fwd::tttrr_point(p1, [0.0; 3], a, g, zag, r_pt);
         let act = fwd::tttrr_point(p1, e1, a + d1, g + d2, zag, r_pt);
-        let m = TttrrMeasurement { origin_mm: p1, alpha_deg: a / D2R, gamma_deg: g / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom), ssm_std_um: 0.0 };
+        let m = TttrrMeasurement {
+            origin_mm: p1,
+            alpha_deg: a / D2R,
+            gamma_deg: g / D2R,
+            dv1_um: e1_um,
+            dv2_um: fwd::diff_um(act, nom),
+            ssm_std_um: 0.0,
+        };
         let r = two_step::identify_tttrr(&tc, &m, Mode::Exact).unwrap();
         close(r.delta_alpha_urad * 1e-6, d1, 1e-11, "TTTRR exact Δα");
         close(r.delta_gamma_urad * 1e-6, d2, 1e-11, "TTTRR exact Δγ");
         let p = two_step::identify_tttrr(&tc, &m, Mode::Paper).unwrap();
         // eq 11: sin Δγ + (C/Q0) Δγ²/2; eq 12: second order in (Δα, Δγ) with levers / den
         let k11 = 0.5 * (c0 / q0).abs() + 1.0;
-        close(p.delta_gamma_urad * 1e-6, d2, k11 * dmax * dmax, "TTTRR eq 11");
+        close(
+            p.delta_gamma_urad * 1e-6,
+            d2,
+            k11 * dmax * dmax,
+            "TTTRR eq 11",
+        );
         let lever = h.hypot(q0) + c0.abs();
         let k12 = 2.0 * (1.0 + lever / den.abs()) * (1.0 + k11);
-        close(p.delta_alpha_urad * 1e-6, d1, k12 * dmax * dmax, "TTTRR eq 12");
+        close(
+            p.delta_alpha_urad * 1e-6,
+            d1,
+            k12 * dmax * dmax,
+            "TTTRR eq 12",
+        );
 
         // RTTTR spindle and table
         let b = rng.uniform(-1.2, 1.2);
-        let sc = RtttrSpindleConfig { tool_z_mm: z, reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
+        let sc = RtttrSpindleConfig {
+            tool_z_mm: z,
+            reference_end: ReferenceEnd::OtherMember,
+            min_lever_arm_mm: 1.0,
+        };
         let nom = fwd::rtttr_tip(p1, [0.0; 3], b, z);
         let act = fwd::rtttr_tip(p1, e1, b + d2, z);
-        let m = SingleAxisMeasurement { origin_mm: p1, angle_deg: b / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom), ssm_std_um: 0.0 };
-        close(two_step::identify_rtttr_spindle(&sc, &m, Mode::Exact).unwrap().delta_urad * 1e-6, d2, 1e-12, "RTTTR exact Δβ");
+        let m = SingleAxisMeasurement {
+            origin_mm: p1,
+            angle_deg: b / D2R,
+            dv1_um: e1_um,
+            dv2_um: fwd::diff_um(act, nom),
+            ssm_std_um: 0.0,
+        };
+        close(
+            two_step::identify_rtttr_spindle(&sc, &m, Mode::Exact)
+                .unwrap()
+                .delta_urad
+                * 1e-6,
+            d2,
+            1e-12,
+            "RTTTR exact Δβ",
+        );
         let bound = (0.5 * b.tan().abs() + 1.0) * d2 * d2 + 1e-12;
-        close(two_step::identify_rtttr_spindle(&sc, &m, Mode::Paper).unwrap().delta_urad * 1e-6, d2, bound, "RTTTR eq 17");
-        let tr = [rng.uniform(-100.0, 100.0), rng.uniform(-100.0, 100.0), rng.uniform(-100.0, 100.0)];
+        close(
+            two_step::identify_rtttr_spindle(&sc, &m, Mode::Paper)
+                .unwrap()
+                .delta_urad
+                * 1e-6,
+            d2,
+            bound,
+            "RTTTR eq 17",
+        );
+        let tr = [
+            rng.uniform(-100.0, 100.0),
+            rng.uniform(-100.0, 100.0),
+            rng.uniform(-100.0, 100.0),
+        ];
         let den = tr[2] * a.cos() + tr[1] * a.sin();
         if den.abs() < 20.0 {
             continue;
         }
-        let tcfg = RtttrTableConfig { reference_point_mm: tr, reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
+        let tcfg = RtttrTableConfig {
+            reference_point_mm: tr,
+            reference_end: ReferenceEnd::OtherMember,
+            min_lever_arm_mm: 1.0,
+        };
         let nom = fwd::rtttr_table_point(p1, [0.0; 3], a, tr);
         let act = fwd::rtttr_table_point(p1, e1, a + d1, tr);
-        let m = SingleAxisMeasurement { origin_mm: p1, angle_deg: a / D2R, dv1_um: e1_um, dv2_um: fwd::diff_um(act, nom), ssm_std_um: 0.0 };
-        close(two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact).unwrap().delta_urad * 1e-6, d1, 1e-12, "RTTTR exact Δα");
+        let m = SingleAxisMeasurement {
+            origin_mm: p1,
+            angle_deg: a / D2R,
+            dv1_um: e1_um,
+            dv2_um: fwd::diff_um(act, nom),
+            ssm_std_um: 0.0,
+        };
+        close(
+            two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact)
+                .unwrap()
+                .delta_urad
+                * 1e-6,
+            d1,
+            1e-12,
+            "RTTTR exact Δα",
+        );
         let bound = (0.5 * tr[1].hypot(tr[2]) / den.abs() + 1.0) * d1 * d1 + 1e-12;
-        close(two_step::identify_rtttr_table(&tcfg, &m, Mode::Paper).unwrap().delta_urad * 1e-6, d1, bound, "RTTTR eq 18");
+        close(
+            two_step::identify_rtttr_table(&tcfg, &m, Mode::Paper)
+                .unwrap()
+                .delta_urad
+                * 1e-6,
+            d1,
+            bound,
+            "RTTTR eq 18",
+        );
     }
 }
 
@@ -468,10 +881,20 @@ fn propagated_uncertainty_matches_monte_carlo() {
     let cfg = rrttt_cfg(-250.0);
     let p1 = [10.0, 20.0, 400.0];
     let nom = two_step::rrttt_nominal_tip_mm(&cfg, p1, 30.0, 50.0);
-    let dv2 = fwd::diff_um(fwd::rrttt_tip(p1, [0.0; 3], 30.1 * D2R, 50.05 * D2R, -250.0), nom);
+    let dv2 = fwd::diff_um(
+        fwd::rrttt_tip(p1, [0.0; 3], 30.1 * D2R, 50.05 * D2R, -250.0),
+        nom,
+    );
     let (mut da, mut db, mut reported) = (vec![], vec![], [0.0; 2]);
     for _ in 0..trials {
-        let m = RrtttMeasurement { pivot_mm: p1, alpha_deg: 30.0, beta_deg: 50.0, dv1_um: noisy(&mut rng, [0.0; 3]), dv2_um: noisy(&mut rng, dv2), ssm_std_um: sigma };
+        let m = RrtttMeasurement {
+            pivot_mm: p1,
+            alpha_deg: 30.0,
+            beta_deg: 50.0,
+            dv1_um: noisy(&mut rng, [0.0; 3]),
+            dv2_um: noisy(&mut rng, dv2),
+            ssm_std_um: sigma,
+        };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         da.push(r.delta_alpha_urad);
         db.push(r.delta_beta_urad);
@@ -484,10 +907,27 @@ fn propagated_uncertainty_matches_monte_carlo() {
     let tc = tttrr_cfg();
     let p1 = [100.0, 50.0, 200.0];
     let nom = two_step::tttrr_nominal_point_mm(&tc, p1, 20.0, 35.0);
-    let dv2 = fwd::diff_um(fwd::tttrr_point(p1, [0.0; 3], 20.05 * D2R, 35.08 * D2R, 40.0, [60.0, 80.0, 30.0]), nom);
+    let dv2 = fwd::diff_um(
+        fwd::tttrr_point(
+            p1,
+            [0.0; 3],
+            20.05 * D2R,
+            35.08 * D2R,
+            40.0,
+            [60.0, 80.0, 30.0],
+        ),
+        nom,
+    );
     let (mut da, mut dg) = (vec![], vec![]);
     for _ in 0..trials {
-        let m = TttrrMeasurement { origin_mm: p1, alpha_deg: 20.0, gamma_deg: 35.0, dv1_um: noisy(&mut rng, [0.0; 3]), dv2_um: noisy(&mut rng, dv2), ssm_std_um: sigma };
+        let m = TttrrMeasurement {
+            origin_mm: p1,
+            alpha_deg: 20.0,
+            gamma_deg: 35.0,
+            dv1_um: noisy(&mut rng, [0.0; 3]),
+            dv2_um: noisy(&mut rng, dv2),
+            ssm_std_um: sigma,
+        };
         let r = two_step::identify_tttrr(&tc, &m, Mode::Exact).unwrap();
         da.push(r.delta_alpha_urad);
         dg.push(r.delta_gamma_urad);
@@ -497,17 +937,36 @@ fn propagated_uncertainty_matches_monte_carlo() {
     close(spread(&dg) / reported[1], 1.0, 0.1, "TTTRR σ(Δγ)");
 
     // RTTTR table
-    let tcfg = RtttrTableConfig { reference_point_mm: [25.0, 70.0, 45.0], reference_end: ReferenceEnd::OtherMember, min_lever_arm_mm: 1.0 };
+    let tcfg = RtttrTableConfig {
+        reference_point_mm: [25.0, 70.0, 45.0],
+        reference_end: ReferenceEnd::OtherMember,
+        min_lever_arm_mm: 1.0,
+    };
     let (mut d, mut rep) = (vec![], 0.0);
     for _ in 0..trials {
-        let m = SingleAxisMeasurement { origin_mm: [0.0; 3], angle_deg: 40.0, dv1_um: noisy(&mut rng, [0.0; 3]), dv2_um: noisy(&mut rng, [0.0; 3]), ssm_std_um: sigma };
+        let m = SingleAxisMeasurement {
+            origin_mm: [0.0; 3],
+            angle_deg: 40.0,
+            dv1_um: noisy(&mut rng, [0.0; 3]),
+            dv2_um: noisy(&mut rng, [0.0; 3]),
+            ssm_std_um: sigma,
+        };
         let r = two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact).unwrap();
         d.push(r.delta_urad);
         rep = r.std_uncertainty_urad;
     }
     close(spread(&d) / rep, 1.0, 0.1, "RTTTR σ(Δα)");
-    let bad = SingleAxisMeasurement { origin_mm: [0.0; 3], angle_deg: 40.0, dv1_um: [0.0; 3], dv2_um: [0.0; 3], ssm_std_um: -1.0 };
-    assert_eq!(two_step::identify_rtttr_table(&tcfg, &bad, Mode::Exact), Err(TwoStepError::NegativeUncertainty));
+    let bad = SingleAxisMeasurement {
+        origin_mm: [0.0; 3],
+        angle_deg: 40.0,
+        dv1_um: [0.0; 3],
+        dv2_um: [0.0; 3],
+        ssm_std_um: -1.0,
+    };
+    assert_eq!(
+        two_step::identify_rtttr_table(&tcfg, &bad, Mode::Exact),
+        Err(TwoStepError::NegativeUncertainty)
+    );
 }
 
 /// β-then-α head (Ry·Rx, exact mode only): round trip through literal HTMs, and its
@@ -515,17 +974,39 @@ fn propagated_uncertainty_matches_monte_carlo() {
 #[test]
 fn beta_then_alpha_round_trip() {
     let tip = |p: [f64; 3], e: [f64; 3], a: f64, b: f64, z: f64| {
-        let t = fwd::mul(&fwd::mul(&fwd::trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]), &fwd::ry(b)), &fwd::rx(a));
+        let t = fwd::mul(
+            &fwd::mul(
+                &fwd::trans(p[0] + e[0], p[1] + e[1], p[2] + e[2]),
+                &fwd::ry(b),
+            ),
+            &fwd::rx(a),
+        );
         fwd::apply(&t, [0.0, 0.0, z])
     };
     let mut rng = fwd::Rng(99);
     for _ in 0..200 {
-        let z = rng.uniform(100.0, 300.0) * if rng.uniform(0.0, 1.0) < 0.5 { -1.0 } else { 1.0 };
-        let cfg = RrtttConfig { rotation_order: RotationOrder::BetaThenAlpha, ..rrttt_cfg(z) };
-        let p1 = [rng.uniform(-200.0, 200.0), rng.uniform(-200.0, 200.0), rng.uniform(0.0, 500.0)];
+        let z = rng.uniform(100.0, 300.0)
+            * if rng.uniform(0.0, 1.0) < 0.5 {
+                -1.0
+            } else {
+                1.0
+            };
+        let cfg = RrtttConfig {
+            rotation_order: RotationOrder::BetaThenAlpha,
+            ..rrttt_cfg(z)
+        };
+        let p1 = [
+            rng.uniform(-200.0, 200.0),
+            rng.uniform(-200.0, 200.0),
+            rng.uniform(0.0, 500.0),
+        ];
         let (a, b) = (rng.uniform(-1.2, 1.2), rng.uniform(-3.0, 3.0));
         let (d1, d2) = (rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3));
-        let e1 = [rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05), rng.uniform(-0.05, 0.05)];
+        let e1 = [
+            rng.uniform(-0.05, 0.05),
+            rng.uniform(-0.05, 0.05),
+            rng.uniform(-0.05, 0.05),
+        ];
         let nom = two_step::rrttt_nominal_tip_mm(&cfg, p1, a / D2R, b / D2R);
         let n2 = tip(p1, [0.0; 3], a, b, z);
         for k in 0..3 {
@@ -543,7 +1024,10 @@ fn beta_then_alpha_round_trip() {
         close(r.delta_alpha_urad * 1e-6, d1, 1e-12, "Ry·Rx Δα");
         close(r.delta_beta_urad * 1e-6, d2, 1e-12, "Ry·Rx Δβ");
     }
-    let cfg = RrtttConfig { rotation_order: RotationOrder::BetaThenAlpha, ..rrttt_cfg(-200.0) };
+    let cfg = RrtttConfig {
+        rotation_order: RotationOrder::BetaThenAlpha,
+        ..rrttt_cfg(-200.0)
+    };
     let (mut da, mut db, mut rep) = (vec![], vec![], [0.0; 2]);
     for _ in 0..4000 {
         let m = RrtttMeasurement {

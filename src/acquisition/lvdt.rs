@@ -276,12 +276,8 @@ impl LvdtCalibration {
     /// and [`LvdtStatus::Open`]; an out-of-stroke or clipped reading gives the value at the
     /// stroke limit and [`LvdtStatus::OverRange`].
     pub fn displacement_um(&self, reading: &LvdtReading) -> (f32, LvdtStatus) {
-        // NaN signal levels count as open, hence the explicit comparison.
-        let healthy = matches!(
-            reading.signal_level.partial_cmp(&self.min_signal_level),
-            Some(core::cmp::Ordering::Greater | core::cmp::Ordering::Equal)
-        );
-        if !healthy || !reading.ratio.is_finite() {
+        // A NaN signal level fails the comparison and counts as open.
+        if !(reading.signal_level >= self.min_signal_level) || !reading.ratio.is_finite() {
             return (0.0, LvdtStatus::Open);
         }
         let over = reading.clipped || libm::fabsf(reading.ratio) > self.max_abs_ratio;

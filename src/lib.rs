@@ -11,6 +11,7 @@
 //! - [`config`]: the pod's configuration with units, defaults, ranges and a CRC'd binary encoding;
 //! - [`metrology`]: samples → SSM position errors, circle fits, ISO 230-4 figures;
 //! - [`identify`]: test results → machine deviations and corrections;
+//! - [`protocol`]: the CANopen and SCPI state machines over a shared pod model;
 //! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC).
 #![no_std]
 #![deny(missing_docs)]
@@ -23,7 +24,6 @@
     clippy::todo,
     clippy::unimplemented
 )]
-
 // `!(x > 0.0)` is the idiom this crate uses to reject NaN together with out-of-range values
 // (a NaN fails every comparison, so the negation catches it); the lint would make each check
 // longer and easier to get wrong.
@@ -34,3 +34,4 @@ pub mod config;
 pub mod identify;
 pub mod metrology;
 pub mod num;
+pub mod protocol;

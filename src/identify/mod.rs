@@ -3,5 +3,8 @@
 //!
 //! - [`lsq`]: streaming Givens least squares with rank, conditioning and uncertainties, shared
 //!   by every method.
+//! - [`multitasking`]: seed 002, multi-tasking machine (B head + C table): ball-bar patterns and
+//!   touch-probe method → B/C deviations, NC compensation.
 
 pub mod lsq;
+pub mod multitasking;

@@ -17,7 +17,14 @@
 //!   them gives [`ModelLsqError::NotSeparable`] naming the combination;
 //! - T-ball mounting offsets x_T, z_T act exactly like δx_BT, δz_BT (they are not unknowns
 //!   here; what is identified as δx_BT/δz_BT includes them).
-use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError};
+use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError, LsqSolution};
+
+/// Relative damping λ of the free deviations (× the largest weighted sensitivity column).
+pub const DAMPING: f64 = 1e-7;
+
+/// A direction counts as separable when its singular value exceeds this fraction of the
+/// largest (condition number up to 1e5; a damped null direction sits at ≈ [`DAMPING`]).
+pub const RANK_REL_TOL: f64 = 1e-5;
 
 use super::patterns::{Mounting, Pattern, PatternError, PatternGeometry, simulate_eccentricity};
 use super::{Deviations, Parameter};
@@ -116,7 +123,8 @@ pub struct ModelLsqResult {
     pub std_uncertainty: [f64; 13],
     /// RMS of the eccentricity residuals measured − predicted (µm, unweighted).
     pub residual_rms_um: f64,
-    /// Condition number of the last Gauss–Newton step (weighted Jacobian incl. fixing rows).
+    /// Condition number of the last Gauss–Newton step (weighted Jacobian incl. fixing and
+    /// damping rows).
     pub condition: f64,
     /// Gauss–Newton iterations used.
     pub iterations: usize,
@@ -191,8 +199,15 @@ impl ModelLsq {
         Ok(())
     }
 
-    /// One linearised system at `x`: returns the accumulator and the unweighted RSS of the
-    /// eccentricity residuals.
+    /// One linearised system at `x`: the accumulator, the unweighted RSS of the eccentricity
+    /// residuals and the number of measurement equations.
+    ///
+    /// Rows: the weighted measurement equations; `Δx_j = 0` for every fixed deviation (weight
+    /// scaled to the largest weighted sensitivity column, so it never limits the rank test);
+    /// and a damping row `λ·Δx_j = 0` for every free deviation, λ = [`DAMPING`] × that column
+    /// norm (Levenberg–Marquardt on the step: it vanishes at the Gauss–Newton fixed point, keeps
+    /// the SVD well posed when the set-up is rank-deficient, and puts an inseparable direction at
+    /// singular value ≈ λ, far below the rank threshold [`RANK_REL_TOL`]).
     fn linearise(
         &self,
         m: &[PatternMeasurement],
@@ -201,6 +216,7 @@ impl ModelLsq {
         let mut lsq = GivensLsq::<13>::new();
         let mut rss = 0.0;
         let mut eqs = 0usize;
+        let mut col2 = [0.0f64; 13];
         let sim = |index: usize, p: &PatternMeasurement, d: &[f64; 13]| {
             simulate_eccentricity(
                 p.pattern,
@@ -236,22 +252,38 @@ impl ModelLsq {
             let w = 1.0 / (p.sigma_um * p.sigma_um);
             for ((row, meas), pr) in jac.iter().zip([p.e1_um, p.e2_um]).zip(pred) {
                 lsq.add_row(row, meas - pr, w).map_err(ModelLsqError::Lsq)?;
+                col2.iter_mut()
+                    .zip(row.iter())
+                    .for_each(|(c, v)| *c += w * v * v);
                 rss += (meas - pr) * (meas - pr);
                 eqs += 1;
             }
         }
-        // Fixed deviations: one row `Δx_j = 0` each keeps them where they are.
+        let scale = crate::num::sqrt(col2.iter().fold(0.0f64, |a, v| a.max(*v)));
+        let scale = if scale > 0.0 && scale.is_finite() {
+            scale
+        } else {
+            1.0
+        };
         for (j, free) in self.free.iter().enumerate() {
-            if *free {
-                continue;
-            }
             let mut row = [0.0f64; 13];
             if let Some(v) = row.get_mut(j) {
                 *v = 1.0;
             }
-            lsq.add_row(&row, 0.0, 1.0).map_err(ModelLsqError::Lsq)?;
+            let lambda = if *free { DAMPING * scale } else { scale };
+            lsq.add_row(&row, 0.0, lambda * lambda)
+                .map_err(ModelLsqError::Lsq)?;
         }
         Ok((lsq, rss, eqs))
+    }
+
+    /// Rank of a solved linearisation among all 13 columns (fixed ones count as resolved).
+    fn rank_of(sol: &LsqSolution<13>) -> usize {
+        let s_max = sol.singular_values.first().copied().unwrap_or(0.0);
+        sol.singular_values
+            .iter()
+            .filter(|s| **s > RANK_REL_TOL * s_max)
+            .count()
     }
 
     fn not_separable(&self, rank: usize, v: &[f64; 13]) -> ModelLsqError {
@@ -290,7 +322,7 @@ impl ModelLsq {
         let (lsq, _, equations) = self.linearise(m, &x)?;
         let sol = lsq.solve(DEFAULT_RANK_TOL).map_err(ModelLsqError::Lsq)?;
         let fixed = 13 - self.free_count();
-        let rank = sol.rank.saturating_sub(fixed);
+        let rank = Self::rank_of(&sol).saturating_sub(fixed);
         let mut null_combinations = [[0.0f64; 13]; 13];
         let n_null = self.free_count().saturating_sub(rank);
         for (dst, src) in null_combinations
@@ -299,12 +331,17 @@ impl ModelLsq {
         {
             *dst = *src;
         }
+        let condition = if rank == self.free_count() {
+            sol.condition
+        } else {
+            f64::INFINITY
+        };
         Ok(IdentifiabilityReport {
             free: self.free_count(),
             rank,
             equations,
             null_combinations,
-            condition: sol.condition,
+            condition,
         })
     }
 
@@ -316,30 +353,36 @@ impl ModelLsq {
         for it in 0..self.max_iterations.max(1) {
             let (lsq, _, _) = self.linearise(m, &x)?;
             let sol = lsq.solve(DEFAULT_RANK_TOL).map_err(ModelLsqError::Lsq)?;
-            if sol.rank < 13 {
+            let rank = Self::rank_of(&sol);
+            if rank < 13 {
                 let v = sol
                     .right_singular_vectors
                     .last()
                     .copied()
                     .unwrap_or([0.0; 13]);
-                return Err(self.not_separable(sol.rank, &v));
+                return Err(self.not_separable(rank, &v));
             }
             let scale = x.iter().fold(1.0f64, |a, v| a.max(libm::fabs(*v)));
             let step = sol.x.iter().fold(0.0f64, |a, v| a.max(libm::fabs(*v)));
             x.iter_mut().zip(sol.x.iter()).for_each(|(a, d)| *a += d);
-            if step <= 1e-12 * scale {
+            if step <= 1e-10 * scale {
                 // Converged: report the quality figures at the solution.
                 let (lsq, rss, eqs) = self.linearise(m, &x)?;
                 let fin = lsq.solve(DEFAULT_RANK_TOL).map_err(ModelLsqError::Lsq)?;
+                // GivensLsq divides the RSS by (rows − 13), counting the 13 fixing/damping
+                // rows (zero residual at the solution); the true redundancy is eqs − free.
+                let dof_lsq = (fin.rows as usize).saturating_sub(13);
+                let dof = eqs.saturating_sub(self.free_count());
+                let k = if dof > 0 {
+                    crate::num::sqrt(dof_lsq as f64 / dof as f64)
+                } else {
+                    0.0
+                };
                 let mut std_uncertainty = fin.std_uncertainty;
                 std_uncertainty
                     .iter_mut()
                     .zip(self.free.iter())
-                    .for_each(|(u, f)| {
-                        if !f {
-                            *u = 0.0;
-                        }
-                    });
+                    .for_each(|(u, f)| *u = if *f { *u * k } else { 0.0 });
                 return Ok(ModelLsqResult {
                     deviations: Deviations::from_array(&x),
                     std_uncertainty,

@@ -2,7 +2,8 @@
 //! on the Table 5.2 averages, spec §6.6/§8.2) in paper mode, and round trips through the
 //! independent literal HTM chain of `ballpod_host::forward_seed002` in corrected mode.
 use ballpod::identify::multitasking::probe::{
-    BAxisProbe, CAxisProbe, ProbeError, ProbeMode, identify_b_axis, identify_c_axis,
+    BAxisProbe, CAxisProbe, ProbeError, ProbeMode, SphereFitError, fit_sphere, identify_b_axis,
+    identify_c_axis,
 };
 use ballpod_host::forward_seed002 as fwd;
 
@@ -201,4 +202,65 @@ fn bad_input_is_typed() {
         Err(ProbeError::NonPositiveLength { what: "X_T" })
     );
     assert_eq!(identify_b_axis(&BAxisProbe { x_t_mm: f64::NAN, ..b }, ProbeMode::Paper), Err(ProbeError::NonFinite));
+}
+
+/// TV-13: least-squares sphere through the 21 Fig 5.13 points: centre (−390.2175, −0.0005,
+/// −472.4176), R 7.9106 mm, RMS 1.46 µm.
+#[test]
+fn tv13_sphere_fit_of_fig_5_13() {
+    let pts = [
+        [-390.0000, 0.0000, -464.5118],
+        [-392.3406, 0.0, -464.7967],
+        [-394.5199, 0.0, -465.7790],
+        [-396.3313, 0.0, -467.4001],
+        [-397.5836, 0.0, -469.5359],
+        [-398.1191, 0.0, -472.0000],
+        [-390.0, 2.3213, -464.8558],
+        [-390.0, 4.4467, -465.8796],
+        [-390.0, 6.1922, -467.5011],
+        [-390.0, 7.3864, -469.5999],
+        [-390.0, 7.8969, -472.0000],
+        [-387.6988, 0.0, -464.9178],
+        [-385.6247, 0.0, -465.9779],
+        [-383.9443, 0.0, -467.6003],
+        [-382.7995, 0.0, -469.6604],
+        [-382.3193, 0.0, -472.0000],
+        [-390.0, -2.3213, -464.8558],
+        [-390.0, -4.4467, -465.8796],
+        [-390.0, -6.1922, -467.5011],
+        [-390.0, -7.3892, -469.5990],
+        [-390.0, -7.8969, -472.0000],
+    ];
+    let f = fit_sphere(&pts).unwrap();
+    let exp = [-390.2175, -0.0005, -472.4176];
+    for (a, b) in f.centre_mm.iter().zip(exp) {
+        assert!((a - b).abs() < 5e-5 + 1e-9, "{:?}", f.centre_mm);
+    }
+    assert!((f.radius_mm - 7.9106).abs() < 5e-5);
+    assert!((f.residual_rms_um - 1.46).abs() < 0.005);
+    assert!(f.std_uncertainty_um.iter().all(|u| *u > 0.0 && *u < 5.0));
+}
+
+#[test]
+fn sphere_fit_round_trip_and_bad_input() {
+    let mut r = fwd::Rng(0x5f_e7e);
+    for _ in 0..20 {
+        let c = [-400.0 + 50.0 * r.uniform(), 30.0 * r.uniform(), -470.0 + 20.0 * r.uniform()];
+        let rad = 5.0 + 3.0 * r.uniform().abs();
+        let pts: Vec<[f64; 3]> = (0..15)
+            .map(|_| {
+                let (u, v) = (r.uniform() * std::f64::consts::PI, r.uniform() * 1.3);
+                [c[0] + rad * v.cos() * u.cos(), c[1] + rad * v.cos() * u.sin(), c[2] + rad * v.sin()]
+            })
+            .collect();
+        let f = fit_sphere(&pts).unwrap();
+        for i in 0..3 {
+            assert!((f.centre_mm[i] - c[i]).abs() < 1e-9);
+        }
+        assert!((f.radius_mm - rad).abs() < 1e-9 && f.residual_rms_um < 1e-6);
+    }
+    assert_eq!(fit_sphere(&[[0.0; 3]; 3]), Err(SphereFitError::TooFewPoints { points: 3 }));
+    let plane = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [2.0, 0.5, 0.0]];
+    assert_eq!(fit_sphere(&plane), Err(SphereFitError::Degenerate));
+    assert_eq!(fit_sphere(&[[0.0, 0.0, f64::NAN]; 5]), Err(SphereFitError::NonFinite));
 }

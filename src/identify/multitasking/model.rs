@@ -125,15 +125,17 @@ pub fn t_ball_mm(
 ) -> Vector3<f64> {
     let [ox, oy, oz] = t_offset_um;
     let t_t = Vector4::new(ox * UM, oy * UM, oz * UM - r_b_mm, 1.0);
-    let chain = translation(0.0, 0.0, cmd.z_mm)
-        * m_yz(d)
-        * translation(0.0, cmd.y_mm, 0.0)
-        * m_xy(d)
-        * translation(cmd.x_mm, 0.0, 0.0)
-        * m_xb(d)
-        * e_b(cmd.b_rad)
-        * m_bt(d);
-    point(&chain, t_t)
+    // Applied right to left to the vector (8 matrix–vector products instead of 7 matrix
+    // products: the same chain, a fraction of the soft-float work on the target).
+    let v = m_bt(d) * t_t;
+    let v = e_b(cmd.b_rad) * v;
+    let v = m_xb(d) * v;
+    let v = translation(cmd.x_mm, 0.0, 0.0) * v;
+    let v = m_xy(d) * v;
+    let v = translation(0.0, cmd.y_mm, 0.0) * v;
+    let v = m_yz(d) * v;
+    let v = translation(0.0, 0.0, cmd.z_mm) * v;
+    Vector3::new(v.x, v.y, v.z)
 }
 
 /// W-ball centre in machine coordinates (mm), eqs 2.13–2.16 and 2.21.

@@ -191,3 +191,27 @@ fn bad_input_is_typed() {
     bad.ey_cr2_um = f64::INFINITY;
     assert_eq!(identify_thesis(&bad, &T43, None), Err(BallBarError::NonFinite));
 }
+
+/// Spec §9.1: the thesis relations contradict the literal HTM model. On literal-model data
+/// (independent forward model, chapter-2 set-up) thesis mode gets δx_CZ right but turns a pure
+/// β_CZ into a spurious δx_CZ − δx_BT of 2·Z_C·β_CZ (the Z_C sign conflict of item 3).
+#[test]
+fn thesis_mode_on_literal_model_data_shows_the_documented_conflict() {
+    let g = fwd::Geo { lb: 100.0, zc: 100.0, rb: 200.0, rc: 50.0 };
+    let tg = ThesisGeometry { r_b_mm: 200.0, r_c_mm: 50.0, z_c_mm: 100.0, z_t_mm: 200.0, z_t2_mm: 250.0, x_t_mm: 0.0 };
+    let measure = |d: &[f64; 13]| {
+        let e = |p| fwd::ecc(p, d, &g, 361, [0.0; 3], [0.0; 3]);
+        let (bx, by, cr, ca) = (e(fwd::Pat::Bx), e(fwd::Pat::By), e(fwd::Pat::Cr), e(fwd::Pat::Ca));
+        let cr2 = fwd::ecc(fwd::Pat::Cr, d, &fwd::Geo { rb: 250.0, ..g }, 361, [0.0; 3], [0.0; 3]);
+        ecc([bx.0, bx.1, by.0, by.1, cr.0, cr.1, ca.0, ca.1, cr2.0, cr2.1])
+    };
+    let mut d = [0.0; 13];
+    d[9] = 20.0; // δx_CZ
+    let r = identify_thesis(&measure(&d), &tg, None).unwrap().deviations;
+    assert!((r.dx_cz_minus_dx_bt_um - 20.0).abs() < 0.01);
+    let mut d = [0.0; 13];
+    d[12] = 100.0; // β_CZ, µrad
+    let r = identify_thesis(&measure(&d), &tg, None).unwrap().deviations;
+    assert!((r.beta_cz_arcsec - 100e-6 * 206_264.806).abs() < 0.01);
+    assert!((r.dx_cz_minus_dx_bt_um - 2.0 * 100.0 * 100e-6 * 1e3).abs() < 0.01, "{}", r.dx_cz_minus_dx_bt_um);
+}

@@ -62,7 +62,13 @@ pub fn run_statistics(runs: &[f64]) -> Result<RunStatistics, BallBarError> {
     })
 }
 
-/// The eccentricities of the five steps of §5.3 (µm, §3.5 convention, CW/CCW means).
+/// The eccentricities of the five steps of §5.3 (µm, CW/CCW means of the runs).
+///
+/// Sign convention (spec §3.5; the metrology fit must use it): fit `ΔL ≈ r0 + e1·n1 + e2·n2`
+/// over the pattern's samples, ΔL in µm positive when the bar is longer, n the unit direction
+/// of the commanded position on its path: BX/BY n = (sin φ, cos φ) in (X, Z), (e1, e2) =
+/// (ex, ez); CR n = sign(R_C − L_B)·(cos θ, sin θ) (the T-ball side), CA n = (cos θ, sin θ),
+/// (e1, e2) = (ex, ey). Anchor: δx_CZ = +20 µm ⇒ ex_CR = −20 µm.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct ThesisEccentricities {
     /// Step 1 BX, ex (µm): δz_BT by eq 4.1 (a tool-length setting figure, not used).

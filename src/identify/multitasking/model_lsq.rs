@@ -29,7 +29,8 @@ pub const RANK_REL_TOL: f64 = 1e-5;
 use super::patterns::{Mounting, Pattern, PatternError, PatternGeometry, simulate_eccentricity};
 use super::{Deviations, Parameter};
 
-/// One measured pattern.
+/// One measured pattern: its eccentricity in the §3.5 sign convention of
+/// [`super::patterns`] (the same as [`super::ballbar::ThesisEccentricities`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PatternMeasurement {
     /// The pattern (Tables 2.2/2.3).

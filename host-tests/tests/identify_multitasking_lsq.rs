@@ -198,3 +198,11 @@ fn bad_input_is_typed() {
     );
     let _ = Deviations::default();
 }
+
+#[test]
+fn non_finite_fixed_value_is_typed() {
+    let m = procedure(&[0.0; 13]);
+    let mut s = ModelLsq::without_squareness();
+    s.fixed.gamma_xy_urad = f64::NAN;
+    assert_eq!(s.identify(&m), Err(ModelLsqError::NonFiniteFixed));
+}

@@ -250,3 +250,17 @@ fn bad_pattern_input_is_typed() {
     assert!(PatternProgram::new(Pattern::Bx, SIM, NcOffset::default(), 0.0, 90.0, 0).is_err());
     assert!(PatternProgram::new(Pattern::Bx, SIM, NcOffset::default(), f64::NAN, 90.0, 3).is_err());
 }
+
+#[test]
+fn nc_block_validates() {
+    use ballpod::identify::multitasking::patterns::nc_block;
+    let off = NcOffset { x_mm: -490.0, y_mm: 0.0, z_mm: 0.0 };
+    let b = nc_block(Pattern::Ca, &SIM, &off, 90.0).unwrap();
+    // CA at θ = 90°: (R_C cos θ, R_C sin θ, Z_C + L_B + R_B) + offset.
+    assert!((b.x_mm + 490.0).abs() < 1e-12 && (b.y_mm - 50.0).abs() < 1e-12 && (b.z_mm - 400.0).abs() < 1e-12);
+    assert_eq!((b.b_deg, b.c_deg), (0.0, 90.0));
+    assert_eq!(nc_block(Pattern::Ca, &SIM, &off, f64::NAN), Err(PatternError::NonFinite));
+    let mut g = SIM;
+    g.r_c_mm = 0.0;
+    assert_eq!(nc_block(Pattern::Ca, &g, &off, 0.0), Err(PatternError::NonPositiveLength { what: "R_C" }));
+}

@@ -171,6 +171,10 @@ fn c_axis_corrected_round_trip() {
         assert!(c.diagonal_mismatch_um < 1e-3);
         let p = identify_c_axis(&input, ProbeMode::Paper).unwrap();
         assert!((p.alpha_cz_arcsec + asec(d[11])).abs() < 0.01);
+        // Points listed in the clockwise order (0, 270, 180, 90°): same angles.
+        let cw = CAxisProbe { centres_mm: [centres[0], centres[3], centres[2], centres[1]], ..input };
+        let w = identify_c_axis(&cw, ProbeMode::Corrected).unwrap();
+        assert!((w.alpha_cz_arcsec - c.alpha_cz_arcsec).abs() < 1e-9 && (w.beta_cz_arcsec - c.beta_cz_arcsec).abs() < 1e-9);
     }
 }
 

@@ -14,6 +14,10 @@
 //!   set-ups; eq 2.14/2.15, **without** the T-ball mounting offset, as printed) mapped by the
 //!   printed first-order inverse of M_CZ, plus the W-ball clamping offset in the C frame (2.21).
 //! - Bar reading (2.17): ΔL = |T − W| − L_B; positive = bar longer.
+//!
+//! These are the raw equations and do not validate their inputs; the entry points that take
+//! user data ([`super::patterns::simulate_eccentricity`], [`super::model_lsq::ModelLsq`],
+//! [`super::compensation::compensate`]) do.
 use nalgebra::{Matrix4, Vector3, Vector4};
 
 use super::Deviations;

@@ -53,6 +53,8 @@ pub struct PatternMeasurement {
 pub enum ModelLsqError {
     /// No measurements or no free parameters.
     Empty,
+    /// A fixed (or start) deviation value is NaN or infinite.
+    NonFiniteFixed,
     /// A measurement's σ is ≤ 0 or not finite, or an eccentricity is not finite (index).
     BadMeasurement {
         /// Index of the measurement.
@@ -183,7 +185,7 @@ impl ModelLsq {
             return Err(ModelLsqError::Empty);
         }
         if !self.fixed.is_finite() {
-            return Err(ModelLsqError::BadMeasurement { index: 0 });
+            return Err(ModelLsqError::NonFiniteFixed);
         }
         for (index, p) in m.iter().enumerate() {
             if !(p.sigma_um.is_finite()

@@ -112,7 +112,9 @@ impl PatternGeometry {
 }
 
 /// Model-frame axis command of `pattern` at angle `angle_rad` (φ for B patterns, θ for C),
-/// Tables 2.2 and 2.3 (mm from O_M).
+/// Tables 2.2 and 2.3 (mm from O_M). Raw equations: inputs are not validated here (see
+/// [`PatternGeometry::validate`]; [`nc_block`], [`PatternProgram`] and
+/// [`simulate_eccentricity`] validate).
 pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCommand {
     let (s, c) = (libm::sin(angle_rad), libm::cos(angle_rad));
     let (lb, rb, rc, zc) = (g.l_b_mm, g.r_b_mm, g.r_c_mm, g.z_c_mm);
@@ -287,8 +289,25 @@ pub struct NcBlock {
 }
 
 /// NC block of `pattern` at angle `angle_deg` (B angle for B patterns, C angle for C
-/// patterns): Table 2.2/2.3 command plus `offset`.
+/// patterns): Table 2.2/2.3 command plus `offset`. Validates the geometry and the inputs.
 pub fn nc_block(
+    pattern: Pattern,
+    g: &PatternGeometry,
+    offset: &NcOffset,
+    angle_deg: f64,
+) -> Result<NcBlock, PatternError> {
+    g.validate(pattern)?;
+    if !(angle_deg.is_finite()
+        && offset.x_mm.is_finite()
+        && offset.y_mm.is_finite()
+        && offset.z_mm.is_finite())
+    {
+        return Err(PatternError::NonFinite);
+    }
+    Ok(nc_block_unchecked(pattern, g, offset, angle_deg))
+}
+
+fn nc_block_unchecked(
     pattern: Pattern,
     g: &PatternGeometry,
     offset: &NcOffset,
@@ -362,6 +381,11 @@ impl Iterator for PatternProgram {
         let f = self.next as f64 / self.steps as f64;
         self.next += 1;
         let a = self.start_deg + (self.end_deg - self.start_deg) * f;
-        Some(nc_block(self.pattern, &self.geometry, &self.offset, a))
+        Some(nc_block_unchecked(
+            self.pattern,
+            &self.geometry,
+            &self.offset,
+            a,
+        ))
     }
 }

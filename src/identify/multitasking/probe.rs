@@ -104,7 +104,10 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
     let d13 = p3 - p1;
     let d24 = p4 - p2;
     let n = d13.cross(&d24); // (5.1)–(5.4)
-    if !(n.z > 1e-9 * d13.norm() * d24.norm()) || d13.norm() == 0.0 || d24.norm() == 0.0 {
+    // The ratios of (5.5)/(5.6) do not depend on the sense of rotation (N flips as a whole),
+    // so only |Z_N| ≈ 0 is degenerate.
+    if !(libm::fabs(n.z) > 1e-9 * d13.norm() * d24.norm()) || d13.norm() == 0.0 || d24.norm() == 0.0
+    {
         return Err(ProbeError::DegenerateCircle);
     }
     let beta = n.x / n.z; // (5.5)

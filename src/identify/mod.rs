@@ -3,8 +3,7 @@
 //!
 //! - [`lsq`]: streaming Givens least squares with rank, conditioning and uncertainties, shared
 //!   by every method.
-//! - [`multitasking`]: seed 002, multi-tasking machine (B head + C table): ball-bar patterns and
-//!   touch-probe method → B/C deviations, NC compensation.
+//! - [`multitasking`]: seed 002 (B head + C table): ball-bar and touch-probe identification, NC fix.
 
 pub mod lsq;
 pub mod multitasking;

@@ -2,5 +2,6 @@
 
 pub mod forward_seed000;
 pub mod forward_seed001;
+pub mod forward_seed002;
 pub mod lvdt_model;
 pub mod rng;

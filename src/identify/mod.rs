@@ -7,7 +7,9 @@
 //!   SSM measurements (exact inversion and corrected paper formulas).
 //! - [`volumetric`]: seed 001 rigid-body volumetric error model, body-diagonal and vector
 //!   diagonal methods, grid/thermal compensation, volumetric-error definitions, table conventions.
+//! - [`multitasking`]: seed 002 (B head + C table): ball-bar and touch-probe identification, NC fix.
 
 pub mod lsq;
+pub mod multitasking;
 pub mod two_step;
 pub mod volumetric;

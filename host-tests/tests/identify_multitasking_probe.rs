@@ -1,0 +1,270 @@
+//! Seed 002 chapter 5 touch-probe method (`identify::multitasking::probe`): TV-12 (eqs 5.1–5.19
+//! on the Table 5.2 averages, spec §6.6/§8.2) in paper mode, and round trips through the
+//! independent literal HTM chain of `ballpod_host::forward_seed002` in corrected mode.
+use ballpod::identify::multitasking::probe::{
+    BAxisProbe, CAxisProbe, ProbeError, ProbeMode, SphereFitError, fit_sphere, identify_b_axis,
+    identify_c_axis,
+};
+use ballpod_host::forward_seed002 as fwd;
+
+const AS: f64 = 206_264.806_247_096_36;
+
+/// Table 5.2 C-axis averages (mm), C = 0, 90, 180, 270°.
+const C_AVG: [[f64; 3]; 4] = [
+    [-390.00025, 0.00075, -471.9975],
+    [-489.7417, 99.7009, -472.00875],
+    [-589.4389, -0.039, -472.02695],
+    [-489.7001, -99.738, -472.013],
+];
+
+/// TV-12: N = (−5.87331, −0.84884, 39775.83); paper β_CZ = −30.46", α_CZ = −4.40"; the
+/// corrected α has the opposite sign.
+#[test]
+fn tv12_c_axis_formula_outputs() {
+    let input = CAxisProbe {
+        centres_mm: C_AVG,
+        nominal_axis_xy_mm: [-490.0, 0.0],
+        z_c_mm: 64.838,
+    };
+    let p = identify_c_axis(&input, ProbeMode::Paper).unwrap();
+    let n = p.normal_mm2;
+    assert!((n[0] + 5.87331).abs() < 5e-6 && (n[1] + 0.84884).abs() < 5e-6 && (n[2] - 39775.8266).abs() < 5e-4, "{n:?}");
+    assert!((p.beta_cz_arcsec + 30.46).abs() < 0.005, "{}", p.beta_cz_arcsec);
+    assert!((p.alpha_cz_arcsec + 4.40).abs() < 0.005, "{}", p.alpha_cz_arcsec);
+    let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
+    assert!((c.alpha_cz_arcsec - 4.40).abs() < 0.005);
+    assert_eq!(c.beta_cz_arcsec, p.beta_cz_arcsec);
+    // Centre vs nominal (−490, 0): ΔX_c ≈ +280 µm, ΔY_c ≈ −18.6 µm (spec §6.6, there from a circle
+    // fit; the mean of the four points used here differs by < 1 µm).
+    assert!((c.centre_error_um[0] - 280.4).abs() < 1.0 && (c.centre_error_um[1] + 18.6).abs() < 1.0, "{:?}", c.centre_error_um);
+    // (5.7) to first order: δx = ΔX_c − Z_C β, δy = ΔY_c + Z_C α.
+    let b = c.beta_cz_arcsec / AS;
+    let a = c.alpha_cz_arcsec / AS;
+    assert!((c.dx_cz_um - (c.centre_error_um[0] - 64.838e3 * b)).abs() < 0.01);
+    assert!((c.dy_cz_um - (c.centre_error_um[1] + 64.838e3 * a)).abs() < 0.01);
+}
+
+/// TV-12, B axis with nominal (−490, 0, −472) at both angles (spec §6.6): β_XB −5.35",
+/// δx_BT −1566 µm, δz_BT −1608 µm, α_XB −18.72" (5.19 with R_B).
+#[test]
+fn tv12_b_axis_formula_outputs() {
+    let input = BAxisProbe {
+        measured_mm: [
+            [-490.0053, -0.0004, -471.9939],
+            [-493.2217, 0.03435, -468.8529],
+            [-489.9992, 0.00085, -471.993],
+            [-493.2231, 0.04745, -468.8442],
+        ],
+        nominal_mm: [[-490.0, 0.0, -472.0]; 4],
+        r_b_mm: 382.950,
+        r_b2_mm: 433.062,
+        x_t_mm: 490.0,
+    };
+    let p = identify_b_axis(&input, ProbeMode::Paper).unwrap();
+    assert!((p.beta_xb_arcsec + 5.35).abs() < 0.005, "{}", p.beta_xb_arcsec);
+    assert!((p.dx_bt_um + 1566.0).abs() < 0.5, "{}", p.dx_bt_um);
+    assert!((p.dz_bt_um + 1608.0).abs() < 0.5, "{}", p.dz_bt_um);
+    assert!((p.alpha_xb_arcsec.unwrap() + 18.72).abs() < 0.005);
+    // γ_XB ≈ −1354" with X_T = 490 (spec §6.6: the nominal B = 90° position is clearly not this).
+    assert!((p.gamma_xb_arcsec.unwrap() + 1354.0).abs() < 1.0, "{:?}", p.gamma_xb_arcsec);
+}
+
+/// Sphere centres the probe reports: the sphere (fixed, at `sphere`) seen through the actual
+/// tool tip, i.e. sphere − (T_actual − T_nominal), with T from the literal chain (2.10).
+fn b_probe(d: &[f64; 13], rb: f64, sphere: [f64; 3]) -> [[f64; 3]; 2] {
+    let mut out = [[0.0; 3]; 2];
+    for (k, phi) in [0.0f64, std::f64::consts::FRAC_PI_2].iter().enumerate() {
+        // Command that puts the nominal tip on the sphere centre: X − R_B sin φ, Z − R_B cos φ.
+        let (x, z) = (sphere[0] + rb * phi.sin(), sphere[2] + rb * phi.cos());
+        let t = fwd::t_ball(d, x, sphere[1], z, *phi, rb, [0.0; 3]);
+        let t0 = fwd::t_ball(&[0.0; 13], x, sphere[1], z, *phi, rb, [0.0; 3]);
+        for i in 0..3 {
+            out[k][i] = sphere[i] - (t[i] - t0[i]);
+        }
+    }
+    out
+}
+
+#[test]
+fn b_axis_corrected_round_trip() {
+    let mut r = fwd::Rng(0xb0_be);
+    let sphere = [-490.0, 0.0, -472.0];
+    for _ in 0..20 {
+        let mut d = [0.0; 13];
+        d[0] = 40.0 * r.uniform(); // δx_BT
+        d[1] = 40.0 * r.uniform(); // δz_BT
+        d[2] = 100.0 * r.uniform(); // α_BT
+        d[3] = 100.0 * r.uniform(); // α_XB
+        d[4] = 100.0 * r.uniform(); // β_XB
+        d[5] = 100.0 * r.uniform(); // γ_XB
+        let (rb, rb2) = (382.95, 433.062);
+        let [m0, m90] = b_probe(&d, rb, sphere);
+        let [n0, n90] = b_probe(&d, rb2, sphere);
+        let input = BAxisProbe {
+            measured_mm: [m0, m90, n0, n90],
+            nominal_mm: [sphere; 4],
+            r_b_mm: rb,
+            r_b2_mm: rb2,
+            x_t_mm: 490.0,
+        };
+        let c = identify_b_axis(&input, ProbeMode::Corrected).unwrap();
+        let asec = |urad: f64| urad * 1e-6 * AS;
+        assert!((c.dx_bt_um - d[0]).abs() < 0.01, "{} vs {}", c.dx_bt_um, d[0]);
+        assert!((c.dz_bt_um - d[1]).abs() < 0.01);
+        assert!((c.beta_xb_arcsec - asec(d[4])).abs() < 0.01);
+        assert!((c.alpha_bt_plus_alpha_xb_arcsec.unwrap() - asec(d[2] + d[3])).abs() < 0.01);
+        assert!((c.alpha_bt_minus_gamma_xb_arcsec.unwrap() - asec(d[2] - d[5])).abs() < 0.01);
+        assert!(c.alpha_xb_arcsec.is_none() && c.gamma_xb_arcsec.is_none());
+        assert!(c.residual_rms_um < 0.01);
+        // Paper (5.13) returns δx_BT with the wrong sign under the literal model (spec §9.1.1).
+        let p = identify_b_axis(&input, ProbeMode::Paper).unwrap();
+        assert!((p.dx_bt_um + d[0]).abs() < 0.01);
+        assert!((p.beta_xb_arcsec - asec(d[4])).abs() < 0.01);
+    }
+}
+
+#[test]
+fn b_axis_redundancy_shows_in_residual() {
+    let sphere = [-490.0, 0.0, -472.0];
+    let d = [10.0, -5.0, 0.0, 0.0, 30.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let [m0, mut m90] = b_probe(&d, 380.0, sphere);
+    let [n0, n90] = b_probe(&d, 430.0, sphere);
+    m90[0] += 0.002; // 2 µm inconsistency in one X reading
+    let input = BAxisProbe {
+        measured_mm: [m0, m90, n0, n90],
+        nominal_mm: [sphere; 4],
+        r_b_mm: 380.0,
+        r_b2_mm: 430.0,
+        x_t_mm: 490.0,
+    };
+    let c = identify_b_axis(&input, ProbeMode::Corrected).unwrap();
+    assert!(c.residual_rms_um > 0.1 && c.std_uncertainty.iter().all(|u| *u > 0.0));
+}
+
+#[test]
+fn c_axis_corrected_round_trip() {
+    let mut r = fwd::Rng(0xc_a515);
+    for _ in 0..20 {
+        let mut d = [0.0; 13];
+        d[9] = 50.0 * r.uniform(); // δx_CZ
+        d[10] = 50.0 * r.uniform(); // δy_CZ
+        d[11] = 150.0 * r.uniform(); // α_CZ
+        d[12] = 150.0 * r.uniform(); // β_CZ
+        let (_, _, _, _, mcz, _) = fwd::mats(&d);
+        let (rc, zc) = (100.0, 64.838);
+        let origin = [-490.0, 0.0, -536.838]; // machine coordinates of O_M
+        let mut centres = [[0.0; 3]; 4];
+        for (k, c) in centres.iter_mut().enumerate() {
+            let th = k as f64 * std::f64::consts::FRAC_PI_2;
+            let p = fwd::apply(&fwd::mul(&mcz, &fwd::ec(th)), [rc, 0.0, zc]);
+            for i in 0..3 {
+                c[i] = origin[i] + p[i];
+            }
+        }
+        let input = CAxisProbe { centres_mm: centres, nominal_axis_xy_mm: [origin[0], origin[1]], z_c_mm: zc };
+        let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
+        let asec = |urad: f64| urad * 1e-6 * AS;
+        assert!((c.alpha_cz_arcsec - asec(d[11])).abs() < 0.01, "{} vs {}", c.alpha_cz_arcsec, asec(d[11]));
+        assert!((c.beta_cz_arcsec - asec(d[12])).abs() < 0.01);
+        assert!((c.dx_cz_um - d[9]).abs() < 0.01, "{} vs {}", c.dx_cz_um, d[9]);
+        assert!((c.dy_cz_um - d[10]).abs() < 0.01);
+        assert!(c.diagonal_mismatch_um < 1e-3);
+        let p = identify_c_axis(&input, ProbeMode::Paper).unwrap();
+        assert!((p.alpha_cz_arcsec + asec(d[11])).abs() < 0.01);
+        // Points listed in the clockwise order (0, 270, 180, 90°): same angles.
+        let cw = CAxisProbe { centres_mm: [centres[0], centres[3], centres[2], centres[1]], ..input };
+        let w = identify_c_axis(&cw, ProbeMode::Corrected).unwrap();
+        assert!((w.alpha_cz_arcsec - c.alpha_cz_arcsec).abs() < 1e-9 && (w.beta_cz_arcsec - c.beta_cz_arcsec).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn bad_input_is_typed() {
+    let same = CAxisProbe { centres_mm: [[1.0, 2.0, 3.0]; 4], nominal_axis_xy_mm: [0.0, 0.0], z_c_mm: 60.0 };
+    assert_eq!(identify_c_axis(&same, ProbeMode::Corrected), Err(ProbeError::DegenerateCircle));
+    // Points on a vertical line: N has no Z component.
+    let line = CAxisProbe {
+        centres_mm: [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [0.0, 0.0, 3.0]],
+        ..same
+    };
+    assert_eq!(identify_c_axis(&line, ProbeMode::Paper), Err(ProbeError::DegenerateCircle));
+    let mut nan = CAxisProbe { centres_mm: C_AVG, ..same };
+    nan.centres_mm[2][1] = f64::NAN;
+    assert_eq!(identify_c_axis(&nan, ProbeMode::Corrected), Err(ProbeError::NonFinite));
+    let b = BAxisProbe {
+        measured_mm: [[0.0; 3]; 4],
+        nominal_mm: [[0.0; 3]; 4],
+        r_b_mm: 380.0,
+        r_b2_mm: 380.0,
+        x_t_mm: 490.0,
+    };
+    assert_eq!(identify_b_axis(&b, ProbeMode::Corrected), Err(ProbeError::SameToolLength));
+    assert_eq!(identify_b_axis(&BAxisProbe { r_b_mm: 0.0, ..b }, ProbeMode::Paper), Err(ProbeError::NonPositiveLength { what: "R_B" }));
+    assert_eq!(identify_b_axis(&BAxisProbe { r_b2_mm: -1.0, ..b }, ProbeMode::Paper), Err(ProbeError::NonPositiveLength { what: "R'_B" }));
+    assert_eq!(
+        identify_b_axis(&BAxisProbe { r_b2_mm: 430.0, x_t_mm: 0.0, ..b }, ProbeMode::Paper),
+        Err(ProbeError::NonPositiveLength { what: "X_T" })
+    );
+    assert_eq!(identify_b_axis(&BAxisProbe { x_t_mm: f64::NAN, ..b }, ProbeMode::Paper), Err(ProbeError::NonFinite));
+}
+
+/// TV-13: least-squares sphere through the 21 Fig 5.13 points: centre (−390.2175, −0.0005,
+/// −472.4176), R 7.9106 mm, RMS 1.46 µm.
+#[test]
+fn tv13_sphere_fit_of_fig_5_13() {
+    let pts = [
+        [-390.0000, 0.0000, -464.5118],
+        [-392.3406, 0.0, -464.7967],
+        [-394.5199, 0.0, -465.7790],
+        [-396.3313, 0.0, -467.4001],
+        [-397.5836, 0.0, -469.5359],
+        [-398.1191, 0.0, -472.0000],
+        [-390.0, 2.3213, -464.8558],
+        [-390.0, 4.4467, -465.8796],
+        [-390.0, 6.1922, -467.5011],
+        [-390.0, 7.3864, -469.5999],
+        [-390.0, 7.8969, -472.0000],
+        [-387.6988, 0.0, -464.9178],
+        [-385.6247, 0.0, -465.9779],
+        [-383.9443, 0.0, -467.6003],
+        [-382.7995, 0.0, -469.6604],
+        [-382.3193, 0.0, -472.0000],
+        [-390.0, -2.3213, -464.8558],
+        [-390.0, -4.4467, -465.8796],
+        [-390.0, -6.1922, -467.5011],
+        [-390.0, -7.3892, -469.5990],
+        [-390.0, -7.8969, -472.0000],
+    ];
+    let f = fit_sphere(&pts).unwrap();
+    let exp = [-390.2175, -0.0005, -472.4176];
+    for (a, b) in f.centre_mm.iter().zip(exp) {
+        assert!((a - b).abs() < 5e-5 + 1e-9, "{:?}", f.centre_mm);
+    }
+    assert!((f.radius_mm - 7.9106).abs() < 5e-5);
+    assert!((f.residual_rms_um - 1.46).abs() < 0.005);
+    assert!(f.std_uncertainty_um.iter().all(|u| *u > 0.0 && *u < 5.0));
+}
+
+#[test]
+fn sphere_fit_round_trip_and_bad_input() {
+    let mut r = fwd::Rng(0x5f_e7e);
+    for _ in 0..20 {
+        let c = [-400.0 + 50.0 * r.uniform(), 30.0 * r.uniform(), -470.0 + 20.0 * r.uniform()];
+        let rad = 5.0 + 3.0 * r.uniform().abs();
+        let pts: Vec<[f64; 3]> = (0..15)
+            .map(|_| {
+                let (u, v) = (r.uniform() * std::f64::consts::PI, r.uniform() * 1.3);
+                [c[0] + rad * v.cos() * u.cos(), c[1] + rad * v.cos() * u.sin(), c[2] + rad * v.sin()]
+            })
+            .collect();
+        let f = fit_sphere(&pts).unwrap();
+        for i in 0..3 {
+            assert!((f.centre_mm[i] - c[i]).abs() < 1e-9);
+        }
+        assert!((f.radius_mm - rad).abs() < 1e-9 && f.residual_rms_um < 1e-6);
+    }
+    assert_eq!(fit_sphere(&[[0.0; 3]; 3]), Err(SphereFitError::TooFewPoints { points: 3 }));
+    let plane = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [2.0, 0.5, 0.0]];
+    assert_eq!(fit_sphere(&plane), Err(SphereFitError::Degenerate));
+    assert_eq!(fit_sphere(&[[0.0, 0.0, f64::NAN]; 5]), Err(SphereFitError::NonFinite));
+}

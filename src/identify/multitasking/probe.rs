@@ -1,0 +1,375 @@
+//! Chapter 5 touch-probe method (eqs 5.1–5.19, spec seed-002 §6): measured reference-sphere
+//! centres at several C and B positions → C and B deviations.
+//!
+//! Inputs are sphere centres in machine coordinates (mm) as the probe reports them (how the
+//! centre is fitted is the metrology's job). Deviations are errors (actual − nominal).
+//!
+//! **Corrected mode** (primary) follows the literal HTM model (eqs 2.2, 2.3, 2.11; spec §9.1
+//! items 4–5):
+//! - the C axis direction under (2.11) is (β_CZ, −α_CZ, 1), so α_CZ = **−**Y_N/Z_N (the
+//!   thesis's (5.6) has +);
+//! - the probe reports the sphere centre displaced by the **negative** of the tool-tip
+//!   displacement d(φ); with the literal model, at B = 0: ΔX = −(δx_BT − R_B β_XB),
+//!   ΔY = −R_B(α_BT + α_XB), ΔZ = −δz_BT; at B = 90°: ΔX = −δz_BT, ΔY = −R_B(α_BT − γ_XB),
+//!   ΔZ = δx_BT − R_B β_XB. The two tool lengths give δx_BT, δz_BT, β_XB by least squares
+//!   (8 equations, 3 unknowns: residual and uncertainties), and from Y only the combinations
+//!   α_BT + α_XB and α_BT − γ_XB (so α_XB + γ_XB); α_XB, γ_XB, α_BT separately are not
+//!   observable with B = 0/90° alone.
+//!
+//! **Paper mode** evaluates (5.5), (5.6), (5.12), (5.13), (5.15), (5.17), (5.19) verbatim
+//! (TV-12). The thesis's Table 5.3 is not reproducible from its Table 5.2 by either mode.
+use nalgebra::{Rotation3, Vector3};
+
+use super::ARCSEC_PER_RAD;
+use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError};
+
+/// Corrected (literal-model signs) or paper (formulas as printed) evaluation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProbeMode {
+    /// Signs of the literal HTM model (primary).
+    Corrected,
+    /// Eqs 5.1–5.19 as printed.
+    Paper,
+}
+
+/// Why a probe identification could not be computed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ProbeError {
+    /// An input is NaN or infinite.
+    NonFinite,
+    /// The four C positions do not span a circle: the diagonals P1P3 and P2P4 are parallel or
+    /// vanish, or the normal is perpendicular to Z (Z_N ≈ 0).
+    DegenerateCircle,
+    /// A tool length is ≤ 0 (names which).
+    NonPositiveLength {
+        /// `"R_B"`, `"R'_B"` or `"X_T"`.
+        what: &'static str,
+    },
+    /// R'_B = R_B: the two styli cannot separate β_XB from δx_BT (eqs 5.12/5.13 divide by
+    /// R'_B − R_B).
+    SameToolLength,
+    /// The least-squares step failed.
+    Lsq(LsqError),
+}
+
+fn finite3(p: &[f64; 3]) -> bool {
+    p.iter().all(|v| v.is_finite())
+}
+
+/// Sphere centres probed at C = 0°, 90°, 180°, 270° (B = 0), machine coordinates (mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CAxisProbe {
+    /// P1…P4: centres at C = 0, 90, 180, 270° (mm); C positive counter-clockwise about +Z.
+    pub centres_mm: [[f64; 3]; 4],
+    /// Nominal C centreline (X, Y) in machine coordinates (mm): the reference of ΔX_c, ΔY_c.
+    pub nominal_axis_xy_mm: [f64; 2],
+    /// Z_C: sphere centre height above the C table (mm), the lever of (5.7).
+    pub z_c_mm: f64,
+}
+
+/// C-axis result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CAxisResult {
+    /// α_CZ (").
+    pub alpha_cz_arcsec: f64,
+    /// β_CZ (").
+    pub beta_cz_arcsec: f64,
+    /// δx_CZ (µm), (5.7).
+    pub dx_cz_um: f64,
+    /// δy_CZ (µm), (5.7).
+    pub dy_cz_um: f64,
+    /// N = P1P3 × P2P4 (mm²), (5.1)–(5.4).
+    pub normal_mm2: [f64; 3],
+    /// Trajectory centre error (ΔX_c, ΔY_c) (µm): mean of the four centres − nominal axis.
+    pub centre_error_um: [f64; 2],
+    /// Quality figure: distance between the midpoints of the two diagonals (µm); zero for a
+    /// perfect circle probed at 90° steps (four points over-determine the circle centre).
+    pub diagonal_mismatch_um: f64,
+}
+
+/// C-axis deviations from four sphere centres (eqs 5.1–5.7). The trajectory centre is the mean
+/// of the four centres (exact for 90° steps; the thesis does not say). (5.7) uses exact
+/// rotations: `[δx; δy; ·] = Rx(−α_CZ)·Ry(−β_CZ)·[ΔX_c; ΔY_c; Z_C]`, i.e. to first order
+/// δx = ΔX_c − Z_C β_CZ, δy = ΔY_c + Z_C α_CZ (consistent with (2.11)).
+pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResult, ProbeError> {
+    let [p1, p2, p3, p4] = input.centres_mm;
+    if !(input.centres_mm.iter().all(finite3)
+        && input.nominal_axis_xy_mm.iter().all(|v| v.is_finite())
+        && input.z_c_mm.is_finite())
+    {
+        return Err(ProbeError::NonFinite);
+    }
+    let v = |p: [f64; 3]| Vector3::new(p[0], p[1], p[2]);
+    let (p1, p2, p3, p4) = (v(p1), v(p2), v(p3), v(p4));
+    let d13 = p3 - p1;
+    let d24 = p4 - p2;
+    let n = d13.cross(&d24); // (5.1)–(5.4)
+    // The ratios of (5.5)/(5.6) do not depend on the sense of rotation (N flips as a whole),
+    // so only |Z_N| ≈ 0 is degenerate.
+    if !(libm::fabs(n.z) > 1e-9 * d13.norm() * d24.norm()) || d13.norm() == 0.0 || d24.norm() == 0.0
+    {
+        return Err(ProbeError::DegenerateCircle);
+    }
+    let beta = n.x / n.z; // (5.5)
+    let alpha = match mode {
+        ProbeMode::Paper => n.y / n.z,      // (5.6) as printed
+        ProbeMode::Corrected => -n.y / n.z, // axis direction (β, −α, 1) under (2.11)
+    };
+    let centre = (p1 + p2 + p3 + p4) / 4.0;
+    let mismatch = ((p1 + p3) / 2.0 - (p2 + p4) / 2.0).norm() * 1e3;
+    let [nx, ny] = input.nominal_axis_xy_mm;
+    let (dxc, dyc) = (centre.x - nx, centre.y - ny);
+    // (5.7), mm
+    let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), -alpha);
+    let ry = Rotation3::from_axis_angle(&Vector3::y_axis(), -beta);
+    let d = rx * ry * Vector3::new(dxc, dyc, input.z_c_mm);
+    Ok(CAxisResult {
+        alpha_cz_arcsec: alpha * ARCSEC_PER_RAD,
+        beta_cz_arcsec: beta * ARCSEC_PER_RAD,
+        dx_cz_um: d.x * 1e3,
+        dy_cz_um: d.y * 1e3,
+        normal_mm2: [n.x, n.y, n.z],
+        centre_error_um: [dxc * 1e3, dyc * 1e3],
+        diagonal_mismatch_um: mismatch,
+    })
+}
+
+/// Sphere centres probed at B = 0° and 90° with two styli (tool lengths R_B, R'_B), and their
+/// nominal positions (machine coordinates, mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BAxisProbe {
+    /// Measured centres: [B = 0 with R_B, B = 90° with R_B, B = 0 with R'_B, B = 90° with R'_B].
+    pub measured_mm: [[f64; 3]; 4],
+    /// Nominal centres in the same order (the thesis does not state them; spec §6.6).
+    pub nominal_mm: [[f64; 3]; 4],
+    /// R_B: B origin → probe sphere along Z (mm), short stylus.
+    pub r_b_mm: f64,
+    /// R'_B: same with the long stylus (mm).
+    pub r_b2_mm: f64,
+    /// X_T: nominal X of the reference sphere (mm; paper mode's (5.17) lever only).
+    pub x_t_mm: f64,
+}
+
+/// B-axis result. In corrected mode `alpha_xb_arcsec` and `gamma_xb_arcsec` are `None` (not
+/// separable); in paper mode the combinations are `None`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BAxisResult {
+    /// β_XB (").
+    pub beta_xb_arcsec: f64,
+    /// δx_BT (µm).
+    pub dx_bt_um: f64,
+    /// δz_BT (µm).
+    pub dz_bt_um: f64,
+    /// α_XB (") — paper (5.19) only.
+    pub alpha_xb_arcsec: Option<f64>,
+    /// γ_XB (") — paper (5.17) only.
+    pub gamma_xb_arcsec: Option<f64>,
+    /// α_BT + α_XB (") — corrected mode.
+    pub alpha_bt_plus_alpha_xb_arcsec: Option<f64>,
+    /// α_BT − γ_XB (") — corrected mode.
+    pub alpha_bt_minus_gamma_xb_arcsec: Option<f64>,
+    /// Standard uncertainties of (β_XB ", δx_BT µm, δz_BT µm) from the residual (corrected
+    /// mode; 0 in paper mode).
+    pub std_uncertainty: [f64; 3],
+    /// RMS residual of the X/Z equations (µm; corrected mode, 0 in paper mode).
+    pub residual_rms_um: f64,
+}
+
+/// B-axis deviations (eqs 5.8–5.19; see the module doc for the corrected-mode equations).
+pub fn identify_b_axis(input: &BAxisProbe, mode: ProbeMode) -> Result<BAxisResult, ProbeError> {
+    if !(input.measured_mm.iter().all(finite3)
+        && input.nominal_mm.iter().all(finite3)
+        && input.r_b_mm.is_finite()
+        && input.r_b2_mm.is_finite()
+        && input.x_t_mm.is_finite())
+    {
+        return Err(ProbeError::NonFinite);
+    }
+    if input.r_b_mm <= 0.0 {
+        return Err(ProbeError::NonPositiveLength { what: "R_B" });
+    }
+    if input.r_b2_mm <= 0.0 {
+        return Err(ProbeError::NonPositiveLength { what: "R'_B" });
+    }
+    if input.r_b2_mm == input.r_b_mm {
+        return Err(ProbeError::SameToolLength);
+    }
+    // Δ = measured − nominal, µm; d[k] = (ΔX, ΔY, ΔZ) of set k.
+    let mut d = [[0.0f64; 3]; 4];
+    for ((dk, m), n) in d
+        .iter_mut()
+        .zip(input.measured_mm.iter())
+        .zip(input.nominal_mm.iter())
+    {
+        for ((o, a), b) in dk.iter_mut().zip(m.iter()).zip(n.iter()) {
+            *o = (a - b) * 1e3;
+        }
+    }
+    let [[x1, y1, z1], [x2, y2, z2], [x1p, _, _], [_, _, z2p]] = d;
+    let (rb, rb2) = (input.r_b_mm, input.r_b2_mm);
+    match mode {
+        ProbeMode::Paper => {
+            if input.x_t_mm <= 0.0 {
+                return Err(ProbeError::NonPositiveLength { what: "X_T" });
+            }
+            let (s, sp) = (x1 - z2, x1p - z2p);
+            let beta_rad = (sp - s) / (2.0 * (rb2 - rb)) * 1e-3; // (5.12), µm/mm → rad
+            let dx_bt = (rb2 * s - rb * sp) / (2.0 * (rb2 - rb)); // (5.13)
+            let dz_bt = (z1 + x2) / 2.0; // (5.15)
+            let gamma_rad = (x2 - x1) / input.x_t_mm * 1e-3; // (5.17)
+            let alpha_rad = (y1 - y2) / rb * 1e-3; // (5.19)
+            Ok(BAxisResult {
+                beta_xb_arcsec: beta_rad * ARCSEC_PER_RAD,
+                dx_bt_um: dx_bt,
+                dz_bt_um: dz_bt,
+                alpha_xb_arcsec: Some(alpha_rad * ARCSEC_PER_RAD),
+                gamma_xb_arcsec: Some(gamma_rad * ARCSEC_PER_RAD),
+                alpha_bt_plus_alpha_xb_arcsec: None,
+                alpha_bt_minus_gamma_xb_arcsec: None,
+                std_uncertainty: [0.0; 3],
+                residual_rms_um: 0.0,
+            })
+        }
+        ProbeMode::Corrected => {
+            // Unknowns [δx_BT µm, δz_BT µm, β_XB µrad]; lever R (mm) · 1e-3 µm/µrad.
+            let mut xz = GivensLsq::<3>::new();
+            let mut yy = GivensLsq::<2>::new();
+            for (r, set) in [(rb, 0usize), (rb2, 2usize)] {
+                let l = r * 1e-3;
+                let (Some(b0), Some(b90)) = (d.get(set), d.get(set + 1)) else {
+                    continue;
+                };
+                let [dx0, dy0, dz0] = *b0;
+                let [dx90, dy90, dz90] = *b90;
+                let rows = [
+                    ([-1.0, 0.0, l], dx0),
+                    ([0.0, -1.0, 0.0], dz0),
+                    ([0.0, -1.0, 0.0], dx90),
+                    ([1.0, 0.0, -l], dz90),
+                ];
+                for (a, b) in rows {
+                    xz.add_row(&a, b, 1.0).map_err(ProbeError::Lsq)?;
+                }
+                // Unknowns [α_BT + α_XB, α_BT − γ_XB] (µrad).
+                yy.add_row(&[-l, 0.0], dy0, 1.0).map_err(ProbeError::Lsq)?;
+                yy.add_row(&[0.0, -l], dy90, 1.0).map_err(ProbeError::Lsq)?;
+            }
+            let s = xz
+                .solve_full_rank(DEFAULT_RANK_TOL)
+                .map_err(ProbeError::Lsq)?;
+            let sy = yy
+                .solve_full_rank(DEFAULT_RANK_TOL)
+                .map_err(ProbeError::Lsq)?;
+            let [dx_bt, dz_bt, beta_urad] = s.x;
+            let [a1, a2] = sy.x;
+            let [u_dx, u_dz, u_b] = s.std_uncertainty;
+            let asec = |urad: f64| urad * 1e-6 * ARCSEC_PER_RAD;
+            Ok(BAxisResult {
+                beta_xb_arcsec: asec(beta_urad),
+                dx_bt_um: dx_bt,
+                dz_bt_um: dz_bt,
+                alpha_xb_arcsec: None,
+                gamma_xb_arcsec: None,
+                alpha_bt_plus_alpha_xb_arcsec: Some(asec(a1)),
+                alpha_bt_minus_gamma_xb_arcsec: Some(asec(a2)),
+                std_uncertainty: [asec(u_b), u_dx, u_dz],
+                residual_rms_um: s.residual_rms,
+            })
+        }
+    }
+}
+
+/// Why a sphere could not be fitted to probed points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SphereFitError {
+    /// Fewer than 4 points.
+    TooFewPoints {
+        /// Points given.
+        points: usize,
+    },
+    /// A coordinate is NaN or infinite.
+    NonFinite,
+    /// The points do not determine a sphere (coplanar, collinear or coincident).
+    Degenerate,
+    /// Gauss–Newton did not converge.
+    NoConvergence,
+}
+
+/// Least-squares sphere through probed points (e.g. the Fig 5.13 stylus positions).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SphereFit {
+    /// Centre (mm).
+    pub centre_mm: [f64; 3],
+    /// Radius (mm).
+    pub radius_mm: f64,
+    /// RMS of the radial residuals (µm).
+    pub residual_rms_um: f64,
+    /// Standard uncertainties of (centre x, y, z, radius) (µm; 0 with exactly 4 points).
+    pub std_uncertainty_um: [f64; 4],
+}
+
+/// Geometric least-squares sphere fit: minimises Σ(|p_i − c| − R)². Start from the algebraic
+/// fit `|p|² = 2c·p + (R² − |c|²)` (linear), then Gauss–Newton; coordinates are taken relative
+/// to the first point so that the sums stay in deviations (DESIGN §6). Every least-squares step
+/// is a [`GivensLsq`] with a rank check.
+pub fn fit_sphere(points_mm: &[[f64; 3]]) -> Result<SphereFit, SphereFitError> {
+    if points_mm.len() < 4 {
+        return Err(SphereFitError::TooFewPoints {
+            points: points_mm.len(),
+        });
+    }
+    if !points_mm.iter().all(finite3) {
+        return Err(SphereFitError::NonFinite);
+    }
+    let o = points_mm.first().copied().unwrap_or([0.0; 3]);
+    let rel = |p: &[f64; 3]| Vector3::new(p[0] - o[0], p[1] - o[1], p[2] - o[2]);
+    let mut alg = GivensLsq::<4>::new();
+    for p in points_mm {
+        let q = rel(p);
+        alg.add_row(&[2.0 * q.x, 2.0 * q.y, 2.0 * q.z, 1.0], q.dot(&q), 1.0)
+            .map_err(|_| SphereFitError::NonFinite)?;
+    }
+    let s = alg
+        .solve_full_rank(DEFAULT_RANK_TOL)
+        .map_err(|_| SphereFitError::Degenerate)?;
+    let [cx, cy, cz, k] = s.x;
+    let mut c = Vector3::new(cx, cy, cz);
+    let r2 = k + c.dot(&c);
+    if !(r2 > 0.0) {
+        return Err(SphereFitError::Degenerate);
+    }
+    let mut r = crate::num::sqrt(r2);
+    for _ in 0..50 {
+        let mut gn = GivensLsq::<4>::new();
+        for p in points_mm {
+            let d = rel(p) - c;
+            let n = d.norm();
+            if n == 0.0 {
+                return Err(SphereFitError::Degenerate);
+            }
+            // residual n − r; ∂/∂c = −d/n, ∂/∂r = −1
+            gn.add_row(&[-d.x / n, -d.y / n, -d.z / n, -1.0], -(n - r), 1.0)
+                .map_err(|_| SphereFitError::NonFinite)?;
+        }
+        let st = gn
+            .solve_full_rank(DEFAULT_RANK_TOL)
+            .map_err(|_| SphereFitError::Degenerate)?;
+        let [dx, dy, dz, dr] = st.x;
+        c += Vector3::new(dx, dy, dz);
+        r += dr;
+        let step = libm::fabs(dx)
+            .max(libm::fabs(dy))
+            .max(libm::fabs(dz))
+            .max(libm::fabs(dr));
+        if step <= 1e-13 * (1.0 + r) {
+            let [u0, u1, u2, u3] = st.std_uncertainty;
+            return Ok(SphereFit {
+                centre_mm: [c.x + o[0], c.y + o[1], c.z + o[2]],
+                radius_mm: r,
+                residual_rms_um: st.residual_rms * 1e3,
+                std_uncertainty_um: [u0 * 1e3, u1 * 1e3, u2 * 1e3, u3 * 1e3],
+            });
+        }
+    }
+    Err(SphereFitError::NoConvergence)
+}

@@ -250,45 +250,86 @@ fn axis(i: usize) -> Vector3<f64> {
 /// rows; the printed ECX and COX ΔX rows carry a sign typo on `Ca·Sc·X_w + Ca·Cc·Y_w` (A5).
 /// Unlike the printed table, X_c, Y_c and Y_h need not be 0.
 pub fn table1_gains(err: IsoError, g: &ChainGeometry, pose: &ChainPose) -> [f64; 6] {
-    let ra = Rotation3::from_axis_angle(&Vector3::x_axis(), pose.a_deg.to_radians());
-    let rc = Rotation3::from_axis_angle(&Vector3::z_axis(), pose.c_deg.to_radians());
-    let w = Vector3::new(g.x_w_mm, g.y_w_mm, g.z_w_mm);
-    // Workpiece-side levers.
-    let q_c = rc * w;
-    let q_a = ra * (Vector3::new(g.x_c_mm, g.y_c_mm, g.z_c_mm) + q_c);
-    let p_x = Vector3::new(g.x_a_mm, g.y_a_mm, g.z_a_mm) + q_a;
-    // Probe-side levers.
-    let p_h = Vector3::new(g.x_h_mm, g.y_h_mm, g.z_h_mm + g.z_p_mm);
-    let p_zloc = Vector3::new(0.0, 0.0, pose.z_m_mm) + p_h;
-    let p_y = Vector3::new(g.x_z_mm, g.y_z_mm, g.z_z_mm) + p_zloc;
-    // End-frame z axis of the workpiece branch, in the reference frame.
-    let k_w = ra * rc * Vector3::z();
-    let ident = Rotation3::identity();
-    let (link, kind) = err.link_kind();
-    // (sign, frame orientation, lever)
-    let (sign, frame, lever) = match link {
-        Link::XComp => (-1.0, ident, p_x),
-        Link::XLoc => (-1.0, ident, Vector3::new(pose.x_m_mm, 0.0, 0.0) + p_x),
-        Link::A => (-1.0, ident, q_a),
-        Link::C => (-1.0, ra, q_c),
-        Link::Ball => (-1.0, ra * rc, Vector3::zeros()),
-        Link::Y => (1.0, ident, p_y),
-        Link::ZComp => (1.0, ident, p_h),
-        Link::ZLoc => (1.0, ident, p_zloc),
-    };
-    let k_end = if sign < 0.0 { k_w } else { Vector3::z() };
-    let (dp, dk) = match kind {
-        Kind::Trans(i) => (frame * axis(i), Vector3::zeros()),
-        Kind::Rot(i) => {
-            let om = axis(i);
-            (
-                frame * om.cross(&lever),
-                frame * om.cross(&(frame.inverse() * k_end)),
-            )
+    Levers::new(g, pose).gains(err)
+}
+
+/// The pose-dependent part of [`table1_gains`], computed once per pose (two rotations).
+struct Levers {
+    /// Rx(A): orientation of the a frame.
+    ra: Rotation3<f64>,
+    /// Rx(A)·Rz(C): orientation of the c frame (ball).
+    rac: Rotation3<f64>,
+    /// Lever of the C-level errors: Rz(C)·w (a-frame axes).
+    q_c: Vector3<f64>,
+    /// Lever of the A-level errors: Rx(A)·((X_c,Y_c,Z_c) + q_c).
+    q_a: Vector3<f64>,
+    /// Lever of the X component errors: (X_a,Y_a,Z_a) + q_a.
+    p_x: Vector3<f64>,
+    /// Lever of COX: (X_m,0,0) + p_x.
+    p_xloc: Vector3<f64>,
+    /// Lever of the Z component errors: (X_h, Y_h, Z_h + Z_p).
+    p_h: Vector3<f64>,
+    /// Lever of AOZ, BOZ: (0,0,Z_m) + p_h.
+    p_zloc: Vector3<f64>,
+    /// Lever of the Y errors: (X_z,Y_z,Z_z) + p_zloc.
+    p_y: Vector3<f64>,
+}
+
+impl Levers {
+    fn new(g: &ChainGeometry, pose: &ChainPose) -> Self {
+        let ra = Rotation3::from_axis_angle(&Vector3::x_axis(), pose.a_deg.to_radians());
+        let rc = Rotation3::from_axis_angle(&Vector3::z_axis(), pose.c_deg.to_radians());
+        let q_c = rc * Vector3::new(g.x_w_mm, g.y_w_mm, g.z_w_mm);
+        let q_a = ra * (Vector3::new(g.x_c_mm, g.y_c_mm, g.z_c_mm) + q_c);
+        let p_x = Vector3::new(g.x_a_mm, g.y_a_mm, g.z_a_mm) + q_a;
+        let p_h = Vector3::new(g.x_h_mm, g.y_h_mm, g.z_h_mm + g.z_p_mm);
+        let p_zloc = Vector3::new(0.0, 0.0, pose.z_m_mm) + p_h;
+        Self {
+            ra,
+            rac: ra * rc,
+            q_c,
+            q_a,
+            p_x,
+            p_xloc: Vector3::new(pose.x_m_mm, 0.0, 0.0) + p_x,
+            p_h,
+            p_zloc,
+            p_y: Vector3::new(g.x_z_mm, g.y_z_mm, g.z_z_mm) + p_zloc,
         }
-    };
-    let (dp, dk) = (dp * sign, dk * sign);
-    [dp.x, dp.y, dp.z, dk.x, dk.y, dk.z]
+    }
+
+    fn gains(&self, err: IsoError) -> [f64; 6] {
+        let ident = Rotation3::identity();
+        let (link, kind) = err.link_kind();
+        // (sign: − workpiece side, + probe side; frame orientation; lever in frame axes)
+        let (sign, frame, lever) = match link {
+            Link::XComp => (-1.0, ident, self.p_x),
+            Link::XLoc => (-1.0, ident, self.p_xloc),
+            Link::A => (-1.0, ident, self.q_a),
+            Link::C => (-1.0, self.ra, self.q_c),
+            Link::Ball => (-1.0, self.rac, Vector3::zeros()),
+            Link::Y => (1.0, ident, self.p_y),
+            Link::ZComp => (1.0, ident, self.p_h),
+            Link::ZLoc => (1.0, ident, self.p_zloc),
+        };
+        // End-frame z axis of the branch, in the reference frame (probe side: no rotation).
+        let k_end = if sign < 0.0 {
+            self.rac * Vector3::z()
+        } else {
+            Vector3::z()
+        };
+        let (dp, dk) = match kind {
+            Kind::Trans(i) => (frame * axis(i), Vector3::zeros()),
+            Kind::Rot(i) => {
+                let om = axis(i);
+                (
+                    frame * om.cross(&lever),
+                    frame * om.cross(&(frame.inverse() * k_end)),
+                )
+            }
+        };
+        let (dp, dk) = (dp * sign, dk * sign);
+        [dp.x, dp.y, dp.z, dk.x, dk.y, dk.z]
+    }
 }
 
 /// The 11 parameters of the reduced model (Table 2), in the paper's order a1…a11.
@@ -492,15 +533,15 @@ impl RtestGeometry {
 /// Table 2 gains at one pose in SI form: rows ΔX_p, ΔY_p, ΔZ_p; columns a1…a11 in mm per mm
 /// (offsets) and mm per rad (tilts). Same numbers as [`table1_gains`] for those 11 rows.
 pub fn reduced_gains_si(g: &RtestGeometry, a_deg: f64, c_deg: f64) -> [[f64; 11]; 3] {
-    let chain = g.chain();
     let pose = ChainPose {
         a_deg,
         c_deg,
         ..ChainPose::default()
     };
+    let levers = Levers::new(&g.chain(), &pose);
     let mut h = [[0.0; 11]; 3];
     for p in RtestParam::ALL {
-        let col = table1_gains(p.iso(), &chain, &pose);
+        let col = levers.gains(p.iso());
         for (row, &v) in h.iter_mut().zip(col.iter()) {
             if let Some(x) = row.get_mut(p.index()) {
                 *x = v;
@@ -682,17 +723,18 @@ pub struct Residuals {
 }
 
 /// Rows of one sample in the chosen zero convention: (gains 3×11 in µm per unit, readings µm).
+/// `first` = gains and reading of the first sample (used by `FirstPose`).
 fn sample_rows(
     g: &RtestGeometry,
     s: &RtestSample,
-    first: &RtestSample,
+    first: &([[f64; 11]; 3], [f64; 3]),
     zero: ReadingZero,
 ) -> ([[f64; 11]; 3], [f64; 3]) {
     let h = reduced_gains(g, s.a_deg, s.c_deg);
     match zero {
         ReadingZero::Absolute => (h, s.reading_um),
         ReadingZero::FirstPose => {
-            let h0 = reduced_gains(g, first.a_deg, first.c_deg);
+            let (h0, q0) = first;
             let mut d = h;
             for (r, r0) in d.iter_mut().zip(h0.iter()) {
                 for (x, x0) in r.iter_mut().zip(r0.iter()) {
@@ -700,10 +742,16 @@ fn sample_rows(
                 }
             }
             let q = s.reading_um;
-            let q0 = first.reading_um;
             (d, [q[0] - q0[0], q[1] - q0[1], q[2] - q0[2]])
         }
     }
+}
+
+/// Gains and reading of the first sample (the `FirstPose` reference).
+fn first_rows(g: &RtestGeometry, samples: &[RtestSample]) -> Option<([[f64; 11]; 3], [f64; 3])> {
+    samples
+        .first()
+        .map(|s| (reduced_gains(g, s.a_deg, s.c_deg), s.reading_um))
 }
 
 fn check_inputs(g: &RtestGeometry, samples: &[RtestSample]) -> Result<(), RtestError> {
@@ -731,12 +779,12 @@ fn build(
     fixed_values: &[f64; 11],
 ) -> Result<GivensLsq<11>, RtestError> {
     let mut lsq = GivensLsq::<11>::new();
-    let Some(first) = samples.first() else {
+    let Some(first) = first_rows(g, samples) else {
         return Ok(lsq);
     };
     let skip = usize::from(zero == ReadingZero::FirstPose);
     for s in samples.iter().skip(skip) {
-        let (h, q) = sample_rows(g, s, first, zero);
+        let (h, q) = sample_rows(g, s, &first, zero);
         for (row, &b) in h.iter().zip(q.iter()) {
             lsq.add_row(row, b, 1.0)?;
         }
@@ -869,7 +917,7 @@ fn residuals(
     samples: &[RtestSample],
     zero: ReadingZero,
 ) -> Result<Residuals, RtestError> {
-    let Some(first) = samples.first() else {
+    let Some(first) = first_rows(g, samples) else {
         return Err(RtestError::TooFewSamples {
             given: 0,
             needed: 1,
@@ -882,7 +930,7 @@ fn residuals(
     };
     let mut ss = [0.0f64; 3];
     for s in samples {
-        let (h, q) = sample_rows(g, s, first, zero);
+        let (h, q) = sample_rows(g, s, &first, zero);
         for (k, (row, &b)) in h.iter().zip(q.iter()).enumerate() {
             let pred: f64 = row.iter().zip(a.iter()).map(|(x, y)| x * y).sum();
             let r = b - pred;

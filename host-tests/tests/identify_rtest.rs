@@ -6,8 +6,9 @@
 use ballpod::identify::rtest::{
     ARCSEC_RAD, ChainGeometry, ChainPose, IsoError, LocationErrors, RankPolicy, ReadingZero,
     RtestConfig, RtestError, RtestGeometry, RtestParam, RtestSample, identify, predict_um,
-    reduced_gains_si, table1_gains, verify,
+    axis_lines, reduced_gains_si, table1_gains, verify,
 };
+use ballpod_host::forward_seed004 as fw4;
 use ballpod_host::forward_seed003 as fw;
 use ballpod_host::forward_seed004::SplitMix;
 
@@ -506,5 +507,36 @@ fn bad_input_gets_typed_errors() {
     match identify(&g3(), &same, &RtestConfig { policy: RankPolicy::Refuse, ..cfg }) {
         Err(RtestError::NotIdentifiable { rank: 3, inseparable }) => assert_eq!(inseparable.count(), 8),
         other => panic!("{other:?}"),
+    }
+}
+
+// ------------------------------------------------------------------ bridge to seed 004
+#[test]
+fn axis_lines_are_what_the_chain_rotates_the_ball_about() {
+    let g = RtestGeometry { x_c_mm: 4.0, y_c_mm: -3.0, ..g3() };
+    let k = fw::Kin { x_c: 4.0, y_c: -3.0, ..kin3() };
+    let mut rng = SplitMix(31);
+    for _ in 0..20 {
+        let truth: [f64; 11] = core::array::from_fn(|j| if ANGULAR[j] { rng.uniform(-20.0, 20.0) } else { rng.uniform(-50.0, 50.0) });
+        let mut e = [0.0; 44];
+        for (n, v) in NAMES11.iter().zip(si(truth)) {
+            e[fw::idx(n)] = v;
+        }
+        let ball = |a: f64, c: f64| {
+            let (w, _) = fw::chains(&k, &e, a.to_radians(), c.to_radians(), 0.0, 0.0, 0.0);
+            [w[0][3], w[1][3], w[2][3]]
+        };
+        let (a_line, c_line) = axis_lines(&g, &LocationErrors::from_array(truth));
+        let p0 = ball(0.0, 0.0);
+        for ang in [30.0f64, 90.0, 200.0] {
+            // C turned at A = 0: the ball circles the C line
+            let want = fw4::rotate_about_line(c_line.direction, c_line.point_mm, ang.to_radians(), p0);
+            let got = ball(0.0, ang);
+            assert!((0..3).all(|i| (got[i] - want[i]).abs() < 2e-6), "C line: {got:?} vs {want:?}");
+            // A tilted at C = 0: the ball circles the A line
+            let want = fw4::rotate_about_line(a_line.direction, a_line.point_mm, -ang.to_radians() / 2.0, p0);
+            let got = ball(-ang / 2.0, 0.0);
+            assert!((0..3).all(|i| (got[i] - want[i]).abs() < 2e-6), "A line: {got:?} vs {want:?}");
+        }
     }
 }

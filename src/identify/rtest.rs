@@ -30,10 +30,14 @@
 //!   per rad ([`table1_gains`], [`reduced_gains_si`]).
 //! - The 11 reduced parameters are HTM frame translations and small rotations, **not** axis-line
 //!   shifts: a C-axis line offset e appears as XOC, YOC = e with XOW, YOW = −e (A6). Both are
-//!   reported; the mapping to ISO 230-7 / controller tables is the caller's (D.4).
+//!   reported; the mapping to ISO 230-7 / controller tables is the caller's (D.4);
+//!   [`axis_lines`] gives the axis lines they imply, comparable with seed 004's centrelines.
+//! - Axis angles A_m, C_m are the model's right-handed table rotations about +X and +Z; map NC
+//!   commands with [`super::centreline::RotationSense`] where the machine's table axes are primed.
 
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::{Matrix3, Rotation3, Vector3};
 
+use super::centreline::AxisLine;
 use super::lsq::{GivensLsq, LsqError};
 
 /// One arc-second in radians (π / 648 000).
@@ -946,6 +950,47 @@ fn residuals(
     }
     out.rms_total_um = crate::num::sqrt(ss.iter().sum::<f64>() / (3.0 * n));
     Ok(out)
+}
+
+/// The rotary-axis lines implied by identified location errors (spec B7, the bridge to seed
+/// 004's centrelines), in machine axes at A = 0 with the origin at the **nominal** point of the
+/// A axis (the x-frame point (X_a, Y_a, Z_a)); mm, directions unit.
+///
+/// - A axis: `xT_a` rotates about the line through (0, YOA, ZOA) with direction
+///   `S(0,BOA,COA)·e_x = (1, COA, −BOA)`.
+/// - C axis (at A = 0): in the a frame the line through (X_c + XOC, Y_c + YOC, Z_c) with
+///   direction (BOC, −AOC, 1), carried into machine axes by the A location matrix
+///   `S(0,BOA,COA; 0,YOA,ZOA)`; so its machine-axis tilt about Y is BOC + BOA, not BOC alone —
+///   a dial-gauge table-axis direction (seed 004) measures that sum.
+///
+/// First order in the errors, like the model (second-order terms ≈ 1e-6 mm at Table-4 sizes).
+/// The ball-offset ambiguity of A6 applies: these lines are where the model's axes are, given
+/// the identified ball offsets.
+pub fn axis_lines(g: &RtestGeometry, e: &LocationErrors) -> (AxisLine, AxisLine) {
+    let um = 1e-3;
+    let (boa, coa) = (e.boa_arcsec * ARCSEC_RAD, e.coa_arcsec * ARCSEC_RAD);
+    let (aoc, boc) = (e.aoc_arcsec * ARCSEC_RAD, e.boc_arcsec * ARCSEC_RAD);
+    // S(0, BOA, COA; 0, YOA, ZOA) as a linear map plus translation.
+    let s_a = Matrix3::new(1.0, -coa, boa, coa, 1.0, 0.0, -boa, 0.0, 1.0);
+    let t_a = Vector3::new(0.0, e.yoa_um * um, e.zoa_um * um);
+    let a_dir = Vector3::new(1.0, coa, -boa);
+    let c_point_a = Vector3::new(g.x_c_mm + e.xoc_um * um, g.y_c_mm + e.yoc_um * um, g.z_c_mm);
+    let c_dir = s_a * Vector3::new(boc, -aoc, 1.0);
+    let c_point = s_a * c_point_a + t_a;
+    let unit = |v: Vector3<f64>| {
+        let n = crate::num::sqrt(v.dot(&v));
+        [v.x / n, v.y / n, v.z / n]
+    };
+    (
+        AxisLine {
+            direction: unit(a_dir),
+            point_mm: [t_a.x, t_a.y, t_a.z],
+        },
+        AxisLine {
+            direction: unit(c_dir),
+            point_mm: [c_point.x, c_point.y, c_point.z],
+        },
+    )
 }
 
 /// Verification on another path (seed 003: identify on K4, verify on K1/K2): measured −

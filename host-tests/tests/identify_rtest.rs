@@ -273,7 +273,7 @@ fn c3_predicted_readings_with_table4() {
         ((90.0, 180.0), [8.5250, -41.9658, -31.8959]),
     ];
     for ((a, c), want) in vectors {
-        let got = predict_um(&g3(), &table4(), a, c);
+        let got = predict_um(&g3(), &table4(), a, c).unwrap();
         for i in 0..3 {
             assert!((got[i] - want[i]).abs() < 1e-3, "({a},{c})[{i}]: {} vs {}", got[i], want[i]);
         }
@@ -289,7 +289,7 @@ fn c4_exact_chain_vs_first_order_model_within_3nm() {
         for ci in 0..12 {
             let (a, c) = (-90.0 + 15.0 * ai as f64, 30.0 * ci as f64);
             let exact = fw::exact_reduced_reading_um(&k, &p, a.to_radians(), c.to_radians());
-            let lin = predict_um(&g3(), &table4(), a, c);
+            let lin = predict_um(&g3(), &table4(), a, c).unwrap();
             for i in 0..3 {
                 worst = worst.max((exact[i] - lin[i]).abs());
             }
@@ -495,13 +495,17 @@ fn bad_input_gets_typed_errors() {
     let zeroed = RtestConfig { zero: ReadingZero::FirstPose, ..cfg };
     assert_eq!(identify(&g3(), &s[..4], &zeroed), Err(RtestError::TooFewSamples { given: 4, needed: 5 }));
     let bad_geom = RtestGeometry { z_w_mm: f64::NAN, ..g3() };
-    assert_eq!(identify(&bad_geom, &s, &cfg), Err(RtestError::NonFinite { sample: usize::MAX }));
+    assert_eq!(identify(&bad_geom, &s, &cfg), Err(RtestError::BadParameter));
     let mut order = cfg.estimation_order;
     order[1] = order[0];
     assert_eq!(identify(&g3(), &s, &RtestConfig { estimation_order: order, ..cfg }), Err(RtestError::BadEstimationOrder));
     s[17].reading_um[2] = f64::INFINITY;
-    assert_eq!(identify(&g3(), &s, &cfg), Err(RtestError::NonFinite { sample: 17 }));
-    assert_eq!(verify(&g3(), &table4(), &s, ReadingZero::Absolute), Err(RtestError::NonFinite { sample: 17 }));
+    assert_eq!(identify(&g3(), &s, &cfg), Err(RtestError::NonFiniteSample { sample: 17 }));
+    assert_eq!(verify(&g3(), &table4(), &s, ReadingZero::Absolute), Err(RtestError::NonFiniteSample { sample: 17 }));
+    assert_eq!(predict_um(&g3(), &table4(), f64::NAN, 0.0), Err(RtestError::BadParameter));
+    assert_eq!(axis_lines(&bad_geom, &table4()), Err(RtestError::BadParameter));
+    let neg_tol = RtestConfig { rank_tol: -1.0, ..cfg };
+    assert_eq!(identify(&g3(), &s[..10], &neg_tol), Err(RtestError::BadParameter));
     // all samples at one pose: only the constant columns survive; refusing names the rest
     let same = vec![RtestSample { a_deg: 0.0, c_deg: 0.0, reading_um: [1.0, 2.0, 3.0] }; 10];
     match identify(&g3(), &same, &RtestConfig { policy: RankPolicy::Refuse, ..cfg }) {
@@ -526,7 +530,7 @@ fn axis_lines_are_what_the_chain_rotates_the_ball_about() {
             let (w, _) = fw::chains(&k, &e, a.to_radians(), c.to_radians(), 0.0, 0.0, 0.0);
             [w[0][3], w[1][3], w[2][3]]
         };
-        let (a_line, c_line) = axis_lines(&g, &LocationErrors::from_array(truth));
+        let (a_line, c_line) = axis_lines(&g, &LocationErrors::from_array(truth)).unwrap();
         let p0 = ball(0.0, 0.0);
         for ang in [30.0f64, 90.0, 200.0] {
             // C turned at A = 0: the ball circles the C line

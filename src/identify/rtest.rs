@@ -556,6 +556,7 @@ pub fn reduced_gains_si(g: &RtestGeometry, a_deg: f64, c_deg: f64) -> [[f64; 11]
 }
 
 /// Table 2 gains in interface units: µm of reading per µm (offsets) or per arc-second (tilts).
+/// (Model tables: finite inputs give finite gains; the fallible entry points validate.)
 pub fn reduced_gains(g: &RtestGeometry, a_deg: f64, c_deg: f64) -> [[f64; 11]; 3] {
     let mut h = reduced_gains_si(g, a_deg, c_deg);
     for row in h.iter_mut() {
@@ -568,10 +569,19 @@ pub fn reduced_gains(g: &RtestGeometry, a_deg: f64, c_deg: f64) -> [[f64; 11]; 3
 }
 
 /// Predicted R-test reading (ΔX_p, ΔY_p, ΔZ_p), µm, of the reduced model at one pose.
-pub fn predict_um(g: &RtestGeometry, e: &LocationErrors, a_deg: f64, c_deg: f64) -> [f64; 3] {
-    let h = reduced_gains(g, a_deg, c_deg);
+pub fn predict_um(
+    g: &RtestGeometry,
+    e: &LocationErrors,
+    a_deg: f64,
+    c_deg: f64,
+) -> Result<[f64; 3], RtestError> {
     let x = e.to_array();
-    h.map(|row| row.iter().zip(x.iter()).map(|(a, b)| a * b).sum())
+    if !(g.is_finite() && x.iter().all(|v| v.is_finite()) && a_deg.is_finite() && c_deg.is_finite())
+    {
+        return Err(RtestError::BadParameter);
+    }
+    let h = reduced_gains(g, a_deg, c_deg);
+    Ok(h.map(|row| row.iter().zip(x.iter()).map(|(a, b)| a * b).sum()))
 }
 
 /// One R-test reading with the axis setting it was taken at (p_j of seed 003).
@@ -661,11 +671,14 @@ impl ParamSet {
 /// Why an R-test identification or verification failed.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum RtestError {
-    /// A sample (index given) or the geometry held a NaN or infinity.
-    NonFinite {
-        /// Index of the sample (`usize::MAX` for the geometry or configuration).
+    /// A sample (index given) held a NaN or infinity.
+    NonFiniteSample {
+        /// Zero-based index of the sample.
         sample: usize,
     },
+    /// The geometry, the configuration (rank tolerance ≤ 0, fixed values) or the given errors
+    /// held a NaN, an infinity or an out-of-range value.
+    BadParameter,
     /// Not enough samples: the reduced model needs at least 4 poses (12 equations ≥ 11).
     TooFewSamples {
         /// Samples given.
@@ -760,14 +773,14 @@ fn first_rows(g: &RtestGeometry, samples: &[RtestSample]) -> Option<([[f64; 11];
 
 fn check_inputs(g: &RtestGeometry, samples: &[RtestSample]) -> Result<(), RtestError> {
     if !g.is_finite() {
-        return Err(RtestError::NonFinite { sample: usize::MAX });
+        return Err(RtestError::BadParameter);
     }
     for (i, s) in samples.iter().enumerate() {
         if !(s.a_deg.is_finite()
             && s.c_deg.is_finite()
             && s.reading_um.iter().all(|v| v.is_finite()))
         {
-            return Err(RtestError::NonFinite { sample: i });
+            return Err(RtestError::NonFiniteSample { sample: i });
         }
     }
     Ok(())
@@ -827,7 +840,7 @@ pub fn identify(
     if !(cfg.rank_tol.is_finite() && cfg.rank_tol > 0.0)
         || !cfg.fixed_values.to_array().iter().all(|v| v.is_finite())
     {
-        return Err(RtestError::NonFinite { sample: usize::MAX });
+        return Err(RtestError::BadParameter);
     }
     let mut seen = ParamSet::default();
     for p in cfg.estimation_order {
@@ -966,7 +979,13 @@ fn residuals(
 /// First order in the errors, like the model (second-order terms ≈ 1e-6 mm at Table-4 sizes).
 /// The ball-offset ambiguity of A6 applies: these lines are where the model's axes are, given
 /// the identified ball offsets.
-pub fn axis_lines(g: &RtestGeometry, e: &LocationErrors) -> (AxisLine, AxisLine) {
+pub fn axis_lines(
+    g: &RtestGeometry,
+    e: &LocationErrors,
+) -> Result<(AxisLine, AxisLine), RtestError> {
+    if !(g.is_finite() && e.to_array().iter().all(|v| v.is_finite())) {
+        return Err(RtestError::BadParameter);
+    }
     let um = 1e-3;
     let (boa, coa) = (e.boa_arcsec * ARCSEC_RAD, e.coa_arcsec * ARCSEC_RAD);
     let (aoc, boc) = (e.aoc_arcsec * ARCSEC_RAD, e.boc_arcsec * ARCSEC_RAD);
@@ -981,7 +1000,7 @@ pub fn axis_lines(g: &RtestGeometry, e: &LocationErrors) -> (AxisLine, AxisLine)
         let n = crate::num::sqrt(v.dot(&v));
         [v.x / n, v.y / n, v.z / n]
     };
-    (
+    Ok((
         AxisLine {
             direction: unit(a_dir),
             point_mm: [t_a.x, t_a.y, t_a.z],
@@ -990,7 +1009,7 @@ pub fn axis_lines(g: &RtestGeometry, e: &LocationErrors) -> (AxisLine, AxisLine)
             direction: unit(c_dir),
             point_mm: [c_point.x, c_point.y, c_point.z],
         },
-    )
+    ))
 }
 
 /// Verification on another path (seed 003: identify on K4, verify on K1/K2): measured −
@@ -1005,7 +1024,7 @@ pub fn verify(
 ) -> Result<Residuals, RtestError> {
     check_inputs(g, samples)?;
     if !errors.to_array().iter().all(|v| v.is_finite()) {
-        return Err(RtestError::NonFinite { sample: usize::MAX });
+        return Err(RtestError::BadParameter);
     }
     residuals(g, errors, samples, zero)
 }

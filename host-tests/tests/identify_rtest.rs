@@ -8,6 +8,7 @@ use ballpod::identify::rtest::{
     RtestConfig, RtestError, RtestGeometry, RtestParam, RtestSample, identify, predict_um,
     axis_lines, reduced_gains_si, table1_gains, verify,
 };
+use ballpod::identify::centreline::axis_direction_half_turn;
 use ballpod_host::forward_seed004 as fw4;
 use ballpod_host::forward_seed003 as fw;
 use ballpod_host::forward_seed004::SplitMix;
@@ -153,6 +154,8 @@ fn random_sym(rng: &mut SplitMix) -> (Sym, ChainGeometry, ChainPose) {
 // ------------------------------------------------------------------ Table 1 (C7)
 #[test]
 fn c7_table1_42_of_44_rows_match_print_and_ecx_cox_dx_are_typos() {
+    assert_eq!(IsoError::ALL.len(), 44, "41 ISO 230 errors + 3 ball position errors (C9)");
+    assert_eq!(RtestParam::ALL.len(), 11, "reduced model (C9)");
     let mut rng = SplitMix(3);
     for _ in 0..200 {
         let (s, g, pose) = random_sym(&mut rng);
@@ -542,5 +545,31 @@ fn axis_lines_are_what_the_chain_rotates_the_ball_about() {
             let got = ball(-ang / 2.0, 0.0);
             assert!((0..3).all(|i| (got[i] - want[i]).abs() < 2e-6), "A line: {got:?} vs {want:?}");
         }
+    }
+}
+
+#[test]
+fn seed004_half_turn_on_the_c_table_measures_the_c_line_of_axis_lines() {
+    // A tilted reference face on the C table, dial-gauged at C0 and C180 with A = 0 (seed 004
+    // §3.1 on seed 003's machine): the centreline direction it gives is axis_lines' C line
+    // (tilt BOC + BOA about Y), not (BOC, −AOC, 1) alone.
+    let k = kin3();
+    let mut rng = SplitMix(12);
+    for _ in 0..20 {
+        let truth: [f64; 11] = core::array::from_fn(|j| if ANGULAR[j] { rng.uniform(-40.0, 40.0) } else { rng.uniform(-50.0, 50.0) });
+        let mut e = [0.0; 44];
+        for (n, v) in NAMES11.iter().zip(si(truth)) {
+            e[fw::idx(n)] = v;
+        }
+        let face_c = fw4::normalize([rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3), 1.0]);
+        let normal = |c: f64| {
+            let (w, _) = fw::chains(&k, &e, 0.0, c.to_radians(), 0.0, 0.0, 0.0);
+            fw4::normalize(core::array::from_fn(|i| (0..3).map(|j| w[i][j] * face_c[j]).sum()))
+        };
+        let d = axis_direction_half_turn(normal(0.0), normal(180.0), [0.0, 0.0, 1.0]).unwrap().direction;
+        let (_, c_line) = axis_lines(&g3(), &LocationErrors::from_array(truth)).unwrap();
+        assert!((0..3).all(|i| (d[i] - c_line.direction[i]).abs() < 1e-8), "{d:?} vs {:?}", c_line.direction);
+        let boc_plus_boa = (truth[5] + truth[10]) * ARCSEC_RAD;
+        assert!((d[0] - boc_plus_boa).abs() < 1e-7, "first order: BOC + BOA (second-order COA·AOC aside)");
     }
 }

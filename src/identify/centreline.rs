@@ -199,8 +199,8 @@ pub struct AxisDirection {
 /// Result of the two-position method at a general angle (B4): two exact solutions.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TwoPositionAxis {
-    /// The two exact solutions of `n4 = R(d, θ)·n3` (k ≥ 0 first, then k ≤ 0), unit, oriented
-    /// with the nominal; identical when k = 0.
+    /// The two exact solutions of `n4 = R(d, θ)·n3` (the closed form with k = +|k|, then with
+    /// k = −|k|), unit, each oriented with the nominal; identical when k = 0.
     pub candidates: [[f64; 3]; 2],
     /// The k = 0 member (the face normal assumed perpendicular to the axis): what the corrected
     /// printed eqs 5–7 compute at θ = −90°; it is the normalised mid-point of the candidates.

@@ -599,7 +599,8 @@ pub struct RtestSample {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ReadingZero {
     /// Absolute readings: zero when the ball is exactly at the nominal nest point (calibrated
-    /// nest zero and known ball position).
+    /// nest zero and known ball position). A constant sensor-zero error is indistinguishable
+    /// from the constant columns XOC, YOA, ZOA (−X, −Y, −Z): it ends up in them.
     Absolute,
     /// Readings zeroed at the first sample (usual R-test practice): the model uses
     /// `q_j − q_0 = (H_j − H_0)·a`; the constant columns XOC, YOA, ZOA vanish and are fixed.

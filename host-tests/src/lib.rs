@@ -3,5 +3,7 @@
 pub mod forward_seed000;
 pub mod forward_seed001;
 pub mod forward_seed002;
+pub mod forward_seed003;
+pub mod forward_seed004;
 pub mod lvdt_model;
 pub mod rng;

@@ -1,0 +1,406 @@
+//! Seed 004 (Yamamoto): rotary-axis centreline from dial-gauge data, and eq 9 NC correction.
+//! Exact test vectors C12–C18 of `../shared/spec/seed-003-004.md` (numbers copied from the
+//! spec, i.e. from the paper and the spec's check script), the paper's printed formulas
+//! transcribed here to show they are NOT what the pod computes, and round trips through the
+//! independent forward model `ballpod_host::forward_seed004`.
+use ballpod::identify::centreline::{
+    AxisLine, CentrelineError, DialPoint, GaugeFrame, NominalAxis, NormalAtAngle, PointAtAngle,
+    RotationSense, TableAxes, axis_centre, axis_direction_half_turn, axis_direction_lsq,
+    axis_direction_two_positions, nc_correction, paper, plane_normal,
+};
+use ballpod_host::forward_seed004 as fw;
+
+fn assert_close(got: &[f64], want: &[f64], tol: f64, what: &str) {
+    assert_eq!(got.len(), want.len(), "{what}: length");
+    for (i, (g, w)) in got.iter().zip(want).enumerate() {
+        assert!((g - w).abs() <= tol, "{what}[{i}]: got {g:.12e}, want {w:.12e} (tol {tol:e})");
+    }
+}
+
+fn max_diff(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|i| (a[i] - b[i]).abs()).fold(0.0, f64::max)
+}
+
+/// The three C12 dial points, readings in mm as in the spec → µm.
+fn dial3(readings_mm: [f64; 3]) -> [DialPoint; 3] {
+    let xy = [(0.0, 0.0), (100.0, 0.0), (0.0, 100.0)];
+    core::array::from_fn(|i| DialPoint {
+        u_mm: xy[i].0,
+        v_mm: xy[i].1,
+        reading_um: readings_mm[i] * 1e3,
+    })
+}
+
+/// Seed 004 eqs (1)–(3) exactly as printed (B3).
+fn printed_eq1_3(n1: [f64; 3], n2: [f64; 3]) -> [f64; 3] {
+    let (a, b, c) = (n1[0] + n2[0], n1[1] + n2[1], n1[2] + n2[2]);
+    let aa = 1.0 / (1.0 + (b / a).powi(2) + (c / a).powi(2)).sqrt();
+    [aa, (a / b) * aa, (a / c) * aa]
+}
+
+/// Seed 004 eqs (5)–(7) exactly as printed (B3).
+fn printed_eq5_7(n3: [f64; 3], n4: [f64; 3]) -> [f64; 3] {
+    let ([a3, b3, c3], [a4, b4, c4]) = (n3, n4);
+    let s2 = (a3 + a4).powi(2) + (b3 + b4).powi(2) + (c3 + c4).powi(2);
+    let ba = -2.0 * (b3 * c3 - b4 * c4) / s2;
+    [
+        ba,
+        (ba * (b3 + b4) - c3 + c4) / (c3 + c4),
+        (ba * (c3 + c4) + b3 - b4) / (a3 + a4),
+    ]
+}
+
+const Z: [f64; 3] = [0.0, 0.0, 1.0];
+const Y: [f64; 3] = [0.0, 1.0, 0.0];
+
+// ------------------------------------------------------------------------------ C12
+#[test]
+fn c12_table_axis_direction_from_a0_a180_dial_points() {
+    let n1 = plane_normal(&dial3([0.0, -0.04, 0.03]), &GaugeFrame::FROM_PLUS_Z).unwrap();
+    assert_close(&n1.normal, &[3.9999995e-4, -2.999999625e-4, 0.999999875], 1e-9, "n1");
+    assert_eq!(n1.residual_rms_um, 0.0);
+    let n2 = plane_normal(
+        &dial3([0.0, 0.3697218412, -0.02222016494]),
+        &GaugeFrame::FROM_PLUS_Z,
+    )
+    .unwrap();
+    assert_close(
+        &n2.normal,
+        &[-3.697193052e-3, 2.222001253e-4, 0.9999931407],
+        1e-9,
+        "n2",
+    );
+    let d = axis_direction_half_turn(n1.normal, n2.normal, Z).unwrap();
+    // Table 1's A vector (seed 004) as the spec reproduces it.
+    assert_close(
+        &d.direction,
+        &[-0.001648600066, -3.890000157e-05, 0.9999986403],
+        1e-9,
+        "d_A",
+    );
+    // The printed eqs (1)-(3) give (0.0016486, 0.069868, −2.718e−6): not the axis.
+    let printed = printed_eq1_3(n1.normal, n2.normal);
+    assert_close(&printed, &[0.0016486, 0.069868, -2.718e-6], 1e-6, "printed eqs 1-3");
+    assert!(max_diff(printed, d.direction) > 0.5, "pod must not implement the printed eqs 1-3");
+}
+
+#[test]
+fn c11_published_vectors_are_unit_to_rounding_and_tilt_matches_paper() {
+    // Table 1 of seed 004 fed as if it were n1 = n2 (a normal along the axis): the half-turn
+    // method returns it normalised; its XZ tilt reproduces the paper's 0.094458°.
+    let a = [-0.0016486, -0.0000389, 0.9999986];
+    let d = axis_direction_half_turn(a, a, Z).unwrap();
+    let norm_a = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
+    assert!((norm_a - 0.99999996).abs() < 1e-7);
+    let tilt_deg = (-d.direction[0] / d.direction[2]).atan().to_degrees();
+    assert!((tilt_deg - 0.0944579).abs() < 1e-6, "{tilt_deg}");
+}
+
+// ------------------------------------------------------------------------------ C13
+#[test]
+fn c13_tilt_axis_perpendicular_face_quarter_turn() {
+    let n3 = [9.724999865e-9, -1.249999983e-4, 0.9999999922];
+    let n4 = [-0.999999997, -7.779999976e-5, 0.0];
+    let want = [-7.779999916e-5, 0.9999999892, 1.249999986e-4];
+    // Commanded B+90 on a primed table axis = physical −90° about +Y.
+    let two = axis_direction_two_positions(n3, n4, 90.0, RotationSense::Primed, Y).unwrap();
+    assert_close(&two.perpendicular_assumption, &want, 1e-9, "k = 0 member");
+    assert!(two.axial_cos_abs < 1e-6, "face ⟂ axis: k = {}", two.axial_cos_abs);
+    // Paper mode (corrected eqs 5–7) reproduces the same vector.
+    let p = paper::eq5_7_corrected(n3, n4).unwrap();
+    assert_close(&p, &want, 1e-9, "eq 5-7 corrected");
+    // The printed eqs give (1.25e−4, −1, −7.78e−5): wrong sign, x/z swapped.
+    let printed = printed_eq5_7(n3, n4);
+    assert_close(&printed, &[1.25e-4, -1.0, -7.78e-5], 1e-7, "printed eqs 5-7");
+    assert!(max_diff(printed, want) > 1.0);
+}
+
+// ------------------------------------------------------------------------------ C14
+#[test]
+fn c14_two_positions_are_ambiguous_three_positions_are_not() {
+    let n3 = [0.0, 0.0, 1.0];
+    let n4 = [-0.99999999889, 4.7199998134e-5, 1.5624999627e-8];
+    let d = [-7.78e-5, 0.99999998916, 1.25e-4];
+    let d_alt = [1.722e-4, 0.99999997736, -1.25e-4];
+    let two = axis_direction_two_positions(n3, n4, 90.0, RotationSense::Primed, Y).unwrap();
+    let [c0, c1] = two.candidates;
+    let (hit_d, hit_alt) = if max_diff(c0, d) < max_diff(c1, d) {
+        (c0, c1)
+    } else {
+        (c1, c0)
+    };
+    assert_close(&hit_d, &d, 1e-9, "candidate d");
+    assert_close(&hit_alt, &d_alt, 1e-9, "candidate d'");
+    // Both satisfy R(d, −90°)·n3 = n4 (the forward model's Rodrigues).
+    for c in [c0, c1] {
+        let r = fw::mul(fw::rodrigues(c, -std::f64::consts::FRAC_PI_2), n3);
+        assert!(max_diff(r, n4) < 1e-9);
+    }
+    // The (corrected) paper formula returns the midpoint.
+    assert_close(
+        &two.perpendicular_assumption,
+        &[4.72e-5, 0.9999999989, 0.0],
+        1e-9,
+        "k=0 midpoint",
+    );
+    let p = paper::eq5_7_corrected(n3, n4).unwrap();
+    assert_close(&fw::normalize(p), &[4.72e-5, 0.9999999989, 0.0], 1e-9, "paper mode");
+    // Ambiguity ≈ angle between d and d'.
+    let ang = fw::dot(fw::normalize(d), fw::normalize(d_alt)).acos() * 1e6;
+    assert!((two.ambiguity_urad - ang).abs() < 1e-2, "{} vs {ang}", two.ambiguity_urad);
+    // Three positions B0/B45/B90 (physical 0, −45°, −90°) give d exactly.
+    let d_true = fw::normalize(d);
+    let pos: Vec<NormalAtAngle> = [0.0, 45.0, 90.0]
+        .iter()
+        .map(|&b: &f64| NormalAtAngle {
+            commanded_deg: b,
+            normal: fw::mul(fw::rodrigues(d_true, -b.to_radians()), n3),
+        })
+        .collect();
+    let est = axis_direction_lsq(&pos, RotationSense::Primed, Y).unwrap();
+    assert_close(&est.direction, &d_true, 1e-12, "3-position LSQ");
+    assert!(est.angle_rms_deg < 1e-9);
+    // The wrong sense is caught by the angle check, not silently accepted.
+    let wrong = axis_direction_lsq(&pos, RotationSense::RightHanded, Y).unwrap();
+    assert!(wrong.angle_rms_deg > 40.0, "{}", wrong.angle_rms_deg);
+}
+
+// ------------------------------------------------------------------------------ C15, C16
+#[test]
+fn c15_eq4_half_turn_centre() {
+    let pos = [
+        PointAtAngle { commanded_deg: 0.0, point_mm: [40.0, 30.0] },
+        PointAtAngle { commanded_deg: 180.0, point_mm: [-39.838, -29.988] },
+    ];
+    for sense in [RotationSense::RightHanded, RotationSense::Primed] {
+        let c = axis_centre(&pos, NominalAxis::Z, sense).unwrap();
+        assert_close(&c.centre_mm, &[0.081, 0.006], 1e-12, "eq 4 via LSQ");
+        assert!((c.radius_mm - (39.919f64.hypot(29.994))).abs() < 1e-9);
+    }
+    assert_close(&paper::eq4_centre([40.0, 30.0], [-39.838, -29.988]), &[0.081, 0.006], 1e-12, "eq4");
+}
+
+#[test]
+fn c16_eq8_quarter_turn_centre_primed_b() {
+    let pos = [
+        PointAtAngle { commanded_deg: 0.0, point_mm: [50.0, 80.0] },
+        PointAtAngle { commanded_deg: 90.0, point_mm: [-79.958, 49.982] },
+    ];
+    let c = axis_centre(&pos, NominalAxis::Y, RotationSense::Primed).unwrap();
+    assert_close(&c.centre_mm, &[0.03, 0.012], 1e-12, "eq 8 via LSQ");
+    assert_close(&paper::eq8_centre([50.0, 80.0], [-79.958, 49.982]), &[0.03, 0.012], 1e-12, "eq8");
+    // With the other sense the same data give a different (wrong) centre: the sense matters.
+    let wrong = axis_centre(&pos, NominalAxis::Y, RotationSense::RightHanded).unwrap();
+    assert!((wrong.centre_mm[0] - 0.03).abs() > 1.0);
+}
+
+// ------------------------------------------------------------------------------ C17, C18
+#[test]
+fn c17_eq9_table_axis_tilt_only() {
+    let actual = TableAxes {
+        table: AxisLine { direction: fw::normalize([0.001, 0.0, 1.0]), point_mm: [0.01, 0.02, 0.0] },
+        tilt: AxisLine { direction: Y, point_mm: [0.0; 3] },
+    };
+    let nominal = TableAxes {
+        table: AxisLine { direction: Z, point_mm: [0.0; 3] },
+        tilt: AxisLine { direction: Y, point_mm: [0.0; 3] },
+    };
+    let r = nc_correction(&actual, &nominal, [100.0, 0.0, 50.0], 90.0, 0.0).unwrap();
+    assert_close(&r.actual_mm, &[0.0800999299, 99.95995003, 50.0999199], 1e-8, "V1");
+    assert_close(&r.nominal_mm, &[0.0, 100.0, 50.0], 1e-12, "V2");
+    assert_close(&r.error_machine_um, &[-80.0999, 40.0500, -99.9199], 1e-4, "V2 - V1");
+    assert_close(&r.correction_um, &[80.0999, -40.0500, 99.9199], 1e-4, "correction");
+    assert_close(&r.corrected_command_mm, &r.actual_mm, 0.0, "corrected command = V1");
+    // Work frame: R_r = R_z(90°)ᵀ maps (ex, ey, ez) to (ey, −ex, ez).
+    assert_close(&r.error_work_um, &[40.0500, 80.0999, -99.9199], 1e-4, "V_E1");
+}
+
+#[test]
+fn c18_eq9_tilt_axis_only() {
+    let nominal = TableAxes {
+        table: AxisLine { direction: Z, point_mm: [0.0; 3] },
+        tilt: AxisLine { direction: Y, point_mm: [0.0; 3] },
+    };
+    let actual = TableAxes {
+        table: nominal.table,
+        tilt: AxisLine { direction: fw::normalize([0.0, 1.0, 0.001]), point_mm: [0.0, 0.0, 0.05] },
+    };
+    let r = nc_correction(&actual, &nominal, [100.0, 0.0, 50.0], 0.0, 90.0).unwrap();
+    assert_close(&r.actual_mm, &[49.94997503, 0.1499499001, -99.94990005], 1e-8, "V1");
+    assert_close(&r.nominal_mm, &[50.0, 0.0, -100.0], 1e-12, "V2");
+    assert_close(&r.error_machine_um, &[50.0250, -149.9499, -50.0999], 1e-4, "V2 - V1");
+}
+
+// ------------------------------------------------------------------------------ round trips
+/// Gauge frame whose reading direction is `w` (u chosen ⟂ w, v = w × u).
+fn gauge_towards(w: [f64; 3], u_hint: [f64; 3]) -> GaugeFrame {
+    let w = fw::normalize(w);
+    let u = fw::normalize(fw::sub(u_hint, fw::scale(fw::dot(u_hint, w), w)));
+    GaugeFrame { lateral_u: u, lateral_v: fw::cross(w, u), reading_dir: w }
+}
+
+/// Dial points on a face with normal `n`, seen by a gauge along the nominal face normal `w`.
+fn dial_on_face(n: [f64; 3], g: &GaugeFrame, grid: &[(f64, f64)], noise: &mut dyn FnMut() -> f64) -> Vec<DialPoint> {
+    let zero = fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, grid[0].0, grid[0].1, 0.0);
+    grid.iter()
+        .map(|&(u, v)| DialPoint {
+            u_mm: u,
+            v_mm: v,
+            reading_um: fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, u, v, zero) + noise(),
+        })
+        .collect()
+}
+
+#[test]
+fn round_trip_tilt_axis_from_dial_points_at_several_angles() {
+    let mut rng = fw::SplitMix(4);
+    let grid = [(0.0, 0.0), (60.0, 0.0), (0.0, 40.0), (60.0, 40.0), (30.0, 20.0)];
+    for _ in 0..50 {
+        let d = fw::normalize([rng.uniform(-2e-3, 2e-3), 1.0, rng.uniform(-2e-3, 2e-3)]);
+        // top face of the block, tilted by up to 2 mrad (k = d·n up to ~4e-3)
+        let n0 = fw::normalize([rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3), 1.0]);
+        let cmds: [f64; 4] = [0.0, 30.0, 60.0, 90.0];
+        let mut pos = Vec::new();
+        for &b in &cmds {
+            let n = fw::mul(fw::rodrigues(d, -b.to_radians()), n0); // primed axis
+            // gauge along the nominal face normal at this angle (nominal axis +Y)
+            let w = fw::mul(fw::rodrigues(Y, -b.to_radians()), Z);
+            let g = gauge_towards(w, Y);
+            let pts = dial_on_face(n, &g, &grid, &mut || 0.0);
+            let pn = plane_normal(&pts, &g).unwrap();
+            assert!(max_diff(pn.normal, n) < 1e-12, "normal");
+            pos.push(NormalAtAngle { commanded_deg: b, normal: pn.normal });
+        }
+        let est = axis_direction_lsq(&pos, RotationSense::Primed, Y).unwrap();
+        assert!(max_diff(est.direction, d) < 1e-11, "{:?} vs {d:?}", est.direction);
+        assert!(est.residual_rms_urad < 1e-5 && est.angle_rms_deg < 1e-7);
+        // Two positions alone: the truth is one of the candidates, the k=0 member is off.
+        let two = axis_direction_two_positions(pos[0].normal, pos[3].normal, 90.0, RotationSense::Primed, Y).unwrap();
+        let best = two.candidates.iter().map(|c| max_diff(*c, d)).fold(f64::INFINITY, f64::min);
+        assert!(best < 1e-9, "{best}");
+    }
+}
+
+#[test]
+fn round_trip_table_axis_half_turn_and_centre_with_noise() {
+    let mut rng = fw::SplitMix(7);
+    let grid = [(0.0, 0.0), (100.0, 0.0), (0.0, 100.0)];
+    for _ in 0..50 {
+        let d = fw::normalize([rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3), 1.0]);
+        let n0 = fw::normalize([rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), 1.0]);
+        let n180 = fw::mul(fw::rodrigues(d, std::f64::consts::PI), n0);
+        let g = GaugeFrame::FROM_PLUS_Z;
+        let p1 = plane_normal(&dial_on_face(n0, &g, &grid, &mut || 0.0), &g).unwrap();
+        let p2 = plane_normal(&dial_on_face(n180, &g, &grid, &mut || 0.0), &g).unwrap();
+        let est = axis_direction_half_turn(p1.normal, p2.normal, Z).unwrap();
+        assert!(max_diff(est.direction, d) < 1e-12);
+        // centre: vertex rotated about the (tilted) axis through c, at 4 table angles
+        let c = [rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), 0.0];
+        let v = [rng.uniform(-80.0, 80.0), rng.uniform(-80.0, 80.0), 0.0];
+        let exact: Vec<PointAtAngle> = [0.0, 180.0]
+            .iter()
+            .map(|&a: &f64| {
+                let p = fw::rotate_about_line(d, c, a.to_radians(), v);
+                PointAtAngle { commanded_deg: a, point_mm: [p[0], p[1]] }
+            })
+            .collect();
+        let ce = axis_centre(&exact, NominalAxis::Z, RotationSense::RightHanded).unwrap();
+        // the mid-point lies on the tilted axis, at the mean height of the two vertex positions
+        let z_mid = 0.5 * (fw::rotate_about_line(d, c, 0.0, v)[2] + fw::rotate_about_line(d, c, std::f64::consts::PI, v)[2]);
+        let on_axis = fw::add(c, fw::scale((z_mid - c[2]) / d[2], d));
+        assert_close(&ce.centre_mm, &[on_axis[0], on_axis[1]], 1e-11, "half-turn centre (exact for a tilted axis)");
+        // 8 positions with 1 µm noise: error within 5 σ of the reported uncertainty
+        let noisy: Vec<PointAtAngle> = (0..8)
+            .map(|i| {
+                let a = 45.0 * i as f64;
+                let p = fw::rotate_about_line(Z, c, a.to_radians(), v);
+                PointAtAngle {
+                    commanded_deg: a,
+                    point_mm: [p[0] + 1e-3 * rng.gauss(), p[1] + 1e-3 * rng.gauss()],
+                }
+            })
+            .collect();
+        let cn = axis_centre(&noisy, NominalAxis::Z, RotationSense::RightHanded).unwrap();
+        for k in 0..2 {
+            let e_um = (cn.centre_mm[k] - c[k]) * 1e3;
+            assert!(e_um.abs() < 5.0 * cn.centre_uncertainty_um[k] + 1e-9, "{e_um} vs {}", cn.centre_uncertainty_um[k]);
+        }
+        assert!(cn.residual_rms_um > 0.3 && cn.residual_rms_um < 2.0, "{}", cn.residual_rms_um);
+    }
+}
+
+#[test]
+fn round_trip_eq9_matches_forward_model() {
+    let mut rng = fw::SplitMix(9);
+    for _ in 0..100 {
+        let da = fw::normalize([rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3), 1.0]);
+        let db = fw::normalize([rng.uniform(-2e-3, 2e-3), 1.0, rng.uniform(-2e-3, 2e-3)]);
+        let pa = [rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1)];
+        let pb = [rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1)];
+        let p = [rng.uniform(-100.0, 100.0), rng.uniform(-100.0, 100.0), rng.uniform(0.0, 200.0)];
+        let (eps, phi) = (rng.uniform(-180.0, 180.0), rng.uniform(-90.0, 90.0));
+        let actual = TableAxes { table: AxisLine { direction: da, point_mm: pa }, tilt: AxisLine { direction: db, point_mm: pb } };
+        let nominal = TableAxes { table: AxisLine { direction: Z, point_mm: [0.0; 3] }, tilt: AxisLine { direction: Y, point_mm: [0.0; 3] } };
+        let r = nc_correction(&actual, &nominal, p, eps, phi).unwrap();
+        let v1 = fw::eq9(p, da, pa, db, pb, eps.to_radians(), phi.to_radians());
+        let v2 = fw::eq9(p, Z, [0.0; 3], Y, [0.0; 3], eps.to_radians(), phi.to_radians());
+        assert!(max_diff(r.actual_mm, v1) < 1e-11 && max_diff(r.nominal_mm, v2) < 1e-11);
+        // error in the work frame, rotated back to the machine frame, is the machine error
+        let rr_t = fw::mul(fw::rodrigues(Y, phi.to_radians()), fw::mul(fw::rodrigues(Z, eps.to_radians()), r.error_work_um));
+        assert!(max_diff(rr_t, r.error_machine_um) < 1e-9);
+        // corrected command puts the tool on the actual work point; compensation = −error
+        assert!(max_diff(fw::add(r.error_machine_um, r.correction_um), [0.0; 3]) < 1e-12);
+    }
+}
+
+// ------------------------------------------------------------------------------ bad input
+#[test]
+fn bad_input_gets_typed_errors() {
+    let g = GaugeFrame::FROM_PLUS_Z;
+    let collinear = [
+        DialPoint { u_mm: 0.0, v_mm: 0.0, reading_um: 0.0 },
+        DialPoint { u_mm: 10.0, v_mm: 10.0, reading_um: 1.0 },
+        DialPoint { u_mm: 20.0, v_mm: 20.0, reading_um: 2.0 },
+    ];
+    assert_eq!(plane_normal(&collinear, &g), Err(CentrelineError::DegeneratePointLayout));
+    assert_eq!(plane_normal(&collinear[..2], &g), Err(CentrelineError::TooFewInputs { given: 2, needed: 3 }));
+    let mut nan = dial3([0.0, 0.01, 0.02]);
+    nan[1].reading_um = f64::NAN;
+    assert_eq!(plane_normal(&nan, &g), Err(CentrelineError::NonFinite));
+    let skew = GaugeFrame { lateral_u: [1.0, 0.0, 0.0], lateral_v: [0.0, 1.0, 0.0], reading_dir: [0.0, 0.0, -1.0] };
+    assert_eq!(plane_normal(&dial3([0.0, 0.01, 0.02]), &skew), Err(CentrelineError::BadGaugeFrame));
+    // half turn with the face normal ⟂ axis: n1 + n2 = 0
+    assert_eq!(
+        axis_direction_half_turn([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], Z),
+        Err(CentrelineError::NormalPerpendicularToAxis)
+    );
+    assert_eq!(axis_direction_half_turn([0.0; 3], Z, Z), Err(CentrelineError::ZeroVector));
+    assert_eq!(axis_direction_half_turn(Z, Z, [1.0, 0.0, 0.0]), Err(CentrelineError::FarFromNominal));
+    // LSQ direction: the same normal three times does not fix an axis
+    let same = [NormalAtAngle { commanded_deg: 0.0, normal: Z }; 3];
+    assert_eq!(axis_direction_lsq(&same, RotationSense::Primed, Y), Err(CentrelineError::NoRotation));
+    assert_eq!(
+        axis_direction_lsq(&same[..2], RotationSense::Primed, Y),
+        Err(CentrelineError::TooFewInputs { given: 2, needed: 3 })
+    );
+    // two positions: zero angle, and an angle too small for the change of the normal
+    assert_eq!(axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 0.0, RotationSense::Primed, Y), Err(CentrelineError::NoRotation));
+    assert_eq!(
+        axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 10.0, RotationSense::Primed, Y),
+        Err(CentrelineError::InconsistentAngle)
+    );
+    // centre: both positions at the same angle
+    let pts = [
+        PointAtAngle { commanded_deg: 30.0, point_mm: [1.0, 2.0] },
+        PointAtAngle { commanded_deg: 30.0, point_mm: [1.0, 2.0] },
+    ];
+    assert_eq!(axis_centre(&pts, NominalAxis::Z, RotationSense::RightHanded), Err(CentrelineError::NoRotation));
+    assert_eq!(
+        axis_centre(&pts[..1], NominalAxis::Z, RotationSense::RightHanded),
+        Err(CentrelineError::TooFewInputs { given: 1, needed: 2 })
+    );
+    let nominal = TableAxes { table: AxisLine { direction: Z, point_mm: [0.0; 3] }, tilt: AxisLine { direction: Y, point_mm: [0.0; 3] } };
+    let broken = TableAxes { table: AxisLine { direction: [0.0; 3], point_mm: [0.0; 3] }, tilt: nominal.tilt };
+    assert_eq!(nc_correction(&broken, &nominal, [1.0; 3], 10.0, 0.0), Err(CentrelineError::ZeroVector));
+    assert_eq!(nc_correction(&nominal, &nominal, [f64::NAN; 3], 10.0, 0.0), Err(CentrelineError::NonFinite));
+}

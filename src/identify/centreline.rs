@@ -1,0 +1,769 @@
+//! Seed 004 (Yamamoto, NIT Oita): rotary-axis centreline (direction + centre point) of a
+//! table-swivel 5-axis machine from dial-gauge readings, and NC-point correction (eq 9).
+//!
+//! Spec: `../shared/spec/seed-003-004.md` part B (B3 equations as printed, B4 consistency
+//! analysis, C11–C18 test vectors).
+//!
+//! # Method, in the order of the procedure
+//! 1. [`plane_normal`]: a reference face of a block on the table is touched by a dial gauge at
+//!    ≥ 3 points; the least-squares plane through them gives the face normal (seed 004 §3.1 uses
+//!    exactly 3 points; more points add a residual).
+//! 2. Axis **direction** from the normals measured at several axis angles (a rotation keeps the
+//!    component of the normal along the axis, so the normal tips lie on a circle about the axis):
+//!    - [`axis_direction_half_turn`]: 0° and 180° (the table axis, seed 004 eqs 1–3 in their
+//!      corrected form `d = normalize(n1 + n2)`; the printed eqs 1–3 lose the sign and have eqs 2
+//!      and 3 inverted, B4);
+//!    - [`axis_direction_two_positions`]: two positions at any angle θ — exact closed form, which
+//!      has **two** solutions (±k) unless the face normal is exactly perpendicular to the axis
+//!      (B4); both are returned with the ambiguity, and the k = 0 member, which is what the
+//!      (corrected) printed eqs 5–7 compute;
+//!    - [`axis_direction_lsq`]: the general least-squares form for ≥ 3 angles (a plane through
+//!      the normal tips), exact whatever the face tilt; this is the recommended primary method.
+//! 3. Axis **centre** from one vertex of the block measured at ≥ 2 axis angles
+//!    ([`axis_centre`], least squares `p_i = c + R(θ_i)·r`); seed 004 eq 4 (half turn about Z)
+//!    and eq 8 (quarter turn about Y) are the two-position special cases, kept literally in
+//!    [`paper`].
+//! 4. [`nc_correction`]: seed 004 eq 9 — the work point rotated about the actual and about the
+//!    NC-set centrelines; the difference is the error and its negative the correction.
+//!
+//! # Conventions (B4, D.2, D.11, D.12)
+//! - Directions are unit vectors in machine coordinates, oriented towards the nominal axis
+//!   direction (`d · nominal > 0`); centres and points are in mm; uncertainties and residuals of
+//!   directions in µrad, of points in µm.
+//! - Rotations `R(d, θ)` are right-handed about `d` (Rodrigues). The *physical* angle is the
+//!   right-handed rotation of the table about the nominal `+axis`; the NC command maps to it
+//!   through [`RotationSense`]. Seed 004's data (eq 8, eqs 5–7 and Table 1) all say that a
+//!   commanded +B turns the table by −B about +Y: [`RotationSense::Primed`] (ISO 841 table axis).
+//! - Dial gauge: the reading is the surface height along the gauge's reading direction
+//!   (+ = towards the gauge), see [`GaugeFrame`].
+
+use nalgebra::{Rotation3, Unit, Vector3};
+
+use super::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError};
+
+/// Why a centreline estimate could not be made.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CentrelineError {
+    /// An input value was NaN or infinite.
+    NonFinite,
+    /// Fewer measured points or axis positions than the method needs.
+    TooFewInputs {
+        /// Inputs given.
+        given: usize,
+        /// Inputs the method needs.
+        needed: usize,
+    },
+    /// The gauge frame is not a right-handed orthonormal triad (|u|, |v| = 1, u ⟂ v, u × v = w
+    /// to 1e-9).
+    BadGaugeFrame,
+    /// The dial points are (nearly) collinear: the plane is not determined.
+    DegeneratePointLayout,
+    /// A direction vector (normal, nominal axis, axis line) has (nearly) zero length.
+    ZeroVector,
+    /// The face normal is (nearly) perpendicular to the axis in a half-turn measurement
+    /// (`|n1 + n2| / 2 = |d · n| < 1e-3`): `n1 + n2` carries no direction.
+    NormalPerpendicularToAxis,
+    /// The axis positions do not rotate the face enough to fix the axis (all normals on a
+    /// line, or two distinct positions given to the ≥ 3-angle method), or the rotation angle is
+    /// 0 (mod 360°) where a rotation is needed.
+    NoRotation,
+    /// The two normals are farther apart than a rotation by the stated angle can make them
+    /// (`k² < 0` in the two-position closed form, beyond 1e-6 of noise): wrong angle.
+    InconsistentAngle,
+    /// The identified direction is more than 60° from the nominal axis (`d · nominal < 0.5`):
+    /// wrong nominal axis or wrong normal orientation.
+    FarFromNominal,
+    /// The underlying least-squares solve failed.
+    Lsq(LsqError),
+}
+
+impl From<LsqError> for CentrelineError {
+    fn from(e: LsqError) -> Self {
+        Self::Lsq(e)
+    }
+}
+
+/// How a commanded NC angle maps to the physical right-handed rotation of the table about the
+/// nominal `+axis` (DESIGN: sign conventions are explicit configuration).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RotationSense {
+    /// Physical angle = commanded angle.
+    RightHanded,
+    /// Physical angle = −commanded angle (ISO 841 primed table axis: the table turns the work
+    /// the opposite way to the tool's relative motion). Seed 004's B axis (B4 sign evidence).
+    Primed,
+}
+
+impl RotationSense {
+    /// The physical right-handed angle (degrees) for a commanded angle (degrees).
+    pub fn physical_deg(self, commanded_deg: f64) -> f64 {
+        match self {
+            Self::RightHanded => commanded_deg,
+            Self::Primed => -commanded_deg,
+        }
+    }
+}
+
+/// Nominal machine axis a rotary axis is parallel to.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum NominalAxis {
+    /// ∥ +X; in-plane coordinates (Y, Z).
+    X,
+    /// ∥ +Y; in-plane coordinates (X, Z) (seed 004 B axis, eq 8).
+    Y,
+    /// ∥ +Z; in-plane coordinates (X, Y) (seed 004 A axis = rotary table, eq 4).
+    Z,
+}
+
+impl NominalAxis {
+    /// Unit vector of the nominal axis.
+    pub fn unit(self) -> [f64; 3] {
+        match self {
+            Self::X => [1.0, 0.0, 0.0],
+            Self::Y => [0.0, 1.0, 0.0],
+            Self::Z => [0.0, 0.0, 1.0],
+        }
+    }
+}
+
+/// Orientation of the dial gauge while it touches a face, in machine coordinates: the two
+/// lateral directions along which the gauge is moved between points and the reading
+/// direction (a larger reading = the surface is farther along `reading_dir`, i.e. closer to
+/// the gauge). Must be right-handed orthonormal: `lateral_u × lateral_v = reading_dir`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GaugeFrame {
+    /// First lateral direction (unit, machine coordinates).
+    pub lateral_u: [f64; 3],
+    /// Second lateral direction (unit, machine coordinates).
+    pub lateral_v: [f64; 3],
+    /// Reading direction (unit): the direction of increasing surface height.
+    pub reading_dir: [f64; 3],
+}
+
+impl GaugeFrame {
+    /// Gauge above a horizontal face, touching from +Z (seed 004 §3.1): u = X, v = Y, reading
+    /// = height along +Z.
+    pub const FROM_PLUS_Z: Self = Self {
+        lateral_u: [1.0, 0.0, 0.0],
+        lateral_v: [0.0, 1.0, 0.0],
+        reading_dir: [0.0, 0.0, 1.0],
+    };
+}
+
+/// One dial-gauge point: lateral position of the gauge (mm, machine axes along the gauge
+/// frame's u and v) and the indicator reading (µm, + = surface towards the gauge).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DialPoint {
+    /// Position along the gauge frame's `lateral_u`, mm.
+    pub u_mm: f64,
+    /// Position along the gauge frame's `lateral_v`, mm.
+    pub v_mm: f64,
+    /// Indicator reading, µm (+ = surface height towards the gauge).
+    pub reading_um: f64,
+}
+
+/// A face normal from dial-gauge points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PlaneNormal {
+    /// Unit normal in machine coordinates, pointing towards the gauge (`· reading_dir > 0`).
+    pub normal: [f64; 3],
+    /// RMS of the reading residuals about the fitted plane, µm (0 with exactly 3 points).
+    pub residual_rms_um: f64,
+    /// Standard uncertainty of the two face slopes (along u, along v), µrad (0 with 3 points).
+    pub slope_uncertainty_urad: [f64; 2],
+    /// Number of points used.
+    pub points: usize,
+}
+
+/// An estimated axis direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisDirection {
+    /// Unit direction, machine coordinates, oriented with the nominal axis.
+    pub direction: [f64; 3],
+    /// `d · n` of the (first) face normal: the cosine of the normal-to-axis angle (k in B4).
+    pub axial_cos: f64,
+    /// Standard uncertainty of the direction's two tilt components (about the two directions
+    /// perpendicular to the nominal axis), µrad; 0 when the method has no redundancy.
+    pub tilt_uncertainty_urad: [f64; 2],
+    /// RMS of the plane residuals `d · n_i − k` over the positions, µrad (0 without
+    /// redundancy).
+    pub residual_rms_urad: f64,
+    /// RMS of (measured − commanded) rotation between positions, degrees (relative to the first
+    /// position, physical sense): catches a wrong [`RotationSense`] or angle. 0 for the
+    /// half-turn method, where the angle is not measured.
+    pub angle_rms_deg: f64,
+    /// Number of axis positions used.
+    pub positions: usize,
+}
+
+/// Result of the two-position method at a general angle (B4): two exact solutions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TwoPositionAxis {
+    /// The two exact solutions of `n4 = R(d, θ)·n3` (the closed form with k = +|k|, then with
+    /// k = −|k|), unit, each oriented with the nominal; identical when k = 0.
+    pub candidates: [[f64; 3]; 2],
+    /// The k = 0 member (the face normal assumed perpendicular to the axis): what the corrected
+    /// printed eqs 5–7 compute at θ = −90°; it is the normalised mid-point of the candidates.
+    pub perpendicular_assumption: [f64; 3],
+    /// |k| = |d · n3|, the cosine of the normal-to-axis angle.
+    pub axial_cos_abs: f64,
+    /// Angle between the two candidates, µrad: what two positions cannot decide (≈ 2√2·|k|
+    /// rad at 90°). Measure ≥ 3 positions ([`axis_direction_lsq`]) to remove it.
+    pub ambiguity_urad: f64,
+}
+
+/// A face normal measured at one axis position.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalAtAngle {
+    /// Commanded axis angle, degrees.
+    pub commanded_deg: f64,
+    /// Unit face normal (machine coordinates), from [`plane_normal`].
+    pub normal: [f64; 3],
+}
+
+/// A block vertex measured at one axis position (seed 004 §3.2/§3.4).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointAtAngle {
+    /// Commanded axis angle, degrees.
+    pub commanded_deg: f64,
+    /// In-plane coordinates of the vertex, mm, in the order of [`NominalAxis`] ((X, Y) for Z,
+    /// (X, Z) for Y, (Y, Z) for X).
+    pub point_mm: [f64; 2],
+}
+
+/// An estimated axis centre (where the axis pierces the plane of the measured vertex).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisCentre {
+    /// Centre, mm, in-plane coordinates in the order of [`NominalAxis`].
+    pub centre_mm: [f64; 2],
+    /// Standard uncertainty of the centre coordinates, µm (0 without redundancy).
+    pub centre_uncertainty_um: [f64; 2],
+    /// Distance of the vertex from the axis, mm.
+    pub radius_mm: f64,
+    /// RMS of the point residuals (per coordinate), µm (0 without redundancy).
+    pub residual_rms_um: f64,
+    /// Number of positions used.
+    pub positions: usize,
+}
+
+/// A rotary-axis line: unit direction and a point on it (seed 004's D and P).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AxisLine {
+    /// Direction (need not be normalised; it is normalised before use).
+    pub direction: [f64; 3],
+    /// A point on the axis, mm (machine coordinates).
+    pub point_mm: [f64; 3],
+}
+
+/// The two table axes of seed 004's table-swivel machine: the rotary table A is carried by the
+/// tilting cradle B, so a work point is rotated about A first, then about B (eq 9).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TableAxes {
+    /// Rotary-table axis (seed 004 "A", nominally ∥ Z).
+    pub table: AxisLine,
+    /// Tilting axis that carries the table (seed 004 "B", nominally ∥ Y).
+    pub tilt: AxisLine,
+}
+
+/// NC-point correction of one work point (seed 004 eq 9 and §4.3).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NcPointCorrection {
+    /// V1: where the work point actually is after the rotations (actual centrelines), mm.
+    pub actual_mm: [f64; 3],
+    /// V2: where the NC believes it is (NC-set centrelines), mm.
+    pub nominal_mm: [f64; 3],
+    /// Error of the uncorrected tool position relative to the work point, machine axes, µm:
+    /// `V2 − V1` (tool at V2, work point at V1; error = actual − nominal of the tool-to-work
+    /// position, the sign of seed 003's probe − ball).
+    pub error_machine_um: [f64; 3],
+    /// The same error in the rotated work frame, µm: `R_r·(V2 − V1)` with
+    /// `R_r = (R(D_NB, φ)·R(D_NA, ε))ᵀ` (eq 9's V_E1; R_r is undefined in the seed, this choice
+    /// is documented in spec B4).
+    pub error_work_um: [f64; 3],
+    /// Correction to add to the nominal machine command, µm: `V1 − V2` (= −error).
+    pub correction_um: [f64; 3],
+    /// Corrected machine command (no TCPM in the controller), mm: `V1`. Only the tool-centre
+    /// position is corrected, not the orientation — sufficient for a ball end mill (B6).
+    pub corrected_command_mm: [f64; 3],
+}
+
+/// Smallest |k| = |d·n| for which the half-turn sum `n1 + n2` is accepted.
+pub const MIN_AXIAL_COS: f64 = 1e-3;
+
+fn v3(a: [f64; 3]) -> Vector3<f64> {
+    Vector3::new(a[0], a[1], a[2])
+}
+
+fn arr(v: &Vector3<f64>) -> [f64; 3] {
+    [v.x, v.y, v.z]
+}
+
+fn finite3(a: &[f64; 3]) -> bool {
+    a.iter().all(|x| x.is_finite())
+}
+
+/// Normalises `v`, or `ZeroVector` if |v| < 1e-12 (or non-finite).
+fn unit(v: Vector3<f64>) -> Result<Unit<Vector3<f64>>, CentrelineError> {
+    let n = crate::num::sqrt(v.dot(&v));
+    if !n.is_finite() {
+        return Err(CentrelineError::NonFinite);
+    }
+    if n < 1e-12 {
+        return Err(CentrelineError::ZeroVector);
+    }
+    Ok(Unit::new_unchecked(v / n))
+}
+
+/// Two unit vectors perpendicular to `e` (unit) forming a right-handed triad (p, q, e).
+fn perpendicular_pair(e: &Unit<Vector3<f64>>) -> (Vector3<f64>, Vector3<f64>) {
+    // Pick the machine axis least parallel to e as seed.
+    let seed = if libm::fabs(e.x) <= libm::fabs(e.y) && libm::fabs(e.x) <= libm::fabs(e.z) {
+        Vector3::x()
+    } else if libm::fabs(e.y) <= libm::fabs(e.z) {
+        Vector3::y()
+    } else {
+        Vector3::z()
+    };
+    let p = seed - e.into_inner() * e.dot(&seed);
+    let p = p / crate::num::sqrt(p.dot(&p));
+    let q = e.cross(&p);
+    (p, q)
+}
+
+/// Orients `d` with the nominal and checks it is within 60° of it.
+fn orient(d: Vector3<f64>, nominal: &Unit<Vector3<f64>>) -> Result<Vector3<f64>, CentrelineError> {
+    let d = if d.dot(nominal) < 0.0 { -d } else { d };
+    if d.dot(nominal) < 0.5 {
+        return Err(CentrelineError::FarFromNominal);
+    }
+    Ok(d)
+}
+
+/// Face normal from ≥ 3 dial-gauge points by the least-squares plane
+/// `reading = h0 + s_u·u + s_v·v` (seed 004 §3.1 uses 3 points: exact plane).
+///
+/// Normal = normalize(w − s_u·u − s_v·v) with the slopes in rad (µm/mm · 1e-3), pointing
+/// towards the gauge. C12: points (0,0), (100,0), (0,100) mm with readings 0, −40, 30 µm from
+/// +Z give n = (4e-4, −3e-4, 1)/|·|.
+pub fn plane_normal(
+    points: &[DialPoint],
+    frame: &GaugeFrame,
+) -> Result<PlaneNormal, CentrelineError> {
+    let (u, v, w) = (
+        v3(frame.lateral_u),
+        v3(frame.lateral_v),
+        v3(frame.reading_dir),
+    );
+    if !(finite3(&frame.lateral_u) && finite3(&frame.lateral_v) && finite3(&frame.reading_dir)) {
+        return Err(CentrelineError::NonFinite);
+    }
+    let tol = 1e-9;
+    if libm::fabs(u.norm() - 1.0) > tol
+        || libm::fabs(v.norm() - 1.0) > tol
+        || libm::fabs(u.dot(&v)) > tol
+        || (u.cross(&v) - w).norm() > tol
+    {
+        return Err(CentrelineError::BadGaugeFrame);
+    }
+    if points.len() < 3 {
+        return Err(CentrelineError::TooFewInputs {
+            given: points.len(),
+            needed: 3,
+        });
+    }
+    // Centre the lateral coordinates for conditioning (the plane is the same).
+    let n = points.len() as f64;
+    let (mut cu, mut cv) = (0.0, 0.0);
+    for p in points {
+        if !(p.u_mm.is_finite() && p.v_mm.is_finite() && p.reading_um.is_finite()) {
+            return Err(CentrelineError::NonFinite);
+        }
+        cu += p.u_mm / n;
+        cv += p.v_mm / n;
+    }
+    let mut lsq = GivensLsq::<3>::new();
+    for p in points {
+        lsq.add_row(&[1.0, p.u_mm - cu, p.v_mm - cv], p.reading_um, 1.0)?;
+    }
+    let sol = match lsq.solve_full_rank(DEFAULT_RANK_TOL) {
+        Ok(s) => s,
+        Err(LsqError::RankDeficient { .. }) => return Err(CentrelineError::DegeneratePointLayout),
+        Err(e) => return Err(e.into()),
+    };
+    // slopes in µm/mm = mrad → rad
+    let (su, sv) = (sol.x[1] * 1e-3, sol.x[2] * 1e-3);
+    let nrm = unit(w - u * su - v * sv)?;
+    Ok(PlaneNormal {
+        normal: arr(&nrm),
+        residual_rms_um: if points.len() > 3 {
+            sol.residual_rms
+        } else {
+            0.0
+        },
+        slope_uncertainty_urad: [sol.std_uncertainty[1] * 1e3, sol.std_uncertainty[2] * 1e3],
+        points: points.len(),
+    })
+}
+
+/// Axis direction from face normals at 0° and 180° (seed 004 eqs 1–3, corrected, B4):
+/// a half turn maps n1 to `n2 = 2(d·n1)d − n1`, hence `d = normalize(n1 + n2)`, oriented with
+/// the nominal axis. Needs `|d·n1| ≥` [`MIN_AXIAL_COS`] (a face not parallel to the axis);
+/// no redundancy, so no uncertainty.
+pub fn axis_direction_half_turn(
+    n1: [f64; 3],
+    n2: [f64; 3],
+    nominal: [f64; 3],
+) -> Result<AxisDirection, CentrelineError> {
+    if !(finite3(&n1) && finite3(&n2) && finite3(&nominal)) {
+        return Err(CentrelineError::NonFinite);
+    }
+    let (n1, n2) = (unit(v3(n1))?, unit(v3(n2))?);
+    let e = unit(v3(nominal))?;
+    let s = n1.into_inner() + n2.into_inner();
+    if s.norm() / 2.0 < MIN_AXIAL_COS {
+        return Err(CentrelineError::NormalPerpendicularToAxis);
+    }
+    let d = orient(s / s.norm(), &e)?;
+    Ok(AxisDirection {
+        direction: arr(&d),
+        axial_cos: d.dot(&n1),
+        tilt_uncertainty_urad: [0.0; 2],
+        residual_rms_urad: 0.0,
+        angle_rms_deg: 0.0,
+        positions: 2,
+    })
+}
+
+/// Axis direction from face normals at two positions a physical right-handed angle θ apart,
+/// `n4 = R(d, θ)·n3` (B4 closed form):
+/// `d ∝ cos(θ/2)·(n3 × n4) + k·sin(θ/2)·(n3 + n4)`, `k² = (n3·n4 − cos θ)/(1 − cos θ)`.
+///
+/// Two positions leave the sign of k open: both solutions fit exactly. The k = 0 member is the
+/// corrected printed eqs 5–7 (θ = −90°, a face exactly perpendicular to the axis).
+/// `commanded_deg` is the angle of the second position minus the first, mapped by `sense`.
+pub fn axis_direction_two_positions(
+    n3: [f64; 3],
+    n4: [f64; 3],
+    commanded_deg: f64,
+    sense: RotationSense,
+    nominal: [f64; 3],
+) -> Result<TwoPositionAxis, CentrelineError> {
+    if !(finite3(&n3) && finite3(&n4) && finite3(&nominal) && commanded_deg.is_finite()) {
+        return Err(CentrelineError::NonFinite);
+    }
+    let (n3, n4) = (unit(v3(n3))?, unit(v3(n4))?);
+    let e = unit(v3(nominal))?;
+    let theta = sense.physical_deg(commanded_deg).to_radians();
+    let cos_t = libm::cos(theta);
+    if 1.0 - cos_t < 1e-12 {
+        return Err(CentrelineError::NoRotation);
+    }
+    let k2 = (n3.dot(&n4) - cos_t) / (1.0 - cos_t);
+    // n3·n4 = k² + (1 − k²)·cos θ ≥ cos θ: a more negative k² means the normals moved more
+    // than a rotation by θ can move them (small negative values are measurement noise).
+    if k2 < -1e-6 {
+        return Err(CentrelineError::InconsistentAngle);
+    }
+    let k = crate::num::sqrt(k2.clamp(0.0, 1.0));
+    let (ch, sh) = (libm::cos(theta / 2.0), libm::sin(theta / 2.0));
+    let cross = n3.cross(&n4) * ch;
+    let sum = (n3.into_inner() + n4.into_inner()) * sh;
+    let plus = orient(unit(cross + sum * k)?.into_inner(), &e)?;
+    let minus = orient(unit(cross - sum * k)?.into_inner(), &e)?;
+    // At θ = ±180° the cross term vanishes and both candidates are ∥ n3 + n4.
+    let mid = match unit(cross) {
+        Ok(m) => orient(m.into_inner(), &e)?,
+        Err(_) => plus,
+    };
+    let ambiguity = libm::atan2(plus.cross(&minus).norm(), plus.dot(&minus));
+    Ok(TwoPositionAxis {
+        candidates: [arr(&plus), arr(&minus)],
+        perpendicular_assumption: arr(&mid),
+        axial_cos_abs: k,
+        ambiguity_urad: ambiguity * 1e6,
+    })
+}
+
+/// Signed angle (rad) from `a` to `b` about unit `d`, after projecting both onto the plane
+/// perpendicular to `d`.
+fn signed_angle_about(d: &Vector3<f64>, a: &Vector3<f64>, b: &Vector3<f64>) -> f64 {
+    let pa = a - d * d.dot(a);
+    let pb = b - d * d.dot(b);
+    libm::atan2(d.dot(&pa.cross(&pb)), pa.dot(&pb))
+}
+
+/// Wraps an angle in degrees into (−180°, 180°].
+fn wrap_deg(x: f64) -> f64 {
+    let mut y = libm::fmod(x, 360.0);
+    if y > 180.0 {
+        y -= 360.0;
+    } else if y <= -180.0 {
+        y += 360.0;
+    }
+    y
+}
+
+/// Axis direction from face normals at ≥ 3 axis positions (B4 recommendation; the general
+/// least-squares form): a rotation keeps `d·n`, so the normal tips lie on a plane
+/// `d·n_i = k`. With `d' = e + a·p + b·q` (e nominal, p, q ⟂ e) the equations
+/// `a·(p·n_i) + b·(q·n_i) − k' = −e·n_i` are linear and exact, whatever the face tilt; then
+/// `d = normalize(d')`. The commanded angles are used only for the angle check
+/// ([`AxisDirection::angle_rms_deg`]), not for the direction.
+///
+/// Rank check: the normals must span a circle (≥ 3 distinct positions), else `NoRotation`.
+/// A face whose normal is nearly along the axis gives a tiny circle and a large (reported)
+/// uncertainty; use [`axis_direction_half_turn`] for it.
+pub fn axis_direction_lsq(
+    positions: &[NormalAtAngle],
+    sense: RotationSense,
+    nominal: [f64; 3],
+) -> Result<AxisDirection, CentrelineError> {
+    if positions.len() < 3 {
+        return Err(CentrelineError::TooFewInputs {
+            given: positions.len(),
+            needed: 3,
+        });
+    }
+    if !finite3(&nominal)
+        || positions
+            .iter()
+            .any(|p| !(finite3(&p.normal) && p.commanded_deg.is_finite()))
+    {
+        return Err(CentrelineError::NonFinite);
+    }
+    let e = unit(v3(nominal))?;
+    let (p, q) = perpendicular_pair(&e);
+    let mut lsq = GivensLsq::<3>::new();
+    for pos in positions {
+        let n = unit(v3(pos.normal))?;
+        lsq.add_row(&[p.dot(&n), q.dot(&n), -1.0], -e.dot(&n), 1.0)?;
+    }
+    let sol = match lsq.solve_full_rank(DEFAULT_RANK_TOL) {
+        Ok(s) => s,
+        Err(LsqError::RankDeficient { .. }) => return Err(CentrelineError::NoRotation),
+        Err(err) => return Err(err.into()),
+    };
+    let dp = e.into_inner() + p * sol.x[0] + q * sol.x[1];
+    let scale = dp.norm();
+    let d = orient(unit(dp)?.into_inner(), &e)?;
+    let mut first: Option<(Vector3<f64>, f64)> = None;
+    let (mut sum_sq, mut k_first) = (0.0, 0.0);
+    for pos in positions {
+        let n = v3(pos.normal);
+        let n = n / n.norm();
+        match first {
+            None => {
+                first = Some((n, sense.physical_deg(pos.commanded_deg)));
+                k_first = d.dot(&n);
+            }
+            Some((n0, a0)) => {
+                let measured = signed_angle_about(&d, &n0, &n).to_degrees();
+                let expected = sense.physical_deg(pos.commanded_deg) - a0;
+                let r = wrap_deg(measured - expected);
+                sum_sq += r * r;
+            }
+        }
+    }
+    let redundant = positions.len() > 3;
+    Ok(AxisDirection {
+        direction: arr(&d),
+        axial_cos: k_first,
+        tilt_uncertainty_urad: [
+            sol.std_uncertainty[0] / scale * 1e6,
+            sol.std_uncertainty[1] / scale * 1e6,
+        ],
+        residual_rms_urad: if redundant {
+            sol.residual_rms / scale * 1e6
+        } else {
+            0.0
+        },
+        angle_rms_deg: crate::num::sqrt(sum_sq / (positions.len() - 1) as f64),
+        positions: positions.len(),
+    })
+}
+
+/// In-plane rotation matrix entries (c, s) for a physical right-handed angle θ about the
+/// nominal axis, written in that axis's in-plane coordinate order: returns the 2×2 matrix
+/// `[[m00, m01], [m10, m11]]` acting on `(first, second)` coordinates.
+/// About Z on (X, Y): [[c, −s], [s, c]]; about Y on (X, Z): [[c, s], [−s, c]];
+/// about X on (Y, Z): [[c, −s], [s, c]].
+fn in_plane_rotation(axis: NominalAxis, theta_rad: f64) -> [[f64; 2]; 2] {
+    let (s, c) = (libm::sin(theta_rad), libm::cos(theta_rad));
+    match axis {
+        NominalAxis::Z | NominalAxis::X => [[c, -s], [s, c]],
+        NominalAxis::Y => [[c, s], [-s, c]],
+    }
+}
+
+/// Axis centre from one physical vertex measured at ≥ 2 axis positions (seed 004 §3.2, §3.4;
+/// eqs 4 and 8 are the two-position cases): least squares on `p_i = c + R(θ_i − θ_0)·r`,
+/// unknowns c (centre) and r (vertex − centre at the first position), `θ` physical (via
+/// `sense`). Two positions: exact; more: residual and uncertainty.
+///
+/// The measured points are taken in the plane perpendicular to the nominal axis; an axis tilt
+/// τ changes the centre by O(τ²·radius) (a half turn is exact: the mid-point lies on the axis).
+/// All positions must show the **same physical vertex** (D.11).
+pub fn axis_centre(
+    positions: &[PointAtAngle],
+    axis: NominalAxis,
+    sense: RotationSense,
+) -> Result<AxisCentre, CentrelineError> {
+    if positions.len() < 2 {
+        return Err(CentrelineError::TooFewInputs {
+            given: positions.len(),
+            needed: 2,
+        });
+    }
+    if positions
+        .iter()
+        .any(|p| !(p.commanded_deg.is_finite() && p.point_mm.iter().all(|x| x.is_finite())))
+    {
+        return Err(CentrelineError::NonFinite);
+    }
+    let theta0 = positions
+        .first()
+        .map(|p| sense.physical_deg(p.commanded_deg))
+        .unwrap_or(0.0);
+    // Centre the data on the first point for conditioning.
+    let origin = positions.first().map(|p| p.point_mm).unwrap_or([0.0; 2]);
+    let mut lsq = GivensLsq::<4>::new();
+    for pos in positions {
+        let m = in_plane_rotation(
+            axis,
+            (sense.physical_deg(pos.commanded_deg) - theta0).to_radians(),
+        );
+        let d = [pos.point_mm[0] - origin[0], pos.point_mm[1] - origin[1]];
+        // p = c + M r  ->  [1, 0, m00, m01]·x = p0 ; [0, 1, m10, m11]·x = p1
+        lsq.add_row(&[1.0, 0.0, m[0][0], m[0][1]], d[0], 1.0)?;
+        lsq.add_row(&[0.0, 1.0, m[1][0], m[1][1]], d[1], 1.0)?;
+    }
+    let sol = match lsq.solve_full_rank(DEFAULT_RANK_TOL) {
+        Ok(s) => s,
+        Err(LsqError::RankDeficient { .. }) => return Err(CentrelineError::NoRotation),
+        Err(err) => return Err(err.into()),
+    };
+    let redundant = positions.len() > 2;
+    Ok(AxisCentre {
+        centre_mm: [sol.x[0] + origin[0], sol.x[1] + origin[1]],
+        centre_uncertainty_um: [sol.std_uncertainty[0] * 1e3, sol.std_uncertainty[1] * 1e3],
+        radius_mm: libm::hypot(sol.x[2], sol.x[3]),
+        residual_rms_um: if redundant {
+            sol.residual_rms * 1e3
+        } else {
+            0.0
+        },
+        positions: positions.len(),
+    })
+}
+
+/// Rotation of a work point about an axis line: `R(D, θ)(p − P) + P` (right-handed).
+fn rotate_about_line(
+    line: &AxisLine,
+    p: &Vector3<f64>,
+    theta_rad: f64,
+) -> Result<Vector3<f64>, CentrelineError> {
+    let d = unit(v3(line.direction))?;
+    let c = v3(line.point_mm);
+    Ok(Rotation3::from_axis_angle(&d, theta_rad) * (p - c) + c)
+}
+
+/// Seed 004 eq 9: the work point `P_p + P_w` (mm, machine coordinates at A0B0) rotated by the
+/// table axis (ε) first, then by the tilting axis (φ):
+/// `V = R(D_B, φ)·((R(D_A, ε)(P − P_A) + P_A) − P_B) + P_B`, for the actual (V1) and the
+/// NC-set (V2) centrelines. `eps_deg`, `phi_deg` are **physical** right-handed angles (map NC
+/// commands with [`RotationSense::physical_deg`]). Error, correction and corrected command as
+/// documented on [`NcPointCorrection`].
+pub fn nc_correction(
+    actual: &TableAxes,
+    nominal: &TableAxes,
+    work_point_mm: [f64; 3],
+    eps_deg: f64,
+    phi_deg: f64,
+) -> Result<NcPointCorrection, CentrelineError> {
+    let all = [
+        actual.table.direction,
+        actual.table.point_mm,
+        actual.tilt.direction,
+        actual.tilt.point_mm,
+        nominal.table.direction,
+        nominal.table.point_mm,
+        nominal.tilt.direction,
+        nominal.tilt.point_mm,
+        work_point_mm,
+    ];
+    if !(all.iter().all(finite3) && eps_deg.is_finite() && phi_deg.is_finite()) {
+        return Err(CentrelineError::NonFinite);
+    }
+    let p = v3(work_point_mm);
+    let (eps, phi) = (eps_deg.to_radians(), phi_deg.to_radians());
+    let v1 = rotate_about_line(
+        &actual.tilt,
+        &rotate_about_line(&actual.table, &p, eps)?,
+        phi,
+    )?;
+    let v2 = rotate_about_line(
+        &nominal.tilt,
+        &rotate_about_line(&nominal.table, &p, eps)?,
+        phi,
+    )?;
+    let r_r = (Rotation3::from_axis_angle(&unit(v3(nominal.tilt.direction))?, phi)
+        * Rotation3::from_axis_angle(&unit(v3(nominal.table.direction))?, eps))
+    .inverse();
+    let err = (v2 - v1) * 1e3;
+    Ok(NcPointCorrection {
+        actual_mm: arr(&v1),
+        nominal_mm: arr(&v2),
+        error_machine_um: arr(&err),
+        error_work_um: arr(&(r_r * err)),
+        correction_um: arr(&(-err)),
+        corrected_command_mm: arr(&v1),
+    })
+}
+
+/// Seed 004's printed two-position formulas in their corrected literal form (paper mode).
+/// The primary results are the general functions above; these exist to show that the paper's
+/// special cases are reproduced and where they stop being valid.
+pub mod paper {
+    use super::CentrelineError;
+
+    /// Eqs 5–7 as corrected in B4 (eq 5: c3/c4 swapped back; eq 6: denominator a3 + a4):
+    /// `B_a = −2(b3·c4 − b4·c3)/|n3+n4|²`, `B_b = (B_a(b3+b4) − c3 + c4)/(a3+a4)`,
+    /// `B_c = (B_a(c3+c4) + b3 − b4)/(a3+a4)`. Exact only for `n4 = R(d, −90°)·n3` with the face
+    /// normal exactly perpendicular to the axis (k = 0); otherwise off by ≈ √2·|k| rad.
+    /// Not normalised (as printed). Error when `a3 + a4` or `|n3 + n4|` vanishes.
+    pub fn eq5_7_corrected(n3: [f64; 3], n4: [f64; 3]) -> Result<[f64; 3], CentrelineError> {
+        let [a3, b3, c3] = n3;
+        let [a4, b4, c4] = n4;
+        let s2 = (a3 + a4) * (a3 + a4) + (b3 + b4) * (b3 + b4) + (c3 + c4) * (c3 + c4);
+        let den = a3 + a4;
+        if !(s2.is_finite() && den.is_finite()) {
+            return Err(CentrelineError::NonFinite);
+        }
+        if s2 < 1e-12 || libm::fabs(den) < 1e-12 {
+            return Err(CentrelineError::NoRotation);
+        }
+        let ba = -2.0 * (b3 * c4 - b4 * c3) / s2;
+        Ok([
+            ba,
+            (ba * (b3 + b4) - c3 + c4) / den,
+            (ba * (c3 + c4) + b3 - b4) / den,
+        ])
+    }
+
+    /// Eq 4 (half turn about Z): centre = mid-point of the vertex at A0 (i) and A180 (j), mm.
+    pub fn eq4_centre(i_xy_mm: [f64; 2], j_xy_mm: [f64; 2]) -> [f64; 2] {
+        [
+            0.5 * (i_xy_mm[0] + j_xy_mm[0]),
+            0.5 * (i_xy_mm[1] + j_xy_mm[1]),
+        ]
+    }
+
+    /// Eq 8 (quarter turn about Y, physical −90°: x' = −z, z' = x about the centre): centre
+    /// `X = ½(X1 + X2 + Z1 − Z2)`, `Z = ½(−X1 + X2 + Z1 + Z2)` from the vertex at B0 (k) and
+    /// commanded B90 (l), (X, Z) in mm.
+    pub fn eq8_centre(k_xz_mm: [f64; 2], l_xz_mm: [f64; 2]) -> [f64; 2] {
+        let [x1, z1] = k_xz_mm;
+        let [x2, z2] = l_xz_mm;
+        [0.5 * (x1 + x2 + z1 - z2), 0.5 * (-x1 + x2 + z1 + z2)]
+    }
+}

@@ -164,3 +164,93 @@ fn bad_input_is_rejected_and_changes_nothing() {
         })
     );
 }
+
+#[test]
+fn rank_deficiency_with_rounding_noise_converges_and_is_reported() {
+    // 13 unknowns, column 12 = 0.7·col3 − 1.3·col5 computed in floating point: the SVD must
+    // converge and report rank 12 (a combination of 3, 5 and 12 is inseparable).
+    let mut rng = ballpod_host::rng::Rng::new(5);
+    let mut l = GivensLsq::<13>::new();
+    for _ in 0..60 {
+        let mut a = [0.0f64; 13];
+        for v in a.iter_mut().take(12) {
+            *v = rng.range(-1.0, 1.0) * 1e3;
+        }
+        a[12] = 0.7 * a[3] - 1.3 * a[5];
+        let b: f64 = a.iter().sum();
+        l.add_row(&a, b, 1.0).unwrap();
+    }
+    let s = l.solve(DEFAULT_RANK_TOL).unwrap();
+    assert_eq!(s.rank, 12);
+    let w = s.right_singular_vectors[12];
+    let n = (0.7f64 * 0.7 + 1.3 * 1.3 + 1.0).sqrt();
+    assert!(
+        (w[3].abs() - 0.7 / n).abs() < 1e-9
+            && (w[5].abs() - 1.3 / n).abs() < 1e-9
+            && (w[12].abs() - 1.0 / n).abs() < 1e-9
+    );
+    assert!(matches!(
+        l.solve_full_rank(DEFAULT_RANK_TOL),
+        Err(LsqError::RankDeficient {
+            rank: 12,
+            weakest_param: 5
+        })
+    ));
+}
+
+#[test]
+fn a_column_of_pure_rounding_noise_converges() {
+    // Column 12 is (a3 + a5) − a3 − a5: zero but for rounding, ~1e-13 of the others.
+    let mut rng = ballpod_host::rng::Rng::new(9);
+    let mut l = GivensLsq::<13>::new();
+    for _ in 0..60 {
+        let mut a = [0.0f64; 13];
+        for v in a.iter_mut().take(12) {
+            *v = rng.range(-1.0, 1.0) * 1e3;
+        }
+        a[12] = (a[3] + a[5]) - a[3] - a[5];
+        let b: f64 = a.iter().take(12).sum();
+        l.add_row(&a, b, 1.0).unwrap();
+    }
+    let s = l.solve(DEFAULT_RANK_TOL).unwrap();
+    assert_eq!(s.rank, 12);
+    for (i, x) in s.x.iter().enumerate().take(12) {
+        assert!((x - 1.0).abs() < 1e-9, "x[{i}] = {x}");
+    }
+}
+
+#[test]
+fn repeated_identical_rows_of_a_rank_deficient_design_converge() {
+    // Ten copies of the same three rows (rank 3 of 5): R is exact up to rounding noise in its
+    // null directions; the SVD must converge and report rank 3.
+    let rows = [
+        [1.0, 2.0, 0.5, -1.0, 3.0],
+        [0.0, 1.0, -2.0, 4.0, 1.0],
+        [2.5, 0.0, 1.0, 1.0, -1.0],
+    ];
+    let mut l = GivensLsq::<5>::new();
+    for _ in 0..10 {
+        for r in &rows {
+            l.add_row(r, r.iter().sum(), 1.0).unwrap();
+        }
+    }
+    let s = l.solve(DEFAULT_RANK_TOL).unwrap();
+    assert_eq!(s.rank, 3);
+    assert!(s.residual_rms < 1e-12);
+}
+
+#[test]
+fn r_test_gain_rows_repeated_converge_with_their_rank() {
+    // Reported by the R-test work: ten copies of the three rows of the seed 003 reduced gains at
+    // A = C = 0 (rank 3 of 11) made the Jacobi SVD stop without converging.
+    use ballpod::identify::rtest::{RtestGeometry, reduced_gains};
+    let h = reduced_gains(&RtestGeometry::SEED003_TABLE3, 0.0, 0.0);
+    let mut l = GivensLsq::<11>::new();
+    for _ in 0..10 {
+        for r in &h {
+            l.add_row(r, 1.0, 1.0).unwrap();
+        }
+    }
+    let s = l.solve(DEFAULT_RANK_TOL).unwrap();
+    assert_eq!(s.rank, 3);
+}

@@ -255,6 +255,10 @@ impl<const N: usize> JacobiSvd<N> {
                 *d = 1.0;
             }
         });
+        // Columns whose squared norm is below (ε·‖A‖_F)² are rounding noise: rotating them
+        // against each other never settles, and they are zero singular values anyway.
+        let frob2: f64 = cols.iter().map(|c| dot(c, c)).sum();
+        let negligible = f64::EPSILON * f64::EPSILON * frob2;
         let mut converged = false;
         for _ in 0..Self::MAX_SWEEPS {
             let mut off = 0.0f64;
@@ -264,7 +268,10 @@ impl<const N: usize> JacobiSvd<N> {
                         continue;
                     };
                     let (alpha, beta, gamma) = (dot(cp, cp), dot(cq, cq), dot(cp, cq));
-                    if gamma == 0.0 || libm::fabs(gamma) <= f64::EPSILON * libm::sqrt(alpha * beta)
+                    if alpha <= negligible
+                        || beta <= negligible
+                        || gamma == 0.0
+                        || libm::fabs(gamma) <= f64::EPSILON * libm::sqrt(alpha * beta)
                     {
                         continue;
                     }
@@ -277,7 +284,7 @@ impl<const N: usize> JacobiSvd<N> {
                     rotate_pair(&mut v, p, q, c, s);
                 }
             }
-            if off <= f64::EPSILON {
+            if off <= 4.0 * f64::EPSILON {
                 converged = true;
                 break;
             }

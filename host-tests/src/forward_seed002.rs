@@ -46,7 +46,10 @@ fn h(r: [[f64; 3]; 3], t: [f64; 3]) -> M4 {
 
 /// Pure translation.
 pub fn tr(x: f64, y: f64, z: f64) -> M4 {
-    h([[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]], [x, y, z])
+    h(
+        [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+        [x, y, z],
+    )
 }
 
 /// E_B (2.4).
@@ -84,20 +87,54 @@ pub fn mats(d: &[f64; 13]) -> (M4, M4, M4, M4, M4, M4) {
         d[12] * ur,
     );
     (
-        h([[1.0, 0.0, 0.0], [0.0, 1.0, -abt], [0.0, abt, 1.0]], [dxbt, 0.0, dzbt]),
-        h([[1.0, -gxb, bxb], [gxb, 1.0, -axb], [-bxb, axb, 1.0]], [0.0; 3]),
-        h([[1.0, 0.0, byz], [0.0, 1.0, -ayz], [-byz, ayz, 1.0]], [0.0; 3]),
-        h([[1.0, -gxy, 0.0], [gxy, 1.0, 0.0], [0.0, 0.0, 1.0]], [0.0; 3]),
-        h([[1.0, 0.0, bcz], [0.0, 1.0, -acz], [-bcz, acz, 1.0]], [dxcz, dycz, 0.0]),
-        h([[1.0, 0.0, -bcz], [0.0, 1.0, acz], [bcz, -acz, 1.0]], [-dxcz, -dycz, 0.0]),
+        h(
+            [[1.0, 0.0, 0.0], [0.0, 1.0, -abt], [0.0, abt, 1.0]],
+            [dxbt, 0.0, dzbt],
+        ),
+        h(
+            [[1.0, -gxb, bxb], [gxb, 1.0, -axb], [-bxb, axb, 1.0]],
+            [0.0; 3],
+        ),
+        h(
+            [[1.0, 0.0, byz], [0.0, 1.0, -ayz], [-byz, ayz, 1.0]],
+            [0.0; 3],
+        ),
+        h(
+            [[1.0, -gxy, 0.0], [gxy, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            [0.0; 3],
+        ),
+        h(
+            [[1.0, 0.0, bcz], [0.0, 1.0, -acz], [-bcz, acz, 1.0]],
+            [dxcz, dycz, 0.0],
+        ),
+        h(
+            [[1.0, 0.0, -bcz], [0.0, 1.0, acz], [bcz, -acz, 1.0]],
+            [-dxcz, -dycz, 0.0],
+        ),
     )
 }
 
 /// T-ball (2.10, 2.20), mm; `tofs` in µm (spindle frame).
-pub fn t_ball(d: &[f64; 13], x: f64, y: f64, z: f64, phi: f64, rb: f64, tofs: [f64; 3]) -> [f64; 3] {
+pub fn t_ball(
+    d: &[f64; 13],
+    x: f64,
+    y: f64,
+    z: f64,
+    phi: f64,
+    rb: f64,
+    tofs: [f64; 3],
+) -> [f64; 3] {
     let (mbt, mxb, myz, mxy, _, _) = mats(d);
     let mut m = tr(0.0, 0.0, z);
-    for f in [myz, tr(0.0, y, 0.0), mxy, tr(x, 0.0, 0.0), mxb, eb(phi), mbt] {
+    for f in [
+        myz,
+        tr(0.0, y, 0.0),
+        mxy,
+        tr(x, 0.0, 0.0),
+        mxb,
+        eb(phi),
+        mbt,
+    ] {
         m = mul(&m, &f);
     }
     apply(&m, [tofs[0] * 1e-3, tofs[1] * 1e-3, tofs[2] * 1e-3 - rb])
@@ -159,10 +196,26 @@ pub fn ecc(p: Pat, d: &[f64; 13], g: &Geo, n: usize, tofs: [f64; 3], wofs: [f64;
         let (x, y, z, phi, th, n1, n2) = match p {
             Pat::Bx => (g.lb + g.rb * s, 0.0, g.zc + g.rb * c, a, 0.0, s, c),
             Pat::By => (g.rb * s, g.lb, g.zc + g.rb * c, a, 0.0, s, c),
-            Pat::Br => ((g.lb + g.rb) * s, 0.0, g.zc + (g.lb + g.rb) * c, a, 0.0, s, c),
+            Pat::Br => (
+                (g.lb + g.rb) * s,
+                0.0,
+                g.zc + (g.lb + g.rb) * c,
+                a,
+                0.0,
+                s,
+                c,
+            ),
             Pat::Cr => {
                 let sg = (g.rc - g.lb).signum();
-                ((g.rc - g.lb) * c, (g.rc - g.lb) * s, g.zc + g.rb, 0.0, a, sg * c, sg * s)
+                (
+                    (g.rc - g.lb) * c,
+                    (g.rc - g.lb) * s,
+                    g.zc + g.rb,
+                    0.0,
+                    a,
+                    sg * c,
+                    sg * s,
+                )
             }
             Pat::Ca => (g.rc * c, g.rc * s, g.zc + g.lb + g.rb, 0.0, a, c, s),
             Pat::Cx => (g.lb + g.rc * c, g.rc * s, g.zc + g.rb, 0.0, a, c, s),
@@ -187,7 +240,8 @@ pub fn ecc(p: Pat, d: &[f64; 13], g: &Geo, n: usize, tofs: [f64; 3], wofs: [f64;
 /// 3×3 solve by Cramer's rule.
 pub fn cramer3(a: &[[f64; 3]; 3], b: &[f64; 3]) -> [f64; 3] {
     let det = |m: &[[f64; 3]; 3]| {
-        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
+        m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1])
+            - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0])
             + m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0])
     };
     let d = det(a);

@@ -47,24 +47,44 @@ pub struct Kin {
 
 /// Pure translation.
 pub fn t(x: f64, y: f64, z: f64) -> M4 {
-    [[1.0, 0.0, 0.0, x], [0.0, 1.0, 0.0, y], [0.0, 0.0, 1.0, z], [0.0, 0.0, 0.0, 1.0]]
+    [
+        [1.0, 0.0, 0.0, x],
+        [0.0, 1.0, 0.0, y],
+        [0.0, 0.0, 1.0, z],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
 }
 
 /// Seed 003's small-rotation-plus-translation matrix S(a,b,c; x,y,z).
 pub fn s(a: f64, b: f64, c: f64, x: f64, y: f64, z: f64) -> M4 {
-    [[1.0, -c, b, x], [c, 1.0, -a, y], [-b, a, 1.0, z], [0.0, 0.0, 0.0, 1.0]]
+    [
+        [1.0, -c, b, x],
+        [c, 1.0, -a, y],
+        [-b, a, 1.0, z],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
 }
 
 /// Exact right-handed rotation about X.
 pub fn rx(th: f64) -> M4 {
     let (sn, cs) = th.sin_cos();
-    [[1.0, 0.0, 0.0, 0.0], [0.0, cs, -sn, 0.0], [0.0, sn, cs, 0.0], [0.0, 0.0, 0.0, 1.0]]
+    [
+        [1.0, 0.0, 0.0, 0.0],
+        [0.0, cs, -sn, 0.0],
+        [0.0, sn, cs, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
 }
 
 /// Exact right-handed rotation about Z.
 pub fn rz(th: f64) -> M4 {
     let (sn, cs) = th.sin_cos();
-    [[cs, -sn, 0.0, 0.0], [sn, cs, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
+    [
+        [cs, -sn, 0.0, 0.0],
+        [sn, cs, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+        [0.0, 0.0, 0.0, 1.0],
+    ]
 }
 
 /// Matrix product.
@@ -96,7 +116,14 @@ pub fn chains(k: &Kin, e: &[f64; 44], a: f64, c: f64, xm: f64, ym: f64, zm: f64)
     let r_tx = chain(&[
         t(k.x_x, k.y_x, k.z_x),
         s(0.0, 0.0, g("COX"), 0.0, 0.0, 0.0),
-        s(g("EAX"), g("EBX"), g("ECX"), xm + g("EXX"), g("EYX"), g("EZX")),
+        s(
+            g("EAX"),
+            g("EBX"),
+            g("ECX"),
+            xm + g("EXX"),
+            g("EYX"),
+            g("EZX"),
+        ),
     ]);
     let x_ta = chain(&[
         t(k.x_a, k.y_a, k.z_a),
@@ -112,11 +139,25 @@ pub fn chains(k: &Kin, e: &[f64; 44], a: f64, c: f64, xm: f64, ym: f64, zm: f64)
     ]);
     let c_tw = t(k.x_w + g("XOW"), k.y_w + g("YOW"), k.z_w + g("ZOW"));
     let r_tw = chain(&[r_tx, x_ta, a_tc, c_tw]);
-    let r_ty = s(g("EAY"), g("EBY"), g("ECY"), g("EXY"), ym + g("EYY"), g("EZY"));
+    let r_ty = s(
+        g("EAY"),
+        g("EBY"),
+        g("ECY"),
+        g("EXY"),
+        ym + g("EYY"),
+        g("EZY"),
+    );
     let y_tz = chain(&[
         t(k.x_z, k.y_z, k.z_z),
         s(g("AOZ"), g("BOZ"), 0.0, 0.0, 0.0, 0.0),
-        s(g("EAZ"), g("EBZ"), g("ECZ"), g("EXZ"), g("EYZ"), zm + g("EZZ")),
+        s(
+            g("EAZ"),
+            g("EBZ"),
+            g("ECZ"),
+            g("EXZ"),
+            g("EYZ"),
+            zm + g("EZZ"),
+        ),
     ]);
     let r_tp = chain(&[r_ty, y_tz, t(k.x_h, k.y_h, k.z_h), t(0.0, 0.0, k.z_p)]);
     (r_tw, r_tp)
@@ -170,7 +211,10 @@ pub fn numeric_gains(k: &Kin, a: f64, c: f64, xm: f64, ym: f64, zm: f64, h: f64)
         let mut en = [0.0; 44];
         ep[n] = h;
         en[n] = -h;
-        let (rp, rn) = (reading(k, &ep, a, c, xm, ym, zm), reading(k, &en, a, c, xm, ym, zm));
+        let (rp, rn) = (
+            reading(k, &ep, a, c, xm, ym, zm),
+            reading(k, &en, a, c, xm, ym, zm),
+        );
         for i in 0..6 {
             g[n][i] = (rp[i] - rn[i]) / (2.0 * h);
         }
@@ -182,7 +226,9 @@ pub fn numeric_gains(k: &Kin, a: f64, c: f64, xm: f64, ym: f64, zm: f64, h: f64)
 /// the ideal TCP commands. `p` = [XOW, YOW, ZOW, YOA, ZOA, BOA, COA, XOC, YOC, AOC, BOC] in
 /// mm / rad.
 pub fn exact_reduced_reading_um(k: &Kin, p: &[f64; 11], a: f64, c: f64) -> [f64; 3] {
-    const MAP: [&str; 11] = ["XOW", "YOW", "ZOW", "YOA", "ZOA", "BOA", "COA", "XOC", "YOC", "AOC", "BOC"];
+    const MAP: [&str; 11] = [
+        "XOW", "YOW", "ZOW", "YOA", "ZOA", "BOA", "COA", "XOC", "YOC", "AOC", "BOC",
+    ];
     let mut e = [0.0; 44];
     for (v, n) in p.iter().zip(MAP) {
         e[idx(n)] = *v;

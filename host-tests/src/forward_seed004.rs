@@ -70,7 +70,15 @@ pub fn rotate_about_line(d: V3, c: V3, t: f64, p: V3) -> V3 {
 /// Dial reading (µm) at lateral position (u, v) mm of a face with unit normal `n` through the
 /// origin, gauge frame (u_dir, v_dir, w_dir): the face height along w at that lateral position,
 /// minus `zero_um` (the indicator zero).
-pub fn dial_reading_um(n: V3, u_dir: V3, v_dir: V3, w_dir: V3, u: f64, v: f64, zero_um: f64) -> f64 {
+pub fn dial_reading_um(
+    n: V3,
+    u_dir: V3,
+    v_dir: V3,
+    w_dir: V3,
+    u: f64,
+    v: f64,
+    zero_um: f64,
+) -> f64 {
     // plane n·x = 0, x = u·U + v·V + h·W  →  h = −(u n·U + v n·V)/(n·W)
     let h_mm = -(u * dot(n, u_dir) + v * dot(n, v_dir)) / dot(n, w_dir);
     h_mm * 1e3 - zero_um

@@ -13,7 +13,10 @@ use ballpod_host::forward_seed004 as fw;
 fn assert_close(got: &[f64], want: &[f64], tol: f64, what: &str) {
     assert_eq!(got.len(), want.len(), "{what}: length");
     for (i, (g, w)) in got.iter().zip(want).enumerate() {
-        assert!((g - w).abs() <= tol, "{what}[{i}]: got {g:.12e}, want {w:.12e} (tol {tol:e})");
+        assert!(
+            (g - w).abs() <= tol,
+            "{what}[{i}]: got {g:.12e}, want {w:.12e} (tol {tol:e})"
+        );
     }
 }
 
@@ -57,7 +60,12 @@ const Y: [f64; 3] = [0.0, 1.0, 0.0];
 #[test]
 fn c12_table_axis_direction_from_a0_a180_dial_points() {
     let n1 = plane_normal(&dial3([0.0, -0.04, 0.03]), &GaugeFrame::FROM_PLUS_Z).unwrap();
-    assert_close(&n1.normal, &[3.9999995e-4, -2.999999625e-4, 0.999999875], 1e-9, "n1");
+    assert_close(
+        &n1.normal,
+        &[3.9999995e-4, -2.999999625e-4, 0.999999875],
+        1e-9,
+        "n1",
+    );
     assert_eq!(n1.residual_rms_um, 0.0);
     let n2 = plane_normal(
         &dial3([0.0, 0.3697218412, -0.02222016494]),
@@ -80,8 +88,16 @@ fn c12_table_axis_direction_from_a0_a180_dial_points() {
     );
     // The printed eqs (1)-(3) give (0.0016486, 0.069868, −2.718e−6): not the axis.
     let printed = printed_eq1_3(n1.normal, n2.normal);
-    assert_close(&printed, &[0.0016486, 0.069868, -2.718e-6], 1e-6, "printed eqs 1-3");
-    assert!(max_diff(printed, d.direction) > 0.5, "pod must not implement the printed eqs 1-3");
+    assert_close(
+        &printed,
+        &[0.0016486, 0.069868, -2.718e-6],
+        1e-6,
+        "printed eqs 1-3",
+    );
+    assert!(
+        max_diff(printed, d.direction) > 0.5,
+        "pod must not implement the printed eqs 1-3"
+    );
 }
 
 #[test]
@@ -105,13 +121,22 @@ fn c13_tilt_axis_perpendicular_face_quarter_turn() {
     // Commanded B+90 on a primed table axis = physical −90° about +Y.
     let two = axis_direction_two_positions(n3, n4, 90.0, RotationSense::Primed, Y).unwrap();
     assert_close(&two.perpendicular_assumption, &want, 1e-9, "k = 0 member");
-    assert!(two.axial_cos_abs < 1e-6, "face ⟂ axis: k = {}", two.axial_cos_abs);
+    assert!(
+        two.axial_cos_abs < 1e-6,
+        "face ⟂ axis: k = {}",
+        two.axial_cos_abs
+    );
     // Paper mode (corrected eqs 5–7) reproduces the same vector.
     let p = paper::eq5_7_corrected(n3, n4).unwrap();
     assert_close(&p, &want, 1e-9, "eq 5-7 corrected");
     // The printed eqs give (1.25e−4, −1, −7.78e−5): wrong sign, x/z swapped.
     let printed = printed_eq5_7(n3, n4);
-    assert_close(&printed, &[1.25e-4, -1.0, -7.78e-5], 1e-7, "printed eqs 5-7");
+    assert_close(
+        &printed,
+        &[1.25e-4, -1.0, -7.78e-5],
+        1e-7,
+        "printed eqs 5-7",
+    );
     assert!(max_diff(printed, want) > 1.0);
 }
 
@@ -144,10 +169,19 @@ fn c14_two_positions_are_ambiguous_three_positions_are_not() {
         "k=0 midpoint",
     );
     let p = paper::eq5_7_corrected(n3, n4).unwrap();
-    assert_close(&fw::normalize(p), &[4.72e-5, 0.9999999989, 0.0], 1e-9, "paper mode");
+    assert_close(
+        &fw::normalize(p),
+        &[4.72e-5, 0.9999999989, 0.0],
+        1e-9,
+        "paper mode",
+    );
     // Ambiguity ≈ angle between d and d'.
     let ang = fw::dot(fw::normalize(d), fw::normalize(d_alt)).acos() * 1e6;
-    assert!((two.ambiguity_urad - ang).abs() < 1e-2, "{} vs {ang}", two.ambiguity_urad);
+    assert!(
+        (two.ambiguity_urad - ang).abs() < 1e-2,
+        "{} vs {ang}",
+        two.ambiguity_urad
+    );
     // Three positions B0/B45/B90 (physical 0, −45°, −90°) give d exactly.
     let d_true = fw::normalize(d);
     let pos: Vec<NormalAtAngle> = [0.0, 45.0, 90.0]
@@ -169,26 +203,48 @@ fn c14_two_positions_are_ambiguous_three_positions_are_not() {
 #[test]
 fn c15_eq4_half_turn_centre() {
     let pos = [
-        PointAtAngle { commanded_deg: 0.0, point_mm: [40.0, 30.0] },
-        PointAtAngle { commanded_deg: 180.0, point_mm: [-39.838, -29.988] },
+        PointAtAngle {
+            commanded_deg: 0.0,
+            point_mm: [40.0, 30.0],
+        },
+        PointAtAngle {
+            commanded_deg: 180.0,
+            point_mm: [-39.838, -29.988],
+        },
     ];
     for sense in [RotationSense::RightHanded, RotationSense::Primed] {
         let c = axis_centre(&pos, NominalAxis::Z, sense).unwrap();
         assert_close(&c.centre_mm, &[0.081, 0.006], 1e-12, "eq 4 via LSQ");
         assert!((c.radius_mm - (39.919f64.hypot(29.994))).abs() < 1e-9);
     }
-    assert_close(&paper::eq4_centre([40.0, 30.0], [-39.838, -29.988]), &[0.081, 0.006], 1e-12, "eq4");
+    assert_close(
+        &paper::eq4_centre([40.0, 30.0], [-39.838, -29.988]),
+        &[0.081, 0.006],
+        1e-12,
+        "eq4",
+    );
 }
 
 #[test]
 fn c16_eq8_quarter_turn_centre_primed_b() {
     let pos = [
-        PointAtAngle { commanded_deg: 0.0, point_mm: [50.0, 80.0] },
-        PointAtAngle { commanded_deg: 90.0, point_mm: [-79.958, 49.982] },
+        PointAtAngle {
+            commanded_deg: 0.0,
+            point_mm: [50.0, 80.0],
+        },
+        PointAtAngle {
+            commanded_deg: 90.0,
+            point_mm: [-79.958, 49.982],
+        },
     ];
     let c = axis_centre(&pos, NominalAxis::Y, RotationSense::Primed).unwrap();
     assert_close(&c.centre_mm, &[0.03, 0.012], 1e-12, "eq 8 via LSQ");
-    assert_close(&paper::eq8_centre([50.0, 80.0], [-79.958, 49.982]), &[0.03, 0.012], 1e-12, "eq8");
+    assert_close(
+        &paper::eq8_centre([50.0, 80.0], [-79.958, 49.982]),
+        &[0.03, 0.012],
+        1e-12,
+        "eq8",
+    );
     // With the other sense the same data give a different (wrong) centre: the sense matters.
     let wrong = axis_centre(&pos, NominalAxis::Y, RotationSense::RightHanded).unwrap();
     assert!((wrong.centre_mm[0] - 0.03).abs() > 1.0);
@@ -198,37 +254,93 @@ fn c16_eq8_quarter_turn_centre_primed_b() {
 #[test]
 fn c17_eq9_table_axis_tilt_only() {
     let actual = TableAxes {
-        table: AxisLine { direction: fw::normalize([0.001, 0.0, 1.0]), point_mm: [0.01, 0.02, 0.0] },
-        tilt: AxisLine { direction: Y, point_mm: [0.0; 3] },
+        table: AxisLine {
+            direction: fw::normalize([0.001, 0.0, 1.0]),
+            point_mm: [0.01, 0.02, 0.0],
+        },
+        tilt: AxisLine {
+            direction: Y,
+            point_mm: [0.0; 3],
+        },
     };
     let nominal = TableAxes {
-        table: AxisLine { direction: Z, point_mm: [0.0; 3] },
-        tilt: AxisLine { direction: Y, point_mm: [0.0; 3] },
+        table: AxisLine {
+            direction: Z,
+            point_mm: [0.0; 3],
+        },
+        tilt: AxisLine {
+            direction: Y,
+            point_mm: [0.0; 3],
+        },
     };
     let r = nc_correction(&actual, &nominal, [100.0, 0.0, 50.0], 90.0, 0.0).unwrap();
-    assert_close(&r.actual_mm, &[0.0800999299, 99.95995003, 50.0999199], 1e-8, "V1");
+    assert_close(
+        &r.actual_mm,
+        &[0.0800999299, 99.95995003, 50.0999199],
+        1e-8,
+        "V1",
+    );
     assert_close(&r.nominal_mm, &[0.0, 100.0, 50.0], 1e-12, "V2");
-    assert_close(&r.error_machine_um, &[-80.0999, 40.0500, -99.9199], 1e-4, "V2 - V1");
-    assert_close(&r.correction_um, &[80.0999, -40.0500, 99.9199], 1e-4, "correction");
-    assert_close(&r.corrected_command_mm, &r.actual_mm, 0.0, "corrected command = V1");
+    assert_close(
+        &r.error_machine_um,
+        &[-80.0999, 40.0500, -99.9199],
+        1e-4,
+        "V2 - V1",
+    );
+    assert_close(
+        &r.correction_um,
+        &[80.0999, -40.0500, 99.9199],
+        1e-4,
+        "correction",
+    );
+    assert_close(
+        &r.corrected_command_mm,
+        &r.actual_mm,
+        0.0,
+        "corrected command = V1",
+    );
     // Work frame: R_r = R_z(90°)ᵀ maps (ex, ey, ez) to (ey, −ex, ez).
-    assert_close(&r.error_work_um, &[40.0500, 80.0999, -99.9199], 1e-4, "V_E1");
+    assert_close(
+        &r.error_work_um,
+        &[40.0500, 80.0999, -99.9199],
+        1e-4,
+        "V_E1",
+    );
 }
 
 #[test]
 fn c18_eq9_tilt_axis_only() {
     let nominal = TableAxes {
-        table: AxisLine { direction: Z, point_mm: [0.0; 3] },
-        tilt: AxisLine { direction: Y, point_mm: [0.0; 3] },
+        table: AxisLine {
+            direction: Z,
+            point_mm: [0.0; 3],
+        },
+        tilt: AxisLine {
+            direction: Y,
+            point_mm: [0.0; 3],
+        },
     };
     let actual = TableAxes {
         table: nominal.table,
-        tilt: AxisLine { direction: fw::normalize([0.0, 1.0, 0.001]), point_mm: [0.0, 0.0, 0.05] },
+        tilt: AxisLine {
+            direction: fw::normalize([0.0, 1.0, 0.001]),
+            point_mm: [0.0, 0.0, 0.05],
+        },
     };
     let r = nc_correction(&actual, &nominal, [100.0, 0.0, 50.0], 0.0, 90.0).unwrap();
-    assert_close(&r.actual_mm, &[49.94997503, 0.1499499001, -99.94990005], 1e-8, "V1");
+    assert_close(
+        &r.actual_mm,
+        &[49.94997503, 0.1499499001, -99.94990005],
+        1e-8,
+        "V1",
+    );
     assert_close(&r.nominal_mm, &[50.0, 0.0, -100.0], 1e-12, "V2");
-    assert_close(&r.error_machine_um, &[50.0250, -149.9499, -50.0999], 1e-4, "V2 - V1");
+    assert_close(
+        &r.error_machine_um,
+        &[50.0250, -149.9499, -50.0999],
+        1e-4,
+        "V2 - V1",
+    );
 }
 
 // ------------------------------------------------------------------------------ round trips
@@ -236,17 +348,35 @@ fn c18_eq9_tilt_axis_only() {
 fn gauge_towards(w: [f64; 3], u_hint: [f64; 3]) -> GaugeFrame {
     let w = fw::normalize(w);
     let u = fw::normalize(fw::sub(u_hint, fw::scale(fw::dot(u_hint, w), w)));
-    GaugeFrame { lateral_u: u, lateral_v: fw::cross(w, u), reading_dir: w }
+    GaugeFrame {
+        lateral_u: u,
+        lateral_v: fw::cross(w, u),
+        reading_dir: w,
+    }
 }
 
 /// Dial points on a face with normal `n`, seen by a gauge along the nominal face normal `w`.
-fn dial_on_face(n: [f64; 3], g: &GaugeFrame, grid: &[(f64, f64)], noise: &mut dyn FnMut() -> f64) -> Vec<DialPoint> {
-    let zero = fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, grid[0].0, grid[0].1, 0.0);
+fn dial_on_face(
+    n: [f64; 3],
+    g: &GaugeFrame,
+    grid: &[(f64, f64)],
+    noise: &mut dyn FnMut() -> f64,
+) -> Vec<DialPoint> {
+    let zero = fw::dial_reading_um(
+        n,
+        g.lateral_u,
+        g.lateral_v,
+        g.reading_dir,
+        grid[0].0,
+        grid[0].1,
+        0.0,
+    );
     grid.iter()
         .map(|&(u, v)| DialPoint {
             u_mm: u,
             v_mm: v,
-            reading_um: fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, u, v, zero) + noise(),
+            reading_um: fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, u, v, zero)
+                + noise(),
         })
         .collect()
 }
@@ -254,7 +384,13 @@ fn dial_on_face(n: [f64; 3], g: &GaugeFrame, grid: &[(f64, f64)], noise: &mut dy
 #[test]
 fn round_trip_tilt_axis_from_dial_points_at_several_angles() {
     let mut rng = fw::SplitMix(4);
-    let grid = [(0.0, 0.0), (60.0, 0.0), (0.0, 40.0), (60.0, 40.0), (30.0, 20.0)];
+    let grid = [
+        (0.0, 0.0),
+        (60.0, 0.0),
+        (0.0, 40.0),
+        (60.0, 40.0),
+        (30.0, 20.0),
+    ];
     for _ in 0..50 {
         let d = fw::normalize([rng.uniform(-2e-3, 2e-3), 1.0, rng.uniform(-2e-3, 2e-3)]);
         // top face of the block, tilted by up to 2 mrad (k = d·n up to ~4e-3)
@@ -269,14 +405,32 @@ fn round_trip_tilt_axis_from_dial_points_at_several_angles() {
             let pts = dial_on_face(n, &g, &grid, &mut || 0.0);
             let pn = plane_normal(&pts, &g).unwrap();
             assert!(max_diff(pn.normal, n) < 1e-12, "normal");
-            pos.push(NormalAtAngle { commanded_deg: b, normal: pn.normal });
+            pos.push(NormalAtAngle {
+                commanded_deg: b,
+                normal: pn.normal,
+            });
         }
         let est = axis_direction_lsq(&pos, RotationSense::Primed, Y).unwrap();
-        assert!(max_diff(est.direction, d) < 1e-11, "{:?} vs {d:?}", est.direction);
+        assert!(
+            max_diff(est.direction, d) < 1e-11,
+            "{:?} vs {d:?}",
+            est.direction
+        );
         assert!(est.residual_rms_urad < 1e-5 && est.angle_rms_deg < 1e-7);
         // Two positions alone: the truth is one of the candidates, the k=0 member is off.
-        let two = axis_direction_two_positions(pos[0].normal, pos[3].normal, 90.0, RotationSense::Primed, Y).unwrap();
-        let best = two.candidates.iter().map(|c| max_diff(*c, d)).fold(f64::INFINITY, f64::min);
+        let two = axis_direction_two_positions(
+            pos[0].normal,
+            pos[3].normal,
+            90.0,
+            RotationSense::Primed,
+            Y,
+        )
+        .unwrap();
+        let best = two
+            .candidates
+            .iter()
+            .map(|c| max_diff(*c, d))
+            .fold(f64::INFINITY, f64::min);
         assert!(best < 1e-9, "{best}");
     }
 }
@@ -301,14 +455,24 @@ fn round_trip_table_axis_half_turn_and_centre_with_noise() {
             .iter()
             .map(|&a: &f64| {
                 let p = fw::rotate_about_line(d, c, a.to_radians(), v);
-                PointAtAngle { commanded_deg: a, point_mm: [p[0], p[1]] }
+                PointAtAngle {
+                    commanded_deg: a,
+                    point_mm: [p[0], p[1]],
+                }
             })
             .collect();
         let ce = axis_centre(&exact, NominalAxis::Z, RotationSense::RightHanded).unwrap();
         // the mid-point lies on the tilted axis, at the mean height of the two vertex positions
-        let z_mid = 0.5 * (fw::rotate_about_line(d, c, 0.0, v)[2] + fw::rotate_about_line(d, c, std::f64::consts::PI, v)[2]);
+        let z_mid = 0.5
+            * (fw::rotate_about_line(d, c, 0.0, v)[2]
+                + fw::rotate_about_line(d, c, std::f64::consts::PI, v)[2]);
         let on_axis = fw::add(c, fw::scale((z_mid - c[2]) / d[2], d));
-        assert_close(&ce.centre_mm, &[on_axis[0], on_axis[1]], 1e-11, "half-turn centre (exact for a tilted axis)");
+        assert_close(
+            &ce.centre_mm,
+            &[on_axis[0], on_axis[1]],
+            1e-11,
+            "half-turn centre (exact for a tilted axis)",
+        );
         // 8 positions with 1 µm noise: error within 5 σ of the reported uncertainty
         let noisy: Vec<PointAtAngle> = (0..8)
             .map(|i| {
@@ -323,9 +487,17 @@ fn round_trip_table_axis_half_turn_and_centre_with_noise() {
         let cn = axis_centre(&noisy, NominalAxis::Z, RotationSense::RightHanded).unwrap();
         for k in 0..2 {
             let e_um = (cn.centre_mm[k] - c[k]) * 1e3;
-            assert!(e_um.abs() < 5.0 * cn.centre_uncertainty_um[k] + 1e-9, "{e_um} vs {}", cn.centre_uncertainty_um[k]);
+            assert!(
+                e_um.abs() < 5.0 * cn.centre_uncertainty_um[k] + 1e-9,
+                "{e_um} vs {}",
+                cn.centre_uncertainty_um[k]
+            );
         }
-        assert!(cn.residual_rms_um > 0.3 && cn.residual_rms_um < 2.0, "{}", cn.residual_rms_um);
+        assert!(
+            cn.residual_rms_um > 0.3 && cn.residual_rms_um < 2.0,
+            "{}",
+            cn.residual_rms_um
+        );
     }
 }
 
@@ -335,18 +507,59 @@ fn round_trip_eq9_matches_forward_model() {
     for _ in 0..100 {
         let da = fw::normalize([rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3), 1.0]);
         let db = fw::normalize([rng.uniform(-2e-3, 2e-3), 1.0, rng.uniform(-2e-3, 2e-3)]);
-        let pa = [rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1)];
-        let pb = [rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1)];
-        let p = [rng.uniform(-100.0, 100.0), rng.uniform(-100.0, 100.0), rng.uniform(0.0, 200.0)];
+        let pa = [
+            rng.uniform(-0.1, 0.1),
+            rng.uniform(-0.1, 0.1),
+            rng.uniform(-0.1, 0.1),
+        ];
+        let pb = [
+            rng.uniform(-0.1, 0.1),
+            rng.uniform(-0.1, 0.1),
+            rng.uniform(-0.1, 0.1),
+        ];
+        let p = [
+            rng.uniform(-100.0, 100.0),
+            rng.uniform(-100.0, 100.0),
+            rng.uniform(0.0, 200.0),
+        ];
         let (eps, phi) = (rng.uniform(-180.0, 180.0), rng.uniform(-90.0, 90.0));
-        let actual = TableAxes { table: AxisLine { direction: da, point_mm: pa }, tilt: AxisLine { direction: db, point_mm: pb } };
-        let nominal = TableAxes { table: AxisLine { direction: Z, point_mm: [0.0; 3] }, tilt: AxisLine { direction: Y, point_mm: [0.0; 3] } };
+        let actual = TableAxes {
+            table: AxisLine {
+                direction: da,
+                point_mm: pa,
+            },
+            tilt: AxisLine {
+                direction: db,
+                point_mm: pb,
+            },
+        };
+        let nominal = TableAxes {
+            table: AxisLine {
+                direction: Z,
+                point_mm: [0.0; 3],
+            },
+            tilt: AxisLine {
+                direction: Y,
+                point_mm: [0.0; 3],
+            },
+        };
         let r = nc_correction(&actual, &nominal, p, eps, phi).unwrap();
         let v1 = fw::eq9(p, da, pa, db, pb, eps.to_radians(), phi.to_radians());
-        let v2 = fw::eq9(p, Z, [0.0; 3], Y, [0.0; 3], eps.to_radians(), phi.to_radians());
+        let v2 = fw::eq9(
+            p,
+            Z,
+            [0.0; 3],
+            Y,
+            [0.0; 3],
+            eps.to_radians(),
+            phi.to_radians(),
+        );
         assert!(max_diff(r.actual_mm, v1) < 1e-11 && max_diff(r.nominal_mm, v2) < 1e-11);
         // error in the work frame, rotated back to the machine frame, is the machine error
-        let rr_t = fw::mul(fw::rodrigues(Y, phi.to_radians()), fw::mul(fw::rodrigues(Z, eps.to_radians()), r.error_work_um));
+        let rr_t = fw::mul(
+            fw::rodrigues(Y, phi.to_radians()),
+            fw::mul(fw::rodrigues(Z, eps.to_radians()), r.error_work_um),
+        );
         assert!(max_diff(rr_t, r.error_machine_um) < 1e-9);
         // corrected command puts the tool on the actual work point; compensation = −error
         assert!(max_diff(fw::add(r.error_machine_um, r.correction_um), [0.0; 3]) < 1e-12);
@@ -358,49 +571,128 @@ fn round_trip_eq9_matches_forward_model() {
 fn bad_input_gets_typed_errors() {
     let g = GaugeFrame::FROM_PLUS_Z;
     let collinear = [
-        DialPoint { u_mm: 0.0, v_mm: 0.0, reading_um: 0.0 },
-        DialPoint { u_mm: 10.0, v_mm: 10.0, reading_um: 1.0 },
-        DialPoint { u_mm: 20.0, v_mm: 20.0, reading_um: 2.0 },
+        DialPoint {
+            u_mm: 0.0,
+            v_mm: 0.0,
+            reading_um: 0.0,
+        },
+        DialPoint {
+            u_mm: 10.0,
+            v_mm: 10.0,
+            reading_um: 1.0,
+        },
+        DialPoint {
+            u_mm: 20.0,
+            v_mm: 20.0,
+            reading_um: 2.0,
+        },
     ];
-    assert_eq!(plane_normal(&collinear, &g), Err(CentrelineError::DegeneratePointLayout));
-    assert_eq!(plane_normal(&collinear[..2], &g), Err(CentrelineError::TooFewInputs { given: 2, needed: 3 }));
+    assert_eq!(
+        plane_normal(&collinear, &g),
+        Err(CentrelineError::DegeneratePointLayout)
+    );
+    assert_eq!(
+        plane_normal(&collinear[..2], &g),
+        Err(CentrelineError::TooFewInputs {
+            given: 2,
+            needed: 3
+        })
+    );
     let mut nan = dial3([0.0, 0.01, 0.02]);
     nan[1].reading_um = f64::NAN;
     assert_eq!(plane_normal(&nan, &g), Err(CentrelineError::NonFinite));
-    let skew = GaugeFrame { lateral_u: [1.0, 0.0, 0.0], lateral_v: [0.0, 1.0, 0.0], reading_dir: [0.0, 0.0, -1.0] };
-    assert_eq!(plane_normal(&dial3([0.0, 0.01, 0.02]), &skew), Err(CentrelineError::BadGaugeFrame));
+    let skew = GaugeFrame {
+        lateral_u: [1.0, 0.0, 0.0],
+        lateral_v: [0.0, 1.0, 0.0],
+        reading_dir: [0.0, 0.0, -1.0],
+    };
+    assert_eq!(
+        plane_normal(&dial3([0.0, 0.01, 0.02]), &skew),
+        Err(CentrelineError::BadGaugeFrame)
+    );
     // half turn with the face normal ⟂ axis: n1 + n2 = 0
     assert_eq!(
         axis_direction_half_turn([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], Z),
         Err(CentrelineError::NormalPerpendicularToAxis)
     );
-    assert_eq!(axis_direction_half_turn([0.0; 3], Z, Z), Err(CentrelineError::ZeroVector));
-    assert_eq!(axis_direction_half_turn(Z, Z, [1.0, 0.0, 0.0]), Err(CentrelineError::FarFromNominal));
+    assert_eq!(
+        axis_direction_half_turn([0.0; 3], Z, Z),
+        Err(CentrelineError::ZeroVector)
+    );
+    assert_eq!(
+        axis_direction_half_turn(Z, Z, [1.0, 0.0, 0.0]),
+        Err(CentrelineError::FarFromNominal)
+    );
     // LSQ direction: the same normal three times does not fix an axis
-    let same = [NormalAtAngle { commanded_deg: 0.0, normal: Z }; 3];
-    assert_eq!(axis_direction_lsq(&same, RotationSense::Primed, Y), Err(CentrelineError::NoRotation));
+    let same = [NormalAtAngle {
+        commanded_deg: 0.0,
+        normal: Z,
+    }; 3];
+    assert_eq!(
+        axis_direction_lsq(&same, RotationSense::Primed, Y),
+        Err(CentrelineError::NoRotation)
+    );
     assert_eq!(
         axis_direction_lsq(&same[..2], RotationSense::Primed, Y),
-        Err(CentrelineError::TooFewInputs { given: 2, needed: 3 })
+        Err(CentrelineError::TooFewInputs {
+            given: 2,
+            needed: 3
+        })
     );
     // two positions: zero angle, and an angle too small for the change of the normal
-    assert_eq!(axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 0.0, RotationSense::Primed, Y), Err(CentrelineError::NoRotation));
+    assert_eq!(
+        axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 0.0, RotationSense::Primed, Y),
+        Err(CentrelineError::NoRotation)
+    );
     assert_eq!(
         axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 10.0, RotationSense::Primed, Y),
         Err(CentrelineError::InconsistentAngle)
     );
     // centre: both positions at the same angle
     let pts = [
-        PointAtAngle { commanded_deg: 30.0, point_mm: [1.0, 2.0] },
-        PointAtAngle { commanded_deg: 30.0, point_mm: [1.0, 2.0] },
+        PointAtAngle {
+            commanded_deg: 30.0,
+            point_mm: [1.0, 2.0],
+        },
+        PointAtAngle {
+            commanded_deg: 30.0,
+            point_mm: [1.0, 2.0],
+        },
     ];
-    assert_eq!(axis_centre(&pts, NominalAxis::Z, RotationSense::RightHanded), Err(CentrelineError::NoRotation));
+    assert_eq!(
+        axis_centre(&pts, NominalAxis::Z, RotationSense::RightHanded),
+        Err(CentrelineError::NoRotation)
+    );
     assert_eq!(
         axis_centre(&pts[..1], NominalAxis::Z, RotationSense::RightHanded),
-        Err(CentrelineError::TooFewInputs { given: 1, needed: 2 })
+        Err(CentrelineError::TooFewInputs {
+            given: 1,
+            needed: 2
+        })
     );
-    let nominal = TableAxes { table: AxisLine { direction: Z, point_mm: [0.0; 3] }, tilt: AxisLine { direction: Y, point_mm: [0.0; 3] } };
-    let broken = TableAxes { table: AxisLine { direction: [0.0; 3], point_mm: [0.0; 3] }, tilt: nominal.tilt };
-    assert_eq!(nc_correction(&broken, &nominal, [1.0; 3], 10.0, 0.0), Err(CentrelineError::ZeroVector));
-    assert_eq!(nc_correction(&nominal, &nominal, [f64::NAN; 3], 10.0, 0.0), Err(CentrelineError::NonFinite));
+    let nominal = TableAxes {
+        table: AxisLine {
+            direction: Z,
+            point_mm: [0.0; 3],
+        },
+        tilt: AxisLine {
+            direction: Y,
+            point_mm: [0.0; 3],
+        },
+    };
+    let broken = TableAxes {
+        table: AxisLine {
+            direction: [0.0; 3],
+            point_mm: [0.0; 3],
+        },
+        tilt: nominal.tilt,
+    };
+    assert_eq!(
+        nc_correction(&broken, &nominal, [1.0; 3], 10.0, 0.0),
+        Err(CentrelineError::ZeroVector)
+    );
+    assert_eq!(
+        nc_correction(&nominal, &nominal, [f64::NAN; 3], 10.0, 0.0),
+        Err(CentrelineError::NonFinite)
+    );
 }

@@ -60,16 +60,29 @@ fn tv1_means_and_population_sigma() {
     for (runs, mean, sigma) in T44 {
         let s = run_statistics(&runs).unwrap();
         assert!((s.mean - mean).abs() <= 0.005 + 1e-12, "{runs:?}");
-        assert!((s.population_sigma - sigma).abs() <= 0.005 + 1e-12, "{runs:?}: {}", s.population_sigma);
+        assert!(
+            (s.population_sigma - sigma).abs() <= 0.005 + 1e-12,
+            "{runs:?}: {}",
+            s.population_sigma
+        );
         assert_eq!(s.runs, 3);
     }
     assert_eq!(run_statistics(&[]), Err(BallBarError::NoRuns));
-    assert_eq!(run_statistics(&[1.0, f64::NAN]), Err(BallBarError::NonFinite));
+    assert_eq!(
+        run_statistics(&[1.0, f64::NAN]),
+        Err(BallBarError::NonFinite)
+    );
 }
 
 fn check(got: f64, printed: f64, derived: f64, what: &str) {
-    assert!((got - printed).abs() <= 0.005 + 1e-9, "{what}: {got} vs printed {printed}");
-    assert!((got - derived).abs() <= 5e-5 + 1e-9, "{what}: {got} vs derived {derived}");
+    assert!(
+        (got - printed).abs() <= 0.005 + 1e-9,
+        "{what}: {got} vs printed {printed}"
+    );
+    assert!(
+        (got - derived).abs() <= 5e-5 + 1e-9,
+        "{what}: {got} vs derived {derived}"
+    );
 }
 
 /// TV-2: Table 4.5 (printed to 2 decimals; spec §5.7 gives the 4-decimal values).
@@ -141,11 +154,23 @@ fn thesis_mode_round_trip() {
             z_t2_mm: 60.0 + 20.0 * r.uniform(),
             x_t_mm: 490.0 + 50.0 * r.uniform(),
         };
-        let e = fwd::thesis_forward(t, dx, dy, dz, g.r_b_mm, g.r_c_mm, g.z_c_mm, g.z_t_mm, g.z_t2_mm, g.x_t_mm);
+        let e = fwd::thesis_forward(
+            t, dx, dy, dz, g.r_b_mm, g.r_c_mm, g.z_c_mm, g.z_t_mm, g.z_t2_mm, g.x_t_mm,
+        );
         let d = identify_thesis(&ecc(e), &g, None).unwrap().deviations;
-        let got = [d.alpha_cz_arcsec, d.beta_cz_arcsec, d.alpha_xb_arcsec, d.beta_xb_arcsec, d.gamma_xb_arcsec, d.alpha_bt_arcsec];
+        let got = [
+            d.alpha_cz_arcsec,
+            d.beta_cz_arcsec,
+            d.alpha_xb_arcsec,
+            d.beta_xb_arcsec,
+            d.gamma_xb_arcsec,
+            d.alpha_bt_arcsec,
+        ];
         for (a, b) in got.iter().zip(t.iter()) {
-            assert!((a * as2rad - b).abs() <= 1e-9 * b.abs().max(1e-6), "{a} vs {b}");
+            assert!(
+                (a * as2rad - b).abs() <= 1e-9 * b.abs().max(1e-6),
+                "{a} vs {b}"
+            );
         }
         assert!((d.dx_cz_minus_dx_bt_um - dx).abs() < 1e-9 * 60.0);
         assert!((d.dy_cz_um - dy).abs() < 1e-9 * 60.0);
@@ -171,8 +196,14 @@ fn uncertainty_propagation() {
     }
     let r = identify_thesis(&t44_means(), &T43, Some(&ecc(sig))).unwrap();
     assert!(r.std_uncertainty.alpha_bt_arcsec > 0.0 && r.std_uncertainty.dy_cz_um > 0.0);
-    let neg = ThesisEccentricities { ex_ca_um: -1.0, ..Default::default() };
-    assert_eq!(identify_thesis(&t44_means(), &T43, Some(&neg)), Err(BallBarError::NegativeUncertainty));
+    let neg = ThesisEccentricities {
+        ex_ca_um: -1.0,
+        ..Default::default()
+    };
+    assert_eq!(
+        identify_thesis(&t44_means(), &T43, Some(&neg)),
+        Err(BallBarError::NegativeUncertainty)
+    );
 }
 
 #[test]
@@ -180,16 +211,28 @@ fn bad_input_is_typed() {
     let e = t44_means();
     let mut g = T43;
     g.z_t2_mm = g.z_t_mm;
-    assert_eq!(identify_thesis(&e, &g, None), Err(BallBarError::SameToolLength));
+    assert_eq!(
+        identify_thesis(&e, &g, None),
+        Err(BallBarError::SameToolLength)
+    );
     let mut g = T43;
     g.r_b_mm = 0.0;
-    assert_eq!(identify_thesis(&e, &g, None), Err(BallBarError::NonPositiveLength { what: "R_B" }));
+    assert_eq!(
+        identify_thesis(&e, &g, None),
+        Err(BallBarError::NonPositiveLength { what: "R_B" })
+    );
     let mut g = T43;
     g.r_c_mm = -50.0;
-    assert_eq!(identify_thesis(&e, &g, None), Err(BallBarError::NonPositiveLength { what: "R_C" }));
+    assert_eq!(
+        identify_thesis(&e, &g, None),
+        Err(BallBarError::NonPositiveLength { what: "R_C" })
+    );
     let mut bad = e;
     bad.ey_cr2_um = f64::INFINITY;
-    assert_eq!(identify_thesis(&bad, &T43, None), Err(BallBarError::NonFinite));
+    assert_eq!(
+        identify_thesis(&bad, &T43, None),
+        Err(BallBarError::NonFinite)
+    );
 }
 
 /// Spec §9.1: the thesis relations contradict the literal HTM model. On literal-model data
@@ -197,12 +240,36 @@ fn bad_input_is_typed() {
 /// β_CZ into a spurious δx_CZ − δx_BT of 2·Z_C·β_CZ (the Z_C sign conflict of item 3).
 #[test]
 fn thesis_mode_on_literal_model_data_shows_the_documented_conflict() {
-    let g = fwd::Geo { lb: 100.0, zc: 100.0, rb: 200.0, rc: 50.0 };
-    let tg = ThesisGeometry { r_b_mm: 200.0, r_c_mm: 50.0, z_c_mm: 100.0, z_t_mm: 200.0, z_t2_mm: 250.0, x_t_mm: 0.0 };
+    let g = fwd::Geo {
+        lb: 100.0,
+        zc: 100.0,
+        rb: 200.0,
+        rc: 50.0,
+    };
+    let tg = ThesisGeometry {
+        r_b_mm: 200.0,
+        r_c_mm: 50.0,
+        z_c_mm: 100.0,
+        z_t_mm: 200.0,
+        z_t2_mm: 250.0,
+        x_t_mm: 0.0,
+    };
     let measure = |d: &[f64; 13]| {
         let e = |p| fwd::ecc(p, d, &g, 361, [0.0; 3], [0.0; 3]);
-        let (bx, by, cr, ca) = (e(fwd::Pat::Bx), e(fwd::Pat::By), e(fwd::Pat::Cr), e(fwd::Pat::Ca));
-        let cr2 = fwd::ecc(fwd::Pat::Cr, d, &fwd::Geo { rb: 250.0, ..g }, 361, [0.0; 3], [0.0; 3]);
+        let (bx, by, cr, ca) = (
+            e(fwd::Pat::Bx),
+            e(fwd::Pat::By),
+            e(fwd::Pat::Cr),
+            e(fwd::Pat::Ca),
+        );
+        let cr2 = fwd::ecc(
+            fwd::Pat::Cr,
+            d,
+            &fwd::Geo { rb: 250.0, ..g },
+            361,
+            [0.0; 3],
+            [0.0; 3],
+        );
         ecc([bx.0, bx.1, by.0, by.1, cr.0, cr.1, ca.0, ca.1, cr2.0, cr2.1])
     };
     let mut d = [0.0; 13];
@@ -213,5 +280,9 @@ fn thesis_mode_on_literal_model_data_shows_the_documented_conflict() {
     d[12] = 100.0; // β_CZ, µrad
     let r = identify_thesis(&measure(&d), &tg, None).unwrap().deviations;
     assert!((r.beta_cz_arcsec - 100e-6 * 206_264.806).abs() < 0.01);
-    assert!((r.dx_cz_minus_dx_bt_um - 2.0 * 100.0 * 100e-6 * 1e3).abs() < 0.01, "{}", r.dx_cz_minus_dx_bt_um);
+    assert!(
+        (r.dx_cz_minus_dx_bt_um - 2.0 * 100.0 * 100e-6 * 1e3).abs() < 0.01,
+        "{}",
+        r.dx_cz_minus_dx_bt_um
+    );
 }

@@ -27,7 +27,13 @@ fn table_4_5() -> ThesisDeviations {
 }
 
 fn block(x: f64, y: f64, z: f64, b: f64, c: f64) -> NcBlock {
-    NcBlock { x_mm: x, y_mm: y, z_mm: z, b_deg: b, c_deg: c }
+    NcBlock {
+        x_mm: x,
+        y_mm: y,
+        z_mm: z,
+        b_deg: b,
+        c_deg: c,
+    }
 }
 
 /// Inverse of a rotation-only HTM (transpose) or general 4×4 via the host: E_C⁻¹ = E_C(−θ).
@@ -50,14 +56,22 @@ fn paper_mode_reproduces_check_script() {
     let d = deviations_for_compensation(&table_4_5(), DxSplit::AllInCz, true);
     let b = block(-390.0, 0.0, -112.2605, 10.0, 0.0);
     let c = compensate(&b, &d, CompensationMode::PaperDouble).unwrap();
-    let corr = [(c.x_mm - b.x_mm) * 1e3, (c.y_mm - b.y_mm) * 1e3, (c.z_mm - b.z_mm) * 1e3];
+    let corr = [
+        (c.x_mm - b.x_mm) * 1e3,
+        (c.y_mm - b.y_mm) * 1e3,
+        (c.z_mm - b.z_mm) * 1e3,
+    ];
     for (got, exp) in corr.iter().zip([105.79, -70.58, 14.47]) {
         assert!((got - exp).abs() < 0.006, "{corr:?}");
     }
     assert_eq!((c.b_deg, c.c_deg), (10.0, 0.0));
     // Once mode: about half of it (single correction), to second order.
     let o = compensate(&b, &d, CompensationMode::Once).unwrap();
-    let once = [(o.x_mm - b.x_mm) * 1e3, (o.y_mm - b.y_mm) * 1e3, (o.z_mm - b.z_mm) * 1e3];
+    let once = [
+        (o.x_mm - b.x_mm) * 1e3,
+        (o.y_mm - b.y_mm) * 1e3,
+        (o.z_mm - b.z_mm) * 1e3,
+    ];
     for (a, p) in once.iter().zip(corr.iter()) {
         assert!((a - p / 2.0).abs() < 0.05, "{once:?} vs {corr:?}");
     }
@@ -84,12 +98,25 @@ fn once_mode_round_trip() {
         let (act_c, _) = actual_and_ideal(&d, &c);
         let (act, ideal) = actual_and_ideal(&d, &b);
         for k in 0..3 {
-            assert!((act_c[k] - ideal[k]).abs() < 1e-10, "{k}: {} vs {}", act_c[k], ideal[k]);
+            assert!(
+                (act_c[k] - ideal[k]).abs() < 1e-10,
+                "{k}: {} vs {}",
+                act_c[k],
+                ideal[k]
+            );
         }
         // First order: correction = −G⁻¹(P' − P), G = E_C⁻¹E_B (a rotation): check the norm.
-        let err: f64 = (0..3).map(|k| (act[k] - ideal[k]).powi(2)).sum::<f64>().sqrt();
-        let corr = ((c.x_mm - b.x_mm).powi(2) + (c.y_mm - b.y_mm).powi(2) + (c.z_mm - b.z_mm).powi(2)).sqrt();
-        assert!((err - corr).abs() < 1e-3 * err.max(1e-6) + 1e-7, "{err} vs {corr}");
+        let err: f64 = (0..3)
+            .map(|k| (act[k] - ideal[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        let corr =
+            ((c.x_mm - b.x_mm).powi(2) + (c.y_mm - b.y_mm).powi(2) + (c.z_mm - b.z_mm).powi(2))
+                .sqrt();
+        assert!(
+            (err - corr).abs() < 1e-3 * err.max(1e-6) + 1e-7,
+            "{err} vs {corr}"
+        );
     }
 }
 
@@ -98,12 +125,25 @@ fn no_deviation_no_correction_and_bad_input() {
     let b = block(-390.0, 1.0, -112.0, 33.0, 45.0);
     for mode in [CompensationMode::Once, CompensationMode::PaperDouble] {
         let c = compensate(&b, &Deviations::default(), mode).unwrap();
-        assert!((c.x_mm - b.x_mm).abs() < 1e-12 && (c.y_mm - b.y_mm).abs() < 1e-12 && (c.z_mm - b.z_mm).abs() < 1e-12);
+        assert!(
+            (c.x_mm - b.x_mm).abs() < 1e-12
+                && (c.y_mm - b.y_mm).abs() < 1e-12
+                && (c.z_mm - b.z_mm).abs() < 1e-12
+        );
     }
     let nan = block(f64::NAN, 0.0, 0.0, 0.0, 0.0);
-    assert_eq!(compensate(&nan, &Deviations::default(), CompensationMode::Once), Err(CompensationError::NonFinite));
-    let bad = Deviations { beta_cz_urad: f64::INFINITY, ..Deviations::default() };
-    assert_eq!(compensate(&b, &bad, CompensationMode::PaperDouble), Err(CompensationError::NonFinite));
+    assert_eq!(
+        compensate(&nan, &Deviations::default(), CompensationMode::Once),
+        Err(CompensationError::NonFinite)
+    );
+    let bad = Deviations {
+        beta_cz_urad: f64::INFINITY,
+        ..Deviations::default()
+    };
+    assert_eq!(
+        compensate(&b, &bad, CompensationMode::PaperDouble),
+        Err(CompensationError::NonFinite)
+    );
 }
 
 #[test]

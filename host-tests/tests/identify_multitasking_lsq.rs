@@ -35,7 +35,12 @@ fn procedure(d: &[f64; 13]) -> Vec<PatternMeasurement> {
     steps
         .iter()
         .map(|&(p, pf, rb)| {
-            let g = fwd::Geo { lb: LB, zc: ZC, rb, rc: RC };
+            let g = fwd::Geo {
+                lb: LB,
+                zc: ZC,
+                rb,
+                rc: RC,
+            };
             let (e1, e2) = fwd::ecc(pf, d, &g, N, [0.0; 3], [0.0; 3]);
             PatternMeasurement {
                 pattern: p,
@@ -67,7 +72,12 @@ fn round_trip_recovers_ten_deviations() {
         let res = ModelLsq::without_squareness().identify(&m).unwrap();
         let got = res.deviations.to_array();
         for (i, p) in Parameter::ALL.iter().enumerate() {
-            assert!((got[i] - d[i]).abs() <= 1e-7 * d[i].abs().max(1.0), "{p:?}: {} vs {}", got[i], d[i]);
+            assert!(
+                (got[i] - d[i]).abs() <= 1e-7 * d[i].abs().max(1.0),
+                "{p:?}: {} vs {}",
+                got[i],
+                d[i]
+            );
         }
         assert!(res.residual_rms_um < 1e-8);
         assert!(res.iterations >= 2 && res.condition.is_finite());
@@ -94,12 +104,20 @@ fn redundancy_gives_residual_and_uncertainty() {
     let got = res.deviations.to_array();
     for (i, p) in Parameter::ALL.iter().enumerate() {
         let u = res.std_uncertainty[i];
-        if matches!(p, Parameter::GammaXy | Parameter::AlphaYz | Parameter::BetaYz) {
+        if matches!(
+            p,
+            Parameter::GammaXy | Parameter::AlphaYz | Parameter::BetaYz
+        ) {
             assert_eq!(u, 0.0);
             assert_eq!(got[i], 0.0);
         } else {
             assert!(u > 0.0 && u.is_finite(), "{p:?}");
-            assert!((got[i] - d[i]).abs() < 6.0 * u + 1e-6, "{p:?}: {} vs {} ± {u}", got[i], d[i]);
+            assert!(
+                (got[i] - d[i]).abs() < 6.0 * u + 1e-6,
+                "{p:?}: {} vs {} ± {u}",
+                got[i],
+                d[i]
+            );
         }
     }
 }
@@ -114,7 +132,9 @@ fn squareness_is_not_separable() {
     assert!(rep.null_combination(3).is_none());
     // γ_XY alone is one null direction; the null space contains it.
     let gxy = Parameter::GammaXy.index();
-    let share: f64 = (0..3).map(|k| rep.null_combination(k).unwrap()[gxy].powi(2)).sum();
+    let share: f64 = (0..3)
+        .map(|k| rep.null_combination(k).unwrap()[gxy].powi(2))
+        .sum();
     assert!((share - 1.0).abs() < 1e-9, "{share}");
     // Every null combination is orthogonal to every pattern: changing the deviations along it
     // does not change the forward model's eccentricities (to first order).
@@ -126,11 +146,22 @@ fn squareness_is_not_separable() {
         }
     }
     match all.identify(&m) {
-        Err(ModelLsqError::NotSeparable { rank, free, dominant, .. }) => {
+        Err(ModelLsqError::NotSeparable {
+            rank,
+            free,
+            dominant,
+            ..
+        }) => {
             assert_eq!((rank, free), (10, 13));
             assert!(matches!(
                 dominant,
-                Parameter::GammaXy | Parameter::AlphaYz | Parameter::BetaYz | Parameter::AlphaXb | Parameter::BetaXb | Parameter::AlphaCz | Parameter::BetaCz
+                Parameter::GammaXy
+                    | Parameter::AlphaYz
+                    | Parameter::BetaYz
+                    | Parameter::AlphaXb
+                    | Parameter::BetaXb
+                    | Parameter::AlphaCz
+                    | Parameter::BetaCz
             ));
         }
         other => panic!("{other:?}"),
@@ -149,13 +180,22 @@ fn without_second_tool_length_is_rank_deficient() {
         let v = rep.null_combination(k).unwrap();
         // Only δx_BT, β_XB, α_BT, δy_CZ (and nothing else) take part.
         for (i, p) in Parameter::ALL.iter().enumerate() {
-            if !matches!(p, Parameter::DxBt | Parameter::BetaXb | Parameter::AlphaBt | Parameter::DyCz) {
+            if !matches!(
+                p,
+                Parameter::DxBt | Parameter::BetaXb | Parameter::AlphaBt | Parameter::DyCz
+            ) {
                 assert!(v[i].abs() < 1e-6, "{p:?} {}", v[i]);
             }
         }
     }
     match setup.identify(&m[..4]) {
-        Err(ModelLsqError::NotSeparable { rank: 8, free: 10, dominant, second, .. }) => {
+        Err(ModelLsqError::NotSeparable {
+            rank: 8,
+            free: 10,
+            dominant,
+            second,
+            ..
+        }) => {
             let pair = [dominant, second];
             assert!(
                 pair.contains(&Parameter::DxBt) && pair.contains(&Parameter::BetaXb)
@@ -178,23 +218,38 @@ fn bad_input_is_typed() {
     let mut m = procedure(&[0.0; 13]);
     let s = ModelLsq::without_squareness();
     assert_eq!(s.identify(&[]), Err(ModelLsqError::Empty));
-    assert_eq!(ModelLsq::with_free(&[]).identify(&m), Err(ModelLsqError::Empty));
+    assert_eq!(
+        ModelLsq::with_free(&[]).identify(&m),
+        Err(ModelLsqError::Empty)
+    );
     m[2].sigma_um = 0.0;
-    assert_eq!(s.identify(&m), Err(ModelLsqError::BadMeasurement { index: 2 }));
+    assert_eq!(
+        s.identify(&m),
+        Err(ModelLsqError::BadMeasurement { index: 2 })
+    );
     m[2].sigma_um = 0.3;
     m[3].e2_um = f64::NAN;
-    assert_eq!(s.identify(&m), Err(ModelLsqError::BadMeasurement { index: 3 }));
+    assert_eq!(
+        s.identify(&m),
+        Err(ModelLsqError::BadMeasurement { index: 3 })
+    );
     m[3].e2_um = 0.0;
     m[1].geometry.r_b_mm = -1.0;
     assert_eq!(
         s.identify(&m),
-        Err(ModelLsqError::Pattern { index: 1, cause: PatternError::NonPositiveLength { what: "R_B" } })
+        Err(ModelLsqError::Pattern {
+            index: 1,
+            cause: PatternError::NonPositiveLength { what: "R_B" }
+        })
     );
     m[1].geometry.r_b_mm = RB;
     m[0].samples = 1;
     assert_eq!(
         s.identify(&m),
-        Err(ModelLsqError::Pattern { index: 0, cause: PatternError::TooFewSamples { samples: 1 } })
+        Err(ModelLsqError::Pattern {
+            index: 0,
+            cause: PatternError::TooFewSamples { samples: 1 }
+        })
     );
     let _ = Deviations::default();
 }

@@ -102,7 +102,10 @@ fn nominal_patterns_keep_bar_length() {
         Pattern::Cy,
     ] {
         let e = simulate_eccentricity(p, &SIM, &z, &Mounting::default(), 73).unwrap();
-        assert!(e.e1_um.abs() < 1e-9 && e.e2_um.abs() < 1e-9 && e.r0_um.abs() < 1e-9, "{p:?} {e:?}");
+        assert!(
+            e.e1_um.abs() < 1e-9 && e.e2_um.abs() < 1e-9 && e.r0_um.abs() < 1e-9,
+            "{p:?} {e:?}"
+        );
     }
     let c = command(Pattern::Bx, &SIM, 0.7);
     let t = t_ball_mm(&z, &c, SIM.r_b_mm, [0.0; 3]);
@@ -167,9 +170,15 @@ fn tv9_w_ball_mounting_invariance() {
         assert!(a.abs() < 0.01 && b.abs() < 0.01, "{p:?}");
     }
     let (a, b) = ecc(Pattern::Br, &z, &m);
-    assert!((a + 20.0).abs() < 0.01 && (b + 20.0).abs() < 0.01, "BR ({a}, {b})");
+    assert!(
+        (a + 20.0).abs() < 0.01 && (b + 20.0).abs() < 0.01,
+        "BR ({a}, {b})"
+    );
     let (a, b) = ecc(Pattern::Cx, &z, &m);
-    assert!((a + 20.0).abs() < 0.01 && (b - 20.0).abs() < 0.01, "CX ({a}, {b})");
+    assert!(
+        (a + 20.0).abs() < 0.01 && (b - 20.0).abs() < 0.01,
+        "CX ({a}, {b})"
+    );
 }
 
 /// T-ball offsets x_T, z_T act like δx_BT, δz_BT to first order (spec §3.7; 2nd order ~2 nm).
@@ -190,7 +199,10 @@ fn t_ball_offsets_alias_spindle_offsets() {
             ..Deviations::default()
         };
         let by_dev = ecc(p, &d, &Mounting::default());
-        assert!((by_offset.0 - by_dev.0).abs() < 5e-3 && (by_offset.1 - by_dev.1).abs() < 5e-3, "{p:?} {by_offset:?} {by_dev:?}");
+        assert!(
+            (by_offset.0 - by_dev.0).abs() < 5e-3 && (by_offset.1 - by_dev.1).abs() < 5e-3,
+            "{p:?} {by_offset:?} {by_dev:?}"
+        );
     }
 }
 
@@ -201,20 +213,53 @@ fn core_model_equals_independent_forward_model() {
     for _ in 0..20 {
         let d = r.deviations();
         let dev = Deviations::from_array(&d);
-        let (x, y, z, phi, th) = (r.uniform() * 300.0, r.uniform() * 100.0, 200.0 + r.uniform() * 100.0, r.uniform(), r.uniform() * 3.0);
+        let (x, y, z, phi, th) = (
+            r.uniform() * 300.0,
+            r.uniform() * 100.0,
+            200.0 + r.uniform() * 100.0,
+            r.uniform(),
+            r.uniform() * 3.0,
+        );
         let tofs = [r.uniform() * 20.0, r.uniform() * 20.0, r.uniform() * 20.0];
-        let cmd = AxisCommand { x_mm: x, y_mm: y, z_mm: z, b_rad: phi, c_rad: th };
+        let cmd = AxisCommand {
+            x_mm: x,
+            y_mm: y,
+            z_mm: z,
+            b_rad: phi,
+            c_rad: th,
+        };
         let t = t_ball_mm(&dev, &cmd, 250.0, tofs);
         let tf = fwd::t_ball(&d, x, y, z, phi, 250.0, tofs);
-        assert!((t.x - tf[0]).abs() < 1e-11 && (t.y - tf[1]).abs() < 1e-11 && (t.z - tf[2]).abs() < 1e-11);
+        assert!(
+            (t.x - tf[0]).abs() < 1e-11
+                && (t.y - tf[1]).abs() < 1e-11
+                && (t.z - tf[2]).abs() < 1e-11
+        );
         let w = w_ball_mm(&dev, th, 80.0, 250.0, 50.0, tofs);
         let wf = fwd::w_ball(&d, th, 80.0, 250.0, 50.0, tofs);
-        assert!((w.x - wf[0]).abs() < 1e-11 && (w.y - wf[1]).abs() < 1e-11 && (w.z - wf[2]).abs() < 1e-11);
-        let g = fwd::Geo { lb: 100.0, zc: 100.0, rb: 200.0, rc: 50.0 };
-        for (p, pf) in [(Pattern::Bx, fwd::Pat::Bx), (Pattern::By, fwd::Pat::By), (Pattern::Cr, fwd::Pat::Cr), (Pattern::Ca, fwd::Pat::Ca)] {
+        assert!(
+            (w.x - wf[0]).abs() < 1e-11
+                && (w.y - wf[1]).abs() < 1e-11
+                && (w.z - wf[2]).abs() < 1e-11
+        );
+        let g = fwd::Geo {
+            lb: 100.0,
+            zc: 100.0,
+            rb: 200.0,
+            rc: 50.0,
+        };
+        for (p, pf) in [
+            (Pattern::Bx, fwd::Pat::Bx),
+            (Pattern::By, fwd::Pat::By),
+            (Pattern::Cr, fwd::Pat::Cr),
+            (Pattern::Ca, fwd::Pat::Ca),
+        ] {
             let a = ecc(p, &dev, &Mounting::default());
             let b = fwd::ecc(pf, &d, &g, N, [0.0; 3], [0.0; 3]);
-            assert!((a.0 - b.0).abs() < 1e-8 && (a.1 - b.1).abs() < 1e-8, "{p:?}");
+            assert!(
+                (a.0 - b.0).abs() < 1e-8 && (a.1 - b.1).abs() < 1e-8,
+                "{p:?}"
+            );
         }
     }
 }
@@ -245,8 +290,14 @@ fn bad_pattern_input_is_typed() {
         simulate_eccentricity(Pattern::Cr, &SIM, &z, &m, 2),
         Err(PatternError::TooFewSamples { samples: 2 })
     );
-    let nan = Deviations { dx_bt_um: f64::NAN, ..z };
-    assert_eq!(simulate_eccentricity(Pattern::Cr, &SIM, &nan, &m, 10), Err(PatternError::NonFinite));
+    let nan = Deviations {
+        dx_bt_um: f64::NAN,
+        ..z
+    };
+    assert_eq!(
+        simulate_eccentricity(Pattern::Cr, &SIM, &nan, &m, 10),
+        Err(PatternError::NonFinite)
+    );
     assert!(PatternProgram::new(Pattern::Bx, SIM, NcOffset::default(), 0.0, 90.0, 0).is_err());
     assert!(PatternProgram::new(Pattern::Bx, SIM, NcOffset::default(), f64::NAN, 90.0, 3).is_err());
 }
@@ -254,13 +305,27 @@ fn bad_pattern_input_is_typed() {
 #[test]
 fn nc_block_validates() {
     use ballpod::identify::multitasking::patterns::nc_block;
-    let off = NcOffset { x_mm: -490.0, y_mm: 0.0, z_mm: 0.0 };
+    let off = NcOffset {
+        x_mm: -490.0,
+        y_mm: 0.0,
+        z_mm: 0.0,
+    };
     let b = nc_block(Pattern::Ca, &SIM, &off, 90.0).unwrap();
     // CA at θ = 90°: (R_C cos θ, R_C sin θ, Z_C + L_B + R_B) + offset.
-    assert!((b.x_mm + 490.0).abs() < 1e-12 && (b.y_mm - 50.0).abs() < 1e-12 && (b.z_mm - 400.0).abs() < 1e-12);
+    assert!(
+        (b.x_mm + 490.0).abs() < 1e-12
+            && (b.y_mm - 50.0).abs() < 1e-12
+            && (b.z_mm - 400.0).abs() < 1e-12
+    );
     assert_eq!((b.b_deg, b.c_deg), (0.0, 90.0));
-    assert_eq!(nc_block(Pattern::Ca, &SIM, &off, f64::NAN), Err(PatternError::NonFinite));
+    assert_eq!(
+        nc_block(Pattern::Ca, &SIM, &off, f64::NAN),
+        Err(PatternError::NonFinite)
+    );
     let mut g = SIM;
     g.r_c_mm = 0.0;
-    assert_eq!(nc_block(Pattern::Ca, &g, &off, 0.0), Err(PatternError::NonPositiveLength { what: "R_C" }));
+    assert_eq!(
+        nc_block(Pattern::Ca, &g, &off, 0.0),
+        Err(PatternError::NonPositiveLength { what: "R_C" })
+    );
 }

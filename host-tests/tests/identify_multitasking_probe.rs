@@ -28,15 +28,32 @@ fn tv12_c_axis_formula_outputs() {
     };
     let p = identify_c_axis(&input, ProbeMode::Paper).unwrap();
     let n = p.normal_mm2;
-    assert!((n[0] + 5.87331).abs() < 5e-6 && (n[1] + 0.84884).abs() < 5e-6 && (n[2] - 39775.8266).abs() < 5e-4, "{n:?}");
-    assert!((p.beta_cz_arcsec + 30.46).abs() < 0.005, "{}", p.beta_cz_arcsec);
-    assert!((p.alpha_cz_arcsec + 4.40).abs() < 0.005, "{}", p.alpha_cz_arcsec);
+    assert!(
+        (n[0] + 5.87331).abs() < 5e-6
+            && (n[1] + 0.84884).abs() < 5e-6
+            && (n[2] - 39775.8266).abs() < 5e-4,
+        "{n:?}"
+    );
+    assert!(
+        (p.beta_cz_arcsec + 30.46).abs() < 0.005,
+        "{}",
+        p.beta_cz_arcsec
+    );
+    assert!(
+        (p.alpha_cz_arcsec + 4.40).abs() < 0.005,
+        "{}",
+        p.alpha_cz_arcsec
+    );
     let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
     assert!((c.alpha_cz_arcsec - 4.40).abs() < 0.005);
     assert_eq!(c.beta_cz_arcsec, p.beta_cz_arcsec);
     // Centre vs nominal (−490, 0): ΔX_c ≈ +280 µm, ΔY_c ≈ −18.6 µm (spec §6.6, there from a circle
     // fit; the mean of the four points used here differs by < 1 µm).
-    assert!((c.centre_error_um[0] - 280.4).abs() < 1.0 && (c.centre_error_um[1] + 18.6).abs() < 1.0, "{:?}", c.centre_error_um);
+    assert!(
+        (c.centre_error_um[0] - 280.4).abs() < 1.0 && (c.centre_error_um[1] + 18.6).abs() < 1.0,
+        "{:?}",
+        c.centre_error_um
+    );
     // (5.7) to first order: δx = ΔX_c − Z_C β, δy = ΔY_c + Z_C α.
     let b = c.beta_cz_arcsec / AS;
     let a = c.alpha_cz_arcsec / AS;
@@ -61,12 +78,20 @@ fn tv12_b_axis_formula_outputs() {
         x_t_mm: 490.0,
     };
     let p = identify_b_axis(&input, ProbeMode::Paper).unwrap();
-    assert!((p.beta_xb_arcsec + 5.35).abs() < 0.005, "{}", p.beta_xb_arcsec);
+    assert!(
+        (p.beta_xb_arcsec + 5.35).abs() < 0.005,
+        "{}",
+        p.beta_xb_arcsec
+    );
     assert!((p.dx_bt_um + 1566.0).abs() < 0.5, "{}", p.dx_bt_um);
     assert!((p.dz_bt_um + 1608.0).abs() < 0.5, "{}", p.dz_bt_um);
     assert!((p.alpha_xb_arcsec.unwrap() + 18.72).abs() < 0.005);
     // γ_XB ≈ −1354" with X_T = 490 (spec §6.6: the nominal B = 90° position is clearly not this).
-    assert!((p.gamma_xb_arcsec.unwrap() + 1354.0).abs() < 1.0, "{:?}", p.gamma_xb_arcsec);
+    assert!(
+        (p.gamma_xb_arcsec.unwrap() + 1354.0).abs() < 1.0,
+        "{:?}",
+        p.gamma_xb_arcsec
+    );
 }
 
 /// Sphere centres the probe reports: the sphere (fixed, at `sphere`) seen through the actual
@@ -109,7 +134,12 @@ fn b_axis_corrected_round_trip() {
         };
         let c = identify_b_axis(&input, ProbeMode::Corrected).unwrap();
         let asec = |urad: f64| urad * 1e-6 * AS;
-        assert!((c.dx_bt_um - d[0]).abs() < 0.01, "{} vs {}", c.dx_bt_um, d[0]);
+        assert!(
+            (c.dx_bt_um - d[0]).abs() < 0.01,
+            "{} vs {}",
+            c.dx_bt_um,
+            d[0]
+        );
         assert!((c.dz_bt_um - d[1]).abs() < 0.01);
         assert!((c.beta_xb_arcsec - asec(d[4])).abs() < 0.01);
         assert!((c.alpha_bt_plus_alpha_xb_arcsec.unwrap() - asec(d[2] + d[3])).abs() < 0.01);
@@ -126,7 +156,9 @@ fn b_axis_corrected_round_trip() {
 #[test]
 fn b_axis_redundancy_shows_in_residual() {
     let sphere = [-490.0, 0.0, -472.0];
-    let d = [10.0, -5.0, 0.0, 0.0, 30.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    let d = [
+        10.0, -5.0, 0.0, 0.0, 30.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+    ];
     let [m0, mut m90] = b_probe(&d, 380.0, sphere);
     let [n0, n90] = b_probe(&d, 430.0, sphere);
     m90[0] += 0.002; // 2 µm inconsistency in one X reading
@@ -161,36 +193,77 @@ fn c_axis_corrected_round_trip() {
                 c[i] = origin[i] + p[i];
             }
         }
-        let input = CAxisProbe { centres_mm: centres, nominal_axis_xy_mm: [origin[0], origin[1]], z_c_mm: zc };
+        let input = CAxisProbe {
+            centres_mm: centres,
+            nominal_axis_xy_mm: [origin[0], origin[1]],
+            z_c_mm: zc,
+        };
         let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
         let asec = |urad: f64| urad * 1e-6 * AS;
-        assert!((c.alpha_cz_arcsec - asec(d[11])).abs() < 0.01, "{} vs {}", c.alpha_cz_arcsec, asec(d[11]));
+        assert!(
+            (c.alpha_cz_arcsec - asec(d[11])).abs() < 0.01,
+            "{} vs {}",
+            c.alpha_cz_arcsec,
+            asec(d[11])
+        );
         assert!((c.beta_cz_arcsec - asec(d[12])).abs() < 0.01);
-        assert!((c.dx_cz_um - d[9]).abs() < 0.01, "{} vs {}", c.dx_cz_um, d[9]);
+        assert!(
+            (c.dx_cz_um - d[9]).abs() < 0.01,
+            "{} vs {}",
+            c.dx_cz_um,
+            d[9]
+        );
         assert!((c.dy_cz_um - d[10]).abs() < 0.01);
         assert!(c.diagonal_mismatch_um < 1e-3);
         let p = identify_c_axis(&input, ProbeMode::Paper).unwrap();
         assert!((p.alpha_cz_arcsec + asec(d[11])).abs() < 0.01);
         // Points listed in the clockwise order (0, 270, 180, 90°): same angles.
-        let cw = CAxisProbe { centres_mm: [centres[0], centres[3], centres[2], centres[1]], ..input };
+        let cw = CAxisProbe {
+            centres_mm: [centres[0], centres[3], centres[2], centres[1]],
+            ..input
+        };
         let w = identify_c_axis(&cw, ProbeMode::Corrected).unwrap();
-        assert!((w.alpha_cz_arcsec - c.alpha_cz_arcsec).abs() < 1e-9 && (w.beta_cz_arcsec - c.beta_cz_arcsec).abs() < 1e-9);
+        assert!(
+            (w.alpha_cz_arcsec - c.alpha_cz_arcsec).abs() < 1e-9
+                && (w.beta_cz_arcsec - c.beta_cz_arcsec).abs() < 1e-9
+        );
     }
 }
 
 #[test]
 fn bad_input_is_typed() {
-    let same = CAxisProbe { centres_mm: [[1.0, 2.0, 3.0]; 4], nominal_axis_xy_mm: [0.0, 0.0], z_c_mm: 60.0 };
-    assert_eq!(identify_c_axis(&same, ProbeMode::Corrected), Err(ProbeError::DegenerateCircle));
+    let same = CAxisProbe {
+        centres_mm: [[1.0, 2.0, 3.0]; 4],
+        nominal_axis_xy_mm: [0.0, 0.0],
+        z_c_mm: 60.0,
+    };
+    assert_eq!(
+        identify_c_axis(&same, ProbeMode::Corrected),
+        Err(ProbeError::DegenerateCircle)
+    );
     // Points on a vertical line: N has no Z component.
     let line = CAxisProbe {
-        centres_mm: [[0.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 2.0], [0.0, 0.0, 3.0]],
+        centres_mm: [
+            [0.0, 0.0, 0.0],
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, 2.0],
+            [0.0, 0.0, 3.0],
+        ],
         ..same
     };
-    assert_eq!(identify_c_axis(&line, ProbeMode::Paper), Err(ProbeError::DegenerateCircle));
-    let mut nan = CAxisProbe { centres_mm: C_AVG, ..same };
+    assert_eq!(
+        identify_c_axis(&line, ProbeMode::Paper),
+        Err(ProbeError::DegenerateCircle)
+    );
+    let mut nan = CAxisProbe {
+        centres_mm: C_AVG,
+        ..same
+    };
     nan.centres_mm[2][1] = f64::NAN;
-    assert_eq!(identify_c_axis(&nan, ProbeMode::Corrected), Err(ProbeError::NonFinite));
+    assert_eq!(
+        identify_c_axis(&nan, ProbeMode::Corrected),
+        Err(ProbeError::NonFinite)
+    );
     let b = BAxisProbe {
         measured_mm: [[0.0; 3]; 4],
         nominal_mm: [[0.0; 3]; 4],
@@ -198,14 +271,39 @@ fn bad_input_is_typed() {
         r_b2_mm: 380.0,
         x_t_mm: 490.0,
     };
-    assert_eq!(identify_b_axis(&b, ProbeMode::Corrected), Err(ProbeError::SameToolLength));
-    assert_eq!(identify_b_axis(&BAxisProbe { r_b_mm: 0.0, ..b }, ProbeMode::Paper), Err(ProbeError::NonPositiveLength { what: "R_B" }));
-    assert_eq!(identify_b_axis(&BAxisProbe { r_b2_mm: -1.0, ..b }, ProbeMode::Paper), Err(ProbeError::NonPositiveLength { what: "R'_B" }));
     assert_eq!(
-        identify_b_axis(&BAxisProbe { r_b2_mm: 430.0, x_t_mm: 0.0, ..b }, ProbeMode::Paper),
+        identify_b_axis(&b, ProbeMode::Corrected),
+        Err(ProbeError::SameToolLength)
+    );
+    assert_eq!(
+        identify_b_axis(&BAxisProbe { r_b_mm: 0.0, ..b }, ProbeMode::Paper),
+        Err(ProbeError::NonPositiveLength { what: "R_B" })
+    );
+    assert_eq!(
+        identify_b_axis(&BAxisProbe { r_b2_mm: -1.0, ..b }, ProbeMode::Paper),
+        Err(ProbeError::NonPositiveLength { what: "R'_B" })
+    );
+    assert_eq!(
+        identify_b_axis(
+            &BAxisProbe {
+                r_b2_mm: 430.0,
+                x_t_mm: 0.0,
+                ..b
+            },
+            ProbeMode::Paper
+        ),
         Err(ProbeError::NonPositiveLength { what: "X_T" })
     );
-    assert_eq!(identify_b_axis(&BAxisProbe { x_t_mm: f64::NAN, ..b }, ProbeMode::Paper), Err(ProbeError::NonFinite));
+    assert_eq!(
+        identify_b_axis(
+            &BAxisProbe {
+                x_t_mm: f64::NAN,
+                ..b
+            },
+            ProbeMode::Paper
+        ),
+        Err(ProbeError::NonFinite)
+    );
 }
 
 /// TV-13: least-squares sphere through the 21 Fig 5.13 points: centre (−390.2175, −0.0005,
@@ -249,12 +347,20 @@ fn tv13_sphere_fit_of_fig_5_13() {
 fn sphere_fit_round_trip_and_bad_input() {
     let mut r = fwd::Rng(0x5f_e7e);
     for _ in 0..20 {
-        let c = [-400.0 + 50.0 * r.uniform(), 30.0 * r.uniform(), -470.0 + 20.0 * r.uniform()];
+        let c = [
+            -400.0 + 50.0 * r.uniform(),
+            30.0 * r.uniform(),
+            -470.0 + 20.0 * r.uniform(),
+        ];
         let rad = 5.0 + 3.0 * r.uniform().abs();
         let pts: Vec<[f64; 3]> = (0..15)
             .map(|_| {
                 let (u, v) = (r.uniform() * std::f64::consts::PI, r.uniform() * 1.3);
-                [c[0] + rad * v.cos() * u.cos(), c[1] + rad * v.cos() * u.sin(), c[2] + rad * v.sin()]
+                [
+                    c[0] + rad * v.cos() * u.cos(),
+                    c[1] + rad * v.cos() * u.sin(),
+                    c[2] + rad * v.sin(),
+                ]
             })
             .collect();
         let f = fit_sphere(&pts).unwrap();
@@ -263,8 +369,20 @@ fn sphere_fit_round_trip_and_bad_input() {
         }
         assert!((f.radius_mm - rad).abs() < 1e-9 && f.residual_rms_um < 1e-6);
     }
-    assert_eq!(fit_sphere(&[[0.0; 3]; 3]), Err(SphereFitError::TooFewPoints { points: 3 }));
-    let plane = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [2.0, 0.5, 0.0]];
+    assert_eq!(
+        fit_sphere(&[[0.0; 3]; 3]),
+        Err(SphereFitError::TooFewPoints { points: 3 })
+    );
+    let plane = [
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [2.0, 0.5, 0.0],
+    ];
     assert_eq!(fit_sphere(&plane), Err(SphereFitError::Degenerate));
-    assert_eq!(fit_sphere(&[[0.0, 0.0, f64::NAN]; 5]), Err(SphereFitError::NonFinite));
+    assert_eq!(
+        fit_sphere(&[[0.0, 0.0, f64::NAN]; 5]),
+        Err(SphereFitError::NonFinite)
+    );
 }

@@ -1,1 +1,14 @@
 //! Metrology: samples → SSM position errors, running circle fits, ISO 230-4 figures, point fits.
+//!
+//! - [`pattern`]: a measuring pattern's plane, centre and sensitive direction n;
+//! - [`circle_fit`]: the running limaçon fit ΔL = r0 + e·n (seed 002 §3.5), f32 per sample;
+//! - [`compensated`]: the Kahan-compensated f32 sum the running fits accumulate with;
+//! - [`solve3`]: hand-written 3×3 symmetric Cholesky solve, inverse, condition number.
+//!
+//! Units: ΔL and eccentricities in µm, positions in mm, angles in degrees at the interface.
+//! Error = actual − nominal.
+
+pub mod circle_fit;
+pub mod compensated;
+pub mod pattern;
+pub mod solve3;

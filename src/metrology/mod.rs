@@ -3,6 +3,7 @@
 //! - [`pattern`]: a measuring pattern's plane, centre and sensitive direction n;
 //! - [`circle_fit`]: the running limaçon fit ΔL = r0 + e·n (seed 002 §3.5), f32 per sample;
 //! - [`compensated`]: the Kahan-compensated f32 sum the running fits accumulate with;
+//! - [`ssm`]: SSM position errors (seed 000 eq 1), station and streaming modes;
 //! - [`solve3`]: hand-written 3×3 symmetric Cholesky solve, inverse, condition number.
 //!
 //! Units: ΔL and eccentricities in µm, positions in mm, angles in degrees at the interface.
@@ -12,3 +13,4 @@ pub mod circle_fit;
 pub mod compensated;
 pub mod pattern;
 pub mod solve3;
+pub mod ssm;

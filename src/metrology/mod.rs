@@ -5,6 +5,7 @@
 //! - [`iso230_4`]: ISO 230-4 figures (G, F, H, G(b)) and ball-bar diagnostics;
 //! - [`angle`]: quadrant + polynomial angle for binning (no atan2);
 //! - [`compensated`]: the Kahan-compensated f32 sum the running fits accumulate with;
+//! - [`point_fit`]: circle and sphere from touch points (Taubin + Gauss–Newton);
 //! - [`ssm`]: SSM position errors (seed 000 eq 1), station and streaming modes;
 //! - [`solve3`]: hand-written 3×3 symmetric Cholesky solve, inverse, condition number.
 //!
@@ -16,5 +17,6 @@ pub mod circle_fit;
 pub mod compensated;
 pub mod iso230_4;
 pub mod pattern;
+pub mod point_fit;
 pub mod solve3;
 pub mod ssm;

@@ -131,7 +131,7 @@ struct Sums {
     yy: KahanF32,
 }
 
-/// The running limaçon fit of one pattern run (one direction). State: 100 bytes.
+/// The running limaçon fit of one pattern run (one direction). State: 124 bytes.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CircleFit {
     config: CircleFitConfig,

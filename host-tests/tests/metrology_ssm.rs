@@ -493,3 +493,53 @@ fn streaming_planar_path_marks_out_of_plane_unobservable() {
     }
     assert_eq!(ssm.estimate().unwrap_err(), SsmError::Degenerate);
 }
+
+#[test]
+fn streaming_refinement_removes_linearisation_error() {
+    // constant E of ~0.4 mm: eq (1) is off by ~|E|²/2L ≈ 0.5 µm; the exact sphere equation is not
+    let p0 = [40.0, 60.0, -300.0];
+    let l = 150.0;
+    let e = [150.0, -220.0, 310.0];
+    let a = 30.0f64.to_radians();
+    let mut ssm = StreamingSsm::<1024>::new(StreamingConfig {
+        geometry: SsmGeometry {
+            socket_mm: p0,
+            bar_length_mm: l,
+        },
+        radius_mm: 140.0,
+        rotary_tol_deg: 0.001,
+    });
+    for i in 0..1800 {
+        let ph = 2.0 * std::f64::consts::PI * i as f64 / 3600.0;
+        let p = [
+            p0[0] + l * a.sin() * ph.cos(),
+            p0[1] + l * a.sin() * ph.sin(),
+            p0[2] + l * a.cos(),
+        ];
+        let d = [
+            p[0] - p0[0] + e[0] * 1e-3,
+            p[1] - p0[1] + e[1] * 1e-3,
+            p[2] - p0[2] + e[2] * 1e-3,
+        ];
+        ssm.update(&Sample {
+            seq: i,
+            t_us: 0,
+            delta_l_um: ((norm(d) - l) * 1e3) as f32,
+            axes: [p[0] as f32, p[1] as f32, p[2] as f32, 0.0, 0.0],
+            temp_c: 20.0,
+            flags: SampleFlags::NONE,
+        });
+    }
+    let lin = ssm.estimate().unwrap().solution;
+    let lin_err = (0..3)
+        .map(|k| (lin.e_um[k].unwrap() - e[k]).abs())
+        .fold(0.0, f64::max);
+    assert!(lin_err > 0.2, "linear error {lin_err}");
+    let refined = ssm.estimate_refined(3).unwrap().solution;
+    assert_eq!(refined.iterations, 3);
+    assert_e(refined.e_um, e, 0.02, "refined streaming");
+    println!(
+        "streaming |E| = 0.41 mm: linear error {lin_err:.3} µm, refined {:?}",
+        refined.e_um
+    );
+}

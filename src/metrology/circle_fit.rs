@@ -177,20 +177,30 @@ impl CircleFit {
 
     /// Accumulates one sample (O(1): ~60 flops, one square root, one division).
     pub fn update(&mut self, sample: &Sample) -> SampleUse {
+        match self.update_direction(sample) {
+            Ok(_) => SampleUse::Used,
+            Err(skipped) => skipped,
+        }
+    }
+
+    /// As [`update`](Self::update), returning the sensitive direction n of a used sample (so
+    /// that callers binning by angle do not compute it twice).
+    #[inline]
+    pub fn update_direction(&mut self, sample: &Sample) -> Result<[f32; 2], SampleUse> {
         if !sample.flags.is_valid_for_metrology() {
             self.skipped_flagged = self.skipped_flagged.saturating_add(1);
-            return SampleUse::SkippedFlagged;
+            return Err(SampleUse::SkippedFlagged);
         }
         let dl = sample.delta_l_um;
         let n = match self.config.geometry.direction(&sample.axes) {
             Some(n) if dl.is_finite() => n,
             _ => {
                 self.skipped_invalid = self.skipped_invalid.saturating_add(1);
-                return SampleUse::SkippedInvalid;
+                return Err(SampleUse::SkippedInvalid);
             }
         };
         self.add(n, dl);
-        SampleUse::Used
+        Ok(n)
     }
 
     /// Accumulates one observation ΔL = `delta_l_um` at sensitive direction `n` (unit, in the

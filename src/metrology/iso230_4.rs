@@ -31,7 +31,6 @@
 
 use super::angle::quadrant_angle;
 use super::circle_fit::{CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, Moments};
-use super::pattern::PatternGeometry;
 use crate::acquisition::Sample;
 use nalgebra::{SMatrix, SVector};
 
@@ -190,26 +189,23 @@ impl<const BINS: usize> CircularTest<BINS> {
             Direction::Ccw => ccw,
             Direction::Cw => cw,
         };
-        let used = run.fit.update(sample);
-        if used != super::circle_fit::SampleUse::Used {
-            return used;
+        let [nu, nv] = match run.fit.update_direction(sample) {
+            Ok(n) => n,
+            Err(skipped) => return skipped,
+        };
+        let dl = sample.delta_l_um;
+        run.f_max_um = run.f_max_um.max(dl);
+        run.f_min_um = run.f_min_um.min(dl);
+        let (q, a) = quadrant_angle(nu, nv);
+        let per_q = BINS / 4;
+        let k = ((a * (per_q as f32 / core::f32::consts::FRAC_PI_2)) as usize).min(per_q - 1);
+        if let Some(bin) = run.bins.get_mut(usize::from(q) * per_q + k) {
+            bin.dl_um += dl;
+            bin.nu += nu;
+            bin.nv += nv;
+            bin.n = bin.n.saturating_add(1);
         }
-        let geom: &PatternGeometry = &run.fit.config().geometry;
-        if let Some([nu, nv]) = geom.direction(&sample.axes) {
-            let dl = sample.delta_l_um;
-            run.f_max_um = run.f_max_um.max(dl);
-            run.f_min_um = run.f_min_um.min(dl);
-            let (q, a) = quadrant_angle(nu, nv);
-            let per_q = BINS / 4;
-            let k = ((a * (per_q as f32 / core::f32::consts::FRAC_PI_2)) as usize).min(per_q - 1);
-            if let Some(bin) = run.bins.get_mut(usize::from(q) * per_q + k) {
-                bin.dl_um += dl;
-                bin.nu += nu;
-                bin.nv += nv;
-                bin.n = bin.n.saturating_add(1);
-            }
-        }
-        used
+        super::circle_fit::SampleUse::Used
     }
 
     /// Figures of one direction.

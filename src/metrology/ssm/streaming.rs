@@ -65,24 +65,33 @@ struct Sums {
 }
 
 impl Sums {
+    /// Adds (`ADD`) or removes an entry: i32×i32→i64 products (SMULL) and 64-bit adds, exact.
     #[inline(always)]
-    fn apply(&mut self, e: &Entry, sign: i64) {
+    fn apply<const ADD: bool>(&mut self, e: &Entry) {
+        #[inline(always)]
+        fn acc<const ADD: bool>(s: &mut i64, v: i64) {
+            if ADD {
+                *s = s.wrapping_add(v);
+            } else {
+                *s = s.wrapping_sub(v);
+            }
+        }
         let [u0, u1, u2] = e.u.map(i64::from);
         let y = i64::from(e.y);
         let [g0, g1, g2, g3, g4, g5] = &mut self.g;
-        *g0 += sign * (u0 * u0);
-        *g1 += sign * (u0 * u1);
-        *g2 += sign * (u0 * u2);
-        *g3 += sign * (u1 * u1);
-        *g4 += sign * (u1 * u2);
-        *g5 += sign * (u2 * u2);
+        acc::<ADD>(g0, u0 * u0);
+        acc::<ADD>(g1, u0 * u1);
+        acc::<ADD>(g2, u0 * u2);
+        acc::<ADD>(g3, u1 * u1);
+        acc::<ADD>(g4, u1 * u2);
+        acc::<ADD>(g5, u2 * u2);
         for (b, u) in self.b.iter_mut().zip([u0, u1, u2]) {
-            *b += sign * (u * y);
+            acc::<ADD>(b, u * y);
         }
         let y8 = y >> 4; // Q12: y² < 2^48 per term
-        self.yy += sign * (y8 * y8);
+        acc::<ADD>(&mut self.yy, y8 * y8);
         for (s, d) in self.d.iter_mut().zip(e.d) {
-            *s += sign * i64::from(d);
+            acc::<ADD>(s, i64::from(d));
         }
     }
 }
@@ -167,7 +176,7 @@ impl<const W: usize> StreamingSsm<W> {
             return;
         }
         if let Some(e) = self.ring.get(self.tail).copied() {
-            self.sums.apply(&e, -1);
+            self.sums.apply::<false>(&e);
         }
         self.tail = (self.tail + 1) % W;
         self.len -= 1;
@@ -243,7 +252,7 @@ impl<const W: usize> StreamingSsm<W> {
         let head = (self.tail + self.len) % W;
         if let Some(slot) = self.ring.get_mut(head) {
             *slot = entry;
-            self.sums.apply(&entry, 1);
+            self.sums.apply::<true>(&entry);
             self.len += 1;
         }
         used

@@ -322,3 +322,42 @@ fn cw_ccw_combination_and_seed002_b_pattern_direction() {
             && (joint.e_um[1] as f64 - ev).abs() < 1e-3
     );
 }
+
+#[test]
+fn seed002_tv7_cr_sign_anchor() {
+    // CR (seed 002 §3.3): T-ball commanded at (R_C − L_B)(cos θ, sin θ), W-ball on the table at
+    // R_C (cos θ, sin θ) displaced by the C-axis error (δx_CZ, 0); the bar reads
+    // |T − W| − L_B. TV-7: δx_CZ = +20 µm ⇒ ex_CR = −20 µm (and −20 µm ⇒ +20 µm).
+    let (rc, lb) = (50.0f64, 100.0f64);
+    for (dx_um, want) in [(20.0, -20.0), (-20.0, 20.0)] {
+        let mut f = CircleFit::new(CircleFitConfig {
+            geometry: PatternGeometry {
+                plane: Plane::XY,
+                centre_u_mm: 0.0,
+                centre_v_mm: 0.0,
+                sensitivity: Sensitivity::Outward,
+            },
+            min_arc_deg: 300.0,
+        });
+        for i in 0..720 {
+            let th = (i as f64 * 0.5).to_radians();
+            let (s, c) = th.sin_cos();
+            let t = [(rc - lb) * c, (rc - lb) * s];
+            let w = [rc * c + dx_um * 1e-3, rc * s];
+            let len = ((t[0] - w[0]).powi(2) + (t[1] - w[1]).powi(2)).sqrt();
+            f.update(&Sample {
+                seq: i,
+                t_us: 0,
+                delta_l_um: ((len - lb) * 1e3) as f32,
+                axes: [t[0] as f32, t[1] as f32, 165.5, 0.0, (i as f32) * 0.5],
+                temp_c: 20.0,
+                flags: SampleFlags::NONE,
+            });
+        }
+        let e = f.estimate().unwrap();
+        assert!(
+            (e.e_um[0] as f64 - want).abs() < 0.01 && e.e_um[1].abs() < 0.01,
+            "{e:?}"
+        );
+    }
+}

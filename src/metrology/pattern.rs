@@ -4,9 +4,12 @@
 //! n is the unit vector from the pattern centre to the position, in the pattern plane, times the
 //! pattern's sign. It is computed from the geometry (a difference, a hardware square root and a
 //! division: no trigonometry per sample):
-//! - a circle about the socket (ISO 230-4, seed 002 CR/CA): centre = socket (CR, or the C
-//!   centre for CA), n radial, sign −1 for CR when R_C < L_B (sign(R_C − L_B), seed 002 §3.5);
-//! - the BX/BY arcs: centre = the commanded (X,Z) arc centre, n = (sin φ, cos φ).
+//! - a circle about the socket (ISO 230-4): centre = socket, n radial;
+//! - seed 002 CR/CA: centre = the C-axis centre, positions = the commanded T-ball (spindle)
+//!   positions; n then *is* sign(R_C − L_B)·(cos θ, sin θ) of seed 002 §3.5 with
+//!   [`Sensitivity::Outward`] (the CR T-ball sits on the far side of the centre when R_C < L_B);
+//! - the BX/BY arcs: centre = the commanded (X,Z) arc centre, n = (sin φ, cos φ);
+//! - [`Sensitivity::Inward`] flips n, for patterns described from the other ball.
 
 use crate::acquisition::MAX_AXES;
 

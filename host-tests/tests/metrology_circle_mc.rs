@@ -77,3 +77,68 @@ fn monte_carlo_efficiency_and_reported_uncertainty() {
     );
     assert!((sum_rms / RUNS as f64 / SIGMA - 1.0).abs() < 0.02);
 }
+
+#[test]
+fn monte_carlo_reported_uncertainty_on_a_90deg_arc() {
+    // On a 90° arc the normal matrix is far from diagonal (e and r0 correlate strongly): the
+    // reported u must still match the empirical spread (within 20 %).
+    const RUNS: usize = 200;
+    const N: usize = 900;
+    const SIGMA: f64 = 0.5;
+    let (cx, cz, r) = (-140.0f64, 655.0f64, 356.3945f64);
+    let mut rng = Rng::new(4242);
+    let (mut ss, mut su) = ([0.0f64; 3], [0.0f64; 3]);
+    for _ in 0..RUNS {
+        let mut f = CircleFit::new(CircleFitConfig {
+            geometry: PatternGeometry {
+                plane: Plane::XZ,
+                centre_u_mm: cx as f32,
+                centre_v_mm: cz as f32,
+                sensitivity: Sensitivity::Outward,
+            },
+            min_arc_deg: 60.0,
+        });
+        for i in 0..N {
+            // BX-like arc: n = (sin φ, cos φ), φ 0..90°
+            let phi = (90.0 * i as f64 / (N - 1) as f64).to_radians();
+            let (s, c) = phi.sin_cos();
+            let dl = -51.7 * s - 41.6 * c + 2.0 + SIGMA * rng.normal();
+            f.update(&Sample {
+                seq: i as u32,
+                t_us: 0,
+                delta_l_um: dl as f32,
+                axes: [
+                    (cx + r * s) as f32,
+                    0.0,
+                    (cz + r * c) as f32,
+                    phi.to_degrees() as f32,
+                    0.0,
+                ],
+                temp_c: 20.0,
+                flags: SampleFlags::NONE,
+            });
+        }
+        let e = f.estimate().unwrap();
+        let err = [
+            e.r0_um as f64 - 2.0,
+            e.e_um[0] as f64 + 51.7,
+            e.e_um[1] as f64 + 41.6,
+        ];
+        let u = [e.u_r0_um as f64, e.u_e_um[0] as f64, e.u_e_um[1] as f64];
+        for k in 0..3 {
+            ss[k] += err[k] * err[k];
+            su[k] += u[k];
+        }
+    }
+    for k in 0..3 {
+        let spread = (ss[k] / RUNS as f64).sqrt();
+        let rep = su[k] / RUNS as f64;
+        println!("param {k}: empirical {spread:.4} µm, reported {rep:.4} µm");
+        assert!(
+            (rep / spread - 1.0).abs() < 0.2,
+            "param {k}: reported {rep} vs spread {spread}"
+        );
+        // a 90° arc is much weaker than a full circle
+        assert!(rep > 3.0 * (2.0 * SIGMA * SIGMA / N as f64).sqrt());
+    }
+}

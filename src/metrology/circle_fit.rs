@@ -223,8 +223,13 @@ impl CircleFit {
             let c = pu * nu + pv * nv;
             let turn = s * (1.0 + (1.0 - c) * (1.0 / 3.0));
             let psi = self.psi_anchor_rad + turn;
-            self.psi_min_rad = self.psi_min_rad.min(psi);
-            self.psi_max_rad = self.psi_max_rad.max(psi);
+            // comparisons, not f32::min/max: those are fminf/fmaxf library calls on the M4F
+            if psi < self.psi_min_rad {
+                self.psi_min_rad = psi;
+            }
+            if psi > self.psi_max_rad {
+                self.psi_max_rad = psi;
+            }
             if !(s.abs() < 0.0625) {
                 self.psi_anchor_rad = psi;
                 self.n_anchor = n;

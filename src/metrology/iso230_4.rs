@@ -194,8 +194,13 @@ impl<const BINS: usize> CircularTest<BINS> {
             Err(skipped) => return skipped,
         };
         let dl = sample.delta_l_um;
-        run.f_max_um = run.f_max_um.max(dl);
-        run.f_min_um = run.f_min_um.min(dl);
+        // comparisons, not f32::min/max (library calls on the M4F)
+        if dl > run.f_max_um {
+            run.f_max_um = dl;
+        }
+        if dl < run.f_min_um {
+            run.f_min_um = dl;
+        }
         let (q, a) = quadrant_angle(nu, nv);
         let per_q = BINS / 4;
         let k = ((a * (per_q as f32 / core::f32::consts::FRAC_PI_2)) as usize).min(per_q - 1);

@@ -236,7 +236,9 @@ impl<const S: usize> StationCollector<S> {
             return DwellEvent::Skipped;
         }
         let still = if self.have_prev && s.t_us > self.prev_t_us {
-            let dt_s = (s.t_us - self.prev_t_us) as f32 * 1e-6;
+            // via u32 (71 min): a hardware conversion, not the soft u64 → f32 one
+            let dt_us = u32::try_from(s.t_us - self.prev_t_us).unwrap_or(u32::MAX);
+            let dt_s = dt_us as f32 * 1e-6;
             let [x, y, z, a, b] = s.axes;
             let [px, py, pz, pa, pb] = self.prev_axes;
             let (dx, dy, dz) = (x - px, y - py, z - pz);

@@ -45,7 +45,8 @@ pub enum StreamUse {
     UsedAfterRotaryMove,
     /// Flagged invalid for metrology: skipped and counted.
     SkippedFlagged,
-    /// Not finite, at the socket, or |y| > [`MAX_ABS_Y_UM`]: skipped and counted.
+    /// Not finite, within 1 mm of the socket or farther than 3162 mm, or |y| > [`MAX_ABS_Y_UM`]:
+    /// skipped and counted.
     SkippedInvalid,
 }
 
@@ -110,6 +111,9 @@ pub struct StreamingEstimate {
 pub struct StreamingSsm<const W: usize> {
     config: StreamingConfig,
     socket_f32: [f32; 3],
+    bar_length_f32: f32,
+    /// (radius in Q16 mm)², for the neighbourhood test.
+    radius2_q: f32,
     ring: [Entry; W],
     /// Index of the oldest entry and number of entries.
     tail: usize,
@@ -132,6 +136,8 @@ impl<const W: usize> StreamingSsm<W> {
         Self {
             config,
             socket_f32: [x as f32, y as f32, z as f32],
+            bar_length_f32: config.geometry.bar_length_mm as f32,
+            radius2_q: (config.radius_mm * P_SCALE) * (config.radius_mm * P_SCALE),
             ring: [Entry::default(); W],
             tail: 0,
             len: 0,
@@ -192,9 +198,10 @@ impl<const W: usize> StreamingSsm<W> {
         let [sx, sy, sz] = self.socket_f32;
         let d = [x - sx, y - sy, z - sz];
         let r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
-        let ok = r2 > 1.0 && r2 < 1.0e12 && a.is_finite() && b.is_finite();
+        // 1 mm < |P − P0| < 3162 mm keeps the Q16 positions and their differences in i32
+        let ok = r2 > 1.0 && r2 < 1.0e7 && a.is_finite() && b.is_finite();
         let r = crate::num::sqrtf(r2);
-        let yv = s.delta_l_um + (self.config.geometry.bar_length_mm as f32 - r) * 1e3;
+        let yv = s.delta_l_um + (self.bar_length_f32 - r) * 1e3;
         if !ok || !(yv.abs() <= MAX_ABS_Y_UM) {
             self.skipped_invalid = self.skipped_invalid.saturating_add(1);
             return StreamUse::SkippedInvalid;
@@ -224,22 +231,21 @@ impl<const W: usize> StreamingSsm<W> {
             self.rotary_ref_deg = [a, b];
         }
         // leave: samples outside the radius (oldest first), then the oldest if full
-        let rq = self.config.radius_mm * P_SCALE;
-        let r2q = f64::from(rq) * f64::from(rq);
         while self.len > 0 {
             let Some(old) = self.ring.get(self.tail) else {
                 break;
             };
-            let dist2: f64 = old
+            // Q16 differences fit in i32 (|d| < 3162 mm); f32 squares, no soft double
+            let dist2: f32 = old
                 .d
                 .iter()
                 .zip(entry.d)
                 .map(|(o, n)| {
-                    let q = f64::from(n) - f64::from(*o);
+                    let q = n.wrapping_sub(*o) as f32;
                     q * q
                 })
                 .sum();
-            if dist2 > r2q {
+            if dist2 > self.radius2_q {
                 self.pop_oldest();
             } else {
                 break;

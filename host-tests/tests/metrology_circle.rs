@@ -293,6 +293,8 @@ fn cw_ccw_combination_and_seed002_b_pattern_direction() {
 
     let (run, s) = simple_run(360.0, 720);
     let ccw = fit(&run, &s).estimate().unwrap();
+    // uniform full circle: A = N·diag(1, ½, ½), so √(tr A · tr A⁻¹) = √10
+    assert!((ccw.cond - 10f32.sqrt()).abs() < 1e-3, "cond {}", ccw.cond);
     let run2 = Run {
         e_um: [10.0, -5.0],
         r0_um: 1.0,

@@ -100,7 +100,7 @@ pub struct CircleEstimate {
     pub residual_rms_um: f32,
     /// Samples used.
     pub samples: u32,
-    /// Frobenius condition number √(tr A · tr A⁻¹) of the 3×3 normal matrix A (≈ 4 for a full
+    /// Frobenius condition number √(tr A · tr A⁻¹) of the 3×3 normal matrix A (√10 ≈ 3.2 for a full
     /// circle; grows as the arc shortens).
     pub cond: f32,
 }

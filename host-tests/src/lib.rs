@@ -6,4 +6,5 @@ pub mod forward_seed002;
 pub mod forward_seed003;
 pub mod forward_seed004;
 pub mod lvdt_model;
+pub mod oracle;
 pub mod rng;

@@ -1,1 +1,22 @@
 //! Metrology: samples → SSM position errors, running circle fits, ISO 230-4 figures, point fits.
+//!
+//! - [`pattern`]: a measuring pattern's plane, centre and sensitive direction n;
+//! - [`circle_fit`]: the running limaçon fit ΔL = r0 + e·n (seed 002 §3.5), f32 per sample;
+//! - [`iso230_4`]: ISO 230-4 figures (G, F, H, G(b)) and ball-bar diagnostics;
+//! - [`angle`]: quadrant + polynomial angle for binning (no atan2);
+//! - [`compensated`]: the Kahan-compensated f32 sum the running fits accumulate with;
+//! - [`point_fit`]: circle and sphere from touch points (Taubin + Gauss–Newton);
+//! - [`ssm`]: SSM position errors (seed 000 eq 1), station and streaming modes;
+//! - [`solve3`]: hand-written 3×3 symmetric Cholesky solve, inverse, condition number.
+//!
+//! Units: ΔL and eccentricities in µm, positions in mm, angles in degrees at the interface.
+//! Error = actual − nominal.
+
+pub mod angle;
+pub mod circle_fit;
+pub mod compensated;
+pub mod iso230_4;
+pub mod pattern;
+pub mod point_fit;
+pub mod solve3;
+pub mod ssm;

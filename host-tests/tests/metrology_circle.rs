@@ -1,0 +1,365 @@
+//! Running limaçon circle fit (issue 3 item 2) against the independent f64 Householder-QR batch
+//! oracle on identical f32 inputs, plus bad-input behaviour.
+
+use ballpod::acquisition::{Sample, SampleFlags};
+use ballpod::metrology::circle_fit::{
+    CircleFit, CircleFitConfig, CircleFitError, SampleUse, combine,
+};
+use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use ballpod_host::oracle::{Rng, lstsq};
+
+struct Run {
+    plane: Plane,
+    centre_mm: [f64; 2],
+    radius_mm: f64,
+    start_deg: f64,
+    arc_deg: f64,
+    n: usize,
+    e_um: [f64; 2],
+    r0_um: f64,
+    other_axis_mm: f64,
+}
+
+fn axes_of(plane: Plane, u: f64, v: f64, w: f64) -> [f32; 5] {
+    match plane {
+        Plane::XY => [u as f32, v as f32, w as f32, 0.0, 0.0],
+        Plane::XZ => [u as f32, w as f32, v as f32, 0.0, 0.0],
+        Plane::YZ => [w as f32, u as f32, v as f32, 0.0, 0.0],
+    }
+}
+
+/// Forward model: the tool ball runs the commanded circle (what the encoders report), the
+/// measured trajectory's centre is offset by e, so the bar reads ΔL = |R n + e| − R + r0 exactly.
+fn samples(run: &Run) -> Vec<Sample> {
+    (0..run.n)
+        .map(|i| {
+            let t = if run.arc_deg >= 360.0 {
+                i as f64 / run.n as f64
+            } else {
+                i as f64 / (run.n - 1) as f64
+            };
+            let th = (run.start_deg + run.arc_deg * t).to_radians();
+            let (s, c) = th.sin_cos();
+            let u = run.centre_mm[0] + run.radius_mm * c;
+            let v = run.centre_mm[1] + run.radius_mm * s;
+            let eu = run.e_um[0] * 1e-3;
+            let ev = run.e_um[1] * 1e-3;
+            let len = ((run.radius_mm * c + eu).powi(2) + (run.radius_mm * s + ev).powi(2)).sqrt();
+            let dl = (len - run.radius_mm) * 1e3 + run.r0_um;
+            Sample {
+                seq: i as u32,
+                t_us: i as u64 * 1000,
+                delta_l_um: dl as f32,
+                axes: axes_of(run.plane, u, v, run.other_axis_mm),
+                temp_c: 20.0,
+                flags: SampleFlags::NONE,
+            }
+        })
+        .collect()
+}
+
+/// The oracle: n recomputed in f64 from the same f32 axes, rows (1, n_u, n_v), QR least squares.
+fn oracle(run: &Run, samples: &[Sample]) -> (f64, f64, f64) {
+    let cu = run.centre_mm[0] as f32 as f64;
+    let cv = run.centre_mm[1] as f32 as f64;
+    let mut rows = Vec::new();
+    let mut y = Vec::new();
+    for s in samples {
+        let (u, v) = match run.plane {
+            Plane::XY => (s.axes[0], s.axes[1]),
+            Plane::XZ => (s.axes[0], s.axes[2]),
+            Plane::YZ => (s.axes[1], s.axes[2]),
+        };
+        let du = u as f64 - cu;
+        let dv = v as f64 - cv;
+        let r = (du * du + dv * dv).sqrt();
+        rows.push(vec![1.0, du / r, dv / r]);
+        y.push(s.delta_l_um as f64);
+    }
+    let (x, _) = lstsq(&rows, &y);
+    (x[0], x[1], x[2])
+}
+
+fn fit(run: &Run, samples: &[Sample]) -> CircleFit {
+    let mut f = CircleFit::new(CircleFitConfig {
+        geometry: PatternGeometry {
+            plane: run.plane,
+            centre_u_mm: run.centre_mm[0] as f32,
+            centre_v_mm: run.centre_mm[1] as f32,
+            sensitivity: Sensitivity::Outward,
+        },
+        min_arc_deg: 60.0,
+    });
+    for s in samples {
+        assert_eq!(f.update(s), SampleUse::Used);
+    }
+    f
+}
+
+#[test]
+fn streaming_f32_matches_f64_batch_oracle_within_1nm() {
+    let mut rng = Rng::new(0xBA11_BA55);
+    let mut worst: f64 = 0.0;
+    let mut cases = 0;
+    for &radius in &[50.0, 100.0, 150.0, 300.0] {
+        for &(arc, start) in &[
+            (360.0, 0.0),
+            (90.0, 0.0),
+            (220.0, -35.0),
+            (-90.0, 90.0),
+            (-360.0, 10.0),
+        ] {
+            for &n in &[360usize, 3600, 100_000] {
+                let plane = match cases % 3 {
+                    0 => Plane::XY,
+                    1 => Plane::XZ,
+                    _ => Plane::YZ,
+                };
+                let lim = 1000.0 - radius;
+                let run = Run {
+                    plane,
+                    centre_mm: [rng.range(-lim, lim), rng.range(-lim, lim)],
+                    radius_mm: radius,
+                    start_deg: start + rng.range(0.0, 360.0),
+                    arc_deg: arc,
+                    n,
+                    e_um: [rng.range(-100.0, 100.0), rng.range(-100.0, 100.0)],
+                    r0_um: rng.range(-300.0, 300.0),
+                    other_axis_mm: rng.range(-1000.0, 1000.0),
+                };
+                let run = Run {
+                    arc_deg: arc.abs(),
+                    start_deg: if arc < 0.0 {
+                        run.start_deg + arc.abs()
+                    } else {
+                        run.start_deg
+                    },
+                    ..run
+                };
+                let mut s = samples(&run);
+                if arc < 0.0 {
+                    s.reverse(); // CW
+                }
+                let f = fit(&run, &s);
+                let est = f.estimate().expect("estimate");
+                let (r0, eu, ev) = oracle(&run, &s);
+                let d = [
+                    (est.r0_um as f64 - r0).abs(),
+                    (est.e_um[0] as f64 - eu).abs(),
+                    (est.e_um[1] as f64 - ev).abs(),
+                ];
+                let dmax = d.iter().cloned().fold(0.0, f64::max);
+                worst = worst.max(dmax);
+                assert!(
+                    dmax < 1e-3,
+                    "R={radius} arc={arc} N={n}: core ({}, {:?}) oracle ({r0}, {eu}, {ev}), diff {d:?} µm",
+                    est.r0_um,
+                    est.e_um
+                );
+                // the limaçon is the small-deviation limit of the circle: e within |e|²/R of truth
+                let tol = (run.e_um[0].powi(2) + run.e_um[1].powi(2)) * 1e-3 / radius * 2.0 + 1e-3;
+                assert!((est.e_um[0] as f64 - run.e_um[0]).abs() < tol);
+                assert!((est.e_um[1] as f64 - run.e_um[1]).abs() < tol);
+                assert!(
+                    (f.arc_deg() as f64
+                        - arc.abs()
+                            * if arc.abs() >= 360.0 {
+                                (n - 1) as f64 / n as f64
+                            } else {
+                                1.0
+                            })
+                    .abs()
+                        < 0.05,
+                    "arc {} R={radius} arc={arc} N={n}",
+                    f.arc_deg()
+                );
+                cases += 1;
+            }
+        }
+    }
+    println!("{cases} cases, worst |core − oracle| = {:.3e} µm", worst);
+}
+
+fn simple_run(arc: f64, n: usize) -> (Run, Vec<Sample>) {
+    let run = Run {
+        plane: Plane::XY,
+        centre_mm: [-412.5, 733.25],
+        radius_mm: 150.0,
+        start_deg: 0.0,
+        arc_deg: arc,
+        n,
+        e_um: [12.0, -7.0],
+        r0_um: 3.0,
+        other_axis_mm: 0.0,
+    };
+    let s = samples(&run);
+    (run, s)
+}
+
+#[test]
+fn not_observable_states_and_bad_samples() {
+    let (run, s) = simple_run(360.0, 720);
+    let mut f = fit(&run, &s[..0]);
+    assert_eq!(
+        f.estimate(),
+        Err(CircleFitError::NotEnoughSamples { have: 0 })
+    );
+    for x in &s[..3] {
+        f.update(x);
+    }
+    assert_eq!(
+        f.estimate(),
+        Err(CircleFitError::NotEnoughSamples { have: 3 })
+    );
+    // 59° arc: not yet observable
+    for x in &s[3..=118] {
+        f.update(x);
+    }
+    match f.estimate() {
+        Err(CircleFitError::ArcTooShort { arc_deg, .. }) => assert!((arc_deg - 59.0).abs() < 0.01),
+        other => panic!("{other:?}"),
+    }
+    for x in &s[119..=122] {
+        f.update(x);
+    }
+    assert!(f.estimate().is_ok());
+
+    // flagged, NaN and centre samples are skipped and counted; the result is unchanged
+    let mut g = fit(&run, &s[..0]);
+    for (i, x) in s.iter().enumerate() {
+        g.update(x);
+        if i % 10 == 0 {
+            let mut bad = *x;
+            bad.flags = SampleFlags::LVDT_OPEN;
+            bad.delta_l_um = 1e4;
+            assert_eq!(g.update(&bad), SampleUse::SkippedFlagged);
+            let mut nan = *x;
+            nan.delta_l_um = f32::NAN;
+            assert_eq!(g.update(&nan), SampleUse::SkippedInvalid);
+            let mut centre = *x;
+            centre.axes[0] = run.centre_mm[0] as f32;
+            centre.axes[1] = run.centre_mm[1] as f32;
+            assert_eq!(g.update(&centre), SampleUse::SkippedInvalid);
+            let mut inf = *x;
+            inf.axes[1] = f32::INFINITY;
+            assert_eq!(g.update(&inf), SampleUse::SkippedInvalid);
+        }
+    }
+    assert_eq!(g.skipped_flagged(), 72);
+    assert_eq!(g.skipped_invalid(), 216);
+    assert_eq!(g.samples(), 720);
+    let full = fit(&run, &s);
+    assert_eq!(g.estimate(), full.estimate());
+
+    // all samples at one position: never observable, never NaN
+    let mut h = fit(&run, &s[..0]);
+    for _ in 0..1000 {
+        h.update(&s[5]);
+    }
+    assert!(matches!(
+        h.estimate(),
+        Err(CircleFitError::ArcTooShort { .. })
+    ));
+}
+
+#[test]
+fn cw_ccw_combination_and_seed002_b_pattern_direction() {
+    // BX pattern (seed 002 §3.2): X = L_B + R_B sin φ, Z = Z_C + R_B cos φ; n = (sin φ, cos φ)
+    let geom = PatternGeometry {
+        plane: Plane::XZ,
+        centre_u_mm: 100.0,
+        centre_v_mm: 65.5,
+        sensitivity: Sensitivity::Outward,
+    };
+    for phi_deg in [0.0f64, 17.0, 45.0, 90.0] {
+        let p = phi_deg.to_radians();
+        let axes = [
+            (100.0 + 356.3945 * p.sin()) as f32,
+            0.0,
+            (65.5 + 356.3945 * p.cos()) as f32,
+            phi_deg as f32,
+            0.0,
+        ];
+        let n = geom.direction(&axes).unwrap();
+        assert!((n[0] as f64 - p.sin()).abs() < 1e-6 && (n[1] as f64 - p.cos()).abs() < 1e-6);
+    }
+    // CR with R_C < L_B: sign(R_C − L_B) = −1
+    let inward = PatternGeometry {
+        sensitivity: Sensitivity::Inward,
+        ..geom
+    };
+    let n = inward.direction(&[100.0, 0.0, 165.5, 0.0, 0.0]).unwrap();
+    assert_eq!(n, [-0.0, -1.0]);
+
+    let (run, s) = simple_run(360.0, 720);
+    let ccw = fit(&run, &s).estimate().unwrap();
+    // uniform full circle: A = N·diag(1, ½, ½), so √(tr A · tr A⁻¹) = √10
+    assert!((ccw.cond - 10f32.sqrt()).abs() < 1e-3, "cond {}", ccw.cond);
+    let run2 = Run {
+        e_um: [10.0, -5.0],
+        r0_um: 1.0,
+        ..run
+    };
+    let mut s2 = samples(&run2);
+    s2.reverse();
+    let cw = fit(&run2, &s2).estimate().unwrap();
+    let c = combine(&cw, &ccw);
+    assert!(
+        (c.e_um[0] - 11.0).abs() < 2e-3 && (c.e_um[1] + 6.0).abs() < 2e-3,
+        "{c:?}"
+    );
+    assert!(
+        (c.e_ccw_minus_cw_um[0] - 2.0).abs() < 2e-3 && (c.e_ccw_minus_cw_um[1] + 2.0).abs() < 2e-3
+    );
+    // joint fit of both directions' moments = oracle on the union
+    let a = fit(&run, &s);
+    let b = fit(&run2, &s2);
+    let joint = a.moments().merged(&b.moments()).solve().unwrap();
+    let mut all = s.clone();
+    all.extend_from_slice(&s2);
+    let (r0, eu, ev) = oracle(&run, &all);
+    assert!(
+        (joint.r0_um as f64 - r0).abs() < 1e-3
+            && (joint.e_um[0] as f64 - eu).abs() < 1e-3
+            && (joint.e_um[1] as f64 - ev).abs() < 1e-3
+    );
+}
+
+#[test]
+fn seed002_tv7_cr_sign_anchor() {
+    // CR (seed 002 §3.3): T-ball commanded at (R_C − L_B)(cos θ, sin θ), W-ball on the table at
+    // R_C (cos θ, sin θ) displaced by the C-axis error (δx_CZ, 0); the bar reads
+    // |T − W| − L_B. TV-7: δx_CZ = +20 µm ⇒ ex_CR = −20 µm (and −20 µm ⇒ +20 µm).
+    let (rc, lb) = (50.0f64, 100.0f64);
+    for (dx_um, want) in [(20.0, -20.0), (-20.0, 20.0)] {
+        let mut f = CircleFit::new(CircleFitConfig {
+            geometry: PatternGeometry {
+                plane: Plane::XY,
+                centre_u_mm: 0.0,
+                centre_v_mm: 0.0,
+                sensitivity: Sensitivity::Outward,
+            },
+            min_arc_deg: 300.0,
+        });
+        for i in 0..720 {
+            let th = (i as f64 * 0.5).to_radians();
+            let (s, c) = th.sin_cos();
+            let t = [(rc - lb) * c, (rc - lb) * s];
+            let w = [rc * c + dx_um * 1e-3, rc * s];
+            let len = ((t[0] - w[0]).powi(2) + (t[1] - w[1]).powi(2)).sqrt();
+            f.update(&Sample {
+                seq: i,
+                t_us: 0,
+                delta_l_um: ((len - lb) * 1e3) as f32,
+                axes: [t[0] as f32, t[1] as f32, 165.5, 0.0, (i as f32) * 0.5],
+                temp_c: 20.0,
+                flags: SampleFlags::NONE,
+            });
+        }
+        let e = f.estimate().unwrap();
+        assert!(
+            (e.e_um[0] as f64 - want).abs() < 0.01 && e.e_um[1].abs() < 0.01,
+            "{e:?}"
+        );
+    }
+}

@@ -1,0 +1,125 @@
+//! Point fits (issue 3 item 4): seed 002 TV-13 (sphere through the Fig 5.13 probe points) and
+//! forward-model circles/spheres on arcs and caps, plus degenerate input.
+
+use ballpod::metrology::point_fit::{PointFitError, fit_circle, fit_sphere};
+use ballpod_host::oracle::Rng;
+
+/// Fig 5.13 of seed 002 (X, Y, Z at B = C = 0), mm.
+const FIG_5_13: [[f64; 3]; 21] = [
+    [-390.0000, 0.0000, -464.5118],
+    [-392.3406, 0.0, -464.7967],
+    [-394.5199, 0.0, -465.7790],
+    [-396.3313, 0.0, -467.4001],
+    [-397.5836, 0.0, -469.5359],
+    [-398.1191, 0.0, -472.0000],
+    [-390.0, 2.3213, -464.8558],
+    [-390.0, 4.4467, -465.8796],
+    [-390.0, 6.1922, -467.5011],
+    [-390.0, 7.3864, -469.5999],
+    [-390.0, 7.8969, -472.0000],
+    [-387.6988, 0.0, -464.9178],
+    [-385.6247, 0.0, -465.9779],
+    [-383.9443, 0.0, -467.6003],
+    [-382.7995, 0.0, -469.6604],
+    [-382.3193, 0.0, -472.0000],
+    [-390.0, -2.3213, -464.8558],
+    [-390.0, -4.4467, -465.8796],
+    [-390.0, -6.1922, -467.5011],
+    [-390.0, -7.3892, -469.5990],
+    [-390.0, -7.8969, -472.0000],
+];
+
+#[test]
+fn tv13_sphere_fit_of_fig_5_13() {
+    let f = fit_sphere(&FIG_5_13).unwrap();
+    println!("{f:?}");
+    // seed 002 TV-13: centre (−390.2175, −0.0005, −472.4176), R = 7.9106 mm, RMS 1.46 µm
+    let want = [-390.2175, -0.0005, -472.4176];
+    for (g, w) in f.centre_mm.iter().zip(want) {
+        assert!((g - w).abs() <= 0.00005 + 1e-9, "centre {:?}", f.centre_mm);
+    }
+    assert!(
+        (f.radius_mm - 7.9106).abs() <= 0.00005 + 1e-9,
+        "R {}",
+        f.radius_mm
+    );
+    assert!(
+        (f.residual_rms_um - 1.46).abs() <= 0.005 + 1e-9,
+        "RMS {}",
+        f.residual_rms_um
+    );
+    assert_eq!(f.points, 21);
+}
+
+#[test]
+fn circle_on_short_arc_and_sphere_on_cap_recover_forward_model() {
+    let mut rng = Rng::new(5);
+    // exact points on a 60° arc far from the origin: recovered to 1e-9 mm
+    let (cx, cy, r) = (612.345, -987.654, 25.0);
+    let arc: Vec<[f64; 2]> = (0..13)
+        .map(|i| {
+            let t = (20.0 + 5.0 * i as f64).to_radians();
+            [cx + r * t.cos(), cy + r * t.sin()]
+        })
+        .collect();
+    let f = fit_circle(&arc).unwrap();
+    assert!((f.centre_mm[0] - cx).abs() < 1e-9 && (f.centre_mm[1] - cy).abs() < 1e-9);
+    assert!((f.radius_mm - r).abs() < 1e-9 && f.residual_rms_um < 1e-6);
+    // noisy 90° arc, σ = 1 µm: geometric fit, residual RMS ≈ σ·√((N−3)/N)
+    let noisy: Vec<[f64; 2]> = (0..400)
+        .map(|i| {
+            let t = (90.0 * i as f64 / 399.0).to_radians();
+            let rr = r + 1e-3 * rng.normal();
+            [cx + rr * t.cos(), cy + rr * t.sin()]
+        })
+        .collect();
+    let f = fit_circle(&noisy).unwrap();
+    assert!((f.residual_rms_um - 1.0).abs() < 0.1, "{f:?}");
+    assert!((f.radius_mm - r).abs() < 1e-3 && (f.centre_mm[0] - cx).abs() < 1e-3);
+
+    // exact points on a 40° cap of a sphere
+    let (c, rs) = ([-390.0, 12.5, -472.0], 7.9375);
+    let mut cap = Vec::new();
+    for i in 0..5 {
+        for j in 0..8 {
+            let pol = (10.0 * i as f64).to_radians();
+            let az = (45.0 * j as f64).to_radians();
+            cap.push([
+                c[0] + rs * pol.sin() * az.cos(),
+                c[1] + rs * pol.sin() * az.sin(),
+                c[2] + rs * pol.cos(),
+            ]);
+        }
+    }
+    let f = fit_sphere(&cap).unwrap();
+    for (g, w) in f.centre_mm.iter().zip(c) {
+        assert!((g - w).abs() < 1e-9);
+    }
+    assert!((f.radius_mm - rs).abs() < 1e-9);
+}
+
+#[test]
+fn degenerate_point_sets() {
+    assert_eq!(
+        fit_circle(&[[0.0, 0.0], [1.0, 0.0]]),
+        Err(PointFitError::TooFewPoints { have: 2, need: 3 })
+    );
+    assert_eq!(
+        fit_sphere(&[[0.0; 3]; 3]),
+        Err(PointFitError::TooFewPoints { have: 3, need: 4 })
+    );
+    let line: Vec<[f64; 2]> = (0..10).map(|i| [i as f64, 2.0 * i as f64 + 1.0]).collect();
+    assert_eq!(fit_circle(&line), Err(PointFitError::Degenerate));
+    assert_eq!(fit_circle(&[[1.0, 1.0]; 5]), Err(PointFitError::Degenerate));
+    // coplanar points (a circle in space): infinitely many spheres
+    let ring: Vec<[f64; 3]> = (0..12)
+        .map(|i| {
+            let t = (30.0 * i as f64).to_radians();
+            [10.0 * t.cos(), 10.0 * t.sin(), 5.0]
+        })
+        .collect();
+    assert_eq!(fit_sphere(&ring), Err(PointFitError::Degenerate));
+    let mut nan = ring.clone();
+    nan[3][1] = f64::NAN;
+    assert_eq!(fit_sphere(&nan), Err(PointFitError::NotFinite));
+}

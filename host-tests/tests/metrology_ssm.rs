@@ -1,0 +1,545 @@
+//! SSM (issue 3 item 1) against seed 000 C.1 (TV-SSM-1, TV-SSM-2, TV-SSM-cond) and forward
+//! models of the ball bar: station mode, dwell detection, streaming mode, bad input.
+
+use ballpod::acquisition::{Sample, SampleFlags};
+use ballpod::metrology::ssm::station::{
+    DwellConfig, DwellEvent, Station, StationCollector, refine, solve_stations,
+};
+use ballpod::metrology::ssm::streaming::{StreamUse, StreamingConfig, StreamingSsm};
+use ballpod::metrology::ssm::{SsmError, SsmGeometry};
+use ballpod_host::oracle::Rng;
+
+fn norm(v: [f64; 3]) -> f64 {
+    (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt()
+}
+
+/// Stations whose ΔL is the exact bar reading |P − P0 + E| − L (forward model), µm.
+fn exact_stations(p0: [f64; 3], l: f64, pts: &[[f64; 3]], e_mm: [f64; 3]) -> Vec<Station> {
+    pts.iter()
+        .map(|p| {
+            let a = [
+                p[0] - p0[0] + e_mm[0],
+                p[1] - p0[1] + e_mm[1],
+                p[2] - p0[2] + e_mm[2],
+            ];
+            Station {
+                p_mm: *p,
+                delta_l_um: (norm(a) - l) * 1e3,
+                samples: 1,
+                ..Default::default()
+            }
+        })
+        .collect()
+}
+
+fn assert_e(got: [Option<f64>; 3], want: [f64; 3], tol: f64, what: &str) {
+    for k in 0..3 {
+        let g = got[k].expect("observable");
+        assert!(
+            (g - want[k]).abs() <= tol,
+            "{what}: E[{k}] = {g}, want {} ± {tol}",
+            want[k]
+        );
+    }
+}
+
+#[test]
+fn tv_ssm_1_symmetric_layout() {
+    let p0 = [0.0; 3];
+    let l = 150.0;
+    let pts = [
+        [0.0, 0.0, 150.0],
+        [26.047227, 0.0, 147.721163],
+        [0.0, 26.047227, 147.721163],
+    ];
+    let e = [0.010, -0.020, 0.015];
+    let geom = SsmGeometry {
+        socket_mm: p0,
+        bar_length_mm: l,
+    };
+    // linear-model Δl (u·E, seed 000: (0.015, 0.016508598, 0.011299153) mm): eq (1) returns E to 1e-12 mm
+    let lin: Vec<Station> = pts
+        .iter()
+        .map(|p| {
+            let ln = norm(*p);
+            let dl = (p[0] * e[0] + p[1] * e[1] + p[2] * e[2]) / ln;
+            Station {
+                p_mm: *p,
+                delta_l_um: (dl + ln - l) * 1e3,
+                samples: 1,
+                ..Default::default()
+            }
+        })
+        .collect();
+    let want_lin = [0.015, 0.016508598, 0.011299153];
+    for (st, w) in lin.iter().zip(want_lin) {
+        let ln = norm(st.p_mm);
+        assert!((st.delta_l_um * 1e-3 + l - ln - w).abs() < 1e-9);
+    }
+    let s = solve_stations(&lin, &geom).unwrap();
+    assert_e(s.e_um, [10.0, -20.0, 15.0], 1e-9, "TV-SSM-1 linear");
+    // exact Δl: (0.015001666, 0.016510106, 0.011301144) mm; eq (1) gives (9.9992, −19.9980, 15.0017) µm
+    let ex = exact_stations(p0, l, &pts, e);
+    for (st, w) in ex.iter().zip([0.015001666, 0.016510106, 0.011301144]) {
+        assert!((st.delta_l_um * 1e-3 + l - norm(st.p_mm) - w).abs() < 6e-10);
+    }
+    let s = solve_stations(&ex, &geom).unwrap();
+    assert_e(
+        s.e_um,
+        [9.9992, -19.9980, 15.0017],
+        6e-5,
+        "TV-SSM-1 eq 1 on exact Δl",
+    );
+    assert!((s.cond - 19.9).abs() < 0.05, "cond {}", s.cond);
+    let g = refine(&ex, &geom, &s, 10).unwrap();
+    assert_e(g.e_um, [10.0, -20.0, 15.0], 1e-6, "TV-SSM-1 Gauss–Newton");
+    assert!(g.iterations <= 4);
+}
+
+#[test]
+fn tv_ssm_2_non_symmetric() {
+    let p0 = [100.0, -50.0, 20.0];
+    let pts = [
+        [180.0, -50.0, 147.0],
+        [190.0, -30.0, 140.0],
+        [170.0, -25.0, 150.0],
+    ];
+    let e = [-0.004, 0.007, 0.012];
+    for &l in &[150.0, 149.5] {
+        // any calibrated L: ΔL is relative to it, y = ΔL + (L − l_n)
+        let geom = SsmGeometry {
+            socket_mm: p0,
+            bar_length_mm: l,
+        };
+        let st = exact_stations(p0, l, &pts, e);
+        for ((s, ln), dl) in st
+            .iter()
+            .zip([150.096636, 151.327460, 149.749791])
+            .zip([8.021981, 8.062463, 9.716590])
+        {
+            let d = [s.p_mm[0] - p0[0], s.p_mm[1] - p0[1], s.p_mm[2] - p0[2]];
+            assert!((norm(d) - ln).abs() < 6e-7);
+            assert!((s.delta_l_um + (l - norm(d)) * 1e3 - dl).abs() < 6e-7);
+        }
+        let lin = solve_stations(&st, &geom).unwrap();
+        assert_e(
+            lin.e_um,
+            [-3.999287, 6.999669, 12.000120],
+            1e-6,
+            "TV-SSM-2 eq 1",
+        );
+        let g = refine(&st, &geom, &lin, 10).unwrap();
+        assert_e(g.e_um, [-4.0, 7.0, 12.0], 1e-6, "TV-SSM-2 Gauss–Newton");
+        assert!(g.residual_rms_um < 1e-6);
+    }
+}
+
+#[test]
+fn tv_ssm_cond_frobenius() {
+    let l = 150.0;
+    let geom = SsmGeometry {
+        socket_mm: [0.0; 3],
+        bar_length_mm: l,
+    };
+    for (th, want) in [(30.0f64, 6.7), (10.0, 19.9), (5.0, 39.7), (2.0, 99.2)] {
+        let t = th.to_radians();
+        let pts = [
+            [0.0, 0.0, l],
+            [l * t.sin(), 0.0, l * t.cos()],
+            [0.0, l * t.sin(), l * t.cos()],
+        ];
+        let st = exact_stations(geom.socket_mm, l, &pts, [0.01, -0.02, 0.015]);
+        let s = solve_stations(&st, &geom).unwrap();
+        assert!(
+            (s.cond - want).abs() < 0.05,
+            "θ={th}: cond {} want {want}",
+            s.cond
+        );
+    }
+}
+
+#[test]
+fn least_squares_from_more_stations_and_bad_layouts() {
+    let p0 = [-250.0, 400.0, -300.0];
+    let l = 150.0;
+    let geom = SsmGeometry {
+        socket_mm: p0,
+        bar_length_mm: l,
+    };
+    let e = [0.0031, -0.0022, 0.0047];
+    let dirs: [[f64; 3]; 6] = [
+        [0.3, 0.1, 1.0],
+        [-0.2, 0.3, 1.0],
+        [0.1, -0.35, 1.0],
+        [0.4, 0.4, 0.9],
+        [-0.3, -0.2, 1.0],
+        [0.0, 0.0, 1.0],
+    ];
+    let pts: Vec<[f64; 3]> = dirs
+        .iter()
+        .map(|d| {
+            let n = norm(*d);
+            [
+                p0[0] + l * d[0] / n,
+                p0[1] + l * d[1] / n,
+                p0[2] + l * d[2] / n,
+            ]
+        })
+        .collect();
+    let st = exact_stations(p0, l, &pts, e);
+    let s = refine(&st, &geom, &solve_stations(&st, &geom).unwrap(), 10).unwrap();
+    assert_e(s.e_um, [3.1, -2.2, 4.7], 1e-6, "6 stations LSQ + GN");
+
+    // coplanar stations (all in a plane through the socket): the normal component is unobservable
+    let planar: Vec<[f64; 3]> = (0..5)
+        .map(|i| {
+            let a = (i as f64 * 20.0).to_radians();
+            [p0[0] + l * a.cos(), p0[1] + l * a.sin(), p0[2]]
+        })
+        .collect();
+    let st = exact_stations(p0, l, &planar, e);
+    let s = solve_stations(&st, &geom).unwrap();
+    assert_eq!(s.observable(), [true, true, false]);
+    assert!(s.e_um[2].is_none());
+    let v = s.unobservable_direction.unwrap();
+    assert!(v[2].abs() > 1.0 - 1e-9);
+    // in-plane components: linear error only |E|²/2L ≈ 0.1 nm here
+    assert!((s.e_um[0].unwrap() - 3.1).abs() < 1e-3 && (s.e_um[1].unwrap() + 2.2).abs() < 1e-3);
+    let g = refine(&st, &geom, &s, 10).unwrap();
+    assert_eq!(g.observable(), [true, true, false]);
+    // exact sphere equations with E_z unknown: GN with E_z = 0 fits x, y to the z-free model
+    assert!((g.e_um[0].unwrap() - 3.1).abs() < 1e-3);
+
+    // coincident stations, too few, at the socket, NaN
+    let same = exact_stations(p0, l, &[pts[0], pts[0], pts[0], pts[0]], e);
+    assert_eq!(solve_stations(&same, &geom), Err(SsmError::Degenerate));
+    assert_eq!(
+        solve_stations(&st[..2], &geom),
+        Err(SsmError::TooFewObservations { have: 2, need: 3 })
+    );
+    let mut bad = st.clone();
+    bad[1].p_mm = p0;
+    assert_eq!(solve_stations(&bad, &geom), Err(SsmError::InvalidInput));
+    let mut nan = st.clone();
+    nan[0].delta_l_um = f64::NAN;
+    assert_eq!(solve_stations(&nan, &geom), Err(SsmError::InvalidInput));
+}
+
+#[test]
+fn dwell_detection_builds_stations() {
+    // forward model: move between 4 points on the sphere (1 kHz samples), dwell 400 ms at each;
+    // ΔL with 0.3 µm noise and a servo overshoot during the first 50 ms of each dwell
+    let p0 = [100.0, 200.0, -400.0];
+    let l = 150.0;
+    let geom = SsmGeometry {
+        socket_mm: p0,
+        bar_length_mm: l,
+    };
+    let e = [0.004, 0.0065, -0.003];
+    let dirs: [[f64; 3]; 4] = [
+        [0.0, 0.0, 1.0],
+        [0.5, 0.0, 0.866],
+        [0.0, 0.5, 0.866],
+        [-0.4, -0.4, 0.825],
+    ];
+    let mut rng = Rng::new(7);
+    let mut samples = Vec::new();
+    let mut t = 0u64;
+    let mut pos = [p0[0], p0[1], p0[2] + l];
+    let mut push = |p: [f64; 3], dl: f64, t: u64, flags| {
+        samples.push(Sample {
+            seq: samples.len() as u32,
+            t_us: t,
+            delta_l_um: dl as f32,
+            axes: [p[0] as f32, p[1] as f32, p[2] as f32, 0.0, 0.0],
+            temp_c: 20.0,
+            flags,
+        })
+    };
+    for (k, d) in dirs.iter().enumerate() {
+        let n = norm(*d);
+        let target = [
+            p0[0] + l * d[0] / n,
+            p0[1] + l * d[1] / n,
+            p0[2] + l * d[2] / n,
+        ];
+        // move (straight line, 100 mm/s), then dwell
+        let dist = norm([target[0] - pos[0], target[1] - pos[1], target[2] - pos[2]]);
+        let steps = (dist / 0.1).ceil() as usize;
+        for i in 1..=steps {
+            let f = i as f64 / steps as f64;
+            let p = [
+                pos[0] + f * (target[0] - pos[0]),
+                pos[1] + f * (target[1] - pos[1]),
+                pos[2] + f * (target[2] - pos[2]),
+            ];
+            t += 1000;
+            push(p, 50.0 * (k as f64 + 1.0), t, SampleFlags::NONE);
+        }
+        pos = target;
+        let a = [
+            pos[0] - p0[0] + e[0],
+            pos[1] - p0[1] + e[1],
+            pos[2] - p0[2] + e[2],
+        ];
+        let dl = (norm(a) - l) * 1e3;
+        for i in 0..400 {
+            t += 1000;
+            let settle = if i < 50 {
+                5.0 * (1.0 - i as f64 / 50.0)
+            } else {
+                0.0
+            };
+            let flags = if i == 200 {
+                SampleFlags::LVDT_OVER_RANGE
+            } else {
+                SampleFlags::NONE
+            };
+            push(pos, dl + settle + 0.3 * rng.normal(), t, flags);
+        }
+    }
+    t += 1000;
+    push([pos[0] + 1.0, pos[1], pos[2]], 0.0, t, SampleFlags::NONE);
+    let mut c = StationCollector::<8>::new(DwellConfig {
+        max_speed_mm_per_s: 1.0,
+        max_rotary_speed_deg_per_s: 0.1,
+        settle_us: 100_000,
+        min_samples: 100,
+    });
+    let mut closed = 0;
+    for s in &samples {
+        if c.update(s) == DwellEvent::DwellClosed {
+            closed += 1;
+        }
+    }
+    c.finish();
+    assert_eq!(closed, 4);
+    assert_eq!(c.stations().len(), 4);
+    assert_eq!(c.skipped(), 4);
+    for st in c.stations() {
+        assert!(st.samples >= 295 && st.samples <= 300, "{}", st.samples);
+        assert!((st.std_um - 0.3).abs() < 0.05);
+    }
+    let s = solve_stations(c.stations(), &geom).unwrap();
+    let g = refine(c.stations(), &geom, &s, 10).unwrap();
+    // noise: 0.3 µm/√300 per station, amplified by cond (~6)
+    assert_e(g.e_um, [4.0, 6.5, -3.0], 0.15, "stations from dwells");
+
+    // a full buffer counts its overruns
+    let mut small = StationCollector::<2>::new(DwellConfig {
+        max_speed_mm_per_s: 1.0,
+        max_rotary_speed_deg_per_s: 0.1,
+        settle_us: 100_000,
+        min_samples: 100,
+    });
+    for s in &samples {
+        small.update(s);
+    }
+    assert_eq!(small.stations().len(), 2);
+    assert_eq!(small.dropped_full(), 2);
+}
+
+struct Path {
+    samples: Vec<Sample>,
+    truth: Vec<[f64; 3]>,
+}
+
+/// Smooth error field, µm (a few tenths of a µm per metre: what one neighbourhood can resolve).
+fn field(p: [f64; 3], p0: [f64; 3], s: f64) -> [f64; 3] {
+    let q = [
+        (p[0] - p0[0]) / 1000.0,
+        (p[1] - p0[1]) / 1000.0,
+        (p[2] - p0[2]) / 1000.0,
+    ];
+    [
+        5.0 + s * (2.0 * (2.0 * q[0]).sin() + 3.0 * q[1]),
+        -8.0 + s * (4.0 * q[2] - 2.0 * q[0] * q[0]),
+        12.0 + s * (3.0 * (3.0 * q[1]).cos() + 1.5 * q[0]),
+    ]
+}
+
+fn cone_path(p0: [f64; 3], l: f64, half_angle_deg: f64, n: usize, s: f64) -> Path {
+    let a = half_angle_deg.to_radians();
+    let mut samples = Vec::new();
+    let mut truth = Vec::new();
+    for i in 0..n {
+        let ph = 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+        let p = [
+            p0[0] + l * a.sin() * ph.cos(),
+            p0[1] + l * a.sin() * ph.sin(),
+            p0[2] + l * a.cos(),
+        ];
+        let e = field(p, p0, s);
+        let d = [
+            p[0] - p0[0] + e[0] * 1e-3,
+            p[1] - p0[1] + e[1] * 1e-3,
+            p[2] - p0[2] + e[2] * 1e-3,
+        ];
+        samples.push(Sample {
+            seq: i as u32,
+            t_us: i as u64 * 1000,
+            delta_l_um: ((norm(d) - l) * 1e3) as f32,
+            axes: [p[0] as f32, p[1] as f32, p[2] as f32, 0.0, 0.0],
+            temp_c: 20.0,
+            flags: SampleFlags::NONE,
+        });
+        truth.push(e);
+    }
+    Path { samples, truth }
+}
+
+#[test]
+fn streaming_on_cone_recovers_smooth_field() {
+    let p0 = [320.0, -140.0, -480.0];
+    let l = 150.0;
+    let path = cone_path(p0, l, 30.0, 3600, 0.1);
+    let mut ssm = StreamingSsm::<2048>::new(StreamingConfig {
+        geometry: SsmGeometry {
+            socket_mm: p0,
+            bar_length_mm: l,
+        },
+        radius_mm: 140.0,
+        rotary_tol_deg: 0.001,
+    });
+    let mut worst: f64 = 0.0;
+    let mut checked = 0;
+    for (i, s) in path.samples.iter().enumerate() {
+        assert_eq!(ssm.update(s), StreamUse::Used);
+        if i >= 1800 && i % 7 == 0 {
+            let est = ssm.estimate().unwrap();
+            assert_eq!(est.solution.observable(), [true, true, true]);
+            let want = field(est.centroid_mm, p0, 0.1);
+            // and E at the sample itself (the window trails it by ~half its length)
+            let at = path.truth[i];
+            for ((got, w), a) in est.solution.e_um.iter().zip(want).zip(at) {
+                worst = worst.max((got.unwrap() - w).abs());
+                assert!((got.unwrap() - a).abs() < 0.1);
+            }
+            checked += 1;
+        }
+    }
+    println!(
+        "cone: {checked} estimates, worst |E − E(centroid)| = {worst:.4} µm, window {}",
+        ssm.window_len()
+    );
+    assert!(worst < 0.1, "worst {worst}");
+    assert_eq!(ssm.evicted_full(), 0);
+
+    // a constant field is recovered to the f32 input resolution
+    let path = cone_path(p0, l, 30.0, 3600, 0.0);
+    let mut ssm = StreamingSsm::<2048>::new(StreamingConfig {
+        geometry: SsmGeometry {
+            socket_mm: p0,
+            bar_length_mm: l,
+        },
+        radius_mm: 140.0,
+        rotary_tol_deg: 0.001,
+    });
+    for s in &path.samples {
+        ssm.update(s);
+    }
+    let est = ssm.estimate().unwrap();
+    assert_e(est.solution.e_um, [5.0, -8.0, 12.0], 0.02, "constant field");
+}
+
+#[test]
+fn streaming_planar_path_marks_out_of_plane_unobservable() {
+    let p0 = [-100.0, 250.0, 50.0];
+    let l = 150.0;
+    let path = cone_path(p0, l, 90.0, 1440, 0.0); // circle in the XY plane of the socket
+    let mut ssm = StreamingSsm::<512>::new(StreamingConfig {
+        geometry: SsmGeometry {
+            socket_mm: p0,
+            bar_length_mm: l,
+        },
+        radius_mm: 120.0,
+        rotary_tol_deg: 0.001,
+    });
+    assert_eq!(
+        ssm.estimate().unwrap_err(),
+        SsmError::TooFewObservations { have: 0, need: 3 }
+    );
+    for s in &path.samples {
+        ssm.update(s);
+    }
+    let est = ssm.estimate().unwrap();
+    assert_eq!(est.solution.observable(), [true, true, false]);
+    assert!(est.solution.e_um[2].is_none());
+    assert!((est.solution.e_um[0].unwrap() - 5.0).abs() < 0.02);
+    assert!((est.solution.e_um[1].unwrap() + 8.0).abs() < 0.02);
+
+    // a rotary move empties the window; flagged / NaN samples are skipped and counted
+    let mut s = path.samples[10];
+    s.axes[3] = 15.0;
+    assert_eq!(ssm.update(&s), StreamUse::UsedAfterRotaryMove);
+    assert_eq!(ssm.window_len(), 1);
+    assert!(matches!(
+        ssm.estimate(),
+        Err(SsmError::TooFewObservations { .. })
+    ));
+    let mut f = s;
+    f.flags = SampleFlags::QUADRATURE_ERROR;
+    assert_eq!(ssm.update(&f), StreamUse::SkippedFlagged);
+    f.flags = SampleFlags::NONE;
+    f.delta_l_um = f32::NAN;
+    assert_eq!(ssm.update(&f), StreamUse::SkippedInvalid);
+    f.delta_l_um = 0.0;
+    f.axes = [p0[0] as f32, p0[1] as f32, p0[2] as f32, 15.0, 0.0];
+    assert_eq!(ssm.update(&f), StreamUse::SkippedInvalid);
+    assert_eq!((ssm.skipped_flagged(), ssm.skipped_invalid()), (1, 2));
+    // a window that only ever sees one point: degenerate, not NaN
+    for _ in 0..100 {
+        ssm.update(&s);
+    }
+    assert_eq!(ssm.estimate().unwrap_err(), SsmError::Degenerate);
+}
+
+#[test]
+fn streaming_refinement_removes_linearisation_error() {
+    // constant E of ~0.4 mm: eq (1) is off by ~|E|²/2L ≈ 0.5 µm; the exact sphere equation is not
+    let p0 = [40.0, 60.0, -300.0];
+    let l = 150.0;
+    let e = [150.0, -220.0, 310.0];
+    let a = 30.0f64.to_radians();
+    let mut ssm = StreamingSsm::<1024>::new(StreamingConfig {
+        geometry: SsmGeometry {
+            socket_mm: p0,
+            bar_length_mm: l,
+        },
+        radius_mm: 140.0,
+        rotary_tol_deg: 0.001,
+    });
+    for i in 0..1800 {
+        let ph = 2.0 * std::f64::consts::PI * i as f64 / 3600.0;
+        let p = [
+            p0[0] + l * a.sin() * ph.cos(),
+            p0[1] + l * a.sin() * ph.sin(),
+            p0[2] + l * a.cos(),
+        ];
+        let d = [
+            p[0] - p0[0] + e[0] * 1e-3,
+            p[1] - p0[1] + e[1] * 1e-3,
+            p[2] - p0[2] + e[2] * 1e-3,
+        ];
+        ssm.update(&Sample {
+            seq: i,
+            t_us: 0,
+            delta_l_um: ((norm(d) - l) * 1e3) as f32,
+            axes: [p[0] as f32, p[1] as f32, p[2] as f32, 0.0, 0.0],
+            temp_c: 20.0,
+            flags: SampleFlags::NONE,
+        });
+    }
+    let lin = ssm.estimate().unwrap().solution;
+    let lin_err = (0..3)
+        .map(|k| (lin.e_um[k].unwrap() - e[k]).abs())
+        .fold(0.0, f64::max);
+    assert!(lin_err > 0.2, "linear error {lin_err}");
+    let refined = ssm.estimate_refined(3).unwrap().solution;
+    assert_eq!(refined.iterations, 3);
+    assert_e(refined.e_um, e, 0.02, "refined streaming");
+    println!(
+        "streaming |E| = 0.41 mm: linear error {lin_err:.3} µm, refined {:?}",
+        refined.e_um
+    );
+}

@@ -1,0 +1,84 @@
+//! Measuring-pattern geometry: the plane of a circular pattern, its centre, and the sensitive
+//! direction n of the bar at a commanded position (seed 002 §3.5).
+//!
+//! n is the unit vector from the pattern centre to the position, in the pattern plane, times the
+//! pattern's sign. It is computed from the geometry (a difference, a hardware square root and a
+//! division: no trigonometry per sample):
+//! - a circle about the socket (ISO 230-4): centre = socket, n radial;
+//! - seed 002 CR/CA: centre = the C-axis centre, positions = the commanded T-ball (spindle)
+//!   positions; n then *is* sign(R_C − L_B)·(cos θ, sin θ) of seed 002 §3.5 with
+//!   [`Sensitivity::Outward`] (the CR T-ball sits on the far side of the centre when R_C < L_B);
+//! - the BX/BY arcs: centre = the commanded (X,Z) arc centre, n = (sin φ, cos φ);
+//! - [`Sensitivity::Inward`] flips n, for patterns described from the other ball.
+
+use crate::acquisition::MAX_AXES;
+
+/// The plane of a pattern: its first (u) and second (v) machine linear axis. θ is measured from
+/// +u towards +v; "counter-clockwise" (CCW) means θ increasing.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Plane {
+    /// u = X, v = Y (C patterns, XY circles).
+    XY,
+    /// u = X, v = Z (B patterns: n = (sin φ, cos φ) = (n_x, n_z)).
+    XZ,
+    /// u = Y, v = Z.
+    YZ,
+}
+
+impl Plane {
+    /// (u, v) machine coordinates of `axes`, mm.
+    #[inline(always)]
+    pub fn uv(self, axes: &[f32; MAX_AXES]) -> (f32, f32) {
+        let [x, y, z, _, _] = *axes;
+        match self {
+            Plane::XY => (x, y),
+            Plane::XZ => (x, z),
+            Plane::YZ => (y, z),
+        }
+    }
+}
+
+/// Sign of the sensitive direction relative to centre → position.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Sensitivity {
+    /// n points from the centre to the commanded position (ΔL > 0 moves the path outward).
+    Outward,
+    /// n points from the position to the centre (seed 002 CR with R_C < L_B).
+    Inward,
+}
+
+/// Geometry of a circular measuring pattern.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PatternGeometry {
+    /// Plane of the pattern.
+    pub plane: Plane,
+    /// Centre of the commanded circle or arc, u coordinate, mm (machine coordinates).
+    pub centre_u_mm: f32,
+    /// Centre of the commanded circle or arc, v coordinate, mm.
+    pub centre_v_mm: f32,
+    /// Sign of n.
+    pub sensitivity: Sensitivity,
+}
+
+impl PatternGeometry {
+    /// The sensitive unit direction n = ±(p − c)/|p − c| in the pattern plane at the axis
+    /// positions `axes` (mm), or `None` if the position is at the centre (|p − c| < 1 µm) or not
+    /// finite. The difference p − c is formed first so that only the deviation (≤ the radius) is
+    /// scaled: f32 keeps n to ~1e-7.
+    #[inline]
+    pub fn direction(&self, axes: &[f32; MAX_AXES]) -> Option<[f32; 2]> {
+        let (u, v) = self.plane.uv(axes);
+        let du = u - self.centre_u_mm;
+        let dv = v - self.centre_v_mm;
+        let r2 = du * du + dv * dv;
+        // also false for NaN
+        if !(r2 > 1e-6 && r2 < f32::INFINITY) {
+            return None;
+        }
+        let inv = match self.sensitivity {
+            Sensitivity::Outward => 1.0 / crate::num::sqrtf(r2),
+            Sensitivity::Inward => -1.0 / crate::num::sqrtf(r2),
+        };
+        Some([du * inv, dv * inv])
+    }
+}

@@ -1,0 +1,195 @@
+//! Circle and sphere fits to touch-probe points (issue 3 item 4; seed 002 §6, TV-13).
+//!
+//! Two stages, f64 and nalgebra fixed-size (one-off, not per sample):
+//! 1. the **Taubin** algebraic fit on centred, scaled points: minimise
+//!    Σ(A z + b·x + C)² / Σ|∇(A z + b·x + C)|² with z = |x|². With centred data C = −A z̄, and the
+//!    problem becomes the smallest generalised eigenpair of M w = η N w, M the covariance of
+//!    (z − z̄, x), N = diag(4 z̄, 1, …). Unlike the plain Kåsa fit it is nearly unbiased on arcs
+//!    and caps (Kåsa shrinks the radius);
+//! 2. **Gauss–Newton** on the geometric distances r_i = |p_i − c| − R from the Taubin start.
+//!
+//! Residual RMS is the RMS of the geometric distances, µm.
+
+use nalgebra::{SMatrix, SVector, SymmetricEigen};
+
+/// Why a point fit failed.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum PointFitError {
+    /// Fewer points than unknowns (3 for a circle, 4 for a sphere).
+    TooFewPoints {
+        /// Points given.
+        have: usize,
+        /// Points needed.
+        need: usize,
+    },
+    /// The points do not determine a circle/sphere (collinear, coplanar for a sphere,
+    /// coincident).
+    Degenerate,
+    /// A coordinate is NaN or infinite.
+    NotFinite,
+    /// Gauss–Newton did not converge.
+    NotConverged,
+}
+
+/// A fitted circle (in the plane of the given 2-D coordinates) or sphere.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct PointFit<const D: usize> {
+    /// Centre, mm.
+    pub centre_mm: [f64; D],
+    /// Radius, mm.
+    pub radius_mm: f64,
+    /// RMS of the geometric residuals |p − c| − R, µm.
+    pub residual_rms_um: f64,
+    /// Points used.
+    pub points: usize,
+    /// Gauss–Newton iterations.
+    pub iterations: u32,
+}
+
+/// Circle through 2-D points (mm): Taubin, then Gauss–Newton.
+pub fn fit_circle(points: &[[f64; 2]]) -> Result<PointFit<2>, PointFitError> {
+    fit::<2, 3>(points, |m| {
+        SymmetricEigen::try_new(m, f64::EPSILON, 10_000).map(|e| (e.eigenvalues, e.eigenvectors))
+    })
+}
+
+/// Sphere through 3-D points (mm): Taubin, then Gauss–Newton.
+pub fn fit_sphere(points: &[[f64; 3]]) -> Result<PointFit<3>, PointFitError> {
+    fit::<3, 4>(points, |m| {
+        SymmetricEigen::try_new(m, f64::EPSILON, 10_000).map(|e| (e.eigenvalues, e.eigenvectors))
+    })
+}
+
+/// Eigen-decomposition of a symmetric K×K matrix: (eigenvalues, eigenvectors as columns).
+type EigenFn<const K: usize> =
+    fn(SMatrix<f64, K, K>) -> Option<(SVector<f64, K>, SMatrix<f64, K, K>)>;
+
+fn fit<const D: usize, const K: usize>(
+    pts: &[[f64; D]],
+    eigen: EigenFn<K>,
+) -> Result<PointFit<D>, PointFitError> {
+    if K != D + 1 {
+        return Err(PointFitError::Degenerate);
+    }
+    let n = pts.len();
+    if n < K {
+        return Err(PointFitError::TooFewPoints { have: n, need: K });
+    }
+    if !pts.iter().all(|p| p.iter().all(|v| v.is_finite())) {
+        return Err(PointFitError::NotFinite);
+    }
+    let nf = n as f64;
+    // centroid and RMS distance from it (the scale)
+    let mut m = SVector::<f64, D>::zeros();
+    for p in pts {
+        m += SVector::<f64, D>::from(*p);
+    }
+    m /= nf;
+    let mut z_mean = 0.0;
+    for p in pts {
+        z_mean += (SVector::<f64, D>::from(*p) - m).norm_squared();
+    }
+    z_mean /= nf;
+    if !(z_mean > 0.0) {
+        return Err(PointFitError::Degenerate);
+    }
+    let s = crate::num::sqrt(z_mean);
+    // Taubin on scaled points (z̄ = 1): M = cov(z − 1, x), N = diag(4, 1, …)
+    let mut mm = SMatrix::<f64, K, K>::zeros();
+    for p in pts {
+        let x = (SVector::<f64, D>::from(*p) - m) / s;
+        let mut v = SVector::<f64, K>::zeros();
+        v[0] = x.norm_squared() - 1.0;
+        for (vi, xi) in v.iter_mut().skip(1).zip(x.iter()) {
+            *vi = *xi;
+        }
+        mm += v * v.transpose();
+    }
+    mm /= nf;
+    // N^{-1/2} M N^{-1/2}: first row and column halved (N_00 = 4)
+    let mut ms = mm;
+    for k in 0..K {
+        ms[(0, k)] *= 0.5;
+        ms[(k, 0)] *= 0.5;
+    }
+    let (values, vectors) = eigen(ms).ok_or(PointFitError::Degenerate)?;
+    let mut order: [usize; K] = core::array::from_fn(|i| i);
+    order.sort_unstable_by(|a, b| {
+        let va = values.get(*a).copied().unwrap_or(f64::INFINITY);
+        let vb = values.get(*b).copied().unwrap_or(f64::INFINITY);
+        va.total_cmp(&vb)
+    });
+    let (Some(&i0), Some(&i1)) = (order.first(), order.get(1)) else {
+        return Err(PointFitError::Degenerate);
+    };
+    let lmax = values.amax();
+    // a second (near) null direction: a family of circles/spheres fits (coplanar, collinear)
+    if !(values.get(i1).copied().unwrap_or(0.0) > 1e-10 * lmax) {
+        return Err(PointFitError::Degenerate);
+    }
+    let mut w: SVector<f64, K> = vectors.column(i0).into_owned();
+    w[0] *= 0.5;
+    let a = w[0];
+    let b = SVector::<f64, D>::from_iterator(w.iter().skip(1).copied());
+    if !(a.abs() > 1e-9 * b.norm()) {
+        return Err(PointFitError::Degenerate); // a line/plane fits better than any circle/sphere
+    }
+    let c0 = -b / (2.0 * a);
+    let r0 = crate::num::sqrt(b.norm_squared() / (4.0 * a * a) + 1.0);
+    // Gauss–Newton in mm, centred coordinates
+    let mut c = c0 * s;
+    let mut r = r0 * s;
+    let mut iterations = 0;
+    let mut converged = false;
+    for it in 1..=50u32 {
+        let mut jtj = SMatrix::<f64, K, K>::zeros();
+        let mut jtr = SVector::<f64, K>::zeros();
+        for p in pts {
+            let d = SVector::<f64, D>::from(*p) - m - c;
+            let dn = d.norm();
+            if !(dn > 0.0) {
+                return Err(PointFitError::Degenerate);
+            }
+            let mut j = SVector::<f64, K>::zeros();
+            for (ji, di) in j.iter_mut().zip(d.iter()) {
+                *ji = -di / dn;
+            }
+            j[D] = -1.0;
+            let res = dn - r;
+            jtj += j * j.transpose();
+            jtr += j * res;
+        }
+        let chol = jtj.cholesky().ok_or(PointFitError::Degenerate)?;
+        let delta = chol.solve(&(-jtr));
+        for (ci, di) in c.iter_mut().zip(delta.iter()) {
+            *ci += di;
+        }
+        r += delta[D];
+        iterations = it;
+        if delta.amax() < 1e-12 * (1.0 + r) {
+            converged = true;
+            break;
+        }
+    }
+    if !converged {
+        return Err(PointFitError::NotConverged);
+    }
+    let mut ss = 0.0;
+    for p in pts {
+        let e = (SVector::<f64, D>::from(*p) - m - c).norm() - r;
+        ss += e * e;
+    }
+    let centre = c + m;
+    let out = PointFit {
+        centre_mm: core::array::from_fn(|i| centre.get(i).copied().unwrap_or(f64::NAN)),
+        radius_mm: r,
+        residual_rms_um: crate::num::sqrt(ss / nf) * 1e3,
+        points: n,
+        iterations,
+    };
+    if out.centre_mm.iter().all(|v| v.is_finite()) && r.is_finite() && r > 0.0 {
+        Ok(out)
+    } else {
+        Err(PointFitError::Degenerate)
+    }
+}

@@ -838,8 +838,9 @@ pub fn identify(
     cfg: &RtestConfig,
 ) -> Result<RtestIdentification, RtestError> {
     check_inputs(g, samples)?;
-    if !(cfg.rank_tol.is_finite() && cfg.rank_tol > 0.0)
-        || !cfg.fixed_values.to_array().iter().all(|v| v.is_finite())
+    if !(cfg.rank_tol.is_finite()
+        && cfg.rank_tol > 0.0
+        && cfg.fixed_values.to_array().iter().all(|v| v.is_finite()))
     {
         return Err(RtestError::BadParameter);
     }
@@ -910,11 +911,11 @@ pub fn identify(
     let mut x = sol.x;
     let mut u = sol.std_uncertainty;
     for p in RtestParam::ALL {
-        if fixed.contains(p) {
-            if let (Some(xi), Some(ui)) = (x.get_mut(p.index()), u.get_mut(p.index())) {
-                *xi = fixed_values.get(p.index()).copied().unwrap_or(0.0);
-                *ui = 0.0;
-            }
+        if fixed.contains(p)
+            && let (Some(xi), Some(ui)) = (x.get_mut(p.index()), u.get_mut(p.index()))
+        {
+            *xi = fixed_values.get(p.index()).copied().unwrap_or(0.0);
+            *ui = 0.0;
         }
     }
     let errors = LocationErrors::from_array(x);

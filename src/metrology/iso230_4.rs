@@ -147,7 +147,7 @@ pub struct CircularTest<const BINS: usize> {
 
 impl<const BINS: usize> CircularTest<BINS> {
     const CHECK: () = assert!(
-        BINS % 4 == 0 && BINS >= 8 && BINS <= 4096,
+        BINS.is_multiple_of(4) && BINS >= 8 && BINS <= 4096,
         "BINS: multiple of 4"
     );
 
@@ -273,10 +273,10 @@ impl<const BINS: usize> CircularTest<BINS> {
         let per_q = BINS / 4;
         let mut covered = [false; 4];
         for (i, b) in run.bins.iter().enumerate() {
-            if b.n > 0 {
-                if let Some(c) = covered.get_mut(i / per_q) {
-                    *c = true;
-                }
+            if b.n > 0
+                && let Some(c) = covered.get_mut(i / per_q)
+            {
+                *c = true;
             }
         }
         if !covered.iter().all(|c| *c) {
@@ -315,7 +315,9 @@ impl<const BINS: usize> CircularTest<BINS> {
             }
         }
         let chol = a.cholesky().ok_or(IsoError::IllConditioned)?;
-        let p = chol.solve(&rhs);
+        let sol = chol.solve(&rhs);
+        // [r0, e_u, e_v, cos 2θ, sin 2θ, reversal u, reversal v]
+        let p: [f64; 7] = core::array::from_fn(|i| sol.get(i).copied().unwrap_or(0.0));
         // residual profile and its harmonics
         let (mut ss, mut wsum) = (0.0, 0.0);
         let mut best = (0.0f64, 0u32);
@@ -324,7 +326,7 @@ impl<const BINS: usize> CircularTest<BINS> {
             if let Some((dl, nu, nv)) = b.mean() {
                 let w = f64::from(b.n);
                 let g = basis(i, nu, nv);
-                let r = dl - g.dot(&p);
+                let r = dl - g.dot(&sol);
                 ss += w * r * r;
                 wsum += w;
                 let rn = crate::num::sqrt(nu * nu + nv * nv).max(1e-12);

@@ -98,20 +98,16 @@ fn fit<const D: usize, const K: usize>(
     let mut mm = SMatrix::<f64, K, K>::zeros();
     for p in pts {
         let x = (SVector::<f64, D>::from(*p) - m) / s;
-        let mut v = SVector::<f64, K>::zeros();
-        v[0] = x.norm_squared() - 1.0;
-        for (vi, xi) in v.iter_mut().skip(1).zip(x.iter()) {
-            *vi = *xi;
-        }
+        let v = SVector::<f64, K>::from_iterator(
+            core::iter::once(x.norm_squared() - 1.0).chain(x.iter().copied()),
+        );
         mm += v * v.transpose();
     }
     mm /= nf;
     // N^{-1/2} M N^{-1/2}: first row and column halved (N_00 = 4)
     let mut ms = mm;
-    for k in 0..K {
-        ms[(0, k)] *= 0.5;
-        ms[(k, 0)] *= 0.5;
-    }
+    ms.row_mut(0).iter_mut().for_each(|v| *v *= 0.5);
+    ms.column_mut(0).iter_mut().for_each(|v| *v *= 0.5);
     let (values, vectors) = eigen(ms).ok_or(PointFitError::Degenerate)?;
     let mut order: [usize; K] = core::array::from_fn(|i| i);
     order.sort_unstable_by(|a, b| {
@@ -127,9 +123,8 @@ fn fit<const D: usize, const K: usize>(
     if !(values.get(i1).copied().unwrap_or(0.0) > 1e-10 * lmax) {
         return Err(PointFitError::Degenerate);
     }
-    let mut w: SVector<f64, K> = vectors.column(i0).into_owned();
-    w[0] *= 0.5;
-    let a = w[0];
+    let w: SVector<f64, K> = vectors.column(i0).into_owned();
+    let a = 0.5 * w.get(0).copied().unwrap_or(0.0);
     let b = SVector::<f64, D>::from_iterator(w.iter().skip(1).copied());
     if !(a.abs() > 1e-9 * b.norm()) {
         return Err(PointFitError::Degenerate); // a line/plane fits better than any circle/sphere
@@ -150,11 +145,9 @@ fn fit<const D: usize, const K: usize>(
             if !(dn > 0.0) {
                 return Err(PointFitError::Degenerate);
             }
-            let mut j = SVector::<f64, K>::zeros();
-            for (ji, di) in j.iter_mut().zip(d.iter()) {
-                *ji = -di / dn;
-            }
-            j[D] = -1.0;
+            let j = SVector::<f64, K>::from_iterator(
+                d.iter().map(|di| -di / dn).chain(core::iter::once(-1.0)),
+            );
             let res = dn - r;
             jtj += j * j.transpose();
             jtr += j * res;
@@ -164,7 +157,7 @@ fn fit<const D: usize, const K: usize>(
         for (ci, di) in c.iter_mut().zip(delta.iter()) {
             *ci += di;
         }
-        r += delta[D];
+        r += delta.get(D).copied().unwrap_or(0.0);
         iterations = it;
         if delta.amax() < 1e-12 * (1.0 + r) {
             converged = true;

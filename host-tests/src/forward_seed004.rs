@@ -90,26 +90,5 @@ pub fn eq9(p: V3, da: V3, pa: V3, db: V3, pb: V3, eps: f64, phi: f64) -> V3 {
     rotate_about_line(db, pb, phi, rotate_about_line(da, pa, eps, p))
 }
 
-/// A small deterministic PRNG (SplitMix64) for property tests.
-pub struct SplitMix(pub u64);
-
-impl SplitMix {
-    /// Next raw 64-bit value.
-    pub fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    /// Uniform in [lo, hi).
-    pub fn uniform(&mut self, lo: f64, hi: f64) -> f64 {
-        lo + (hi - lo) * ((self.next_u64() >> 11) as f64 / (1u64 << 53) as f64)
-    }
-    /// Standard normal (Box–Muller).
-    pub fn gauss(&mut self) -> f64 {
-        let u1 = self.uniform(1e-300, 1.0);
-        let u2 = self.uniform(0.0, 1.0);
-        (-2.0 * u1.ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
-    }
-}
+/// The seeded generator of the host tests (SplitMix64), under the name the seed 003/004 tests use.
+pub use crate::rng::Rng as SplitMix;

@@ -392,9 +392,9 @@ fn round_trip_tilt_axis_from_dial_points_at_several_angles() {
         (30.0, 20.0),
     ];
     for _ in 0..50 {
-        let d = fw::normalize([rng.uniform(-2e-3, 2e-3), 1.0, rng.uniform(-2e-3, 2e-3)]);
+        let d = fw::normalize([rng.range(-2e-3, 2e-3), 1.0, rng.range(-2e-3, 2e-3)]);
         // top face of the block, tilted by up to 2 mrad (k = d·n up to ~4e-3)
-        let n0 = fw::normalize([rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3), 1.0]);
+        let n0 = fw::normalize([rng.range(-2e-3, 2e-3), rng.range(-2e-3, 2e-3), 1.0]);
         let cmds: [f64; 4] = [0.0, 30.0, 60.0, 90.0];
         let mut pos = Vec::new();
         for &b in &cmds {
@@ -440,8 +440,8 @@ fn round_trip_table_axis_half_turn_and_centre_with_noise() {
     let mut rng = fw::SplitMix(7);
     let grid = [(0.0, 0.0), (100.0, 0.0), (0.0, 100.0)];
     for _ in 0..50 {
-        let d = fw::normalize([rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3), 1.0]);
-        let n0 = fw::normalize([rng.uniform(-1e-3, 1e-3), rng.uniform(-1e-3, 1e-3), 1.0]);
+        let d = fw::normalize([rng.range(-2e-3, 2e-3), rng.range(-2e-3, 2e-3), 1.0]);
+        let n0 = fw::normalize([rng.range(-1e-3, 1e-3), rng.range(-1e-3, 1e-3), 1.0]);
         let n180 = fw::mul(fw::rodrigues(d, std::f64::consts::PI), n0);
         let g = GaugeFrame::FROM_PLUS_Z;
         let p1 = plane_normal(&dial_on_face(n0, &g, &grid, &mut || 0.0), &g).unwrap();
@@ -449,8 +449,8 @@ fn round_trip_table_axis_half_turn_and_centre_with_noise() {
         let est = axis_direction_half_turn(p1.normal, p2.normal, Z).unwrap();
         assert!(max_diff(est.direction, d) < 1e-12);
         // centre: vertex rotated about the (tilted) axis through c, at 4 table angles
-        let c = [rng.uniform(-0.1, 0.1), rng.uniform(-0.1, 0.1), 0.0];
-        let v = [rng.uniform(-80.0, 80.0), rng.uniform(-80.0, 80.0), 0.0];
+        let c = [rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), 0.0];
+        let v = [rng.range(-80.0, 80.0), rng.range(-80.0, 80.0), 0.0];
         let exact: Vec<PointAtAngle> = [0.0, 180.0]
             .iter()
             .map(|&a: &f64| {
@@ -480,7 +480,7 @@ fn round_trip_table_axis_half_turn_and_centre_with_noise() {
                 let p = fw::rotate_about_line(Z, c, a.to_radians(), v);
                 PointAtAngle {
                     commanded_deg: a,
-                    point_mm: [p[0] + 1e-3 * rng.gauss(), p[1] + 1e-3 * rng.gauss()],
+                    point_mm: [p[0] + 1e-3 * rng.normal(), p[1] + 1e-3 * rng.normal()],
                 }
             })
             .collect();
@@ -505,24 +505,24 @@ fn round_trip_table_axis_half_turn_and_centre_with_noise() {
 fn round_trip_eq9_matches_forward_model() {
     let mut rng = fw::SplitMix(9);
     for _ in 0..100 {
-        let da = fw::normalize([rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3), 1.0]);
-        let db = fw::normalize([rng.uniform(-2e-3, 2e-3), 1.0, rng.uniform(-2e-3, 2e-3)]);
+        let da = fw::normalize([rng.range(-2e-3, 2e-3), rng.range(-2e-3, 2e-3), 1.0]);
+        let db = fw::normalize([rng.range(-2e-3, 2e-3), 1.0, rng.range(-2e-3, 2e-3)]);
         let pa = [
-            rng.uniform(-0.1, 0.1),
-            rng.uniform(-0.1, 0.1),
-            rng.uniform(-0.1, 0.1),
+            rng.range(-0.1, 0.1),
+            rng.range(-0.1, 0.1),
+            rng.range(-0.1, 0.1),
         ];
         let pb = [
-            rng.uniform(-0.1, 0.1),
-            rng.uniform(-0.1, 0.1),
-            rng.uniform(-0.1, 0.1),
+            rng.range(-0.1, 0.1),
+            rng.range(-0.1, 0.1),
+            rng.range(-0.1, 0.1),
         ];
         let p = [
-            rng.uniform(-100.0, 100.0),
-            rng.uniform(-100.0, 100.0),
-            rng.uniform(0.0, 200.0),
+            rng.range(-100.0, 100.0),
+            rng.range(-100.0, 100.0),
+            rng.range(0.0, 200.0),
         ];
-        let (eps, phi) = (rng.uniform(-180.0, 180.0), rng.uniform(-90.0, 90.0));
+        let (eps, phi) = (rng.range(-180.0, 180.0), rng.range(-90.0, 90.0));
         let actual = TableAxes {
             table: AxisLine {
                 direction: da,

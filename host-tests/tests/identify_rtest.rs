@@ -288,7 +288,7 @@ fn samples(path: &[(f64, f64)], f: impl Fn(f64, f64) -> [f64; 3]) -> Vec<RtestSa
 }
 
 fn random_sym(rng: &mut SplitMix) -> (Sym, ChainGeometry, ChainPose) {
-    let mut u = |lo: f64, hi: f64| rng.uniform(lo, hi);
+    let mut u = |lo: f64, hi: f64| rng.range(lo, hi);
     let (a_deg, c_deg) = (u(-120.0, 120.0), u(0.0, 360.0));
     let g = ChainGeometry {
         x_a_mm: u(-300.0, 300.0),
@@ -390,14 +390,14 @@ fn c7_table1_all_44_rows_match_the_htm_chain_including_offset_axes() {
     for trial in 0..40 {
         let (_, mut g, pose) = random_sym(&mut rng);
         if trial % 2 == 1 {
-            g.x_c_mm = rng.uniform(-50.0, 50.0);
-            g.y_c_mm = rng.uniform(-50.0, 50.0);
-            g.y_h_mm = rng.uniform(-50.0, 50.0);
+            g.x_c_mm = rng.range(-50.0, 50.0);
+            g.y_c_mm = rng.range(-50.0, 50.0);
+            g.y_h_mm = rng.range(-50.0, 50.0);
         }
         let k = fw::Kin {
-            x_x: rng.uniform(-100.0, 100.0),
-            y_x: rng.uniform(-100.0, 100.0),
-            z_x: rng.uniform(-100.0, 100.0),
+            x_x: rng.range(-100.0, 100.0),
+            y_x: rng.range(-100.0, 100.0),
+            z_x: rng.range(-100.0, 100.0),
             x_a: g.x_a_mm,
             y_a: g.y_a_mm,
             z_a: g.z_a_mm,
@@ -494,7 +494,7 @@ fn c1_c2_h_blocks_and_table2_as_printed() {
     // Table 2 as printed, at many poses.
     let mut rng = SplitMix(11);
     for _ in 0..500 {
-        let (a, c) = (rng.uniform(-120.0, 120.0), rng.uniform(0.0, 360.0));
+        let (a, c) = (rng.range(-120.0, 120.0), rng.range(0.0, 360.0));
         let h = reduced_gains_si(&g3(), a, c);
         let p = printed_table2(
             -217.504,
@@ -614,7 +614,7 @@ fn c5_k4a_with_1um_noise_stays_within_3_sigma() {
         let s: Vec<RtestSample> = samples(&k4a(), |a, c| table2_reading_um(a, c, TABLE4))
             .into_iter()
             .map(|mut s| {
-                s.reading_um.iter_mut().for_each(|v| *v += rng.gauss());
+                s.reading_um.iter_mut().for_each(|v| *v += rng.normal());
                 s
             })
             .collect();
@@ -644,9 +644,9 @@ fn round_trip_random_deviations_linear_and_exact_chain() {
     for _ in 0..10 {
         let truth: [f64; 11] = core::array::from_fn(|j| {
             if ANGULAR[j] {
-                rng.uniform(-20.0, 20.0)
+                rng.range(-20.0, 20.0)
             } else {
-                rng.uniform(-50.0, 50.0)
+                rng.range(-50.0, 50.0)
             }
         });
         // linear (printed Table 2) readings: recovered to 1e-9 relative
@@ -843,7 +843,7 @@ fn reduced_gains_with_offset_c_axis_match_the_chain() {
     };
     let mut rng = SplitMix(8);
     for _ in 0..20 {
-        let (a, c) = (rng.uniform(-100.0, 100.0), rng.uniform(0.0, 360.0));
+        let (a, c) = (rng.range(-100.0, 100.0), rng.range(0.0, 360.0));
         let (xm, ym, zm) = fw::tcp_commands(&k, a.to_radians(), c.to_radians());
         let num = fw::numeric_gains(&k, a.to_radians(), c.to_radians(), xm, ym, zm, 1e-6);
         let h = reduced_gains_si(&g, a, c);
@@ -967,9 +967,9 @@ fn axis_lines_are_what_the_chain_rotates_the_ball_about() {
     for _ in 0..20 {
         let truth: [f64; 11] = core::array::from_fn(|j| {
             if ANGULAR[j] {
-                rng.uniform(-20.0, 20.0)
+                rng.range(-20.0, 20.0)
             } else {
-                rng.uniform(-50.0, 50.0)
+                rng.range(-50.0, 50.0)
             }
         });
         let mut e = [0.0; 44];
@@ -1017,16 +1017,16 @@ fn seed004_half_turn_on_the_c_table_measures_the_c_line_of_axis_lines() {
     for _ in 0..20 {
         let truth: [f64; 11] = core::array::from_fn(|j| {
             if ANGULAR[j] {
-                rng.uniform(-40.0, 40.0)
+                rng.range(-40.0, 40.0)
             } else {
-                rng.uniform(-50.0, 50.0)
+                rng.range(-50.0, 50.0)
             }
         });
         let mut e = [0.0; 44];
         for (n, v) in NAMES11.iter().zip(si(truth)) {
             e[fw::idx(n)] = v;
         }
-        let face_c = fw4::normalize([rng.uniform(-2e-3, 2e-3), rng.uniform(-2e-3, 2e-3), 1.0]);
+        let face_c = fw4::normalize([rng.range(-2e-3, 2e-3), rng.range(-2e-3, 2e-3), 1.0]);
         let normal = |c: f64| {
             let (w, _) = fw::chains(&k, &e, 0.0, c.to_radians(), 0.0, 0.0, 0.0);
             fw4::normalize(core::array::from_fn(|i| {

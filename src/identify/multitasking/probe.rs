@@ -308,68 +308,42 @@ pub struct SphereFit {
     pub std_uncertainty_um: [f64; 4],
 }
 
-/// Geometric least-squares sphere fit: minimises Σ(|p_i − c| − R)². Start from the algebraic
-/// fit `|p|² = 2c·p + (R² − |c|²)` (linear), then Gauss–Newton; coordinates are taken relative
-/// to the first point so that the sums stay in deviations (DESIGN §6). Every least-squares step
-/// is a [`GivensLsq`] with a rank check.
+/// Geometric least-squares sphere fit: minimises Σ(|p_i − c| − R)² with the metrology core's
+/// point fit ([`crate::metrology::point_fit::fit_sphere`]: centred Taubin start, then
+/// Gauss–Newton), plus the standard uncertainties of centre and radius from one Givens pass over
+/// the Jacobian at the solution (residual variance × (JᵀJ)⁻¹).
 pub fn fit_sphere(points_mm: &[[f64; 3]]) -> Result<SphereFit, SphereFitError> {
-    if points_mm.len() < 4 {
-        return Err(SphereFitError::TooFewPoints {
-            points: points_mm.len(),
-        });
-    }
-    if !points_mm.iter().all(finite3) {
-        return Err(SphereFitError::NonFinite);
-    }
-    let o = points_mm.first().copied().unwrap_or([0.0; 3]);
-    let rel = |p: &[f64; 3]| Vector3::new(p[0] - o[0], p[1] - o[1], p[2] - o[2]);
-    let mut alg = GivensLsq::<4>::new();
+    use crate::metrology::point_fit::{self, PointFitError};
+    let fit = point_fit::fit_sphere(points_mm).map_err(|e| match e {
+        PointFitError::TooFewPoints { have, .. } => SphereFitError::TooFewPoints { points: have },
+        PointFitError::NotFinite => SphereFitError::NonFinite,
+        PointFitError::Degenerate => SphereFitError::Degenerate,
+        PointFitError::NotConverged => SphereFitError::NoConvergence,
+    })?;
+    let c = Vector3::from(fit.centre_mm);
+    let mut j = GivensLsq::<4>::new();
     for p in points_mm {
-        let q = rel(p);
-        alg.add_row(&[2.0 * q.x, 2.0 * q.y, 2.0 * q.z, 1.0], q.dot(&q), 1.0)
-            .map_err(|_| SphereFitError::NonFinite)?;
+        let d = Vector3::from(*p) - c;
+        let n = d.norm();
+        if !(n > 0.0) {
+            return Err(SphereFitError::Degenerate);
+        }
+        // residual n − r; ∂/∂c = −d/n, ∂/∂r = −1
+        j.add_row(
+            &[-d.x / n, -d.y / n, -d.z / n, -1.0],
+            -(n - fit.radius_mm),
+            1.0,
+        )
+        .map_err(|_| SphereFitError::NonFinite)?;
     }
-    let s = alg
+    let st = j
         .solve_full_rank(DEFAULT_RANK_TOL)
         .map_err(|_| SphereFitError::Degenerate)?;
-    let [cx, cy, cz, k] = s.x;
-    let mut c = Vector3::new(cx, cy, cz);
-    let r2 = k + c.dot(&c);
-    if !(r2 > 0.0) {
-        return Err(SphereFitError::Degenerate);
-    }
-    let mut r = crate::num::sqrt(r2);
-    for _ in 0..50 {
-        let mut gn = GivensLsq::<4>::new();
-        for p in points_mm {
-            let d = rel(p) - c;
-            let n = d.norm();
-            if n == 0.0 {
-                return Err(SphereFitError::Degenerate);
-            }
-            // residual n − r; ∂/∂c = −d/n, ∂/∂r = −1
-            gn.add_row(&[-d.x / n, -d.y / n, -d.z / n, -1.0], -(n - r), 1.0)
-                .map_err(|_| SphereFitError::NonFinite)?;
-        }
-        let st = gn
-            .solve_full_rank(DEFAULT_RANK_TOL)
-            .map_err(|_| SphereFitError::Degenerate)?;
-        let [dx, dy, dz, dr] = st.x;
-        c += Vector3::new(dx, dy, dz);
-        r += dr;
-        let step = libm::fabs(dx)
-            .max(libm::fabs(dy))
-            .max(libm::fabs(dz))
-            .max(libm::fabs(dr));
-        if step <= 1e-13 * (1.0 + r) {
-            let [u0, u1, u2, u3] = st.std_uncertainty;
-            return Ok(SphereFit {
-                centre_mm: [c.x + o[0], c.y + o[1], c.z + o[2]],
-                radius_mm: r,
-                residual_rms_um: st.residual_rms * 1e3,
-                std_uncertainty_um: [u0 * 1e3, u1 * 1e3, u2 * 1e3, u3 * 1e3],
-            });
-        }
-    }
-    Err(SphereFitError::NoConvergence)
+    let [u0, u1, u2, u3] = st.std_uncertainty;
+    Ok(SphereFit {
+        centre_mm: fit.centre_mm,
+        radius_mm: fit.radius_mm,
+        residual_rms_um: fit.residual_rms_um,
+        std_uncertainty_um: [u0 * 1e3, u1 * 1e3, u2 * 1e3, u3 * 1e3],
+    })
 }

@@ -8,3 +8,4 @@ pub mod forward_seed004;
 pub mod lvdt_model;
 pub mod oracle;
 pub mod rng;
+pub mod slcan;

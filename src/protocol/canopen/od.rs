@@ -4,7 +4,7 @@
 //! The table is written as two lookup functions over plain data rather than a static array of
 //! values: [`object`] describes an index, [`entry`] describes an index:sub-index with its
 //! data type, access, PDO mappability, limits and the [`Var`] that says where its value lives.
-//! Values are never copied into a dictionary: [`read`] and [`write`] go straight to the
+//! Values are never copied into a dictionary: [`read()`] and [`write()`] go straight to the
 //! [`PodModel`] (live values, configuration, session, results) and to the node's
 //! [`CommParams`]. Configuration objects are generated from [`crate::config::FIELDS`], so a new
 //! configuration field appears here, in the SDO server and in `ballpod.eds` at once.

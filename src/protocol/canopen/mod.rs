@@ -59,8 +59,9 @@
 //! - CANopenNode: C with its own OD generator; needs a C toolchain and FFI for the firmware and
 //!   the host tests, and duplicates the object table.
 //!
-//! The stack here is ~2500 lines (with docs) with no new dependency, allocation-free, reads and writes the
-//! [`PodModel`] directly (no copy of values), and generates the EDS from the same table. Cost
+//! The stack here is ~2500 lines (with docs), adds no dependency, is allocation-free, reads and
+//! writes the [`PodModel`] directly (no copy of values), and generates the EDS from the same
+//! table. Cost
 //! measured on thumbv7em (opt-level "s", fat LTO, a staticlib calling `on_frame`, `on_sample`
 //! and `poll`): about 16.6 kB of flash and 464 bytes of RAM for one [`CanOpenNode`]; no float
 //! formatting is linked (only [`eds`] formats floats, and the firmware does not call it).

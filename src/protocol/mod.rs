@@ -7,5 +7,7 @@
 //! simulator.
 //!
 //! - [`pod`]: the shared model (live values, status word, session, results table).
+//! - [`canopen`]: the CiA 301 slave (NMT, heartbeat, SDO, SYNC/TPDO, EMCY) and its EDS.
 
+pub mod canopen;
 pub mod pod;

@@ -1,0 +1,49 @@
+//! Emergency producer (CiA 301 §7.2.7): one EMCY per newly raised fault, "error reset" once
+//! every fault has cleared, at most one frame per inhibit time (0x1015).
+
+use crate::acquisition::SampleFlags;
+
+/// Error code 0x0000: error reset or no error (CiA 301 table 21).
+pub const ERROR_RESET: u16 = 0x0000;
+/// Error register bit 0: generic error (set whenever any error is present, CiA 301 §7.5.2.2).
+pub const ER_GENERIC: u8 = 1 << 0;
+/// Error register bit 7: manufacturer-specific error.
+pub const ER_MANUFACTURER: u8 = 1 << 7;
+
+/// The faults that raise an EMCY, in priority order, with their CiA 301 error codes
+/// (table 21: 0x50xx device hardware, 0x61xx internal software). The manufacturer-specific
+/// byte 3 of the EMCY frame carries the fault's [`SampleFlags`] bit number.
+pub const FAULTS: [(SampleFlags, u16); 5] = [
+    (SampleFlags::LVDT_OPEN, 0x5001),
+    (SampleFlags::LVDT_OVER_RANGE, 0x5002),
+    (SampleFlags::QUADRATURE_ERROR, 0x5003),
+    (SampleFlags::TEMPERATURE_FAULT, 0x5004),
+    (SampleFlags::OVERRUN, 0x6101),
+];
+
+/// The fault bits of a sample's flags (the flags of [`FAULTS`]).
+pub fn fault_bits(flags: SampleFlags) -> u16 {
+    FAULTS
+        .iter()
+        .filter(|(f, _)| flags.contains(*f))
+        .fold(0, |m, (f, _)| m | f.0)
+}
+
+/// The EMCY error code of a single fault bit (`None` if it is not a fault).
+pub fn error_code(bit: u16) -> Option<u16> {
+    FAULTS.iter().find(|(f, _)| f.0 == bit).map(|(_, c)| *c)
+}
+
+/// EMCY frame payload (CiA 301 §7.2.7.3.1, figure 60): error code (LE), error register,
+/// 5 manufacturer-specific bytes (byte 3 = flag bit number, bytes 4–7 = fault bit mask
+/// currently active, LE u16, then 0).
+pub fn payload(code: u16, error_register: u8, bit: u16, active: u16) -> [u8; 8] {
+    let c = code.to_le_bytes();
+    let a = active.to_le_bytes();
+    let bit_no = if bit == 0 {
+        0xFF
+    } else {
+        bit.trailing_zeros() as u8
+    };
+    [c[0], c[1], error_register, bit_no, a[0], a[1], 0, 0]
+}

@@ -462,6 +462,23 @@ fn info(field: Field) -> Option<&'static FieldInfo> {
     FIELDS.iter().find(|i| i.field == key)
 }
 
+/// Checks an `f32` field: the limits are rounded to `f32` first, so that a limit such as 0.01,
+/// which has no exact binary value, can itself be written (0.01f32 < 0.01f64).
+fn check_f32(field: Field, value: f32) -> Result<(), ConfigError> {
+    let (min, max) = info(field).map_or((f64::NEG_INFINITY, f64::INFINITY), |i| (i.min, i.max));
+    let (min32, max32) = (min as f32, max as f32);
+    if value.is_finite() && value >= min32 && value <= max32 {
+        Ok(())
+    } else {
+        Err(ConfigError::OutOfRange {
+            field,
+            value: f64::from(value),
+            min,
+            max,
+        })
+    }
+}
+
 /// Checks one value against its table range.
 fn check(field: Field, value: f64) -> Result<(), ConfigError> {
     let (min, max) = info(field).map_or((f64::NEG_INFINITY, f64::INFINITY), |i| (i.min, i.max));
@@ -485,16 +502,16 @@ impl Config {
 
     /// Validates every field; the first violation is returned.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        check(Field::BarLengthMm, f64::from(self.bar_length_mm))?;
-        check(Field::BarCtePpmPerK, f64::from(self.bar_cte_ppm_per_k))?;
+        check_f32(Field::BarLengthMm, self.bar_length_mm)?;
+        check_f32(Field::BarCtePpmPerK, self.bar_cte_ppm_per_k)?;
         for (k, &c) in (0u8..).zip(self.lvdt_poly_um.iter()) {
-            check(Field::LvdtPolyUm(k), f64::from(c))?;
+            check_f32(Field::LvdtPolyUm(k), c)?;
         }
-        check(Field::LvdtMaxAbsRatio, f64::from(self.lvdt_max_abs_ratio))?;
-        check(Field::LvdtMinSignal, f64::from(self.lvdt_min_signal))?;
-        check(Field::LvdtDcZeroV, f64::from(self.lvdt_dc_zero_v))?;
-        check(Field::LvdtDcSpanV, f64::from(self.lvdt_dc_span_v))?;
-        check(Field::ExcitationHz, f64::from(self.excitation_hz))?;
+        check_f32(Field::LvdtMaxAbsRatio, self.lvdt_max_abs_ratio)?;
+        check_f32(Field::LvdtMinSignal, self.lvdt_min_signal)?;
+        check_f32(Field::LvdtDcZeroV, self.lvdt_dc_zero_v)?;
+        check_f32(Field::LvdtDcSpanV, self.lvdt_dc_span_v)?;
+        check_f32(Field::ExcitationHz, self.excitation_hz)?;
         check(Field::SamplesPerPeriod, f64::from(self.samples_per_period))?;
         let adc_rate = f64::from(self.excitation_hz) * f64::from(self.samples_per_period);
         if adc_rate > MAX_ADC_RATE_HZ {
@@ -505,10 +522,10 @@ impl Config {
                 max: MAX_ADC_RATE_HZ,
             });
         }
-        check(Field::SampleRateHz, f64::from(self.sample_rate_hz))?;
+        check_f32(Field::SampleRateHz, self.sample_rate_hz)?;
         for (i, a) in (0u8..).zip(self.axes.iter()) {
             check(Field::AxisCountsPerUnit(i), a.counts_per_unit)?;
-            check(Field::AxisMaxSpeed(i), f64::from(a.max_speed_per_s))?;
+            check_f32(Field::AxisMaxSpeed(i), a.max_speed_per_s)?;
             let dup = a.name != AxisName::Unused
                 && self
                     .axes
@@ -521,12 +538,9 @@ impl Config {
                 });
             }
         }
-        check(Field::ThermistorR25Ohm, f64::from(self.thermistor_r25_ohm))?;
-        check(Field::ThermistorBetaK, f64::from(self.thermistor_beta_k))?;
-        check(
-            Field::ThermistorRFixedOhm,
-            f64::from(self.thermistor_r_fixed_ohm),
-        )?;
+        check_f32(Field::ThermistorR25Ohm, self.thermistor_r25_ohm)?;
+        check_f32(Field::ThermistorBetaK, self.thermistor_beta_k)?;
+        check_f32(Field::ThermistorRFixedOhm, self.thermistor_r_fixed_ohm)?;
         check(Field::ProbeDebounceUs, f64::from(self.probe_debounce_us))?;
         check(Field::ProbeReseatUs, f64::from(self.probe_reseat_us))?;
         check(Field::CanNodeId, f64::from(self.can_node_id))?;

@@ -160,3 +160,20 @@ fn well_sealed_but_invalid_content_is_rejected() {
     reseal(&mut b);
     assert_eq!(Config::decode(&b), Err(ConfigError::BadEnum { offset: 16 }));
 }
+
+#[test]
+fn every_f32_limit_can_itself_be_written() {
+    // A limit like 0.01 has no exact f32; writing the limit the table shows must be accepted.
+    let mut c = Config::default();
+    c.try_update(|c| {
+        c.lvdt_max_abs_ratio = 0.01;
+        c.lvdt_dc_span_v = 0.01;
+        c.lvdt_min_signal = 1.0e-3;
+        c.bar_length_mm = 600.0;
+    })
+    .unwrap();
+    c.try_update(|c| c.lvdt_max_abs_ratio = 1.0).unwrap();
+    // and just beyond is still rejected
+    assert!(c.try_update(|c| c.lvdt_max_abs_ratio = 0.0099).is_err());
+    assert!(c.try_update(|c| c.bar_length_mm = 600.01).is_err());
+}

@@ -7,5 +7,9 @@
 //! simulator.
 //!
 //! - [`pod`]: the shared model (live values, status word, session, results table).
+//! - [`scpi`]: the USB command interface (IEEE 488.2 / SCPI-99 parser, status model, error queue).
+//! - [`log`]: the fixed-capacity sample log and its CSV download format.
 
+pub mod log;
 pub mod pod;
+pub mod scpi;

@@ -837,3 +837,18 @@ fn random_input_never_panics_and_changes_nothing_without_an_action() {
         b.pod.session = SessionState::Idle;
     }
 }
+
+#[test]
+fn status_word_query_adds_the_error_bit_while_errors_are_queued() {
+    use ballpod::acquisition::SampleFlags;
+    use ballpod::protocol::pod::StatusWord;
+    let mut b = Bench::new();
+    b.pod.live.status = StatusWord::new(SampleFlags::LVDT_OPEN, SessionState::Running, false);
+    // bit 1 LVDT open, bit 9 running (pod.rs StatusWord)
+    assert_eq!(b.send("STAT:POD?"), "514");
+    b.send("BOGUS");
+    // bit 15: an error is pending
+    assert_eq!(b.send("STATUS:POD?"), "33282");
+    b.send("*CLS");
+    assert_eq!(b.send("STAT:POD?"), "514");
+}

@@ -38,8 +38,8 @@
 //! proc-macro (syn) and `document-features`; (2) a response is built whole in one `Formatter`
 //! buffer before it is sent, so a log download (tens of KiB) would need a buffer of that size —
 //! here it is streamed line by line; (3) its float responses are lexical's shortest round-trip
-//! digits, not fixed resolution, and pull lexical's float writer into flash; (4) its last release
-//! is from 2023. The command tree here is small and fixed, so a focused parser (~600 lines with
+//! digits, not fixed resolution, and pull lexical's float writer into flash; (4) it is not
+//! maintained (last release 1.0.1 and last commit May 2024). The command tree here is small and fixed, so a focused parser (~600 lines with
 //! its tests' worth of rules: short/long forms, numeric suffixes, compound headers, quoted
 //! strings, NRf numbers, MIN/MAX/DEF) costs less than adapting it.
 //!
@@ -56,6 +56,7 @@
 //! | `SESSion:DIRection <CW\|CCW>`, `…?` | direction of the next run |
 //! | `SESSion:ARM` `SESSion:STARt` `SESSion:STOP` `SESSion:ABORt` | session control |
 //! | `SESSion:STATe?` | `IDLE`, `ARMED`, `RUNNING`, `DONE` or `ABORTED` |
+//! | `STATus:POD?` | the pod's status word ([`StatusWord`](crate::protocol::pod::StatusWord), decimal; bit 15 also set while this port's error queue is not empty) |
 //! | `MEASure:DL?` | live ΔL, µm (4 decimals) |
 //! | `MEASure:ALL?` | `counter,dl_um,ex_um,ey_um,ez_um,ecc_x_um,ecc_y_um,r0_um,temp_c,status` |
 //! | `FETCh:RESult? <name\|index>` | `value,uncertainty,UNIT` of a [`RESULTS`] entry (index 0…15) |
@@ -75,7 +76,7 @@ use crate::acquisition::MAX_AXES;
 use crate::config::{AxisName, Config, ConfigError, FIELDS, Field, FieldInfo};
 use crate::protocol::log::{LogMeta, SampleLog, csv_len, write_csv};
 use crate::protocol::pod::{
-    Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState,
+    Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState, StatusWord,
 };
 use number::{SCPI_NAN, Text, push_bytes, push_fixed, push_i64, push_u64};
 use parse::{Header, MAX_DEPTH, Mnemonic, character, keyword};
@@ -276,6 +277,7 @@ enum Command {
     SessStop,
     SessAbort,
     SessState,
+    StatPod,
     MeasDl,
     MeasAll,
     FetchResult,
@@ -288,8 +290,8 @@ enum Command {
 const fn forms(c: Command) -> (bool, bool) {
     use Command::*;
     match c {
-        Idn | Esr | Stb | SystErr | SystVersion | SessState | MeasDl | MeasAll | FetchResult
-        | FetchCatalog | DataLogCount | DataLog => (true, false),
+        Idn | Esr | Stb | SystErr | SystVersion | SessState | StatPod | MeasDl | MeasAll
+        | FetchResult | FetchCatalog | DataLogCount | DataLog => (true, false),
         Rst | Cls | Wai | Sav | SessArm | SessStart | SessStop | SessAbort => (false, true),
         Opc | Ese | Sre | ConfField(..) | ConfAxisName(_) | SessPattern | SessDirection => {
             (true, true)
@@ -382,6 +384,7 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
                 .map(|&(_, c)| c)
                 .ok_or(undefined)?
         }
+        [s, p] if s.is("STATus") && p.is("POD") => Command::StatPod,
         [m, x] if m.is("MEASure") && x.is("DL") => Command::MeasDl,
         [m, x] if m.is("MEASure") && x.is("ALL") => Command::MeasAll,
         [f, r] if f.is("FETCh") && r.is("RESult") => Command::FetchResult,
@@ -890,6 +893,14 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             Command::SessState => {
                 none()?;
                 push_bytes(&mut r, state_name(self.session).as_bytes());
+            }
+            Command::StatPod => {
+                none()?;
+                let mut w = self.pod.live.status.0;
+                if !self.status.is_empty() {
+                    w |= StatusWord::ERROR;
+                }
+                push_u64(&mut r, u64::from(w));
             }
             Command::MeasDl => {
                 none()?;

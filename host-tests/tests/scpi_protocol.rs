@@ -852,3 +852,63 @@ fn status_word_query_adds_the_error_bit_while_errors_are_queued() {
     b.send("*CLS");
     assert_eq!(b.send("STAT:POD?"), "514");
 }
+
+/// A bench with 20 logged samples.
+fn bench_with_log() -> Bench {
+    let mut b = Bench::new();
+    for k in 0..20u64 {
+        b.log.push(&Sample {
+            t_us: 5_000_000 + k * 1000,
+            delta_l_um: k as f32 * -0.125,
+            temp_c: 21.5,
+            ..Sample::default()
+        });
+    }
+    b
+}
+
+#[test]
+fn pulled_download_is_byte_for_byte_the_streamed_one() {
+    let mut streamed = bench_with_log();
+    let (whole, _) = streamed.raw(b"*OPC?;DATA:LOG?\n");
+    for size in [1usize, 7, 64, 4096] {
+        let mut b = bench_with_log();
+        b.scpi.set_pull_download(true);
+        let (mut got, _) = b.raw(b"*OPC?;DATA:LOG?\n");
+        assert!(got.starts_with(b"1;#"), "only the header in feed");
+        assert!(b.scpi.download_pending());
+        let mut buf = vec![0u8; size];
+        loop {
+            let n = b.scpi.pull_download(&b.log, &mut buf);
+            if n == 0 {
+                break;
+            }
+            got.extend_from_slice(&buf[..n]);
+        }
+        assert!(!b.scpi.download_pending());
+        assert_eq!(got, whole, "buffer of {size} bytes");
+    }
+}
+
+#[test]
+fn pulled_download_ends_its_line_and_keeps_the_stream_order() {
+    let mut streamed = bench_with_log();
+    let (whole, _) = streamed.raw(b"DATA:LOG?\n");
+    let mut b = bench_with_log();
+    b.scpi.set_pull_download(true);
+    // a unit after DATA:LOG? in the same line: -440, not executed
+    let (mut got, actions) = b.raw(b"DATA:LOG?;SESS:ARM\n");
+    assert!(actions.is_empty());
+    let mut buf = [0u8; 100];
+    let n = b.scpi.pull_download(&b.log, &mut buf);
+    got.extend_from_slice(&buf[..n]);
+    // input before the rest is pulled: the download completes first, then the new response
+    let (rest, _) = b.raw(b"*OPC?\n");
+    got.extend_from_slice(&rest);
+    assert!(!b.scpi.download_pending());
+    assert_eq!(b.scpi.pull_download(&b.log, &mut buf), 0);
+    let mut expected = whole.clone();
+    expected.extend_from_slice(b"1\n");
+    assert_eq!(got, expected);
+    assert_eq!(b.errors(), vec![-440]);
+}

@@ -215,22 +215,24 @@ impl<const N: usize> SampleLog<N> {
         self.newest_t_us = s.t_us;
     }
 
+    /// The `k`-th held sample, oldest first (k < [`len`](Self::len)), with its full time stamp.
+    pub fn get(&self, k: usize) -> Option<LoggedSample> {
+        if k >= self.len {
+            return None;
+        }
+        let start = (self.head + N - self.len) % N.max(1);
+        let r = self.records.get((start + k) % N.max(1))?;
+        let newest_lo = self.newest_t_us as u32;
+        let age = u64::from(newest_lo.wrapping_sub(r.t_lo_us));
+        Some(LoggedSample {
+            t_us: self.newest_t_us.saturating_sub(age),
+            record: *r,
+        })
+    }
+
     /// The held samples, oldest first, with their full time stamps.
     pub fn iter(&self) -> impl Iterator<Item = LoggedSample> + '_ {
-        let start = if N == 0 {
-            0
-        } else {
-            (self.head + N - self.len) % N
-        };
-        let newest_lo = self.newest_t_us as u32;
-        (0..self.len).filter_map(move |k| {
-            let r = self.records.get((start + k) % N.max(1))?;
-            let age = u64::from(newest_lo.wrapping_sub(r.t_lo_us));
-            Some(LoggedSample {
-                t_us: self.newest_t_us.saturating_sub(age),
-                record: *r,
-            })
-        })
+        (0..self.len).filter_map(|k| self.get(k))
     }
 }
 
@@ -306,8 +308,174 @@ fn axis_columns(axes: &[AxisName; MAX_AXES]) -> impl Iterator<Item = (usize, &'s
     })
 }
 
-/// Longest CSV line (a data row with five axes is at most ~150 bytes).
-const CSV_LINE: usize = 192;
+/// Longest CSV line, bytes (a data row with five axes is at most ~150).
+pub const CSV_LINE_MAX: usize = 192;
+
+/// One CSV line under construction.
+type Line = Text<CSV_LINE_MAX>;
+
+/// Metadata lines before the header (module doc).
+const META_LINES: usize = 9;
+
+/// Position in the CSV text of a log: which line comes next. Lets a transport that cannot take
+/// the whole file at once (async USB) pull it line by line or buffer by buffer. The log and the
+/// metadata must not change while a cursor is in use (the file would not be one snapshot).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct CsvCursor {
+    /// Next line: metadata lines, the header, then one per record.
+    line: usize,
+    /// Bytes of the next line already handed out by [`fill`](Self::fill).
+    offset: usize,
+}
+
+impl CsvCursor {
+    /// At the start of the file.
+    pub const fn new() -> Self {
+        Self { line: 0, offset: 0 }
+    }
+
+    /// True once every line was written.
+    pub const fn is_done<const N: usize>(&self, log: &SampleLog<N>) -> bool {
+        self.line >= META_LINES + 1 + log.len()
+    }
+
+    /// Writes the next whole line through `out` (one call); false when the file is complete.
+    pub fn next_line<const N: usize>(
+        &mut self,
+        log: &SampleLog<N>,
+        meta: &LogMeta,
+        out: &mut impl FnMut(&[u8]),
+    ) -> bool {
+        let mut line = Line::new();
+        if !format_line(self.line, log, meta, &mut line) {
+            return false;
+        }
+        out(line.get(self.offset..).unwrap_or_default());
+        self.line += 1;
+        self.offset = 0;
+        true
+    }
+
+    /// Fills `buf` with the following bytes of the file (lines split across calls where they
+    /// do not fit); returns the bytes written, 0 once the file is complete.
+    pub fn fill<const N: usize>(
+        &mut self,
+        log: &SampleLog<N>,
+        meta: &LogMeta,
+        buf: &mut [u8],
+    ) -> usize {
+        let mut n = 0;
+        let mut line = Line::new();
+        while n < buf.len() && format_line(self.line, log, meta, &mut line) {
+            let rest = line.get(self.offset..).unwrap_or_default();
+            let dst = buf.get_mut(n..).unwrap_or_default();
+            let k = rest.len().min(dst.len());
+            if let (Some(d), Some(s)) = (dst.get_mut(..k), rest.get(..k)) {
+                d.copy_from_slice(s);
+            }
+            n += k;
+            if k == rest.len() {
+                self.line += 1;
+                self.offset = 0;
+            } else {
+                self.offset += k;
+            }
+        }
+        n
+    }
+}
+
+/// Formats line `index` of the CSV file into `line` (cleared first); false past the end.
+fn format_line<const N: usize>(
+    index: usize,
+    log: &SampleLog<N>,
+    meta: &LogMeta,
+    line: &mut Line,
+) -> bool {
+    line.clear();
+    let kv = |line: &mut Line, key: &str| {
+        push_bytes(line, b"# ") && push_bytes(line, key.as_bytes()) && push_bytes(line, b"=")
+    };
+    match index {
+        0 => {
+            push_bytes(line, b"# ballpod log v1");
+        }
+        1 => {
+            kv(line, "bar_length_mm");
+            push_fixed(line, f64::from(meta.bar_length_mm), 4, true, b"nan");
+        }
+        2 => {
+            kv(line, "pattern");
+            push_bytes(line, pattern_name(meta.pattern).as_bytes());
+        }
+        3 => {
+            kv(line, "direction");
+            push_bytes(line, direction_name(meta.direction).as_bytes());
+        }
+        4 => {
+            kv(line, "sample_rate_hz");
+            let rate = f64::from(meta.sample_rate_hz) / f64::from(log.decimation());
+            push_fixed(line, rate, 4, true, b"nan");
+        }
+        5 => {
+            kv(line, "decimation");
+            push_u64(line, u64::from(log.decimation()));
+        }
+        6 => {
+            kv(line, "samples");
+            push_u64(line, log.len() as u64);
+        }
+        7 => {
+            kv(line, "overwritten");
+            push_u64(line, u64::from(log.overwritten()));
+        }
+        8 => {
+            push_bytes(
+                line,
+                b"# flags=bit0 lvdt_over_range|bit1 lvdt_open|bit2 quadrature_error|bit3 probe_event|bit4 overrun|bit5 temperature_fault",
+            );
+        }
+        META_LINES => {
+            push_bytes(line, b"t_s,dl_um");
+            for (_, col, _) in axis_columns(&meta.axes) {
+                push_bytes(line, b",");
+                push_bytes(line, col.as_bytes());
+            }
+            push_bytes(line, b",temp_c,flags");
+        }
+        k => {
+            let Some(s) = log.get(k - META_LINES - 1) else {
+                return false;
+            };
+            let r = &s.record;
+            push_u64(line, s.t_us / 1_000_000);
+            push_bytes(line, b".");
+            let mut digits = [b'0'; 6];
+            let mut f = s.t_us % 1_000_000;
+            for d in digits.iter_mut().rev() {
+                *d = b'0' + (f % 10) as u8;
+                f /= 10;
+            }
+            push_bytes(line, &digits);
+            push_bytes(line, b",");
+            push_fixed(line, f64::from(r.delta_l_um), 4, false, b"nan");
+            for (input, _, dec) in axis_columns(&meta.axes) {
+                push_bytes(line, b",");
+                let v = r.axes.get(input).copied().unwrap_or(f32::NAN);
+                push_fixed(line, f64::from(v), dec, false, b"nan");
+            }
+            push_bytes(line, b",");
+            if r.temp_centi_c == TEMP_INVALID {
+                push_bytes(line, b"nan");
+            } else {
+                push_fixed(line, f64::from(r.temp_centi_c) / 100.0, 2, false, b"nan");
+            }
+            push_bytes(line, b",");
+            push_u64(line, u64::from(r.flags));
+        }
+    }
+    push_bytes(line, b"\n")
+}
 
 /// Writes the log as CSV (module doc), one call of `out` per line. Returns the bytes written.
 pub fn write_csv<const N: usize>(
@@ -316,99 +484,11 @@ pub fn write_csv<const N: usize>(
     out: &mut impl FnMut(&[u8]),
 ) -> usize {
     let mut total = 0usize;
-    let mut emit = |line: &Text<CSV_LINE>| {
-        out(line);
+    let mut cursor = CsvCursor::new();
+    while cursor.next_line(log, meta, &mut |line: &[u8]| {
         total += line.len();
-    };
-    let mut line: Text<CSV_LINE> = Text::new();
-    let kv = |line: &mut Text<CSV_LINE>, key: &str| {
-        line.clear();
-        push_bytes(line, b"# ") && push_bytes(line, key.as_bytes()) && push_bytes(line, b"=")
-    };
-
-    line.clear();
-    push_bytes(&mut line, b"# ballpod log v1\n");
-    emit(&line);
-    kv(&mut line, "bar_length_mm");
-    push_fixed(&mut line, f64::from(meta.bar_length_mm), 4, true, b"nan");
-    push_bytes(&mut line, b"\n");
-    emit(&line);
-    kv(&mut line, "pattern");
-    push_bytes(&mut line, pattern_name(meta.pattern).as_bytes());
-    push_bytes(&mut line, b"\n");
-    emit(&line);
-    kv(&mut line, "direction");
-    push_bytes(&mut line, direction_name(meta.direction).as_bytes());
-    push_bytes(&mut line, b"\n");
-    emit(&line);
-    kv(&mut line, "sample_rate_hz");
-    let rate = f64::from(meta.sample_rate_hz) / f64::from(log.decimation());
-    push_fixed(&mut line, rate, 4, true, b"nan");
-    push_bytes(&mut line, b"\n");
-    emit(&line);
-    for (key, v) in [
-        ("decimation", u64::from(log.decimation())),
-        ("samples", log.len() as u64),
-        ("overwritten", u64::from(log.overwritten())),
-    ] {
-        kv(&mut line, key);
-        push_u64(&mut line, v);
-        push_bytes(&mut line, b"\n");
-        emit(&line);
-    }
-    line.clear();
-    push_bytes(
-        &mut line,
-        b"# flags=bit0 lvdt_over_range|bit1 lvdt_open|bit2 quadrature_error|bit3 probe_event|bit4 overrun|bit5 temperature_fault\n",
-    );
-    emit(&line);
-
-    line.clear();
-    push_bytes(&mut line, b"t_s,dl_um");
-    for (_, col, _) in axis_columns(&meta.axes) {
-        push_bytes(&mut line, b",");
-        push_bytes(&mut line, col.as_bytes());
-    }
-    push_bytes(&mut line, b",temp_c,flags\n");
-    emit(&line);
-
-    for s in log.iter() {
-        line.clear();
-        let r = &s.record;
-        push_u64(&mut line, s.t_us / 1_000_000);
-        push_bytes(&mut line, b".");
-        let frac = s.t_us % 1_000_000;
-        let mut digits = [b'0'; 6];
-        let mut f = frac;
-        for d in digits.iter_mut().rev() {
-            *d = b'0' + (f % 10) as u8;
-            f /= 10;
-        }
-        push_bytes(&mut line, &digits);
-        push_bytes(&mut line, b",");
-        push_fixed(&mut line, f64::from(r.delta_l_um), 4, false, b"nan");
-        for (input, _, dec) in axis_columns(&meta.axes) {
-            push_bytes(&mut line, b",");
-            let v = r.axes.get(input).copied().unwrap_or(f32::NAN);
-            push_fixed(&mut line, f64::from(v), dec, false, b"nan");
-        }
-        push_bytes(&mut line, b",");
-        if r.temp_centi_c == TEMP_INVALID {
-            push_bytes(&mut line, b"nan");
-        } else {
-            push_fixed(
-                &mut line,
-                f64::from(r.temp_centi_c) / 100.0,
-                2,
-                false,
-                b"nan",
-            );
-        }
-        push_bytes(&mut line, b",");
-        push_u64(&mut line, u64::from(r.flags));
-        push_bytes(&mut line, b"\n");
-        emit(&line);
-    }
+        out(line);
+    }) {}
     total
 }
 

@@ -8,6 +8,8 @@
 //! // for every chunk received from USB CDC-ACM (or the simulator's TCP socket):
 //! let actions = scpi.feed(chunk, &mut pod, &log, &mut |bytes| usb_write(bytes));
 //! for a in actions { app.execute(a) }   // Arm / Start / Stop / Abort / ConfigChanged / …
+//! // async transports: scpi.set_pull_download(true) once, then after each feed
+//! while scpi.download_pending() { let n = scpi.pull_download(&log, &mut buf); usb_write(&buf[..n]).await }
 //! ```
 //!
 //! Bytes go in as they arrive (any chunking); each line ending in `\n` (a `\r` is ignored) is one
@@ -74,7 +76,7 @@ pub mod status;
 
 use crate::acquisition::MAX_AXES;
 use crate::config::{AxisName, Config, ConfigError, FIELDS, Field, FieldInfo};
-use crate::protocol::log::{LogMeta, SampleLog, csv_len, write_csv};
+use crate::protocol::log::{CsvCursor, LogMeta, SampleLog, csv_len, write_csv};
 use crate::protocol::pod::{
     Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState, StatusWord,
 };
@@ -109,15 +111,24 @@ pub struct ScpiCounters {
     pub actions_rejected: u32,
 }
 
+/// A log download in pull mode: where it stands, and the metadata it started with.
+#[derive(Clone, Copy, Debug)]
+struct Download {
+    cursor: CsvCursor,
+    meta: LogMeta,
+}
+
 /// One SCPI session (one USB CDC-ACM port or TCP connection): line buffer, status model and
 /// error queue. RAM: [`LINE_CAPACITY`] + the error queue (16 × 24 B on the host, 16 × 12 B on
-/// the target) + a few words.
+/// the target) + a pending download (~40 B) + a few words.
 #[derive(Clone, Debug)]
 pub struct ScpiServer {
     line: heapless::Vec<u8, LINE_CAPACITY>,
     overrun: bool,
     status: StatusModel,
     counters: ScpiCounters,
+    pull_mode: bool,
+    download: Option<Download>,
 }
 
 impl Default for ScpiServer {
@@ -133,6 +144,8 @@ struct Exec<'a, F: FnMut(&[u8]), const N: usize> {
     pod: &'a mut PodModel,
     log: &'a SampleLog<N>,
     out: &'a mut F,
+    pull_mode: bool,
+    download: &'a mut Option<Download>,
     actions: Actions,
     /// The session state the accepted actions lead to.
     session: SessionState,
@@ -151,7 +164,43 @@ impl ScpiServer {
                 lines_overrun: 0,
                 actions_rejected: 0,
             },
+            pull_mode: false,
+            download: None,
         }
+    }
+
+    /// Pull mode for the log download, for transports that cannot take a whole file inside
+    /// `feed` (async USB): `DATA:LOG?` then sends only its block header through `out`, and the
+    /// CSV and the final `\n` are taken with [`pull_download`](Self::pull_download) until it
+    /// returns 0. `DATA:LOG?` must then be the last unit of its line (later units: -440). Input
+    /// fed before the download is pulled completes it through `out` first (the order of the
+    /// byte stream is kept). Off by default: `feed` streams the whole download through `out`.
+    pub fn set_pull_download(&mut self, on: bool) {
+        self.pull_mode = on;
+    }
+
+    /// True while a pulled log download has bytes left.
+    pub const fn download_pending(&self) -> bool {
+        self.download.is_some()
+    }
+
+    /// The next bytes of a pending log download (pull mode), at most `buf.len()` (give at least
+    /// 1 byte); 0 when nothing is pending. The log must not change until it returns 0 (the
+    /// block length was announced): pause logging while [`download_pending`](Self::download_pending).
+    pub fn pull_download<const N: usize>(&mut self, log: &SampleLog<N>, buf: &mut [u8]) -> usize {
+        let Some(d) = self.download.as_mut() else {
+            return 0;
+        };
+        let mut n = d.cursor.fill(log, &d.meta, buf);
+        if d.cursor.is_done(log)
+            && let Some(b) = buf.get_mut(n)
+        {
+            // The response message terminator (IEEE 488.2 §8.5).
+            *b = b'\n';
+            n += 1;
+            self.download = None;
+        }
+        n
     }
 
     /// The status model and error queue (read-only; for the application's status word).
@@ -180,6 +229,8 @@ impl ScpiServer {
             pod,
             log,
             out,
+            pull_mode: self.pull_mode,
+            download: &mut self.download,
             actions: Actions::new(),
             responded: false,
         };
@@ -193,6 +244,7 @@ impl ScpiServer {
                         x.counters.lines_overrun = x.counters.lines_overrun.saturating_add(1);
                         self.overrun = false;
                     } else {
+                        x.finish_download();
                         x.line(&self.line);
                     }
                     self.line.clear();
@@ -519,6 +571,15 @@ fn config_error(e: ConfigError, name: &'static str) -> ScpiError {
 }
 
 impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
+    /// Sends the rest of a pulled download through `out` (more input arrived first).
+    fn finish_download(&mut self) {
+        if let Some(mut d) = self.download.take() {
+            let out = &mut *self.out;
+            while d.cursor.next_line(self.log, &d.meta, &mut |l| out(l)) {}
+            out(b"\n");
+        }
+    }
+
     /// Executes one program message (IEEE 488.2 §7.3: units separated by `;`).
     fn line(&mut self, line: &[u8]) {
         self.responded = false;
@@ -527,6 +588,14 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
         let _ = parse::split(line, b';', |unit| {
             if unit.is_empty() {
                 return Ok(());
+            }
+            if self.download.is_some() {
+                // Pull mode: the log block must be the last response of its message.
+                self.status.push(ScpiError::with(
+                    code::QUERY_AFTER_BLOCK,
+                    "DATA:LOG? must end its line",
+                ));
+                return Err(());
             }
             match self.unit(unit, &mut prefix) {
                 Ok(()) => Ok(()),
@@ -541,7 +610,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 }
             }
         });
-        if self.responded {
+        if self.responded && self.download.is_none() {
             (self.out)(b"\n");
         }
     }
@@ -991,8 +1060,15 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 push_u64(&mut r, digits.len() as u64);
                 push_bytes(&mut r, &digits);
                 self.respond(&r);
-                let out = &mut *self.out;
-                write_csv(self.log, &meta, &mut |chunk| out(chunk));
+                if self.pull_mode {
+                    *self.download = Some(Download {
+                        cursor: CsvCursor::new(),
+                        meta,
+                    });
+                } else {
+                    let out = &mut *self.out;
+                    write_csv(self.log, &meta, &mut |chunk| out(chunk));
+                }
                 return Ok(());
             }
             _ => return Err(ScpiError::new(code::UNDEFINED_HEADER)),

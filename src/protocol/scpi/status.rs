@@ -83,6 +83,8 @@ pub mod code {
     pub const DATA_CORRUPT_OR_STALE: i16 = -230;
     /// -350: the error queue overflowed (errors were lost).
     pub const QUEUE_OVERFLOW: i16 = -350;
+    /// -440: a query after an indefinite (here: pulled) response in the same message.
+    pub const QUERY_AFTER_BLOCK: i16 = -440;
     /// -363: an input line longer than the line buffer (the whole line was rejected).
     pub const INPUT_BUFFER_OVERRUN: i16 = -363;
 }
@@ -113,6 +115,7 @@ pub const fn message(c: i16) -> &'static str {
         code::DATA_CORRUPT_OR_STALE => "Data corrupt or stale",
         code::QUEUE_OVERFLOW => "Queue overflow",
         code::INPUT_BUFFER_OVERRUN => "Input buffer overrun",
+        code::QUERY_AFTER_BLOCK => "Query UNTERMINATED after indefinite response",
         -199..=-100 => "Command error",
         -299..=-200 => "Execution error",
         -399..=-300 => "Device-specific error",

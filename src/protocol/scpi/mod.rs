@@ -41,9 +41,10 @@
 //! buffer before it is sent, so a log download (tens of KiB) would need a buffer of that size —
 //! here it is streamed line by line; (3) its float responses are lexical's shortest round-trip
 //! digits, not fixed resolution, and pull lexical's float writer into flash; (4) it is not
-//! maintained (last release 1.0.1 and last commit May 2024). The command tree here is small and fixed, so a focused parser (~600 lines with
-//! its tests' worth of rules: short/long forms, numeric suffixes, compound headers, quoted
-//! strings, NRf numbers, MIN/MAX/DEF) costs less than adapting it.
+//! maintained (last release 1.0.1 and last commit May 2024). The command tree here is small and
+//! fixed, so a focused parser (~1 700 lines with docs, status model and number formatting:
+//! short/long forms, numeric suffixes, compound headers, quoted strings, NRf numbers,
+//! MIN/MAX/DEF) costs less than adapting it.
 //!
 //! # Command set
 //!
@@ -58,7 +59,7 @@
 //! | `SESSion:DIRection <CW\|CCW>`, `…?` | direction of the next run |
 //! | `SESSion:ARM` `SESSion:STARt` `SESSion:STOP` `SESSion:ABORt` | session control |
 //! | `SESSion:STATe?` | `IDLE`, `ARMED`, `RUNNING`, `DONE` or `ABORTED` |
-//! | `STATus:POD?` | the pod's status word ([`StatusWord`](crate::protocol::pod::StatusWord), decimal; bit 15 also set while this port's error queue is not empty) |
+//! | `STATus:POD?` | the pod's status word ([`StatusWord`], decimal; bit 15 also set while this port's error queue is not empty) |
 //! | `MEASure:DL?` | live ΔL, µm (4 decimals) |
 //! | `MEASure:ALL?` | `counter,dl_um,ex_um,ey_um,ez_um,ecc_x_um,ecc_y_um,r0_um,temp_c,status` |
 //! | `FETCh:RESult? <name\|index>` | `value,uncertainty,UNIT` of a [`RESULTS`] entry (index 0…15) |

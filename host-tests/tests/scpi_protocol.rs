@@ -522,6 +522,13 @@ fn numeric_suffix_selects_the_coefficient_or_input_and_defaults_to_1() {
     assert_eq!(c.lvdt_poly_um, [-3.5, 2100.0, 0.0, 0.0]);
     assert_eq!(c.axes[2].counts_per_unit, 20000.0);
     assert_eq!(c.axes[0].max_speed_per_s, 500.0);
+    // values read back as typed, not with the f32's binary noise (150.002106)
+    b.send("CONF:BAR_LENGTH 150.0021");
+    assert_eq!(b.send("CONF:BAR_LENGTH?"), "150.0021");
+    b.send("CONF:LVDT_MAX_RATIO 0.55");
+    assert_eq!(b.send("CONF:LVDT_MAX_RATIO?"), "0.55");
+    b.send("CONF:AXIS_COUNTS2 12345.678901");
+    assert_eq!(b.send("CONF:AXIS_COUNTS2?"), "12345.678901");
     // a field name ending in digits is not a suffix
     b.send("CONF:NTC_R25 4700");
     assert_eq!(b.pod.config.thermistor_r25_ohm, 4700.0);

@@ -81,7 +81,7 @@ use crate::protocol::log::{CsvCursor, LogMeta, SampleLog, csv_len, write_csv};
 use crate::protocol::pod::{
     Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState, StatusWord,
 };
-use number::{SCPI_NAN, Text, push_bytes, push_fixed, push_i64, push_u64};
+use number::{SCPI_NAN, Text, push_bytes, push_fixed, push_i64, push_significant, push_u64};
 use parse::{Header, MAX_DEPTH, Mnemonic, character, keyword};
 use status::{ScpiError, StatusModel, code, esr};
 
@@ -98,8 +98,6 @@ pub const IDN: &str = concat!("BALLPOD,BP-1,0,", env!("CARGO_PKG_VERSION"));
 
 /// Decimals of values in µm (and µrad, °C…) in responses: 0.1 nm.
 const RESPONSE_DECIMALS: u32 = 4;
-/// Decimals of configuration values in responses (trailing zeros dropped).
-const CONFIG_DECIMALS: u32 = 6;
 /// A response unit under construction.
 type Response = Text<256>;
 
@@ -922,13 +920,13 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                     }
                     _ => return Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED)),
                 };
-                push_fixed(
-                    &mut r,
-                    v.unwrap_or(f64::NAN),
-                    CONFIG_DECIMALS,
-                    true,
-                    SCPI_NAN,
-                );
+                // f32 fields as typed (7 digits); the f64 encoder scale with 15.
+                let digits = if matches!(field, Field::AxisCountsPerUnit(_)) {
+                    15
+                } else {
+                    7
+                };
+                push_significant(&mut r, v.unwrap_or(f64::NAN), digits, SCPI_NAN);
             }
             Command::ConfAxisName(i) => {
                 none()?;

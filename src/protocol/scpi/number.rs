@@ -119,6 +119,36 @@ pub fn push_fixed<const C: usize>(
             .is_some_and(|d| push_bytes(buf, d))
 }
 
+/// Appends `v` with `significant` significant digits (at most 9 decimals; trailing zeros
+/// dropped): 7 digits show an `f32` as it was typed (`150.0021`, not `150.002106`), since any
+/// decimal of ≤ 7 significant digits survives the trip through `f32`.
+pub fn push_significant<const C: usize>(
+    buf: &mut Text<C>,
+    v: f64,
+    significant: u32,
+    nan_text: &[u8],
+) -> bool {
+    // e = floor(log10 |v|) by comparison with powers of ten (no libm log on the target).
+    let a = v.abs();
+    let mut e: i32 = 0;
+    if a > 0.0 && a.is_finite() {
+        let mut p = 1.0;
+        if a >= 1.0 {
+            while a >= p * 10.0 && e < 40 {
+                p *= 10.0;
+                e += 1;
+            }
+        } else {
+            while a < p && e > -40 {
+                p /= 10.0;
+                e -= 1;
+            }
+        }
+    }
+    let decimals = (significant as i32 - 1 - e).clamp(0, 9) as u32;
+    push_fixed(buf, v, decimals, true, nan_text)
+}
+
 /// Why a decimal numeric program datum was rejected (mapped to SCPI-99 Vol 2 §21.8 error numbers
 /// by the caller).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

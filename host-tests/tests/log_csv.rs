@@ -257,3 +257,34 @@ fn the_firmware_log_fits_its_ram_share() {
     let bytes = std::mem::size_of::<SampleLog<LOG_CAPACITY>>();
     assert!(bytes <= 32 * 1024 + 64, "{bytes}");
 }
+
+#[test]
+fn metadata_of_the_run_survives_later_setting_changes() {
+    use ballpod::protocol::scpi::ScpiServer;
+    let mut pod = PodModel {
+        pattern: Pattern::Cr,
+        direction: Direction::Cw,
+        ..PodModel::default()
+    };
+    let mut log = SampleLog::<8>::new();
+    log.begin_run(LogMeta::from_pod(&pod));
+    log.push(&Sample::default());
+    // after the run the technician prepares the next one
+    pod.pattern = Pattern::Bx;
+    pod.direction = Direction::Ccw;
+    pod.config.try_update(|c| c.bar_length_mm = 300.0).unwrap();
+    let mut scpi = ScpiServer::new();
+    let mut out = Vec::new();
+    scpi.feed(b"DATA:LOG?\n", &mut pod, &log, &mut |b: &[u8]| {
+        out.extend_from_slice(b)
+    });
+    let text = String::from_utf8(out).unwrap();
+    // definite-length block: '#', n, n length digits, the CSV, NL
+    let n = (text.as_bytes()[1] - b'0') as usize;
+    let csv = parse(&text[2 + n..text.len() - 1]);
+    assert_eq!(csv.meta["pattern"], "CR");
+    assert_eq!(csv.meta["direction"], "CW");
+    assert_eq!(csv.meta["bar_length_mm"], "150");
+    log.clear();
+    assert_eq!(log.meta(), None);
+}

@@ -125,6 +125,8 @@ pub struct SampleLog<const N: usize> {
     decimation: u16,
     /// Samples offered since the last logged one.
     phase: u16,
+    /// The run the records belong to (set by [`begin_run`](Self::begin_run)).
+    meta: Option<LogMeta>,
 }
 
 impl<const N: usize> Default for SampleLog<N> {
@@ -144,6 +146,7 @@ impl<const N: usize> SampleLog<N> {
             overwritten: 0,
             decimation: 1,
             phase: 0,
+            meta: None,
         }
     }
 
@@ -178,12 +181,25 @@ impl<const N: usize> SampleLog<N> {
         self.decimation
     }
 
-    /// Empties the log and zeroes the overwritten counter (at arm, typically).
+    /// Empties the log and zeroes the overwritten counter; forgets the run's metadata.
     pub fn clear(&mut self) {
         self.head = 0;
         self.len = 0;
         self.overwritten = 0;
         self.phase = 0;
+        self.meta = None;
+    }
+
+    /// Empties the log for a new run (at arm) and keeps the run's metadata, so that the CSV
+    /// describes the run even if the pattern or configuration changes before the download.
+    pub fn begin_run(&mut self, meta: LogMeta) {
+        self.clear();
+        self.meta = Some(meta);
+    }
+
+    /// The metadata given to [`begin_run`](Self::begin_run), if any.
+    pub const fn meta(&self) -> Option<LogMeta> {
+        self.meta
     }
 
     /// Offers a sample: every `decimation`-th one is logged ([`push`](Self::push)).

@@ -65,7 +65,7 @@
 //! | `FETCh:RESult? <name\|index>` | `value,uncertainty,UNIT` of a [`RESULTS`] entry (index 0…15) |
 //! | `FETCh:RESult:CATalog?` | the result names, quoted, in index order |
 //! | `DATA:LOG:COUNt?` | samples in the log |
-//! | `DATA:LOG?` | the log as CSV ([`crate::protocol::log`]) in a definite-length block `#<d><len><csv>` (IEEE 488.2 §8.7.9) |
+//! | `DATA:LOG?` | the log as CSV ([`crate::protocol::log`]) in a definite-length block `#<d><len><csv>` (IEEE 488.2 §8.7.9); metadata from [`SampleLog::begin_run`] or else the pod's current settings |
 //!
 //! Session commands in the wrong state (`ARM` while armed or running, `STARt` unless armed,
 //! `STOP` unless running, `ABORt` unless armed or running; pattern, direction and configuration
@@ -1051,7 +1051,11 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 none()?;
                 // IEEE 488.2 §8.7.9 definite length arbitrary block: `#`, the number of length
                 // digits, the length, the bytes. The length comes from a counting pass.
-                let meta = LogMeta::from_pod(self.pod);
+                // The run's metadata if the application recorded it at arm, else the pod's now.
+                let meta = self
+                    .log
+                    .meta()
+                    .unwrap_or_else(|| LogMeta::from_pod(self.pod));
                 let len = csv_len(self.log, &meta);
                 let mut digits: Text<24> = Text::new();
                 push_u64(&mut digits, len as u64);

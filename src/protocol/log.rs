@@ -9,10 +9,10 @@
 //! bits and is rebuilt from the newest sample's full 64-bit time (valid while the ring spans less
 //! than 2³² µs ≈ 71.6 min, which it does at any logging rate ≥ 1 sample per 4 s).
 //!
-//! [`LOG_CAPACITY`] = 1024 records = 32 768 bytes (+ 48 bytes of indices, counters and run metadata: 32 816 in all): half of
-//! the 64 KiB static-RAM budget, the largest single user of it. At the full 1 kHz sample rate
-//! that is one second; the application sets a decimation ([`SampleLog::set_decimation`]) to log
-//! a whole run (e.g. 1 in 20 → 50 Hz, 20 s).
+//! [`LOG_CAPACITY`] = 1024 records = 32 768 bytes, + 48 bytes of indices, counters and run
+//! metadata = 32 816 bytes: half of the 64 KiB static-RAM budget, the largest single user of it.
+//! At the full 1 kHz sample rate that is one second; the application sets a decimation
+//! ([`SampleLog::set_decimation`]) to log a whole run (e.g. 1 in 20 → 50 Hz, 20 s).
 //!
 //! # CSV format (version 1)
 //!

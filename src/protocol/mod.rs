@@ -8,6 +8,10 @@
 //!
 //! - [`pod`]: the shared model (live values, status word, session, results table).
 //! - [`canopen`]: the CiA 301 slave (NMT, heartbeat, SDO, SYNC/TPDO, EMCY) and its EDS.
+//! - [`scpi`]: the USB command interface (IEEE 488.2 / SCPI-99 parser, status model, error queue).
+//! - [`log`]: the fixed-capacity sample log and its CSV download format.
 
 pub mod canopen;
+pub mod log;
 pub mod pod;
+pub mod scpi;

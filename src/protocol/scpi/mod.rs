@@ -1,0 +1,1082 @@
+//! The technician's USB command interface: SCPI-style commands (IEEE 488.2 common commands,
+//! SCPI-99 command tree) over a byte stream, transport-agnostic.
+//!
+//! # Use
+//!
+//! ```text
+//! let mut scpi = ScpiServer::new();
+//! // for every chunk received from USB CDC-ACM (or the simulator's TCP socket):
+//! let actions = scpi.feed(chunk, &mut pod, &log, &mut |bytes| usb_write(bytes));
+//! for a in actions { app.execute(a) }   // Arm / Start / Stop / Abort / ConfigChanged / …
+//! // async transports: scpi.set_pull_download(true) once, then after each feed
+//! while scpi.download_pending() { let n = scpi.pull_download(&log, &mut buf); usb_write(&buf[..n]).await }
+//! ```
+//!
+//! Bytes go in as they arrive (any chunking); each line ending in `\n` (a `\r` is ignored) is one
+//! program message, executed when its `\n` arrives. Responses go out through `out` at once, in
+//! pieces (one call per response unit, one per CSV line of a log download); a line that produced
+//! responses ends with `\n`, their units separated by `;` (IEEE 488.2 §8.4). Execution is
+//! synchronous and bounded: no call blocks or waits for time.
+//!
+//! The server writes the pattern, direction and configuration of `pod` itself (configuration only
+//! through [`Config::try_update`]) and reads its live values, results and session state; session
+//! actions come back as [`SessionCommand`]s for the application to execute after `feed` returns
+//! (and then update [`PodModel::session`]). Within one `feed` call, a session command is checked
+//! against the state the earlier accepted commands lead to, so `SESS:ARM;STAR` works.
+//!
+//! # Bad input
+//!
+//! Every rejected command queues an SCPI error (SCPI-99 Vol 2 §21.8, read by `SYSTem:ERRor?`)
+//! and changes nothing. A command error (-1xx: syntax, header, parameter type) also discards the
+//! rest of its line (the following units could be mis-parsed); execution errors (-2xx) do not. A
+//! line longer than [`LINE_CAPACITY`] is rejected whole with -363 "Input buffer overrun" and the
+//! next line is parsed normally.
+//!
+//! # Why not the `scpi` crate
+//!
+//! `scpi` 1.0.1 (Atmelfan/scpi-rs) was evaluated: it is `no_std` and can run without `alloc`,
+//! but (1) it depends on `lexical-core` 0.8, which has the soundness advisory RUSTSEC-2023-0086
+//! (fixed only in lexical-core 1.0, which scpi 1.0.1 does not take), plus the `scpi_derive`
+//! proc-macro (syn) and `document-features`; (2) a response is built whole in one `Formatter`
+//! buffer before it is sent, so a log download (tens of KiB) would need a buffer of that size —
+//! here it is streamed line by line; (3) its float responses are lexical's shortest round-trip
+//! digits, not fixed resolution, and pull lexical's float writer into flash; (4) it is not
+//! maintained (last release 1.0.1 and last commit May 2024). The command tree here is small and
+//! fixed, so a focused parser (~1 700 lines with docs, status model and number formatting:
+//! short/long forms, numeric suffixes, compound headers, quoted strings, NRf numbers,
+//! MIN/MAX/DEF) costs less than adapting it.
+//!
+//! # Command set
+//!
+//! | command | what |
+//! |---|---|
+//! | `*IDN?` `*RST` `*CLS` `*OPC` `*OPC?` `*WAI` `*ESR?` `*ESE[?]` `*SRE[?]` `*STB?` `*SAV 0` | IEEE 488.2 §10 common commands (`*SAV 0` stores the configuration) |
+//! | `SYSTem:ERRor[:NEXT]?` | oldest queued error: `<code>,"<message>[;<detail>]"` |
+//! | `SYSTem:VERSion?` | `1999.0` (SCPI version) |
+//! | `CONFigure:<field>[<k>] <value\|MIN\|MAX\|DEF>`, `CONFigure:<field>[<k>]? [MIN\|MAX\|DEF]` | a [`FIELDS`] entry by its name (e.g. `CONF:BAR_LENGTH 150`); `LVDT_POLY<k>` k = 0…3 (coefficient c_k), `AXIS_COUNTS<n>` / `AXIS_MAX_SPEED<n>` n = 1…5 (input); suffix default 1 |
+//! | `CONFigure:AXIS<n>:NAME <X\|Y\|Z\|A\|B\|C\|NONE>`, `…?` | axis of encoder input n = 1…5 |
+//! | `SESSion:PATTern <CIRCle\|BX\|BY\|CR\|CA\|CRPRime\|SSM\|PROBe>`, `…?` | pattern of the next run |
+//! | `SESSion:DIRection <CW\|CCW>`, `…?` | direction of the next run |
+//! | `SESSion:ARM` `SESSion:STARt` `SESSion:STOP` `SESSion:ABORt` | session control |
+//! | `SESSion:STATe?` | `IDLE`, `ARMED`, `RUNNING`, `DONE` or `ABORTED` |
+//! | `STATus:POD?` | the pod's status word ([`StatusWord`], decimal; bit 15 also set while this port's error queue is not empty) |
+//! | `MEASure:DL?` | live ΔL, µm (4 decimals) |
+//! | `MEASure:ALL?` | `counter,dl_um,ex_um,ey_um,ez_um,ecc_x_um,ecc_y_um,r0_um,temp_c,status` |
+//! | `FETCh:RESult? <name\|index>` | `value,uncertainty,UNIT` of a [`RESULTS`] entry (index 0…15) |
+//! | `FETCh:RESult:CATalog?` | the result names, quoted, in index order |
+//! | `DATA:LOG:COUNt?` | samples in the log |
+//! | `DATA:LOG?` | the log as CSV ([`crate::protocol::log`]) in a definite-length block `#<d><len><csv>` (IEEE 488.2 §8.7.9); metadata from [`SampleLog::begin_run`] or else the pod's current settings |
+//!
+//! Session commands in the wrong state (`ARM` while armed or running, `STARt` unless armed,
+//! `STOP` unless running, `ABORt` unless armed or running; pattern, direction and configuration
+//! while armed or running) are rejected with -221 "Settings conflict".
+
+pub mod number;
+pub mod parse;
+pub mod status;
+
+use crate::acquisition::MAX_AXES;
+use crate::config::{AxisName, Config, ConfigError, FIELDS, Field, FieldInfo};
+use crate::protocol::log::{CsvCursor, LogMeta, SampleLog, csv_len, write_csv};
+use crate::protocol::pod::{
+    Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState, StatusWord,
+};
+use number::{SCPI_NAN, Text, push_bytes, push_fixed, push_i64, push_significant, push_u64};
+use parse::{Header, MAX_DEPTH, Mnemonic, character, keyword};
+use status::{ScpiError, StatusModel, code, esr};
+
+/// Input line buffer, bytes (the longest program message accepted, without its `\n`).
+pub const LINE_CAPACITY: usize = 256;
+/// Most session actions one [`ScpiServer::feed`] call can return.
+pub const MAX_ACTIONS: usize = 4;
+/// The session actions of one [`ScpiServer::feed`] call, in order.
+pub type Actions = heapless::Vec<SessionCommand, MAX_ACTIONS>;
+
+/// `*IDN?` response (IEEE 488.2 §10.14: manufacturer, model, serial number (0: not set),
+/// firmware version).
+pub const IDN: &str = concat!("BALLPOD,BP-1,0,", env!("CARGO_PKG_VERSION"));
+
+/// Decimals of values in µm (and µrad, °C…) in responses: 0.1 nm.
+const RESPONSE_DECIMALS: u32 = 4;
+/// A response unit under construction.
+type Response = Text<256>;
+
+/// Counters of input the server had to drop.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScpiCounters {
+    /// Lines rejected because they exceeded [`LINE_CAPACITY`].
+    pub lines_overrun: u32,
+    /// Session actions rejected because [`MAX_ACTIONS`] were already pending in one `feed`.
+    pub actions_rejected: u32,
+}
+
+/// A log download in pull mode: where it stands, and the metadata it started with.
+#[derive(Clone, Copy, Debug)]
+struct Download {
+    cursor: CsvCursor,
+    meta: LogMeta,
+}
+
+/// One SCPI session (one USB CDC-ACM port or TCP connection): line buffer, status model and
+/// error queue. RAM: [`LINE_CAPACITY`] + the error queue (16 × 24 B on the host, 16 × 12 B on
+/// the target) + a pending download (~40 B) + a few words.
+#[derive(Clone, Debug)]
+pub struct ScpiServer {
+    line: heapless::Vec<u8, LINE_CAPACITY>,
+    overrun: bool,
+    status: StatusModel,
+    counters: ScpiCounters,
+    pull_mode: bool,
+    download: Option<Download>,
+}
+
+impl Default for ScpiServer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+/// The mutable context of one `feed` call.
+struct Exec<'a, F: FnMut(&[u8]), const N: usize> {
+    status: &'a mut StatusModel,
+    counters: &'a mut ScpiCounters,
+    pod: &'a mut PodModel,
+    log: &'a SampleLog<N>,
+    out: &'a mut F,
+    pull_mode: bool,
+    download: &'a mut Option<Download>,
+    actions: Actions,
+    /// The session state the accepted actions lead to.
+    session: SessionState,
+    /// A response unit was sent on the current line.
+    responded: bool,
+}
+
+impl ScpiServer {
+    /// A session in its power-on state (ESR = PON, empty queue, empty line buffer).
+    pub const fn new() -> Self {
+        Self {
+            line: heapless::Vec::new(),
+            overrun: false,
+            status: StatusModel::new(),
+            counters: ScpiCounters {
+                lines_overrun: 0,
+                actions_rejected: 0,
+            },
+            pull_mode: false,
+            download: None,
+        }
+    }
+
+    /// Pull mode for the log download, for transports that cannot take a whole file inside
+    /// `feed` (async USB): `DATA:LOG?` then sends only its block header through `out`, and the
+    /// CSV and the final `\n` are taken with [`pull_download`](Self::pull_download) until it
+    /// returns 0. `DATA:LOG?` must then be the last unit of its line (later units: -440). Input
+    /// fed before the download is pulled completes it through `out` first (the order of the
+    /// byte stream is kept). Off by default: `feed` streams the whole download through `out`.
+    pub fn set_pull_download(&mut self, on: bool) {
+        self.pull_mode = on;
+    }
+
+    /// True while a pulled log download has bytes left.
+    pub const fn download_pending(&self) -> bool {
+        self.download.is_some()
+    }
+
+    /// The next bytes of a pending log download (pull mode), at most `buf.len()` (give at least
+    /// 1 byte); 0 when nothing is pending. The log must not change until it returns 0 (the
+    /// block length was announced): pause logging while [`download_pending`](Self::download_pending).
+    pub fn pull_download<const N: usize>(&mut self, log: &SampleLog<N>, buf: &mut [u8]) -> usize {
+        let Some(d) = self.download.as_mut() else {
+            return 0;
+        };
+        let mut n = d.cursor.fill(log, &d.meta, buf);
+        if d.cursor.is_done(log)
+            && let Some(b) = buf.get_mut(n)
+        {
+            // The response message terminator (IEEE 488.2 §8.5).
+            *b = b'\n';
+            n += 1;
+            self.download = None;
+        }
+        n
+    }
+
+    /// The status model and error queue (read-only; for the application's status word).
+    pub const fn status(&self) -> &StatusModel {
+        &self.status
+    }
+
+    /// Counters of dropped input.
+    pub const fn counters(&self) -> ScpiCounters {
+        self.counters
+    }
+
+    /// Takes received bytes; executes every complete line; sends responses through `out`;
+    /// returns the session actions to execute, in order (module doc).
+    pub fn feed<const N: usize>(
+        &mut self,
+        bytes: &[u8],
+        pod: &mut PodModel,
+        log: &SampleLog<N>,
+        out: &mut impl FnMut(&[u8]),
+    ) -> Actions {
+        let mut x = Exec {
+            status: &mut self.status,
+            counters: &mut self.counters,
+            session: pod.session,
+            pod,
+            log,
+            out,
+            pull_mode: self.pull_mode,
+            download: &mut self.download,
+            actions: Actions::new(),
+            responded: false,
+        };
+        for &b in bytes {
+            match b {
+                b'\n' => {
+                    if self.overrun {
+                        // The whole line is rejected; the next one starts clean.
+                        x.status
+                            .push(ScpiError::with(code::INPUT_BUFFER_OVERRUN, "line too long"));
+                        x.counters.lines_overrun = x.counters.lines_overrun.saturating_add(1);
+                        self.overrun = false;
+                    } else {
+                        x.finish_download();
+                        x.line(&self.line);
+                    }
+                    self.line.clear();
+                }
+                b'\r' => {}
+                _ => {
+                    if !self.overrun && self.line.push(b).is_err() {
+                        self.overrun = true;
+                    }
+                }
+            }
+        }
+        x.actions
+    }
+}
+
+/// A session state's name in `SESSion:STATe?`.
+const fn state_name(s: SessionState) -> &'static str {
+    match s {
+        SessionState::Idle => "IDLE",
+        SessionState::Armed => "ARMED",
+        SessionState::Running => "RUNNING",
+        SessionState::Done => "DONE",
+        SessionState::Aborted => "ABORTED",
+    }
+}
+
+/// Patterns with their SCPI forms (short form = upper-case letters).
+const PATTERNS: [(Pattern, &str); 8] = [
+    (Pattern::Circle, "CIRCle"),
+    (Pattern::Bx, "BX"),
+    (Pattern::By, "BY"),
+    (Pattern::Cr, "CR"),
+    (Pattern::Ca, "CA"),
+    (Pattern::CrPrime, "CRPRime"),
+    (Pattern::Ssm, "SSM"),
+    (Pattern::Probe, "PROBe"),
+];
+
+/// Directions with their SCPI forms.
+const DIRECTIONS: [(Direction, &str); 2] = [(Direction::Cw, "CW"), (Direction::Ccw, "CCW")];
+
+/// Axis names with their SCPI forms.
+const AXIS_NAMES: [(AxisName, &str); 7] = [
+    (AxisName::X, "X"),
+    (AxisName::Y, "Y"),
+    (AxisName::Z, "Z"),
+    (AxisName::A, "A"),
+    (AxisName::B, "B"),
+    (AxisName::C, "C"),
+    (AxisName::Unused, "NONE"),
+];
+
+/// The short form of an SCPI-cased keyword (character response data is sent in short form,
+/// upper case: SCPI-99 Vol 1 §7.3, IEEE 488.2 §8.7.1).
+fn short_form(form: &str) -> &str {
+    let n = form.bytes().take_while(|c| !c.is_ascii_lowercase()).count();
+    form.get(..n).unwrap_or(form)
+}
+
+/// A resolved command.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Command {
+    Idn,
+    Rst,
+    Cls,
+    Opc,
+    Wai,
+    Esr,
+    Ese,
+    Sre,
+    Stb,
+    Sav,
+    SystErr,
+    SystVersion,
+    ConfField(Field, &'static FieldInfo),
+    ConfAxisName(usize),
+    SessPattern,
+    SessDirection,
+    SessArm,
+    SessStart,
+    SessStop,
+    SessAbort,
+    SessState,
+    StatPod,
+    MeasDl,
+    MeasAll,
+    FetchResult,
+    FetchCatalog,
+    DataLogCount,
+    DataLog,
+}
+
+/// What a command accepts: query form, set form.
+const fn forms(c: Command) -> (bool, bool) {
+    use Command::*;
+    match c {
+        Idn | Esr | Stb | SystErr | SystVersion | SessState | StatPod | MeasDl | MeasAll
+        | FetchResult | FetchCatalog | DataLogCount | DataLog => (true, false),
+        Rst | Cls | Wai | Sav | SessArm | SessStart | SessStop | SessAbort => (false, true),
+        Opc | Ese | Sre | ConfField(..) | ConfAxisName(_) | SessPattern | SessDirection => {
+            (true, true)
+        }
+    }
+}
+
+fn common(name: &[u8]) -> Option<Command> {
+    const TABLE: [(&str, Command); 10] = [
+        ("IDN", Command::Idn),
+        ("RST", Command::Rst),
+        ("CLS", Command::Cls),
+        ("OPC", Command::Opc),
+        ("WAI", Command::Wai),
+        ("ESR", Command::Esr),
+        ("ESE", Command::Ese),
+        ("SRE", Command::Sre),
+        ("STB", Command::Stb),
+        ("SAV", Command::Sav),
+    ];
+    TABLE
+        .iter()
+        .find(|(n, _)| name.eq_ignore_ascii_case(n.as_bytes()))
+        .map(|&(_, c)| c)
+}
+
+/// True for the fields that take a numeric suffix (an index).
+const fn indexed(f: Field) -> bool {
+    matches!(
+        f,
+        Field::LvdtPolyUm(_) | Field::AxisCountsPerUnit(_) | Field::AxisMaxSpeed(_)
+    )
+}
+
+/// `CONFigure:<field>[<k>]`: a [`FIELDS`] entry by name (case-insensitive).
+fn config_field(m: &Mnemonic<'_>) -> Result<Command, ScpiError> {
+    if let Some(info) = FIELDS
+        .iter()
+        .find(|i| !indexed(i.field) && m.text.eq_ignore_ascii_case(i.name.as_bytes()))
+    {
+        return Ok(Command::ConfField(info.field, info));
+    }
+    let info = FIELDS
+        .iter()
+        .find(|i| indexed(i.field) && m.name.eq_ignore_ascii_case(i.name.as_bytes()))
+        .ok_or(ScpiError::new(code::UNDEFINED_HEADER))?;
+    let k = m.suffix.unwrap_or(1);
+    let out_of_range = ScpiError::with(code::HEADER_SUFFIX_OUT_OF_RANGE, info.name);
+    let field = match info.field {
+        Field::LvdtPolyUm(_) if k <= 3 => Field::LvdtPolyUm(k as u8),
+        Field::AxisCountsPerUnit(_) if (1..=MAX_AXES as u32).contains(&k) => {
+            Field::AxisCountsPerUnit((k - 1) as u8)
+        }
+        Field::AxisMaxSpeed(_) if (1..=MAX_AXES as u32).contains(&k) => {
+            Field::AxisMaxSpeed((k - 1) as u8)
+        }
+        _ => return Err(out_of_range),
+    };
+    Ok(Command::ConfField(field, info))
+}
+
+/// Resolves a compound header path (SCPI-99 Vol 1 §6: `[...]` nodes optional).
+fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
+    let undefined = ScpiError::new(code::UNDEFINED_HEADER);
+    Ok(match path {
+        [s, e] if s.is("SYSTem") && e.is("ERRor") => Command::SystErr,
+        [s, e, n] if s.is("SYSTem") && e.is("ERRor") && n.is("NEXT") => Command::SystErr,
+        [s, v] if s.is("SYSTem") && v.is("VERSion") => Command::SystVersion,
+        [c, a, n] if c.is("CONFigure") && a.is_with_suffix("AXIS") && n.is("NAME") => {
+            let k = a.suffix.unwrap_or(1);
+            if !(1..=MAX_AXES as u32).contains(&k) {
+                return Err(ScpiError::with(code::HEADER_SUFFIX_OUT_OF_RANGE, "AXIS"));
+            }
+            Command::ConfAxisName((k - 1) as usize)
+        }
+        [c, f] if c.is("CONFigure") => config_field(f)?,
+        [s, x] if s.is("SESSion") => {
+            const SESSION: [(&str, Command); 7] = [
+                ("PATTern", Command::SessPattern),
+                ("DIRection", Command::SessDirection),
+                ("ARM", Command::SessArm),
+                ("STARt", Command::SessStart),
+                ("STOP", Command::SessStop),
+                ("ABORt", Command::SessAbort),
+                ("STATe", Command::SessState),
+            ];
+            SESSION
+                .iter()
+                .find(|(f, _)| x.is(f))
+                .map(|&(_, c)| c)
+                .ok_or(undefined)?
+        }
+        [s, p] if s.is("STATus") && p.is("POD") => Command::StatPod,
+        [m, x] if m.is("MEASure") && x.is("DL") => Command::MeasDl,
+        [m, x] if m.is("MEASure") && x.is("ALL") => Command::MeasAll,
+        [f, r] if f.is("FETCh") && r.is("RESult") => Command::FetchResult,
+        [f, r, c] if f.is("FETCh") && r.is("RESult") && c.is("CATalog") => Command::FetchCatalog,
+        [d, l] if d.is("DATA") && l.is("LOG") => Command::DataLog,
+        [d, l, c] if d.is("DATA") && l.is("LOG") && c.is("COUNt") => Command::DataLogCount,
+        _ => return Err(undefined),
+    })
+}
+
+/// A parameter as decimal numeric program data (IEEE 488.2 §7.7.2).
+fn numeric(p: &[u8]) -> Result<f64, ScpiError> {
+    match p.first() {
+        Some(b'0'..=b'9' | b'+' | b'-' | b'.') => number::parse_decimal(p).map_err(|e| {
+            ScpiError::new(match e {
+                number::NumberError::InvalidCharacter => code::INVALID_CHARACTER_IN_NUMBER,
+                number::NumberError::ExponentTooLarge => code::EXPONENT_TOO_LARGE,
+                number::NumberError::TooManyDigits => code::TOO_MANY_DIGITS,
+                number::NumberError::Suffix => code::INVALID_SUFFIX,
+            })
+        }),
+        _ => Err(ScpiError::new(code::DATA_TYPE_ERROR)),
+    }
+}
+
+/// A numeric parameter that may also be `MINimum`, `MAXimum` or `DEFault` (SCPI-99 Vol 1
+/// §7.2.1.1).
+fn numeric_or_keyword(p: &[u8], min: f64, max: f64, default: f64) -> Result<f64, ScpiError> {
+    if p.first().is_some_and(|c| c.is_ascii_alphabetic()) {
+        let k = character(p)?;
+        return if keyword(k, "MINimum") {
+            Ok(min)
+        } else if keyword(k, "MAXimum") {
+            Ok(max)
+        } else if keyword(k, "DEFault") {
+            Ok(default)
+        } else {
+            Err(ScpiError::new(code::DATA_TYPE_ERROR))
+        };
+    }
+    numeric(p)
+}
+
+/// A field's value (as `f64`); `None` for the fields that are not values.
+fn field_value(c: &Config, f: Field) -> Option<f64> {
+    let axis = |i: u8| c.axes.get(usize::from(i));
+    Some(match f {
+        Field::BarLengthMm => f64::from(c.bar_length_mm),
+        Field::BarCtePpmPerK => f64::from(c.bar_cte_ppm_per_k),
+        Field::LvdtPolyUm(k) => f64::from(*c.lvdt_poly_um.get(usize::from(k))?),
+        Field::LvdtMaxAbsRatio => f64::from(c.lvdt_max_abs_ratio),
+        Field::LvdtMinSignal => f64::from(c.lvdt_min_signal),
+        Field::LvdtDcZeroV => f64::from(c.lvdt_dc_zero_v),
+        Field::LvdtDcSpanV => f64::from(c.lvdt_dc_span_v),
+        Field::ExcitationHz => f64::from(c.excitation_hz),
+        Field::SamplesPerPeriod => f64::from(c.samples_per_period),
+        Field::SampleRateHz => f64::from(c.sample_rate_hz),
+        Field::AxisCountsPerUnit(i) => axis(i)?.counts_per_unit,
+        Field::AxisMaxSpeed(i) => f64::from(axis(i)?.max_speed_per_s),
+        Field::ThermistorR25Ohm => f64::from(c.thermistor_r25_ohm),
+        Field::ThermistorBetaK => f64::from(c.thermistor_beta_k),
+        Field::ThermistorRFixedOhm => f64::from(c.thermistor_r_fixed_ohm),
+        Field::ProbeDebounceUs => f64::from(c.probe_debounce_us),
+        Field::ProbeReseatUs => f64::from(c.probe_reseat_us),
+        Field::CanNodeId => f64::from(c.can_node_id),
+        Field::AdcRate | Field::AxisNameDuplicate(_) => return None,
+    })
+}
+
+/// Sets a field (`v` already checked against the field's range `info`, so the integer casts are
+/// exact after rounding).
+fn set_field(c: &mut Config, f: Field, v: f64, info: &FieldInfo) {
+    let int = libm::round(v);
+    // The nearest f32 of a limit may lie just outside it (0.01 → 0.0099999998): step inside,
+    // so that every value the table allows can be set.
+    let mut x = v as f32;
+    if f64::from(x) < info.min {
+        x = x.next_up();
+    } else if f64::from(x) > info.max {
+        x = x.next_down();
+    }
+    match f {
+        Field::BarLengthMm => c.bar_length_mm = x,
+        Field::BarCtePpmPerK => c.bar_cte_ppm_per_k = x,
+        Field::LvdtPolyUm(k) => {
+            if let Some(p) = c.lvdt_poly_um.get_mut(usize::from(k)) {
+                *p = x;
+            }
+        }
+        Field::LvdtMaxAbsRatio => c.lvdt_max_abs_ratio = x,
+        Field::LvdtMinSignal => c.lvdt_min_signal = x,
+        Field::LvdtDcZeroV => c.lvdt_dc_zero_v = x,
+        Field::LvdtDcSpanV => c.lvdt_dc_span_v = x,
+        Field::ExcitationHz => c.excitation_hz = x,
+        Field::SamplesPerPeriod => c.samples_per_period = int as u16,
+        Field::SampleRateHz => c.sample_rate_hz = x,
+        Field::AxisCountsPerUnit(i) => {
+            if let Some(a) = c.axes.get_mut(usize::from(i)) {
+                a.counts_per_unit = v;
+            }
+        }
+        Field::AxisMaxSpeed(i) => {
+            if let Some(a) = c.axes.get_mut(usize::from(i)) {
+                a.max_speed_per_s = x;
+            }
+        }
+        Field::ThermistorR25Ohm => c.thermistor_r25_ohm = x,
+        Field::ThermistorBetaK => c.thermistor_beta_k = x,
+        Field::ThermistorRFixedOhm => c.thermistor_r_fixed_ohm = x,
+        Field::ProbeDebounceUs => c.probe_debounce_us = int as u32,
+        Field::ProbeReseatUs => c.probe_reseat_us = int as u32,
+        Field::CanNodeId => c.can_node_id = int as u8,
+        Field::AdcRate | Field::AxisNameDuplicate(_) => {}
+    }
+}
+
+/// The SCPI error of a configuration rejected by [`Config::try_update`].
+fn config_error(e: ConfigError, name: &'static str) -> ScpiError {
+    match e {
+        ConfigError::OutOfRange {
+            field: Field::AdcRate,
+            ..
+        } => ScpiError::with(
+            code::SETTINGS_CONFLICT,
+            "excitation x samples_per_period exceeds the ADC rate",
+        ),
+        ConfigError::Duplicate { .. } => {
+            ScpiError::with(code::SETTINGS_CONFLICT, "axis name used twice")
+        }
+        _ => ScpiError::with(code::DATA_OUT_OF_RANGE, name),
+    }
+}
+
+impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
+    /// Sends the rest of a pulled download through `out` (more input arrived first).
+    fn finish_download(&mut self) {
+        if let Some(mut d) = self.download.take() {
+            let out = &mut *self.out;
+            while d.cursor.next_line(self.log, &d.meta, &mut |l| out(l)) {}
+            out(b"\n");
+        }
+    }
+
+    /// Executes one program message (IEEE 488.2 §7.3: units separated by `;`).
+    fn line(&mut self, line: &[u8]) {
+        self.responded = false;
+        // The path of the previous compound command, for relative headers (SCPI-99 Vol 1 §6.2.4).
+        let mut prefix: heapless::Vec<Mnemonic<'_>, MAX_DEPTH> = heapless::Vec::new();
+        let _ = parse::split(line, b';', |unit| {
+            if unit.is_empty() {
+                return Ok(());
+            }
+            if self.download.is_some() {
+                // Pull mode: the log block must be the last response of its message.
+                self.status.push(ScpiError::with(
+                    code::QUERY_AFTER_BLOCK,
+                    "DATA:LOG? must end its line",
+                ));
+                return Err(());
+            }
+            match self.unit(unit, &mut prefix) {
+                Ok(()) => Ok(()),
+                Err(e) => {
+                    self.status.push(e);
+                    // A command error leaves the rest of the message unparseable: drop it.
+                    if (-199..=-100).contains(&e.code) {
+                        Err(())
+                    } else {
+                        Ok(())
+                    }
+                }
+            }
+        });
+        if self.responded && self.download.is_none() {
+            (self.out)(b"\n");
+        }
+    }
+
+    /// Executes one message unit.
+    fn unit<'l>(
+        &mut self,
+        unit: &'l [u8],
+        prefix: &mut heapless::Vec<Mnemonic<'l>, MAX_DEPTH>,
+    ) -> Result<(), ScpiError> {
+        let (h, param_text) = parse::header(unit)?;
+        let params = parse::params(param_text)?;
+        let cmd = match h.common {
+            Some(name) => common(name).ok_or(ScpiError::new(code::UNDEFINED_HEADER))?,
+            None => self.resolve_path(&h, prefix)?,
+        };
+        let (query_ok, set_ok) = forms(cmd);
+        if (h.query && !query_ok) || (!h.query && !set_ok) {
+            return Err(ScpiError::new(code::UNDEFINED_HEADER));
+        }
+        if h.query {
+            self.query(cmd, &params)
+        } else {
+            self.set(cmd, &params)
+        }
+    }
+
+    /// Resolves a compound header, relative to `prefix` unless it starts with `:`; a relative
+    /// header that does not resolve is tried from the root too (lenient, as most instruments).
+    fn resolve_path<'l>(
+        &self,
+        h: &Header<'l>,
+        prefix: &mut heapless::Vec<Mnemonic<'l>, MAX_DEPTH>,
+    ) -> Result<Command, ScpiError> {
+        let mut full: heapless::Vec<Mnemonic<'l>, { 2 * MAX_DEPTH }> = heapless::Vec::new();
+        let mut cmd = Err(ScpiError::new(code::UNDEFINED_HEADER));
+        if !h.absolute && !prefix.is_empty() {
+            let _ = full.extend_from_slice(prefix);
+            let _ = full.extend_from_slice(&h.path);
+            cmd = resolve(&full);
+        }
+        if cmd.is_err() {
+            full.clear();
+            let _ = full.extend_from_slice(&h.path);
+            cmd = resolve(&full);
+        }
+        let cmd = cmd?;
+        prefix.clear();
+        if let Some((_, parents)) = full.split_last() {
+            for m in parents.iter().take(MAX_DEPTH) {
+                let _ = prefix.push(*m);
+            }
+        }
+        Ok(cmd)
+    }
+
+    /// Starts a response unit (IEEE 488.2 §8.4.1: units separated by `;`).
+    fn respond(&mut self, r: &[u8]) {
+        if self.responded {
+            (self.out)(b";");
+        }
+        (self.out)(r);
+        self.responded = true;
+    }
+
+    /// Queues a session action (no duplicate `ConfigChanged`).
+    fn act(&mut self, a: SessionCommand) -> Result<(), ScpiError> {
+        if a == SessionCommand::ConfigChanged && self.actions.contains(&a) {
+            return Ok(());
+        }
+        self.actions.push(a).map_err(|_| {
+            self.counters.actions_rejected = self.counters.actions_rejected.saturating_add(1);
+            ScpiError::with(code::EXECUTION_ERROR, "too many actions in one input chunk")
+        })
+    }
+
+    /// Rejects settings changes while a run is armed or running.
+    fn idle_for_settings(&self, what: &'static str) -> Result<(), ScpiError> {
+        if matches!(self.session, SessionState::Armed | SessionState::Running) {
+            Err(ScpiError::with(code::SETTINGS_CONFLICT, what))
+        } else {
+            Ok(())
+        }
+    }
+
+    fn set(&mut self, cmd: Command, p: &[&[u8]]) -> Result<(), ScpiError> {
+        let arg = |n: usize| -> Result<&[u8], ScpiError> {
+            match p.len() {
+                l if l < n + 1 => Err(ScpiError::new(code::MISSING_PARAMETER)),
+                l if l > n + 1 => Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED)),
+                _ => p
+                    .get(n)
+                    .copied()
+                    .ok_or(ScpiError::new(code::MISSING_PARAMETER)),
+            }
+        };
+        let none = || {
+            if p.is_empty() {
+                Ok(())
+            } else {
+                Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED))
+            }
+        };
+        match cmd {
+            Command::Rst => {
+                // IEEE 488.2 §10.32: device reset; the status registers and the queue stay.
+                none()?;
+                self.act(SessionCommand::Reset)?;
+                self.session = SessionState::Idle;
+            }
+            Command::Cls => {
+                none()?;
+                self.status.clear();
+            }
+            Command::Opc => {
+                // Every command completes before the next is parsed (IEEE 488.2 §12.5.2).
+                none()?;
+                self.status.esr |= esr::OPC;
+            }
+            Command::Wai => none()?,
+            Command::Ese | Command::Sre => {
+                let v = numeric(arg(0)?)?;
+                if !(-0.5..255.5).contains(&v) {
+                    return Err(ScpiError::new(code::DATA_OUT_OF_RANGE));
+                }
+                let b = libm::round(v) as u8;
+                if cmd == Command::Ese {
+                    self.status.ese = b;
+                } else {
+                    self.status.sre = b & !status::stb::MSS;
+                }
+            }
+            Command::Sav => {
+                let v = numeric(arg(0)?)?;
+                if v != 0.0 {
+                    return Err(ScpiError::with(code::DATA_OUT_OF_RANGE, "one register: 0"));
+                }
+                self.act(SessionCommand::StoreSettings)?;
+            }
+            Command::ConfField(field, info) => {
+                self.idle_for_settings(info.name)?;
+                let default = field_value(&Config::default(), field).unwrap_or(info.min);
+                let v = numeric_or_keyword(arg(0)?, info.min, info.max, default)?;
+                // The range check of the table (same as `Config::validate`), so the error names
+                // the field; cross-field checks are `try_update`'s.
+                if !(v >= info.min && v <= info.max) {
+                    return Err(ScpiError::with(code::DATA_OUT_OF_RANGE, info.name));
+                }
+                self.pod
+                    .config
+                    .try_update(|c| set_field(c, field, v, info))
+                    .map_err(|e| config_error(e, info.name))?;
+                self.act(SessionCommand::ConfigChanged)?;
+            }
+            Command::ConfAxisName(i) => {
+                self.idle_for_settings("axis name")?;
+                let k = character(arg(0)?)?;
+                let name = AXIS_NAMES
+                    .iter()
+                    .find(|(_, f)| keyword(k, f))
+                    .map(|&(n, _)| n)
+                    .ok_or(ScpiError::with(
+                        code::ILLEGAL_PARAMETER_VALUE,
+                        "X|Y|Z|A|B|C|NONE",
+                    ))?;
+                self.pod
+                    .config
+                    .try_update(|c| {
+                        if let Some(a) = c.axes.get_mut(i) {
+                            a.name = name;
+                        }
+                    })
+                    .map_err(|e| config_error(e, "axis name"))?;
+                self.act(SessionCommand::ConfigChanged)?;
+            }
+            Command::SessPattern => {
+                let k = character(arg(0)?)?;
+                let pattern = PATTERNS
+                    .iter()
+                    .find(|(_, f)| keyword(k, f))
+                    .map(|&(v, _)| v)
+                    .ok_or(ScpiError::with(code::ILLEGAL_PARAMETER_VALUE, "pattern"))?;
+                self.idle_for_settings("pattern")?;
+                self.pod.pattern = pattern;
+            }
+            Command::SessDirection => {
+                let k = character(arg(0)?)?;
+                let direction = DIRECTIONS
+                    .iter()
+                    .find(|(_, f)| keyword(k, f))
+                    .map(|&(v, _)| v)
+                    .ok_or(ScpiError::with(code::ILLEGAL_PARAMETER_VALUE, "CW|CCW"))?;
+                self.idle_for_settings("direction")?;
+                self.pod.direction = direction;
+            }
+            Command::SessArm | Command::SessStart | Command::SessStop | Command::SessAbort => {
+                none()?;
+                use SessionState::*;
+                let (ok, next, action, what) = match cmd {
+                    Command::SessArm => (
+                        matches!(self.session, Idle | Done | Aborted),
+                        Armed,
+                        SessionCommand::Arm {
+                            pattern: self.pod.pattern,
+                            direction: self.pod.direction,
+                        },
+                        "ARM needs IDLE, DONE or ABORTED",
+                    ),
+                    Command::SessStart => (
+                        self.session == Armed,
+                        Running,
+                        SessionCommand::Start,
+                        "STARt needs ARMED",
+                    ),
+                    Command::SessStop => (
+                        self.session == Running,
+                        Done,
+                        SessionCommand::Stop,
+                        "STOP needs RUNNING",
+                    ),
+                    _ => (
+                        matches!(self.session, Armed | Running),
+                        Aborted,
+                        SessionCommand::Abort,
+                        "ABORt needs ARMED or RUNNING",
+                    ),
+                };
+                if !ok {
+                    return Err(ScpiError::with(code::SETTINGS_CONFLICT, what));
+                }
+                self.act(action)?;
+                self.session = next;
+            }
+            _ => return Err(ScpiError::new(code::UNDEFINED_HEADER)),
+        }
+        Ok(())
+    }
+
+    fn query(&mut self, cmd: Command, p: &[&[u8]]) -> Result<(), ScpiError> {
+        let mut r = Response::new();
+        let none = || {
+            if p.is_empty() {
+                Ok(())
+            } else {
+                Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED))
+            }
+        };
+        let fixed = |r: &mut Response, v: f32| {
+            push_fixed(r, f64::from(v), RESPONSE_DECIMALS, false, SCPI_NAN)
+        };
+        match cmd {
+            Command::Idn => {
+                none()?;
+                push_bytes(&mut r, IDN.as_bytes());
+            }
+            Command::Opc => {
+                none()?;
+                push_bytes(&mut r, b"1");
+            }
+            Command::Esr => {
+                // IEEE 488.2 §10.12: read and clear.
+                none()?;
+                push_u64(&mut r, u64::from(self.status.esr));
+                self.status.esr = 0;
+            }
+            Command::Ese => {
+                none()?;
+                push_u64(&mut r, u64::from(self.status.ese));
+            }
+            Command::Sre => {
+                none()?;
+                push_u64(&mut r, u64::from(self.status.sre));
+            }
+            Command::Stb => {
+                none()?;
+                push_u64(&mut r, u64::from(self.status.status_byte()));
+            }
+            Command::SystErr => {
+                none()?;
+                let e = self.status.pop();
+                push_i64(&mut r, i64::from(e.code));
+                push_bytes(&mut r, b",\"");
+                push_bytes(&mut r, e.message().as_bytes());
+                if !e.detail.is_empty() {
+                    push_bytes(&mut r, b";");
+                    push_bytes(&mut r, e.detail.as_bytes());
+                }
+                push_bytes(&mut r, b"\"");
+            }
+            Command::SystVersion => {
+                none()?;
+                push_bytes(&mut r, b"1999.0");
+            }
+            Command::ConfField(field, info) => {
+                let v = match p {
+                    [] => field_value(&self.pod.config, field),
+                    [k] => {
+                        let k = character(k)?;
+                        if keyword(k, "MINimum") {
+                            Some(info.min)
+                        } else if keyword(k, "MAXimum") {
+                            Some(info.max)
+                        } else if keyword(k, "DEFault") {
+                            field_value(&Config::default(), field)
+                        } else {
+                            return Err(ScpiError::new(code::ILLEGAL_PARAMETER_VALUE));
+                        }
+                    }
+                    _ => return Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED)),
+                };
+                // f32 fields as typed (7 digits); the f64 encoder scale with 15.
+                let digits = if matches!(field, Field::AxisCountsPerUnit(_)) {
+                    15
+                } else {
+                    7
+                };
+                push_significant(&mut r, v.unwrap_or(f64::NAN), digits, SCPI_NAN);
+            }
+            Command::ConfAxisName(i) => {
+                none()?;
+                let name = self
+                    .pod
+                    .config
+                    .axes
+                    .get(i)
+                    .map_or(AxisName::Unused, |a| a.name);
+                let form = AXIS_NAMES
+                    .iter()
+                    .find(|(n, _)| *n == name)
+                    .map_or("NONE", |&(_, f)| f);
+                push_bytes(&mut r, form.as_bytes());
+            }
+            Command::SessPattern => {
+                none()?;
+                let form = PATTERNS
+                    .iter()
+                    .find(|(v, _)| *v == self.pod.pattern)
+                    .map_or("CIRC", |&(_, f)| short_form(f));
+                push_bytes(&mut r, form.as_bytes());
+            }
+            Command::SessDirection => {
+                none()?;
+                let form = DIRECTIONS
+                    .iter()
+                    .find(|(v, _)| *v == self.pod.direction)
+                    .map_or("CCW", |&(_, f)| f);
+                push_bytes(&mut r, form.as_bytes());
+            }
+            Command::SessState => {
+                none()?;
+                push_bytes(&mut r, state_name(self.session).as_bytes());
+            }
+            Command::StatPod => {
+                none()?;
+                let mut w = self.pod.live.status.0;
+                if !self.status.is_empty() {
+                    w |= StatusWord::ERROR;
+                }
+                push_u64(&mut r, u64::from(w));
+            }
+            Command::MeasDl => {
+                none()?;
+                fixed(&mut r, self.pod.live.delta_l_um);
+            }
+            Command::MeasAll => {
+                none()?;
+                let l = &self.pod.live;
+                push_u64(&mut r, u64::from(l.sample_counter));
+                for v in [
+                    l.delta_l_um,
+                    l.ssm_e_um[0],
+                    l.ssm_e_um[1],
+                    l.ssm_e_um[2],
+                    l.ecc_x_um,
+                    l.ecc_y_um,
+                    l.r0_um,
+                    l.temp_c,
+                ] {
+                    push_bytes(&mut r, b",");
+                    fixed(&mut r, v);
+                }
+                push_bytes(&mut r, b",");
+                push_u64(&mut r, u64::from(l.status.0));
+            }
+            Command::FetchResult => {
+                let arg = match p {
+                    [] => return Err(ScpiError::new(code::MISSING_PARAMETER)),
+                    [a] => *a,
+                    _ => return Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED)),
+                };
+                let index = if arg.first().is_some_and(|c| c.is_ascii_alphabetic()) {
+                    let name = character(arg)?;
+                    RESULTS
+                        .iter()
+                        .position(|(n, _)| name.eq_ignore_ascii_case(n.as_bytes()))
+                        .ok_or(ScpiError::with(
+                            code::ILLEGAL_PARAMETER_VALUE,
+                            "result name",
+                        ))?
+                } else {
+                    let v = numeric(arg)?;
+                    if !(v >= 0.0 && v <= (RESULT_COUNT - 1) as f64 && v == libm::round(v)) {
+                        return Err(ScpiError::with(
+                            code::DATA_OUT_OF_RANGE,
+                            "result index 0..15",
+                        ));
+                    }
+                    v as usize
+                };
+                let entry = self.pod.results.get(index).copied().unwrap_or_default();
+                let (name, unit) = RESULTS.get(index).copied().unwrap_or(("", ""));
+                if !entry.valid {
+                    return Err(ScpiError::with(code::DATA_CORRUPT_OR_STALE, name));
+                }
+                fixed(&mut r, entry.value);
+                push_bytes(&mut r, b",");
+                fixed(&mut r, entry.std_uncertainty);
+                push_bytes(&mut r, b",");
+                for c in unit.bytes() {
+                    push_bytes(&mut r, &[c.to_ascii_uppercase()]);
+                }
+            }
+            Command::FetchCatalog => {
+                none()?;
+                for (k, (name, _)) in RESULTS.iter().enumerate() {
+                    if k > 0 {
+                        push_bytes(&mut r, b",");
+                    }
+                    push_bytes(&mut r, b"\"");
+                    push_bytes(&mut r, name.as_bytes());
+                    push_bytes(&mut r, b"\"");
+                }
+            }
+            Command::DataLogCount => {
+                none()?;
+                push_u64(&mut r, self.log.len() as u64);
+            }
+            Command::DataLog => {
+                none()?;
+                // IEEE 488.2 §8.7.9 definite length arbitrary block: `#`, the number of length
+                // digits, the length, the bytes. The length comes from a counting pass.
+                // The run's metadata if the application recorded it at arm, else the pod's now.
+                let meta = self
+                    .log
+                    .meta()
+                    .unwrap_or_else(|| LogMeta::from_pod(self.pod));
+                let len = csv_len(self.log, &meta);
+                let mut digits: Text<24> = Text::new();
+                push_u64(&mut digits, len as u64);
+                push_bytes(&mut r, b"#");
+                push_u64(&mut r, digits.len() as u64);
+                push_bytes(&mut r, &digits);
+                self.respond(&r);
+                if self.pull_mode {
+                    *self.download = Some(Download {
+                        cursor: CsvCursor::new(),
+                        meta,
+                    });
+                } else {
+                    let out = &mut *self.out;
+                    write_csv(self.log, &meta, &mut |chunk| out(chunk));
+                }
+                return Ok(());
+            }
+            _ => return Err(ScpiError::new(code::UNDEFINED_HEADER)),
+        }
+        self.respond(&r);
+        Ok(())
+    }
+}

@@ -79,7 +79,7 @@ async fn main(spawner: Spawner) {
     spawn(
         &spawner,
         "compute",
-        board::compute::compute_task(acq, encoders, probe_in),
+        board::compute::compute_task(cfg, acq, encoders, probe_in),
     );
     spawn(
         &spawner,
@@ -98,7 +98,11 @@ async fn main(spawner: Spawner) {
         "thermistor",
         board::thermistor::thermistor_task(p.ADC3, p.PB0),
     );
-    spawn(&spawner, "can", board::can::can_task(can, cfg.can_node_id));
+    spawn(
+        &spawner,
+        "can",
+        board::can::can_task(can, cfg.can_node_id, device_serial()),
+    );
     spawn(&spawner, "usb", board::usb::usb_task(usb));
 }
 
@@ -113,4 +117,11 @@ fn spawn<S>(
         Ok(t) => spawner.spawn(t),
         Err(_) => defmt::error!("cannot spawn task {}", name),
     }
+}
+
+/// The pod's serial number for CANopen 0x1018:4: a CRC-32 of the STM32's 96-bit unique device ID
+/// (RM0440 §48.1, at 0x1FFF_7590).
+fn device_serial() -> u32 {
+    let uid = embassy_stm32::uid::uid();
+    ballpod::num::crc32(&uid)
 }

@@ -1,4 +1,6 @@
-//! The compute task: one pod sample per LVDT block, through the core's acquisition pipeline.
+//! The compute task: one pod sample per LVDT block through the core's acquisition pipeline;
+//! it publishes the live values, logs the samples of a running session, and carries out the
+//! session commands the protocol tasks queue.
 
 use core::cell::Cell;
 
@@ -9,26 +11,62 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 
 use ballpod::acquisition::probe::{ProbeLatch, TriggerOutcome};
 use ballpod::acquisition::{Acquisition, Sample};
+use ballpod::config::Config;
+use ballpod::protocol::log::LogMeta;
+use ballpod::protocol::pod::{PodModel, SessionCommand, SessionState, StatusWord};
 
-use super::{encoders, lvdt, probe, thermistor};
+use super::{encoders, lvdt, probe, state, thermistor};
 
-/// The latest sample, for the CAN and USB tasks (live values; the sample log comes later).
-pub static LATEST: Mutex<CriticalSectionRawMutex, Cell<Option<Sample>>> =
-    Mutex::new(Cell::new(None));
 /// The latest accepted touch point.
 pub static LAST_TOUCH: Mutex<CriticalSectionRawMutex, Cell<Option<ProbeLatch>>> =
     Mutex::new(Cell::new(None));
 
+/// Carries out the application side of a session command (the protocol task already applied
+/// the state change to the pod model).
+fn execute(cmd: SessionCommand, acq: &mut Acquisition) {
+    match cmd {
+        SessionCommand::Arm { .. } => {
+            if let Some(meta) = state::with_pod(|pod| LogMeta::from_pod(pod)) {
+                state::LOG.lock(|log| log.borrow_mut().begin_run(meta));
+            }
+        }
+        SessionCommand::ConfigChanged => {
+            // New calibration and scales; the encoder extension restarts (axes need homing).
+            if let Some(cfg) = state::with_pod(|pod| pod.config) {
+                *acq = Acquisition::new(&cfg, encoders::COUNTER_BITS);
+            }
+        }
+        SessionCommand::StoreSettings | SessionCommand::RestoreDefaults => {
+            // Settings persistence (two flash slots) comes with the reliability work.
+            defmt::warn!("settings persistence not available yet");
+        }
+        SessionCommand::Start
+        | SessionCommand::Stop
+        | SessionCommand::Abort
+        | SessionCommand::Reset => {}
+    }
+}
+
 /// Turns each LVDT block, the encoder counters, the probe edges and the temperature into a
-/// calibrated sample with the core.
+/// calibrated sample with the core, and publishes it.
 #[embassy_executor::task]
 pub async fn compute_task(
+    cfg: Config,
     mut acq: Acquisition,
     _encoders: encoders::Encoders,
     probe_in: ExtiInput<'static, Blocking>,
 ) {
+    state::POD.lock(|p| {
+        *p.borrow_mut() = Some(PodModel {
+            config: cfg,
+            ..PodModel::default()
+        })
+    });
     loop {
         let block = lvdt::BLOCKS.receive().await;
+        while let Ok(cmd) = state::COMMANDS.try_receive() {
+            execute(cmd, &mut acq);
+        }
         while let Ok(code) = thermistor::CODES.try_receive() {
             if let Err(e) = acq.update_temperature(code) {
                 defmt::warn!("thermistor fault {}", defmt::Debug2Format(&e));
@@ -50,7 +88,7 @@ pub async fn compute_task(
             super::lost_upstream(),
             probe_event,
         );
-        LATEST.lock(|c| c.set(Some(s)));
+        publish(&s);
         if s.seq.is_multiple_of(1000) {
             defmt::info!(
                 "sample {} dl={} um flags={=u16:#x}",
@@ -58,6 +96,24 @@ pub async fn compute_task(
                 s.delta_l_um,
                 s.flags.0
             );
+        }
+    }
+}
+
+/// Live values for CAN and USB; the sample goes into the log while a session runs.
+fn publish(s: &Sample) {
+    let running = state::with_pod(|pod| {
+        pod.live.sample_counter = s.seq;
+        pod.live.delta_l_um = s.delta_l_um;
+        pod.live.temp_c = s.temp_c;
+        pod.live.status = StatusWord::new(s.flags, pod.session, false);
+        pod.session == SessionState::Running
+    });
+    if running == Some(true) {
+        if state::download_active() {
+            state::LOG_PAUSED_SAMPLES.count();
+        } else {
+            state::LOG.lock(|log| log.borrow_mut().record(s));
         }
     }
 }

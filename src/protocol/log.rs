@@ -121,12 +121,17 @@ pub struct SampleLog<const N: usize> {
     newest_t_us: u64,
     /// Samples overwritten since the last clear.
     overwritten: u32,
-    /// Log one sample in `decimation`.
-    decimation: u16,
+    /// Log one sample in `decimation_less_one + 1` (stored less one, like `meta` below, so that
+    /// an empty log is all-zero bytes and a `static` log lands in `.bss`, not in 32 KiB of
+    /// flash-initialised `.data`).
+    decimation_less_one: u16,
     /// Samples offered since the last logged one.
     phase: u16,
-    /// The run the records belong to (set by [`begin_run`](Self::begin_run)).
-    meta: Option<LogMeta>,
+    /// The run the records belong to (set by [`begin_run`](Self::begin_run)); valid when
+    /// `has_meta` (an `Option` would encode `None` in a non-zero niche byte).
+    meta: LogMeta,
+    /// `meta` is set.
+    has_meta: bool,
 }
 
 impl<const N: usize> Default for SampleLog<N> {
@@ -144,9 +149,10 @@ impl<const N: usize> SampleLog<N> {
             len: 0,
             newest_t_us: 0,
             overwritten: 0,
-            decimation: 1,
+            decimation_less_one: 0,
             phase: 0,
-            meta: None,
+            meta: LogMeta::ZERO,
+            has_meta: false,
         }
     }
 
@@ -172,13 +178,13 @@ impl<const N: usize> SampleLog<N> {
 
     /// Logs one sample in `k` (k ≥ 1; 0 is taken as 1).
     pub fn set_decimation(&mut self, k: u16) {
-        self.decimation = k.max(1);
+        self.decimation_less_one = k.max(1) - 1;
         self.phase = 0;
     }
 
     /// The decimation (one sample in this many is logged).
     pub const fn decimation(&self) -> u16 {
-        self.decimation
+        self.decimation_less_one + 1
     }
 
     /// Empties the log and zeroes the overwritten counter; forgets the run's metadata.
@@ -187,19 +193,20 @@ impl<const N: usize> SampleLog<N> {
         self.len = 0;
         self.overwritten = 0;
         self.phase = 0;
-        self.meta = None;
+        self.has_meta = false;
     }
 
     /// Empties the log for a new run (at arm) and keeps the run's metadata, so that the CSV
     /// describes the run even if the pattern or configuration changes before the download.
     pub fn begin_run(&mut self, meta: LogMeta) {
         self.clear();
-        self.meta = Some(meta);
+        self.meta = meta;
+        self.has_meta = true;
     }
 
     /// The metadata given to [`begin_run`](Self::begin_run), if any.
     pub const fn meta(&self) -> Option<LogMeta> {
-        self.meta
+        if self.has_meta { Some(self.meta) } else { None }
     }
 
     /// Offers a sample: every `decimation`-th one is logged ([`push`](Self::push)).
@@ -208,7 +215,7 @@ impl<const N: usize> SampleLog<N> {
             self.push(s);
         }
         self.phase += 1;
-        if self.phase >= self.decimation {
+        if self.phase > self.decimation_less_one {
             self.phase = 0;
         }
     }
@@ -268,6 +275,15 @@ pub struct LogMeta {
 }
 
 impl LogMeta {
+    /// All-zero metadata (placeholder of an empty log).
+    pub const ZERO: Self = Self {
+        bar_length_mm: 0.0,
+        pattern: Pattern::Circle,
+        direction: Direction::Ccw,
+        sample_rate_hz: 0.0,
+        axes: [AxisName::Unused; MAX_AXES],
+    };
+
     /// The metadata of the pod's current configuration and run.
     pub fn from_pod(pod: &PodModel) -> Self {
         let mut axes = [AxisName::Unused; MAX_AXES];

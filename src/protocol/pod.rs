@@ -223,3 +223,34 @@ pub struct PodModel {
     /// Results table.
     pub results: [ResultEntry; RESULT_COUNT],
 }
+
+impl PodModel {
+    /// Applies the session-state part of a command the protocols accepted (they have already
+    /// checked it against the current state): Arm → Armed with its pattern and direction,
+    /// Start → Running, Stop → Done, Abort → Aborted (by command), Reset → Idle. The other
+    /// commands leave the session state alone; the application does the rest of each command
+    /// (resetting estimators, starting the log, storing settings).
+    pub fn apply(&mut self, cmd: SessionCommand) {
+        match cmd {
+            SessionCommand::Arm { pattern, direction } => {
+                self.pattern = pattern;
+                self.direction = direction;
+                self.abort_reason = None;
+                self.session = SessionState::Armed;
+            }
+            SessionCommand::Start => self.session = SessionState::Running,
+            SessionCommand::Stop => self.session = SessionState::Done,
+            SessionCommand::Abort => {
+                self.abort_reason = Some(AbortReason::ByCommand);
+                self.session = SessionState::Aborted;
+            }
+            SessionCommand::Reset => {
+                self.session = SessionState::Idle;
+                self.abort_reason = None;
+            }
+            SessionCommand::ConfigChanged
+            | SessionCommand::StoreSettings
+            | SessionCommand::RestoreDefaults => {}
+        }
+    }
+}

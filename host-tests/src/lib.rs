@@ -8,4 +8,5 @@ pub mod forward_seed004;
 pub mod lvdt_model;
 pub mod oracle;
 pub mod rng;
+pub mod serve;
 pub mod slcan;

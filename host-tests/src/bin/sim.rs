@@ -30,6 +30,10 @@ fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> Result<
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.iter().any(|a| a == "--serve") {
+        serve(&args);
+        return;
+    }
     let parsed = (|| -> Result<(u64, f64, f64), String> {
         Ok((
             arg(&args, "--seed", 1)?,
@@ -127,4 +131,33 @@ fn main() {
         "counters: over-range {}, open {}, quadrature {}, temperature {}, lost {}",
         c.lvdt_over_range, c.lvdt_open, c.quadrature_errors, c.temperature_faults, c.lost_upstream
     );
+}
+
+/// `--serve [--can-port N] [--usb-port N] [--realtime] [--speed X] [--seed N] [--noise COUNTS]
+/// [--max-seconds S]`: the simulated pod on loopback TCP (SLCAN and SCPI), see `serve.rs`.
+fn serve(args: &[String]) {
+    let d = ballpod_host::serve::ServeOptions::default();
+    let parsed = (|| -> Result<ballpod_host::serve::ServeOptions, String> {
+        Ok(ballpod_host::serve::ServeOptions {
+            can_port: arg(args, "--can-port", d.can_port)?,
+            usb_port: arg(args, "--usb-port", d.usb_port)?,
+            realtime: args.iter().any(|a| a == "--realtime"),
+            speed: arg(args, "--speed", d.speed)?,
+            seed: arg(args, "--seed", d.seed)?,
+            noise_counts: arg(args, "--noise", d.noise_counts)?,
+            max_seconds: arg(args, "--max-seconds", d.max_seconds)?,
+            ..d.clone()
+        })
+    })();
+    match parsed.map(ballpod_host::serve::run) {
+        Ok(Ok(())) => {}
+        Ok(Err(e)) => {
+            eprintln!("sim --serve: {e}");
+            std::process::exit(1);
+        }
+        Err(e) => {
+            eprintln!("sim --serve: {e}");
+            std::process::exit(2);
+        }
+    }
 }

@@ -11,5 +11,6 @@ pub mod lvdt_model;
 pub mod oracle;
 pub mod report;
 pub mod rng;
+pub mod scenario;
 pub mod simulate;
 pub mod vmt;

@@ -11,6 +11,8 @@
 //! - [`config`]: the pod's configuration with units, defaults, ranges and a CRC'd binary encoding;
 //! - [`metrology`]: samples → SSM position errors, circle fits, ISO 230-4 figures;
 //! - [`identify`]: test results → machine deviations and corrections;
+//! - [`session`]: runs of patterns → per-run results → procedure completeness → identification
+//!   (the session logic the firmware and the simulator share);
 //! - [`protocol`]: the CANopen and SCPI state machines over a shared pod model;
 //! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC).
 #![no_std]
@@ -35,3 +37,4 @@ pub mod identify;
 pub mod metrology;
 pub mod num;
 pub mod protocol;
+pub mod session;

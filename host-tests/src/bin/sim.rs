@@ -1,21 +1,304 @@
-//! `cargo sim`: the pod on a virtual machine tool.
+//! `cargo sim`: the pod on a virtual machine tool — the seed 002 ball-bar procedure (BX, BY,
+//! CR, CA, CR′, CW and CCW, repeated) on a machine whose deviations are the thesis's identified
+//! values, and an ISO 230-4 circular test with typical linear-axis faults. Prints truth vs
+//! identified ± uncertainty, writes `results.json`, `truth.json` and SVG polar plots.
 //!
-//! Until the full simulator lands (issue 8), this runs the acquisition chain end to end: a
-//! machine moves the tool ball on a circle about the socket with a centre offset; the ball
-//! bar's LVDT secondaries are synthesised as 12-bit ADC blocks with noise, the encoders as
-//! 16-bit counters, the bar thermistor as an ADC code; the pod's own acquisition code turns
-//! them into samples, and the demo compares ΔL with the truth.
+//! Options: `--seed N`, `--noise UM` (bar noise σ, µm), `--machine FILE` (TOML/JSON),
+//! `--out DIR` (default `sim-out`), `--write-logs DIR`, `--repeats N`.
 //!
-//! Options: `--seed N` (noise seed, default 1), `--noise COUNTS` (ADC noise σ per sample,
-//! default 1.0), `--temp C` (bar temperature, default 22.5).
-use ballpod::acquisition::lvdt::{ExcitationTable, demodulate};
-use ballpod::acquisition::thermal::bar_expansion_um;
-use ballpod::acquisition::{Acquisition, SampleFlags};
-use ballpod::config::Config;
-use ballpod_host::lvdt_model::LvdtModel;
-use ballpod_host::rng::Rng;
+//! `--serve`: instead, the simulated pod on loopback TCP for CANopen / SCPI clients (SLCAN and
+//! the USB command stream; see `ballpod_host::serve`).
 
-const P: usize = 20;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use ballpod::identify::multitasking::model_lsq::ModelLsq;
+use ballpod::identify::multitasking::{Parameter, urad_to_arcsec};
+use ballpod_host::analysis::{Results, analyse};
+use ballpod_host::report;
+use ballpod_host::simulate::{SimOptions, simulate};
+use ballpod_host::vmt::machine::MachineFile;
+
+const USAGE: &str = "usage: cargo sim [--seed N] [--noise UM] [--machine FILE] [--out DIR] \
+                     [--write-logs DIR] [--repeats N]\n       cargo sim -- --serve [--can-port N] \
+                     [--usb-port N] [--realtime] [--speed X] [--seed N] [--noise COUNTS] \
+                     [--max-seconds S]";
+
+struct Args {
+    opts: SimOptions,
+    noise_um: Option<f64>,
+    machine: Option<PathBuf>,
+    out: PathBuf,
+    logs: Option<PathBuf>,
+}
+
+fn parse_args() -> Result<Args, String> {
+    let mut a = Args {
+        opts: SimOptions::default(),
+        noise_um: None,
+        machine: None,
+        out: PathBuf::from("sim-out"),
+        logs: None,
+    };
+    let mut it = std::env::args().skip(1);
+    while let Some(k) = it.next() {
+        let mut v = || it.next().ok_or(format!("{k} needs a value"));
+        let bad = |k: &str| format!("{k}: not a valid value");
+        match k.as_str() {
+            "--seed" => a.opts.seed = v()?.parse().map_err(|_| bad(&k))?,
+            "--noise" => {
+                let n: f64 = v()?.parse().map_err(|_| bad(&k))?;
+                if !(n >= 0.0 && n.is_finite()) {
+                    return Err(bad(&k));
+                }
+                a.noise_um = Some(n);
+            }
+            "--repeats" => {
+                a.opts.repeats = v()?.parse().map_err(|_| bad(&k))?;
+                if !(1..=ballpod::session::seed002::MAX_REPEATS).contains(&a.opts.repeats) {
+                    return Err(bad(&k));
+                }
+            }
+            "--machine" => a.machine = Some(PathBuf::from(v()?)),
+            "--out" => a.out = PathBuf::from(v()?),
+            "--write-logs" => a.logs = Some(PathBuf::from(v()?)),
+            "-h" | "--help" => return Err(String::new()),
+            _ => return Err(format!("unknown option {k}")),
+        }
+    }
+    Ok(a)
+}
+
+fn main() {
+    let raw: Vec<String> = std::env::args().skip(1).collect();
+    if raw.iter().any(|a| a == "--serve") {
+        serve(&raw);
+        return;
+    }
+    let args = match parse_args() {
+        Ok(a) => a,
+        Err(e) => {
+            if !e.is_empty() {
+                eprintln!("sim: {e}");
+            }
+            eprintln!("{USAGE}");
+            std::process::exit(2);
+        }
+    };
+    if let Err(e) = run(&args) {
+        eprintln!("sim: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let t0 = Instant::now();
+    let mut machine = match &args.machine {
+        Some(p) => MachineFile::read(p)?,
+        None => MachineFile::default(),
+    };
+    if let Some(n) = args.noise_um {
+        machine.instrument.bar_noise_um = n;
+    }
+    let mut progress = |done: usize, total: usize, what: &str| {
+        eprint!(
+            "\rsim: run {:>2}/{total} {what:<24} {:>5.1} s",
+            (done + 1).min(total),
+            t0.elapsed().as_secs_f64()
+        );
+        if done == total {
+            eprintln!();
+        }
+    };
+    let session = simulate(&machine, &args.opts, &mut progress);
+    let results = analyse(&session.desc, &session.runs)?;
+    print_seed002(&machine, &results);
+    print_iso(&machine, &results);
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    let write = |name: &str, text: &str| -> Result<(), String> {
+        let p = args.out.join(name);
+        std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
+    };
+    write("results.json", &report::results_json(&results)?)?;
+    write("truth.json", &report::truth_json(&machine)?)?;
+    for (name, svg) in report::plots(&session.desc, &session.runs, &results) {
+        write(&name, &svg)?;
+    }
+    if let Some(dir) = &args.logs {
+        ballpod_host::logfile::write_session(dir, &session.desc, &session.runs)?;
+        println!("logs and session.json written to {}", dir.display());
+    }
+    println!(
+        "results written to {} ({:.1} s)",
+        args.out.display(),
+        t0.elapsed().as_secs_f64()
+    );
+    Ok(())
+}
+
+/// Truth of each model-mode deviation in the report's units (µm / arc-seconds).
+fn truth_of(m: &MachineFile, p: Parameter) -> f64 {
+    let v = m.seed002.deviations().get(p);
+    if p.is_positional() {
+        v
+    } else {
+        urad_to_arcsec(v)
+    }
+}
+
+fn print_seed002(m: &MachineFile, r: &Results) {
+    let Some(s) = &r.seed002 else {
+        return;
+    };
+    println!(
+        "\nseed 002 ball-bar procedure (BX, BY, CR, CA, CR2; CW+CCW each; thesis Table 4.3 set-up)"
+    );
+    println!(
+        "{:<5} {:>22} {:>22} {:>8} {:>8}",
+        "step", "e1 ± u (µm)", "e2 ± u (µm)", "pairs", "rms µm"
+    );
+    for (st, run) in s.steps.iter().zip(
+        ballpod::session::seed002::Step::ALL
+            .iter()
+            .map(|x| x.name()),
+    ) {
+        let rms = r
+            .runs
+            .iter()
+            .filter(|x| x.method == run)
+            .map(|x| x.residual_rms_um)
+            .fold(0.0f32, f32::max);
+        println!(
+            "{:<5} {:>12.4} ± {:<7.4} {:>12.4} ± {:<7.4} {:>8} {:>8.3}",
+            st.step, st.e_um[0], st.u_e_um[0], st.e_um[1], st.u_e_um[1], st.repeats, rms
+        );
+    }
+    println!(
+        "\nmodel mode (literal HTM model, 10 deviations): truth vs identified, u standard, U = 3u expanded"
+    );
+    println!(
+        "{:<10} {:>10} {:>12} {:>9} {:>9} {:>7}  check",
+        "deviation", "truth", "identified", "u", "diff", "|d|/u"
+    );
+    let lsq = ModelLsq::without_squareness();
+    let mut all_ok = true;
+    for v in &s.model {
+        let Some(p) = Parameter::ALL.iter().copied().find(|p| p.name() == v.name) else {
+            continue;
+        };
+        if !lsq.free[p.index()] {
+            continue;
+        }
+        let t = truth_of(m, p);
+        let d = v.value - t;
+        let ok = d.abs() <= 3.0 * v.u && d.abs() <= 0.5;
+        all_ok &= ok;
+        let unit = if v.unit == "um" { "µm" } else { "″" };
+        println!(
+            "{:<10} {:>8.3}{unit:<2} {:>10.3}{unit:<2} {:>9.4} {:>9.4} {:>7.2}  {}",
+            v.name,
+            t,
+            v.value,
+            v.u,
+            d,
+            d.abs() / v.u.max(1e-12),
+            if ok { "ok" } else { "FAIL" }
+        );
+    }
+    println!(
+        "check: |identified − truth| ≤ U = 3u (k = 3: ≈ 97 % joint coverage for 10 values) and ≤ 0.5 µm / 0.5″: {}",
+        if all_ok { "all pass" } else { "FAILED" }
+    );
+    println!(
+        "\nthesis mode (eqs 4.10–4.18 verbatim; lever arms Z_T/X_T of the thesis, spec §9.1):"
+    );
+    let d = m.seed002.deviations();
+    let truth_thesis = [
+        ("alpha_CZ", urad_to_arcsec(d.alpha_cz_urad)),
+        ("beta_CZ", urad_to_arcsec(d.beta_cz_urad)),
+        ("alpha_XB", urad_to_arcsec(d.alpha_xb_urad)),
+        ("beta_XB", urad_to_arcsec(d.beta_xb_urad)),
+        ("gamma_XB", urad_to_arcsec(d.gamma_xb_urad)),
+        ("alpha_BT", urad_to_arcsec(d.alpha_bt_urad)),
+        ("dx_CZ-dx_BT", d.dx_cz_um - d.dx_bt_um),
+        ("dy_CZ", d.dy_cz_um),
+    ];
+    for (v, (_, t)) in s.thesis.iter().zip(truth_thesis) {
+        println!(
+            "{:<12} truth {:>9.3}  thesis {:>9.3} ± {:<7.4} {}",
+            v.name, t, v.value, v.u, v.unit
+        );
+    }
+}
+
+fn print_iso(m: &MachineFile, r: &Results) {
+    let Some(i) = &r.iso230_4 else {
+        return;
+    };
+    let c = &m.circle;
+    println!(
+        "\nISO 230-4 circular test, R = {} mm, F{} mm/min",
+        i.radius_mm, c.feed_mm_per_min
+    );
+    println!(
+        "G ccw {:.3} µm, G cw {:.3} µm, G(b) {:.3} µm, H {:.3} µm, F ccw {:+.3}/{:+.3} µm",
+        i.ccw.g_um,
+        i.cw.g_um,
+        i.bidirectional_g_um,
+        i.hysteresis_h_um,
+        i.ccw.f_max_um,
+        i.ccw.f_min_um
+    );
+    let d = &i.diagnostics;
+    let rows = [
+        (
+            "squareness (µrad)",
+            c.squareness_urad,
+            f64::from(d.squareness_urad),
+        ),
+        (
+            "scale mismatch x−y (µm/m)",
+            c.scale_x_um_per_m - c.scale_y_um_per_m,
+            f64::from(d.scale_mismatch_um_per_m),
+        ),
+        (
+            "reversal X (µm)",
+            c.backlash_x_um,
+            f64::from(d.reversal_x_um),
+        ),
+        (
+            "reversal Y (µm)",
+            c.backlash_y_um,
+            f64::from(d.reversal_y_um),
+        ),
+        (
+            "cyclic amplitude (µm)",
+            c.cyclic_amplitude_um,
+            f64::from(d.cyclic_amplitude_um),
+        ),
+        (
+            "servo mismatch x−y (ms)",
+            c.servo_mismatch_ms(),
+            i.servo_mismatch_ms,
+        ),
+    ];
+    println!(
+        "{:<28} {:>9} {:>10} {:>8}  check (±10 %)",
+        "fault", "injected", "diagnosed", "ratio"
+    );
+    for (name, inj, diag) in rows {
+        let ratio = diag / inj;
+        let ok = (ratio - 1.0).abs() <= 0.10;
+        println!(
+            "{name:<28} {inj:>9.3} {diag:>10.3} {ratio:>8.3}  {}",
+            if ok { "ok" } else { "FAIL" }
+        );
+    }
+    println!(
+        "cyclic order: injected {}, diagnosed {}",
+        c.cyclic_order, d.cyclic_order
+    );
+}
 
 fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> Result<T, String> {
     match args.iter().position(|a| a == name) {
@@ -28,113 +311,7 @@ fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> Result<
     }
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    if args.iter().any(|a| a == "--serve") {
-        serve(&args);
-        return;
-    }
-    let parsed = (|| -> Result<(u64, f64, f64), String> {
-        Ok((
-            arg(&args, "--seed", 1)?,
-            arg(&args, "--noise", 1.0)?,
-            arg(&args, "--temp", 22.5)?,
-        ))
-    })();
-    let (seed, noise, temp_c) = match parsed {
-        Ok(v) => v,
-        Err(e) => {
-            eprintln!("sim: {e}\nusage: cargo sim [--seed N] [--noise COUNTS] [--temp C]");
-            std::process::exit(2);
-        }
-    };
-    let cfg = Config::default();
-    let mut acq = Acquisition::new(&cfg, [16; 5]);
-    let table = ExcitationTable::<P>::new();
-    let lvdt = LvdtModel::default();
-    let mut rng = Rng::new(seed);
-    let periods = (f64::from(cfg.excitation_hz) / f64::from(cfg.sample_rate_hz)).round() as usize;
-
-    // Thermistor code for the bar temperature (β model of the default NTC).
-    let r = f64::from(cfg.thermistor_r25_ohm)
-        * (f64::from(cfg.thermistor_beta_k) * (1.0 / (temp_c + 273.15) - 1.0 / 298.15)).exp();
-    let code = (4095.0 * r / (r + f64::from(cfg.thermistor_r_fixed_ohm))).round() as u16;
-    let measured_t = acq.update_temperature(code);
-
-    // Machine: circle of radius = bar length about the socket at the origin, CCW, 1000 mm/min,
-    // with the actual path's centre off by (e_x, e_y).
-    let radius_mm = f64::from(cfg.bar_length_mm);
-    let (ex_um, ey_um) = (5.0, -3.0);
-    let rate = f64::from(cfg.sample_rate_hz);
-    let n = (2.0 * std::f64::consts::PI * radius_mm / (1000.0 / 60.0) * rate) as usize;
-    println!(
-        "ballpod acquisition demo (seed {seed}, ADC noise {noise} counts, bar at {temp_c} °C)"
-    );
-    println!(
-        "circle R = {radius_mm} mm about the socket, F1000 mm/min, centre offset ({ex_um}, {ey_um}) µm, {n} samples at {rate} Hz"
-    );
-    match measured_t {
-        Ok(t) => println!("bar thermistor: {t:.3} °C"),
-        Err(e) => println!("bar thermistor fault: {e:?}"),
-    }
-    let counts = |mm: f64| ((mm * 10_000.0).round() as i64).rem_euclid(1 << 16) as u32;
-    acq.reference_axes(
-        [counts(radius_mm), counts(0.0), 0, 0, 0],
-        [radius_mm, 0.0, 0.0, 0.0, 0.0],
-    );
-    println!(
-        "{:>6} {:>10} {:>10} {:>10} {:>10} {:>6}",
-        "seq", "x_mm", "y_mm", "dl_um", "truth_um", "flags"
-    );
-    let (mut sum2, mut worst, mut valid) = (0.0f64, 0.0f64, 0usize);
-    let mut flagged = 0usize;
-    for k in 0..n {
-        let th = 2.0 * std::f64::consts::PI * k as f64 / n as f64;
-        let (x, y) = (radius_mm * th.cos(), radius_mm * th.sin());
-        // true ball-to-ball distance minus the calibrated length, µm
-        let truth_um = ((x + ex_um * 1e-3).hypot(y + ey_um * 1e-3) - radius_mm) * 1e3;
-        // the LVDT sees the distance minus the thermally grown bar body
-        let lvdt_um = truth_um
-            - f64::from(bar_expansion_um(
-                cfg.bar_length_mm,
-                cfg.bar_cte_ppm_per_k,
-                temp_c as f32,
-            ));
-        let (a, b) = lvdt.block_adc(lvdt_um, P, periods, noise, &mut rng);
-        let reading = demodulate(&a, &b, &table);
-        let raw = [counts(x), counts(y), 0, 0, 0];
-        let s = acq.sample((k as u64) * 1_000, reading, raw, 0, false);
-        if s.flags.is_valid_for_metrology() {
-            let err = f64::from(s.delta_l_um) - truth_um;
-            sum2 += err * err;
-            worst = worst.max(err.abs());
-            valid += 1;
-        }
-        if s.flags != SampleFlags::NONE {
-            flagged += 1;
-        }
-        if k % (n / 8).max(1) == 0 {
-            println!(
-                "{:>6} {:>10.4} {:>10.4} {:>10.4} {:>10.4} {:>6}",
-                s.seq, s.axes[0], s.axes[1], s.delta_l_um, truth_um, s.flags.0
-            );
-        }
-    }
-    let c = acq.counters;
-    println!(
-        "samples {} (valid {valid}, flagged {flagged}); ΔL − truth: RMS {:.4} µm, max {:.4} µm",
-        c.samples,
-        (sum2 / valid.max(1) as f64).sqrt(),
-        worst
-    );
-    println!(
-        "counters: over-range {}, open {}, quadrature {}, temperature {}, lost {}",
-        c.lvdt_over_range, c.lvdt_open, c.quadrature_errors, c.temperature_faults, c.lost_upstream
-    );
-}
-
-/// `--serve [--can-port N] [--usb-port N] [--realtime] [--speed X] [--seed N] [--noise COUNTS]
-/// [--max-seconds S]`: the simulated pod on loopback TCP (SLCAN and SCPI), see `serve.rs`.
+/// `--serve`: the simulated pod on loopback TCP (SLCAN and SCPI), see `ballpod_host::serve`.
 fn serve(args: &[String]) {
     let d = ballpod_host::serve::ServeOptions::default();
     let parsed = (|| -> Result<ballpod_host::serve::ServeOptions, String> {
@@ -149,14 +326,15 @@ fn serve(args: &[String]) {
             ..d.clone()
         })
     })();
-    match parsed.map(ballpod_host::serve::run) {
-        Ok(Ok(())) => {}
-        Ok(Err(e)) => {
-            eprintln!("sim --serve: {e}");
-            std::process::exit(1);
+    match parsed {
+        Ok(opts) => {
+            if let Err(e) = ballpod_host::serve::run(opts) {
+                eprintln!("sim --serve: {e}");
+                std::process::exit(1);
+            }
         }
         Err(e) => {
-            eprintln!("sim --serve: {e}");
+            eprintln!("sim --serve: {e}\n{USAGE}");
             std::process::exit(2);
         }
     }

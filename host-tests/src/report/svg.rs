@@ -1,0 +1,328 @@
+//! SVG polar plots written by hand, in the style ball-bar users know: the nominal circle, ΔL
+//! magnified about it (outward = longer), the CW and CCW traces, the fitted circle(s), and a
+//! legend with the figures (G, F, H, diagnoses or eccentricities).
+//!
+//! Each trace point is a 1° bin mean of the run's samples, placed along the sample's
+//! sensitive direction n (`ballpod::metrology::pattern::PatternGeometry::direction`, the
+//! core's own) at radius `R_px + k·ΔL`. The fitted curve is r0 + e·n for n around the arc.
+//! The root `<svg>` carries the plot's scale as data attributes (`data-cx`, `data-cy`,
+//! `data-nominal-px`, `data-px-per-um`) so a reader can turn points back into µm; traces are
+//! `<polyline id="trace-ccw|trace-cw">`, fits `<polyline id="fit-ccw|fit-cw">`, the nominal
+//! circle `<circle id="nominal">`, legend lines `<text class="legend">`.
+
+use std::fmt::Write;
+
+use ballpod::acquisition::Sample;
+use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use ballpod::session::seed002::Step;
+
+use crate::analysis::{Results, RunResult, SessionDesc};
+
+const SIZE: f64 = 640.0;
+const CX: f64 = 320.0;
+const CY: f64 = 300.0;
+const NOMINAL_PX: f64 = 170.0;
+
+/// One trace: bin means (n_u, n_v, ΔL µm).
+struct Trace {
+    id: &'static str,
+    colour: &'static str,
+    points: Vec<(f64, f64, f64)>,
+}
+
+/// A fitted curve ΔL = r0 + e·n.
+struct Fit {
+    id: &'static str,
+    colour: &'static str,
+    r0_um: f64,
+    e_um: [f64; 2],
+}
+
+/// 1° bin means of the run's (n, ΔL), bins by the angle of n.
+fn bin_means(g: &PatternGeometry, samples: &[Sample]) -> Vec<(f64, f64, f64)> {
+    let mut bins = vec![(0.0f64, 0.0f64, 0.0f64, 0usize); 360];
+    for s in samples {
+        if !s.flags.is_valid_for_metrology() {
+            continue;
+        }
+        let Some([nu, nv]) = g.direction(&s.axes) else {
+            continue;
+        };
+        let a = f64::from(nv)
+            .atan2(f64::from(nu))
+            .to_degrees()
+            .rem_euclid(360.0);
+        let b = &mut bins[(a as usize).min(359)];
+        b.0 += f64::from(nu);
+        b.1 += f64::from(nv);
+        b.2 += f64::from(s.delta_l_um);
+        b.3 += 1;
+    }
+    bins.into_iter()
+        .filter(|b| b.3 > 0)
+        .map(|(u, v, d, n)| {
+            let k = n as f64;
+            let norm = (u * u + v * v).sqrt().max(1e-12);
+            (u / norm, v / norm, d / k)
+        })
+        .collect()
+}
+
+fn px(nu: f64, nv: f64, dl_um: f64, k: f64) -> (f64, f64) {
+    let r = NOMINAL_PX + k * dl_um;
+    // SVG y grows downwards: +v is up
+    (CX + r * nu, CY - r * nv)
+}
+
+fn render(title: &str, traces: &[Trace], fits: &[Fit], legend: &[String]) -> String {
+    // scale: the largest |ΔL| reaches 60 % of the nominal radius, in a 1-2-5 µm/division step
+    let max_dl = traces
+        .iter()
+        .flat_map(|t| t.points.iter().map(|p| p.2.abs()))
+        .fold(0.5f64, f64::max);
+    let raw = max_dl / 3.0; // µm per division, 5 divisions ≈ 0.6 R
+    let mag = 10f64.powf(raw.log10().floor());
+    let div_um = [1.0, 2.0, 5.0, 10.0]
+        .iter()
+        .map(|m| m * mag)
+        .find(|d| *d >= raw)
+        .unwrap_or(10.0 * mag);
+    let k = NOMINAL_PX * 0.6 / max_dl; // px per µm
+    let mut s = String::new();
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{SIZE}" height="{h}" viewBox="0 0 {SIZE} {h}" data-cx="{CX}" data-cy="{CY}" data-nominal-px="{NOMINAL_PX}" data-px-per-um="{k}" font-family="sans-serif" font-size="12">"#,
+        h = SIZE + 16.0 * legend.len() as f64
+    );
+    let _ = writeln!(s, r#"<title>{}</title>"#, esc(title));
+    let _ = writeln!(
+        s,
+        r#"<rect x="0" y="0" width="100%" height="100%" fill="white"/>"#
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="10" y="18" font-size="14" font-weight="bold">{}</text>"#,
+        esc(title)
+    );
+    // grid: nominal circle and ±divisions
+    for i in -2i32..=2 {
+        let r = NOMINAL_PX + k * div_um * f64::from(i);
+        if r <= 0.0 {
+            continue;
+        }
+        if i == 0 {
+            let _ = writeln!(
+                s,
+                r##"<circle id="nominal" cx="{CX}" cy="{CY}" r="{NOMINAL_PX}" fill="none" stroke="#444" stroke-width="1"/>"##
+            );
+        } else {
+            let _ = writeln!(
+                s,
+                r##"<circle cx="{CX}" cy="{CY}" r="{r:.3}" fill="none" stroke="#ccc" stroke-dasharray="3 3"/>"##
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        r##"<line x1="{}" y1="{CY}" x2="{}" y2="{CY}" stroke="#ccc"/><line x1="{CX}" y1="{}" x2="{CX}" y2="{}" stroke="#ccc"/>"##,
+        CX - NOMINAL_PX * 1.7,
+        CX + NOMINAL_PX * 1.7,
+        CY - NOMINAL_PX * 1.7,
+        CY + NOMINAL_PX * 1.7
+    );
+    for f in fits {
+        let pts: Vec<String> = (0..=360)
+            .map(|d| {
+                let a = f64::from(d).to_radians();
+                let (nu, nv) = (a.cos(), a.sin());
+                let dl = f.r0_um + f.e_um[0] * nu + f.e_um[1] * nv;
+                let (x, y) = px(nu, nv, dl, k);
+                format!("{x:.3},{y:.3}")
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            r#"<polyline id="{}" fill="none" stroke="{}" stroke-width="1" stroke-dasharray="6 3" points="{}" data-r0-um="{}" data-e-um="{} {}"/>"#,
+            f.id,
+            f.colour,
+            pts.join(" "),
+            f.r0_um,
+            f.e_um[0],
+            f.e_um[1]
+        );
+    }
+    for t in traces {
+        let pts: Vec<String> = t
+            .points
+            .iter()
+            .map(|&(nu, nv, dl)| {
+                let (x, y) = px(nu, nv, dl, k);
+                format!("{x:.3},{y:.3}")
+            })
+            .collect();
+        let _ = writeln!(
+            s,
+            r#"<polyline id="{}" fill="none" stroke="{}" stroke-width="1.5" points="{}"/>"#,
+            t.id,
+            t.colour,
+            pts.join(" ")
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="10" y="{}" class="scale">{} µm/div (magnified about the nominal circle)</text>"#,
+        SIZE - 12.0,
+        fmt_num(div_um)
+    );
+    for (i, l) in legend.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            r#"<text x="10" y="{:.0}" class="legend">{}</text>"#,
+            SIZE + 4.0 + 16.0 * i as f64,
+            esc(l)
+        );
+    }
+    s.push_str("</svg>\n");
+    s
+}
+
+fn fmt_num(v: f64) -> String {
+    format!("{v}")
+}
+
+fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+fn fit_of(id: &'static str, colour: &'static str, r: &RunResult) -> Fit {
+    Fit {
+        id,
+        colour,
+        r0_um: f64::from(r.r0_um),
+        e_um: [f64::from(r.e_um[0]), f64::from(r.e_um[1])],
+    }
+}
+
+/// All plots of a session: `iso230_4.svg` and one `seed002_<STEP>.svg` per step (first
+/// CW/CCW pair).
+pub fn plots(desc: &SessionDesc, runs: &[Vec<Sample>], r: &Results) -> Vec<(String, String)> {
+    let mut out = Vec::new();
+    let first = |method: &str, dir: &str| {
+        desc.runs
+            .iter()
+            .zip(runs)
+            .zip(&r.runs)
+            .find(|((d, _), _)| d.method == method && d.direction == dir)
+            .map(|((_, s), rr)| (s, rr))
+    };
+    if let (Some(iso), Some(c)) = (&r.iso230_4, &desc.circle) {
+        let g = PatternGeometry {
+            plane: Plane::XY,
+            centre_u_mm: c.socket_mm[0] as f32,
+            centre_v_mm: c.socket_mm[1] as f32,
+            sensitivity: Sensitivity::Outward,
+        };
+        if let (Some((ccw, rccw)), Some((cw, rcw))) =
+            (first("ISO230-4", "CCW"), first("ISO230-4", "CW"))
+        {
+            let d = &iso.diagnostics;
+            let legend = vec![
+                format!(
+                    "ISO 230-4 circle R = {} mm, F{} mm/min. CCW (blue) and CW (red) traces, dashed: fitted circles",
+                    c.radius_mm, c.feed_mm_per_min
+                ),
+                format!(
+                    "G(CCW) = {:.2} µm  G(CW) = {:.2} µm  G(b) = {:.2} µm  H = {:.2} µm",
+                    iso.ccw.g_um, iso.cw.g_um, iso.bidirectional_g_um, iso.hysteresis_h_um
+                ),
+                format!(
+                    "F(CCW) = {:+.2}/{:+.2} µm  F(CW) = {:+.2}/{:+.2} µm",
+                    iso.ccw.f_max_um, iso.ccw.f_min_um, iso.cw.f_max_um, iso.cw.f_min_um
+                ),
+                format!(
+                    "Squareness {:.1} µrad  Scale mismatch X−Y {:.1} µm/m  Reversal X {:.2} µm  Y {:.2} µm",
+                    d.squareness_urad, d.scale_mismatch_um_per_m, d.reversal_x_um, d.reversal_y_um
+                ),
+                format!(
+                    "Cyclic error {:.2} µm (order {})  Servo mismatch X−Y {:.2} ms",
+                    d.cyclic_amplitude_um, d.cyclic_order, iso.servo_mismatch_ms
+                ),
+            ];
+            let svg = render(
+                "ISO 230-4 circular test",
+                &[
+                    Trace {
+                        id: "trace-ccw",
+                        colour: "#1f4fd1",
+                        points: bin_means(&g, ccw),
+                    },
+                    Trace {
+                        id: "trace-cw",
+                        colour: "#d12a1f",
+                        points: bin_means(&g, cw),
+                    },
+                ],
+                &[
+                    fit_of("fit-ccw", "#1f4fd1", rccw),
+                    fit_of("fit-cw", "#d12a1f", rcw),
+                ],
+                &legend,
+            );
+            out.push(("iso230_4.svg".to_string(), svg));
+        }
+    }
+    if let (Some(s2), Some(g2)) = (&r.seed002, &desc.seed002) {
+        let setup = g2.setup();
+        for (step, st) in Step::ALL.iter().zip(&s2.steps) {
+            let (Some((ccw, rccw)), Some((cw, rcw))) =
+                (first(step.name(), "CCW"), first(step.name(), "CW"))
+            else {
+                continue;
+            };
+            let g = setup.fit_geometry(*step);
+            let (c1, c2) = if step.pattern().is_b() {
+                ("ex", "ez")
+            } else {
+                ("ex", "ey")
+            };
+            let legend = vec![
+                format!(
+                    "Seed 002 step {} (first repeat): CCW (blue) and CW (red), dashed: fitted limaçon r0 + e·n",
+                    step.name()
+                ),
+                format!(
+                    "CCW: {c1} = {:.3} µm, {c2} = {:.3} µm;  CW: {c1} = {:.3} µm, {c2} = {:.3} µm",
+                    rccw.e_um[0], rccw.e_um[1], rcw.e_um[0], rcw.e_um[1]
+                ),
+                format!(
+                    "Mean of {} pairs: {c1} = {:.3} ± {:.3} µm, {c2} = {:.3} ± {:.3} µm",
+                    st.repeats, st.e_um[0], st.u_e_um[0], st.e_um[1], st.u_e_um[1]
+                ),
+            ];
+            let svg = render(
+                &format!("Seed 002 {}", step.name()),
+                &[
+                    Trace {
+                        id: "trace-ccw",
+                        colour: "#1f4fd1",
+                        points: bin_means(&g, ccw),
+                    },
+                    Trace {
+                        id: "trace-cw",
+                        colour: "#d12a1f",
+                        points: bin_means(&g, cw),
+                    },
+                ],
+                &[
+                    fit_of("fit-ccw", "#1f4fd1", rccw),
+                    fit_of("fit-cw", "#d12a1f", rcw),
+                ],
+                &legend,
+            );
+            out.push((format!("seed002_{}.svg", step.name()), svg));
+        }
+    }
+    out
+}

@@ -1,0 +1,550 @@
+//! Declarative scenarios (RMK style): a TOML file names a method, a machine (its deviations or
+//! faults), the noise and the expected outcome; [`run`] simulates the measurement, feeds it to
+//! the pod's code and returns every check with its numbers.
+//!
+//! Methods and what is simulated:
+//! - `seed002_ballbar`: the full sensor-level seed 002 procedure ([`crate::simulate`]);
+//!   expectation: every model-mode deviation within `max_error_over_u`·u and within
+//!   `max_abs_error_um` / `max_abs_error_arcsec` of the truth;
+//! - `iso230_4`: the sensor-level circular test; each injected fault diagnosed within
+//!   `max_relative_error`;
+//! - `seed002_probe`: sphere centres at C = 0/90/180/270° from the literal HTM model
+//!   ([`crate::forward_seed002`]) plus noise → `identify::multitasking::probe`;
+//! - `seed003_rtest`: R-test readings from the exact chain ([`crate::forward_seed003`]) plus
+//!   noise on path K4 → `identify::rtest`;
+//! - `seed004_dial_gauge`: dial-gauge readings on a face turned by a tilted axis
+//!   ([`crate::forward_seed004`]) plus noise → `identify::centreline`;
+//! - `seed000_two_step`: ball-bar lengths at three SSM stations around the socket after the
+//!   translation and after the rotation of an RRTTT head ([`crate::forward_seed000`]) plus
+//!   noise → `metrology::ssm` → `identify::two_step`.
+
+use serde::Deserialize;
+
+use crate::analysis::analyse;
+use crate::rng::Rng;
+use crate::simulate::{SimOptions, simulate};
+use crate::vmt::machine::MachineFile;
+
+/// A scenario file.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    /// What the scenario shows.
+    pub description: String,
+    /// Method (see the module doc).
+    pub method: String,
+    /// Noise seed.
+    #[serde(default = "one")]
+    pub seed: u64,
+    /// Sensor noise σ (µm: bar, probe centre, R-test or dial reading).
+    pub noise_um: f64,
+    /// Machine (seed 002 deviations, circle faults, instrument), for the sensor-level methods.
+    #[serde(default)]
+    pub machine: MachineFile,
+    /// Seed 002 feed, mm/min (default 1000).
+    #[serde(default)]
+    pub feed_mm_per_min: Option<f64>,
+    /// Seed 002 procedure repeats (default 1).
+    #[serde(default)]
+    pub repeats: Option<usize>,
+    /// R-test: the 11 location/ball errors XOW YOW ZOW YOA ZOA BOA COA XOC YOC AOC BOC
+    /// (µm / arc-seconds).
+    #[serde(default)]
+    pub rtest_errors: Option<[f64; 11]>,
+    /// Dial gauge: tilt of the B (tilting) axis direction about X and Z, µrad.
+    #[serde(default)]
+    pub axis_tilt_urad: Option<[f64; 2]>,
+    /// Two-step RRTTT: (Δα, Δβ) µrad, the second step's (α, β) degrees, tool z_r mm and the
+    /// translation error ΔV1 µm.
+    #[serde(default)]
+    pub rrttt: Option<Rrttt>,
+    /// Expected outcome.
+    pub expect: Expect,
+}
+
+fn one() -> u64 {
+    1
+}
+
+/// RRTTT two-step set-up.
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Rrttt {
+    /// Δα, µrad.
+    pub delta_alpha_urad: f64,
+    /// Δβ, µrad.
+    pub delta_beta_urad: f64,
+    /// α of the second step, degrees.
+    pub alpha_deg: f64,
+    /// β of the second step, degrees.
+    pub beta_deg: f64,
+    /// Tool vector z_r, mm.
+    pub tool_z_mm: f64,
+    /// Translation error ΔV1, µm.
+    pub dv1_um: [f64; 3],
+}
+
+/// Expected outcome (every given bound is checked).
+#[derive(Clone, Copy, Debug, Default, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Expect {
+    /// |identified − truth| ≤ this × the reported standard uncertainty.
+    pub max_error_over_u: Option<f64>,
+    /// |identified − truth| ≤ this for values in µm.
+    pub max_abs_error_um: Option<f64>,
+    /// |identified − truth| ≤ this for values in arc-seconds.
+    pub max_abs_error_arcsec: Option<f64>,
+    /// |identified − truth| ≤ this for values in µrad.
+    pub max_abs_error_urad: Option<f64>,
+    /// |diagnosed / injected − 1| ≤ this (ISO 230-4 faults).
+    pub max_relative_error: Option<f64>,
+}
+
+/// One checked value.
+#[derive(Clone, Debug)]
+pub struct Check {
+    /// What.
+    pub name: String,
+    /// Truth (µm, arc-seconds, µrad, or the injected fault size).
+    pub truth: f64,
+    /// Identified or diagnosed.
+    pub got: f64,
+    /// Reported standard uncertainty (0 if none).
+    pub u: f64,
+    /// Unit: `um`, `arcsec`, `urad` or `relative`.
+    pub unit: &'static str,
+}
+
+impl Check {
+    /// Why this check fails the expectation, or `None` when it passes.
+    pub fn failure(&self, e: &Expect) -> Option<String> {
+        let d = (self.got - self.truth).abs();
+        let mut why = Vec::new();
+        if let Some(k) = e.max_error_over_u
+            && self.u > 0.0
+            && d > k * self.u
+        {
+            why.push(format!("|d| = {d:.4} > {k}·u = {:.4}", k * self.u));
+        }
+        let abs = match self.unit {
+            "um" => e.max_abs_error_um,
+            "arcsec" => e.max_abs_error_arcsec,
+            "urad" => e.max_abs_error_urad,
+            _ => None,
+        };
+        if let Some(m) = abs
+            && d > m
+        {
+            why.push(format!("|d| = {d:.4} > {m} {}", self.unit));
+        }
+        if self.unit == "relative"
+            && let Some(m) = e.max_relative_error
+            && (self.got / self.truth - 1.0).abs() > m
+        {
+            why.push(format!(
+                "ratio {:.4} outside 1 ± {m}",
+                self.got / self.truth
+            ));
+        }
+        (!why.is_empty()).then(|| {
+            format!(
+                "{}: truth {} got {} (u {}): {}",
+                self.name,
+                self.truth,
+                self.got,
+                self.u,
+                why.join("; ")
+            )
+        })
+    }
+}
+
+/// Reads a scenario file.
+pub fn read(path: &std::path::Path) -> Result<Scenario, String> {
+    let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    toml::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// Runs a scenario: the checks it produced (the caller compares them with `expect`).
+pub fn run(s: &Scenario) -> Result<Vec<Check>, String> {
+    match s.method.as_str() {
+        "seed002_ballbar" => seed002_ballbar(s),
+        "iso230_4" => iso230_4(s),
+        "seed002_probe" => seed002_probe(s),
+        "seed003_rtest" => seed003_rtest(s),
+        "seed004_dial_gauge" => seed004_dial_gauge(s),
+        "seed000_two_step" => seed000_two_step(s),
+        m => Err(format!("unknown method {m:?}")),
+    }
+}
+
+fn seed002_ballbar(s: &Scenario) -> Result<Vec<Check>, String> {
+    use ballpod::identify::multitasking::{Parameter, urad_to_arcsec};
+    let mut m = s.machine;
+    m.instrument.bar_noise_um = s.noise_um;
+    let o = SimOptions {
+        seed: s.seed,
+        repeats: s.repeats.unwrap_or(1),
+        feed_mm_per_min: s.feed_mm_per_min.unwrap_or(1000.0),
+        seed002: true,
+        circle: false,
+    };
+    let sim = simulate(&m, &o, &mut |_, _, _| {});
+    let r = analyse(&sim.desc, &sim.runs)?;
+    let id = r.seed002.ok_or("procedure incomplete")?;
+    let truth = m.seed002.deviations();
+    let mut out = Vec::new();
+    for v in &id.model {
+        let p = Parameter::ALL
+            .iter()
+            .find(|p| p.name() == v.name)
+            .ok_or(format!("unknown parameter {}", v.name))?;
+        let (t, unit) = if p.is_positional() {
+            (truth.get(*p), "um")
+        } else {
+            (urad_to_arcsec(truth.get(*p)), "arcsec")
+        };
+        out.push(Check {
+            name: v.name.clone(),
+            truth: t,
+            got: v.value,
+            u: v.u,
+            unit,
+        });
+    }
+    Ok(out)
+}
+
+fn iso230_4(s: &Scenario) -> Result<Vec<Check>, String> {
+    let mut m = s.machine;
+    m.instrument.bar_noise_um = s.noise_um;
+    let o = SimOptions {
+        seed: s.seed,
+        repeats: 1,
+        feed_mm_per_min: 1000.0,
+        seed002: false,
+        circle: true,
+    };
+    let sim = simulate(&m, &o, &mut |_, _, _| {});
+    let r = analyse(&sim.desc, &sim.runs)?;
+    let i = r.iso230_4.ok_or("circle incomplete")?;
+    let c = &m.circle;
+    let d = &i.diagnostics;
+    let rel = |name: &str, truth: f64, got: f32| Check {
+        name: name.to_string(),
+        truth,
+        got: f64::from(got),
+        u: 0.0,
+        unit: "relative",
+    };
+    let mut out = Vec::new();
+    // only injected faults are checked (a ratio to 0 means nothing)
+    for (name, truth, got) in [
+        ("squareness_urad", c.squareness_urad, d.squareness_urad),
+        (
+            "scale_mismatch_um_per_m",
+            c.scale_x_um_per_m - c.scale_y_um_per_m,
+            d.scale_mismatch_um_per_m,
+        ),
+        ("reversal_x_um", c.backlash_x_um, d.reversal_x_um),
+        ("reversal_y_um", c.backlash_y_um, d.reversal_y_um),
+        (
+            "cyclic_amplitude_um",
+            c.cyclic_amplitude_um,
+            d.cyclic_amplitude_um,
+        ),
+        (
+            "servo_mismatch_ms",
+            c.servo_mismatch_ms(),
+            i.servo_mismatch_ms as f32,
+        ),
+    ] {
+        if truth != 0.0 {
+            out.push(rel(name, truth, got));
+        }
+    }
+    Ok(out)
+}
+
+fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
+    use ballpod::identify::multitasking::probe::{CAxisProbe, ProbeMode, identify_c_axis};
+    use ballpod::identify::multitasking::urad_to_arcsec;
+    let d = s.machine.seed002.deviations();
+    let da = d.to_array();
+    let (_, _, _, _, mcz, _) = crate::forward_seed002::mats(&da);
+    let (rc, zc) = (100.0, 64.838);
+    let origin = [-490.0, 0.0, -536.838];
+    let mut rng = Rng::new(s.seed);
+    let mut centres = [[0.0; 3]; 4];
+    for (k, c) in centres.iter_mut().enumerate() {
+        let th = k as f64 * std::f64::consts::FRAC_PI_2;
+        let p = crate::forward_seed002::apply(
+            &crate::forward_seed002::mul(&mcz, &crate::forward_seed002::ec(th)),
+            [rc, 0.0, zc],
+        );
+        for i in 0..3 {
+            c[i] = origin[i] + p[i] + s.noise_um * 1e-3 * rng.normal();
+        }
+    }
+    let r = identify_c_axis(
+        &CAxisProbe {
+            centres_mm: centres,
+            nominal_axis_xy_mm: [origin[0], origin[1]],
+            z_c_mm: zc,
+        },
+        ProbeMode::Corrected,
+    )
+    .map_err(|e| format!("probe: {e:?}"))?;
+    let c = |name: &str, truth: f64, got: f64, unit| Check {
+        name: name.to_string(),
+        truth,
+        got,
+        u: 0.0,
+        unit,
+    };
+    Ok(vec![
+        c(
+            "alpha_CZ",
+            urad_to_arcsec(d.alpha_cz_urad),
+            r.alpha_cz_arcsec,
+            "arcsec",
+        ),
+        c(
+            "beta_CZ",
+            urad_to_arcsec(d.beta_cz_urad),
+            r.beta_cz_arcsec,
+            "arcsec",
+        ),
+        c("dx_CZ", d.dx_cz_um, r.dx_cz_um, "um"),
+        c("dy_CZ", d.dy_cz_um, r.dy_cz_um, "um"),
+    ])
+}
+
+fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {
+    use crate::forward_seed003 as fw;
+    use ballpod::identify::rtest::{ARCSEC_RAD, RtestConfig, RtestGeometry, RtestSample, identify};
+    const NAMES: [&str; 11] = [
+        "XOW", "YOW", "ZOW", "YOA", "ZOA", "BOA", "COA", "XOC", "YOC", "AOC", "BOC",
+    ];
+    const ANGULAR: [bool; 11] = [
+        false, false, false, false, false, true, true, false, false, true, true,
+    ];
+    let truth = s.rtest_errors.ok_or("seed003_rtest needs rtest_errors")?;
+    let si: [f64; 11] = std::array::from_fn(|i| {
+        if ANGULAR[i] {
+            truth[i] * ARCSEC_RAD
+        } else {
+            truth[i] * 1e-3
+        }
+    });
+    // the seed 003 Table 3 set-up
+    let k = fw::Kin {
+        x_w: -217.504,
+        y_w: -0.279,
+        z_w: 211.537,
+        z_c: 29.794,
+        z_p: 184.670,
+        ..Default::default()
+    };
+    let mut rng = Rng::new(s.seed);
+    // path K4: A 0 → −90° while C turns 0 → 360°
+    let samples: Vec<RtestSample> = (0..241)
+        .map(|i| {
+            let (a, c) = (-90.0 * i as f64 / 240.0, 1.5 * i as f64);
+            let r = fw::exact_reduced_reading_um(&k, &si, f64::to_radians(a), f64::to_radians(c));
+            RtestSample {
+                a_deg: a,
+                c_deg: c,
+                reading_um: r.map(|v| v + s.noise_um * rng.normal()),
+            }
+        })
+        .collect();
+    let r = identify(
+        &RtestGeometry::SEED003_TABLE3,
+        &samples,
+        &RtestConfig::default(),
+    )
+    .map_err(|e| format!("R-test: {e:?}"))?;
+    let (got, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
+    Ok((0..11)
+        .map(|i| Check {
+            name: NAMES[i].to_string(),
+            truth: truth[i],
+            got: got[i],
+            u: u[i],
+            unit: if ANGULAR[i] { "arcsec" } else { "um" },
+        })
+        .collect())
+}
+
+fn seed004_dial_gauge(s: &Scenario) -> Result<Vec<Check>, String> {
+    use crate::forward_seed004 as fw;
+    use ballpod::identify::centreline::{
+        DialPoint, GaugeFrame, NormalAtAngle, RotationSense, axis_direction_lsq, plane_normal,
+    };
+    let [tx, tz] = s
+        .axis_tilt_urad
+        .ok_or("seed004_dial_gauge needs axis_tilt_urad")?;
+    const Y: [f64; 3] = [0.0, 1.0, 0.0];
+    const Z: [f64; 3] = [0.0, 0.0, 1.0];
+    // the tilting axis, nominally +Y, tilted by tx about… (x component) and tz (z component)
+    let d = fw::normalize([tx * 1e-6, 1.0, tz * 1e-6]);
+    let n0 = fw::normalize([0.3e-3, -0.2e-3, 1.0]); // the block's top face
+    let grid = [
+        (0.0, 0.0),
+        (60.0, 0.0),
+        (0.0, 40.0),
+        (60.0, 40.0),
+        (30.0, 20.0),
+    ];
+    let mut rng = Rng::new(s.seed);
+    let mut pos = Vec::new();
+    for b in [0.0f64, 30.0, 60.0, 90.0] {
+        let n = fw::mul(fw::rodrigues(d, -b.to_radians()), n0);
+        let w = fw::normalize(fw::mul(fw::rodrigues(Y, -b.to_radians()), Z));
+        let u = fw::normalize(fw::sub(Y, fw::scale(fw::dot(Y, w), w)));
+        let g = GaugeFrame {
+            lateral_u: u,
+            lateral_v: fw::cross(w, u),
+            reading_dir: w,
+        };
+        let zero = fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, 0.0, 0.0, 0.0);
+        let pts: Vec<DialPoint> = grid
+            .iter()
+            .map(|&(u, v)| DialPoint {
+                u_mm: u,
+                v_mm: v,
+                reading_um: fw::dial_reading_um(
+                    n,
+                    g.lateral_u,
+                    g.lateral_v,
+                    g.reading_dir,
+                    u,
+                    v,
+                    zero,
+                ) + s.noise_um * rng.normal(),
+            })
+            .collect();
+        let pn = plane_normal(&pts, &g).map_err(|e| format!("plane: {e:?}"))?;
+        pos.push(NormalAtAngle {
+            commanded_deg: b,
+            normal: pn.normal,
+        });
+    }
+    let est =
+        axis_direction_lsq(&pos, RotationSense::Primed, Y).map_err(|e| format!("axis: {e:?}"))?;
+    Ok(vec![
+        Check {
+            name: "tilt_x_urad".into(),
+            truth: d[0] * 1e6,
+            got: est.direction[0] * 1e6,
+            u: est.tilt_uncertainty_urad[0],
+            unit: "urad",
+        },
+        Check {
+            name: "tilt_z_urad".into(),
+            truth: d[2] * 1e6,
+            got: est.direction[2] * 1e6,
+            u: est.tilt_uncertainty_urad[1],
+            unit: "urad",
+        },
+    ])
+}
+
+fn seed000_two_step(s: &Scenario) -> Result<Vec<Check>, String> {
+    use crate::forward_seed000 as fwd;
+    use ballpod::identify::two_step::{
+        self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, RotationOrder, RrtttConfig,
+        RrtttMeasurement,
+    };
+    use ballpod::metrology::ssm::SsmGeometry;
+    use ballpod::metrology::ssm::station::{Station, solve_stations};
+    let t = s.rrttt.ok_or("seed000_two_step needs rrttt")?;
+    let l = 150.0; // bar length, mm
+    let pivot = [-50.0, -15.0, 500.0];
+    let (a, b) = (t.alpha_deg.to_radians(), t.beta_deg.to_radians());
+    let (d1, d2) = (t.delta_alpha_urad * 1e-6, t.delta_beta_urad * 1e-6);
+    let e1 = t.dv1_um.map(|v| v * 1e-3);
+    let mut rng = Rng::new(s.seed);
+    // SSM at a nominal tool point: three stations on the bar's sphere around the socket
+    // (the socket placed so the stations surround the point), E measured by eq 1.
+    let mut ssm = |nominal: [f64; 3], actual: [f64; 3]| -> Result<[f64; 3], String> {
+        let e = [
+            actual[0] - nominal[0],
+            actual[1] - nominal[1],
+            actual[2] - nominal[2],
+        ];
+        let dirs: [[f64; 3]; 3] = [[1.0, 0.0, 0.3], [-0.5, 0.866, 0.3], [-0.5, -0.866, 0.3]];
+        let socket = [nominal[0], nominal[1], nominal[2] - l];
+        let st: Vec<Station> = dirs
+            .iter()
+            .map(|u| {
+                let n = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+                // the station's nominal point: on the sphere of radius L about the socket
+                let p = [
+                    socket[0] + l * u[0] / n,
+                    socket[1] + l * u[1] / n,
+                    socket[2] + l * u[2] / n,
+                ];
+                let q = [p[0] + e[0], p[1] + e[1], p[2] + e[2]];
+                let len = ((q[0] - socket[0]).powi(2)
+                    + (q[1] - socket[1]).powi(2)
+                    + (q[2] - socket[2]).powi(2))
+                .sqrt();
+                Station {
+                    p_mm: p,
+                    rotary_deg: [0.0; 2],
+                    delta_l_um: (len - l) * 1e3 + s.noise_um * rng.normal(),
+                    std_um: s.noise_um as f32,
+                    samples: 1,
+                }
+            })
+            .collect();
+        let sol = solve_stations(
+            &st,
+            &SsmGeometry {
+                socket_mm: socket,
+                bar_length_mm: l,
+            },
+        )
+        .map_err(|e| format!("SSM: {e:?}"))?;
+        Ok(sol.e_um.map(|v| v.unwrap_or(0.0)))
+    };
+    let nom1 = fwd::rrttt_tip(pivot, [0.0; 3], 0.0, 0.0, t.tool_z_mm);
+    let act1 = fwd::rrttt_tip(pivot, e1, 0.0, 0.0, t.tool_z_mm);
+    let dv1 = ssm(nom1, act1)?;
+    let nom2 = fwd::rrttt_tip(pivot, [0.0; 3], a, b, t.tool_z_mm);
+    let act2 = fwd::rrttt_tip(pivot, e1, a + d1, b + d2, t.tool_z_mm);
+    let dv2 = ssm(nom2, act2)?;
+    let cfg = RrtttConfig {
+        tool_z_mm: t.tool_z_mm,
+        rotation_order: RotationOrder::AlphaThenBeta,
+        reference_end: ReferenceEnd::OtherMember,
+        min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
+    };
+    let m = RrtttMeasurement {
+        pivot_mm: pivot,
+        alpha_deg: t.alpha_deg,
+        beta_deg: t.beta_deg,
+        dv1_um: dv1,
+        dv2_um: dv2,
+        ssm_std_um: s.noise_um,
+    };
+    let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).map_err(|e| format!("{e:?}"))?;
+    Ok(vec![
+        Check {
+            name: "delta_alpha_urad".into(),
+            truth: t.delta_alpha_urad,
+            got: r.delta_alpha_urad,
+            u: r.std_uncertainty_urad[0],
+            unit: "urad",
+        },
+        Check {
+            name: "delta_beta_urad".into(),
+            truth: t.delta_beta_urad,
+            got: r.delta_beta_urad,
+            u: r.std_uncertainty_urad[1],
+            unit: "urad",
+        },
+    ])
+}

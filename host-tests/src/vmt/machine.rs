@@ -1,0 +1,236 @@
+//! Machines of the virtual machine tool and their description files (TOML or JSON).
+//!
+//! - [`Machine002`]: the seed 002 multi-tasking machine `w-C'bZYXB(C1)-t`, all 13 deviations,
+//!   on the literal HTM chain of [`crate::forward_seed002`] (eqs 2.10–2.21); the commands are
+//!   the NC program's (`ballpod::identify::multitasking::patterns::command`, Tables 2.2/2.3).
+//! - [`CircleMachine`]: an XY machine for the ISO 230-4 circular test with linear-axis faults
+//!   (squareness, scale, reversal/backlash, cyclic error, servo lag per axis).
+
+use ballpod::identify::multitasking::patterns::command;
+use ballpod::identify::multitasking::{Deviations, arcsec_to_urad};
+use ballpod::session::seed002::{Setup, Step};
+use serde::{Deserialize, Serialize};
+
+use crate::forward_seed002 as fwd;
+
+/// Seed 002 machine description: positional deviations in µm, angular ones in arc-seconds
+/// (thesis units), ball mounting offsets in µm. Signs: the printed HTMs (eqs 2.2–2.11).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct Machine002 {
+    /// δx_BT, µm.
+    pub dx_bt_um: f64,
+    /// δz_BT, µm.
+    pub dz_bt_um: f64,
+    /// α_BT, arc-seconds.
+    pub alpha_bt_arcsec: f64,
+    /// α_XB, arc-seconds.
+    pub alpha_xb_arcsec: f64,
+    /// β_XB, arc-seconds.
+    pub beta_xb_arcsec: f64,
+    /// γ_XB, arc-seconds.
+    pub gamma_xb_arcsec: f64,
+    /// γ_XY, arc-seconds (not identified by the ball-bar procedure; keep 0 for the table).
+    pub gamma_xy_arcsec: f64,
+    /// α_YZ, arc-seconds (aliases α_XB; keep 0).
+    pub alpha_yz_arcsec: f64,
+    /// β_YZ, arc-seconds (aliases β_XB; keep 0).
+    pub beta_yz_arcsec: f64,
+    /// δx_CZ, µm.
+    pub dx_cz_um: f64,
+    /// δy_CZ, µm.
+    pub dy_cz_um: f64,
+    /// α_CZ, arc-seconds.
+    pub alpha_cz_arcsec: f64,
+    /// β_CZ, arc-seconds.
+    pub beta_cz_arcsec: f64,
+    /// T-ball mounting offset in the spindle frame, µm (acts like δx_BT, δz_BT).
+    pub t_offset_um: [f64; 3],
+    /// W-ball mounting offset in the C frame, µm.
+    pub w_offset_um: [f64; 3],
+}
+
+impl Default for Machine002 {
+    /// The thesis's identified values (Table 4.5), with δx_BT = δz_BT = 0 (the thesis
+    /// identifies only δx_CZ − δx_BT) and no squareness errors.
+    fn default() -> Self {
+        Self {
+            dx_bt_um: 0.0,
+            dz_bt_um: 0.0,
+            alpha_bt_arcsec: 9.63,
+            alpha_xb_arcsec: -20.89,
+            beta_xb_arcsec: -24.11,
+            gamma_xb_arcsec: 5.63,
+            gamma_xy_arcsec: 0.0,
+            alpha_yz_arcsec: 0.0,
+            beta_yz_arcsec: 0.0,
+            dx_cz_um: 53.13,
+            dy_cz_um: -45.63,
+            alpha_cz_arcsec: 1.10,
+            beta_cz_arcsec: -25.16,
+            t_offset_um: [0.0; 3],
+            w_offset_um: [0.0; 3],
+        }
+    }
+}
+
+impl Machine002 {
+    /// The 13 deviations in the core's units (µm / µrad).
+    pub fn deviations(&self) -> Deviations {
+        let a = arcsec_to_urad;
+        Deviations {
+            dx_bt_um: self.dx_bt_um,
+            dz_bt_um: self.dz_bt_um,
+            alpha_bt_urad: a(self.alpha_bt_arcsec),
+            alpha_xb_urad: a(self.alpha_xb_arcsec),
+            beta_xb_urad: a(self.beta_xb_arcsec),
+            gamma_xb_urad: a(self.gamma_xb_arcsec),
+            gamma_xy_urad: a(self.gamma_xy_arcsec),
+            alpha_yz_urad: a(self.alpha_yz_arcsec),
+            beta_yz_urad: a(self.beta_yz_arcsec),
+            dx_cz_um: self.dx_cz_um,
+            dy_cz_um: self.dy_cz_um,
+            alpha_cz_urad: a(self.alpha_cz_arcsec),
+            beta_cz_urad: a(self.beta_cz_arcsec),
+        }
+    }
+
+    /// At pattern angle `angle_rad` of `step`: the true bar-length deviation (µm, ball
+    /// distance − L_B) and the axis positions the encoders read (X, Y, Z mm; B, C degrees).
+    pub fn pose(&self, setup: &Setup, step: Step, angle_rad: f64) -> (f64, [f64; 5]) {
+        let g = setup.geometry(step);
+        let c = command(step.pattern(), &g, angle_rad);
+        let d = self.deviations().to_array();
+        let t = fwd::t_ball(
+            &d,
+            c.x_mm,
+            c.y_mm,
+            c.z_mm,
+            c.b_rad,
+            g.r_b_mm,
+            self.t_offset_um,
+        );
+        let xw = if step.pattern().is_b() { 0.0 } else { g.r_c_mm };
+        let w = fwd::w_ball(&d, c.c_rad, g.z_c_mm, g.r_b_mm, xw, self.w_offset_um);
+        let dist = ((t[0] - w[0]).powi(2) + (t[1] - w[1]).powi(2) + (t[2] - w[2]).powi(2)).sqrt();
+        let o = &setup.offset;
+        (
+            (dist - g.l_b_mm) * 1e3,
+            [
+                c.x_mm + o.x_mm,
+                c.y_mm + o.y_mm,
+                c.z_mm + o.z_mm,
+                c.b_rad.to_degrees(),
+                c.c_rad.to_degrees(),
+            ],
+        )
+    }
+}
+
+/// An XY machine for the ISO 230-4 circular test: socket at the origin, the tool ball on a
+/// circle of the bar's radius, with linear-axis faults (error = actual − commanded).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct CircleMachine {
+    /// Circle radius = bar length, mm.
+    pub radius_mm: f64,
+    /// Feed, mm/min.
+    pub feed_mm_per_min: f64,
+    /// Out-of-squareness S, µrad: E_x = S·y (S > 0: the Y axis leans towards +X).
+    pub squareness_urad: f64,
+    /// X scale error, µm/m (E_x = k_x·x).
+    pub scale_x_um_per_m: f64,
+    /// Y scale error, µm/m.
+    pub scale_y_um_per_m: f64,
+    /// X reversal step (backlash), µm: E_x = −sign(v_x)·B_x/2.
+    pub backlash_x_um: f64,
+    /// Y reversal step (backlash), µm.
+    pub backlash_y_um: f64,
+    /// Cyclic radial error amplitude, µm (radial error A·cos(order·θ)).
+    pub cyclic_amplitude_um: f64,
+    /// Cyclic error order (cycles per revolution, 3..=16).
+    pub cyclic_order: u32,
+    /// X servo lag, ms (x follows its command τ_x late).
+    pub servo_lag_x_ms: f64,
+    /// Y servo lag, ms.
+    pub servo_lag_y_ms: f64,
+}
+
+impl Default for CircleMachine {
+    /// Typical faults of a worn vertical machining centre.
+    fn default() -> Self {
+        Self {
+            radius_mm: 150.0,
+            feed_mm_per_min: 1000.0,
+            squareness_urad: 20.0,
+            scale_x_um_per_m: 15.0,
+            scale_y_um_per_m: -5.0,
+            backlash_x_um: 4.0,
+            backlash_y_um: 2.0,
+            cyclic_amplitude_um: 1.0,
+            cyclic_order: 8,
+            servo_lag_x_ms: 1.0,
+            servo_lag_y_ms: 0.0,
+        }
+    }
+}
+
+impl CircleMachine {
+    /// Servo mismatch τ_x − τ_y, ms.
+    pub fn servo_mismatch_ms(&self) -> f64 {
+        self.servo_lag_x_ms - self.servo_lag_y_ms
+    }
+
+    /// At commanded angle `theta` (rad) moving with angular velocity sign `dir` (+1 CCW,
+    /// −1 CW): the true bar deviation (µm) and the commanded axis positions (mm).
+    pub fn pose(&self, theta: f64, dir: f64) -> (f64, [f64; 5]) {
+        let r = self.radius_mm;
+        let omega = dir * self.feed_mm_per_min / 60.0 / r; // rad/s
+        // each axis reproduces its command τ late
+        let th_x = theta - omega * self.servo_lag_x_ms * 1e-3;
+        let th_y = theta - omega * self.servo_lag_y_ms * 1e-3;
+        let (xa, ya) = (r * th_x.cos(), r * th_y.sin());
+        let (vx, vy) = (-dir * theta.sin(), dir * theta.cos());
+        let radial = self.cyclic_amplitude_um * (f64::from(self.cyclic_order) * theta).cos();
+        let ex_um = self.squareness_urad * 1e-3 * ya + self.scale_x_um_per_m * 1e-3 * xa
+            - vx.signum() * self.backlash_x_um / 2.0
+            + radial * theta.cos();
+        let ey_um = self.scale_y_um_per_m * 1e-3 * ya - vy.signum() * self.backlash_y_um / 2.0
+            + radial * theta.sin();
+        let (x, y) = (xa + ex_um * 1e-3, ya + ey_um * 1e-3);
+        (
+            ((x * x + y * y).sqrt() - r) * 1e3,
+            [r * theta.cos(), r * theta.sin(), 0.0, 0.0, 0.0],
+        )
+    }
+
+    /// Samples of one direction at `rate_hz`.
+    pub fn samples_per_rev(&self, rate_hz: f64) -> usize {
+        (2.0 * std::f64::consts::PI * self.radius_mm / (self.feed_mm_per_min / 60.0) * rate_hz)
+            .round() as usize
+    }
+}
+
+/// The machine description file: any section may be left out (defaults above).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MachineFile {
+    /// The seed 002 machine.
+    pub seed002: Machine002,
+    /// The circular-test machine.
+    pub circle: CircleMachine,
+    /// The instrument.
+    pub instrument: super::pod::Instrument,
+}
+
+impl MachineFile {
+    /// Reads a TOML (`.toml`) or JSON (any other extension) description.
+    pub fn read(path: &std::path::Path) -> Result<Self, String> {
+        let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
+        if path.extension().is_some_and(|e| e == "toml") {
+            toml::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+        } else {
+            serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
+        }
+    }
+}

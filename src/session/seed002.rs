@@ -1,0 +1,530 @@
+//! The seed 002 ball-bar procedure (spec seed-002 §5.3, Table 4.3): steps BX, BY, CR, CA and CR′
+//! (CR with the second tool length R′_B), each run CW and CCW, the whole procedure repeated.
+//!
+//! Per run: a [`CircleFit`] with the step's sensitive directions ([`Procedure::run_fit`]), fed
+//! with the run's samples; its estimate is [`Procedure::record`]ed. Per step: each repeat's CW
+//! and CCW estimates are averaged ([`circle_fit::combine`], §3.5), then the repeats are
+//! averaged. Once every step has a CW and a CCW run, [`Procedure::identify`] gives
+//! - thesis mode: eqs 4.10–4.18 verbatim ([`identify_thesis`]), and
+//! - model mode: the literal HTM model ([`ModelLsq::without_squareness`], 10 deviations),
+//!
+//! both with standard uncertainties propagated from the eccentricity uncertainties (one
+//! perturbation per eccentricity component, as [`identify_thesis`] does).
+//!
+//! Eccentricity uncertainty of a step: u = max(u_fit, s/√m) per component, u_fit from the runs'
+//! residuals (combined CW/CCW, averaged over the m repeats), s the repeat scatter (m ≥ 2).
+//!
+//! Machine coordinates of the samples: the Table 2.2/2.3 model frame plus the procedure's
+//! [`NcOffset`] (linear axes in mm; B and C in degrees, unused by the fits).
+
+use crate::acquisition::Sample;
+use crate::identify::multitasking::ballbar::{
+    BallBarError, ThesisEccentricities, ThesisGeometry, ThesisResult, identify_thesis,
+};
+use crate::identify::multitasking::model_lsq::{
+    ModelLsq, ModelLsqError, ModelLsqResult, PatternMeasurement,
+};
+use crate::identify::multitasking::patterns::{NcOffset, Pattern, PatternGeometry};
+use crate::metrology::circle_fit::{
+    self, CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, SampleUse,
+};
+use crate::metrology::iso230_4::Direction;
+use crate::metrology::pattern::{self, Plane, Sensitivity};
+
+/// Most repeats of each step and direction a session keeps (the thesis ran 3).
+pub const MAX_REPEATS: usize = 8;
+
+/// Minimum turned arc for a run's estimate, degrees (the B arcs turn 90°).
+pub const MIN_ARC_DEG: f32 = 80.0;
+
+/// Most sampling points the model-mode prediction uses per pattern. The measured runs have
+/// tens of thousands of samples (1 kHz); the model's eccentricity of an equally spaced
+/// sampling of the same arc changes only by the second-order (non-limaçon) part, ≪ 1 nm, so
+/// the prediction uses at most this many points and stays fast on the pod.
+pub const MODEL_SAMPLES_MAX: usize = 721;
+
+/// A step of the procedure (Table 4.3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// Step 1: BX (bar along X, B arc 0 → 90°).
+    Bx,
+    /// Step 2: BY (bar along Y, B arc).
+    By,
+    /// Step 3: CR (C circle, bar radial, tool length R_B).
+    Cr,
+    /// Step 4: CA (C circle, bar axial).
+    Ca,
+    /// Step 5: CR′ (CR with the second tool length R′_B).
+    CrSecond,
+}
+
+impl Step {
+    /// The five steps in procedure order.
+    pub const ALL: [Step; 5] = [Step::Bx, Step::By, Step::Cr, Step::Ca, Step::CrSecond];
+
+    /// Index in [`Step::ALL`].
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Short name: `"BX"`, `"BY"`, `"CR"`, `"CA"`, `"CR2"`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Step::Bx => "BX",
+            Step::By => "BY",
+            Step::Cr => "CR",
+            Step::Ca => "CA",
+            Step::CrSecond => "CR2",
+        }
+    }
+
+    /// The step of a short name (case-sensitive, as [`Step::name`]).
+    pub fn from_name(name: &str) -> Option<Step> {
+        Step::ALL.iter().copied().find(|s| s.name() == name)
+    }
+
+    /// The measuring pattern the step runs.
+    pub const fn pattern(self) -> Pattern {
+        match self {
+            Step::Bx => Pattern::Bx,
+            Step::By => Pattern::By,
+            Step::Cr | Step::CrSecond => Pattern::Cr,
+            Step::Ca => Pattern::Ca,
+        }
+    }
+}
+
+/// Set-up of the procedure (Table 4.3 symbols, mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Setup {
+    /// L_B: ball-bar length (mm).
+    pub l_b_mm: f64,
+    /// R_B: B centre → T-ball, steps 1–4 (mm).
+    pub r_b_mm: f64,
+    /// R′_B: B centre → T-ball, step 5 (mm).
+    pub r_b2_mm: f64,
+    /// R_C: W-ball distance from the C centreline (mm).
+    pub r_c_mm: f64,
+    /// Z_C: W-ball height above the C table (mm).
+    pub z_c_mm: f64,
+    /// Z_T: thesis lever arm of steps 1–4 (mm; thesis mode only).
+    pub z_t_mm: f64,
+    /// Z′_T: thesis lever arm of step 5 (mm; thesis mode only).
+    pub z_t2_mm: f64,
+    /// X_T: thesis lever arm (mm; thesis mode only).
+    pub x_t_mm: f64,
+    /// Offset of the machine coordinates from the model frame (mm).
+    pub offset: NcOffset,
+}
+
+impl Setup {
+    /// Table 4.3 of the thesis (L_B = 100 mm, R_C = 50 mm), model frame = machine frame.
+    pub const fn thesis_table_4_3() -> Self {
+        Self {
+            l_b_mm: 100.0,
+            r_b_mm: 356.3945,
+            r_b2_mm: 406.4608,
+            r_c_mm: 50.0,
+            z_c_mm: 65.5348,
+            z_t_mm: 112.2877,
+            z_t2_mm: 62.2491,
+            x_t_mm: 490.0,
+            offset: NcOffset {
+                x_mm: 0.0,
+                y_mm: 0.0,
+                z_mm: 0.0,
+            },
+        }
+    }
+
+    /// The pattern geometry of a step (R′_B for CR′).
+    pub fn geometry(&self, step: Step) -> PatternGeometry {
+        PatternGeometry {
+            l_b_mm: self.l_b_mm,
+            r_b_mm: if step == Step::CrSecond {
+                self.r_b2_mm
+            } else {
+                self.r_b_mm
+            },
+            r_c_mm: self.r_c_mm,
+            z_c_mm: self.z_c_mm,
+        }
+    }
+
+    /// The metrology geometry of a step in machine coordinates: the commanded T-ball path's
+    /// centre and plane, n outward (which is sign(R_C − L_B)(cos θ, sin θ) for CR, §3.5).
+    pub fn fit_geometry(&self, step: Step) -> pattern::PatternGeometry {
+        let o = &self.offset;
+        let (plane, cu, cv) = match step {
+            Step::Bx => (Plane::XZ, self.l_b_mm + o.x_mm, self.z_c_mm + o.z_mm),
+            Step::By => (Plane::XZ, o.x_mm, self.z_c_mm + o.z_mm),
+            Step::Cr | Step::CrSecond | Step::Ca => (Plane::XY, o.x_mm, o.y_mm),
+        };
+        pattern::PatternGeometry {
+            plane,
+            centre_u_mm: cu as f32,
+            centre_v_mm: cv as f32,
+            sensitivity: Sensitivity::Outward,
+        }
+    }
+
+    fn thesis_geometry(&self) -> ThesisGeometry {
+        ThesisGeometry {
+            r_b_mm: self.r_b_mm,
+            r_c_mm: self.r_c_mm,
+            z_c_mm: self.z_c_mm,
+            z_t_mm: self.z_t_mm,
+            z_t2_mm: self.z_t2_mm,
+            x_t_mm: self.x_t_mm,
+        }
+    }
+}
+
+/// Why a session operation failed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SessionError {
+    /// A run's fit gave no estimate.
+    Fit(CircleFitError),
+    /// The step already holds [`MAX_REPEATS`] runs in this direction (the run is not kept).
+    TooManyRuns {
+        /// The step.
+        step: Step,
+    },
+    /// The procedure lacks a run (the first missing one is named).
+    Incomplete {
+        /// Step without a run.
+        step: Step,
+        /// Direction without a run.
+        direction: Direction,
+    },
+    /// Thesis-mode identification failed.
+    Thesis(BallBarError),
+    /// Model-based identification failed.
+    Model(ModelLsqError),
+}
+
+/// Eccentricity of one step (µm, §3.5 convention: (ex, ez) for B steps, (ex, ey) for C).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct StepEccentricity {
+    /// Mean over the repeats of the CW/CCW means (µm).
+    pub e_um: [f64; 2],
+    /// Standard uncertainty of `e_um` (µm), see the module doc.
+    pub u_e_um: [f64; 2],
+    /// Mean CCW − CW eccentricity (µm).
+    pub e_ccw_minus_cw_um: [f64; 2],
+    /// Repeats (CW/CCW pairs) used.
+    pub repeats: usize,
+    /// Samples of the first CW run (the sampling the model predicts with).
+    pub samples: usize,
+    /// Largest residual RMS of the step's runs (µm).
+    pub residual_rms_um: f64,
+}
+
+/// Model-mode result with the propagated uncertainty.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ModelIdentification {
+    /// The Gauss–Newton solution on the measured eccentricities.
+    pub result: ModelLsqResult,
+    /// Standard uncertainty of each deviation propagated from the eccentricity uncertainties
+    /// (µm / µrad, 0 for the fixed squareness errors).
+    pub std_uncertainty: [f64; 13],
+}
+
+/// Everything the procedure identifies.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Identification {
+    /// Eccentricity of each step, in [`Step::ALL`] order.
+    pub steps: [StepEccentricity; 5],
+    /// Thesis mode (eqs 4.10–4.18; its relations differ from the literal model, spec §9.1).
+    pub thesis: ThesisResult,
+    /// Model mode (literal HTM model).
+    pub model: ModelIdentification,
+}
+
+/// The runs of one procedure.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Procedure {
+    setup: Setup,
+    runs: [[[Option<CircleEstimate>; MAX_REPEATS]; 2]; 5],
+}
+
+const fn dir_index(d: Direction) -> usize {
+    match d {
+        Direction::Cw => 0,
+        Direction::Ccw => 1,
+    }
+}
+
+impl Procedure {
+    /// An empty procedure.
+    pub const fn new(setup: Setup) -> Self {
+        Self {
+            setup,
+            runs: [[[None; MAX_REPEATS]; 2]; 5],
+        }
+    }
+
+    /// The set-up.
+    pub const fn setup(&self) -> &Setup {
+        &self.setup
+    }
+
+    /// A fresh running fit for a run of `step`.
+    pub fn run_fit(&self, step: Step) -> CircleFit {
+        CircleFit::new(CircleFitConfig {
+            geometry: self.setup.fit_geometry(step),
+            min_arc_deg: MIN_ARC_DEG,
+        })
+    }
+
+    /// Feeds a whole run's samples to a fresh fit and records the estimate (host convenience;
+    /// the firmware calls [`CircleFit::update`] per sample and [`Procedure::record`] at the end).
+    /// Returns the estimate and how many samples were skipped.
+    pub fn run<'a, I: IntoIterator<Item = &'a Sample>>(
+        &mut self,
+        step: Step,
+        direction: Direction,
+        samples: I,
+    ) -> Result<(CircleEstimate, u32), SessionError> {
+        let mut fit = self.run_fit(step);
+        let mut skipped = 0u32;
+        for s in samples {
+            if fit.update(s) != SampleUse::Used {
+                skipped = skipped.saturating_add(1);
+            }
+        }
+        let est = fit.estimate().map_err(SessionError::Fit)?;
+        self.record(step, direction, est)?;
+        Ok((est, skipped))
+    }
+
+    /// Keeps a finished run's estimate.
+    pub fn record(
+        &mut self,
+        step: Step,
+        direction: Direction,
+        estimate: CircleEstimate,
+    ) -> Result<(), SessionError> {
+        let slot = self
+            .runs
+            .get_mut(step.index())
+            .and_then(|s| s.get_mut(dir_index(direction)))
+            .and_then(|r| r.iter_mut().find(|e| e.is_none()))
+            .ok_or(SessionError::TooManyRuns { step })?;
+        *slot = Some(estimate);
+        Ok(())
+    }
+
+    fn runs_of(&self, step: Step, d: Direction) -> impl Iterator<Item = &CircleEstimate> {
+        self.runs
+            .get(step.index())
+            .and_then(|s| s.get(dir_index(d)))
+            .into_iter()
+            .flat_map(|r| r.iter().flatten())
+    }
+
+    /// The first step and direction without a run, or `None` when the procedure is complete.
+    pub fn missing(&self) -> Option<(Step, Direction)> {
+        Step::ALL.iter().find_map(|&s| {
+            [Direction::Cw, Direction::Ccw]
+                .into_iter()
+                .find(|&d| self.runs_of(s, d).next().is_none())
+                .map(|d| (s, d))
+        })
+    }
+
+    /// Eccentricity of one step over its CW/CCW pairs (a run without a partner is ignored).
+    pub fn step_eccentricity(&self, step: Step) -> Result<StepEccentricity, SessionError> {
+        let mut m = 0usize;
+        let (mut sum, mut sum2, mut u2, mut diff) = ([0.0f64; 2], [0.0f64; 2], [0.0; 2], [0.0; 2]);
+        let mut samples = 0usize;
+        let mut rms = 0.0f64;
+        for (cw, ccw) in self
+            .runs_of(step, Direction::Cw)
+            .zip(self.runs_of(step, Direction::Ccw))
+        {
+            let c = circle_fit::combine(cw, ccw);
+            if m == 0 {
+                samples = cw.samples as usize;
+            }
+            m += 1;
+            rms = rms
+                .max(f64::from(cw.residual_rms_um))
+                .max(f64::from(ccw.residual_rms_um));
+            for k in 0..2 {
+                let (e, u, d) = (
+                    c.e_um.get(k).copied().map(f64::from).unwrap_or(0.0),
+                    c.u_e_um.get(k).copied().map(f64::from).unwrap_or(0.0),
+                    c.e_ccw_minus_cw_um
+                        .get(k)
+                        .copied()
+                        .map(f64::from)
+                        .unwrap_or(0.0),
+                );
+                if let (Some(s), Some(s2), Some(uu), Some(dd)) = (
+                    sum.get_mut(k),
+                    sum2.get_mut(k),
+                    u2.get_mut(k),
+                    diff.get_mut(k),
+                ) {
+                    *s += e;
+                    *s2 += e * e;
+                    *uu += u * u;
+                    *dd += d;
+                }
+            }
+        }
+        if m == 0 {
+            let direction = if self.runs_of(step, Direction::Cw).next().is_none() {
+                Direction::Cw
+            } else {
+                Direction::Ccw
+            };
+            return Err(SessionError::Incomplete { step, direction });
+        }
+        let mf = m as f64;
+        let mut out = StepEccentricity {
+            repeats: m,
+            samples,
+            residual_rms_um: rms,
+            ..StepEccentricity::default()
+        };
+        for k in 0..2 {
+            let (s, s2, uu, dd) = (
+                sum.get(k).copied().unwrap_or(0.0),
+                sum2.get(k).copied().unwrap_or(0.0),
+                u2.get(k).copied().unwrap_or(0.0),
+                diff.get(k).copied().unwrap_or(0.0),
+            );
+            let mean = s / mf;
+            let u_fit = crate::num::sqrt(uu) / mf;
+            let u_rep = if m >= 2 {
+                let var = ((s2 - s * mean) / (mf - 1.0)).max(0.0);
+                crate::num::sqrt(var / mf)
+            } else {
+                0.0
+            };
+            if let (Some(e), Some(u), Some(d)) = (
+                out.e_um.get_mut(k),
+                out.u_e_um.get_mut(k),
+                out.e_ccw_minus_cw_um.get_mut(k),
+            ) {
+                *e = mean;
+                *u = u_fit.max(u_rep);
+                *d = dd / mf;
+            }
+        }
+        Ok(out)
+    }
+
+    /// Identification from a complete procedure, in both modes.
+    pub fn identify(&self) -> Result<Identification, SessionError> {
+        if let Some((step, direction)) = self.missing() {
+            return Err(SessionError::Incomplete { step, direction });
+        }
+        let mut steps = [StepEccentricity::default(); 5];
+        for (dst, &s) in steps.iter_mut().zip(Step::ALL.iter()) {
+            *dst = self.step_eccentricity(s)?;
+        }
+        let [bx, by, cr, ca, cr2] = steps;
+        let ecc = |f: fn(&StepEccentricity) -> [f64; 2]| ThesisEccentricities {
+            ex_bx_um: f(&bx)[0],
+            ez_bx_um: f(&bx)[1],
+            ex_by_um: f(&by)[0],
+            ez_by_um: f(&by)[1],
+            ex_cr_um: f(&cr)[0],
+            ey_cr_um: f(&cr)[1],
+            ex_ca_um: f(&ca)[0],
+            ey_ca_um: f(&ca)[1],
+            ex_cr2_um: f(&cr2)[0],
+            ey_cr2_um: f(&cr2)[1],
+        };
+        let thesis = identify_thesis(
+            &ecc(|s| s.e_um),
+            &self.setup.thesis_geometry(),
+            Some(&ecc(|s| s.u_e_um)),
+        )
+        .map_err(SessionError::Thesis)?;
+        let model = self.identify_model(&steps)?;
+        Ok(Identification {
+            steps,
+            thesis,
+            model,
+        })
+    }
+
+    fn measurements(&self, steps: &[StepEccentricity; 5]) -> [PatternMeasurement; 5] {
+        let mut m = [PatternMeasurement {
+            pattern: Pattern::Bx,
+            geometry: self.setup.geometry(Step::Bx),
+            samples: 0,
+            e1_um: 0.0,
+            e2_um: 0.0,
+            sigma_um: 1.0,
+        }; 5];
+        for ((dst, s), &step) in m.iter_mut().zip(steps.iter()).zip(Step::ALL.iter()) {
+            let [e1_um, e2_um] = s.e_um;
+            let [u1, u2] = s.u_e_um;
+            // a zero uncertainty (noise-free simulation) would make the weights infinite
+            let sigma_um = u1.max(u2).max(1e-6);
+            *dst = PatternMeasurement {
+                pattern: step.pattern(),
+                geometry: self.setup.geometry(step),
+                samples: s.samples.min(MODEL_SAMPLES_MAX),
+                e1_um,
+                e2_um,
+                sigma_um,
+            };
+        }
+        m
+    }
+
+    fn identify_model(
+        &self,
+        steps: &[StepEccentricity; 5],
+    ) -> Result<ModelIdentification, SessionError> {
+        let lsq = ModelLsq::without_squareness();
+        let m = self.measurements(steps);
+        let result = lsq.identify(&m).map_err(SessionError::Model)?;
+        // Propagation: re-identify with each eccentricity component moved by its uncertainty,
+        // starting from the solution (converges in a step or two).
+        let start = ModelLsq {
+            fixed: result.deviations,
+            ..lsq
+        };
+        let x0 = result.deviations.to_array();
+        let mut var = [0.0f64; 13];
+        for (i, s) in steps.iter().enumerate() {
+            for k in 0..2 {
+                let u = s.u_e_um.get(k).copied().unwrap_or(0.0);
+                if !(u > 0.0) {
+                    continue;
+                }
+                let mut mp = m;
+                if let Some(p) = mp.get_mut(i) {
+                    if k == 0 {
+                        p.e1_um += u;
+                    } else {
+                        p.e2_um += u;
+                    }
+                }
+                let xp = start
+                    .identify(&mp)
+                    .map_err(SessionError::Model)?
+                    .deviations
+                    .to_array();
+                for ((v, a), b) in var.iter_mut().zip(xp.iter()).zip(x0.iter()) {
+                    *v += (a - b) * (a - b);
+                }
+            }
+        }
+        let mut std_uncertainty = [0.0f64; 13];
+        for ((u, v), f) in std_uncertainty.iter_mut().zip(var.iter()).zip(lsq.free) {
+            *u = if f { crate::num::sqrt(*v) } else { 0.0 };
+        }
+        Ok(ModelIdentification {
+            result,
+            std_uncertainty,
+        })
+    }
+}

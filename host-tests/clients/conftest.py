@@ -10,15 +10,20 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
-def sim_binary():
+def host_binary(name):
+    """The release host binary `name` (sim, replay): from $BALLPOD_SIM's folder, else built."""
     env = os.environ.get("BALLPOD_SIM")
     if env:
-        return env
+        return str(pathlib.Path(env).with_name(name))
     host = subprocess.run(["rustc", "-vV"], capture_output=True, text=True, check=True).stdout
     triple = next(l.split(": ")[1] for l in host.splitlines() if l.startswith("host: "))
     subprocess.run(["cargo", "build", "--manifest-path", "host-tests/Cargo.toml", "--target", "host-tuple",
-                    "--release", "--bin", "sim"], cwd=ROOT, check=True)
-    return str(ROOT / "host-tests" / "target" / triple / "release" / "sim")
+                    "--release", "--bin", name], cwd=ROOT, check=True)
+    return str(ROOT / "host-tests" / "target" / triple / "release" / name)
+
+
+def sim_binary():
+    return host_binary("sim")
 
 
 @pytest.fixture()

@@ -1,7 +1,9 @@
 """A serial client (pyserial over socket://) runs a full session on the simulated pod by SCPI
-commands and downloads the log. The log is checked independently here: a least-squares fit of
-ΔL = r0 + e·n over its rows (numpy) must give the pod's reported eccentricity and the
-simulator's truth."""
+commands and downloads the log. `replay` turns the log into the same results; the log is also
+checked independently here: a least-squares fit of ΔL = r0 + e·n over its rows (numpy) must give
+the pod's reported eccentricity and the simulator's truth."""
+import json
+import subprocess
 import time
 
 import numpy as np
@@ -33,7 +35,7 @@ def read_block(port):
     return data.decode()
 
 
-def test_full_session_and_log_download(pod):
+def test_full_session_and_log_download(pod, tmp_path):
     port = open_port(pod)
     try:
         idn = ask(port, "*IDN?").split(",")
@@ -90,5 +92,18 @@ def test_full_session_and_log_download(pod):
         assert sol[1] == pytest.approx(ex[0], abs=0.02)
         assert sol[2] == pytest.approx(ey[0], abs=0.02)
         assert ask(port, "SYST:ERR?").startswith("0,")
+        # replay: the downloaded log + a session description -> the same results
+        (tmp_path / "circle.csv").write_text(csv)
+        session = {"circle": {"radius_mm": 150.0, "socket_mm": [0.0, 0.0], "feed_mm_per_min": 1000.0},
+                   "runs": [{"log": "circle.csv", "method": "ISO230-4", "direction": "CCW"}]}
+        (tmp_path / "session.json").write_text(json.dumps(session))
+        from conftest import host_binary
+        subprocess.run([host_binary("replay"), str(tmp_path / "session.json"), "--out", str(tmp_path / "out")],
+                       check=True, capture_output=True)
+        results = json.loads((tmp_path / "out" / "results.json").read_text())
+        run = results["runs"][0]
+        assert run["samples"] == len(rows) - 1
+        assert run["e_um"][0] == pytest.approx(ex[0], abs=0.01)
+        assert run["e_um"][1] == pytest.approx(ey[0], abs=0.01)
     finally:
         port.close()

@@ -21,8 +21,7 @@ use std::io::{self, ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
-use ballpod::acquisition::lvdt::{ExcitationTable, demodulate};
-use ballpod::acquisition::{Acquisition, MAX_AXES};
+use ballpod::acquisition::MAX_AXES;
 use ballpod::config::Config;
 use ballpod::metrology::circle_fit::{CircleFit, CircleFitConfig};
 use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
@@ -33,9 +32,8 @@ use ballpod::protocol::pod::{
 };
 use ballpod::protocol::scpi::ScpiServer;
 
-use crate::lvdt_model::LvdtModel;
-use crate::rng::Rng;
 use crate::slcan::{LineSplitter, SlcanCommand, SlcanFrame, format_frame, parse_line};
+use crate::vmt::pod::{Instrument, Pod};
 
 /// Options of the serve mode.
 #[derive(Clone, Debug)]
@@ -76,26 +74,20 @@ impl Default for ServeOptions {
     }
 }
 
-/// ADC samples per excitation period of the simulated pod (as the firmware's table).
-const P: usize = 20;
 /// Samples the simulated pod's log holds: a whole circle at 1 kHz (the firmware keeps 1024 and
 /// decimates; the host has the memory to keep every sample, so a replay sees them all).
 const SERVE_LOG_CAPACITY: usize = 1 << 17;
-/// Encoder counts per mm of the virtual machine's scales (the configuration's default).
-const COUNTS_PER_MM: f64 = 10_000.0;
 
 /// The virtual machine and the pod's own code running on it.
 struct VirtualPod {
     opts: ServeOptions,
     pod: PodModel,
-    acq: Acquisition,
+    /// The pod's peripherals and acquisition (the simulator's `vmt::pod`).
+    sensors: Pod,
     fit: CircleFit,
     log: Box<SampleLog<SERVE_LOG_CAPACITY>>,
     node: CanOpenNode,
     scpi: ScpiServer,
-    rng: Rng,
-    lvdt: LvdtModel,
-    table: ExcitationTable<P>,
     /// Virtual time, µs.
     t_us: u64,
     /// Angle of the machine on its circle, rad (0 = +X).
@@ -104,41 +96,45 @@ struct VirtualPod {
     turned: f64,
 }
 
-fn raw_counts(x_mm: f64, y_mm: f64) -> [u32; MAX_AXES] {
-    let c = |mm: f64| ((mm * COUNTS_PER_MM).round() as i64).rem_euclid(1 << 16) as u32;
-    [c(x_mm), c(y_mm), 0, 0, 0]
-}
-
 impl VirtualPod {
     fn new(opts: ServeOptions) -> Self {
         let config = Config::default();
-        let mut acq = Acquisition::new(&config, [16; MAX_AXES]);
-        let r = f64::from(config.bar_length_mm);
-        acq.reference_axes(raw_counts(r, 0.0), [r, 0.0, 0.0, 0.0, 0.0]);
-        // thermistor at 20 °C (β model of the default NTC)
-        let rt = f64::from(config.thermistor_r25_ohm)
-            * (f64::from(config.thermistor_beta_k) * (1.0 / 293.15 - 1.0 / 298.15)).exp();
-        let _ = acq.update_temperature(
-            (4095.0 * rt / (rt + f64::from(config.thermistor_r_fixed_ohm))).round() as u16,
-        );
+        let sensors = Self::sensors(&opts, &config, 0.0);
         Self {
-            rng: Rng::new(opts.seed),
-            opts,
             node: CanOpenNode::new(config.can_node_id, 0x0BA1_1000),
             pod: PodModel {
                 config,
                 ..PodModel::default()
             },
-            acq,
+            sensors,
             fit: CircleFit::new(Self::fit_config()),
             log: Box::new(SampleLog::new()),
             scpi: ScpiServer::new(),
-            lvdt: LvdtModel::default(),
-            table: ExcitationTable::new(),
+            opts,
             t_us: 0,
             theta: 0.0,
             turned: 0.0,
         }
+    }
+
+    /// The virtual instrument for `config` (bar length, sample rate), homed at angle `theta`
+    /// on the circle; ADC noise from the options, the bar at 20 °C.
+    fn sensors(opts: &ServeOptions, config: &Config, theta: f64) -> Pod {
+        let inst = Instrument {
+            bar_noise_um: 0.0,
+            adc_noise_counts: opts.noise_counts,
+            bar_temp_c: 20.0,
+            lvdt_nonlinearity_per_um: 0.0,
+            sample_rate_hz: f64::from(config.sample_rate_hz),
+        };
+        let mut p = Pod::new(f64::from(config.bar_length_mm), &inst, opts.seed);
+        p.reference(&Self::axes(f64::from(config.bar_length_mm), theta));
+        p
+    }
+
+    /// Commanded axis positions (mm) at angle `theta` on a circle of radius `r_mm`.
+    fn axes(r_mm: f64, theta: f64) -> [f64; MAX_AXES] {
+        [r_mm * theta.cos(), r_mm * theta.sin(), 0.0, 0.0, 0.0]
     }
 
     fn fit_config() -> CircleFitConfig {
@@ -177,11 +173,8 @@ impl VirtualPod {
             SessionCommand::Start => self.turned = 0.0,
             SessionCommand::Stop => self.publish_results(),
             SessionCommand::ConfigChanged => {
-                let r = f64::from(self.pod.config.bar_length_mm);
-                self.acq = Acquisition::new(&self.pod.config, [16; MAX_AXES]);
-                let (x, y) = (r * self.theta.cos(), r * self.theta.sin());
-                self.acq
-                    .reference_axes(raw_counts(x, y), [x, y, 0.0, 0.0, 0.0]);
+                // the virtual instrument follows the new bar length and sample rate
+                self.sensors = Self::sensors(&self.opts, &self.pod.config, self.theta);
             }
             SessionCommand::Abort
             | SessionCommand::Reset
@@ -225,17 +218,10 @@ impl VirtualPod {
             self.turned += dtheta;
         }
         // commanded (encoder) position on the nominal circle; actual ball centre offset by the truth
-        let (x, y) = (r * self.theta.cos(), r * self.theta.sin());
+        let axes = Self::axes(r, self.theta);
         let [ex, ey] = self.opts.centre_offset_um;
-        let truth_um = ((x + ex * 1e-3).hypot(y + ey * 1e-3) - r) * 1e3;
-        let periods = (f64::from(cfg.excitation_hz) * dt_s).round().max(1.0) as usize;
-        let (a, b) =
-            self.lvdt
-                .block_adc(truth_um, P, periods, self.opts.noise_counts, &mut self.rng);
-        let reading = demodulate(&a, &b, &self.table);
-        let s = self
-            .acq
-            .sample(self.t_us, reading, raw_counts(x, y), 0, false);
+        let truth_um = ((axes[0] + ex * 1e-3).hypot(axes[1] + ey * 1e-3) - r) * 1e3;
+        let s = self.sensors.sample(truth_um, &axes);
         if running {
             self.fit.update(&s);
             self.log.record(&s);

@@ -5,9 +5,20 @@
 //! (`../shared/spec/embedded-toolchain.md` §4). Run with `cargo bench-m4`; prints a Markdown
 //! table and exits through semihosting.
 //!
+//! Every path runs on the same realistic data (see [`data`]) twice: the core's code, and the
+//! naive baseline of [`naive`] (nalgebra, a dynamic solve per sample). Beside each figure: the
+//! FLOP count of the path, counted by hand from the code (derivation in the comment at each
+//! row), the instructions per FLOP, the naive figure and the ratio, and the issue-6 target.
+//! Then the stack high-water mark of each path (stack painting, [`stack`]) and the bytes of each
+//! estimator's state.
+//!
 //! Counts are instructions, not cycles (no wait states; VDIV/VSQRT take 14 cycles on silicon).
 #![no_std]
 #![no_main]
+
+mod data;
+mod naive;
+mod stack;
 
 use core::hint::black_box;
 
@@ -16,9 +27,14 @@ use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 
 use ballpod::acquisition::lvdt::{ExcitationTable, LvdtReading, demodulate};
-use ballpod::acquisition::{Acquisition, MAX_AXES};
+use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
 use ballpod::config::Config;
 use ballpod::identify::lsq::GivensLsq;
+use ballpod::metrology::circle_fit::{CircleFit, CircleFitConfig};
+use ballpod::metrology::iso230_4::{CircularTest, Direction};
+use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use ballpod::metrology::ssm::SsmGeometry;
+use ballpod::metrology::ssm::streaming::{StreamingConfig, StreamingSsm};
 
 /// SysTick ticks per 10 instructions (25.6 per instruction).
 const TICKS_PER_10_INSN: u32 = 256;
@@ -40,31 +56,122 @@ fn measure<R>(f: impl FnOnce() -> R) -> (R, u32) {
     (r, (ticks * 10 + TICKS_PER_10_INSN / 2) / TICKS_PER_10_INSN)
 }
 
-/// One benchmark row: name, work units per call, instructions per call, FLOPs per unit.
+/// Bins of the ISO 230-4 test (1°), window of the streaming SSM: the sizes the tests use.
+const BINS: usize = 360;
+const W: usize = 256;
+/// Excitation period and block length of the LVDT path (20 samples per period, 5 periods).
+const P: usize = 20;
+const BLOCK: usize = 100;
+
+/// Instructions per unit of a path and what it is compared with.
 struct Row {
     name: &'static str,
     unit: &'static str,
-    per_call_units: u32,
-    insns: u32,
+    insns_per_unit: f32,
+    /// Hand-counted FLOP per unit (0: not counted, e.g. a per-test path).
     flops_per_unit: u32,
+    /// The naive baseline on the same data, instructions per unit.
+    naive_per_unit: Option<f32>,
+    /// Target: at most this many instructions per unit …
+    max_insns: Option<f32>,
+    /// … and at least this ratio naive / core.
+    min_ratio: Option<f32>,
 }
 
-fn print(row: &Row) {
-    let per_unit = row.insns as f32 / row.per_call_units as f32;
-    let ratio = if row.flops_per_unit > 0 { per_unit / row.flops_per_unit as f32 } else { 0.0 };
+fn print(r: &Row) {
+    let ipf = if r.flops_per_unit > 0 {
+        r.insns_per_unit / r.flops_per_unit as f32
+    } else {
+        f32::NAN
+    };
+    let (naive, ratio) = match r.naive_per_unit {
+        Some(n) => (n, n / r.insns_per_unit),
+        None => (f32::NAN, f32::NAN),
+    };
+    let mut verdict = heapless_str();
+    if let Some(max) = r.max_insns {
+        if r.insns_per_unit <= max {
+            push(&mut verdict, format_args!("≤ {max:.0}: met"));
+        } else {
+            push(
+                &mut verdict,
+                format_args!("≤ {max:.0}: MISSED by {:.1}", r.insns_per_unit - max),
+            );
+        }
+    }
+    if let Some(min) = r.min_ratio {
+        if ratio >= min {
+            push(&mut verdict, format_args!("; ≥ {min:.0}× naive: met"));
+        } else {
+            push(
+                &mut verdict,
+                format_args!("; ≥ {min:.0}× naive: MISSED ({ratio:.2}×)"),
+            );
+        }
+    }
+    let mut cols = heapless_str();
+    if r.flops_per_unit > 0 {
+        push(&mut cols, format_args!("{} | {ipf:.2}", r.flops_per_unit));
+    } else {
+        push(&mut cols, format_args!("— | —"));
+    }
+    if r.naive_per_unit.is_some() {
+        push(&mut cols, format_args!(" | {naive:.1} | {ratio:.2}"));
+    } else {
+        push(&mut cols, format_args!(" | — | —"));
+    }
     hprintln!(
-        "| {} | {} | {} | {:.2} | {} | {:.2} |",
-        row.name,
-        row.unit,
-        row.insns,
-        per_unit,
-        row.flops_per_unit,
-        ratio
+        "| {} | {} | {:.2} | {} | {} |",
+        r.name,
+        r.unit,
+        r.insns_per_unit,
+        cols.as_str(),
+        verdict.as_str()
     );
 }
 
-const P: usize = 20;
-const BLOCK: usize = 100;
+/// A small fixed text buffer for the verdict column (no allocator here).
+struct Text {
+    buf: [u8; 96],
+    len: usize,
+}
+impl Text {
+    fn as_str(&self) -> &str {
+        self.buf
+            .get(..self.len)
+            .and_then(|b| core::str::from_utf8(b).ok())
+            .unwrap_or("")
+    }
+}
+impl core::fmt::Write for Text {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        let end = self.len + s.len();
+        let dst = self.buf.get_mut(self.len..end).ok_or(core::fmt::Error)?;
+        dst.copy_from_slice(s.as_bytes());
+        self.len = end;
+        Ok(())
+    }
+}
+fn heapless_str() -> Text {
+    Text {
+        buf: [0; 96],
+        len: 0,
+    }
+}
+fn push(t: &mut Text, a: core::fmt::Arguments) {
+    let _ = core::fmt::write(t, a);
+}
+
+/// Instructions of `f` applied to every sample, summed per call (harness overhead subtracted).
+#[inline(always)]
+fn per_sample(samples: &[Sample], empty: u32, mut f: impl FnMut(&Sample)) -> f32 {
+    let mut total = 0u32;
+    for s in samples {
+        let (_, n) = measure(|| f(black_box(s)));
+        total += n.saturating_sub(empty);
+    }
+    total as f32 / samples.len() as f32
+}
 
 #[entry]
 fn main() -> ! {
@@ -78,67 +185,316 @@ fn main() -> ! {
     cp.SYST.clear_current();
     cp.SYST.enable_counter();
 
-    // Realistic LVDT block: both secondaries at +250 µm of a 2000 µm/ratio LVDT, 12-bit codes
-    // about mid-scale, as the virtual machine tool's model produces them.
-    let table = ExcitationTable::<P>::new();
-    let mut a = [0u16; BLOCK];
-    let mut b = [0u16; BLOCK];
-    for (k, (va, vb)) in a.iter_mut().zip(b.iter_mut()).enumerate() {
-        let s = table.sin.get(k % P).copied().unwrap_or(0.0);
-        *va = (2048.0 + 1500.0 * 1.125 * s + 0.5) as u16;
-        *vb = (2048.0 + 1500.0 * 0.875 * s + 0.5) as u16;
-    }
-
     let (_, empty) = measure(|| ());
-    hprintln!("ballpod per-sample paths on Cortex-M4F (QEMU mps2-an386, -icount shift=10)");
-    hprintln!("harness overhead {} instructions (subtracted)", empty);
-    hprintln!("| path | unit | instructions per call | per unit | FLOP per unit | insn/FLOP |");
-    hprintln!("|---|---|---|---|---|---|");
+    let top = stack::sp();
+    let mut stack_rows: [(&str, usize); 8] = [("", 0); 8];
+    let mut n_stack = 0;
+    let mut record_stack = |name: &'static str, lo: usize| {
+        if let Some(r) = stack_rows.get_mut(n_stack) {
+            *r = (name, stack::used(top, lo));
+            n_stack += 1;
+        }
+    };
 
-    // LVDT demodulation: per ADC sample per channel, 2 FLOP (one multiply-add each for I and Q).
-    let (r, n) = measure(|| demodulate(black_box(&a), black_box(&b), black_box(&table)));
-    let ratio = r.map(|r| r.ratio).unwrap_or(f32::NAN);
+    hprintln!(
+        "ballpod per-sample paths on Cortex-M4F (QEMU mps2-an386 -cpu cortex-m4, -icount shift=10)"
+    );
+    hprintln!(
+        "data: {} samples of a CCW circle, L = {} mm, e = ({}, {}) um, noise {} um rms; harness overhead {} insns (subtracted)",
+        data::N,
+        data::BAR_MM,
+        data::E_UM[0],
+        data::E_UM[1],
+        data::NOISE_UM,
+        empty
+    );
+    hprintln!();
+    hprintln!(
+        "| path | unit | insns/unit | FLOP/unit | insns/FLOP | naive insns/unit | naive/core | target |"
+    );
+    hprintln!("|---|---|---|---|---|---|---|---|");
+
+    // ---- LVDT demodulation ------------------------------------------------------------------
+    let table = ExcitationTable::<P>::new();
+    let (a, b) = data::lvdt_block::<P, BLOCK>(&table);
+    let lo = stack::paint(top);
+    let (r, n) = measure(|| demodulate(black_box(&a[..]), black_box(&b[..]), black_box(&table)));
+    record_stack("LVDT demodulate (block of 100 × 2)", lo);
+    let core_ratio = r.map(|r| r.ratio).unwrap_or(f32::NAN);
+    let (naive_ratio, nn) = measure(|| naive::lvdt_demodulate(black_box(&a), black_box(&b), P));
+    // FLOP per ADC sample per channel: I += v·sin, Q += v·cos → 2 multiplies + 2 adds = 4 (the
+    // textbook synchronous demodulation; the end-of-block magnitude and ratio are amortised
+    // over the block and counted in the instructions but not here).
     print(&Row {
-        name: "LVDT demodulation (block of 100 × 2 channels)",
+        name: "LVDT demodulation (block 100 × 2 ch)",
         unit: "ADC sample·channel",
-        per_call_units: (BLOCK * 2) as u32,
-        insns: n.saturating_sub(empty),
+        insns_per_unit: n.saturating_sub(empty) as f32 / (BLOCK * 2) as f32,
         flops_per_unit: 4,
+        naive_per_unit: Some(nn.saturating_sub(empty) as f32 / (BLOCK * 2) as f32),
+        max_insns: Some(5.0),
+        min_ratio: None,
     });
 
-    // Acquisition pipeline: reading → calibrated, flagged sample.
+    // ---- acquisition ------------------------------------------------------------------------
     let cfg = Config::default();
     let mut acq = Acquisition::new(&cfg, [16; MAX_AXES]);
-    let reading = LvdtReading { ratio: 0.125, signal_level: 3000.0, phase_deg: 0.0, clipped: false };
+    let reading = LvdtReading {
+        ratio: 0.125,
+        signal_level: 3000.0,
+        phase_deg: 0.0,
+        clipped: false,
+    };
     let mut raw = [1000u32; MAX_AXES];
     let mut total = 0;
-    const SAMPLES: u32 = 16;
-    for k in 0..SAMPLES {
+    const ACQ_SAMPLES: u32 = 16;
+    let lo = stack::paint(top);
+    for k in 0..ACQ_SAMPLES {
         raw.iter_mut().for_each(|r| *r = (*r + 37) & 0xFFFF);
-        let (_, n) = measure(|| acq.sample(u64::from(k) * 1000, Ok(black_box(reading)), black_box(raw), 0, false));
+        let (_, n) = measure(|| {
+            acq.sample(
+                u64::from(k) * 1000,
+                Ok(black_box(reading)),
+                black_box(raw),
+                0,
+                false,
+            )
+        });
         total += n.saturating_sub(empty);
     }
+    record_stack("acquisition sample", lo);
+    // FLOP per sample: calibration polynomial (Horner, 3 mul + 3 add = 6), clamp and |r| (3),
+    // expansion L·CTE·(T − 20)·1e-3 (1 sub + 3 mul = 4) + ΔL add (1), 5 axes × (int→float,
+    // negate-or-not, divide, add offset = 2 FLOP) = 10 → 24.
     print(&Row {
         name: "acquisition sample (calibration, 5 axes, thermal, flags)",
         unit: "sample",
-        per_call_units: SAMPLES,
-        insns: total,
-        flops_per_unit: 30,
+        insns_per_unit: total as f32 / ACQ_SAMPLES as f32,
+        flops_per_unit: 24,
+        naive_per_unit: None,
+        max_insns: None,
+        min_ratio: None,
     });
 
-    // Identification accumulator (per-test path, f64 soft-float): one 11-unknown row.
+    // ---- metrology --------------------------------------------------------------------------
+    let samples = data::circle_samples();
+    let geometry = PatternGeometry {
+        plane: Plane::XY,
+        centre_u_mm: data::SOCKET_MM[0],
+        centre_v_mm: data::SOCKET_MM[1],
+        sensitivity: Sensitivity::Outward,
+    };
+    let fit_cfg = CircleFitConfig {
+        geometry,
+        min_arc_deg: 60.0,
+    };
+    let ssm_cfg = StreamingConfig {
+        geometry: SsmGeometry {
+            socket_mm: data::SOCKET_MM.map(f64::from),
+            bar_length_mm: f64::from(data::BAR_MM),
+        },
+        radius_mm: data::SSM_RADIUS_MM,
+        rotary_tol_deg: 0.001,
+    };
+
+    // Circle fit update. FLOP per sample (CircleFit::update_direction + add): direction
+    // du, dv (2) + r² (3) + √ (1) + 1/r (1) + n = d·inv (2) = 9; turned angle: sin, cos of the
+    // turn (2 × 3 = 6), turn = s·(1 + (1 − c)/3) (4), ψ (1) = 11; y = ΔL − ref (1); products
+    // n_u², n_u n_v, n_v², y n_u, y n_v, y² (6); 9 Kahan sums × 4 (36) → 63.
+    let mut fit = CircleFit::new(fit_cfg);
+    let lo = stack::paint(top);
+    let circle = per_sample(&samples, empty, |s| {
+        black_box(fit.update(s));
+    });
+    record_stack("CircleFit::update", lo);
+    let mut nfit = naive::NaiveCircle::new(data::SOCKET_MM[0], data::SOCKET_MM[1]);
+    let circle_naive = per_sample(&samples, empty, |s| {
+        black_box(nfit.update(s));
+    });
+    print(&Row {
+        name: "circle fit update (CircleFit::update)",
+        unit: "sample",
+        insns_per_unit: circle,
+        flops_per_unit: 63,
+        naive_per_unit: Some(circle_naive),
+        max_insns: None,
+        min_ratio: None,
+    });
+
+    // Circle fit estimate (per query, f64 soft-float on the M4F). FLOP: 10 moments read back
+    // (10 adds), Cholesky 3×3 (3 √, 3 div, 7 mul/sub pairs = 20), solve (2 × 9 = 18), inverse
+    // (≈ 30), SSR (6), variances and 3 √ (9), cond (tr A, tr A⁻¹: 4 adds, 1 mul, 1 √ = 6),
+    // residual RMS (2), conversions not counted → ≈ 101.
+    let lo = stack::paint(top);
+    let (est, n) = measure(|| fit.estimate());
+    record_stack("CircleFit::estimate", lo);
+    print(&Row {
+        name: "circle fit estimate (f64 Cholesky, per query)",
+        unit: "query",
+        insns_per_unit: n.saturating_sub(empty) as f32,
+        flops_per_unit: 101,
+        naive_per_unit: None,
+        max_insns: None,
+        min_ratio: None,
+    });
+
+    // ISO 230-4 trackers (CircularTest::update: the circle fit + F extremes + the angle bin).
+    // FLOP per sample: circle fit 63; quadrant angle: one division (1), atan polynomial
+    // (z² 1, Horner 5 × 2 = 10, ·z 1 = 12), π/2 − (1); bin index scale (1); bin sums
+    // ΔL, n_u, n_v (3) → 81.
+    let mut iso = CircularTest::<BINS>::new(fit_cfg, data::BAR_MM);
+    let lo = stack::paint(top);
+    let iso_core = per_sample(&samples, empty, |s| {
+        black_box(iso.update(s, Direction::Ccw));
+    });
+    record_stack("CircularTest::update", lo);
+    let mut niso = naive::NaiveIso::<BINS>::new(data::SOCKET_MM[0], data::SOCKET_MM[1]);
+    let iso_naive = per_sample(&samples, empty, |s| niso.update(s));
+    print(&Row {
+        name: "ISO 230-4 trackers incl. circle fit (CircularTest::update)",
+        unit: "sample",
+        insns_per_unit: iso_core,
+        flops_per_unit: 81,
+        naive_per_unit: Some(iso_naive),
+        max_insns: None,
+        min_ratio: None,
+    });
+
+    // Streaming SSM update. FLOP per sample (float): d = P − P0 (3), r² (5), √ (1),
+    // y = ΔL + (L − r)·1e3 (3), U_SCALE/r (1), u = d·inv (3), y·Y_SCALE (1), d·P_SCALE (3),
+    // rotary test (2), neighbourhood distance of the oldest entry (3 mul + 2 add = 5) → 27;
+    // plus the exact integer normal equations, counted as arithmetic like FLOP: entering sample
+    // 10 products + 10 adds + 3 centroid adds (23), leaving sample the same (23) → 73.
+    let mut ssm = StreamingSsm::<W>::new(ssm_cfg);
+    let lo = stack::paint(top);
+    let ssm_core = per_sample(&samples, empty, |s| {
+        black_box(ssm.update(s));
+    });
+    record_stack("StreamingSsm::update", lo);
+    let mut nssm = naive::NaiveSsm::<W>::new(data::SOCKET_MM, data::BAR_MM, data::SSM_RADIUS_MM);
+    let ssm_naive = per_sample(&samples, empty, |s| nssm.update(s));
+    print(&Row {
+        name: "streaming SSM update (StreamingSsm::update)",
+        unit: "sample",
+        insns_per_unit: ssm_core,
+        flops_per_unit: 73,
+        naive_per_unit: Some(ssm_naive),
+        max_insns: None,
+        min_ratio: None,
+    });
+
+    // Streaming SSM estimate (per query, f64): integer sums → f64 (10 mul), eigen-analysis of
+    // the 3×3 (closed-form characteristic cubic + eigenvector, ≈ 60), Cholesky + solve +
+    // inverse trace (≈ 60), SSR and RMS (5), centroid (6) → ≈ 141.
+    let lo = stack::paint(top);
+    let (ssm_est, n) = measure(|| ssm.estimate());
+    record_stack("StreamingSsm::estimate", lo);
+    print(&Row {
+        name: "streaming SSM estimate (f64, per query)",
+        unit: "query",
+        insns_per_unit: n.saturating_sub(empty) as f32,
+        flops_per_unit: 141,
+        naive_per_unit: None,
+        max_insns: None,
+        min_ratio: None,
+    });
+
+    // The whole per-sample metrology path: ISO 230-4 trackers (with the circle fit) + streaming
+    // SSM, on fresh estimators. FLOP: 81 + 73 = 154. Naive: the naive tracker (its circle fit
+    // solves per sample) + the naive SSM (solves per sample).
+    let mut iso = CircularTest::<BINS>::new(fit_cfg, data::BAR_MM);
+    let mut ssm2 = StreamingSsm::<W>::new(ssm_cfg);
+    let lo = stack::paint(top);
+    let whole = per_sample(&samples, empty, |s| {
+        black_box(iso.update(s, Direction::Ccw));
+        black_box(ssm2.update(s));
+    });
+    record_stack("whole metrology path", lo);
+    let mut niso = naive::NaiveIso::<BINS>::new(data::SOCKET_MM[0], data::SOCKET_MM[1]);
+    let mut nssm = naive::NaiveSsm::<W>::new(data::SOCKET_MM, data::BAR_MM, data::SSM_RADIUS_MM);
+    let whole_naive = per_sample(&samples, empty, |s| {
+        niso.update(s);
+        nssm.update(s);
+    });
+    print(&Row {
+        name: "**whole per-sample metrology path** (ISO trackers + circle fit + streaming SSM)",
+        unit: "sample",
+        insns_per_unit: whole,
+        flops_per_unit: 154,
+        naive_per_unit: Some(whole_naive),
+        max_insns: Some(300.0),
+        min_ratio: Some(3.0),
+    });
+
+    // ---- identification (per test) ----------------------------------------------------------
     let mut lsq = GivensLsq::<11>::new();
     let row = [1.0, 0.5, -0.25, 2.0, 0.1, -1.5, 0.7, 0.3, -0.9, 1.1, 0.05];
+    let lo = stack::paint(top);
     let (_, n) = measure(|| lsq.add_row(black_box(&row), 1.0, 1.0));
+    record_stack("GivensLsq::<11>::add_row", lo);
+    // FLOP: 11 rotations of a 12-wide row, each √ + 2 div + 4 mul/add per remaining element
+    // (≈ 6 × 66 = 396 for the triangle).
     print(&Row {
-        name: "identification Givens row, 11 unknowns (f64 soft-float)",
+        name: "identification Givens row, 11 unknowns (f64 soft-float, per test)",
         unit: "row",
-        per_call_units: 1,
-        insns: n.saturating_sub(empty),
-        flops_per_unit: 6 * 66,
+        insns_per_unit: n.saturating_sub(empty) as f32,
+        flops_per_unit: 396,
+        naive_per_unit: None,
+        max_insns: None,
+        min_ratio: None,
     });
 
-    hprintln!("check: LVDT ratio {} (expect 0.125)", ratio);
+    // ---- stack and state --------------------------------------------------------------------
+    hprintln!();
+    hprintln!("| stack high-water mark (painting) | bytes below the caller |");
+    hprintln!("|---|---|");
+    for (name, bytes) in stack_rows.iter().take(n_stack) {
+        hprintln!("| {} | {} |", name, bytes);
+    }
+    hprintln!();
+    hprintln!("| estimator state | bytes |");
+    hprintln!("|---|---|");
+    hprintln!(
+        "| ExcitationTable<{}> | {} |",
+        P,
+        core::mem::size_of::<ExcitationTable<P>>()
+    );
+    hprintln!("| Acquisition | {} |", core::mem::size_of::<Acquisition>());
+    hprintln!("| CircleFit | {} |", core::mem::size_of::<CircleFit>());
+    hprintln!(
+        "| CircularTest<{}> (CW + CCW) | {} |",
+        BINS,
+        core::mem::size_of::<CircularTest<BINS>>()
+    );
+    hprintln!(
+        "| StreamingSsm<{}> | {} |",
+        W,
+        core::mem::size_of::<StreamingSsm<W>>()
+    );
+    hprintln!(
+        "| GivensLsq<11> | {} |",
+        core::mem::size_of::<GivensLsq<11>>()
+    );
+    hprintln!();
+    let e = est.map(|e| e.e_um).unwrap_or([f32::NAN; 2]);
+    let se = ssm_est.map(|e| e.solution.e_um).ok();
+    hprintln!(
+        "check: LVDT ratio core {} naive {} (expect 0.125)",
+        core_ratio,
+        naive_ratio
+    );
+    hprintln!(
+        "check: circle fit e = ({}, {}) um core, ({}, {}) naive (expect {:?})",
+        e[0],
+        e[1],
+        nfit.x[1],
+        nfit.x[2],
+        data::E_UM
+    );
+    hprintln!(
+        "check: streaming SSM E = {:?} um core (local 5 mm window), {:?} naive (its LU finds the planar-path matrix singular)",
+        se,
+        [nssm.e[0], nssm.e[1], nssm.e[2]]
+    );
     debug::exit(debug::EXIT_SUCCESS);
     #[allow(clippy::empty_loop)]
     loop {}

@@ -66,33 +66,43 @@ struct Sums {
 }
 
 impl Sums {
-    /// Adds (`ADD`) or removes an entry: i32×i32→i64 products (SMULL) and 64-bit adds, exact.
+    /// Adds (`ADD`) or removes an entry: i32×i32→i64 products and 64-bit adds, exact. Written
+    /// on the i32 values directly so that each product compiles to one SMLAL (add) or SMULL +
+    /// SUBS/SBC (remove) on the M4, not a 64×64 multiply.
     #[inline(always)]
     fn apply<const ADD: bool>(&mut self, e: &Entry) {
         #[inline(always)]
-        fn acc<const ADD: bool>(s: &mut i64, v: i64) {
-            if ADD {
-                *s = s.wrapping_add(v);
+        fn mac<const ADD: bool>(s: &mut i64, a: i32, b: i32) {
+            let p = i64::from(a) * i64::from(b);
+            *s = if ADD {
+                s.wrapping_add(p)
             } else {
-                *s = s.wrapping_sub(v);
-            }
+                s.wrapping_sub(p)
+            };
         }
-        let [u0, u1, u2] = e.u.map(i64::from);
-        let y = i64::from(e.y);
+        let [u0, u1, u2] = e.u;
+        let y = e.y;
         let [g0, g1, g2, g3, g4, g5] = &mut self.g;
-        acc::<ADD>(g0, u0 * u0);
-        acc::<ADD>(g1, u0 * u1);
-        acc::<ADD>(g2, u0 * u2);
-        acc::<ADD>(g3, u1 * u1);
-        acc::<ADD>(g4, u1 * u2);
-        acc::<ADD>(g5, u2 * u2);
-        for (b, u) in self.b.iter_mut().zip([u0, u1, u2]) {
-            acc::<ADD>(b, u * y);
-        }
+        mac::<ADD>(g0, u0, u0);
+        mac::<ADD>(g1, u0, u1);
+        mac::<ADD>(g2, u0, u2);
+        mac::<ADD>(g3, u1, u1);
+        mac::<ADD>(g4, u1, u2);
+        mac::<ADD>(g5, u2, u2);
+        let [b0, b1, b2] = &mut self.b;
+        mac::<ADD>(b0, u0, y);
+        mac::<ADD>(b1, u1, y);
+        mac::<ADD>(b2, u2, y);
         let y8 = y >> 4; // Q12: y² < 2^48 per term
-        acc::<ADD>(&mut self.yy, y8 * y8);
-        for (s, d) in self.d.iter_mut().zip(e.d) {
-            acc::<ADD>(s, i64::from(d));
+        mac::<ADD>(&mut self.yy, y8, y8);
+        let [d0, d1, d2] = e.d;
+        let [s0, s1, s2] = &mut self.d;
+        for (s, d) in [(s0, d0), (s1, d1), (s2, d2)] {
+            *s = if ADD {
+                s.wrapping_add(i64::from(d))
+            } else {
+                s.wrapping_sub(i64::from(d))
+            };
         }
     }
 }

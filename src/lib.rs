@@ -12,6 +12,7 @@
 //! - [`metrology`]: samples → SSM position errors, circle fits, ISO 230-4 figures;
 //! - [`identify`]: test results → machine deviations and corrections;
 //! - [`protocol`]: the CANopen and SCPI state machines over a shared pod model;
+//! - [`settings`]: the configuration in two power-safe flash slots;
 //! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC).
 #![no_std]
 #![deny(missing_docs)]
@@ -35,3 +36,4 @@ pub mod identify;
 pub mod metrology;
 pub mod num;
 pub mod protocol;
+pub mod settings;

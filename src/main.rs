@@ -14,7 +14,6 @@ use embassy_stm32::usb::Driver;
 use {defmt_rtt as _, panic_probe as _};
 
 use ballpod::acquisition::Acquisition;
-use ballpod::config::Config;
 
 fn clocks() -> embassy_stm32::Config {
     use embassy_stm32::rcc::*;
@@ -46,8 +45,19 @@ fn clocks() -> embassy_stm32::Config {
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
     let p = embassy_stm32::init(clocks());
-    // Settings persistence comes later: boot with the validated defaults.
-    let cfg = Config::default();
+    // The stored settings (newest valid slot), or the defaults if no slot holds valid ones.
+    let mut flash =
+        board::settings::SettingsPages(embassy_stm32::flash::Flash::new_blocking(p.FLASH));
+    let loaded = ballpod::settings::load(&mut flash);
+    let cfg = loaded.config;
+    match loaded.from {
+        Some((slot, seq)) => defmt::info!("settings: slot {} sequence {}", slot.index(), seq),
+        None => defmt::warn!(
+            "settings: no valid slot ({}, {}), defaults in use",
+            board::settings::slot_reason(&loaded.scan.a),
+            board::settings::slot_reason(&loaded.scan.b)
+        ),
+    }
     defmt::info!(
         "ballpod up: bar {} mm, node {}",
         cfg.bar_length_mm,
@@ -79,7 +89,7 @@ async fn main(spawner: Spawner) {
     spawn(
         &spawner,
         "compute",
-        board::compute::compute_task(cfg, acq, encoders, probe_in),
+        board::compute::compute_task(cfg, acq, encoders, probe_in, flash),
     );
     spawn(
         &spawner,

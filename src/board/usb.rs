@@ -96,6 +96,8 @@ pub async fn usb_task(driver: Driver<'static, USB>) {
                     state::set_download_active(false);
                 }
             }
+            // Disconnected: configuration writes lock again (issue 7).
+            scpi.connection_closed();
             // Disconnected mid-download: drop what is left of it.
             while scpi.download_pending() {
                 let mut sink = [0u8; PACKET];

@@ -118,6 +118,7 @@ pub async fn compute_task(
             probe_event,
         );
         publish(&s);
+        super::safety::progress();
         if s.seq.is_multiple_of(1000) {
             defmt::info!(
                 "sample {} dl={} um flags={=u16:#x}",

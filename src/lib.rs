@@ -14,6 +14,7 @@
 //! - [`session`]: runs of patterns → per-run results → procedure completeness → identification
 //!   (the session logic the firmware and the simulator share);
 //! - [`protocol`]: the CANopen and SCPI state machines over a shared pod model;
+//! - [`settings`]: the configuration in two power-safe flash slots;
 //! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC).
 #![no_std]
 #![deny(missing_docs)]
@@ -38,3 +39,4 @@ pub mod metrology;
 pub mod num;
 pub mod protocol;
 pub mod session;
+pub mod settings;

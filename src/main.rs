@@ -11,10 +11,11 @@ mod board;
 use embassy_executor::Spawner;
 use embassy_stm32::time::Hertz;
 use embassy_stm32::usb::Driver;
-use {defmt_rtt as _, panic_probe as _};
+// defmt over RTT; the panic handler is `board::safety::panic` (reason kept across the reset).
+use defmt_rtt as _;
 
 use ballpod::acquisition::Acquisition;
-use ballpod::config::Config;
+use ballpod::protocol::canopen::emcy;
 
 fn clocks() -> embassy_stm32::Config {
     use embassy_stm32::rcc::*;
@@ -46,8 +47,35 @@ fn clocks() -> embassy_stm32::Config {
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
     let p = embassy_stm32::init(clocks());
-    // Settings persistence comes later: boot with the validated defaults.
-    let cfg = Config::default();
+    // Why the previous run ended (panic text from retained RAM, or a watchdog reset).
+    let report = board::safety::take_reset_report();
+    let (can_report, usb_report) = match report {
+        Some(board::safety::ResetReport::Panic(text)) => {
+            defmt::error!("previous run ended in a {}", text);
+            (Some((emcy::SOFTWARE_ERROR, emcy::REASON_PANIC)), Some(text))
+        }
+        Some(board::safety::ResetReport::Watchdog) => {
+            defmt::error!("previous run ended by a watchdog reset");
+            (
+                Some((emcy::SOFTWARE_ERROR, emcy::REASON_WATCHDOG)),
+                Some("watchdog reset"),
+            )
+        }
+        None => (None, None),
+    };
+    // The stored settings (newest valid slot), or the defaults if no slot holds valid ones.
+    let mut flash =
+        board::settings::SettingsPages(embassy_stm32::flash::Flash::new_blocking(p.FLASH));
+    let loaded = ballpod::settings::load(&mut flash);
+    let cfg = loaded.config;
+    match loaded.from {
+        Some((slot, seq)) => defmt::info!("settings: slot {} sequence {}", slot.index(), seq),
+        None => defmt::warn!(
+            "settings: no valid slot ({}, {}), defaults in use",
+            board::settings::slot_reason(&loaded.scan.a),
+            board::settings::slot_reason(&loaded.scan.b)
+        ),
+    }
     defmt::info!(
         "ballpod up: bar {} mm, node {}",
         cfg.bar_length_mm,
@@ -79,7 +107,7 @@ async fn main(spawner: Spawner) {
     spawn(
         &spawner,
         "compute",
-        board::compute::compute_task(cfg, acq, encoders, probe_in),
+        board::compute::compute_task(cfg, acq, encoders, probe_in, flash),
     );
     spawn(
         &spawner,
@@ -101,9 +129,10 @@ async fn main(spawner: Spawner) {
     spawn(
         &spawner,
         "can",
-        board::can::can_task(can, cfg.can_node_id, device_serial()),
+        board::can::can_task(can, cfg.can_node_id, device_serial(), can_report),
     );
-    spawn(&spawner, "usb", board::usb::usb_task(usb));
+    spawn(&spawner, "usb", board::usb::usb_task(usb, usb_report));
+    spawn(&spawner, "watchdog", board::safety::watchdog_task(p.IWDG));
 }
 
 /// Spawns a task; a task fn only fails when its pool is exhausted, which a single spawn per

@@ -41,6 +41,12 @@ def test_full_session_and_log_download(pod, tmp_path):
         idn = ask(port, "*IDN?").split(",")
         assert len(idn) == 4 and idn[0].upper() == "BALLPOD"
         assert ask(port, "SYST:ERR?").startswith("0,")
+        # configuration is locked until CONF:UNL: -203 "Command protected", unchanged
+        port.write(b"CONF:BAR_LENGTH 150.0\n")
+        assert ask(port, "SYST:ERR?").startswith("-203")
+        assert ask(port, "CONF:LOCK?") == "1"
+        port.write(b"CONF:UNL\n")
+        assert ask(port, "CONF:LOCK?") == "0"
         # configuration: accepted, read back; out of range rejected with -222, unchanged
         port.write(b"CONF:BAR_LENGTH 150.0\n")
         assert float(ask(port, "CONF:BAR_LENGTH?")) == pytest.approx(150.0)

@@ -247,12 +247,15 @@ struct Client {
 }
 
 impl Client {
-    fn accept(&mut self, listener: &TcpListener) {
+    /// Takes a waiting connection; true if one was taken.
+    fn accept(&mut self, listener: &TcpListener) -> bool {
         if let Ok((s, _)) = listener.accept() {
             let _ = s.set_nonblocking(true);
             let _ = s.set_nodelay(true);
             self.stream = Some(s);
+            return true;
         }
+        false
     }
     /// Bytes waiting from the client (empty if none); a closed connection is dropped.
     fn read(&mut self) -> Vec<u8> {
@@ -323,7 +326,10 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
     let mut backlog_us = 0.0f64;
     while start.elapsed().as_secs_f64() < opts.max_seconds {
         can.accept(&can_l);
-        usb.accept(&usb_l);
+        if usb.accept(&usb_l) {
+            // A new technician session: the configuration lock is back on (USB disconnect).
+            vp.scpi.connection_closed();
+        }
         let mut tx: Vec<CanFrame> = Vec::new();
         // CAN side: SLCAN commands and frames
         let bytes = can.read();
@@ -357,7 +363,11 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
             }
         }
         // USB side: SCPI
+        let was_open = usb.stream.is_some();
         let bytes = usb.read();
+        if was_open && usb.stream.is_none() {
+            vp.scpi.connection_closed();
+        }
         if !bytes.is_empty() {
             let mut response = Vec::new();
             let cmds = vp.scpi.feed(&bytes, &mut vp.pod, &vp.log, &mut |b: &[u8]| {

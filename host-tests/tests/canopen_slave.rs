@@ -857,3 +857,31 @@ fn no_emcy_in_stopped() {
         "the register still shows the fault"
     );
 }
+
+/// Issue 7: the reason of the previous reset (panic, watchdog) is reported once after boot-up:
+/// EMCY 0x6000 "software, generic" (CiA 301 table 21) with the reason in byte 3, and the
+/// code in the error history 0x1003.
+#[test]
+fn a_panic_found_at_boot_is_reported_by_one_emcy_after_boot_up() {
+    let mut b = Bench {
+        node: CanOpenNode::new(NODE, 0x1234_5678),
+        pod: PodModel::default(),
+        now_us: 0,
+        sent: Vec::new(),
+    };
+    b.node.report_boot_error(0x6000, 1);
+    b.poll();
+    assert_eq!(
+        b.take(),
+        vec![
+            frame(HEARTBEAT, &[0x00]),
+            // code 0x6000 LE, error register bit 0 (generic), byte 3 = 1 (panic), no faults
+            frame(0x080 + NODE as u16, &[0x00, 0x60, 0x01, 0x01, 0, 0, 0, 0]),
+        ]
+    );
+    assert_eq!(b.upload(0x1003, 0).unwrap(), [1]);
+    assert_eq!(b.read_u32(0x1003, 1) & 0xFFFF, 0x6000);
+    // Reported once: a reset communication boots again without it.
+    b.rx(0x000, &[0x82, NODE]);
+    assert_eq!(b.take(), vec![frame(HEARTBEAT, &[0x00])]);
+}

@@ -27,6 +27,13 @@ impl Bench {
         }
     }
 
+    /// A bench whose port was unlocked for configuration writes (`CONF:UNL`).
+    fn unlocked() -> Self {
+        let mut b = Self::new();
+        assert_eq!(b.send("CONF:UNL"), "");
+        b
+    }
+
     /// Sends raw bytes; returns what came back and the session actions.
     fn raw(&mut self, bytes: &[u8]) -> (Vec<u8>, Vec<SessionCommand>) {
         let mut out = Vec::new();
@@ -135,7 +142,7 @@ fn power_on_sets_pon_and_esr_query_reads_and_clears() {
 #[test]
 fn error_classes_set_their_esr_bits() {
     // IEEE 488.2 §11.5.1.1: bit 5 CME (-1xx), bit 4 EXE (-2xx), bit 3 DDE (-3xx).
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     b.send("*ESR?");
     b.send("NO:SUCH:COMMAND");
     assert_eq!(b.send("*ESR?"), "32");
@@ -194,7 +201,7 @@ fn rst_asks_for_a_reset_and_keeps_the_status_registers() {
 
 #[test]
 fn sav_0_stores_settings() {
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     assert_eq!(b.act("*SAV 0"), vec![SessionCommand::StoreSettings]);
     b.rejected("*SAV 3", -222);
 }
@@ -205,7 +212,7 @@ fn sav_0_stores_settings() {
 
 #[test]
 fn error_queue_is_fifo_and_reports_no_error_when_empty() {
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     assert_eq!(b.error(), (0, "No error".to_string()));
     b.send("BOGUS");
     b.send("CONF:BAR_LENGTH 1000");
@@ -225,7 +232,7 @@ fn error_queue_is_fifo_and_reports_no_error_when_empty() {
 #[test]
 fn error_queue_overflow_replaces_the_newest_entry_with_minus_350() {
     // SCPI-99 Vol 2 §21.8: a full queue keeps its oldest entries; the last becomes -350.
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     for _ in 0..ERROR_QUEUE_DEPTH + 5 {
         b.send("BOGUS");
     }
@@ -266,7 +273,7 @@ fn short_long_and_optional_forms_are_case_insensitive() {
 fn compound_messages_answer_in_order_separated_by_semicolons() {
     // IEEE 488.2 §8.4.1: response message units separated by ';', one NL at the end;
     // SCPI-99 Vol 1 §6.2.4: a header after ';' continues the previous command's path.
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     let idn = b.send("*IDN?");
     assert_eq!(b.send("*IDN?;*OPC?"), format!("{idn};1"));
     assert_eq!(b.send("SYST:ERR?;VERS?"), "0,\"No error\";1999.0");
@@ -431,7 +438,7 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
             (i.min, format!("{}", i.min)),
             (i.max, format!("{:e}", i.max)),
         ] {
-            let mut b = Bench::new();
+            let mut b = Bench::unlocked();
             // (each limit alone: with the others at their defaults no cross-field check trips)
             let actions = b.act(&format!("{h} {text}"));
             assert_eq!(actions, vec![SessionCommand::ConfigChanged], "{h} {text}");
@@ -457,7 +464,7 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
 fn out_of_range_values_give_minus_222_and_change_nothing() {
     for (h, f) in field_headers() {
         let i = info(f);
-        let mut b = Bench::new();
+        let mut b = Bench::unlocked();
         let span = (i.max - i.min).max(1.0);
         b.rejected(&format!("{h} {}", i.max + span), -222);
         b.rejected(&format!("{h} {}", i.min - span), -222);
@@ -468,7 +475,7 @@ fn out_of_range_values_give_minus_222_and_change_nothing() {
 #[test]
 fn min_max_def_keywords_follow_the_table() {
     // SCPI-99 Vol 1 §7.2.1.1: MINimum, MAXimum, DEFault as numeric values.
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     assert_eq!(b.send("CONF:BAR_LENGTH? MIN"), "50");
     assert_eq!(b.send("CONF:BAR_LENGTH? MAXIMUM"), "600");
     b.send("CONF:BAR_LENGTH MAX");
@@ -483,7 +490,7 @@ fn min_max_def_keywords_follow_the_table() {
 #[test]
 fn bad_numbers_get_their_error_numbers_and_change_nothing() {
     // IEEE 488.2 §7.7.2 NRf syntax; SCPI-99 Vol 2 §21.8 numbers.
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     b.rejected("CONF:BAR_LENGTH abc", -104);
     b.rejected("CONF:BAR_LENGTH \"150\"", -104);
     b.rejected("CONF:BAR_LENGTH 1.2.3", -121);
@@ -513,7 +520,7 @@ fn bad_numbers_get_their_error_numbers_and_change_nothing() {
 #[test]
 fn numeric_suffix_selects_the_coefficient_or_input_and_defaults_to_1() {
     // SCPI-99 Vol 1 §6.2.5.2: an omitted suffix means 1.
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     b.send("CONF:LVDT_POLY0 -3.5");
     b.send("CONF:LVDT_POLY 2100");
     b.send("CONF:AXIS_COUNTS3 20000");
@@ -538,7 +545,7 @@ fn numeric_suffix_selects_the_coefficient_or_input_and_defaults_to_1() {
 
 #[test]
 fn cross_field_conflicts_give_minus_221_and_change_nothing() {
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     b.send("CONF:SAMPLES_PER_PERIOD 64"); // 64 × 5 kHz = 320 kS/s
     b.errors();
     // 64 × 20 kHz = 1.28 MS/s > the ADC limit: config::validate rejects it
@@ -549,7 +556,7 @@ fn cross_field_conflicts_give_minus_221_and_change_nothing() {
 
 #[test]
 fn axis_names_are_set_per_input() {
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     assert_eq!(b.send("CONF:AXIS4:NAME?"), "B");
     assert_eq!(
         b.act("CONF:AXIS4:NAME A"),
@@ -565,7 +572,7 @@ fn axis_names_are_set_per_input() {
 
 #[test]
 fn several_config_writes_in_one_chunk_report_one_config_changed() {
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     let actions = b.act("CONF:BAR_LENGTH 200;BAR_CTE 12;:CONF:SAMPLE_RATE 500");
     assert_eq!(actions, vec![SessionCommand::ConfigChanged]);
     assert_eq!(b.pod.config.sample_rate_hz, 500.0);
@@ -612,7 +619,7 @@ fn one_line_may_arm_and_start() {
 
 #[test]
 fn session_commands_in_the_wrong_state_give_minus_221_and_change_nothing() {
-    let mut b = Bench::new();
+    let mut b = Bench::unlocked();
     b.rejected("SESS:STAR", -221);
     b.rejected("SESS:STOP", -221);
     b.rejected("SESS:ABOR", -221);
@@ -918,4 +925,72 @@ fn pulled_download_ends_its_line_and_keeps_the_stream_order() {
     expected.extend_from_slice(b"1\n");
     assert_eq!(got, expected);
     assert_eq!(b.errors(), vec![-440]);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Configuration lock (issue 7: configuration over USB only after an explicit unlock)
+// ---------------------------------------------------------------------------------------------
+
+#[test]
+fn configuration_writes_need_the_unlock_and_get_minus_203_before() {
+    let mut b = Bench::new();
+    assert_eq!(b.send("CONF:LOCK?"), "1");
+    // SCPI-99 Vol 2 §21.8.9: -203 "Command protected".
+    b.rejected("CONF:BAR_LENGTH 200", -203);
+    b.rejected("CONF:AXIS2:NAME Z", -203);
+    b.rejected("*SAV 0", -203);
+    b.send("CONF:BAR_LENGTH 200");
+    assert_eq!(b.error(), (-203, "Command protected;CONF:UNL first".into()));
+    // Queries and session commands are not locked.
+    assert_eq!(
+        b.send("CONF:BAR_LENGTH?").parse::<f32>().unwrap(),
+        Config::default().bar_length_mm
+    );
+    assert_eq!(b.act("SESS:PATT BX;:SESS:ARM").len(), 1);
+    b.send("SESS:ABOR");
+    b.send("*RST");
+    // Unlocked: the same writes go through.
+    assert_eq!(b.send("CONFigure:UNLock"), "");
+    assert_eq!(b.send("CONF:LOCK?"), "0");
+    assert_eq!(
+        b.act("CONF:BAR_LENGTH 200"),
+        vec![SessionCommand::ConfigChanged]
+    );
+    assert_eq!(b.pod.config.bar_length_mm, 200.0);
+    assert_eq!(b.act("*SAV 0"), vec![SessionCommand::StoreSettings]);
+    assert_eq!(b.errors(), Vec::<i32>::new());
+}
+
+#[test]
+fn the_port_locks_again_on_lock_rst_and_disconnect() {
+    let mut b = Bench::unlocked();
+    b.send("CONF:LOCK");
+    assert_eq!(b.send("CONF:LOCK?"), "1");
+    b.rejected("CONF:BAR_LENGTH 150", -203);
+
+    let mut b = Bench::unlocked();
+    b.send("*RST");
+    assert_eq!(b.send("CONF:LOCK?"), "1");
+    b.rejected("CONF:BAR_LENGTH 150", -203);
+
+    let mut b = Bench::unlocked();
+    // A disconnect mid-line also drops the partial line.
+    b.raw(b"CONF:BAR_LENGTH 1");
+    b.scpi.connection_closed();
+    assert!(!b.scpi.config_unlocked());
+    b.raw(b"50\n");
+    assert_eq!(b.errors(), vec![-102]);
+    assert_eq!(b.pod.config, Config::default());
+    b.rejected("CONF:BAR_LENGTH 150", -203);
+}
+
+#[test]
+fn a_device_error_is_reported_by_syst_err_with_its_detail() {
+    let mut b = Bench::new();
+    b.scpi.push_device_error("panic at src/x.rs:12");
+    assert_eq!(
+        b.error(),
+        (-300, "Device-specific error;panic at src/x.rs:12".into())
+    );
+    assert_eq!(b.error(), (0, "No error".into()));
 }

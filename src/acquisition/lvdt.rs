@@ -281,7 +281,12 @@ impl LvdtCalibration {
             return (0.0, LvdtStatus::Open);
         }
         let over = reading.clipped || libm::fabsf(reading.ratio) > self.max_abs_ratio;
-        let r = reading.ratio.clamp(-self.max_abs_ratio, self.max_abs_ratio);
+        // Not `f32::clamp`: it asserts min <= max with a formatted panic message, which put
+        // the panic path and core's float formatting into the firmware (.ci/panic-paths).
+        let r = reading
+            .ratio
+            .max(-self.max_abs_ratio)
+            .min(self.max_abs_ratio);
         // Horner, in f32: coefficients in µm, r dimensionless.
         let x = self
             .poly_um

@@ -51,8 +51,17 @@ fn to_core(frame: &Frame) -> Option<CanFrame> {
 
 /// Runs the CANopen slave on FDCAN1.
 #[embassy_executor::task]
-pub async fn can_task(mut can: Can<'static>, node_id: u8, serial: u32) {
+pub async fn can_task(
+    mut can: Can<'static>,
+    node_id: u8,
+    serial: u32,
+    boot_error: Option<(u16, u8)>,
+) {
     let mut node = CanOpenNode::new(node_id, serial);
+    if let Some((code, reason)) = boot_error {
+        // The previous run's panic / watchdog reset: one EMCY after boot-up.
+        node.report_boot_error(code, reason);
+    }
     let mut ticker = Ticker::every(Duration::from_millis(1));
     let mut was_bus_off = false;
     let mut last_counter = None;

@@ -15,7 +15,10 @@ use ballpod::config::Config;
 use ballpod::protocol::log::LogMeta;
 use ballpod::protocol::pod::{PodModel, SessionCommand, SessionState, StatusWord};
 
-use super::{encoders, lvdt, probe, state, thermistor};
+use ballpod::settings;
+
+use super::settings::SettingsPages;
+use super::{Overruns, encoders, lvdt, probe, state, thermistor};
 
 /// The latest accepted touch point.
 pub static LAST_TOUCH: Mutex<CriticalSectionRawMutex, Cell<Option<ProbeLatch>>> =
@@ -23,7 +26,7 @@ pub static LAST_TOUCH: Mutex<CriticalSectionRawMutex, Cell<Option<ProbeLatch>>> 
 
 /// Carries out the application side of a session command (the protocol task already applied
 /// the state change to the pod model).
-fn execute(cmd: SessionCommand, acq: &mut Acquisition) {
+fn execute(cmd: SessionCommand, acq: &mut Acquisition, flash: &mut SettingsPages) {
     match cmd {
         SessionCommand::Arm { .. } => {
             if let Some(meta) = state::with_pod(|pod| LogMeta::from_pod(pod)) {
@@ -36,9 +39,15 @@ fn execute(cmd: SessionCommand, acq: &mut Acquisition) {
                 *acq = Acquisition::new(&cfg, encoders::COUNTER_BITS);
             }
         }
-        SessionCommand::StoreSettings | SessionCommand::RestoreDefaults => {
-            // Settings persistence (two flash slots) comes with the reliability work.
-            defmt::warn!("settings persistence not available yet");
+        SessionCommand::StoreSettings => {
+            if let Some(cfg) = state::with_pod(|pod| pod.config) {
+                save(flash, &cfg);
+            }
+        }
+        SessionCommand::RestoreDefaults => {
+            // CiA 301 0x1011: the defaults take effect at the next reset; the running
+            // configuration stays until then.
+            save(flash, &Config::default());
         }
         SessionCommand::Start
         | SessionCommand::Stop
@@ -46,6 +55,25 @@ fn execute(cmd: SessionCommand, acq: &mut Acquisition) {
         | SessionCommand::Reset => {}
     }
 }
+
+/// Stores a configuration in the next settings slot (logged; on failure the previous
+/// settings are still the ones loaded at boot).
+fn save(flash: &mut SettingsPages, cfg: &Config) {
+    match settings::store(flash, cfg) {
+        Ok(s) => defmt::info!(
+            "settings stored in slot {}, sequence {}",
+            s.slot.index(),
+            s.sequence
+        ),
+        Err(e) => {
+            SETTINGS_STORE_FAILURES.count();
+            defmt::error!("settings not stored: {}", super::settings::store_reason(&e));
+        }
+    }
+}
+
+/// Saves that failed (driver error or read-back mismatch).
+pub static SETTINGS_STORE_FAILURES: Overruns = Overruns::new();
 
 /// Turns each LVDT block, the encoder counters, the probe edges and the temperature into a
 /// calibrated sample with the core, and publishes it.
@@ -55,6 +83,7 @@ pub async fn compute_task(
     mut acq: Acquisition,
     _encoders: encoders::Encoders,
     probe_in: ExtiInput<'static, Blocking>,
+    mut flash: SettingsPages,
 ) {
     state::POD.lock(|p| {
         *p.borrow_mut() = Some(PodModel {
@@ -65,7 +94,7 @@ pub async fn compute_task(
     loop {
         let block = lvdt::BLOCKS.receive().await;
         while let Ok(cmd) = state::COMMANDS.try_receive() {
-            execute(cmd, &mut acq);
+            execute(cmd, &mut acq, &mut flash);
         }
         while let Ok(code) = thermistor::CODES.try_receive() {
             if let Err(e) = acq.update_temperature(code) {
@@ -89,6 +118,7 @@ pub async fn compute_task(
             probe_event,
         );
         publish(&s);
+        super::safety::progress();
         if s.seq.is_multiple_of(1000) {
             defmt::info!(
                 "sample {} dl={} um flags={=u16:#x}",

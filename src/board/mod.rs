@@ -24,6 +24,8 @@ pub mod compute;
 pub mod encoders;
 pub mod lvdt;
 pub mod probe;
+pub mod safety;
+pub mod settings;
 pub mod state;
 pub mod thermistor;
 pub mod usb;

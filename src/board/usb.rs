@@ -28,7 +28,7 @@ pub static RESPONSE_OVERRUNS: Overruns = Overruns::new();
 
 /// Runs the USB device and the SCPI command line.
 #[embassy_executor::task]
-pub async fn usb_task(driver: Driver<'static, USB>) {
+pub async fn usb_task(driver: Driver<'static, USB>, boot_report: Option<&'static str>) {
     let mut config = embassy_usb::Config::new(VID, PID);
     config.manufacturer = Some("ballpod");
     config.product = Some("ballpod measurement pod");
@@ -53,6 +53,10 @@ pub async fn usb_task(driver: Driver<'static, USB>) {
     let lines = async {
         let mut scpi = ScpiServer::new();
         scpi.set_pull_download(true);
+        if let Some(text) = boot_report {
+            // The previous run's panic / watchdog reset, for SYSTem:ERRor?.
+            scpi.push_device_error(text);
+        }
         loop {
             class.wait_connection().await;
             let mut rx = [0u8; PACKET];
@@ -96,6 +100,8 @@ pub async fn usb_task(driver: Driver<'static, USB>) {
                     state::set_download_active(false);
                 }
             }
+            // Disconnected: configuration writes lock again (issue 7).
+            scpi.connection_closed();
             // Disconnected mid-download: drop what is left of it.
             while scpi.download_pending() {
                 let mut sink = [0u8; PACKET];

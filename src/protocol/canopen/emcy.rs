@@ -5,6 +5,14 @@ use crate::acquisition::SampleFlags;
 
 /// Error code 0x0000: error reset or no error (CiA 301 table 21).
 pub const ERROR_RESET: u16 = 0x0000;
+/// Error code 0x6000: software, generic (CiA 301 table 21) — the previous run ended in a panic
+/// or a watchdog reset ([`super::CanOpenNode::report_boot_error`]; byte 3 says which:
+/// [`REASON_PANIC`] or [`REASON_WATCHDOG`]).
+pub const SOFTWARE_ERROR: u16 = 0x6000;
+/// Manufacturer byte 3 of a 0x6000 EMCY: the firmware panicked.
+pub const REASON_PANIC: u8 = 1;
+/// Manufacturer byte 3 of a 0x6000 EMCY: the independent watchdog reset the MCU.
+pub const REASON_WATCHDOG: u8 = 2;
 /// Error register bit 0: generic error (set whenever any error is present, CiA 301 §7.5.2.2).
 pub const ER_GENERIC: u8 = 1 << 0;
 /// Error register bit 7: manufacturer-specific error.

@@ -175,6 +175,7 @@ pub struct CanOpenNode {
     faults_raised: u16,
     faults_reported: u16,
     emcy_next_us: u64,
+    boot_error: Option<(u16, u8)>,
     stats: Stats,
 }
 
@@ -199,6 +200,7 @@ impl CanOpenNode {
             faults_raised: 0,
             faults_reported: 0,
             emcy_next_us: 0,
+            boot_error: None,
             stats: Stats::default(),
         }
     }
@@ -222,6 +224,14 @@ impl CanOpenNode {
     /// Counters.
     pub fn stats(&self) -> &Stats {
         &self.stats
+    }
+
+    /// Reports why the previous run ended (a panic or a watchdog reset, found by the
+    /// application at boot): one EMCY with `code` (e.g. [`emcy::SOFTWARE_ERROR`]) and `reason`
+    /// in manufacturer byte 3 is sent right after the boot-up message, and the code enters the
+    /// error history 0x1003.
+    pub fn report_boot_error(&mut self, code: u16, reason: u8) {
+        self.boot_error = Some((code, reason));
     }
 
     fn send(&self, out: &mut impl FnMut(CanFrame), base: u16, payload: &[u8]) {
@@ -252,6 +262,15 @@ impl CanOpenNode {
         self.next_heartbeat_us = None;
         self.schedule_heartbeat(now_us);
         self.update_error_register();
+        if let Some((code, reason)) = self.boot_error.take() {
+            self.comm.push_error(u32::from(code));
+            let mut payload = emcy::payload(code, emcy::ER_GENERIC, 0, self.faults_reported);
+            if let Some(b) = payload.get_mut(3) {
+                *b = reason;
+            }
+            self.send(out, COB_EMCY, &payload);
+            self.stats.emcys_sent = self.stats.emcys_sent.saturating_add(1);
+        }
     }
 
     fn schedule_heartbeat(&mut self, now_us: u64) {

@@ -50,7 +50,8 @@
 //!
 //! | command | what |
 //! |---|---|
-//! | `*IDN?` `*RST` `*CLS` `*OPC` `*OPC?` `*WAI` `*ESR?` `*ESE[?]` `*SRE[?]` `*STB?` `*SAV 0` | IEEE 488.2 §10 common commands (`*SAV 0` stores the configuration) |
+//! | `*IDN?` `*RST` `*CLS` `*OPC` `*OPC?` `*WAI` `*ESR?` `*ESE[?]` `*SRE[?]` `*STB?` `*SAV 0` | IEEE 488.2 §10 common commands (`*SAV 0` stores the configuration; needs the unlock) |
+//! | `CONFigure:UNLock`, `CONFigure:LOCK`, `CONFigure:LOCK?` | allow / forbid configuration writes and `*SAV` on this port; `LOCK?` is 1 while locked |
 //! | `SYSTem:ERRor[:NEXT]?` | oldest queued error: `<code>,"<message>[;<detail>]"` |
 //! | `SYSTem:VERSion?` | `1999.0` (SCPI version) |
 //! | `CONFigure:<field>[<k>] <value\|MIN\|MAX\|DEF>`, `CONFigure:<field>[<k>]? [MIN\|MAX\|DEF]` | a [`FIELDS`] entry by its name (e.g. `CONF:BAR_LENGTH 150`); `LVDT_POLY<k>` k = 0…3 (coefficient c_k), `AXIS_COUNTS<n>` / `AXIS_MAX_SPEED<n>` n = 1…5 (input); suffix default 1 |
@@ -66,6 +67,11 @@
 //! | `FETCh:RESult:CATalog?` | the result names, quoted, in index order |
 //! | `DATA:LOG:COUNt?` | samples in the log |
 //! | `DATA:LOG?` | the log as CSV ([`crate::protocol::log`]) in a definite-length block `#<d><len><csv>` (IEEE 488.2 §8.7.9); metadata from [`SampleLog::begin_run`] or else the pod's current settings |
+//!
+//! Configuration writes (`CONFigure:<field>`, `CONFigure:AXIS<n>:NAME`) and `*SAV` are
+//! protected: they need `CONFigure:UNLock` first on this port, else -203 "Command protected" and
+//! nothing changes. The port locks again at power-on, on `*RST`, on `CONFigure:LOCK` and when the
+//! transport reports a disconnect ([`ScpiServer::connection_closed`]). Queries are never locked.
 //!
 //! Session commands in the wrong state (`ARM` while armed or running, `STARt` unless armed,
 //! `STOP` unless running, `ABORt` unless armed or running; pattern, direction and configuration
@@ -128,6 +134,7 @@ pub struct ScpiServer {
     counters: ScpiCounters,
     pull_mode: bool,
     download: Option<Download>,
+    config_unlocked: bool,
 }
 
 impl Default for ScpiServer {
@@ -145,6 +152,7 @@ struct Exec<'a, F: FnMut(&[u8]), const N: usize> {
     out: &'a mut F,
     pull_mode: bool,
     download: &'a mut Option<Download>,
+    config_unlocked: &'a mut bool,
     actions: Actions,
     /// The session state the accepted actions lead to.
     session: SessionState,
@@ -165,7 +173,28 @@ impl ScpiServer {
             },
             pull_mode: false,
             download: None,
+            config_unlocked: false,
         }
+    }
+
+    /// True after `CONFigure:UNLock` until the port locks again (module doc).
+    pub const fn config_unlocked(&self) -> bool {
+        self.config_unlocked
+    }
+
+    /// The transport lost its connection (USB disconnect, TCP close): configuration writes lock
+    /// again and a partial input line is dropped. The status model and error queue stay.
+    pub fn connection_closed(&mut self) {
+        self.config_unlocked = false;
+        self.line.clear();
+        self.overrun = false;
+    }
+
+    /// Queues a device-specific error (-300) with a detail, e.g. the reason of a reset the
+    /// application found at boot; `SYSTem:ERRor?` reports it like any other error.
+    pub fn push_device_error(&mut self, detail: &'static str) {
+        self.status
+            .push(ScpiError::with(code::DEVICE_SPECIFIC_ERROR, detail));
     }
 
     /// Pull mode for the log download, for transports that cannot take a whole file inside
@@ -230,6 +259,7 @@ impl ScpiServer {
             out,
             pull_mode: self.pull_mode,
             download: &mut self.download,
+            config_unlocked: &mut self.config_unlocked,
             actions: Actions::new(),
             responded: false,
         };
@@ -319,6 +349,8 @@ enum Command {
     Sav,
     SystErr,
     SystVersion,
+    ConfUnlock,
+    ConfLock,
     ConfField(Field, &'static FieldInfo),
     ConfAxisName(usize),
     SessPattern,
@@ -343,10 +375,11 @@ const fn forms(c: Command) -> (bool, bool) {
     match c {
         Idn | Esr | Stb | SystErr | SystVersion | SessState | StatPod | MeasDl | MeasAll
         | FetchResult | FetchCatalog | DataLogCount | DataLog => (true, false),
-        Rst | Cls | Wai | Sav | SessArm | SessStart | SessStop | SessAbort => (false, true),
-        Opc | Ese | Sre | ConfField(..) | ConfAxisName(_) | SessPattern | SessDirection => {
-            (true, true)
+        Rst | Cls | Wai | Sav | ConfUnlock | SessArm | SessStart | SessStop | SessAbort => {
+            (false, true)
         }
+        Opc | Ese | Sre | ConfLock | ConfField(..) | ConfAxisName(_) | SessPattern
+        | SessDirection => (true, true),
     }
 }
 
@@ -418,6 +451,8 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
             }
             Command::ConfAxisName((k - 1) as usize)
         }
+        [c, u] if c.is("CONFigure") && u.is("UNLock") => Command::ConfUnlock,
+        [c, l] if c.is("CONFigure") && l.is("LOCK") => Command::ConfLock,
         [c, f] if c.is("CONFigure") => config_field(f)?,
         [s, x] if s.is("SESSion") => {
             const SESSION: [(&str, Command); 7] = [
@@ -686,6 +721,15 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
         })
     }
 
+    /// Rejects configuration writes unless this port was unlocked.
+    fn unlocked_for(&self, what: &'static str) -> Result<(), ScpiError> {
+        if *self.config_unlocked {
+            Ok(())
+        } else {
+            Err(ScpiError::with(code::COMMAND_PROTECTED, what))
+        }
+    }
+
     /// Rejects settings changes while a run is armed or running.
     fn idle_for_settings(&self, what: &'static str) -> Result<(), ScpiError> {
         if matches!(self.session, SessionState::Armed | SessionState::Running) {
@@ -719,6 +763,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 none()?;
                 self.act(SessionCommand::Reset)?;
                 self.session = SessionState::Idle;
+                *self.config_unlocked = false;
             }
             Command::Cls => {
                 none()?;
@@ -747,9 +792,19 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 if v != 0.0 {
                     return Err(ScpiError::with(code::DATA_OUT_OF_RANGE, "one register: 0"));
                 }
+                self.unlocked_for("*SAV: CONF:UNL first")?;
                 self.act(SessionCommand::StoreSettings)?;
             }
+            Command::ConfUnlock => {
+                none()?;
+                *self.config_unlocked = true;
+            }
+            Command::ConfLock => {
+                none()?;
+                *self.config_unlocked = false;
+            }
             Command::ConfField(field, info) => {
+                self.unlocked_for("CONF:UNL first")?;
                 self.idle_for_settings(info.name)?;
                 let default = field_value(&Config::default(), field).unwrap_or(info.min);
                 let v = numeric_or_keyword(arg(0)?, info.min, info.max, default)?;
@@ -765,6 +820,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 self.act(SessionCommand::ConfigChanged)?;
             }
             Command::ConfAxisName(i) => {
+                self.unlocked_for("CONF:UNL first")?;
                 self.idle_for_settings("axis name")?;
                 let k = character(arg(0)?)?;
                 let name = AXIS_NAMES
@@ -902,6 +958,10 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             Command::SystVersion => {
                 none()?;
                 push_bytes(&mut r, b"1999.0");
+            }
+            Command::ConfLock => {
+                none()?;
+                push_bytes(&mut r, if *self.config_unlocked { b"0" } else { b"1" });
             }
             Command::ConfField(field, info) => {
                 let v = match p {

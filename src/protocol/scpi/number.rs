@@ -88,7 +88,9 @@ pub fn push_fixed<const C: usize>(
     }
     // Round half away from zero: the cast truncates toward zero, so add 0.5 to the magnitude.
     let n = (scaled.abs() + 0.5) as u64;
-    let step = 10u64.pow(decimals);
+    // `max(1)`: decimals <= 9 already, but this lets the compiler drop the division-by-zero
+    // panic path (.ci/panic-paths).
+    let step = 10u64.pow(decimals).max(1);
     let int_part = n / step;
     let mut frac = n % step;
     if n != 0 && v < 0.0 && !push_bytes(buf, b"-") {

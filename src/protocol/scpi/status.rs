@@ -73,6 +73,8 @@ pub mod code {
     pub const BLOCK_DATA_NOT_ALLOWED: i16 = -168;
     /// -200: the command could not be executed (see detail).
     pub const EXECUTION_ERROR: i16 = -200;
+    /// -203: a protected command (configuration write before `CONFigure:UNLock`).
+    pub const COMMAND_PROTECTED: i16 = -203;
     /// -221: valid on its own, but conflicts with the device state or other settings.
     pub const SETTINGS_CONFLICT: i16 = -221;
     /// -222: a value outside the field's range.
@@ -81,6 +83,8 @@ pub mod code {
     pub const ILLEGAL_PARAMETER_VALUE: i16 = -224;
     /// -230: the requested data is not (yet) valid.
     pub const DATA_CORRUPT_OR_STALE: i16 = -230;
+    /// -300: a device-specific error (e.g. the reason of the last reset, reported at boot).
+    pub const DEVICE_SPECIFIC_ERROR: i16 = -300;
     /// -350: the error queue overflowed (errors were lost).
     pub const QUEUE_OVERFLOW: i16 = -350;
     /// -440: a query after an indefinite (here: pulled) response in the same message.
@@ -109,10 +113,12 @@ pub const fn message(c: i16) -> &'static str {
         code::STRING_DATA_NOT_ALLOWED => "String data not allowed",
         code::BLOCK_DATA_NOT_ALLOWED => "Block data not allowed",
         code::EXECUTION_ERROR => "Execution error",
+        code::COMMAND_PROTECTED => "Command protected",
         code::SETTINGS_CONFLICT => "Settings conflict",
         code::DATA_OUT_OF_RANGE => "Data out of range",
         code::ILLEGAL_PARAMETER_VALUE => "Illegal parameter value",
         code::DATA_CORRUPT_OR_STALE => "Data corrupt or stale",
+        code::DEVICE_SPECIFIC_ERROR => "Device-specific error",
         code::QUEUE_OVERFLOW => "Queue overflow",
         code::INPUT_BUFFER_OVERRUN => "Input buffer overrun",
         code::QUERY_AFTER_BLOCK => "Query UNTERMINATED after indefinite response",

@@ -1,0 +1,161 @@
+//! Firmware safety: the independent watchdog fed only by the compute task's progress, the
+//! panic handler that leaves its reason in retained RAM, and the report of both at the next
+//! boot (defmt log, CANopen EMCY 0x6000, SCPI `SYSTem:ERRor?` -300).
+//!
+//! - **Watchdog**: IWDG (LSI clock, runs even if the main clocks fail) with [`WATCHDOG_TIMEOUT_US`].
+//!   The compute task calls [`progress`] once per sample; [`watchdog_task`] pets the dog every
+//!   [`PET_PERIOD_MS`] only if the counter moved since its last look. A stuck compute task, a
+//!   stopped acquisition (no LVDT blocks) or a starved executor therefore resets the MCU; the
+//!   next boot finds the IWDG reset flag (RCC_CSR.IWDGRSTF, RM0440 §7.4.30) and reports it.
+//! - **Panic**: [`panic`] writes `file:line: message` (at most [`PANIC_TEXT_BYTES`] bytes) and a
+//!   magic word into a `.uninit` static that the startup code does not zero, logs it over defmt
+//!   and resets. The next boot takes it out ([`take_reset_report`]) and clears the magic.
+
+use core::cell::UnsafeCell;
+use core::fmt::Write as _;
+use core::mem::MaybeUninit;
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use embassy_stm32::peripherals::IWDG;
+use embassy_stm32::wdg::IndependentWatchdog;
+use embassy_time::Timer;
+
+use super::Overruns;
+
+/// Watchdog timeout, µs (a save's page erase blocks the executor for ≤ 40 ms).
+pub const WATCHDOG_TIMEOUT_US: u32 = 500_000;
+/// How often the watchdog task looks at the progress counter, ms.
+pub const PET_PERIOD_MS: u64 = 100;
+/// Bytes of panic text kept in retained RAM.
+pub const PANIC_TEXT_BYTES: usize = 120;
+
+/// Samples computed since boot (the watchdog's evidence of progress).
+static COMPUTE_PROGRESS: AtomicU32 = AtomicU32::new(0);
+/// Looks of the watchdog task that found no progress (the dog was not petted).
+pub static WATCHDOG_MISSES: Overruns = Overruns::new();
+
+/// Called by the compute task once per sample.
+pub fn progress() {
+    COMPUTE_PROGRESS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// Starts the watchdog and pets it while the compute task makes progress.
+#[embassy_executor::task]
+pub async fn watchdog_task(iwdg: embassy_stm32::Peri<'static, IWDG>) {
+    let mut dog = IndependentWatchdog::new(iwdg, WATCHDOG_TIMEOUT_US);
+    dog.unleash();
+    let mut last = COMPUTE_PROGRESS.load(Ordering::Relaxed);
+    loop {
+        Timer::after_millis(PET_PERIOD_MS).await;
+        let now = COMPUTE_PROGRESS.load(Ordering::Relaxed);
+        if now != last {
+            dog.pet();
+            last = now;
+        } else {
+            WATCHDOG_MISSES.count();
+        }
+    }
+}
+
+/// Magic word of a valid panic record ("PANC").
+const PANIC_MAGIC: u32 = 0x434E_4150;
+
+/// What a panic leaves in retained RAM.
+#[derive(Clone, Copy)]
+#[repr(C)]
+struct PanicRecord {
+    magic: u32,
+    len: u32,
+    text: [u8; PANIC_TEXT_BYTES],
+}
+
+/// Retained RAM: `.uninit` is NOLOAD and not zeroed by cortex-m-rt, so it survives a reset.
+struct Retained(UnsafeCell<MaybeUninit<PanicRecord>>);
+// SAFETY: written only by the panic handler (interrupts disabled, nothing runs after it) and
+// read once at boot before any task or interrupt runs.
+unsafe impl Sync for Retained {}
+
+#[unsafe(link_section = ".uninit.ballpod_panic")]
+static PANIC_RECORD: Retained = Retained(UnsafeCell::new(MaybeUninit::uninit()));
+
+/// A bounded writer into the panic text (drops what does not fit).
+struct Bounded<'a> {
+    buf: &'a mut [u8; PANIC_TEXT_BYTES],
+    len: usize,
+}
+
+impl core::fmt::Write for Bounded<'_> {
+    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+        for &b in s.as_bytes() {
+            if let Some(d) = self.buf.get_mut(self.len) {
+                // '"' would end the SCPI string response early.
+                *d = if b == b'"' { b'\'' } else { b };
+                self.len += 1;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The panic handler (replaces panic-probe): reason to retained RAM and defmt, then reset.
+#[panic_handler]
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    cortex_m::interrupt::disable();
+    let mut text = [0u8; PANIC_TEXT_BYTES];
+    let mut w = Bounded {
+        buf: &mut text,
+        len: 0,
+    };
+    if let Some(loc) = info.location() {
+        let _ = write!(w, "panic at {}:{}: ", loc.file(), loc.line());
+    }
+    let _ = write!(w, "{}", info.message());
+    let len = w.len;
+    let shown = core::str::from_utf8(text.get(..len).unwrap_or(&[])).unwrap_or("?");
+    defmt::error!("{}", shown);
+    let rec = PanicRecord {
+        magic: PANIC_MAGIC,
+        len: len as u32,
+        text,
+    };
+    // SAFETY: see `Retained`; a volatile write so it is not optimised away before the reset.
+    unsafe { core::ptr::write_volatile(PANIC_RECORD.0.get().cast::<PanicRecord>(), rec) };
+    cortex_m::peripheral::SCB::sys_reset()
+}
+
+/// Why the previous run ended, if not by power-on or the reset button.
+pub enum ResetReport {
+    /// A panic, with its text (`panic at file:line: message`).
+    Panic(&'static str),
+    /// The independent watchdog expired.
+    Watchdog,
+}
+
+/// Takes the panic record (clearing it) and the watchdog reset flag (clearing the reset flags).
+/// Call once at boot, before the tasks start.
+pub fn take_reset_report() -> Option<ResetReport> {
+    static TEXT: static_cell::StaticCell<[u8; PANIC_TEXT_BYTES]> = static_cell::StaticCell::new();
+    let ptr = PANIC_RECORD.0.get().cast::<PanicRecord>();
+    // SAFETY: see `Retained`; after a power-on the bytes are arbitrary but every bit pattern is
+    // a valid `PanicRecord` (integers and bytes), and the magic decides whether it is used.
+    let rec = unsafe { core::ptr::read_volatile(ptr) };
+    let rcc = embassy_stm32::pac::RCC;
+    let watchdog = rcc.csr().read().iwdgrstf();
+    rcc.csr().modify(|w| w.set_rmvf(true));
+    if rec.magic == PANIC_MAGIC {
+        // SAFETY: as above; the magic is cleared so the report is made once.
+        unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!((*ptr).magic), 0) };
+        let text = TEXT.try_init(rec.text)?;
+        let len = (rec.len as usize).min(PANIC_TEXT_BYTES);
+        let bytes = text.get(..len).unwrap_or(&[]);
+        // A cut in the middle of a UTF-8 sequence keeps the valid prefix.
+        let s = match core::str::from_utf8(bytes) {
+            Ok(s) => s,
+            Err(e) => {
+                core::str::from_utf8(bytes.get(..e.valid_up_to()).unwrap_or(&[])).unwrap_or("")
+            }
+        };
+        return Some(ResetReport::Panic(s));
+    }
+    watchdog.then_some(ResetReport::Watchdog)
+}

@@ -547,6 +547,86 @@ impl Config {
         Ok(())
     }
 
+    /// A numeric field's value as `f64` in its unit (`None` for [`Field`]s with no storage).
+    /// The one accessor the protocol layers (CANopen objects, SCPI `CONFigure`) share.
+    pub fn field_value(&self, f: Field) -> Option<f64> {
+        let axis = |i: u8| self.axes.get(usize::from(i));
+        Some(match f {
+            Field::BarLengthMm => f64::from(self.bar_length_mm),
+            Field::BarCtePpmPerK => f64::from(self.bar_cte_ppm_per_k),
+            Field::LvdtPolyUm(k) => f64::from(*self.lvdt_poly_um.get(usize::from(k))?),
+            Field::LvdtMaxAbsRatio => f64::from(self.lvdt_max_abs_ratio),
+            Field::LvdtMinSignal => f64::from(self.lvdt_min_signal),
+            Field::LvdtDcZeroV => f64::from(self.lvdt_dc_zero_v),
+            Field::LvdtDcSpanV => f64::from(self.lvdt_dc_span_v),
+            Field::ExcitationHz => f64::from(self.excitation_hz),
+            Field::SamplesPerPeriod => f64::from(self.samples_per_period),
+            Field::SampleRateHz => f64::from(self.sample_rate_hz),
+            Field::AxisCountsPerUnit(i) => axis(i)?.counts_per_unit,
+            Field::AxisMaxSpeed(i) => f64::from(axis(i)?.max_speed_per_s),
+            Field::ThermistorR25Ohm => f64::from(self.thermistor_r25_ohm),
+            Field::ThermistorBetaK => f64::from(self.thermistor_beta_k),
+            Field::ThermistorRFixedOhm => f64::from(self.thermistor_r_fixed_ohm),
+            Field::ProbeDebounceUs => f64::from(self.probe_debounce_us),
+            Field::ProbeReseatUs => f64::from(self.probe_reseat_us),
+            Field::CanNodeId => f64::from(self.can_node_id),
+            Field::AdcRate | Field::AxisNameDuplicate(_) => return None,
+        })
+    }
+
+    /// True for the fields stored as integers (a written value is rounded to the nearest).
+    pub const fn is_integer_field(f: Field) -> bool {
+        matches!(
+            f,
+            Field::SamplesPerPeriod
+                | Field::ProbeDebounceUs
+                | Field::ProbeReseatUs
+                | Field::CanNodeId
+        )
+    }
+
+    /// Sets a numeric field from `v` in its unit: `f32` fields take the nearest `f32`, integer
+    /// fields the nearest integer (saturating), `counts_per_unit` the `f64` as is. No range
+    /// check here: use it inside [`Config::try_update`], which validates the result (the `f32`
+    /// limits are compared rounded to `f32`, so every value the table allows can be set).
+    pub fn set_field(&mut self, f: Field, v: f64) {
+        let x = v as f32;
+        let int = libm::round(v);
+        match f {
+            Field::BarLengthMm => self.bar_length_mm = x,
+            Field::BarCtePpmPerK => self.bar_cte_ppm_per_k = x,
+            Field::LvdtPolyUm(k) => {
+                if let Some(p) = self.lvdt_poly_um.get_mut(usize::from(k)) {
+                    *p = x;
+                }
+            }
+            Field::LvdtMaxAbsRatio => self.lvdt_max_abs_ratio = x,
+            Field::LvdtMinSignal => self.lvdt_min_signal = x,
+            Field::LvdtDcZeroV => self.lvdt_dc_zero_v = x,
+            Field::LvdtDcSpanV => self.lvdt_dc_span_v = x,
+            Field::ExcitationHz => self.excitation_hz = x,
+            Field::SamplesPerPeriod => self.samples_per_period = int as u16,
+            Field::SampleRateHz => self.sample_rate_hz = x,
+            Field::AxisCountsPerUnit(i) => {
+                if let Some(a) = self.axes.get_mut(usize::from(i)) {
+                    a.counts_per_unit = v;
+                }
+            }
+            Field::AxisMaxSpeed(i) => {
+                if let Some(a) = self.axes.get_mut(usize::from(i)) {
+                    a.max_speed_per_s = x;
+                }
+            }
+            Field::ThermistorR25Ohm => self.thermistor_r25_ohm = x,
+            Field::ThermistorBetaK => self.thermistor_beta_k = x,
+            Field::ThermistorRFixedOhm => self.thermistor_r_fixed_ohm = x,
+            Field::ProbeDebounceUs => self.probe_debounce_us = int as u32,
+            Field::ProbeReseatUs => self.probe_reseat_us = int as u32,
+            Field::CanNodeId => self.can_node_id = int as u8,
+            Field::AdcRate | Field::AxisNameDuplicate(_) => {}
+        }
+    }
+
     /// Applies `edit` to a copy and keeps it only if the whole copy is valid; on error the
     /// configuration is unchanged.
     pub fn try_update(&mut self, edit: impl FnOnce(&mut Config)) -> Result<(), ConfigError> {

@@ -729,79 +729,6 @@ impl CommParams {
     }
 }
 
-/// Reads a REAL32 configuration field as `f64` (`None` for fields with no storage).
-pub fn config_get(c: &Config, f: Field) -> Option<f64> {
-    let axis = |i: u8| c.axes.get(usize::from(i));
-    Some(match f {
-        Field::BarLengthMm => f64::from(c.bar_length_mm),
-        Field::BarCtePpmPerK => f64::from(c.bar_cte_ppm_per_k),
-        Field::LvdtPolyUm(k) => f64::from(*c.lvdt_poly_um.get(usize::from(k))?),
-        Field::LvdtMaxAbsRatio => f64::from(c.lvdt_max_abs_ratio),
-        Field::LvdtMinSignal => f64::from(c.lvdt_min_signal),
-        Field::LvdtDcZeroV => f64::from(c.lvdt_dc_zero_v),
-        Field::LvdtDcSpanV => f64::from(c.lvdt_dc_span_v),
-        Field::ExcitationHz => f64::from(c.excitation_hz),
-        Field::SamplesPerPeriod => f64::from(c.samples_per_period),
-        Field::SampleRateHz => f64::from(c.sample_rate_hz),
-        Field::AxisCountsPerUnit(i) => axis(i)?.counts_per_unit,
-        Field::AxisMaxSpeed(i) => f64::from(axis(i)?.max_speed_per_s),
-        Field::ThermistorR25Ohm => f64::from(c.thermistor_r25_ohm),
-        Field::ThermistorBetaK => f64::from(c.thermistor_beta_k),
-        Field::ThermistorRFixedOhm => f64::from(c.thermistor_r_fixed_ohm),
-        Field::ProbeDebounceUs => f64::from(c.probe_debounce_us),
-        Field::ProbeReseatUs => f64::from(c.probe_reseat_us),
-        Field::CanNodeId => f64::from(c.can_node_id),
-        Field::AdcRate | Field::AxisNameDuplicate(_) => return None,
-    })
-}
-
-/// True for fields stored as integers (a written REAL32 must then be integral).
-const fn is_integer_field(f: Field) -> bool {
-    matches!(
-        f,
-        Field::SamplesPerPeriod | Field::ProbeDebounceUs | Field::ProbeReseatUs | Field::CanNodeId
-    )
-}
-
-/// Sets a REAL32 configuration field (the caller range-checked `v`, so the integer casts are
-/// exact).
-fn config_set(c: &mut Config, f: Field, v: f64) {
-    let v32 = v as f32;
-    match f {
-        Field::BarLengthMm => c.bar_length_mm = v32,
-        Field::BarCtePpmPerK => c.bar_cte_ppm_per_k = v32,
-        Field::LvdtPolyUm(k) => {
-            if let Some(p) = c.lvdt_poly_um.get_mut(usize::from(k)) {
-                *p = v32;
-            }
-        }
-        Field::LvdtMaxAbsRatio => c.lvdt_max_abs_ratio = v32,
-        Field::LvdtMinSignal => c.lvdt_min_signal = v32,
-        Field::LvdtDcZeroV => c.lvdt_dc_zero_v = v32,
-        Field::LvdtDcSpanV => c.lvdt_dc_span_v = v32,
-        Field::ExcitationHz => c.excitation_hz = v32,
-        Field::SamplesPerPeriod => c.samples_per_period = v as u16,
-        Field::SampleRateHz => c.sample_rate_hz = v32,
-        Field::AxisCountsPerUnit(i) => {
-            if let Some(a) = c.axes.get_mut(usize::from(i)) {
-                a.counts_per_unit = v;
-            }
-        }
-        Field::AxisMaxSpeed(i) => {
-            if let Some(a) = c.axes.get_mut(usize::from(i)) {
-                a.max_speed_per_s = v32;
-            }
-        }
-        Field::ThermistorR25Ohm => c.thermistor_r25_ohm = v32,
-        Field::ThermistorBetaK => c.thermistor_beta_k = v32,
-        Field::ThermistorRFixedOhm => c.thermistor_r_fixed_ohm = v32,
-        Field::ProbeDebounceUs => c.probe_debounce_us = v as u32,
-        Field::ProbeReseatUs => c.probe_reseat_us = v as u32,
-        Field::CanNodeId => c.can_node_id = v as u8,
-        Field::AdcRate | Field::AxisNameDuplicate(_) => {}
-    }
-}
-
 /// Maps a rejected configuration to its abort code: the written field out of range →
 /// 0x0609 0031 / 0x0609 0032 (CiA 301 table 22), a cross-field rule (ADC rate, duplicate axis
 /// name) → 0x0604 0043.
@@ -881,7 +808,7 @@ pub fn read(
             put(buf, &m.ok_or(SdoAbort::NoSubIndex)?.to_le_bytes())
         }
         Var::Config(f) => {
-            let v = config_get(c, f).ok_or(SdoAbort::NoObject)?;
+            let v = c.field_value(f).ok_or(SdoAbort::NoObject)?;
             put(buf, &(v as f32).to_le_bytes())
         }
         Var::LvdtInput => put(buf, &u8v(c.lvdt_input as u8)),
@@ -1079,11 +1006,11 @@ pub fn write(
                 return Err(SdoAbort::InvalidValue);
             }
             check_limits(e, v)?;
-            if is_integer_field(f) && v != libm::trunc(v) {
+            if Config::is_integer_field(f) && v != libm::trunc(v) {
                 return Err(SdoAbort::InvalidValue);
             }
             pod.config
-                .try_update(|c| config_set(c, f, v))
+                .try_update(|c| c.set_field(f, v))
                 .map_err(|err| config_abort(err, f))?;
             cmd = Some(SessionCommand::ConfigChanged);
         }

@@ -514,79 +514,6 @@ fn numeric_or_keyword(p: &[u8], min: f64, max: f64, default: f64) -> Result<f64,
     numeric(p)
 }
 
-/// A field's value (as `f64`); `None` for the fields that are not values.
-fn field_value(c: &Config, f: Field) -> Option<f64> {
-    let axis = |i: u8| c.axes.get(usize::from(i));
-    Some(match f {
-        Field::BarLengthMm => f64::from(c.bar_length_mm),
-        Field::BarCtePpmPerK => f64::from(c.bar_cte_ppm_per_k),
-        Field::LvdtPolyUm(k) => f64::from(*c.lvdt_poly_um.get(usize::from(k))?),
-        Field::LvdtMaxAbsRatio => f64::from(c.lvdt_max_abs_ratio),
-        Field::LvdtMinSignal => f64::from(c.lvdt_min_signal),
-        Field::LvdtDcZeroV => f64::from(c.lvdt_dc_zero_v),
-        Field::LvdtDcSpanV => f64::from(c.lvdt_dc_span_v),
-        Field::ExcitationHz => f64::from(c.excitation_hz),
-        Field::SamplesPerPeriod => f64::from(c.samples_per_period),
-        Field::SampleRateHz => f64::from(c.sample_rate_hz),
-        Field::AxisCountsPerUnit(i) => axis(i)?.counts_per_unit,
-        Field::AxisMaxSpeed(i) => f64::from(axis(i)?.max_speed_per_s),
-        Field::ThermistorR25Ohm => f64::from(c.thermistor_r25_ohm),
-        Field::ThermistorBetaK => f64::from(c.thermistor_beta_k),
-        Field::ThermistorRFixedOhm => f64::from(c.thermistor_r_fixed_ohm),
-        Field::ProbeDebounceUs => f64::from(c.probe_debounce_us),
-        Field::ProbeReseatUs => f64::from(c.probe_reseat_us),
-        Field::CanNodeId => f64::from(c.can_node_id),
-        Field::AdcRate | Field::AxisNameDuplicate(_) => return None,
-    })
-}
-
-/// Sets a field (`v` already checked against the field's range `info`, so the integer casts are
-/// exact after rounding).
-fn set_field(c: &mut Config, f: Field, v: f64, info: &FieldInfo) {
-    let int = libm::round(v);
-    // The nearest f32 of a limit may lie just outside it (0.01 → 0.0099999998): step inside,
-    // so that every value the table allows can be set.
-    let mut x = v as f32;
-    if f64::from(x) < info.min {
-        x = x.next_up();
-    } else if f64::from(x) > info.max {
-        x = x.next_down();
-    }
-    match f {
-        Field::BarLengthMm => c.bar_length_mm = x,
-        Field::BarCtePpmPerK => c.bar_cte_ppm_per_k = x,
-        Field::LvdtPolyUm(k) => {
-            if let Some(p) = c.lvdt_poly_um.get_mut(usize::from(k)) {
-                *p = x;
-            }
-        }
-        Field::LvdtMaxAbsRatio => c.lvdt_max_abs_ratio = x,
-        Field::LvdtMinSignal => c.lvdt_min_signal = x,
-        Field::LvdtDcZeroV => c.lvdt_dc_zero_v = x,
-        Field::LvdtDcSpanV => c.lvdt_dc_span_v = x,
-        Field::ExcitationHz => c.excitation_hz = x,
-        Field::SamplesPerPeriod => c.samples_per_period = int as u16,
-        Field::SampleRateHz => c.sample_rate_hz = x,
-        Field::AxisCountsPerUnit(i) => {
-            if let Some(a) = c.axes.get_mut(usize::from(i)) {
-                a.counts_per_unit = v;
-            }
-        }
-        Field::AxisMaxSpeed(i) => {
-            if let Some(a) = c.axes.get_mut(usize::from(i)) {
-                a.max_speed_per_s = x;
-            }
-        }
-        Field::ThermistorR25Ohm => c.thermistor_r25_ohm = x,
-        Field::ThermistorBetaK => c.thermistor_beta_k = x,
-        Field::ThermistorRFixedOhm => c.thermistor_r_fixed_ohm = x,
-        Field::ProbeDebounceUs => c.probe_debounce_us = int as u32,
-        Field::ProbeReseatUs => c.probe_reseat_us = int as u32,
-        Field::CanNodeId => c.can_node_id = int as u8,
-        Field::AdcRate | Field::AxisNameDuplicate(_) => {}
-    }
-}
-
 /// The SCPI error of a configuration rejected by [`Config::try_update`].
 fn config_error(e: ConfigError, name: &'static str) -> ScpiError {
     match e {
@@ -806,7 +733,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             Command::ConfField(field, info) => {
                 self.unlocked_for("CONF:UNL first")?;
                 self.idle_for_settings(info.name)?;
-                let default = field_value(&Config::default(), field).unwrap_or(info.min);
+                let default = Config::default().field_value(field).unwrap_or(info.min);
                 let v = numeric_or_keyword(arg(0)?, info.min, info.max, default)?;
                 // The range check of the table (same as `Config::validate`), so the error names
                 // the field; cross-field checks are `try_update`'s.
@@ -815,7 +742,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 }
                 self.pod
                     .config
-                    .try_update(|c| set_field(c, field, v, info))
+                    .try_update(|c| c.set_field(field, v))
                     .map_err(|e| config_error(e, info.name))?;
                 self.act(SessionCommand::ConfigChanged)?;
             }
@@ -965,7 +892,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             }
             Command::ConfField(field, info) => {
                 let v = match p {
-                    [] => field_value(&self.pod.config, field),
+                    [] => self.pod.config.field_value(field),
                     [k] => {
                         let k = character(k)?;
                         if keyword(k, "MINimum") {
@@ -973,7 +900,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                         } else if keyword(k, "MAXimum") {
                             Some(info.max)
                         } else if keyword(k, "DEFault") {
-                            field_value(&Config::default(), field)
+                            Config::default().field_value(field)
                         } else {
                             return Err(ScpiError::new(code::ILLEGAL_PARAMETER_VALUE));
                         }

@@ -7,10 +7,10 @@
 //! - The USB command stream as a raw TCP byte stream on another port, to the core's SCPI server
 //!   (`ballpod::protocol::scpi`), e.g. `serial.serial_for_url('socket://127.0.0.1:PORT')`.
 //!
-//! The pod runs in **virtual time**: a virtual ball bar on a circle about the socket (radius =
-//! bar length, a known centre offset = the truth) produces 12-bit LVDT ADC blocks, encoder
-//! counters and a thermistor code, which go through the pod's own acquisition, metrology and
-//! protocol code at the configured sample rate. Virtual time tracks real time while idle (so
+//! The pod runs in **virtual time** ([`crate::vmt::virtual_pod`]): a virtual ball bar on a
+//! circle about the socket (radius = bar length, a known centre offset = the truth) produces
+//! 12-bit LVDT ADC blocks, encoder counters and a thermistor code, which go through the pod's
+//! own acquisition, run monitor, metrology and protocol code at the configured sample rate. Virtual time tracks real time while idle (so
 //! heartbeats come at their period) and runs `speed` times faster while a session is running,
 //! so a full circle takes seconds; `--realtime` paces it 1:1 throughout.
 //!
@@ -21,19 +21,11 @@ use std::io::{self, ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
-use ballpod::acquisition::MAX_AXES;
-use ballpod::config::Config;
-use ballpod::metrology::circle_fit::{CircleFit, CircleFitConfig};
-use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
-use ballpod::protocol::canopen::{CanFrame, CanOpenNode};
-use ballpod::protocol::log::{LogMeta, SampleLog};
-use ballpod::protocol::pod::{
-    Direction, PodModel, ResultEntry, SessionCommand, SessionState, StatusWord,
-};
-use ballpod::protocol::scpi::ScpiServer;
+use ballpod::protocol::canopen::CanFrame;
+use ballpod::protocol::pod::SessionState;
 
 use crate::slcan::{LineSplitter, SlcanCommand, SlcanFrame, format_frame, parse_line};
-use crate::vmt::pod::{Instrument, Pod};
+use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
 /// Options of the serve mode.
 #[derive(Clone, Debug)]
@@ -71,173 +63,6 @@ impl Default for ServeOptions {
             centre_offset_um: [5.0, -3.0],
             feed_mm_per_min: 1000.0,
         }
-    }
-}
-
-/// Samples the simulated pod's log holds: a whole circle at 1 kHz (the firmware keeps 1024 and
-/// decimates; the host has the memory to keep every sample, so a replay sees them all).
-const SERVE_LOG_CAPACITY: usize = 1 << 17;
-
-/// The virtual machine and the pod's own code running on it.
-struct VirtualPod {
-    opts: ServeOptions,
-    pod: PodModel,
-    /// The pod's peripherals and acquisition (the simulator's `vmt::pod`).
-    sensors: Pod,
-    fit: CircleFit,
-    log: Box<SampleLog<SERVE_LOG_CAPACITY>>,
-    node: CanOpenNode,
-    scpi: ScpiServer,
-    /// Virtual time, µs.
-    t_us: u64,
-    /// Angle of the machine on its circle, rad (0 = +X).
-    theta: f64,
-    /// Angle turned in the current run, rad.
-    turned: f64,
-}
-
-impl VirtualPod {
-    fn new(opts: ServeOptions) -> Self {
-        let config = Config::default();
-        let sensors = Self::sensors(&opts, &config, 0.0);
-        Self {
-            node: CanOpenNode::new(config.can_node_id, 0x0BA1_1000),
-            pod: PodModel {
-                config,
-                ..PodModel::default()
-            },
-            sensors,
-            fit: CircleFit::new(Self::fit_config()),
-            log: Box::new(SampleLog::new()),
-            scpi: ScpiServer::new(),
-            opts,
-            t_us: 0,
-            theta: 0.0,
-            turned: 0.0,
-        }
-    }
-
-    /// The virtual instrument for `config` (bar length, sample rate), homed at angle `theta`
-    /// on the circle; ADC noise from the options, the bar at 20 °C.
-    fn sensors(opts: &ServeOptions, config: &Config, theta: f64) -> Pod {
-        let inst = Instrument {
-            bar_noise_um: 0.0,
-            adc_noise_counts: opts.noise_counts,
-            bar_temp_c: 20.0,
-            lvdt_nonlinearity_per_um: 0.0,
-            sample_rate_hz: f64::from(config.sample_rate_hz),
-        };
-        let mut p = Pod::new(f64::from(config.bar_length_mm), &inst, opts.seed);
-        p.reference(&Self::axes(f64::from(config.bar_length_mm), theta));
-        p
-    }
-
-    /// Commanded axis positions (mm) at angle `theta` on a circle of radius `r_mm`.
-    fn axes(r_mm: f64, theta: f64) -> [f64; MAX_AXES] {
-        [r_mm * theta.cos(), r_mm * theta.sin(), 0.0, 0.0, 0.0]
-    }
-
-    fn fit_config() -> CircleFitConfig {
-        CircleFitConfig {
-            geometry: PatternGeometry {
-                plane: Plane::XY,
-                centre_u_mm: 0.0,
-                centre_v_mm: 0.0,
-                sensitivity: Sensitivity::Outward,
-            },
-            min_arc_deg: 60.0,
-        }
-    }
-
-    /// The truth the clients may compare against.
-    fn truth_json(&self) -> String {
-        format!(
-            "{{\"ecc_x_um\":{},\"ecc_y_um\":{},\"bar_length_mm\":{},\"feed_mm_per_min\":{},\"node_id\":{}}}",
-            self.opts.centre_offset_um[0],
-            self.opts.centre_offset_um[1],
-            self.pod.config.bar_length_mm,
-            self.opts.feed_mm_per_min,
-            self.pod.config.can_node_id
-        )
-    }
-
-    /// Carries out the application side of accepted commands (the state change first).
-    fn execute(&mut self, cmd: SessionCommand) {
-        self.pod.apply(cmd);
-        match cmd {
-            SessionCommand::Arm { .. } => {
-                self.fit = CircleFit::new(Self::fit_config());
-                self.log.begin_run(LogMeta::from_pod(&self.pod));
-                self.pod.results = Default::default();
-            }
-            SessionCommand::Start => self.turned = 0.0,
-            SessionCommand::Stop => self.publish_results(),
-            SessionCommand::ConfigChanged => {
-                // the virtual instrument follows the new bar length and sample rate
-                self.sensors = Self::sensors(&self.opts, &self.pod.config, self.theta);
-            }
-            SessionCommand::Abort
-            | SessionCommand::Reset
-            | SessionCommand::StoreSettings
-            | SessionCommand::RestoreDefaults => {}
-        }
-    }
-
-    fn publish_results(&mut self) {
-        if let Ok(e) = self.fit.estimate() {
-            let entry = |value: f32, u: f32| ResultEntry {
-                value,
-                std_uncertainty: u,
-                valid: true,
-            };
-            if let Some(r) = self.pod.results.get_mut(0..3) {
-                r.copy_from_slice(&[
-                    entry(e.e_um[0], e.u_e_um[0]),
-                    entry(e.e_um[1], e.u_e_um[1]),
-                    entry(e.r0_um, e.u_r0_um),
-                ]);
-            }
-        }
-    }
-
-    /// One pod sample period of virtual time.
-    fn step(&mut self, out: &mut impl FnMut(CanFrame)) {
-        let cfg = self.pod.config;
-        let dt_s = 1.0 / f64::from(cfg.sample_rate_hz);
-        self.t_us += (dt_s * 1e6).round() as u64;
-        let r = f64::from(cfg.bar_length_mm);
-        let running = self.pod.session == SessionState::Running;
-        if running && self.turned < 2.0 * std::f64::consts::PI {
-            let sign = if self.pod.direction == Direction::Cw {
-                -1.0
-            } else {
-                1.0
-            };
-            let dtheta = self.opts.feed_mm_per_min / 60.0 * dt_s / r;
-            self.theta += sign * dtheta;
-            self.turned += dtheta;
-        }
-        // commanded (encoder) position on the nominal circle; actual ball centre offset by the truth
-        let axes = Self::axes(r, self.theta);
-        let [ex, ey] = self.opts.centre_offset_um;
-        let truth_um = ((axes[0] + ex * 1e-3).hypot(axes[1] + ey * 1e-3) - r) * 1e3;
-        let s = self.sensors.sample(truth_um, &axes);
-        if running {
-            self.fit.update(&s);
-            self.log.record(&s);
-            if let Ok(e) = self.fit.estimate() {
-                self.pod.live.ecc_x_um = e.e_um[0];
-                self.pod.live.ecc_y_um = e.e_um[1];
-                self.pod.live.r0_um = e.r0_um;
-            }
-        }
-        self.pod.live.sample_counter = s.seq;
-        self.pod.live.delta_l_um = s.delta_l_um;
-        self.pod.live.temp_c = s.temp_c;
-        self.pod.live.status =
-            StatusWord::new(s.flags, self.pod.session, self.node.error_register() != 0);
-        self.node.on_sample(s.flags, self.t_us, out);
-        self.node.poll(self.t_us, &self.pod, out);
     }
 }
 
@@ -310,7 +135,12 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
     let usb_l = TcpListener::bind(("127.0.0.1", opts.usb_port))?;
     can_l.set_nonblocking(true)?;
     usb_l.set_nonblocking(true)?;
-    let mut vp = VirtualPod::new(opts.clone());
+    let mut vp = VirtualPod::new(VirtualSetup {
+        seed: opts.seed,
+        noise_counts: opts.noise_counts,
+        centre_offset_um: opts.centre_offset_um,
+        feed_mm_per_min: opts.feed_mm_per_min,
+    });
     println!(
         "{{\"can_port\":{},\"usb_port\":{},\"truth\":{}}}",
         can_l.local_addr()?.port(),
@@ -346,12 +176,7 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
                 }
                 Ok(SlcanCommand::Transmit(f)) => {
                     if let Some(frame) = to_core(&f) {
-                        let cmd = vp
-                            .node
-                            .on_frame(&frame, &mut vp.pod, vp.t_us, &mut |f| tx.push(f));
-                        if let Some(c) = cmd {
-                            vp.execute(c);
-                        }
+                        tx.extend(vp.can_frame(&frame));
                     }
                     replies.extend_from_slice(if f.extended { b"Z\r" } else { b"z\r" });
                 }
@@ -369,15 +194,17 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
             vp.scpi.connection_closed();
         }
         if !bytes.is_empty() {
-            let mut response = Vec::new();
-            let cmds = vp.scpi.feed(&bytes, &mut vp.pod, &vp.log, &mut |b: &[u8]| {
-                response.extend_from_slice(b)
-            });
-            for c in cmds {
-                // feed already checked the state; the application side follows
-                vp.execute(c);
-            }
+            let response = vp.usb(&bytes);
             usb.write(&response);
+            // A log download is pulled chunk by chunk, as the firmware sends USB packets; a
+            // client gone mid-download cuts it (counted, reported on the next connection).
+            while vp.scpi.download_pending() {
+                let chunk = vp.pull_download(4096);
+                usb.write(&chunk);
+                if usb.stream.is_none() {
+                    vp.usb_disconnected();
+                }
+            }
         }
         // virtual time
         let now = Instant::now();
@@ -393,7 +220,7 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
         let period_us = 1e6 / f64::from(vp.pod.config.sample_rate_hz);
         while backlog_us >= period_us {
             backlog_us -= period_us;
-            vp.step(&mut |f| tx.push(f));
+            tx.extend(vp.step());
         }
         if can_open {
             for f in &tx {

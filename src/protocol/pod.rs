@@ -4,6 +4,7 @@
 
 use crate::acquisition::SampleFlags;
 use crate::config::Config;
+use crate::session::run::RunCounters;
 
 /// Status word bits (CANopen live value, SCPI `STATus:POD?`): sample validity, faults and the
 /// session state in one `u16`.
@@ -222,6 +223,8 @@ pub struct PodModel {
     pub abort_reason: Option<AbortReason>,
     /// Results table.
     pub results: [ResultEntry; RESULT_COUNT],
+    /// Accounting of the current / last run (CANopen 0x3005, SCPI `SESSion:COUNt?`).
+    pub run: RunCounters,
 }
 
 impl PodModel {
@@ -236,6 +239,7 @@ impl PodModel {
                 self.pattern = pattern;
                 self.direction = direction;
                 self.abort_reason = None;
+                self.run = RunCounters::default();
                 self.session = SessionState::Armed;
             }
             SessionCommand::Start => self.session = SessionState::Running,
@@ -251,6 +255,17 @@ impl PodModel {
             SessionCommand::ConfigChanged
             | SessionCommand::StoreSettings
             | SessionCommand::RestoreDefaults => {}
+        }
+    }
+
+    /// Ends the running (or just stopped) run as aborted by the application for `reason` (a
+    /// fault the run monitor found): state Aborted, the reason for CANopen 0x3004 and SCPI
+    /// `SESSion:REASon?`, every result invalid.
+    pub fn abort_run(&mut self, reason: AbortReason) {
+        self.session = SessionState::Aborted;
+        self.abort_reason = Some(reason);
+        for r in &mut self.results {
+            r.valid = false;
         }
     }
 }

@@ -8,9 +8,13 @@
 //!   propagated from the fits' residuals and the repeat scatter.
 //! - [`circular`]: ISO 230-4 circular-test figures that combine both directions (servo
 //!   mismatch).
+//! - [`run`]: the run monitor every sample of a running session passes through: used or
+//!   skipped, the run's counters, and the faults that abort it (bar dropped from the socket,
+//!   lost samples, too few valid samples).
 //!
 //! The session owns no peripheral and allocates nothing: the caller (firmware task or host
 //! simulator) hands over [`crate::acquisition::Sample`]s and says which run they belong to.
 
 pub mod circular;
+pub mod run;
 pub mod seed002;

@@ -5,7 +5,11 @@
 //!
 //! - [`machine`]: the seed 002 multi-tasking machine (literal HTM model of
 //!   [`crate::forward_seed002`]) and an XY machine with linear-axis faults for circular tests;
-//! - [`pod`]: sensor-level streams through `ballpod::acquisition` → [`ballpod::acquisition::Sample`].
+//! - [`pod`]: sensor-level streams through `ballpod::acquisition` → [`ballpod::acquisition::Sample`],
+//!   with fault injection;
+//! - [`virtual_pod`]: the pod's application on a circle (run monitor, fit, log, CANopen, SCPI),
+//!   behind `sim --serve` and the fault-scenario tests.
 
 pub mod machine;
 pub mod pod;
+pub mod virtual_pod;

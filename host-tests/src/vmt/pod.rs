@@ -2,9 +2,16 @@
 //! (through [`crate::lvdt_model`]), the encoders as 16-bit hardware counters, the bar
 //! thermistor as an ADC code. Each sample goes through the core's
 //! `ballpod::acquisition::lvdt::demodulate` and `Acquisition::sample`, as on the board.
+//!
+//! Fault injection ([`SensorFaults`], [`Pod::lose_samples`], [`Pod::thermistor_code`],
+//! [`Pod::probe_edge`], [`Pod::set_probe_seated`]) makes the peripherals misbehave the way the
+//! hardware does: an open LVDT coil, a core beyond its stroke, a ball that left its socket, an
+//! encoder glitch, ADC blocks lost to a queue overrun, a thermistor open or shorted, probe
+//! contact bounce.
 
 use ballpod::acquisition::lvdt::{ExcitationTable, demodulate};
-use ballpod::acquisition::thermal::bar_expansion_um;
+use ballpod::acquisition::probe::TriggerOutcome;
+use ballpod::acquisition::thermal::{ThermistorFault, bar_expansion_um};
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
 use ballpod::config::Config;
 use serde::{Deserialize, Serialize};
@@ -43,6 +50,24 @@ impl Default for Instrument {
     }
 }
 
+/// LVDT core displacement of an over-range fault, µm: beyond the default calibration's stroke
+/// (ratio 0.55 × 2000 µm = 1100 µm), so the demodulated ratio is out of range.
+pub const OVER_RANGE_UM: f64 = 1600.0;
+
+/// Sensor faults on the next samples (set the fields; each counts down as samples are made).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SensorFaults {
+    /// Samples left with the LVDT coil open: the secondaries carry only ADC noise.
+    pub lvdt_open_samples: u32,
+    /// Samples left with the LVDT core beyond its stroke ([`OVER_RANGE_UM`]).
+    pub lvdt_over_range_samples: u32,
+    /// Change of the bar length from now on, µm (a ball that left its socket and sits beside it).
+    pub bar_offset_um: f64,
+    /// Counts added to encoder 1's hardware counter on the next sample only (a spike of
+    /// miscounted edges; the following read is right again).
+    pub encoder_glitch_counts: i64,
+}
+
 /// The simulated pod: configuration, acquisition pipeline and sensor models.
 pub struct Pod {
     /// The pod's configuration (bar length set by the set-up).
@@ -54,6 +79,18 @@ pub struct Pod {
     inst: Instrument,
     rng: Rng,
     t_us: u64,
+    /// Faults on the next samples.
+    pub faults: SensorFaults,
+    /// Items lost upstream so far (the queues' overrun counter the acquisition reads).
+    lost_total: u32,
+    /// A probe trigger was accepted since the last sample.
+    probe_event: bool,
+    /// The probe stylus is seated (the input level polled each sample).
+    probe_seated: bool,
+    /// The encoder positions of the last sample, mm / degrees.
+    last_axes: [f64; MAX_AXES],
+    /// The thermistor ADC code of the bar temperature.
+    good_code: u16,
 }
 
 /// Encoder counts per mm or degree of the default configuration.
@@ -77,6 +114,7 @@ impl Pod {
         let code = (4095.0 * r / (r + f64::from(config.thermistor_r_fixed_ohm))).round() as u16;
         // a fault here shows up as TEMPERATURE_FAULT flags on the samples
         let _ = acq.update_temperature(code);
+        let good_code = code;
         let periods =
             (f64::from(config.excitation_hz) / f64::from(config.sample_rate_hz)).round() as usize;
         Self {
@@ -88,6 +126,12 @@ impl Pod {
             inst: *inst,
             rng: Rng::new(seed),
             t_us: 0,
+            faults: SensorFaults::default(),
+            lost_total: 0,
+            probe_event: false,
+            probe_seated: true,
+            last_axes: [0.0; MAX_AXES],
+            good_code,
         }
     }
 
@@ -117,9 +161,19 @@ impl Pod {
             self.config.bar_cte_ppm_per_k,
             self.inst.bar_temp_c as f32,
         ));
-        let mut x = dl_um - expansion + self.inst.bar_noise_um * self.rng.normal();
+        let f = &mut self.faults;
+        let mut x =
+            dl_um + f.bar_offset_um - expansion + self.inst.bar_noise_um * self.rng.normal();
         x += self.inst.lvdt_nonlinearity_per_um * x * x;
-        let (a, b) = self.lvdt.block_adc(
+        let mut lvdt = self.lvdt;
+        if f.lvdt_open_samples > 0 {
+            f.lvdt_open_samples -= 1;
+            lvdt.amplitude_sum = 0.0;
+        } else if f.lvdt_over_range_samples > 0 {
+            f.lvdt_over_range_samples -= 1;
+            x = OVER_RANGE_UM;
+        }
+        let (a, b) = lvdt.block_adc(
             x,
             P,
             self.periods,
@@ -127,10 +181,68 @@ impl Pod {
             &mut self.rng,
         );
         let reading = demodulate(&a, &b, &self.table);
-        let raw = self.raw(axes);
-        let s = self.acq.sample(self.t_us, reading, raw, 0, false);
-        self.t_us += (1e6 / self.inst.sample_rate_hz).round() as u64;
+        let glitch = std::mem::take(&mut f.encoder_glitch_counts);
+        let mut raw = self.raw(axes);
+        if glitch != 0 {
+            raw[0] = (i64::from(raw[0]) + glitch).rem_euclid(1 << 16) as u32;
+        }
+        self.acq.probe.poll(self.t_us, self.probe_seated);
+        let probe_event = std::mem::take(&mut self.probe_event);
+        let s = self
+            .acq
+            .sample(self.t_us, reading, raw, self.lost_total, probe_event);
+        self.last_axes = *axes;
+        self.t_us += self.period_us();
         s
+    }
+
+    fn period_us(&self) -> u64 {
+        (1e6 / self.inst.sample_rate_hz).round() as u64
+    }
+
+    /// The next `n` sample periods' ADC blocks are lost upstream (a queue overrun): virtual time
+    /// advances, the overrun counter grows by `n`, and the next sample carries `OVERRUN`.
+    pub fn lose_samples(&mut self, n: u32) {
+        self.lost_total = self.lost_total.wrapping_add(n);
+        self.t_us += self.period_us() * u64::from(n);
+    }
+
+    /// Feeds a thermistor ADC code (12-bit; 0 = shorted, 4095 = open) to the acquisition, as
+    /// the thermistor task does every 100 ms.
+    pub fn thermistor_code(&mut self, code: u16) -> Result<f32, ThermistorFault> {
+        self.acq.update_temperature(code)
+    }
+
+    /// The thermistor ADC code of the bar's true temperature.
+    pub fn thermistor_good_code(&self) -> u16 {
+        self.good_code
+    }
+
+    /// A probe trigger edge now, the encoders latched at the last sample's positions; an
+    /// accepted touch flags the next sample `PROBE_EVENT`.
+    pub fn probe_edge(&mut self) -> TriggerOutcome {
+        let raw = self.raw(&self.last_axes);
+        let o = self.acq.probe_trigger(self.t_us, raw);
+        if matches!(o, TriggerOutcome::Accepted(_)) {
+            self.probe_event = true;
+        }
+        o
+    }
+
+    /// The probe stylus level from the next sample on (`true` = seated, at rest).
+    pub fn set_probe_seated(&mut self, seated: bool) {
+        self.probe_seated = seated;
+    }
+
+    /// The probe debouncer's counters: (accepted, bounces, not re-seated).
+    pub fn probe_counts(&self) -> (u32, u32, u32) {
+        let p = &self.acq.probe;
+        (p.accepted, p.bounces, p.not_reseated)
+    }
+
+    /// Virtual time of the next sample, µs.
+    pub fn t_us(&self) -> u64 {
+        self.t_us
     }
 
     /// What the acquisition flagged or lost so far.

@@ -13,8 +13,14 @@ pub const SOFTWARE_ERROR: u16 = 0x6000;
 pub const REASON_PANIC: u8 = 1;
 /// Manufacturer byte 3 of a 0x6000 EMCY: the independent watchdog reset the MCU.
 pub const REASON_WATCHDOG: u8 = 2;
+/// Error code 0x8120: CAN in error passive mode (CiA 301 table 21).
+pub const ERROR_PASSIVE: u16 = 0x8120;
+/// Error code 0x8140: recovered from bus off (CiA 301 table 21).
+pub const BUS_OFF_RECOVERED: u16 = 0x8140;
 /// Error register bit 0: generic error (set whenever any error is present, CiA 301 §7.5.2.2).
 pub const ER_GENERIC: u8 = 1 << 0;
+/// Error register bit 4: communication error (overrun, error state; CiA 301 §7.5.2.2).
+pub const ER_COMMUNICATION: u8 = 1 << 4;
 /// Error register bit 7: manufacturer-specific error.
 pub const ER_MANUFACTURER: u8 = 1 << 7;
 

@@ -13,6 +13,8 @@
 //! node.on_sample(sample.flags, now_us, &mut |f| tx.push(f));
 //! // at least every millisecond: boot-up, heartbeat, event-timer TPDOs, SDO timeout, EMCY:
 //! node.poll(now_us, &pod, &mut |f| tx.push(f));
+//! // the controller's error state (error active / passive / bus-off), e.g. before each poll:
+//! node.on_bus_state(BusState::BusOff, now_us, &mut |f| tx.push(f));
 //! ```
 //! Boot-up (0x700 + node-ID, `[0x00]`) is sent by the first `poll`; the node is then
 //! pre-operational. `now_us` is any monotonic µs clock. Each call emits a bounded number of
@@ -34,6 +36,9 @@
 //! - 4 TPDOs with configurable mapping (0x1800–0x1803 / 0x1A00–0x1A03), see [`pdo`].
 //! - EMCY producer (0x080 + node-ID, §7.2.7) with error register 0x1001 and pre-defined error
 //!   field 0x1003, see [`emcy`].
+//! - CAN error states ([`CanOpenNode::on_bus_state`]): EMCY 0x8120 on error passive; while
+//!   bus-off nothing is sent (counted in [`Stats::frames_dropped_bus_off`]), on recovery EMCY
+//!   0x8140 and the heartbeat resume at once.
 //! - Store / restore parameters 0x1010 / 0x1011 with the "save" / "load" signatures: they
 //!   hand [`SessionCommand::StoreSettings`] / [`SessionCommand::RestoreDefaults`] to the
 //!   application (which owns the flash); a wrong signature is aborted with 0x0800 0020.
@@ -87,6 +92,7 @@
 //! | 0x3000 / 0x3001 | pattern (0–7) / direction (0 CCW, 1 CW) | U8 | rw |
 //! | 0x3002 | session command: 1 arm, 2 start, 3 stop, 4 abort | U8 | wo |
 //! | 0x3003 / 0x3004 | session state / abort reason | U8 | ro (state: PDO) |
+//! | 0x3005:1–10 | run counters ([`crate::session::run::RunCounters::NAMES`]) | U32 | ro |
 //! | 0x4000 / 0x4001 | result value / standard uncertainty, sub k+1 = `RESULTS[k]` | REAL32 | ro |
 //! | 0x4002 | valid-result bit mask | U16 | ro |
 
@@ -153,6 +159,25 @@ pub struct Stats {
     pub tpdos_sent: u32,
     /// EMCY frames sent.
     pub emcys_sent: u32,
+    /// Times the controller went bus-off ([`CanOpenNode::on_bus_state`]).
+    pub bus_off_events: u32,
+    /// Frames the node would have sent while bus-off (heartbeats, TPDOs, SDO responses):
+    /// dropped and counted here. EMCYs are not dropped: they wait for the recovery.
+    pub frames_dropped_bus_off: u32,
+}
+
+/// The CAN controller's fault-confinement state (ISO 11898-1 §12.1.4), as the driver reports
+/// it (on the board: FDCAN `PSR.BO` / `PSR.EP`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum BusState {
+    /// Error active: both error counters below 128.
+    #[default]
+    ErrorActive,
+    /// Error passive: an error counter above 127; the node still sends.
+    ErrorPassive,
+    /// Bus-off: the transmit error counter passed 255; the controller takes no part in bus
+    /// traffic until it has seen 128 × 11 recessive bits.
+    BusOff,
 }
 
 /// COB-ID function codes of the pre-defined connection set (CiA 301 §7.3.5, table 77).
@@ -176,6 +201,7 @@ pub struct CanOpenNode {
     faults_reported: u16,
     emcy_next_us: u64,
     boot_error: Option<(u16, u8)>,
+    bus: BusState,
     stats: Stats,
 }
 
@@ -201,6 +227,7 @@ impl CanOpenNode {
             faults_reported: 0,
             emcy_next_us: 0,
             boot_error: None,
+            bus: BusState::ErrorActive,
             stats: Stats::default(),
         }
     }
@@ -292,6 +319,25 @@ impl CanOpenNode {
     /// Unknown COB-IDs are ignored (counted); nothing a frame carries changes state unless it
     /// is complete and valid.
     pub fn on_frame(
+        &mut self,
+        frame: &CanFrame,
+        pod: &mut PodModel,
+        now_us: u64,
+        out: &mut impl FnMut(CanFrame),
+    ) -> Option<SessionCommand> {
+        let mut dropped = 0u32;
+        let bus_off = self.bus == BusState::BusOff;
+        let mut gate = |f| if bus_off { dropped += 1 } else { out(f) };
+        let cmd = self.handle_frame(frame, pod, now_us, &mut gate);
+        self.count_dropped(dropped);
+        cmd
+    }
+
+    fn count_dropped(&mut self, n: u32) {
+        self.stats.frames_dropped_bus_off = self.stats.frames_dropped_bus_off.saturating_add(n);
+    }
+
+    fn handle_frame(
         &mut self,
         frame: &CanFrame,
         pod: &mut PodModel,
@@ -402,16 +448,71 @@ impl CanOpenNode {
     }
 
     fn update_error_register(&mut self) {
-        self.comm.error_register = if self.faults_reported | self.faults_current != 0 {
+        let mut r = if self.faults_reported | self.faults_current != 0 {
             emcy::ER_GENERIC | emcy::ER_MANUFACTURER
         } else {
             0
         };
+        if self.bus != BusState::ErrorActive {
+            r |= emcy::ER_GENERIC | emcy::ER_COMMUNICATION;
+        }
+        self.comm.error_register = r;
+    }
+
+    /// The controller's fault-confinement state, at least every millisecond (or on every
+    /// change). Going error passive sends EMCY 0x8120; going bus-off counts
+    /// [`Stats::bus_off_events`], and until the controller recovers every frame the node
+    /// would send is dropped and counted ([`Stats::frames_dropped_bus_off`]) while new sample
+    /// faults wait; on recovery it sends EMCY 0x8140 "recovered from bus off" at once, then
+    /// the pending fault EMCYs, and the next heartbeat goes out on the next
+    /// [`poll`](Self::poll). The error register's communication bit (bit 4) is set while the
+    /// bus is not error active and in the 0x8120 / 0x8140 EMCYs. Both codes enter 0x1003.
+    pub fn on_bus_state(&mut self, state: BusState, now_us: u64, out: &mut impl FnMut(CanFrame)) {
+        let was = self.bus;
+        if state == was {
+            return;
+        }
+        self.bus = state;
+        let code = match (was, state) {
+            (_, BusState::BusOff) => {
+                self.stats.bus_off_events = self.stats.bus_off_events.saturating_add(1);
+                None
+            }
+            (BusState::BusOff, _) => {
+                if self.next_heartbeat_us.is_some() {
+                    self.next_heartbeat_us = Some(now_us);
+                }
+                Some(emcy::BUS_OFF_RECOVERED)
+            }
+            (BusState::ErrorActive, BusState::ErrorPassive) => Some(emcy::ERROR_PASSIVE),
+            _ => None,
+        };
+        self.update_error_register();
+        if let Some(code) = code
+            && self.nmt.sdo_allowed()
+        {
+            self.comm.push_error(u32::from(code));
+            let register = self.comm.error_register | emcy::ER_GENERIC | emcy::ER_COMMUNICATION;
+            self.send(
+                out,
+                COB_EMCY,
+                &emcy::payload(code, register, 0, self.faults_reported),
+            );
+            self.stats.emcys_sent = self.stats.emcys_sent.saturating_add(1);
+            let inhibit_us = u64::from(self.comm.emcy_inhibit_100us) * 100;
+            self.emcy_next_us = now_us.saturating_add(inhibit_us);
+        }
+        self.service_emcy(now_us, out);
+    }
+
+    /// The controller's state as last reported to [`on_bus_state`](Self::on_bus_state).
+    pub fn bus_state(&self) -> BusState {
+        self.bus
     }
 
     fn service_emcy(&mut self, now_us: u64, out: &mut impl FnMut(CanFrame)) {
         self.update_error_register();
-        if !self.nmt.sdo_allowed() || now_us < self.emcy_next_us {
+        if !self.nmt.sdo_allowed() || self.bus == BusState::BusOff || now_us < self.emcy_next_us {
             return;
         }
         let inhibit_us = u64::from(self.comm.emcy_inhibit_100us) * 100;
@@ -444,6 +545,14 @@ impl CanOpenNode {
     /// Time-driven work: boot-up (first call), heartbeat, event-timer TPDOs (types 254/255),
     /// SDO segment timeout, pending EMCY. Call at least every millisecond.
     pub fn poll(&mut self, now_us: u64, pod: &PodModel, out: &mut impl FnMut(CanFrame)) {
+        let mut dropped = 0u32;
+        let bus_off = self.bus == BusState::BusOff;
+        let mut gate = |f| if bus_off { dropped += 1 } else { out(f) };
+        self.poll_inner(now_us, pod, &mut gate);
+        self.count_dropped(dropped);
+    }
+
+    fn poll_inner(&mut self, now_us: u64, pod: &PodModel, out: &mut impl FnMut(CanFrame)) {
         if self.nmt == NmtState::Initialising {
             self.boot(now_us, out);
         }

@@ -15,7 +15,7 @@
 //!   written only in pre-operational); 0x2020–0x2023: the enumerated configuration fields;
 //! - 0x2100–0x2102: live process values (REAL32 µm / °C, sample counter, status word), PDO
 //!   mappable;
-//! - 0x3000–0x3004: session control and state;
+//! - 0x3000–0x3005: session control and state, the run's counters;
 //! - 0x4000–0x4002: the results table (value, standard uncertainty, validity mask).
 
 use super::abort::SdoAbort;
@@ -26,6 +26,7 @@ use crate::config::{AxisName, CanBitrate, Config, ConfigError, FIELDS, Field, Lv
 use crate::protocol::pod::{
     Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState,
 };
+use crate::session::run::RunCounters;
 
 /// Largest value of any object, bytes (the longest VISIBLE_STRING).
 pub const MAX_VALUE_LEN: usize = 32;
@@ -220,6 +221,8 @@ pub enum Var {
     SessionState,
     /// 0x3004 abort reason.
     AbortReason,
+    /// 0x3005:k run counter k (1…[`RunCounters::LEN`], [`RunCounters::NAMES`] order).
+    RunCounter(u8),
     /// 0x4000:k+1 result k value.
     ResultValue(u8),
     /// 0x4001:k+1 result k standard uncertainty.
@@ -347,7 +350,7 @@ pub fn indices() -> impl Iterator<Item = u16> {
         .chain(0x1A00..0x1A00 + TPDO_COUNT as u16)
         .chain((0..FIELDS.len() as u16).map(|i| CONFIG_BASE + i))
         .chain([0x2020, 0x2021, 0x2022, 0x2023, 0x2100, 0x2101, 0x2102])
-        .chain(0x3000..=0x3004)
+        .chain(0x3000..=0x3005)
         .chain(0x4000..=0x4002)
 }
 
@@ -410,6 +413,7 @@ pub fn object(index: u16) -> Option<Object> {
         0x3002 => o("session_command", V, 0),
         0x3003 => o("session_state", V, 0),
         0x3004 => o("abort_reason", V, 0),
+        0x3005 => o("run_counters", Array, RunCounters::LEN as u8),
         0x4000 => o("result_value", Array, RESULT_COUNT as u8),
         0x4001 => o("result_uncertainty", Array, RESULT_COUNT as u8),
         0x4002 => o("result_valid", V, 0),
@@ -648,6 +652,16 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
         0x3002 => var(Unsigned8, Wo, Var::Command).map(|e| e.limits(1.0, 4.0)),
         0x3003 => var(Unsigned8, Ro, Var::SessionState).map(Entry::mappable),
         0x3004 => var(Unsigned8, Ro, Var::AbortReason),
+        0x3005 => match sub {
+            0 => count(RunCounters::LEN as u8),
+            k => {
+                let name = RunCounters::NAMES
+                    .get(usize::from(k - 1))
+                    .copied()
+                    .unwrap_or("");
+                Ok(e(index, k, name, Unsigned32, Ro, Var::RunCounter(k)))
+            }
+        },
         0x4000 | 0x4001 => match sub {
             0 => count(RESULT_COUNT as u8),
             k => {
@@ -843,6 +857,13 @@ pub fn read(
         Var::Command => Err(SdoAbort::WriteOnly),
         Var::SessionState => put(buf, &u8v(pod.session as u8)),
         Var::AbortReason => put(buf, &u8v(pod.abort_reason.map_or(0, |r| r as u8))),
+        Var::RunCounter(k) => {
+            let counters = pod.run.as_array();
+            let v = counters
+                .get(usize::from(k).wrapping_sub(1))
+                .ok_or(SdoAbort::NoSubIndex)?;
+            put(buf, &v.to_le_bytes())
+        }
         Var::ResultValue(k) => put(buf, &result(k)?.value.to_le_bytes()),
         Var::ResultUncertainty(k) => put(buf, &result(k)?.std_uncertainty.to_le_bytes()),
         Var::ResultValid => {

@@ -60,6 +60,8 @@
 //! | `SESSion:DIRection <CW\|CCW>`, `…?` | direction of the next run |
 //! | `SESSion:ARM` `SESSion:STARt` `SESSion:STOP` `SESSion:ABORt` | session control |
 //! | `SESSion:STATe?` | `IDLE`, `ARMED`, `RUNNING`, `DONE` or `ABORTED` |
+//! | `SESSion:REASon?` | why the last run was aborted: `NONE`, `COMMAND`, `LVDT` (open / over-range / ΔL jump: bar dropped from the socket), `OVERRUN` (samples lost), `UNOBSERVABLE` (too few valid samples) |
+//! | `SESSion:COUNt?` | the run's counters ([`crate::session::run::RunCounters::NAMES`], comma-separated integers): `seen,used,skipped_lvdt_open,skipped_lvdt_over_range,skipped_quadrature,skipped_jump,skipped_overrun,lost,temperature_faults,after_overrun` |
 //! | `STATus:POD?` | the pod's status word ([`StatusWord`], decimal; bit 15 also set while this port's error queue is not empty) |
 //! | `MEASure:DL?` | live ΔL, µm (4 decimals) |
 //! | `MEASure:ALL?` | `counter,dl_um,ex_um,ey_um,ez_um,ecc_x_um,ecc_y_um,r0_um,temp_c,status` |
@@ -85,7 +87,8 @@ use crate::acquisition::MAX_AXES;
 use crate::config::{AxisName, Config, ConfigError, FIELDS, Field, FieldInfo};
 use crate::protocol::log::{CsvCursor, LogMeta, SampleLog, csv_len, write_csv};
 use crate::protocol::pod::{
-    Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState, StatusWord,
+    AbortReason, Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState,
+    StatusWord,
 };
 use number::{SCPI_NAN, Text, push_bytes, push_fixed, push_i64, push_significant, push_u64};
 use parse::{Header, MAX_DEPTH, Mnemonic, character, keyword};
@@ -114,6 +117,8 @@ pub struct ScpiCounters {
     pub lines_overrun: u32,
     /// Session actions rejected because [`MAX_ACTIONS`] were already pending in one `feed`.
     pub actions_rejected: u32,
+    /// Pulled log downloads cut short by a disconnect ([`ScpiServer::connection_closed`]).
+    pub downloads_cut: u32,
 }
 
 /// A log download in pull mode: where it stands, and the metadata it started with.
@@ -170,6 +175,7 @@ impl ScpiServer {
             counters: ScpiCounters {
                 lines_overrun: 0,
                 actions_rejected: 0,
+                downloads_cut: 0,
             },
             pull_mode: false,
             download: None,
@@ -183,11 +189,21 @@ impl ScpiServer {
     }
 
     /// The transport lost its connection (USB disconnect, TCP close): configuration writes lock
-    /// again and a partial input line is dropped. The status model and error queue stay.
+    /// again and a partial input line is dropped. The status model and error queue stay. A
+    /// pulled log download still pending is dropped (the log itself is untouched: download it
+    /// again), counted in [`ScpiCounters::downloads_cut`] and reported on the next connection
+    /// as -410 "Query INTERRUPTED" in `SYSTem:ERRor?`.
     pub fn connection_closed(&mut self) {
         self.config_unlocked = false;
         self.line.clear();
         self.overrun = false;
+        if self.download.take().is_some() {
+            self.counters.downloads_cut = self.counters.downloads_cut.saturating_add(1);
+            self.status.push(ScpiError::with(
+                code::QUERY_INTERRUPTED,
+                "DATA:LOG? cut by disconnect",
+            ));
+        }
     }
 
     /// Queues a device-specific error (-300) with a detail, e.g. the reason of a reset the
@@ -301,6 +317,17 @@ const fn state_name(s: SessionState) -> &'static str {
     }
 }
 
+/// An abort reason's name in `SESSion:REASon?` (`NONE` if the last run was not aborted).
+const fn reason_name(r: Option<AbortReason>) -> &'static str {
+    match r {
+        None => "NONE",
+        Some(AbortReason::ByCommand) => "COMMAND",
+        Some(AbortReason::LvdtFault) => "LVDT",
+        Some(AbortReason::Overrun) => "OVERRUN",
+        Some(AbortReason::NotObservable) => "UNOBSERVABLE",
+    }
+}
+
 /// Patterns with their SCPI forms (short form = upper-case letters).
 const PATTERNS: [(Pattern, &str); 8] = [
     (Pattern::Circle, "CIRCle"),
@@ -360,6 +387,8 @@ enum Command {
     SessStop,
     SessAbort,
     SessState,
+    SessReason,
+    SessCount,
     StatPod,
     MeasDl,
     MeasAll,
@@ -373,8 +402,8 @@ enum Command {
 const fn forms(c: Command) -> (bool, bool) {
     use Command::*;
     match c {
-        Idn | Esr | Stb | SystErr | SystVersion | SessState | StatPod | MeasDl | MeasAll
-        | FetchResult | FetchCatalog | DataLogCount | DataLog => (true, false),
+        Idn | Esr | Stb | SystErr | SystVersion | SessState | SessReason | SessCount | StatPod
+        | MeasDl | MeasAll | FetchResult | FetchCatalog | DataLogCount | DataLog => (true, false),
         Rst | Cls | Wai | Sav | ConfUnlock | SessArm | SessStart | SessStop | SessAbort => {
             (false, true)
         }
@@ -455,7 +484,7 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
         [c, l] if c.is("CONFigure") && l.is("LOCK") => Command::ConfLock,
         [c, f] if c.is("CONFigure") => config_field(f)?,
         [s, x] if s.is("SESSion") => {
-            const SESSION: [(&str, Command); 7] = [
+            const SESSION: [(&str, Command); 9] = [
                 ("PATTern", Command::SessPattern),
                 ("DIRection", Command::SessDirection),
                 ("ARM", Command::SessArm),
@@ -463,6 +492,8 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
                 ("STOP", Command::SessStop),
                 ("ABORt", Command::SessAbort),
                 ("STATe", Command::SessState),
+                ("REASon", Command::SessReason),
+                ("COUNt", Command::SessCount),
             ];
             SESSION
                 .iter()
@@ -948,6 +979,19 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             Command::SessState => {
                 none()?;
                 push_bytes(&mut r, state_name(self.session).as_bytes());
+            }
+            Command::SessReason => {
+                none()?;
+                push_bytes(&mut r, reason_name(self.pod.abort_reason).as_bytes());
+            }
+            Command::SessCount => {
+                none()?;
+                for (k, v) in self.pod.run.as_array().into_iter().enumerate() {
+                    if k > 0 {
+                        push_bytes(&mut r, b",");
+                    }
+                    push_u64(&mut r, u64::from(v));
+                }
             }
             Command::StatPod => {
                 none()?;

@@ -87,6 +87,8 @@ pub mod code {
     pub const DEVICE_SPECIFIC_ERROR: i16 = -300;
     /// -350: the error queue overflowed (errors were lost).
     pub const QUEUE_OVERFLOW: i16 = -350;
+    /// -410: a query whose response was interrupted (here: a log download cut by a disconnect).
+    pub const QUERY_INTERRUPTED: i16 = -410;
     /// -440: a query after an indefinite (here: pulled) response in the same message.
     pub const QUERY_AFTER_BLOCK: i16 = -440;
     /// -363: an input line longer than the line buffer (the whole line was rejected).
@@ -121,6 +123,7 @@ pub const fn message(c: i16) -> &'static str {
         code::DEVICE_SPECIFIC_ERROR => "Device-specific error",
         code::QUEUE_OVERFLOW => "Queue overflow",
         code::INPUT_BUFFER_OVERRUN => "Input buffer overrun",
+        code::QUERY_INTERRUPTED => "Query INTERRUPTED",
         code::QUERY_AFTER_BLOCK => "Query UNTERMINATED after indefinite response",
         -199..=-100 => "Command error",
         -299..=-200 => "Execution error",

@@ -135,7 +135,7 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
     let usb_l = TcpListener::bind(("127.0.0.1", opts.usb_port))?;
     can_l.set_nonblocking(true)?;
     usb_l.set_nonblocking(true)?;
-    let mut vp = VirtualPod::new(VirtualSetup {
+    let mut vp: VirtualPod = VirtualPod::new(VirtualSetup {
         seed: opts.seed,
         noise_counts: opts.noise_counts,
         centre_offset_um: opts.centre_offset_um,

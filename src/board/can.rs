@@ -2,7 +2,11 @@
 //! (`ballpod::protocol::canopen`): received frames go to the node, its frames go out, its
 //! session commands go to the compute task. The node is polled every millisecond (heartbeat,
 //! event-timer TPDOs, SDO timeout) and told about each new sample (EMCY on new faults).
-//! Bus-off is watched and counted; the controller recovers automatically.
+//! The controller's error state (error active / passive / bus-off, FDCAN `PSR`) goes to the
+//! node before each step: EMCY 0x8120 on error passive, nothing sent while bus-off (the node
+//! counts what it dropped), EMCY 0x8140 and the heartbeat on recovery. The controller recovers
+//! from bus-off by itself (embassy-stm32's `automatic_bus_off_recovery`, on by default: the
+//! IT0 interrupt clears `CCCR.INIT` and the FDCAN waits for 128 × 11 recessive bits).
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -14,14 +18,12 @@ use embassy_time::{Duration, Instant, Ticker};
 use embedded_can::Id;
 
 use ballpod::acquisition::SampleFlags;
-use ballpod::protocol::canopen::{CanFrame, CanOpenNode};
+use ballpod::protocol::canopen::{BusState, CanFrame, CanOpenNode};
 
 use super::{Irqs, Overruns, state};
 
 /// Frames received since boot.
 pub static RX_FRAMES: AtomicU32 = AtomicU32::new(0);
-/// Times the controller was found bus-off.
-pub static BUS_OFF_EVENTS: AtomicU32 = AtomicU32::new(0);
 /// Frames the node produced that did not fit the transmit batch (never expected: the node
 /// bounds its output per call below the batch size).
 pub static TX_BATCH_OVERRUNS: Overruns = Overruns::new();
@@ -39,6 +41,15 @@ pub fn start(
     let mut cc = CanConfigurator::new(fdcan, rx, tx, Irqs);
     cc.set_bitrate(bitrate);
     cc.start(OperatingMode::NormalOperationMode)
+}
+
+/// The core's view of the controller's fault-confinement state.
+fn bus_state(mode: BusErrorMode) -> BusState {
+    match mode {
+        BusErrorMode::ErrorActive => BusState::ErrorActive,
+        BusErrorMode::ErrorPassive => BusState::ErrorPassive,
+        BusErrorMode::BusOff => BusState::BusOff,
+    }
 }
 
 fn to_core(frame: &Frame) -> Option<CanFrame> {
@@ -63,7 +74,6 @@ pub async fn can_task(
         node.report_boot_error(code, reason);
     }
     let mut ticker = Ticker::every(Duration::from_millis(1));
-    let mut was_bus_off = false;
     let mut last_counter = None;
     loop {
         let mut batch: heapless::Vec<CanFrame, TX_BATCH> = heapless::Vec::new();
@@ -73,6 +83,12 @@ pub async fn can_task(
             }
         };
         let now = Instant::now().as_micros();
+        let bus = bus_state(can.properties().bus_error_mode());
+        if bus != node.bus_state() {
+            defmt::warn!("CAN bus state {}", bus as u8);
+        }
+        // While bus-off the node sends nothing, so no write below waits for a free mailbox.
+        node.on_bus_state(bus, now, &mut out);
         match select(can.read(), ticker.next()).await {
             Either::First(Ok(env)) => {
                 RX_FRAMES.fetch_add(1, Ordering::Relaxed);
@@ -110,11 +126,5 @@ pub async fn can_task(
                 let _ = can.write(&frame).await;
             }
         }
-        let bus_off = matches!(can.properties().bus_error_mode(), BusErrorMode::BusOff);
-        if bus_off && !was_bus_off {
-            BUS_OFF_EVENTS.fetch_add(1, Ordering::Relaxed);
-            defmt::warn!("CAN bus-off");
-        }
-        was_bus_off = bus_off;
     }
 }

@@ -1,6 +1,8 @@
 //! The compute task: one pod sample per LVDT block through the core's acquisition pipeline;
-//! it publishes the live values, logs the samples of a running session, and carries out the
-//! session commands the protocol tasks queue.
+//! it publishes the live values, passes the samples of a running session through the core's
+//! run monitor (an abort for a fault reaches the pod model: CANopen 0x3003/0x3004, SCPI
+//! `SESS:STAT?` / `SESS:REAS?`) and logs them, and carries out the session commands the
+//! protocol tasks queue.
 
 use core::cell::Cell;
 
@@ -14,6 +16,7 @@ use ballpod::acquisition::{Acquisition, Sample};
 use ballpod::config::Config;
 use ballpod::protocol::log::LogMeta;
 use ballpod::protocol::pod::{PodModel, SessionCommand, SessionState, StatusWord};
+use ballpod::session::run::{RunLimits, RunMonitor, Verdict};
 
 use ballpod::settings;
 
@@ -26,7 +29,12 @@ pub static LAST_TOUCH: Mutex<CriticalSectionRawMutex, Cell<Option<ProbeLatch>>> 
 
 /// Carries out the application side of a session command (the protocol task already applied
 /// the state change to the pod model).
-fn execute(cmd: SessionCommand, acq: &mut Acquisition, flash: &mut SettingsPages) {
+fn execute(
+    cmd: SessionCommand,
+    acq: &mut Acquisition,
+    monitor: &mut RunMonitor,
+    flash: &mut SettingsPages,
+) {
     match cmd {
         SessionCommand::Arm { .. } => {
             if let Some(meta) = state::with_pod(|pod| LogMeta::from_pod(pod)) {
@@ -49,10 +57,18 @@ fn execute(cmd: SessionCommand, acq: &mut Acquisition, flash: &mut SettingsPages
             // configuration stays until then.
             save(flash, &Config::default());
         }
-        SessionCommand::Start
-        | SessionCommand::Stop
-        | SessionCommand::Abort
-        | SessionCommand::Reset => {}
+        SessionCommand::Start => {
+            monitor.start(acq.counters.lost_upstream);
+            let counters = monitor.counters();
+            state::with_pod(|pod| pod.run = counters);
+        }
+        SessionCommand::Stop => {
+            if let Err(reason) = monitor.stop() {
+                state::with_pod(|pod| pod.abort_run(reason));
+                defmt::warn!("run has no results: {}", reason as u8);
+            }
+        }
+        SessionCommand::Abort | SessionCommand::Reset => monitor.end(),
     }
 }
 
@@ -91,10 +107,11 @@ pub async fn compute_task(
             ..PodModel::default()
         })
     });
+    let mut monitor = RunMonitor::new(RunLimits::DEFAULT);
     loop {
         let block = lvdt::BLOCKS.receive().await;
         while let Ok(cmd) = state::COMMANDS.try_receive() {
-            execute(cmd, &mut acq, &mut flash);
+            execute(cmd, &mut acq, &mut monitor, &mut flash);
         }
         while let Ok(code) = thermistor::CODES.try_receive() {
             if let Err(e) = acq.update_temperature(code) {
@@ -117,7 +134,8 @@ pub async fn compute_task(
             super::lost_upstream(),
             probe_event,
         );
-        publish(&s);
+        let verdict = monitor.on_sample(&s, acq.counters.lost_upstream);
+        publish(&s, verdict, &monitor);
         super::safety::progress();
         if s.seq.is_multiple_of(1000) {
             defmt::info!(
@@ -130,14 +148,23 @@ pub async fn compute_task(
     }
 }
 
-/// Live values for CAN and USB; the sample goes into the log while a session runs.
-fn publish(s: &Sample) {
+/// Live values for CAN and USB; the run monitor's verdict and counters; the sample goes into
+/// the log while a session runs (skipped samples too: the log shows their flags).
+fn publish(s: &Sample, verdict: Verdict, monitor: &RunMonitor) {
     let running = state::with_pod(|pod| {
         pod.live.sample_counter = s.seq;
         pod.live.delta_l_um = s.delta_l_um;
         pod.live.temp_c = s.temp_c;
+        let running = pod.session == SessionState::Running;
+        if running {
+            pod.run = monitor.counters();
+            if let Verdict::Abort(_, reason) = verdict {
+                pod.abort_run(reason);
+                defmt::warn!("run aborted: reason {}", reason as u8);
+            }
+        }
         pod.live.status = StatusWord::new(s.flags, pod.session, false);
-        pod.session == SessionState::Running
+        running
     });
     if running == Some(true) {
         if state::download_active() {

@@ -100,13 +100,9 @@ pub async fn usb_task(driver: Driver<'static, USB>, boot_report: Option<&'static
                     state::set_download_active(false);
                 }
             }
-            // Disconnected: configuration writes lock again (issue 7).
+            // Disconnected: configuration writes lock again (issue 7); a download cut short is
+            // dropped, counted and reported as -410 on the next connection.
             scpi.connection_closed();
-            // Disconnected mid-download: drop what is left of it.
-            while scpi.download_pending() {
-                let mut sink = [0u8; PACKET];
-                state::LOG.lock(|log| scpi.pull_download(&*log.borrow(), &mut sink));
-            }
             state::set_download_active(false);
         }
     };

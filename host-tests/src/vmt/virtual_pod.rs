@@ -49,8 +49,9 @@ impl Default for VirtualSetup {
     }
 }
 
-/// The virtual machine and the pod's own code running on it.
-pub struct VirtualPod {
+/// The virtual machine and the pod's own code running on it; its sample log holds `N` samples
+/// (a debug build constructs the log on the stack before boxing it: tests use a small `N`).
+pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     setup: VirtualSetup,
     /// The pod model the protocols read and write.
     pub pod: PodModel,
@@ -58,7 +59,7 @@ pub struct VirtualPod {
     pub sensors: Pod,
     fit: CircleFit,
     monitor: RunMonitor,
-    log: Box<SampleLog<LOG_CAPACITY>>,
+    log: Box<SampleLog<N>>,
     /// The CANopen slave.
     pub node: CanOpenNode,
     /// The SCPI server of the USB port (pull-mode downloads, as the firmware's).
@@ -74,7 +75,7 @@ pub struct VirtualPod {
     last: Option<Sample>,
 }
 
-impl VirtualPod {
+impl<const N: usize> VirtualPod<N> {
     /// A pod with the default configuration on the machine `setup`, idle at angle 0.
     pub fn new(setup: VirtualSetup) -> Self {
         let config = Config::default();
@@ -151,7 +152,7 @@ impl VirtualPod {
     }
 
     /// The sample log.
-    pub fn log(&self) -> &SampleLog<LOG_CAPACITY> {
+    pub fn log(&self) -> &SampleLog<N> {
         &self.log
     }
 

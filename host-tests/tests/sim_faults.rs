@@ -645,3 +645,54 @@ fn usb_disconnect_mid_download_loses_nothing() {
     }
     assert_eq!(b.scpi("SYST:ERR?"), "0,\"No error\"");
 }
+
+#[test]
+fn power_lost_during_a_settings_save_boots_with_the_previous_settings() {
+    // One good save of bar_length 200 mm (slot A, sequence 1); then 250 mm saved with the
+    // power cut after k byte steps, for k across the whole save (2048 erase steps of slot B,
+    // then the programmed double-words, the CRC last, then the read-back). Until the record is
+    // complete the pod boots with 200 mm, afterwards with 250 mm — never the defaults
+    // (150 mm), never a mix. A cut during the read-back leaves the new record complete but the
+    // save reported as failed: the pod then boots with the new settings.
+    let mut new_from = None;
+    for k in (0..2400).step_by(7) {
+        let mut b = Bench::idle();
+        assert_eq!(b.scpi("CONF:UNL;:CONF:BAR_LENGTH 200"), "");
+        assert_eq!(b.scpi("*SAV 0"), "");
+        assert_eq!(b.vp.settings_store_failures(), 0);
+        assert_eq!(b.scpi("CONF:BAR_LENGTH 250"), "");
+        b.vp.flash.budget = Some(k);
+        assert_eq!(b.scpi("*SAV 0"), "");
+        let failed = b.vp.settings_store_failures() == 1;
+        let mut after = Bench {
+            vp: b.vp.power_on(),
+            frames: Vec::new(),
+            stepped: 0,
+        };
+        let got = after.vp.pod.config.bar_length_mm;
+        let seq = after.vp.boot_settings().from.map(|(_, s)| s);
+        assert!(
+            (got, seq) == (200.0, Some(1)) || (got, seq) == (250.0, Some(2)),
+            "cut after {k} steps: {got} mm from {seq:?}"
+        );
+        if !failed {
+            assert_eq!(got, 250.0, "a save reported done is there");
+        }
+        if got == 250.0 {
+            new_from.get_or_insert(k);
+        } else {
+            assert!(
+                new_from.is_none(),
+                "once complete, a record stays complete ({k})"
+            );
+        }
+        // what the CNC reads: 0x2000 bar_length (REAL32)
+        after.step(1);
+        assert_eq!(f32::from_bits(after.read(0x2000, 0)), got);
+    }
+    let new_from = new_from.expect("a long enough budget completes the save");
+    assert!(
+        (2048..2400).contains(&new_from),
+        "complete after {new_from} steps"
+    );
+}

@@ -1,11 +1,12 @@
-//! The CANopen slave on a sequence of arbitrary frames and time steps.
+//! The CANopen slave on a sequence of arbitrary frames, time steps and CAN error states.
 //! Invariants: no panic; the configuration is always valid; it changes only together with
-//! `ConfigChanged`, and only in pre-operational; every output frame has an 11-bit id and ≤ 8 bytes.
+//! `ConfigChanged`, and only in pre-operational; every output frame has an 11-bit id and ≤ 8 bytes;
+//! nothing is sent while bus-off.
 #![no_main]
 
 use arbitrary::{Arbitrary, Unstructured};
 use ballpod::acquisition::SampleFlags;
-use ballpod::protocol::canopen::{CanFrame, CanOpenNode, NmtState};
+use ballpod::protocol::canopen::{BusState, CanFrame, CanOpenNode, NmtState};
 use ballpod::protocol::pod::{PodModel, SessionCommand};
 use libfuzzer_sys::fuzz_target;
 
@@ -32,6 +33,10 @@ enum Step {
     Sample {
         flags: u16,
     },
+    /// The controller's error state (0 active, 1 passive, else bus-off).
+    Bus {
+        state: u8,
+    },
 }
 
 const NODE: u8 = 16;
@@ -41,8 +46,10 @@ fuzz_target!(|data: &[u8]| {
     let mut node = CanOpenNode::new(NODE, 0x1234_5678);
     let mut pod = PodModel::default();
     let mut now_us = 0u64;
+    let bus_off = std::cell::Cell::new(false);
     let check = |f: CanFrame| {
         assert!(f.id <= 0x7FF && f.len <= 8, "bad output frame {f:?}");
+        assert!(!bus_off.get(), "frame sent while bus-off: {f:?}");
     };
     node.poll(now_us, &pod, &mut { check });
     while !u.is_empty() {
@@ -64,6 +71,16 @@ fuzz_target!(|data: &[u8]| {
             }
             Step::Sample { flags } => {
                 node.on_sample(SampleFlags(flags), now_us, &mut { check });
+                None
+            }
+            Step::Bus { state } => {
+                let state = match state {
+                    0 => BusState::ErrorActive,
+                    1 => BusState::ErrorPassive,
+                    _ => BusState::BusOff,
+                };
+                bus_off.set(state == BusState::BusOff);
+                node.on_bus_state(state, now_us, &mut { check });
                 None
             }
         };

@@ -18,8 +18,10 @@ use ballpod::protocol::pod::{
 };
 use ballpod::protocol::scpi::ScpiServer;
 use ballpod::session::run::{RunLimits, RunMonitor, Verdict};
+use ballpod::settings::{self, Loaded};
 
 use super::pod::{Instrument, Pod};
+use crate::flash_model::FlashModel;
 
 /// Samples the simulated pod's log holds: a whole circle at 1 kHz (the firmware keeps 1024 and
 /// decimates; the host has the memory to keep every sample, so a replay sees them all).
@@ -73,12 +75,26 @@ pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     /// Sample periods still to lose upstream (queue overrun), from the next step on.
     losing: u32,
     last: Option<Sample>,
+    /// The two settings pages (`*SAV 0`, CANopen 0x1010); set a power-cut budget here.
+    pub flash: FlashModel,
+    /// What the boot found in the settings pages.
+    boot_settings: Loaded,
+    /// Settings saves that failed (power cut, flash fault).
+    settings_store_failures: u32,
 }
 
 impl<const N: usize> VirtualPod<N> {
-    /// A pod with the default configuration on the machine `setup`, idle at angle 0.
+    /// A pod with erased settings pages (so the default configuration) on the machine
+    /// `setup`, idle at angle 0.
     pub fn new(setup: VirtualSetup) -> Self {
-        let config = Config::default();
+        Self::boot(setup, FlashModel::erased())
+    }
+
+    /// A pod booting with the settings pages `flash`: the newest valid record, else the
+    /// defaults (as the firmware's `main`).
+    pub fn boot(setup: VirtualSetup, mut flash: FlashModel) -> Self {
+        let boot_settings = settings::load(&mut flash);
+        let config = boot_settings.config;
         let sensors = Self::sensors(&setup, &config, 0.0);
         let mut scpi = ScpiServer::new();
         scpi.set_pull_download(true);
@@ -99,6 +115,31 @@ impl<const N: usize> VirtualPod<N> {
             turned: 0.0,
             losing: 0,
             last: None,
+            flash,
+            boot_settings,
+            settings_store_failures: 0,
+        }
+    }
+
+    /// Power comes back after a cut (or a reset): the same machine and settings pages, a
+    /// fresh boot.
+    pub fn power_on(&self) -> Self {
+        Self::boot(self.setup, self.flash.power_on())
+    }
+
+    /// What the boot found in the settings pages (slot and sequence, or the defaults).
+    pub fn boot_settings(&self) -> &Loaded {
+        &self.boot_settings
+    }
+
+    /// Settings saves that failed (the firmware's `SETTINGS_STORE_FAILURES`).
+    pub fn settings_store_failures(&self) -> u32 {
+        self.settings_store_failures
+    }
+
+    fn save(&mut self, config: &Config) {
+        if settings::store(&mut self.flash, config).is_err() {
+            self.settings_store_failures += 1;
         }
     }
 
@@ -194,7 +235,9 @@ impl<const N: usize> VirtualPod<N> {
                 // the virtual instrument follows the new bar length and sample rate
                 self.sensors = Self::sensors(&self.setup, &self.pod.config, self.theta);
             }
-            SessionCommand::StoreSettings | SessionCommand::RestoreDefaults => {}
+            SessionCommand::StoreSettings => self.save(&self.pod.config.clone()),
+            // CiA 301 0x1011: the defaults take effect at the next reset
+            SessionCommand::RestoreDefaults => self.save(&Config::default()),
         }
     }
 

@@ -28,8 +28,9 @@ pub static RX_FRAMES: AtomicU32 = AtomicU32::new(0);
 /// bounds its output per call below the batch size).
 pub static TX_BATCH_OVERRUNS: Overruns = Overruns::new();
 
-/// Frames per batch: the node emits at most 4 per received frame and 7 per poll.
-const TX_BATCH: usize = 8;
+/// Frames per batch: the node emits at most 5 per received frame or 7 per poll, plus 2 on a
+/// change of the bus state.
+const TX_BATCH: usize = 10;
 
 /// Configures FDCAN1 and starts it in normal mode.
 pub fn start(

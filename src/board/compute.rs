@@ -148,25 +148,28 @@ pub async fn compute_task(
     }
 }
 
-/// Live values for CAN and USB; the run monitor's verdict and counters; the sample goes into
-/// the log while a session runs (skipped samples too: the log shows their flags).
+/// Live values for CAN and USB; the run monitor's verdict and counters; every sample the run
+/// counted goes into the log (skipped ones too: the log shows their flags). A sample before
+/// the compute task has started the monitor is not part of the run: neither counted nor
+/// logged.
 fn publish(s: &Sample, verdict: Verdict, monitor: &RunMonitor) {
-    let running = state::with_pod(|pod| {
+    let counted = verdict != Verdict::NotRunning;
+    state::with_pod(|pod| {
         pod.live.sample_counter = s.seq;
         pod.live.delta_l_um = s.delta_l_um;
         pod.live.temp_c = s.temp_c;
-        let running = pod.session == SessionState::Running;
-        if running {
+        if counted {
             pod.run = monitor.counters();
-            if let Verdict::Abort(_, reason) = verdict {
-                pod.abort_run(reason);
-                defmt::warn!("run aborted: reason {}", reason as u8);
-            }
+        }
+        if let Verdict::Abort(_, reason) = verdict
+            && pod.session == SessionState::Running
+        {
+            pod.abort_run(reason);
+            defmt::warn!("run aborted: reason {}", reason as u8);
         }
         pod.live.status = StatusWord::new(s.flags, pod.session, false);
-        running
     });
-    if running == Some(true) {
+    if counted {
         if state::download_active() {
             state::LOG_PAUSED_SAMPLES.count();
         } else {

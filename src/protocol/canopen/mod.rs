@@ -18,9 +18,9 @@
 //! ```
 //! Boot-up (0x700 + node-ID, `[0x00]`) is sent by the first `poll`; the node is then
 //! pre-operational. `now_us` is any monotonic µs clock. Each call emits a bounded number of
-//! frames (on_frame ≤ 1 + 4 TPDOs, poll ≤ 1 heartbeat + 4 TPDOs + 1 SDO abort + 1 EMCY), so a
-//! transmit queue of 8 never overflows within one call; what the driver cannot queue it should
-//! count.
+//! frames (on_frame ≤ 1 + 4 TPDOs, poll ≤ 1 heartbeat + 4 TPDOs + 1 SDO abort + 1 EMCY,
+//! on_bus_state ≤ 2 EMCYs), so a transmit queue of 8 never overflows within one call; what the
+//! driver cannot queue it should count.
 //!
 //! # What it implements
 //! - NMT slave (CiA 301 §7.3.2): pre-operational / operational / stopped, reset node (also

@@ -87,7 +87,9 @@ pub struct RunCounters {
     pub skipped_jump: u32,
     /// Skipped: a valid sample on which the lost samples passed the limit (the run aborted).
     pub skipped_overrun: u32,
-    /// Samples lost upstream (queue overruns) during the run; never seen.
+    /// Samples lost upstream (queue overruns) during the run; never seen. It is the growth of
+    /// the acquisition's lost-item count, so on the board a probe edge dropped by a full edge
+    /// queue counts here too (it also flags the next sample `OVERRUN`).
     pub lost: u32,
     /// Used samples whose temperature correction used the last good temperature
     /// ([`SampleFlags::TEMPERATURE_FAULT`]).

@@ -255,25 +255,27 @@ pub fn write_session(dir: &Path, desc: &SessionDesc, runs: &[Vec<Sample>]) -> Re
     std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
 }
 
-/// Reads a session file (`.toml` or JSON) and all its logs (paths relative to it).
-pub fn read_session(path: &Path) -> Result<(SessionDesc, Vec<Vec<Sample>>), LogError> {
+/// Parses and checks a session description: TOML when `path` ends in `.toml`, JSON otherwise
+/// (`path` only names the file in errors and picks the format; nothing is read). Every run must
+/// have a known method and direction, and the geometry its method needs.
+pub fn parse_session(path: &Path, text: &str) -> Result<SessionDesc, LogError> {
     let whole = |what: String| LogError {
         file: path.to_path_buf(),
         line: 0,
         field: None,
         what,
     };
-    let text = std::fs::read_to_string(path).map_err(|e| whole(e.to_string()))?;
     let desc: SessionDesc = if path.extension().is_some_and(|e| e == "toml") {
-        toml::from_str(&text).map_err(|e| LogError {
+        toml::from_str(text).map_err(|e| LogError {
             line: e
                 .span()
-                .map(|s| text[..s.start].lines().count().max(1))
+                .and_then(|s| text.get(..s.start))
+                .map(|t| t.lines().count().max(1))
                 .unwrap_or(0),
             ..whole(e.message().to_string())
         })?
     } else {
-        serde_json::from_str(&text).map_err(|e| LogError {
+        serde_json::from_str(text).map_err(|e| LogError {
             line: e.line(),
             ..whole(e.to_string())
         })?
@@ -299,6 +301,18 @@ pub fn read_session(path: &Path) -> Result<(SessionDesc, Vec<Vec<Sample>>), LogE
             return Err(bad("seed 002 run without seed002 geometry".into()));
         }
     }
+    Ok(desc)
+}
+
+/// Reads a session file (`.toml` or JSON) and all its logs (paths relative to it).
+pub fn read_session(path: &Path) -> Result<(SessionDesc, Vec<Vec<Sample>>), LogError> {
+    let text = std::fs::read_to_string(path).map_err(|e| LogError {
+        file: path.to_path_buf(),
+        line: 0,
+        field: None,
+        what: e.to_string(),
+    })?;
+    let desc = parse_session(path, &text)?;
     let base = path.parent().unwrap_or(Path::new("."));
     let mut runs = Vec::new();
     for r in &desc.runs {

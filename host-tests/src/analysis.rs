@@ -6,7 +6,8 @@
 //! the simulator wrote gives the same results bit for bit.
 
 use ballpod::acquisition::Sample;
-use ballpod::identify::multitasking::patterns::NcOffset;
+use ballpod::identify::multitasking::compensation::{CompensationMode, compensate};
+use ballpod::identify::multitasking::patterns::{NcBlock, NcOffset};
 use ballpod::identify::multitasking::{Parameter, urad_to_arcsec};
 use ballpod::metrology::circle_fit::{CircleEstimate, CircleFitConfig};
 use ballpod::metrology::iso230_4::{self, CircularTest, Diagnostics, Direction};
@@ -16,6 +17,16 @@ use serde::{Deserialize, Serialize};
 
 /// Angular bins of the ISO 230-4 profile (1° each).
 pub const ISO_BINS: usize = 360;
+
+/// NC check points where the seed 002 result is applied as a compensation (`results.json`
+/// `seed002.compensation[]`): X, Y, Z in mm, B, C in degrees, in the working zone of the
+/// Table 4.3 set-up (the first is the check point of spec seed-002 part 5).
+pub const COMPENSATION_POINTS: [[f64; 5]; 4] = [
+    [-390.0, 0.0, -112.2605, 10.0, 0.0],
+    [-490.0, 0.0, -112.2877, 0.0, 0.0],
+    [-390.0, 50.0, -62.2491, 45.0, 90.0],
+    [-440.0, -50.0, -112.2605, 90.0, 225.0],
+];
 
 /// Seed 002 geometry of a session (Table 4.3 symbols, mm).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -203,6 +214,20 @@ pub struct Seed002Result {
     pub model_condition: f64,
     /// Corrections: the negative of each model-mode deviation (same units).
     pub corrections: Vec<Value>,
+    /// The model-mode deviations applied by the core's compensation
+    /// (`identify::multitasking::compensation`, single correction) at [`COMPENSATION_POINTS`].
+    pub compensation: Vec<CompensatedPoint>,
+}
+
+/// One NC point compensated with the identified deviations.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CompensatedPoint {
+    /// The commanded NC block: X, Y, Z (mm), B, C (degrees).
+    pub nc_mm_deg: [f64; 5],
+    /// The corrected command X, Y, Z (mm); B and C stay as commanded.
+    pub corrected_xyz_mm: [f64; 3],
+    /// Corrected − commanded X, Y, Z, µm.
+    pub correction_um: [f64; 3],
 }
 
 /// Figures of one ISO 230-4 direction.
@@ -435,6 +460,27 @@ fn seed002_result(p: &Procedure) -> Result<Seed002Result, String> {
             ..v.clone()
         })
         .collect();
+    let mut compensation = Vec::new();
+    for nc in COMPENSATION_POINTS {
+        let b = NcBlock {
+            x_mm: nc[0],
+            y_mm: nc[1],
+            z_mm: nc[2],
+            b_deg: nc[3],
+            c_deg: nc[4],
+        };
+        let c = compensate(&b, &m.result.deviations, CompensationMode::Once)
+            .map_err(|e| format!("seed 002 compensation at {nc:?}: {e:?}"))?;
+        compensation.push(CompensatedPoint {
+            nc_mm_deg: nc,
+            corrected_xyz_mm: [c.x_mm, c.y_mm, c.z_mm],
+            correction_um: [
+                (c.x_mm - b.x_mm) * 1e3,
+                (c.y_mm - b.y_mm) * 1e3,
+                (c.z_mm - b.z_mm) * 1e3,
+            ],
+        });
+    }
     Ok(Seed002Result {
         steps,
         thesis,
@@ -443,6 +489,7 @@ fn seed002_result(p: &Procedure) -> Result<Seed002Result, String> {
         model_residual_rms_um: m.result.residual_rms_um,
         model_condition: m.result.condition,
         corrections,
+        compensation,
     })
 }
 

@@ -154,6 +154,15 @@ pub struct CircleMachine {
     pub servo_lag_x_ms: f64,
     /// Y servo lag, ms.
     pub servo_lag_y_ms: f64,
+    /// Quadratic straightness of X along Y, µm: E_x = A·(y/R)² (0 at y = 0, A at y = ±R).
+    pub straightness_x_along_y_um: f64,
+    /// Where the socket really is minus where the pod believes it (X, Y), µm.
+    pub socket_offset_um: [f64; 2],
+    /// Thermal growth of X, µm per minute at x = R: E_x = g_x·t·x/R, t = time since the
+    /// run's start.
+    pub thermal_growth_x_um_per_min: f64,
+    /// Thermal growth of Y, µm per minute at y = R: E_y = g_y·t·y/R.
+    pub thermal_growth_y_um_per_min: f64,
 }
 
 impl Default for CircleMachine {
@@ -171,6 +180,10 @@ impl Default for CircleMachine {
             cyclic_order: 8,
             servo_lag_x_ms: 1.0,
             servo_lag_y_ms: 0.0,
+            straightness_x_along_y_um: 0.0,
+            socket_offset_um: [0.0; 2],
+            thermal_growth_x_um_per_min: 0.0,
+            thermal_growth_y_um_per_min: 0.0,
         }
     }
 }
@@ -197,7 +210,16 @@ impl CircleMachine {
             + radial * theta.cos();
         let ey_um = self.scale_y_um_per_m * 1e-3 * ya - vy.signum() * self.backlash_y_um / 2.0
             + radial * theta.sin();
-        let (x, y) = (xa + ex_um * 1e-3, ya + ey_um * 1e-3);
+        // time since the run's start: every run starts at θ = 0 and turns at |ω|
+        let t_min = theta.abs() / omega.abs() / 60.0;
+        let ex_um = ex_um
+            + self.straightness_x_along_y_um * (ya / r).powi(2)
+            + self.thermal_growth_x_um_per_min * t_min * xa / r;
+        let ey_um = ey_um + self.thermal_growth_y_um_per_min * t_min * ya / r;
+        let (x, y) = (
+            xa + ex_um * 1e-3 - self.socket_offset_um[0] * 1e-3,
+            ya + ey_um * 1e-3 - self.socket_offset_um[1] * 1e-3,
+        );
         (
             ((x * x + y * y).sqrt() - r) * 1e3,
             [r * theta.cos(), r * theta.sin(), 0.0, 0.0, 0.0],

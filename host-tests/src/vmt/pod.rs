@@ -36,6 +36,9 @@ pub struct Instrument {
     pub lvdt_nonlinearity_per_um: f64,
     /// Sample rate, Hz.
     pub sample_rate_hz: f64,
+    /// Bar temperature change during a run, °C per minute from `bar_temp_c` at the pod's
+    /// start (the thermistor follows: its code is fed to the acquisition every 100 ms).
+    pub bar_temp_drift_c_per_min: f64,
 }
 
 impl Default for Instrument {
@@ -46,6 +49,7 @@ impl Default for Instrument {
             bar_temp_c: 20.5,
             lvdt_nonlinearity_per_um: 0.0,
             sample_rate_hz: 1000.0,
+            bar_temp_drift_c_per_min: 0.0,
         }
     }
 }
@@ -156,10 +160,16 @@ impl Pod {
     /// One sample: the true bar-length deviation `dl_um` (ball distance − L_B, µm) and the axis
     /// positions `axes` the encoders read (mm / degrees). Advances virtual time by one period.
     pub fn sample(&mut self, dl_um: f64, axes: &[f64; MAX_AXES]) -> Sample {
+        let temp_c = self.bar_temp_now_c();
+        if self.inst.bar_temp_drift_c_per_min != 0.0 && self.t_us.is_multiple_of(100_000) {
+            // the thermistor task's read every 100 ms
+            let code = self.thermistor_code_of(temp_c);
+            let _ = self.acq.update_temperature(code);
+        }
         let expansion = f64::from(bar_expansion_um(
             self.config.bar_length_mm,
             self.config.bar_cte_ppm_per_k,
-            self.inst.bar_temp_c as f32,
+            temp_c as f32,
         ));
         let f = &mut self.faults;
         let mut x =
@@ -194,6 +204,20 @@ impl Pod {
         self.last_axes = *axes;
         self.t_us += self.period_us();
         s
+    }
+
+    /// The bar's true temperature now, °C (`bar_temp_c` plus the drift since the pod started).
+    pub fn bar_temp_now_c(&self) -> f64 {
+        self.inst.bar_temp_c + self.inst.bar_temp_drift_c_per_min * self.t_us as f64 / 60e6
+    }
+
+    /// The thermistor ADC code (12-bit) of a bar at `temp_c` (°C): the β equation and the
+    /// divider of the configuration.
+    pub fn thermistor_code_of(&self, temp_c: f64) -> u16 {
+        let c = &self.config;
+        let r = f64::from(c.thermistor_r25_ohm)
+            * (f64::from(c.thermistor_beta_k) * (1.0 / (temp_c + 273.15) - 1.0 / 298.15)).exp();
+        (4095.0 * r / (r + f64::from(c.thermistor_r_fixed_ohm))).round() as u16
     }
 
     fn period_us(&self) -> u64 {

@@ -1,0 +1,178 @@
+//! Instrument and machine faults of the virtual machine tool that the ISO 230-4 diagnostics do
+//! not name: straightness, a socket that is not where the pod believes, thermal drift of the
+//! machine and of the bar, LVDT non-linearity. Each is injected alone on an otherwise perfect
+//! machine (`CircleMachine` faults at 0) and its effect on what the pod reports is checked
+//! against the size computed by hand from the injected fault through the forward model.
+//!
+//! Tolerances: the circle runs have 14 137 samples (R 150 mm at F4000, 1 kHz) with the default
+//! 0.2 µm bar noise and 0.5 count ADC noise, so a fitted centre has σ ≈ 0.2·√(2/14 137) ≈
+//! 0.003 µm and a ΔL-vs-time slope σ ≈ 0.2 µm / (√14 137 · 4.1 s) ≈ 0.03 µm/min; the bounds below
+//! are 0.05 µm / 1 % (≥ 15 σ) so that only a wrong effect fails, not noise, and f32 sample
+//! rounding (≈ 0.01 µm on ΔL at 150 mm) stays inside them.
+
+use ballpod::acquisition::Sample;
+use ballpod::config::Config;
+use ballpod_host::analysis::{Results, analyse};
+use ballpod_host::simulate::{SimOptions, SimSession, simulate};
+use ballpod_host::vmt::machine::{CircleMachine, MachineFile};
+use ballpod_host::vmt::pod::{Instrument, Pod};
+
+/// A perfect circle machine (R 150 mm, F4000) and the default instrument.
+fn perfect() -> MachineFile {
+    MachineFile {
+        circle: CircleMachine {
+            feed_mm_per_min: 4000.0,
+            squareness_urad: 0.0,
+            scale_x_um_per_m: 0.0,
+            scale_y_um_per_m: 0.0,
+            backlash_x_um: 0.0,
+            backlash_y_um: 0.0,
+            cyclic_amplitude_um: 0.0,
+            servo_lag_x_ms: 0.0,
+            servo_lag_y_ms: 0.0,
+            ..CircleMachine::default()
+        },
+        ..MachineFile::default()
+    }
+}
+
+fn run(m: &MachineFile) -> (SimSession, Results) {
+    let o = SimOptions {
+        seed: 5,
+        repeats: 1,
+        feed_mm_per_min: 4000.0,
+        seed002: false,
+        circle: true,
+    };
+    let s = simulate(m, &o, &mut |_, _, _| {});
+    let r = analyse(&s.desc, &s.runs).expect("analysis");
+    (s, r)
+}
+
+/// Fitted centres (µm) of the CCW and CW runs.
+fn centres(r: &Results) -> [[f32; 2]; 2] {
+    let iso = r.iso230_4.as_ref().expect("both directions");
+    [iso.ccw.centre_um, iso.cw.centre_um]
+}
+
+/// Least-squares slope of ΔL over time, µm per minute.
+fn slope_um_per_min(samples: &[Sample]) -> f64 {
+    let n = samples.len() as f64;
+    let t: Vec<f64> = samples.iter().map(|s| s.t_us as f64 / 60e6).collect();
+    let y: Vec<f64> = samples.iter().map(|s| f64::from(s.delta_l_um)).collect();
+    let (mt, my) = (t.iter().sum::<f64>() / n, y.iter().sum::<f64>() / n);
+    let mut sxy = 0.0;
+    let mut sxx = 0.0;
+    for i in 0..samples.len() {
+        sxy += (t[i] - mt) * (y[i] - my);
+        sxx += (t[i] - mt) * (t[i] - mt);
+    }
+    sxy / sxx
+}
+
+#[test]
+fn a_perfect_machine_shows_no_eccentricity_and_no_drift() {
+    let (s, r) = run(&perfect());
+    for c in centres(&r) {
+        assert!(c[0].abs() < 0.05 && c[1].abs() < 0.05, "{c:?}");
+    }
+    for run in &s.runs {
+        assert!(slope_um_per_min(run).abs() < 0.15);
+    }
+}
+
+/// E_x = A·(y/R)² gives ΔL = A·sin²θ·cosθ = (A/4)(cos θ − cos 3θ): the fitted centre moves by
+/// A/4 in X, not at all in Y.
+#[test]
+fn straightness_of_x_along_y_shifts_the_centre_by_a_quarter_of_it() {
+    let mut m = perfect();
+    m.circle.straightness_x_along_y_um = 8.0;
+    let (_, r) = run(&m);
+    for c in centres(&r) {
+        assert!((f64::from(c[0]) - 8.0 / 4.0).abs() < 0.05, "{c:?}");
+        assert!(c[1].abs() < 0.05, "{c:?}");
+    }
+}
+
+/// The bar measures from the true socket; the pod fits about the believed one: the tool path's
+/// centre is at −offset from the true socket, so the fitted centre is −offset.
+#[test]
+fn a_socket_mounting_offset_appears_as_the_same_eccentricity() {
+    let mut m = perfect();
+    m.circle.socket_offset_um = [3.0, -2.0];
+    let (_, r) = run(&m);
+    for c in centres(&r) {
+        assert!((f64::from(c[0]) + 3.0).abs() < 0.05, "{c:?}");
+        assert!((f64::from(c[1]) - 2.0).abs() < 0.05, "{c:?}");
+    }
+}
+
+/// Both axes growing by g at x, y = R per minute: the radius, so ΔL, grows by g per minute.
+#[test]
+fn thermal_growth_of_the_machine_drifts_dl_by_the_injected_rate() {
+    let mut m = perfect();
+    m.circle.thermal_growth_x_um_per_min = 20.0;
+    m.circle.thermal_growth_y_um_per_min = 20.0;
+    let (s, _) = run(&m);
+    for run in &s.runs {
+        let k = slope_um_per_min(run);
+        assert!((k / 20.0 - 1.0).abs() < 0.01, "slope {k} µm/min");
+    }
+}
+
+/// The bar warms by 10 °C/min during the run and the thermistor follows: ΔL stays unbiased
+/// (slope ≪ the uncorrected expansion rate L·α·10 K/min, mean ≈ 0) and the samples carry the
+/// bar's temperature.
+#[test]
+fn bar_temperature_drift_is_corrected_from_the_thermistor() {
+    let mut m = perfect();
+    m.instrument.bar_temp_drift_c_per_min = 10.0;
+    let (s, _) = run(&m);
+    let cfg = Config::default();
+    let uncorrected = 150.0e3 * f64::from(cfg.bar_cte_ppm_per_k) * 1e-6 * 10.0; // µm/min
+    assert!(uncorrected > 10.0, "{uncorrected}");
+    for run in &s.runs {
+        let k = slope_um_per_min(run);
+        assert!(
+            k.abs() < 0.02 * uncorrected,
+            "slope {k} vs {uncorrected} µm/min"
+        );
+        let mean = run.iter().map(|s| f64::from(s.delta_l_um)).sum::<f64>() / run.len() as f64;
+        assert!(mean.abs() < 0.05, "mean ΔL {mean} µm");
+        let last = run.last().expect("samples");
+        let truth = m.instrument.bar_temp_c + 10.0 * last.t_us as f64 / 60e6;
+        // the thermistor is read every 100 ms (≤ 0.017 °C behind) through a 12-bit ADC
+        assert!(
+            (f64::from(last.temp_c) - truth).abs() < 0.05,
+            "{} vs {truth}",
+            last.temp_c
+        );
+    }
+}
+
+/// The LVDT reads x + k·x²: at a constant true ΔL of 400 µm (bar at 20 °C: no expansion), the
+/// pod reports 400 + k·400².
+#[test]
+fn lvdt_nonlinearity_adds_k_x_squared() {
+    for k in [0.0, 2e-5, -1e-5] {
+        let inst = Instrument {
+            bar_temp_c: 20.0,
+            lvdt_nonlinearity_per_um: k,
+            ..Instrument::default()
+        };
+        let mut pod = Pod::new(150.0, &inst, 9);
+        let axes = [150.0, 0.0, 0.0, 0.0, 0.0];
+        pod.reference(&axes);
+        let n = 2000;
+        let mean = (0..n)
+            .map(|_| f64::from(pod.sample(400.0, &axes).delta_l_um))
+            .sum::<f64>()
+            / f64::from(n);
+        // σ of the mean 0.2/√2000 ≈ 0.005 µm
+        let expected = 400.0 + k * 400.0 * 400.0;
+        assert!(
+            (mean - expected).abs() < 0.05,
+            "k {k}: {mean} vs {expected}"
+        );
+    }
+}

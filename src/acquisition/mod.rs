@@ -4,6 +4,7 @@
 //! - [`encoder`]: hardware counter → exact 64-bit count → mm / degrees, glitch detection;
 //! - [`probe`]: touch-trigger latch, debounce, re-seat lock-out;
 //! - [`thermal`]: thermistor → °C, bar expansion correction;
+//! - [`rtest_head`]: the R-test head's three LVDT channels → sphere-centre displacement;
 //! - [`pipeline`]: all of the above → one flagged [`Sample`] per sample period;
 //! - [`sample`]: the sample and its validity flags.
 
@@ -11,6 +12,7 @@ pub mod encoder;
 pub mod lvdt;
 pub mod pipeline;
 pub mod probe;
+pub mod rtest_head;
 pub mod sample;
 pub mod thermal;
 

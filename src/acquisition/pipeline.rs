@@ -111,6 +111,12 @@ impl Acquisition {
         }
     }
 
+    /// The LVDT calibration in use (from the configuration), e.g. for the R-test head's
+    /// three channels ([`super::rtest_head::RtestHead::read`]).
+    pub fn lvdt_calibration(&self) -> LvdtCalibration {
+        self.lvdt
+    }
+
     /// The LVDT reading of a DC conditioner voltage under the configured zero and span
     /// (saturation limits ±10.5 V, the conditioner class's rails).
     pub fn dc_reading(&self, volts: f32) -> LvdtReading {

@@ -10,8 +10,9 @@
 //!   `max_relative_error`;
 //! - `seed002_probe`: sphere centres at C = 0/90/180/270° from the literal HTM model
 //!   ([`crate::forward_seed002`]) plus noise → `identify::multitasking::probe`;
-//! - `seed003_rtest`: R-test readings from the exact chain ([`crate::forward_seed003`]) plus
-//!   noise on path K4 → `identify::rtest`;
+//! - `seed003_rtest`: the R-test head on path K4 of the A/C table-tilting machine
+//!   ([`crate::vmt::rtest_rig`]: the exact chain of [`crate::forward_seed003`], three noisy
+//!   sensors through LVDT channels, the core's `acquisition::rtest_head`) → `identify::rtest`;
 //! - `seed004_dial_gauge`: dial-gauge readings on a face turned by a tilted axis
 //!   ([`crate::forward_seed004`]) plus noise → `identify::centreline`;
 //! - `seed000_two_step`: ball-bar lengths at three SSM stations around the socket after the
@@ -321,8 +322,8 @@ fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
 }
 
 fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {
-    use crate::forward_seed003 as fw;
-    use ballpod::identify::rtest::{ARCSEC_RAD, RtestConfig, RtestGeometry, RtestSample, identify};
+    use crate::vmt::rtest_rig::{RtestRig, path_k4, seed003_table3_kinematics};
+    use ballpod::identify::rtest::{RtestConfig, RtestGeometry, identify};
     const NAMES: [&str; 11] = [
         "XOW", "YOW", "ZOW", "YOA", "ZOA", "BOA", "COA", "XOC", "YOC", "AOC", "BOC",
     ];
@@ -330,35 +331,15 @@ fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {
         false, false, false, false, false, true, true, false, false, true, true,
     ];
     let truth = s.rtest_errors.ok_or("seed003_rtest needs rtest_errors")?;
-    let si: [f64; 11] = std::array::from_fn(|i| {
-        if ANGULAR[i] {
-            truth[i] * ARCSEC_RAD
-        } else {
-            truth[i] * 1e-3
-        }
-    });
-    // the seed 003 Table 3 set-up
-    let k = fw::Kin {
-        x_w: -217.504,
-        y_w: -0.279,
-        z_w: 211.537,
-        z_c: 29.794,
-        z_p: 184.670,
-        ..Default::default()
-    };
-    let mut rng = Rng::new(s.seed);
-    // path K4: A 0 → −90° while C turns 0 → 360°
-    let samples: Vec<RtestSample> = (0..241)
-        .map(|i| {
-            let (a, c) = (-90.0 * i as f64 / 240.0, 1.5 * i as f64);
-            let r = fw::exact_reduced_reading_um(&k, &si, f64::to_radians(a), f64::to_radians(c));
-            RtestSample {
-                a_deg: a,
-                c_deg: c,
-                reading_um: r.map(|v| v + s.noise_um * rng.normal()),
-            }
-        })
-        .collect();
+    // sensor level: the exact chain → three LVDT channels → the core's head combination
+    let mut rig = RtestRig::new(s.noise_um, s.seed);
+    let samples = rig.measure(&seed003_table3_kinematics(), &truth, &path_k4(241));
+    if rig.invalid_samples != 0 {
+        return Err(format!(
+            "R-test head: {} invalid samples",
+            rig.invalid_samples
+        ));
+    }
     let r = identify(
         &RtestGeometry::SEED003_TABLE3,
         &samples,

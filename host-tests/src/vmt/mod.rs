@@ -5,11 +5,16 @@
 //!
 //! - [`machine`]: the seed 002 multi-tasking machine (literal HTM model of
 //!   [`crate::forward_seed002`]) and an XY machine with linear-axis faults for circular tests;
+//! - [`rtest_rig`]: the seed 003 A/C table-tilting machine under an R-test head (three LVDT
+//!   channels → the core's `acquisition::rtest_head`);
+//! - [`lvdt_channel`]: one LVDT's ADC blocks through the core's demodulator;
 //! - [`pod`]: sensor-level streams through `ballpod::acquisition` → [`ballpod::acquisition::Sample`],
 //!   with fault injection;
 //! - [`virtual_pod`]: the pod's application on a circle (run monitor, fit, log, CANopen, SCPI),
 //!   behind `sim --serve` and the fault-scenario tests.
 
+pub mod lvdt_channel;
 pub mod machine;
 pub mod pod;
+pub mod rtest_rig;
 pub mod virtual_pod;

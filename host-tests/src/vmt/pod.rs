@@ -9,18 +9,14 @@
 //! encoder glitch, ADC blocks lost to a queue overrun, a thermistor open or shorted, probe
 //! contact bounce.
 
-use ballpod::acquisition::lvdt::{ExcitationTable, demodulate};
 use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::acquisition::thermal::{ThermistorFault, bar_expansion_um};
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
 use ballpod::config::Config;
 use serde::{Deserialize, Serialize};
 
-use crate::lvdt_model::LvdtModel;
+use super::lvdt_channel::LvdtChannel;
 use crate::rng::Rng;
-
-/// ADC samples per excitation period (the default configuration's DAC table).
-const P: usize = 20;
 
 /// Instrument faults and noise of the simulated pod.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -77,9 +73,7 @@ pub struct Pod {
     /// The pod's configuration (bar length set by the set-up).
     pub config: Config,
     acq: Acquisition,
-    table: ExcitationTable<P>,
-    lvdt: LvdtModel,
-    periods: usize,
+    lvdt: LvdtChannel,
     inst: Instrument,
     rng: Rng,
     t_us: u64,
@@ -119,14 +113,10 @@ impl Pod {
         // a fault here shows up as TEMPERATURE_FAULT flags on the samples
         let _ = acq.update_temperature(code);
         let good_code = code;
-        let periods =
-            (f64::from(config.excitation_hz) / f64::from(config.sample_rate_hz)).round() as usize;
         Self {
             config,
             acq,
-            table: ExcitationTable::<P>::new(),
-            lvdt: LvdtModel::default(),
-            periods: periods.max(1),
+            lvdt: LvdtChannel::new(&config),
             inst: *inst,
             rng: Rng::new(seed),
             t_us: 0,
@@ -175,7 +165,7 @@ impl Pod {
         let mut x =
             dl_um + f.bar_offset_um - expansion + self.inst.bar_noise_um * self.rng.normal();
         x += self.inst.lvdt_nonlinearity_per_um * x * x;
-        let mut lvdt = self.lvdt;
+        let mut lvdt = self.lvdt.model;
         if f.lvdt_open_samples > 0 {
             f.lvdt_open_samples -= 1;
             lvdt.amplitude_sum = 0.0;
@@ -183,14 +173,9 @@ impl Pod {
             f.lvdt_over_range_samples -= 1;
             x = OVER_RANGE_UM;
         }
-        let (a, b) = lvdt.block_adc(
-            x,
-            P,
-            self.periods,
-            self.inst.adc_noise_counts,
-            &mut self.rng,
-        );
-        let reading = demodulate(&a, &b, &self.table);
+        let reading = self
+            .lvdt
+            .read_with(&lvdt, x, self.inst.adc_noise_counts, &mut self.rng);
         let glitch = std::mem::take(&mut f.encoder_glitch_counts);
         let mut raw = self.raw(axes);
         if glitch != 0 {

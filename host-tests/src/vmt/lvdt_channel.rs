@@ -1,0 +1,59 @@
+//! One LVDT channel of the pod as the ADCs see it: the transformer model of
+//! [`crate::lvdt_model`] sampled into 12-bit blocks over the excitation periods of one sample,
+//! demodulated by the core's `ballpod::acquisition::lvdt::demodulate` — the board's path
+//! from a core displacement to an [`LvdtReading`]. The ball bar uses one ([`super::pod`]),
+//! the R-test head three ([`super::rtest_rig`]).
+
+use ballpod::acquisition::lvdt::{DemodError, ExcitationTable, LvdtReading, demodulate};
+use ballpod::config::Config;
+
+use crate::lvdt_model::LvdtModel;
+use crate::rng::Rng;
+
+/// ADC samples per excitation period (the default configuration's DAC table).
+pub const P: usize = 20;
+
+/// An LVDT channel: transformer model, excitation table, periods per sample.
+#[derive(Clone, Debug)]
+pub struct LvdtChannel {
+    /// The transformer (gain, amplitude, phase, ADC offset).
+    pub model: LvdtModel,
+    table: ExcitationTable<P>,
+    periods: usize,
+}
+
+impl LvdtChannel {
+    /// A channel sampled as `cfg` says (excitation frequency / sample rate periods a block).
+    pub fn new(cfg: &Config) -> Self {
+        let periods =
+            (f64::from(cfg.excitation_hz) / f64::from(cfg.sample_rate_hz)).round() as usize;
+        Self {
+            model: LvdtModel::default(),
+            table: ExcitationTable::<P>::new(),
+            periods: periods.max(1),
+        }
+    }
+
+    /// The demodulated block of a core displacement `x_um` (µm) through the transformer
+    /// `model` (the channel's own, or one with a fault), with ADC noise σ `adc_noise_counts`.
+    pub fn read_with(
+        &self,
+        model: &LvdtModel,
+        x_um: f64,
+        adc_noise_counts: f64,
+        rng: &mut Rng,
+    ) -> Result<LvdtReading, DemodError> {
+        let (a, b) = model.block_adc(x_um, P, self.periods, adc_noise_counts, rng);
+        demodulate(&a, &b, &self.table)
+    }
+
+    /// [`read_with`](Self::read_with) the channel's own transformer.
+    pub fn read(
+        &self,
+        x_um: f64,
+        adc_noise_counts: f64,
+        rng: &mut Rng,
+    ) -> Result<LvdtReading, DemodError> {
+        self.read_with(&self.model, x_um, adc_noise_counts, rng)
+    }
+}

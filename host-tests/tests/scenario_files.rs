@@ -38,6 +38,9 @@ macro_rules! scenarios {
 
 scenarios! {
     seed000_two_step_rrttt => "seed000_two_step_rrttt.toml",
+    seed000_two_step_tttrr => "seed000_two_step_tttrr.toml",
+    seed000_two_step_rtttr_spindle => "seed000_two_step_rtttr_spindle.toml",
+    seed000_two_step_rtttr_table => "seed000_two_step_rtttr_table.toml",
     seed002_ballbar_thesis => "seed002_ballbar_thesis.toml",
     seed002_ballbar_offsets => "seed002_ballbar_offsets.toml",
     seed002_probe => "seed002_probe.toml",

@@ -15,9 +15,11 @@
 //!   sensors through LVDT channels, the core's `acquisition::rtest_head`) → `identify::rtest`;
 //! - `seed004_dial_gauge`: dial-gauge readings on a face turned by a tilted axis
 //!   ([`crate::forward_seed004`]) plus noise → `identify::centreline`;
-//! - `seed000_two_step`: ball-bar lengths at three SSM stations around the socket after the
-//!   translation and after the rotation of an RRTTT head ([`crate::forward_seed000`]) plus
-//!   noise → `metrology::ssm` → `identify::two_step`.
+//! - `seed000_two_step`: the SSM after the translation and after the rotation of an RRTTT
+//!   head, a TTTRR table, or an RTTTR spindle head or table ([`crate::forward_seed000`]), at
+//!   sensor level ([`crate::vmt::ssm_rig`]: three dwells on the bar's sphere through the pod
+//!   and the core's station collector) → `identify::two_step` (exact mode: the paper's
+//!   truncated formulas are checked against their own tables in `identify_two_step.rs`).
 
 use serde::Deserialize;
 
@@ -59,6 +61,15 @@ pub struct Scenario {
     /// translation error ΔV1 µm.
     #[serde(default)]
     pub rrttt: Option<Rrttt>,
+    /// Two-step TTTRR table: see [`Tttrr`].
+    #[serde(default)]
+    pub tttrr: Option<Tttrr>,
+    /// Two-step RTTTR spindle head (β): see [`RtttrSpindle`].
+    #[serde(default)]
+    pub rtttr_spindle: Option<RtttrSpindle>,
+    /// Two-step RTTTR table (α): see [`RtttrTable`].
+    #[serde(default)]
+    pub rtttr_table: Option<RtttrTable>,
     /// Expected outcome.
     pub expect: Expect,
 }
@@ -82,6 +93,54 @@ pub struct Rrttt {
     /// Tool vector z_r, mm.
     pub tool_z_mm: f64,
     /// Translation error ΔV1, µm.
+    pub dv1_um: [f64; 3],
+}
+
+/// TTTRR two-step set-up (seed 000 §2.1.2, eq 8).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Tttrr {
+    /// Δα, µrad.
+    pub delta_alpha_urad: f64,
+    /// Δγ, µrad.
+    pub delta_gamma_urad: f64,
+    /// α of the second step, degrees.
+    pub alpha_deg: f64,
+    /// γ of the second step, degrees.
+    pub gamma_deg: f64,
+    /// z_αγ, mm.
+    pub z_alpha_gamma_mm: f64,
+    /// Reference point in the γ-centre frame, mm.
+    pub reference_point_mm: [f64; 3],
+    /// Translation error ΔV1, µm.
+    pub dv1_um: [f64; 3],
+}
+
+/// RTTTR spindle-head two-step set-up (seed 000 §2.1.3, eqs 13/15).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RtttrSpindle {
+    /// Δβ, µrad.
+    pub delta_beta_urad: f64,
+    /// β of the second step, degrees.
+    pub beta_deg: f64,
+    /// Tool vector z_r, mm.
+    pub tool_z_mm: f64,
+    /// Translation error ΔV1, µm.
+    pub dv1_um: [f64; 3],
+}
+
+/// RTTTR table two-step set-up (seed 000 §2.1.3, eqs 14/16).
+#[derive(Clone, Copy, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RtttrTable {
+    /// Δα, µrad.
+    pub delta_alpha_urad: f64,
+    /// α of the second step, degrees.
+    pub alpha_deg: f64,
+    /// Reference point r_t in the table frame, mm.
+    pub reference_point_mm: [f64; 3],
+    /// Translation error ΔtV1, µm.
     pub dv1_um: [f64; 3],
 }
 
@@ -433,70 +492,64 @@ fn seed004_dial_gauge(s: &Scenario) -> Result<Vec<Check>, String> {
 }
 
 fn seed000_two_step(s: &Scenario) -> Result<Vec<Check>, String> {
+    match (s.rrttt, s.tttrr, s.rtttr_spindle, s.rtttr_table) {
+        (Some(t), None, None, None) => seed000_rrttt(s, &t),
+        (None, Some(t), None, None) => seed000_tttrr(s, &t),
+        (None, None, Some(t), None) => seed000_rtttr_spindle(s, &t),
+        (None, None, None, Some(t)) => seed000_rtttr_table(s, &t),
+        _ => Err(
+            "seed000_two_step needs exactly one of [rrttt], [tttrr], [rtttr_spindle], [rtttr_table]"
+                .into(),
+        ),
+    }
+}
+
+/// A µrad check.
+fn urad_check(name: &str, truth: f64, got: f64, u: f64) -> Check {
+    Check {
+        name: name.into(),
+        truth,
+        got,
+        u,
+        unit: "urad",
+    }
+}
+
+/// Both SSM measurements of a two-step procedure at sensor level: (ΔV1, ΔV2, their standard
+/// uncertainty), the larger of the two measurements' uncertainties.
+fn two_ssm(
+    s: &Scenario,
+    first: ([f64; 3], [f64; 3]),
+    second: ([f64; 3], [f64; 3]),
+) -> Result<([f64; 3], [f64; 3], f64), String> {
+    let mut rig = crate::vmt::ssm_rig::SsmRig::new(s.noise_um, s.seed);
+    let m1 = rig.measure(first.0, first.1)?;
+    let m2 = rig.measure(second.0, second.1)?;
+    Ok((m1.e_um, m2.e_um, m1.std_um.max(m2.std_um)))
+}
+
+/// RRTTT head: tool tip of the forward model (eqs 2/4) → SSM → `identify_rrttt`.
+fn seed000_rrttt(s: &Scenario, t: &Rrttt) -> Result<Vec<Check>, String> {
     use crate::forward_seed000 as fwd;
     use ballpod::identify::two_step::{
         self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, RotationOrder, RrtttConfig,
         RrtttMeasurement,
     };
-    use ballpod::metrology::ssm::SsmGeometry;
-    use ballpod::metrology::ssm::station::{Station, solve_stations};
-    let t = s.rrttt.ok_or("seed000_two_step needs rrttt")?;
-    let l = 150.0; // bar length, mm
     let pivot = [-50.0, -15.0, 500.0];
     let (a, b) = (t.alpha_deg.to_radians(), t.beta_deg.to_radians());
     let (d1, d2) = (t.delta_alpha_urad * 1e-6, t.delta_beta_urad * 1e-6);
     let e1 = t.dv1_um.map(|v| v * 1e-3);
-    let mut rng = Rng::new(s.seed);
-    // SSM at a nominal tool point: three stations on the bar's sphere around the socket
-    // (the socket placed so the stations surround the point), E measured by eq 1.
-    let mut ssm = |nominal: [f64; 3], actual: [f64; 3]| -> Result<[f64; 3], String> {
-        let e = [
-            actual[0] - nominal[0],
-            actual[1] - nominal[1],
-            actual[2] - nominal[2],
-        ];
-        let dirs: [[f64; 3]; 3] = [[1.0, 0.0, 0.3], [-0.5, 0.866, 0.3], [-0.5, -0.866, 0.3]];
-        let socket = [nominal[0], nominal[1], nominal[2] - l];
-        let st: Vec<Station> = dirs
-            .iter()
-            .map(|u| {
-                let n = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-                // the station's nominal point: on the sphere of radius L about the socket
-                let p = [
-                    socket[0] + l * u[0] / n,
-                    socket[1] + l * u[1] / n,
-                    socket[2] + l * u[2] / n,
-                ];
-                let q = [p[0] + e[0], p[1] + e[1], p[2] + e[2]];
-                let len = ((q[0] - socket[0]).powi(2)
-                    + (q[1] - socket[1]).powi(2)
-                    + (q[2] - socket[2]).powi(2))
-                .sqrt();
-                Station {
-                    p_mm: p,
-                    rotary_deg: [0.0; 2],
-                    delta_l_um: (len - l) * 1e3 + s.noise_um * rng.normal(),
-                    std_um: s.noise_um as f32,
-                    samples: 1,
-                }
-            })
-            .collect();
-        let sol = solve_stations(
-            &st,
-            &SsmGeometry {
-                socket_mm: socket,
-                bar_length_mm: l,
-            },
-        )
-        .map_err(|e| format!("SSM: {e:?}"))?;
-        Ok(sol.e_um.map(|v| v.unwrap_or(0.0)))
-    };
-    let nom1 = fwd::rrttt_tip(pivot, [0.0; 3], 0.0, 0.0, t.tool_z_mm);
-    let act1 = fwd::rrttt_tip(pivot, e1, 0.0, 0.0, t.tool_z_mm);
-    let dv1 = ssm(nom1, act1)?;
-    let nom2 = fwd::rrttt_tip(pivot, [0.0; 3], a, b, t.tool_z_mm);
-    let act2 = fwd::rrttt_tip(pivot, e1, a + d1, b + d2, t.tool_z_mm);
-    let dv2 = ssm(nom2, act2)?;
+    let (dv1, dv2, u) = two_ssm(
+        s,
+        (
+            fwd::rrttt_tip(pivot, [0.0; 3], 0.0, 0.0, t.tool_z_mm),
+            fwd::rrttt_tip(pivot, e1, 0.0, 0.0, t.tool_z_mm),
+        ),
+        (
+            fwd::rrttt_tip(pivot, [0.0; 3], a, b, t.tool_z_mm),
+            fwd::rrttt_tip(pivot, e1, a + d1, b + d2, t.tool_z_mm),
+        ),
+    )?;
     let cfg = RrtttConfig {
         tool_z_mm: t.tool_z_mm,
         rotation_order: RotationOrder::AlphaThenBeta,
@@ -509,23 +562,164 @@ fn seed000_two_step(s: &Scenario) -> Result<Vec<Check>, String> {
         beta_deg: t.beta_deg,
         dv1_um: dv1,
         dv2_um: dv2,
-        ssm_std_um: s.noise_um,
+        ssm_std_um: u,
     };
     let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).map_err(|e| format!("{e:?}"))?;
     Ok(vec![
-        Check {
-            name: "delta_alpha_urad".into(),
-            truth: t.delta_alpha_urad,
-            got: r.delta_alpha_urad,
-            u: r.std_uncertainty_urad[0],
-            unit: "urad",
-        },
-        Check {
-            name: "delta_beta_urad".into(),
-            truth: t.delta_beta_urad,
-            got: r.delta_beta_urad,
-            u: r.std_uncertainty_urad[1],
-            unit: "urad",
-        },
+        urad_check(
+            "delta_alpha_urad",
+            t.delta_alpha_urad,
+            r.delta_alpha_urad,
+            r.std_uncertainty_urad[0],
+        ),
+        urad_check(
+            "delta_beta_urad",
+            t.delta_beta_urad,
+            r.delta_beta_urad,
+            r.std_uncertainty_urad[1],
+        ),
     ])
+}
+
+/// TTTRR table: reference point of the forward model (eq 8) → SSM → `identify_tttrr`.
+fn seed000_tttrr(s: &Scenario, t: &Tttrr) -> Result<Vec<Check>, String> {
+    use crate::forward_seed000 as fwd;
+    use ballpod::identify::two_step::{
+        self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, TttrrConfig, TttrrMeasurement,
+    };
+    let origin = [-30.0, 15.0, 120.0];
+    let (a, g) = (t.alpha_deg.to_radians(), t.gamma_deg.to_radians());
+    let (da, dg) = (t.delta_alpha_urad * 1e-6, t.delta_gamma_urad * 1e-6);
+    let e1 = t.dv1_um.map(|v| v * 1e-3);
+    let (z, r) = (t.z_alpha_gamma_mm, t.reference_point_mm);
+    let (dv1, dv2, u) = two_ssm(
+        s,
+        (
+            fwd::tttrr_point(origin, [0.0; 3], 0.0, 0.0, z, r),
+            fwd::tttrr_point(origin, e1, 0.0, 0.0, z, r),
+        ),
+        (
+            fwd::tttrr_point(origin, [0.0; 3], a, g, z, r),
+            fwd::tttrr_point(origin, e1, a + da, g + dg, z, r),
+        ),
+    )?;
+    let cfg = TttrrConfig {
+        z_alpha_gamma_mm: z,
+        reference_point_mm: r,
+        reference_end: ReferenceEnd::OtherMember,
+        min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
+    };
+    let m = TttrrMeasurement {
+        origin_mm: origin,
+        alpha_deg: t.alpha_deg,
+        gamma_deg: t.gamma_deg,
+        dv1_um: dv1,
+        dv2_um: dv2,
+        ssm_std_um: u,
+    };
+    let res = two_step::identify_tttrr(&cfg, &m, Mode::Exact).map_err(|e| format!("{e:?}"))?;
+    Ok(vec![
+        urad_check(
+            "delta_alpha_urad",
+            t.delta_alpha_urad,
+            res.delta_alpha_urad,
+            res.std_uncertainty_urad[0],
+        ),
+        urad_check(
+            "delta_gamma_urad",
+            t.delta_gamma_urad,
+            res.delta_gamma_urad,
+            res.std_uncertainty_urad[1],
+        ),
+    ])
+}
+
+/// RTTTR spindle head: tool tip of the forward model (eqs 13/15) → SSM →
+/// `identify_rtttr_spindle`.
+fn seed000_rtttr_spindle(s: &Scenario, t: &RtttrSpindle) -> Result<Vec<Check>, String> {
+    use crate::forward_seed000 as fwd;
+    use ballpod::identify::two_step::{
+        self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, RtttrSpindleConfig,
+        SingleAxisMeasurement,
+    };
+    let pivot = [20.0, 10.0, 350.0];
+    let b = t.beta_deg.to_radians();
+    let db = t.delta_beta_urad * 1e-6;
+    let e1 = t.dv1_um.map(|v| v * 1e-3);
+    let (dv1, dv2, u) = two_ssm(
+        s,
+        (
+            fwd::rtttr_tip(pivot, [0.0; 3], 0.0, t.tool_z_mm),
+            fwd::rtttr_tip(pivot, e1, 0.0, t.tool_z_mm),
+        ),
+        (
+            fwd::rtttr_tip(pivot, [0.0; 3], b, t.tool_z_mm),
+            fwd::rtttr_tip(pivot, e1, b + db, t.tool_z_mm),
+        ),
+    )?;
+    let cfg = RtttrSpindleConfig {
+        tool_z_mm: t.tool_z_mm,
+        reference_end: ReferenceEnd::OtherMember,
+        min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
+    };
+    let m = SingleAxisMeasurement {
+        origin_mm: pivot,
+        angle_deg: t.beta_deg,
+        dv1_um: dv1,
+        dv2_um: dv2,
+        ssm_std_um: u,
+    };
+    let r =
+        two_step::identify_rtttr_spindle(&cfg, &m, Mode::Exact).map_err(|e| format!("{e:?}"))?;
+    Ok(vec![urad_check(
+        "delta_beta_urad",
+        t.delta_beta_urad,
+        r.delta_urad,
+        r.std_uncertainty_urad,
+    )])
+}
+
+/// RTTTR table: reference point of the forward model (eqs 14/16) → SSM →
+/// `identify_rtttr_table`.
+fn seed000_rtttr_table(s: &Scenario, t: &RtttrTable) -> Result<Vec<Check>, String> {
+    use crate::forward_seed000 as fwd;
+    use ballpod::identify::two_step::{
+        self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, RtttrTableConfig, SingleAxisMeasurement,
+    };
+    let origin = [-30.0, 15.0, 120.0];
+    let a = t.alpha_deg.to_radians();
+    let da = t.delta_alpha_urad * 1e-6;
+    let e1 = t.dv1_um.map(|v| v * 1e-3);
+    let r = t.reference_point_mm;
+    let (dv1, dv2, u) = two_ssm(
+        s,
+        (
+            fwd::rtttr_table_point(origin, [0.0; 3], 0.0, r),
+            fwd::rtttr_table_point(origin, e1, 0.0, r),
+        ),
+        (
+            fwd::rtttr_table_point(origin, [0.0; 3], a, r),
+            fwd::rtttr_table_point(origin, e1, a + da, r),
+        ),
+    )?;
+    let cfg = RtttrTableConfig {
+        reference_point_mm: r,
+        reference_end: ReferenceEnd::OtherMember,
+        min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
+    };
+    let m = SingleAxisMeasurement {
+        origin_mm: origin,
+        angle_deg: t.alpha_deg,
+        dv1_um: dv1,
+        dv2_um: dv2,
+        ssm_std_um: u,
+    };
+    let res =
+        two_step::identify_rtttr_table(&cfg, &m, Mode::Exact).map_err(|e| format!("{e:?}"))?;
+    Ok(vec![urad_check(
+        "delta_alpha_urad",
+        t.delta_alpha_urad,
+        res.delta_urad,
+        res.std_uncertainty_urad,
+    )])
 }

@@ -7,6 +7,8 @@
 //!   [`crate::forward_seed002`]) and an XY machine with linear-axis faults for circular tests;
 //! - [`rtest_rig`]: the seed 003 A/C table-tilting machine under an R-test head (three LVDT
 //!   channels → the core's `acquisition::rtest_head`);
+//! - [`ssm_rig`]: single-socket-method stations around a tool point (seed 000), through the
+//!   pod and the core's station collector;
 //! - [`lvdt_channel`]: one LVDT's ADC blocks through the core's demodulator;
 //! - [`pod`]: sensor-level streams through `ballpod::acquisition` → [`ballpod::acquisition::Sample`],
 //!   with fault injection;
@@ -17,4 +19,5 @@ pub mod lvdt_channel;
 pub mod machine;
 pub mod pod;
 pub mod rtest_rig;
+pub mod ssm_rig;
 pub mod virtual_pod;

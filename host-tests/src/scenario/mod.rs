@@ -8,8 +8,10 @@
 //!   `max_abs_error_um` / `max_abs_error_arcsec` of the truth;
 //! - `iso230_4`: the sensor-level circular test; each injected fault diagnosed within
 //!   `max_relative_error`;
-//! - `seed002_probe`: sphere centres at C = 0/90/180/270° from the literal HTM model
-//!   ([`crate::forward_seed002`]) plus noise → `identify::multitasking::probe`;
+//! - `seed002_probe`: spheres at C = 0/90/180/270° placed by the literal HTM model
+//!   ([`crate::forward_seed002`]), each touched nine times at sensor level
+//!   ([`crate::vmt::probe_rig`]: pre-travel, repeatability σ = `noise_um`, bounce edges, the
+//!   pod's probe latch and debouncer, the core's sphere fit) → `identify::multitasking::probe`;
 //! - `seed003_rtest`: the R-test head on path K4 of the A/C table-tilting machine
 //!   ([`crate::vmt::rtest_rig`]: the exact chain of [`crate::forward_seed003`], three noisy
 //!   sensors through LVDT channels, the core's `acquisition::rtest_head`) → `identify::rtest`;
@@ -334,17 +336,38 @@ fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
     let (_, _, _, _, mcz, _) = crate::forward_seed002::mats(&da);
     let (rc, zc) = (100.0, 64.838);
     let origin = [-490.0, 0.0, -536.838];
-    let mut rng = Rng::new(s.seed);
+    // sensor level: nine touches per sphere through the pod's probe latch (pre-travel,
+    // repeatability σ = noise_um, bounce edges from the instrument), the core's sphere fit
+    let inst = crate::vmt::pod::Instrument {
+        probe_repeatability_um: s.noise_um,
+        ..s.machine.instrument
+    };
+    let mut rig = crate::vmt::probe_rig::ProbeRig::new(&inst, s.seed);
     let mut centres = [[0.0; 3]; 4];
+    let mut radius_dev_um = Vec::new();
     for (k, c) in centres.iter_mut().enumerate() {
         let th = k as f64 * std::f64::consts::FRAC_PI_2;
         let p = crate::forward_seed002::apply(
             &crate::forward_seed002::mul(&mcz, &crate::forward_seed002::ec(th)),
             [rc, 0.0, zc],
         );
-        for i in 0..3 {
-            c[i] = origin[i] + p[i] + s.noise_um * 1e-3 * rng.normal();
+        let truth: [f64; 3] = std::array::from_fn(|i| origin[i] + p[i]);
+        let m = rig.measure_sphere(truth, [0.0, th.to_degrees()])?;
+        if m.accepted != 9 || m.bounces != 9 * inst.probe_bounces {
+            return Err(format!(
+                "probe: {} touches accepted (9 made), {} bounces rejected ({} made)",
+                m.accepted,
+                m.bounces,
+                9 * inst.probe_bounces
+            ));
         }
+        radius_dev_um.push(
+            (m.fit.radius_mm
+                - crate::vmt::probe_rig::SPHERE_RADIUS_MM
+                - crate::vmt::probe_rig::STYLUS_RADIUS_MM)
+                * 1e3,
+        );
+        *c = m.fit.centre_mm;
     }
     let r = identify_c_axis(
         &CAxisProbe {
@@ -377,6 +400,13 @@ fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
         ),
         c("dx_CZ", d.dx_cz_um, r.dx_cz_um, "um"),
         c("dy_CZ", d.dy_cz_um, r.dy_cz_um, "um"),
+        // the pre-travel shows in the fitted radius (mean of the four spheres), not the centres
+        c(
+            "sphere_radius_deviation",
+            -inst.probe_pretravel_um,
+            radius_dev_um.iter().sum::<f64>() / radius_dev_um.len() as f64,
+            "um",
+        ),
     ])
 }
 

@@ -9,6 +9,8 @@
 //!   channels → the core's `acquisition::rtest_head`);
 //! - [`ssm_rig`]: single-socket-method stations around a tool point (seed 000), through the
 //!   pod and the core's station collector;
+//! - [`probe_rig`]: touch-probe measurement of a sphere (pre-travel, repeatability, bounce)
+//!   through the pod's probe latch and the core's sphere fit;
 //! - [`lvdt_channel`]: one LVDT's ADC blocks through the core's demodulator;
 //! - [`pod`]: sensor-level streams through `ballpod::acquisition` → [`ballpod::acquisition::Sample`],
 //!   with fault injection;
@@ -18,6 +20,7 @@
 pub mod lvdt_channel;
 pub mod machine;
 pub mod pod;
+pub mod probe_rig;
 pub mod rtest_rig;
 pub mod ssm_rig;
 pub mod virtual_pod;

@@ -35,6 +35,13 @@ pub struct Instrument {
     /// Bar temperature change during a run, °C per minute from `bar_temp_c` at the pod's
     /// start (the thermistor follows: its code is fed to the acquisition every 100 ms).
     pub bar_temp_drift_c_per_min: f64,
+    /// Touch-trigger probe pre-travel, µm: the stylus travels this far past contact before the
+    /// probe switches (the latched point lies this much inside the surface).
+    pub probe_pretravel_um: f64,
+    /// Touch-trigger probe repeatability σ, µm (along the approach, per touch).
+    pub probe_repeatability_um: f64,
+    /// Contact-bounce edges after each trigger (within the debounce time).
+    pub probe_bounces: u32,
 }
 
 impl Default for Instrument {
@@ -46,6 +53,9 @@ impl Default for Instrument {
             lvdt_nonlinearity_per_um: 0.0,
             sample_rate_hz: 1000.0,
             bar_temp_drift_c_per_min: 0.0,
+            probe_pretravel_um: 0.0,
+            probe_repeatability_um: 0.0,
+            probe_bounces: 0,
         }
     }
 }
@@ -236,6 +246,26 @@ impl Pod {
             self.probe_event = true;
         }
         o
+    }
+
+    /// A probe trigger edge between samples, the encoders latched at `axes` (mm / degrees:
+    /// where the machine is at the edge — the EXTI interrupt latches the counters there, not
+    /// at the last sample); an accepted touch flags the next sample `PROBE_EVENT`.
+    pub fn probe_edge_at(&mut self, axes: &[f64; MAX_AXES]) -> TriggerOutcome {
+        let raw = self.raw(axes);
+        let o = self.acq.probe_trigger(self.t_us, raw);
+        if matches!(o, TriggerOutcome::Accepted(_)) {
+            self.probe_event = true;
+        }
+        o
+    }
+
+    /// The positions (mm / degrees) of a latch's counts, as the pod converts them.
+    pub fn latch_positions(
+        &self,
+        latch: &ballpod::acquisition::probe::ProbeLatch,
+    ) -> [f32; MAX_AXES] {
+        self.acq.positions(&latch.counts)
     }
 
     /// The probe stylus level from the next sample on (`true` = seated, at rest).

@@ -152,7 +152,7 @@ impl<const N: usize> VirtualPod<N> {
             bar_temp_c: 20.0,
             lvdt_nonlinearity_per_um: 0.0,
             sample_rate_hz: f64::from(config.sample_rate_hz),
-            bar_temp_drift_c_per_min: 0.0,
+            ..Instrument::default()
         };
         let mut p = Pod::new(f64::from(config.bar_length_mm), &inst, setup.seed);
         p.reference(&Self::axes(f64::from(config.bar_length_mm), theta));

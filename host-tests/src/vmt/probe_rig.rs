@@ -1,0 +1,149 @@
+//! Touch-probe measurement of a precision sphere at sensor level (seed 002 chapter 5): the
+//! machine approaches the sphere along its normal at nine points of the upper hemisphere,
+//! the probe switches after its pre-travel (plus a repeatability scatter) and may bounce, the
+//! pod latches the encoder counters at the edge (`Pod::probe_edge_at` → the core's
+//! `Acquisition::probe_trigger` with its debounce and re-seat lock-out), the machine retracts
+//! and the stylus re-seats; the latched points go to the core's `metrology::point_fit::fit_sphere`.
+//!
+//! A constant pre-travel shrinks the fitted radius by the pre-travel and leaves the centre
+//! where it is (every point moves along its own normal by the same amount) — the reason the
+//! chapter 5 method uses sphere centres, not single touches.
+
+use ballpod::acquisition::MAX_AXES;
+use ballpod::acquisition::probe::TriggerOutcome;
+use ballpod::metrology::point_fit::{PointFit, fit_sphere};
+
+use super::pod::{Instrument, Pod};
+use crate::rng::Rng;
+
+/// Radius of the precision sphere, mm.
+pub const SPHERE_RADIUS_MM: f64 = 12.7;
+/// Radius of the stylus ball, mm.
+pub const STYLUS_RADIUS_MM: f64 = 1.5;
+/// Approach: start this far from contact, mm, at this feed, mm/min.
+const APPROACH_MM: f64 = 0.3;
+const PROBING_FEED_MM_PER_MIN: f64 = 100.0;
+/// Retract after a touch, mm, at this feed, mm/min.
+const RETRACT_MM: f64 = 0.5;
+const RETRACT_FEED_MM_PER_MIN: f64 = 1000.0;
+
+/// The nine probing directions (unit normals, upper hemisphere: the stem blocks the lower
+/// one): the pole, four at 45° latitude, four on the equator between them.
+fn directions() -> [[f64; 3]; 9] {
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    [
+        [0.0, 0.0, 1.0],
+        [s, 0.0, s],
+        [0.0, s, s],
+        [-s, 0.0, s],
+        [0.0, -s, s],
+        [s, s, 0.0],
+        [-s, s, 0.0],
+        [-s, -s, 0.0],
+        [s, -s, 0.0],
+    ]
+}
+
+/// A sphere measurement: the fit and what the debouncer rejected.
+#[derive(Clone, Copy, Debug)]
+pub struct SphereMeasurement {
+    /// The core's sphere fit of the latched points (centre mm, radius mm, residual µm).
+    pub fit: PointFit<3>,
+    /// Touch points accepted.
+    pub accepted: u32,
+    /// Edges rejected as bounce.
+    pub bounces: u32,
+}
+
+/// The simulated pod probing spheres.
+pub struct ProbeRig {
+    pod: Pod,
+    inst: Instrument,
+    rng: Rng,
+    at: Option<[f64; MAX_AXES]>,
+}
+
+impl ProbeRig {
+    /// A pod with the probe faults and noise of `inst` (pre-travel, repeatability, bounces).
+    pub fn new(inst: &Instrument, seed: u64) -> Self {
+        Self {
+            pod: Pod::new(100.0, inst, seed),
+            inst: *inst,
+            rng: Rng::new(seed ^ 0x0005_eed0_f9e0_be00),
+            at: None,
+        }
+    }
+
+    /// The debouncer's counters (accepted, bounces, not re-seated).
+    pub fn probe_counts(&self) -> (u32, u32, u32) {
+        self.pod.probe_counts()
+    }
+
+    fn move_to(&mut self, to: [f64; MAX_AXES], feed_mm_per_min: f64) {
+        let from = self.at.unwrap_or(to);
+        if self.at.is_none() {
+            self.pod.reference(&to);
+        }
+        let d: [f64; 3] = std::array::from_fn(|i| to[i] - from[i]);
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let step = feed_mm_per_min / 60.0 / self.inst.sample_rate_hz;
+        let n = (len / step).ceil().max(1.0) as usize;
+        for j in 1..=n {
+            let f = j as f64 / n as f64;
+            let p: [f64; MAX_AXES] = std::array::from_fn(|i| from[i] + (to[i] - from[i]) * f);
+            self.pod.sample(0.0, &p);
+        }
+        self.at = Some(to);
+    }
+
+    /// Probes the sphere whose true centre is `centre_mm` (machine X, Y, Z) with the rotary
+    /// axes at `rotary_deg` (B, C), and fits it.
+    pub fn measure_sphere(
+        &mut self,
+        centre_mm: [f64; 3],
+        rotary_deg: [f64; 2],
+    ) -> Result<SphereMeasurement, String> {
+        let (a0, b0, _) = self.pod.probe_counts();
+        let contact = SPHERE_RADIUS_MM + STYLUS_RADIUS_MM;
+        let axes = |p: [f64; 3]| [p[0], p[1], p[2], rotary_deg[0], rotary_deg[1]];
+        let on =
+            |n: [f64; 3], r: f64| -> [f64; 3] { std::array::from_fn(|i| centre_mm[i] + n[i] * r) };
+        let mut points = Vec::new();
+        for n in directions() {
+            // clear of the sphere, then the approach along −n
+            self.move_to(axes(on(n, contact + RETRACT_MM)), RETRACT_FEED_MM_PER_MIN);
+            self.move_to(axes(on(n, contact + APPROACH_MM)), RETRACT_FEED_MM_PER_MIN);
+            let trigger_r = contact - self.inst.probe_pretravel_um * 1e-3
+                + self.inst.probe_repeatability_um * 1e-3 * self.rng.normal();
+            self.move_to(axes(on(n, trigger_r)), PROBING_FEED_MM_PER_MIN);
+            let latch = match self.pod.probe_edge_at(&axes(on(n, trigger_r))) {
+                TriggerOutcome::Accepted(l) => l,
+                other => return Err(format!("probe: touch not accepted ({other:?})")),
+            };
+            for _ in 0..self.inst.probe_bounces {
+                if self.pod.probe_edge_at(&axes(on(n, trigger_r))) != TriggerOutcome::Bounce {
+                    return Err("probe: a bounce edge was not rejected as bounce".into());
+                }
+            }
+            let p = self.pod.latch_positions(&latch);
+            points.push([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]);
+            // deflected until the retract has lifted the stylus off, then seated
+            self.pod.set_probe_seated(false);
+            self.move_to(axes(on(n, contact + 0.05)), RETRACT_FEED_MM_PER_MIN);
+            self.pod.set_probe_seated(true);
+            self.move_to(axes(on(n, contact + RETRACT_MM)), RETRACT_FEED_MM_PER_MIN);
+            // the re-seat time before the next touch counts
+            let here = axes(on(n, contact + RETRACT_MM));
+            for _ in 0..(0.06 * self.inst.sample_rate_hz) as usize {
+                self.pod.sample(0.0, &here);
+            }
+        }
+        let fit = fit_sphere(&points).map_err(|e| format!("sphere fit: {e:?}"))?;
+        let (a1, b1, _) = self.pod.probe_counts();
+        Ok(SphereMeasurement {
+            fit,
+            accepted: a1 - a0,
+            bounces: b1 - b0,
+        })
+    }
+}

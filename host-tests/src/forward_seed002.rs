@@ -181,6 +181,19 @@ pub struct Geo {
     pub rc: f64,
 }
 
+/// A commanded point `x` (mm, the NC's X, Y, Z) at B = `phi`, C = `th` (rad) on a machine
+/// with deviations `d` (µm / µrad): where it lands in the C (work) frame,
+/// E_C⁻¹·M_CZ⁻¹·M_XB·E_B·M_BT·x, and where it should land, E_C⁻¹·E_B·x (mm).
+pub fn actual_and_ideal(d: &[f64; 13], x: [f64; 3], phi: f64, th: f64) -> ([f64; 3], [f64; 3]) {
+    let (mbt, mxb, _, _, _, mczi) = mats(d);
+    let ideal = apply(&mul(&ec(-th), &eb(phi)), x);
+    let mut a = ec(-th);
+    for m in [mczi, mxb, eb(phi), mbt] {
+        a = mul(&a, &m);
+    }
+    (apply(&a, x), ideal)
+}
+
 /// Eccentricity (e1, e2) in µm of pattern `p` over `n` samples (B: 0..=90°, C: 2πi/n).
 pub fn ecc(p: Pat, d: &[f64; 13], g: &Geo, n: usize, tofs: [f64; 3], wofs: [f64; 3]) -> (f64, f64) {
     let b = matches!(p, Pat::Bx | Pat::By | Pat::Br);

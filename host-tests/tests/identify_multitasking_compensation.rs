@@ -38,15 +38,12 @@ fn block(x: f64, y: f64, z: f64, b: f64, c: f64) -> NcBlock {
 
 /// Inverse of a rotation-only HTM (transpose) or general 4×4 via the host: E_C⁻¹ = E_C(−θ).
 fn actual_and_ideal(d: &[f64; 13], b: &NcBlock) -> ([f64; 3], [f64; 3]) {
-    let (mbt, mxb, _, _, _, mczi) = fwd::mats(d);
-    let (phi, th) = (b.b_deg.to_radians(), b.c_deg.to_radians());
-    let x = [b.x_mm, b.y_mm, b.z_mm];
-    let ideal = fwd::apply(&fwd::mul(&fwd::ec(-th), &fwd::eb(phi)), x);
-    let mut a = fwd::ec(-th);
-    for m in [mczi, mxb, fwd::eb(phi), mbt] {
-        a = fwd::mul(&a, &m);
-    }
-    (fwd::apply(&a, x), ideal)
+    fwd::actual_and_ideal(
+        d,
+        [b.x_mm, b.y_mm, b.z_mm],
+        b.b_deg.to_radians(),
+        b.c_deg.to_radians(),
+    )
 }
 
 /// Spec seed002_checks.py part 5: literal eq 3.13 at X −390, Z −112.2605, B 10°, C 0 gives a

@@ -43,14 +43,7 @@ fn g3() -> RtestGeometry {
 }
 
 fn kin3() -> fw::Kin {
-    fw::Kin {
-        x_w: -217.504,
-        y_w: -0.279,
-        z_w: 211.537,
-        z_c: 29.794,
-        z_p: 184.670,
-        ..Default::default()
-    }
+    ballpod_host::vmt::rtest_rig::seed003_table3_kinematics()
 }
 
 /// Geometry values used by the printed-table transcription.

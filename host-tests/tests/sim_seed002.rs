@@ -6,7 +6,7 @@
 use ballpod::identify::multitasking::model_lsq::ModelLsq;
 use ballpod::identify::multitasking::{Parameter, arcsec_to_urad, urad_to_arcsec};
 use ballpod_host::analysis::{COMPENSATION_POINTS, analyse};
-use ballpod_host::forward_seed002 as fwd;
+use ballpod_host::forward_seed002::actual_and_ideal;
 use ballpod_host::simulate::{SimOptions, simulate};
 use ballpod_host::vmt::machine::MachineFile;
 
@@ -74,19 +74,6 @@ fn an_incomplete_procedure_reports_no_identification() {
     let r = analyse(&s.desc, &s.runs).expect("analysis");
     assert!(r.seed002.is_none());
     assert_eq!(r.runs.len(), 9);
-}
-
-/// Where the tool point lands in the workpiece (C) frame for NC command `x` (mm) at B = φ,
-/// C = θ (rad) on a machine with deviations `d` (µm / µrad): E_C⁻¹·M_CZ⁻¹·M_XB·E_B·M_BT·x, and
-/// where it should land, E_C⁻¹·E_B·x — the independent 4×4 products of `forward_seed002`.
-fn actual_and_ideal(d: &[f64; 13], x: [f64; 3], phi: f64, th: f64) -> ([f64; 3], [f64; 3]) {
-    let (mbt, mxb, _, _, _, mczi) = fwd::mats(d);
-    let ideal = fwd::apply(&fwd::mul(&fwd::ec(-th), &fwd::eb(phi)), x);
-    let mut a = fwd::ec(-th);
-    for m in [mczi, mxb, fwd::eb(phi), mbt] {
-        a = fwd::mul(&a, &m);
-    }
-    (fwd::apply(&a, x), ideal)
 }
 
 /// The compensation in `results.json` (`seed002.compensation[]`), applied on the simulated

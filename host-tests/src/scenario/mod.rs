@@ -16,7 +16,8 @@
 //!   ([`crate::vmt::rtest_rig`]: the exact chain of [`crate::forward_seed003`], three noisy
 //!   sensors through LVDT channels, the core's `acquisition::rtest_head`) → `identify::rtest`;
 //! - `seed004_dial_gauge`: dial-gauge readings on a face turned by a tilted axis
-//!   ([`crate::forward_seed004`]) plus noise → `identify::centreline`;
+//!   ([`crate::forward_seed004`]) plus noise, read by a contact LVDT on one of the pod's
+//!   channels ([`crate::vmt::lvdt_channel::LvdtProbe`]) → `identify::centreline`;
 //! - `seed000_two_step`: the SSM after the translation and after the rotation of an RRTTT
 //!   head, a TTTRR table, or an RTTTR spindle head or table ([`crate::forward_seed000`]), at
 //!   sensor level ([`crate::vmt::ssm_rig`]: three dwells on the bar's sphere through the pod
@@ -26,7 +27,6 @@
 use serde::Deserialize;
 
 use crate::analysis::analyse;
-use crate::rng::Rng;
 use crate::simulate::{SimOptions, simulate};
 use crate::vmt::machine::MachineFile;
 
@@ -467,7 +467,8 @@ fn seed004_dial_gauge(s: &Scenario) -> Result<Vec<Check>, String> {
         (60.0, 40.0),
         (30.0, 20.0),
     ];
-    let mut rng = Rng::new(s.seed);
+    // the dial gauge is a contact LVDT on one of the pod's channels (sensor level)
+    let mut probe = crate::vmt::lvdt_channel::LvdtProbe::new(s.noise_um, s.seed);
     let mut pos = Vec::new();
     for b in [0.0f64, 30.0, 60.0, 90.0] {
         let n = fw::mul(fw::rodrigues(d, -b.to_radians()), n0);
@@ -479,22 +480,17 @@ fn seed004_dial_gauge(s: &Scenario) -> Result<Vec<Check>, String> {
             reading_dir: w,
         };
         let zero = fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, 0.0, 0.0, 0.0);
-        let pts: Vec<DialPoint> = grid
+        let pts = grid
             .iter()
-            .map(|&(u, v)| DialPoint {
-                u_mm: u,
-                v_mm: v,
-                reading_um: fw::dial_reading_um(
-                    n,
-                    g.lateral_u,
-                    g.lateral_v,
-                    g.reading_dir,
-                    u,
-                    v,
-                    zero,
-                ) + s.noise_um * rng.normal(),
+            .map(|&(u, v)| {
+                let x = fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, u, v, zero);
+                Ok(DialPoint {
+                    u_mm: u,
+                    v_mm: v,
+                    reading_um: probe.read_um(x)?,
+                })
             })
-            .collect();
+            .collect::<Result<Vec<DialPoint>, String>>()?;
         let pn = plane_normal(&pts, &g).map_err(|e| format!("plane: {e:?}"))?;
         pos.push(NormalAtAngle {
             commanded_deg: b,

@@ -57,3 +57,47 @@ impl LvdtChannel {
         self.read_with(&self.model, x_um, adc_noise_counts, rng)
     }
 }
+
+/// A displacement probe on one LVDT channel (a dial-gauge-like contact probe, seed 004): a
+/// true displacement plus the probe's noise, through the channel and the core's calibration
+/// (`LvdtCalibration::displacement_um`), as the pod reads it.
+pub struct LvdtProbe {
+    channel: LvdtChannel,
+    cal: ballpod::acquisition::lvdt::LvdtCalibration,
+    noise_um: f64,
+    adc_noise_counts: f64,
+    rng: Rng,
+}
+
+impl LvdtProbe {
+    /// A probe under the default configuration's calibration, with noise σ `noise_um` (µm) on
+    /// the displacement and 0.5 ADC counts.
+    pub fn new(noise_um: f64, seed: u64) -> Self {
+        let cfg = Config::default();
+        let cal =
+            ballpod::acquisition::Acquisition::new(&cfg, [16; ballpod::acquisition::MAX_AXES])
+                .lvdt_calibration();
+        Self {
+            channel: LvdtChannel::new(&cfg),
+            cal,
+            noise_um,
+            adc_noise_counts: 0.5,
+            rng: Rng::new(seed),
+        }
+    }
+
+    /// The pod's reading (µm) of the true displacement `x_um`, or why it has none (open,
+    /// over-range, demodulation error).
+    pub fn read_um(&mut self, x_um: f64) -> Result<f64, String> {
+        use ballpod::acquisition::lvdt::LvdtStatus;
+        let x = x_um + self.noise_um * self.rng.normal();
+        let r = self
+            .channel
+            .read(x, self.adc_noise_counts, &mut self.rng)
+            .map_err(|e| format!("LVDT probe: {e:?}"))?;
+        match self.cal.displacement_um(&r) {
+            (v, LvdtStatus::Ok) => Ok(f64::from(v)),
+            (_, st) => Err(format!("LVDT probe: {st:?} at {x_um} µm")),
+        }
+    }
+}

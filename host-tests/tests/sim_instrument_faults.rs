@@ -217,3 +217,137 @@ fn probe_pretravel_moves_the_radius_not_the_centre_and_bounces_are_rejected() {
     assert_eq!((faulty.accepted, faulty.bounces), (9, 27));
     assert_eq!(counts, (9, 27, 0));
 }
+
+/// Quadratic straightness in the ISO 230-4 figures. E_x = A·(y/R)² gives
+/// ΔL = A·sin²θ·cosθ = (A/4)(cos θ − cos 3θ); E_y = B·(x/R)² gives
+/// ΔL = B·cos²θ·sinθ = (B/4)(sin θ + sin 3θ). The least-squares circle takes the first
+/// harmonic (centre A/4 in X, B/4 in Y); what is left is a 3rd harmonic of amplitude A/4: the
+/// core's diagnostics name it a cyclic error of order 3 (no squareness, scale or reversal term
+/// can take it: those are 2nd-order and even harmonics), G = 2·A/4 = A/2, and about the socket
+/// F = ±max|A·sin²θ·cosθ| = ±2A/(3√3). Bounds: the default noise stays on (it dithers the
+/// 12-bit ADC; without it the LVDT rounding is systematic, ≈ 0.2 µm). Fitted centre and
+/// harmonic amplitudes: σ ≈ 0.003 µm, bound 0.05 µm; squareness and scale 1 µrad / 1 µm/m
+/// (0.08 µm of a 2nd harmonic); G is a range over 360 bin means (σ ≈ 0.04 µm each), which noise
+/// can only widen, by ≈ 3–4 σ: −0.05..+0.3 µm; F is an extreme of single samples
+/// (σ ≈ 0.25 µm), widened by 3–5 σ near the peak: −0.05..+1.5 µm.
+#[test]
+fn straightness_shows_as_a_third_order_cyclic_error_with_g_of_half_its_size() {
+    let a = 8.0;
+    for x_along_y in [true, false] {
+        let mut m = perfect();
+        if x_along_y {
+            m.circle.straightness_x_along_y_um = a;
+        } else {
+            m.circle.straightness_y_along_x_um = a;
+        }
+        let (_, r) = run(&m);
+        let iso = r.iso230_4.as_ref().expect("both directions");
+        let centre = if x_along_y {
+            [a / 4.0, 0.0]
+        } else {
+            [0.0, a / 4.0]
+        };
+        let f = 2.0 * a / (3.0 * 3f64.sqrt());
+        for d in [&iso.ccw, &iso.cw] {
+            let c = d.centre_um;
+            assert!(
+                (f64::from(c[0]) - centre[0]).abs() < 0.05
+                    && (f64::from(c[1]) - centre[1]).abs() < 0.05,
+                "x_along_y {x_along_y}: centre {c:?} vs {centre:?}"
+            );
+            let widen = |got: f32, want: f64, up: f64| {
+                let d = f64::from(got).abs() - want;
+                d > -0.05 && d < up
+            };
+            assert!(widen(d.g_um, a / 2.0, 0.3), "G {} vs {}", d.g_um, a / 2.0);
+            assert!(
+                d.f_max_um > 0.0 && widen(d.f_max_um, f, 1.5),
+                "F_max {}",
+                d.f_max_um
+            );
+            assert!(
+                d.f_min_um < 0.0 && widen(d.f_min_um, f, 1.5),
+                "F_min {}",
+                d.f_min_um
+            );
+            let g = &d.diagnostics;
+            assert_eq!(g.cyclic_order, 3, "{g:?}");
+            assert!(
+                (f64::from(g.cyclic_amplitude_um) - a / 4.0).abs() < 0.05,
+                "{g:?}"
+            );
+            assert!(g.squareness_urad.abs() < 1.0, "{g:?}");
+            assert!(g.scale_mismatch_um_per_m.abs() < 1.0, "{g:?}");
+            assert!(
+                g.reversal_x_um.abs() < 0.05 && g.reversal_y_um.abs() < 0.05,
+                "{g:?}"
+            );
+        }
+    }
+}
+
+/// The bar warms by 10 °C/min but the thermistor is not on it (it keeps reading the start
+/// temperature): the pod cannot correct, and ΔL drifts by the bar's expansion rate,
+/// −L·α·10 K/min (the bar body grows, the LVDT core moves in). Bound: 1 % of ≈ 17 µm/min is
+/// 0.17 µm/min, ≥ 5 σ of the slope (0.03 µm/min, module comment).
+#[test]
+fn bar_temperature_drift_without_the_thermistor_drifts_dl_by_the_expansion_rate() {
+    let mut m = perfect();
+    m.instrument.bar_temp_drift_c_per_min = 10.0;
+    m.instrument.thermistor_detached = true;
+    let (s, _) = run(&m);
+    let cfg = Config::default();
+    let expansion = 150.0e3 * f64::from(cfg.bar_cte_ppm_per_k) * 1e-6 * 10.0; // µm/min
+    for run in &s.runs {
+        let k = slope_um_per_min(run);
+        assert!(
+            (k / -expansion - 1.0).abs() < 0.01,
+            "slope {k} vs −{expansion} µm/min"
+        );
+        let last = run.last().expect("samples");
+        assert!(
+            (f64::from(last.temp_c) - m.instrument.bar_temp_c).abs() < 0.05,
+            "the pod saw {} °C",
+            last.temp_c
+        );
+    }
+}
+
+/// LVDT non-linearity in the circle figures. With the socket e = 200 µm off in X the bar
+/// swings through ΔL ≈ −e·cos θ, and the LVDT reads ΔL + k·ΔL² = ΔL + (k e²/2)(1 + cos 2θ):
+/// against the same run with k = 0, the radius r0 grows by k e²/2, the centre does not move,
+/// and the cos 2θ term is what the core's diagnostics call a scale mismatch,
+/// 2·(k e²/2)/R = k e²/R (an eccentric set-up turns LVDT non-linearity into apparent ovality).
+/// G of the faulty run is the peak-to-valley of the whole cos 2θ term, which includes the
+/// geometric one of an eccentric circle, ΔL ≈ −e cos θ + (e²/2R) sin²θ:
+/// G = 2·|k e²/2 − e²/(4R)|. Bounds: both runs have the same seed, so the same noise, which
+/// cancels in the differences but for k·(2·ΔL·noise) (≈ 0.01 µm σ per sample): 0.05 µm on r0
+/// and centre, 0.5 µm/m (0.04 µm of a₂ at R 150 mm) on the scale mismatch; G as in the
+/// straightness test, −0.05..+0.3 µm.
+#[test]
+fn lvdt_nonlinearity_with_an_eccentric_setup_shows_as_scale_mismatch_and_radius() {
+    let (k, e, r_um) = (1e-4, 200.0, 150.0e3);
+    let circle = |k: f64| {
+        let mut m = perfect();
+        m.circle.socket_offset_um = [e, 0.0];
+        m.instrument.bar_temp_c = 20.0;
+        m.instrument.lvdt_nonlinearity_per_um = k;
+        run(&m).1.iso230_4.expect("both directions")
+    };
+    let (ideal, faulty) = (circle(0.0), circle(k));
+    let ke2 = k * e * e; // 4 µm
+    for (i, f) in [(&ideal.ccw, &faulty.ccw), (&ideal.cw, &faulty.cw)] {
+        let dr0 = f64::from(f.r0_um - i.r0_um);
+        assert!((dr0 - ke2 / 2.0).abs() < 0.05, "Δr0 {dr0}");
+        for j in 0..2 {
+            let dc = f64::from(f.centre_um[j] - i.centre_um[j]);
+            assert!(dc.abs() < 0.05, "centre moved {dc} µm");
+        }
+        let ds = f64::from(f.diagnostics.scale_mismatch_um_per_m)
+            - f64::from(i.diagnostics.scale_mismatch_um_per_m);
+        assert!((ds - ke2 / (r_um * 1e-6)).abs() < 0.5, "Δscale {ds} µm/m");
+        let g = 2.0 * (ke2 / 2.0 - e * e / (4.0 * r_um)).abs();
+        let dg = f64::from(f.g_um) - g;
+        assert!(dg > -0.05 && dg < 0.3, "G {} vs {g}", f.g_um);
+    }
+}

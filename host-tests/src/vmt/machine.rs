@@ -156,6 +156,8 @@ pub struct CircleMachine {
     pub servo_lag_y_ms: f64,
     /// Quadratic straightness of X along Y, µm: E_x = A·(y/R)² (0 at y = 0, A at y = ±R).
     pub straightness_x_along_y_um: f64,
+    /// Quadratic straightness of Y along X, µm: E_y = B·(x/R)² (0 at x = 0, B at x = ±R).
+    pub straightness_y_along_x_um: f64,
     /// Where the socket really is minus where the pod believes it (X, Y), µm.
     pub socket_offset_um: [f64; 2],
     /// Thermal growth of X, µm per minute at x = R: E_x = g_x·t·x/R, t = time since the
@@ -181,6 +183,7 @@ impl Default for CircleMachine {
             servo_lag_x_ms: 1.0,
             servo_lag_y_ms: 0.0,
             straightness_x_along_y_um: 0.0,
+            straightness_y_along_x_um: 0.0,
             socket_offset_um: [0.0; 2],
             thermal_growth_x_um_per_min: 0.0,
             thermal_growth_y_um_per_min: 0.0,
@@ -215,7 +218,9 @@ impl CircleMachine {
         let ex_um = ex_um
             + self.straightness_x_along_y_um * (ya / r).powi(2)
             + self.thermal_growth_x_um_per_min * t_min * xa / r;
-        let ey_um = ey_um + self.thermal_growth_y_um_per_min * t_min * ya / r;
+        let ey_um = ey_um
+            + self.straightness_y_along_x_um * (xa / r).powi(2)
+            + self.thermal_growth_y_um_per_min * t_min * ya / r;
         let (x, y) = (
             xa + ex_um * 1e-3 - self.socket_offset_um[0] * 1e-3,
             ya + ey_um * 1e-3 - self.socket_offset_um[1] * 1e-3,

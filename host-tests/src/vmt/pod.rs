@@ -35,6 +35,9 @@ pub struct Instrument {
     /// Bar temperature change during a run, °C per minute from `bar_temp_c` at the pod's
     /// start (the thermistor follows: its code is fed to the acquisition every 100 ms).
     pub bar_temp_drift_c_per_min: f64,
+    /// The thermistor is not in contact with the bar (a fault): it keeps reading `bar_temp_c`
+    /// while the bar drifts, so the pod does not correct the drift.
+    pub thermistor_detached: bool,
     /// Touch-trigger probe pre-travel, µm: the stylus travels this far past contact before the
     /// probe switches (the latched point lies this much inside the surface).
     pub probe_pretravel_um: f64,
@@ -53,6 +56,7 @@ impl Default for Instrument {
             lvdt_nonlinearity_per_um: 0.0,
             sample_rate_hz: 1000.0,
             bar_temp_drift_c_per_min: 0.0,
+            thermistor_detached: false,
             probe_pretravel_um: 0.0,
             probe_repeatability_um: 0.0,
             probe_bounces: 0,
@@ -161,7 +165,10 @@ impl Pod {
     /// positions `axes` the encoders read (mm / degrees). Advances virtual time by one period.
     pub fn sample(&mut self, dl_um: f64, axes: &[f64; MAX_AXES]) -> Sample {
         let temp_c = self.bar_temp_now_c();
-        if self.inst.bar_temp_drift_c_per_min != 0.0 && self.t_us.is_multiple_of(100_000) {
+        if self.inst.bar_temp_drift_c_per_min != 0.0
+            && !self.inst.thermistor_detached
+            && self.t_us.is_multiple_of(100_000)
+        {
             // the thermistor task's read every 100 ms
             let code = self.thermistor_code_of(temp_c);
             let _ = self.acq.update_temperature(code);

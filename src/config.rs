@@ -1,6 +1,9 @@
 //! The pod's configuration: every field with its unit, default for the reference hardware
 //! (NUCLEO-G474RE, a 150 mm steel ball bar, 0.1 µm encoders) and validated range, plus a
-//! versioned binary encoding with CRC-32 (persistence to flash comes later).
+//! versioned binary encoding with CRC-32 (persisted by [`crate::settings`]). The test set-up
+//! ([`TestSetup`]: circle centre and radius, the seed 002 Table 4.3 quantities, the SSM socket,
+//! the two-step machine) is part of it, so it travels with the configuration over both
+//! protocols and survives a reset.
 //!
 //! Changes go through [`Config::try_update`]: the closure edits a copy, the copy is validated
 //! as a whole, and only a valid copy replaces the configuration — a bad value changes nothing
@@ -110,6 +113,66 @@ impl CanBitrate {
     }
 }
 
+/// Plane of an ISO 230-4 circular test: its first (u) and second (v) axis, right-handed about
+/// the third, so that counter-clockwise (θ increasing from +u towards +v) is positive about
+/// the plane's normal (ISO 230-4: XY viewed from +Z, YZ from +X, ZX from +Y).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum CirclePlane {
+    /// u = X, v = Y.
+    XY = 0,
+    /// u = Y, v = Z.
+    YZ = 1,
+    /// u = Z, v = X.
+    ZX = 2,
+}
+
+impl CirclePlane {
+    /// Names in code order (the choices of the `circle_plane` field).
+    pub const NAMES: [&'static str; 3] = ["XY", "YZ", "ZX"];
+    /// From its code.
+    pub const fn from_u8(v: u8) -> Option<Self> {
+        Some(match v {
+            0 => Self::XY,
+            1 => Self::YZ,
+            2 => Self::ZX,
+            _ => return None,
+        })
+    }
+}
+
+/// The machine type of the seed 000 two-step identification (seed 000 Fig. 1).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum TwoStepMachine {
+    /// No two-step identification: SSM runs report E only.
+    None = 0,
+    /// Both rotary axes in the spindle head (α about X, β about Y).
+    Rrttt = 1,
+    /// Both rotary axes in the table (α about X, γ about Z).
+    Tttrr = 2,
+    /// The β spindle-head axis of an RTTTR machine.
+    RtttrSpindle = 3,
+    /// The α table axis of an RTTTR machine.
+    RtttrTable = 4,
+}
+
+impl TwoStepMachine {
+    /// Names in code order (the choices of the `ts_machine` field).
+    pub const NAMES: [&'static str; 5] = ["NONE", "RRTTT", "TTTRR", "RTTTR_SPINDLE", "RTTTR_TABLE"];
+    /// From its code.
+    pub const fn from_u8(v: u8) -> Option<Self> {
+        Some(match v {
+            0 => Self::None,
+            1 => Self::Rrttt,
+            2 => Self::Tttrr,
+            3 => Self::RtttrSpindle,
+            4 => Self::RtttrTable,
+            _ => return None,
+        })
+    }
+}
+
 /// One encoder input.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AxisConfig {
@@ -121,6 +184,68 @@ pub struct AxisConfig {
     pub reversed: bool,
     /// Fastest plausible axis speed, mm/s or °/s: larger count steps are quadrature glitches.
     pub max_speed_per_s: f32,
+}
+
+/// The test set-up: the geometry each measuring pattern needs (machine coordinates, mm and
+/// degrees). A length or position that the pod cannot know by itself is **not set** (NaN)
+/// until a client writes it; arming a pattern whose geometry is not set is refused with the
+/// field named ([`crate::app`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TestSetup {
+    /// Plane of the ISO 230-4 circle.
+    pub circle_plane: CirclePlane,
+    /// Circle centre = the socket (pivot) position, X, Y, Z in mm; not set by default.
+    pub circle_centre_mm: [f32; 3],
+    /// Nominal radius of the circle, mm (the bar length for a circle about the socket in its
+    /// plane); not set by default.
+    pub circle_radius_mm: f32,
+    /// Programmed feed of the circle, mm/min (for the servo mismatch); not set by default.
+    pub circle_feed_mm_per_min: f32,
+    /// Shortest arc a circular run must turn to give results, degrees (a partial arc such as
+    /// 220° needs this set to at most 220).
+    pub circle_min_arc_deg: f32,
+    /// Seed 002 (Table 4.3): L_B, ball-bar length, mm.
+    pub s002_l_b_mm: f32,
+    /// Seed 002: R_B, B centre → T-ball, steps BX–CA, mm.
+    pub s002_r_b_mm: f32,
+    /// Seed 002: R′_B, B centre → T-ball, step CR2, mm.
+    pub s002_r_b2_mm: f32,
+    /// Seed 002: R_C, W-ball distance from the C centreline, mm.
+    pub s002_r_c_mm: f32,
+    /// Seed 002: Z_C, W-ball height above the C table, mm.
+    pub s002_z_c_mm: f32,
+    /// Seed 002: Z_T, thesis lever arm of steps 1–4, mm (thesis mode only).
+    pub s002_z_t_mm: f32,
+    /// Seed 002: Z′_T, thesis lever arm of step 5, mm (thesis mode only).
+    pub s002_z_t2_mm: f32,
+    /// Seed 002: X_T, thesis lever arm, mm (thesis mode only).
+    pub s002_x_t_mm: f32,
+    /// Seed 002: machine coordinates X, Y, Z of the model-frame origin O_M (on the C axis at
+    /// the table), mm.
+    pub s002_origin_mm: [f32; 3],
+    /// SSM: socket (pivot) centre P0, X, Y, Z in mm.
+    pub ssm_socket_mm: [f32; 3],
+    /// SSM streaming: neighbourhood radius, mm.
+    pub ssm_window_radius_mm: f32,
+    /// SSM stations: linear speed below which the machine dwells, mm/s.
+    pub ssm_dwell_speed_mm_per_s: f32,
+    /// SSM stations: settling time before a dwell is averaged, ms.
+    pub ssm_settle_ms: f32,
+    /// SSM stations: fewest averaged samples for a dwell to count as a station.
+    pub ssm_min_dwell_samples: u32,
+    /// Seed 000 two-step: machine type.
+    pub ts_machine: TwoStepMachine,
+    /// Two-step: signed tool vector z_r along the spindle z axis (RRTTT, RTTTR spindle), mm.
+    pub ts_tool_z_mm: f32,
+    /// Two-step: z_αγ between the table's α and γ centres (TTTRR), mm.
+    pub ts_z_alpha_gamma_mm: f32,
+    /// Two-step: reference point in the table frame (TTTRR, RTTTR table), X, Y, Z in mm.
+    pub ts_reference_mm: [f32; 3],
+    /// Two-step: nominal pivot (spindle) or table origin after the translation, X, Y, Z in mm.
+    pub ts_origin_mm: [f32; 3],
+    /// Two-step: nominal angles of the rotation step, degrees: RRTTT (α, β), TTTRR (α, γ),
+    /// RTTTR spindle (β, –), RTTTR table (α, –).
+    pub ts_angles_deg: [f32; 2],
 }
 
 /// The pod's configuration (see the module doc; fields listed with unit, default and range in
@@ -165,9 +290,11 @@ pub struct Config {
     pub can_node_id: u8,
     /// CAN bit rate.
     pub can_bitrate: CanBitrate,
+    /// The test set-up (pattern geometry).
+    pub setup: TestSetup,
 }
 
-/// A field that can be out of range (named in [`ConfigError`]).
+/// A configuration field (named in [`ConfigError`] and in [`FIELDS`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Field {
     /// [`Config::bar_length_mm`].
@@ -206,166 +333,417 @@ pub enum Field {
     ProbeReseatUs,
     /// [`Config::can_node_id`].
     CanNodeId,
+    /// [`TestSetup::circle_plane`].
+    CirclePlane,
+    /// [`TestSetup::circle_centre_mm`] component k (0 X, 1 Y, 2 Z).
+    CircleCentreMm(u8),
+    /// [`TestSetup::circle_radius_mm`].
+    CircleRadiusMm,
+    /// [`TestSetup::circle_feed_mm_per_min`].
+    CircleFeed,
+    /// [`TestSetup::circle_min_arc_deg`].
+    CircleMinArcDeg,
+    /// [`TestSetup::s002_l_b_mm`].
+    S002LbMm,
+    /// [`TestSetup::s002_r_b_mm`].
+    S002RbMm,
+    /// [`TestSetup::s002_r_b2_mm`].
+    S002Rb2Mm,
+    /// [`TestSetup::s002_r_c_mm`].
+    S002RcMm,
+    /// [`TestSetup::s002_z_c_mm`].
+    S002ZcMm,
+    /// [`TestSetup::s002_z_t_mm`].
+    S002ZtMm,
+    /// [`TestSetup::s002_z_t2_mm`].
+    S002Zt2Mm,
+    /// [`TestSetup::s002_x_t_mm`].
+    S002XtMm,
+    /// [`TestSetup::s002_origin_mm`] component k.
+    S002OriginMm(u8),
+    /// [`TestSetup::ssm_socket_mm`] component k.
+    SsmSocketMm(u8),
+    /// [`TestSetup::ssm_window_radius_mm`].
+    SsmWindowRadiusMm,
+    /// [`TestSetup::ssm_dwell_speed_mm_per_s`].
+    SsmDwellSpeed,
+    /// [`TestSetup::ssm_settle_ms`].
+    SsmSettleMs,
+    /// [`TestSetup::ssm_min_dwell_samples`].
+    SsmMinDwellSamples,
+    /// [`TestSetup::ts_machine`].
+    TsMachine,
+    /// [`TestSetup::ts_tool_z_mm`].
+    TsToolZMm,
+    /// [`TestSetup::ts_z_alpha_gamma_mm`].
+    TsZAlphaGammaMm,
+    /// [`TestSetup::ts_reference_mm`] component k.
+    TsReferenceMm(u8),
+    /// [`TestSetup::ts_origin_mm`] component k.
+    TsOriginMm(u8),
+    /// [`TestSetup::ts_angles_deg`] component k.
+    TsAngleDeg(u8),
     /// The LVDT sample rate (excitation × samples per period) exceeds what the ADCs can do.
     AdcRate,
     /// An axis name is used by two inputs.
     AxisNameDuplicate(u8),
 }
 
-/// Unit, allowed range and default of a numeric field.
+/// How a field is stored (and sent: CANopen data type, encoding width).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FieldType {
+    /// IEEE 754 single (REAL32).
+    F32,
+    /// IEEE 754 double (the encoder scales: sent as REAL32 over CANopen, 15 digits over SCPI).
+    F64,
+    /// Unsigned 8-bit integer (UNSIGNED8); with [`FieldInfo::choices`], a code.
+    U8,
+    /// Unsigned 16-bit integer (UNSIGNED16).
+    U16,
+    /// Unsigned 32-bit integer (UNSIGNED32).
+    U32,
+}
+
+/// Name, unit, type, range and default of a field.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FieldInfo {
-    /// The field.
+    /// The field (for an indexed field, element 0; see [`FieldInfo::elements`]).
     pub field: Field,
-    /// Its name as users see it (SCPI / docs).
+    /// Its name as users see it (SCPI / CANopen / docs).
     pub name: &'static str,
     /// Its unit.
     pub unit: &'static str,
+    /// Storage type.
+    pub ty: FieldType,
     /// Smallest allowed value (inclusive).
     pub min: f64,
     /// Largest allowed value (inclusive).
     pub max: f64,
+    /// Number of elements of an indexed field (e.g. 4 polynomial coefficients), 0 for a scalar.
+    pub elements: u8,
+    /// True if the field may be **not set** (NaN; the default of set-up lengths and positions
+    /// the pod cannot know). Once written it can only return to "not set" by restoring the
+    /// defaults.
+    pub optional: bool,
+    /// For a code field ([`FieldType::U8`]): the name of each code, in code order.
+    pub choices: &'static [&'static str],
 }
 
 /// Largest ADC conversion rate used for the LVDT, samples/s per ADC (the G474 ADC does 4 MS/s;
 /// we keep DMA and CPU load low).
 pub const MAX_ADC_RATE_HZ: f64 = 500_000.0;
 
-/// The numeric fields with unit and range (the single table that validation, documentation and
-/// the protocol layers share).
+const fn real(
+    field: Field,
+    name: &'static str,
+    unit: &'static str,
+    min: f64,
+    max: f64,
+) -> FieldInfo {
+    FieldInfo {
+        field,
+        name,
+        unit,
+        ty: FieldType::F32,
+        min,
+        max,
+        elements: 0,
+        optional: false,
+        choices: &[],
+    }
+}
+
+const fn unset(mut f: FieldInfo) -> FieldInfo {
+    f.optional = true;
+    f
+}
+
+const fn typed(mut f: FieldInfo, ty: FieldType) -> FieldInfo {
+    f.ty = ty;
+    f
+}
+
+const fn indexed(mut f: FieldInfo, elements: u8) -> FieldInfo {
+    f.elements = elements;
+    f
+}
+
+const fn code(field: Field, name: &'static str, choices: &'static [&'static str]) -> FieldInfo {
+    FieldInfo {
+        field,
+        name,
+        unit: "1",
+        ty: FieldType::U8,
+        min: 0.0,
+        max: choices.len() as f64 - 1.0,
+        elements: 0,
+        optional: false,
+        choices,
+    }
+}
+
+/// Largest |coordinate| of a set-up position, mm.
+const POS_MM: f64 = 10_000.0;
+
+/// Every numeric configuration field with unit, type and range: the single table that
+/// validation, the binary encoding, the CANopen objects (0x2000 + row), SCPI `CONFigure`, the
+/// EDS and the documentation share. Append new rows at the end (the row is the CANopen index).
 pub const FIELDS: &[FieldInfo] = &[
-    FieldInfo {
-        field: Field::BarLengthMm,
-        name: "bar_length",
-        unit: "mm",
-        min: 50.0,
-        max: 600.0,
-    },
-    FieldInfo {
-        field: Field::BarCtePpmPerK,
-        name: "bar_cte",
-        unit: "ppm/K",
-        min: -5.0,
-        max: 30.0,
-    },
-    FieldInfo {
-        field: Field::LvdtPolyUm(0),
-        name: "lvdt_poly",
-        unit: "um",
-        min: -1.0e5,
-        max: 1.0e5,
-    },
-    FieldInfo {
-        field: Field::LvdtMaxAbsRatio,
-        name: "lvdt_max_ratio",
-        unit: "1",
-        min: 0.01,
-        max: 1.0,
-    },
-    FieldInfo {
-        field: Field::LvdtMinSignal,
-        name: "lvdt_min_signal",
-        unit: "counts or V",
-        min: 1.0e-3,
-        max: 4095.0,
-    },
-    FieldInfo {
-        field: Field::LvdtDcZeroV,
-        name: "lvdt_dc_zero",
-        unit: "V",
-        min: -10.0,
-        max: 10.0,
-    },
-    FieldInfo {
-        field: Field::LvdtDcSpanV,
-        name: "lvdt_dc_span",
-        unit: "V",
-        min: 0.01,
-        max: 20.0,
-    },
-    FieldInfo {
-        field: Field::ExcitationHz,
-        name: "excitation",
-        unit: "Hz",
-        min: 1000.0,
-        max: 20000.0,
-    },
-    FieldInfo {
-        field: Field::SamplesPerPeriod,
-        name: "samples_per_period",
-        unit: "1",
-        min: 8.0,
-        max: 64.0,
-    },
-    FieldInfo {
-        field: Field::SampleRateHz,
-        name: "sample_rate",
-        unit: "Hz",
-        min: 10.0,
-        max: 10000.0,
-    },
-    FieldInfo {
-        field: Field::AxisCountsPerUnit(0),
-        name: "axis_counts",
-        unit: "counts/mm or counts/deg",
-        min: 0.1,
-        max: 1.0e8,
-    },
-    FieldInfo {
-        field: Field::AxisMaxSpeed(0),
-        name: "axis_max_speed",
-        unit: "mm/s or deg/s",
-        min: 1.0,
-        max: 10000.0,
-    },
-    FieldInfo {
-        field: Field::ThermistorR25Ohm,
-        name: "ntc_r25",
-        unit: "ohm",
-        min: 100.0,
-        max: 1.0e6,
-    },
-    FieldInfo {
-        field: Field::ThermistorBetaK,
-        name: "ntc_beta",
-        unit: "K",
-        min: 1000.0,
-        max: 10000.0,
-    },
-    FieldInfo {
-        field: Field::ThermistorRFixedOhm,
-        name: "ntc_r_fixed",
-        unit: "ohm",
-        min: 100.0,
-        max: 1.0e6,
-    },
-    FieldInfo {
-        field: Field::ProbeDebounceUs,
-        name: "probe_debounce",
-        unit: "us",
-        min: 0.0,
-        max: 100_000.0,
-    },
-    FieldInfo {
-        field: Field::ProbeReseatUs,
-        name: "probe_reseat",
-        unit: "us",
-        min: 0.0,
-        max: 5_000_000.0,
-    },
-    FieldInfo {
-        field: Field::CanNodeId,
-        name: "can_node_id",
-        unit: "1",
-        min: 1.0,
-        max: 127.0,
-    },
+    real(Field::BarLengthMm, "bar_length", "mm", 50.0, 600.0),
+    real(Field::BarCtePpmPerK, "bar_cte", "ppm/K", -5.0, 30.0),
+    indexed(
+        real(Field::LvdtPolyUm(0), "lvdt_poly", "um", -1.0e5, 1.0e5),
+        4,
+    ),
+    real(Field::LvdtMaxAbsRatio, "lvdt_max_ratio", "1", 0.01, 1.0),
+    real(
+        Field::LvdtMinSignal,
+        "lvdt_min_signal",
+        "counts or V",
+        1.0e-3,
+        4095.0,
+    ),
+    real(Field::LvdtDcZeroV, "lvdt_dc_zero", "V", -10.0, 10.0),
+    real(Field::LvdtDcSpanV, "lvdt_dc_span", "V", 0.01, 20.0),
+    real(Field::ExcitationHz, "excitation", "Hz", 1000.0, 20000.0),
+    typed(
+        real(
+            Field::SamplesPerPeriod,
+            "samples_per_period",
+            "1",
+            8.0,
+            64.0,
+        ),
+        FieldType::U16,
+    ),
+    real(Field::SampleRateHz, "sample_rate", "Hz", 10.0, 10000.0),
+    indexed(
+        typed(
+            real(
+                Field::AxisCountsPerUnit(0),
+                "axis_counts",
+                "counts/mm or counts/deg",
+                0.1,
+                1.0e8,
+            ),
+            FieldType::F64,
+        ),
+        MAX_AXES as u8,
+    ),
+    indexed(
+        real(
+            Field::AxisMaxSpeed(0),
+            "axis_max_speed",
+            "mm/s or deg/s",
+            1.0,
+            10000.0,
+        ),
+        MAX_AXES as u8,
+    ),
+    real(Field::ThermistorR25Ohm, "ntc_r25", "ohm", 100.0, 1.0e6),
+    real(Field::ThermistorBetaK, "ntc_beta", "K", 1000.0, 10000.0),
+    real(
+        Field::ThermistorRFixedOhm,
+        "ntc_r_fixed",
+        "ohm",
+        100.0,
+        1.0e6,
+    ),
+    typed(
+        real(
+            Field::ProbeDebounceUs,
+            "probe_debounce",
+            "us",
+            0.0,
+            100_000.0,
+        ),
+        FieldType::U32,
+    ),
+    typed(
+        real(Field::ProbeReseatUs, "probe_reseat", "us", 0.0, 5_000_000.0),
+        FieldType::U32,
+    ),
+    typed(
+        real(Field::CanNodeId, "can_node_id", "1", 1.0, 127.0),
+        FieldType::U8,
+    ),
+    code(Field::CirclePlane, "circle_plane", &CirclePlane::NAMES),
+    unset(real(
+        Field::CircleCentreMm(0),
+        "circle_centre_x",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::CircleCentreMm(1),
+        "circle_centre_y",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::CircleCentreMm(2),
+        "circle_centre_z",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::CircleRadiusMm,
+        "circle_radius",
+        "mm",
+        1.0,
+        2000.0,
+    )),
+    unset(real(
+        Field::CircleFeed,
+        "circle_feed",
+        "mm/min",
+        1.0,
+        100_000.0,
+    )),
+    real(Field::CircleMinArcDeg, "circle_min_arc", "deg", 10.0, 360.0),
+    unset(real(Field::S002LbMm, "s002_l_b", "mm", 10.0, 2000.0)),
+    unset(real(Field::S002RbMm, "s002_r_b", "mm", 1.0, POS_MM)),
+    unset(real(Field::S002Rb2Mm, "s002_r_b2", "mm", 1.0, POS_MM)),
+    unset(real(Field::S002RcMm, "s002_r_c", "mm", 1.0, POS_MM)),
+    unset(real(Field::S002ZcMm, "s002_z_c", "mm", -POS_MM, POS_MM)),
+    unset(real(Field::S002ZtMm, "s002_z_t", "mm", -POS_MM, POS_MM)),
+    unset(real(Field::S002Zt2Mm, "s002_z_t2", "mm", -POS_MM, POS_MM)),
+    unset(real(Field::S002XtMm, "s002_x_t", "mm", -POS_MM, POS_MM)),
+    unset(real(
+        Field::S002OriginMm(0),
+        "s002_origin_x",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::S002OriginMm(1),
+        "s002_origin_y",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::S002OriginMm(2),
+        "s002_origin_z",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::SsmSocketMm(0),
+        "ssm_socket_x",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::SsmSocketMm(1),
+        "ssm_socket_y",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::SsmSocketMm(2),
+        "ssm_socket_z",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    real(
+        Field::SsmWindowRadiusMm,
+        "ssm_window_radius",
+        "mm",
+        0.1,
+        1000.0,
+    ),
+    real(Field::SsmDwellSpeed, "ssm_dwell_speed", "mm/s", 0.01, 100.0),
+    real(Field::SsmSettleMs, "ssm_settle", "ms", 0.0, 10_000.0),
+    typed(
+        real(
+            Field::SsmMinDwellSamples,
+            "ssm_min_dwell",
+            "samples",
+            3.0,
+            1.0e6,
+        ),
+        FieldType::U32,
+    ),
+    code(Field::TsMachine, "ts_machine", &TwoStepMachine::NAMES),
+    unset(real(Field::TsToolZMm, "ts_tool_z", "mm", -POS_MM, POS_MM)),
+    unset(real(
+        Field::TsZAlphaGammaMm,
+        "ts_z_alpha_gamma",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::TsReferenceMm(0),
+        "ts_reference_x",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::TsReferenceMm(1),
+        "ts_reference_y",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::TsReferenceMm(2),
+        "ts_reference_z",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::TsOriginMm(0),
+        "ts_origin_x",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::TsOriginMm(1),
+        "ts_origin_y",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::TsOriginMm(2),
+        "ts_origin_z",
+        "mm",
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(
+        Field::TsAngleDeg(0),
+        "ts_angle_1",
+        "deg",
+        -360.0,
+        360.0,
+    )),
+    unset(real(
+        Field::TsAngleDeg(1),
+        "ts_angle_2",
+        "deg",
+        -360.0,
+        360.0,
+    )),
 ];
 
 /// Why a configuration was rejected.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ConfigError {
-    /// A value outside its allowed range (or not finite).
+    /// A value outside its allowed range (or not finite, or NaN where the field must be set).
     OutOfRange {
         /// The field.
         field: Field,
@@ -404,6 +782,39 @@ pub enum ConfigError {
         /// Offset of the byte in the encoding.
         offset: usize,
     },
+}
+
+impl Default for TestSetup {
+    fn default() -> Self {
+        const NOT_SET: f32 = f32::NAN;
+        Self {
+            circle_plane: CirclePlane::XY,
+            circle_centre_mm: [NOT_SET; 3],
+            circle_radius_mm: NOT_SET,
+            circle_feed_mm_per_min: NOT_SET,
+            circle_min_arc_deg: 300.0,
+            s002_l_b_mm: NOT_SET,
+            s002_r_b_mm: NOT_SET,
+            s002_r_b2_mm: NOT_SET,
+            s002_r_c_mm: NOT_SET,
+            s002_z_c_mm: NOT_SET,
+            s002_z_t_mm: NOT_SET,
+            s002_z_t2_mm: NOT_SET,
+            s002_x_t_mm: NOT_SET,
+            s002_origin_mm: [NOT_SET; 3],
+            ssm_socket_mm: [NOT_SET; 3],
+            ssm_window_radius_mm: 5.0,
+            ssm_dwell_speed_mm_per_s: 1.0,
+            ssm_settle_ms: 100.0,
+            ssm_min_dwell_samples: 100,
+            ts_machine: TwoStepMachine::None,
+            ts_tool_z_mm: NOT_SET,
+            ts_z_alpha_gamma_mm: NOT_SET,
+            ts_reference_mm: [NOT_SET; 3],
+            ts_origin_mm: [NOT_SET; 3],
+            ts_angles_deg: [NOT_SET; 2],
+        }
+    }
 }
 
 impl Default for Config {
@@ -447,12 +858,74 @@ impl Default for Config {
             probe_reseat_us: 50_000,
             can_node_id: 16,
             can_bitrate: CanBitrate::K500,
+            setup: TestSetup::default(),
         }
     }
 }
 
+impl Config {
+    /// All-zero bytes: a placeholder for the header of an empty log (`.bss`), not a valid
+    /// configuration ([`Config::validate`] refuses it).
+    pub const ZERO: Self = {
+        const AXIS: AxisConfig = AxisConfig {
+            name: AxisName::Unused,
+            counts_per_unit: 0.0,
+            reversed: false,
+            max_speed_per_s: 0.0,
+        };
+        Self {
+            bar_length_mm: 0.0,
+            bar_cte_ppm_per_k: 0.0,
+            lvdt_input: LvdtInput::AcRatiometric,
+            lvdt_poly_um: [0.0; 4],
+            lvdt_max_abs_ratio: 0.0,
+            lvdt_min_signal: 0.0,
+            lvdt_dc_zero_v: 0.0,
+            lvdt_dc_span_v: 0.0,
+            excitation_hz: 0.0,
+            samples_per_period: 0,
+            sample_rate_hz: 0.0,
+            axes: [AXIS; MAX_AXES],
+            thermistor_r25_ohm: 0.0,
+            thermistor_beta_k: 0.0,
+            thermistor_r_fixed_ohm: 0.0,
+            probe_debounce_us: 0,
+            probe_reseat_us: 0,
+            can_node_id: 0,
+            can_bitrate: CanBitrate::K125,
+            setup: TestSetup {
+                circle_plane: CirclePlane::XY,
+                circle_centre_mm: [0.0; 3],
+                circle_radius_mm: 0.0,
+                circle_feed_mm_per_min: 0.0,
+                circle_min_arc_deg: 0.0,
+                s002_l_b_mm: 0.0,
+                s002_r_b_mm: 0.0,
+                s002_r_b2_mm: 0.0,
+                s002_r_c_mm: 0.0,
+                s002_z_c_mm: 0.0,
+                s002_z_t_mm: 0.0,
+                s002_z_t2_mm: 0.0,
+                s002_x_t_mm: 0.0,
+                s002_origin_mm: [0.0; 3],
+                ssm_socket_mm: [0.0; 3],
+                ssm_window_radius_mm: 0.0,
+                ssm_dwell_speed_mm_per_s: 0.0,
+                ssm_settle_ms: 0.0,
+                ssm_min_dwell_samples: 0,
+                ts_machine: TwoStepMachine::None,
+                ts_tool_z_mm: 0.0,
+                ts_z_alpha_gamma_mm: 0.0,
+                ts_reference_mm: [0.0; 3],
+                ts_origin_mm: [0.0; 3],
+                ts_angles_deg: [0.0; 2],
+            },
+        }
+    };
+}
+
+/// The table row of a field (indexed fields share the row of element 0).
 fn info(field: Field) -> Option<&'static FieldInfo> {
-    // Indexed fields share the entry of index 0.
     let key = match field {
         Field::LvdtPolyUm(_) => Field::LvdtPolyUm(0),
         Field::AxisCountsPerUnit(_) => Field::AxisCountsPerUnit(0),
@@ -462,36 +935,67 @@ fn info(field: Field) -> Option<&'static FieldInfo> {
     FIELDS.iter().find(|i| i.field == key)
 }
 
-/// Checks an `f32` field: the limits are rounded to `f32` first, so that a limit such as 0.01,
-/// which has no exact binary value, can itself be written (0.01f32 < 0.01f64).
-fn check_f32(field: Field, value: f32) -> Result<(), ConfigError> {
-    let (min, max) = info(field).map_or((f64::NEG_INFINITY, f64::INFINITY), |i| (i.min, i.max));
-    let (min32, max32) = (min as f32, max as f32);
-    if value.is_finite() && value >= min32 && value <= max32 {
-        Ok(())
-    } else {
-        Err(ConfigError::OutOfRange {
-            field,
-            value: f64::from(value),
-            min,
-            max,
-        })
+impl FieldInfo {
+    /// The field of element `k` of this row (the row's own field for a scalar).
+    pub const fn element(&self, k: u8) -> Field {
+        match self.field {
+            Field::LvdtPolyUm(_) => Field::LvdtPolyUm(k),
+            Field::AxisCountsPerUnit(_) => Field::AxisCountsPerUnit(k),
+            Field::AxisMaxSpeed(_) => Field::AxisMaxSpeed(k),
+            f => f,
+        }
+    }
+
+    /// Every field of this row: its elements, or the row's field alone.
+    pub fn fields(&'static self) -> impl Iterator<Item = Field> {
+        let n = self.elements.max(1);
+        (0..n).map(move |k| self.element(k))
+    }
+
+    /// True for integer storage (U8, U16, U32).
+    pub const fn is_integer(&self) -> bool {
+        matches!(self.ty, FieldType::U8 | FieldType::U16 | FieldType::U32)
+    }
+
+    /// The code of choice `name` (case-insensitive) of a code field.
+    pub fn choice(&self, name: &[u8]) -> Option<u8> {
+        self.choices
+            .iter()
+            .position(|c| c.as_bytes().eq_ignore_ascii_case(name))
+            .map(|i| i as u8)
     }
 }
 
-/// Checks one value against its table range.
+/// Checks one value of `field` against its table row: in range, finite (NaN only where the
+/// field may be not set). An `f32` field compares the value it would store (rounded to `f32`)
+/// with its limits rounded to `f32`, so a limit such as 0.01, which has no exact binary value,
+/// can itself be written whichever way it is given (0.01 as REAL32 over CANopen, or the
+/// decimal 0.01 over SCPI).
 fn check(field: Field, value: f64) -> Result<(), ConfigError> {
-    let (min, max) = info(field).map_or((f64::NEG_INFINITY, f64::INFINITY), |i| (i.min, i.max));
-    if value.is_finite() && value >= min && value <= max {
+    let Some(i) = info(field) else {
+        return Ok(());
+    };
+    let (min, max, stored) = if i.ty == FieldType::F32 {
+        let r = |v: f64| f64::from(v as f32);
+        (r(i.min), r(i.max), r(value))
+    } else {
+        (i.min, i.max, value)
+    };
+    if (value.is_nan() && i.optional) || (stored.is_finite() && stored >= min && stored <= max) {
         Ok(())
     } else {
         Err(ConfigError::OutOfRange {
             field,
             value,
-            min,
-            max,
+            min: i.min,
+            max: i.max,
         })
     }
+}
+
+/// True if `v` is a set value (a set-up field that is not set reads NaN).
+pub fn is_set(v: f32) -> bool {
+    !v.is_nan()
 }
 
 impl Config {
@@ -500,19 +1004,25 @@ impl Config {
         info(field)
     }
 
+    /// The field called `name` (as in [`FIELDS`]; `lvdt_poly`, `axis_counts` and
+    /// `axis_max_speed` take the element as a suffix: `lvdt_poly2`, `axis_counts1`…), or `None`.
+    pub fn field_by_name(name: &str) -> Option<Field> {
+        if let Some(i) = FIELDS.iter().find(|i| i.elements == 0 && i.name == name) {
+            return Some(i.field);
+        }
+        FIELDS.iter().filter(|i| i.elements > 0).find_map(|i| {
+            let k: u8 = name.strip_prefix(i.name)?.parse().ok()?;
+            (k < i.elements).then(|| i.element(k))
+        })
+    }
+
     /// Validates every field; the first violation is returned.
     pub fn validate(&self) -> Result<(), ConfigError> {
-        check_f32(Field::BarLengthMm, self.bar_length_mm)?;
-        check_f32(Field::BarCtePpmPerK, self.bar_cte_ppm_per_k)?;
-        for (k, &c) in (0u8..).zip(self.lvdt_poly_um.iter()) {
-            check_f32(Field::LvdtPolyUm(k), c)?;
+        for row in FIELDS {
+            for f in row.fields() {
+                check(f, self.field_value(f).unwrap_or(f64::NAN))?;
+            }
         }
-        check_f32(Field::LvdtMaxAbsRatio, self.lvdt_max_abs_ratio)?;
-        check_f32(Field::LvdtMinSignal, self.lvdt_min_signal)?;
-        check_f32(Field::LvdtDcZeroV, self.lvdt_dc_zero_v)?;
-        check_f32(Field::LvdtDcSpanV, self.lvdt_dc_span_v)?;
-        check_f32(Field::ExcitationHz, self.excitation_hz)?;
-        check(Field::SamplesPerPeriod, f64::from(self.samples_per_period))?;
         let adc_rate = f64::from(self.excitation_hz) * f64::from(self.samples_per_period);
         if adc_rate > MAX_ADC_RATE_HZ {
             return Err(ConfigError::OutOfRange {
@@ -522,10 +1032,7 @@ impl Config {
                 max: MAX_ADC_RATE_HZ,
             });
         }
-        check_f32(Field::SampleRateHz, self.sample_rate_hz)?;
         for (i, a) in (0u8..).zip(self.axes.iter()) {
-            check(Field::AxisCountsPerUnit(i), a.counts_per_unit)?;
-            check_f32(Field::AxisMaxSpeed(i), a.max_speed_per_s)?;
             let dup = a.name != AxisName::Unused
                 && self
                     .axes
@@ -538,23 +1045,20 @@ impl Config {
                 });
             }
         }
-        check_f32(Field::ThermistorR25Ohm, self.thermistor_r25_ohm)?;
-        check_f32(Field::ThermistorBetaK, self.thermistor_beta_k)?;
-        check_f32(Field::ThermistorRFixedOhm, self.thermistor_r_fixed_ohm)?;
-        check(Field::ProbeDebounceUs, f64::from(self.probe_debounce_us))?;
-        check(Field::ProbeReseatUs, f64::from(self.probe_reseat_us))?;
-        check(Field::CanNodeId, f64::from(self.can_node_id))?;
         Ok(())
     }
 
-    /// A numeric field's value as `f64` in its unit (`None` for [`Field`]s with no storage).
-    /// The one accessor the protocol layers (CANopen objects, SCPI `CONFigure`) share.
+    /// A numeric field's value as `f64` in its unit (NaN for a set-up field that is not set;
+    /// `None` for [`Field`]s with no storage). The one accessor the protocol layers (CANopen
+    /// objects, SCPI `CONFigure`) and the encoding share.
     pub fn field_value(&self, f: Field) -> Option<f64> {
         let axis = |i: u8| self.axes.get(usize::from(i));
+        let s = &self.setup;
+        let at = |a: &[f32], k: u8| a.get(usize::from(k)).copied().map(f64::from);
         Some(match f {
             Field::BarLengthMm => f64::from(self.bar_length_mm),
             Field::BarCtePpmPerK => f64::from(self.bar_cte_ppm_per_k),
-            Field::LvdtPolyUm(k) => f64::from(*self.lvdt_poly_um.get(usize::from(k))?),
+            Field::LvdtPolyUm(k) => at(&self.lvdt_poly_um, k)?,
             Field::LvdtMaxAbsRatio => f64::from(self.lvdt_max_abs_ratio),
             Field::LvdtMinSignal => f64::from(self.lvdt_min_signal),
             Field::LvdtDcZeroV => f64::from(self.lvdt_dc_zero_v),
@@ -570,36 +1074,59 @@ impl Config {
             Field::ProbeDebounceUs => f64::from(self.probe_debounce_us),
             Field::ProbeReseatUs => f64::from(self.probe_reseat_us),
             Field::CanNodeId => f64::from(self.can_node_id),
+            Field::CirclePlane => f64::from(s.circle_plane as u8),
+            Field::CircleCentreMm(k) => at(&s.circle_centre_mm, k)?,
+            Field::CircleRadiusMm => f64::from(s.circle_radius_mm),
+            Field::CircleFeed => f64::from(s.circle_feed_mm_per_min),
+            Field::CircleMinArcDeg => f64::from(s.circle_min_arc_deg),
+            Field::S002LbMm => f64::from(s.s002_l_b_mm),
+            Field::S002RbMm => f64::from(s.s002_r_b_mm),
+            Field::S002Rb2Mm => f64::from(s.s002_r_b2_mm),
+            Field::S002RcMm => f64::from(s.s002_r_c_mm),
+            Field::S002ZcMm => f64::from(s.s002_z_c_mm),
+            Field::S002ZtMm => f64::from(s.s002_z_t_mm),
+            Field::S002Zt2Mm => f64::from(s.s002_z_t2_mm),
+            Field::S002XtMm => f64::from(s.s002_x_t_mm),
+            Field::S002OriginMm(k) => at(&s.s002_origin_mm, k)?,
+            Field::SsmSocketMm(k) => at(&s.ssm_socket_mm, k)?,
+            Field::SsmWindowRadiusMm => f64::from(s.ssm_window_radius_mm),
+            Field::SsmDwellSpeed => f64::from(s.ssm_dwell_speed_mm_per_s),
+            Field::SsmSettleMs => f64::from(s.ssm_settle_ms),
+            Field::SsmMinDwellSamples => f64::from(s.ssm_min_dwell_samples),
+            Field::TsMachine => f64::from(s.ts_machine as u8),
+            Field::TsToolZMm => f64::from(s.ts_tool_z_mm),
+            Field::TsZAlphaGammaMm => f64::from(s.ts_z_alpha_gamma_mm),
+            Field::TsReferenceMm(k) => at(&s.ts_reference_mm, k)?,
+            Field::TsOriginMm(k) => at(&s.ts_origin_mm, k)?,
+            Field::TsAngleDeg(k) => at(&s.ts_angles_deg, k)?,
             Field::AdcRate | Field::AxisNameDuplicate(_) => return None,
         })
     }
 
-    /// True for the fields stored as integers (a written value is rounded to the nearest).
-    pub const fn is_integer_field(f: Field) -> bool {
-        matches!(
-            f,
-            Field::SamplesPerPeriod
-                | Field::ProbeDebounceUs
-                | Field::ProbeReseatUs
-                | Field::CanNodeId
-        )
+    /// True for the fields stored as integers (a written value must be a whole number).
+    pub fn is_integer_field(f: Field) -> bool {
+        info(f).is_some_and(FieldInfo::is_integer)
     }
 
     /// Sets a numeric field from `v` in its unit: `f32` fields take the nearest `f32`, integer
-    /// fields the nearest integer (saturating), `counts_per_unit` the `f64` as is. No range
-    /// check here: use it inside [`Config::try_update`], which validates the result (the `f32`
-    /// limits are compared rounded to `f32`, so every value the table allows can be set).
+    /// fields the nearest integer (saturating; a code field an unknown code keeps the old
+    /// value and fails validation through [`Config::set_code`]), `counts_per_unit` the `f64`
+    /// as is. No range check here: use it inside [`Config::try_update`], which validates the
+    /// result (the `f32` limits are compared rounded to `f32`, so every value the table allows
+    /// can be set).
     pub fn set_field(&mut self, f: Field, v: f64) {
         let x = v as f32;
         let int = libm::round(v);
+        let s = &mut self.setup;
+        let put = |a: &mut [f32], k: u8| {
+            if let Some(p) = a.get_mut(usize::from(k)) {
+                *p = x;
+            }
+        };
         match f {
             Field::BarLengthMm => self.bar_length_mm = x,
             Field::BarCtePpmPerK => self.bar_cte_ppm_per_k = x,
-            Field::LvdtPolyUm(k) => {
-                if let Some(p) = self.lvdt_poly_um.get_mut(usize::from(k)) {
-                    *p = x;
-                }
-            }
+            Field::LvdtPolyUm(k) => put(&mut self.lvdt_poly_um, k),
             Field::LvdtMaxAbsRatio => self.lvdt_max_abs_ratio = x,
             Field::LvdtMinSignal => self.lvdt_min_signal = x,
             Field::LvdtDcZeroV => self.lvdt_dc_zero_v = x,
@@ -623,8 +1150,58 @@ impl Config {
             Field::ProbeDebounceUs => self.probe_debounce_us = int as u32,
             Field::ProbeReseatUs => self.probe_reseat_us = int as u32,
             Field::CanNodeId => self.can_node_id = int as u8,
+            Field::CirclePlane => {
+                if let Some(p) = CirclePlane::from_u8(int as u8).filter(|_| int >= 0.0) {
+                    s.circle_plane = p;
+                }
+            }
+            Field::CircleCentreMm(k) => put(&mut s.circle_centre_mm, k),
+            Field::CircleRadiusMm => s.circle_radius_mm = x,
+            Field::CircleFeed => s.circle_feed_mm_per_min = x,
+            Field::CircleMinArcDeg => s.circle_min_arc_deg = x,
+            Field::S002LbMm => s.s002_l_b_mm = x,
+            Field::S002RbMm => s.s002_r_b_mm = x,
+            Field::S002Rb2Mm => s.s002_r_b2_mm = x,
+            Field::S002RcMm => s.s002_r_c_mm = x,
+            Field::S002ZcMm => s.s002_z_c_mm = x,
+            Field::S002ZtMm => s.s002_z_t_mm = x,
+            Field::S002Zt2Mm => s.s002_z_t2_mm = x,
+            Field::S002XtMm => s.s002_x_t_mm = x,
+            Field::S002OriginMm(k) => put(&mut s.s002_origin_mm, k),
+            Field::SsmSocketMm(k) => put(&mut s.ssm_socket_mm, k),
+            Field::SsmWindowRadiusMm => s.ssm_window_radius_mm = x,
+            Field::SsmDwellSpeed => s.ssm_dwell_speed_mm_per_s = x,
+            Field::SsmSettleMs => s.ssm_settle_ms = x,
+            Field::SsmMinDwellSamples => s.ssm_min_dwell_samples = int as u32,
+            Field::TsMachine => {
+                if let Some(m) = TwoStepMachine::from_u8(int as u8).filter(|_| int >= 0.0) {
+                    s.ts_machine = m;
+                }
+            }
+            Field::TsToolZMm => s.ts_tool_z_mm = x,
+            Field::TsZAlphaGammaMm => s.ts_z_alpha_gamma_mm = x,
+            Field::TsReferenceMm(k) => put(&mut s.ts_reference_mm, k),
+            Field::TsOriginMm(k) => put(&mut s.ts_origin_mm, k),
+            Field::TsAngleDeg(k) => put(&mut s.ts_angles_deg, k),
             Field::AdcRate | Field::AxisNameDuplicate(_) => {}
         }
+    }
+
+    /// Checks `v` for field `f` as a write would see it (range, whole number for an integer
+    /// field, a known code for a code field, NaN only for a field that may be not set) without
+    /// changing anything.
+    pub fn check_write(f: Field, v: f64) -> Result<(), ConfigError> {
+        check(f, v)?;
+        if Self::is_integer_field(f) && v != libm::trunc(v) {
+            let (min, max) = info(f).map_or((0.0, 0.0), |i| (i.min, i.max));
+            return Err(ConfigError::OutOfRange {
+                field: f,
+                value: v,
+                min,
+                max,
+            });
+        }
+        Ok(())
     }
 
     /// Applies `edit` to a copy and keeps it only if the whole copy is valid; on error the
@@ -636,6 +1213,13 @@ impl Config {
         *self = next;
         Ok(())
     }
+
+    /// Sets field `f` to `v` if the value is acceptable ([`check_write`](Self::check_write))
+    /// and the whole configuration stays valid; otherwise nothing changes.
+    pub fn set(&mut self, f: Field, v: f64) -> Result<(), ConfigError> {
+        Self::check_write(f, v)?;
+        self.try_update(|c| c.set_field(f, v))
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -644,15 +1228,41 @@ impl Config {
 
 /// Magic at the start of an encoded configuration.
 pub const MAGIC: [u8; 4] = *b"BPOD";
-/// Current encoding version.
-pub const ENCODING_VERSION: u16 = 1;
-/// Bytes of one encoded axis: name u8, reversed u8, counts_per_unit f64, max_speed f32.
-const AXIS_BYTES: usize = 1 + 1 + 8 + 4;
-/// Payload bytes of version 1 (see [`Config::encode`] for the layout).
-const PAYLOAD_V1: usize =
-    4 * 2 + 1 + 4 * 4 + 4 * 4 + 4 + 2 + 4 + MAX_AXES * AXIS_BYTES + 4 * 3 + 4 * 2 + 1 + 1;
+/// Current encoding version (2: table-driven, with the test set-up; version 1 records are not
+/// read: the pod boots on the defaults and says so).
+pub const ENCODING_VERSION: u16 = 2;
+
+/// Bytes of one stored value of `ty`.
+const fn type_bytes(ty: FieldType) -> usize {
+    match ty {
+        FieldType::F32 | FieldType::U32 => 4,
+        FieldType::F64 => 8,
+        FieldType::U8 => 1,
+        FieldType::U16 => 2,
+    }
+}
+
+/// Payload bytes: every [`FIELDS`] element by its type, then the enumerated fields (LVDT
+/// input, CAN bit rate, per axis name and reversed flag).
+// Evaluated at compile time: an index out of bounds is a build error, not a panic.
+#[allow(clippy::indexing_slicing)]
+const PAYLOAD: usize = {
+    let mut n = 0;
+    let mut i = 0;
+    while i < FIELDS.len() {
+        let r = &FIELDS[i];
+        let k = if r.elements == 0 {
+            1
+        } else {
+            r.elements as usize
+        };
+        n += k * type_bytes(r.ty);
+        i += 1;
+    }
+    n + 2 + 2 * MAX_AXES
+};
 /// Total encoded size: magic, version u16, payload length u16, payload, CRC-32.
-pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD_V1 + 4;
+pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD + 4;
 
 /// Little-endian writer over a fixed buffer (never writes past its end).
 struct Writer<'a> {
@@ -684,18 +1294,6 @@ impl Reader<'_> {
         self.pos += K;
         out
     }
-    fn f32(&mut self) -> f32 {
-        f32::from_le_bytes(self.take())
-    }
-    fn f64(&mut self) -> f64 {
-        f64::from_le_bytes(self.take())
-    }
-    fn u32(&mut self) -> u32 {
-        u32::from_le_bytes(self.take())
-    }
-    fn u16(&mut self) -> u16 {
-        u16::from_le_bytes(self.take())
-    }
     fn u8(&mut self) -> u8 {
         self.take::<1>()[0]
     }
@@ -703,9 +1301,11 @@ impl Reader<'_> {
 
 impl Config {
     /// Encodes into `out` (which must hold [`ENCODED_LEN`] bytes; returns the bytes written or
-    /// `BadLength`). Layout: `"BPOD"`, version u16, payload length u16, payload (fields in
-    /// declaration order, little-endian, enums as u8, bools as 0/1), CRC-32/ISO-HDLC of
-    /// everything before it.
+    /// `BadLength`). Layout: `"BPOD"`, version u16, payload length u16, payload, CRC-32/ISO-HDLC
+    /// of everything before it. Payload: every [`FIELDS`] element in table order as its type
+    /// (little-endian f32 / f64 / u8 / u16 / u32; a set-up field that is not set is the f32
+    /// NaN), then `lvdt_input`, `can_bitrate`, and per encoder input its axis name and
+    /// reversed flag (one byte each).
     pub fn encode(&self, out: &mut [u8]) -> Result<usize, ConfigError> {
         if out.len() < ENCODED_LEN {
             return Err(ConfigError::BadLength {
@@ -716,39 +1316,23 @@ impl Config {
         let mut w = Writer { buf: out, pos: 0 };
         w.put(&MAGIC);
         w.put(&ENCODING_VERSION.to_le_bytes());
-        w.put(&(PAYLOAD_V1 as u16).to_le_bytes());
-        w.put(&self.bar_length_mm.to_le_bytes());
-        w.put(&self.bar_cte_ppm_per_k.to_le_bytes());
-        w.put(&[self.lvdt_input as u8]);
-        for c in self.lvdt_poly_um {
-            w.put(&c.to_le_bytes());
+        w.put(&(PAYLOAD as u16).to_le_bytes());
+        for row in FIELDS {
+            for f in row.fields() {
+                let v = self.field_value(f).unwrap_or(f64::NAN);
+                match row.ty {
+                    FieldType::F32 => w.put(&(v as f32).to_le_bytes()),
+                    FieldType::F64 => w.put(&v.to_le_bytes()),
+                    FieldType::U8 => w.put(&[v as u8]),
+                    FieldType::U16 => w.put(&(v as u16).to_le_bytes()),
+                    FieldType::U32 => w.put(&(v as u32).to_le_bytes()),
+                }
+            }
         }
-        for v in [
-            self.lvdt_max_abs_ratio,
-            self.lvdt_min_signal,
-            self.lvdt_dc_zero_v,
-            self.lvdt_dc_span_v,
-        ] {
-            w.put(&v.to_le_bytes());
-        }
-        w.put(&self.excitation_hz.to_le_bytes());
-        w.put(&self.samples_per_period.to_le_bytes());
-        w.put(&self.sample_rate_hz.to_le_bytes());
+        w.put(&[self.lvdt_input as u8, self.can_bitrate as u8]);
         for a in &self.axes {
             w.put(&[a.name as u8, u8::from(a.reversed)]);
-            w.put(&a.counts_per_unit.to_le_bytes());
-            w.put(&a.max_speed_per_s.to_le_bytes());
         }
-        for v in [
-            self.thermistor_r25_ohm,
-            self.thermistor_beta_k,
-            self.thermistor_r_fixed_ohm,
-        ] {
-            w.put(&v.to_le_bytes());
-        }
-        w.put(&self.probe_debounce_us.to_le_bytes());
-        w.put(&self.probe_reseat_us.to_le_bytes());
-        w.put(&[self.can_node_id, self.can_bitrate as u8]);
         let crc_end = w.pos;
         let crc = out.get(..crc_end).map_or(0, crate::num::crc32);
         let mut w = Writer {
@@ -772,15 +1356,15 @@ impl Config {
         if r.take::<4>() != MAGIC {
             return Err(ConfigError::BadMagic);
         }
-        let version = r.u16();
+        let version = u16::from_le_bytes(r.take());
         if version != ENCODING_VERSION {
             return Err(ConfigError::UnsupportedVersion(version));
         }
-        let payload = usize::from(r.u16());
-        if payload != PAYLOAD_V1 {
+        let payload = usize::from(u16::from_le_bytes(r.take()));
+        if payload != PAYLOAD {
             return Err(ConfigError::BadLength {
                 len: payload,
-                expected: PAYLOAD_V1,
+                expected: PAYLOAD,
             });
         }
         let crc_at = ENCODED_LEN - 4;
@@ -792,27 +1376,33 @@ impl Config {
         if stored != computed {
             return Err(ConfigError::BadCrc { stored, computed });
         }
-        let mut c = Config {
-            bar_length_mm: r.f32(),
-            bar_cte_ppm_per_k: r.f32(),
-            ..Config::default()
-        };
+        let mut c = Config::default();
+        for row in FIELDS {
+            for f in row.fields() {
+                let at = r.pos;
+                let v = match row.ty {
+                    FieldType::F32 => f64::from(f32::from_le_bytes(r.take())),
+                    FieldType::F64 => f64::from_le_bytes(r.take()),
+                    FieldType::U8 => f64::from(r.u8()),
+                    FieldType::U16 => f64::from(u16::from_le_bytes(r.take())),
+                    FieldType::U32 => f64::from(u32::from_le_bytes(r.take())),
+                };
+                if !row.choices.is_empty() && !(v <= row.max) {
+                    return Err(ConfigError::BadEnum { offset: at });
+                }
+                c.set_field(f, v);
+                // a value set_field cannot hold (e.g. beyond an integer's width) fails here
+                check(f, v)?;
+            }
+        }
         let at = r.pos;
         c.lvdt_input = match r.u8() {
             0 => LvdtInput::AcRatiometric,
             1 => LvdtInput::DcConditioner,
             _ => return Err(ConfigError::BadEnum { offset: at }),
         };
-        for p in c.lvdt_poly_um.iter_mut() {
-            *p = r.f32();
-        }
-        c.lvdt_max_abs_ratio = r.f32();
-        c.lvdt_min_signal = r.f32();
-        c.lvdt_dc_zero_v = r.f32();
-        c.lvdt_dc_span_v = r.f32();
-        c.excitation_hz = r.f32();
-        c.samples_per_period = r.u16();
-        c.sample_rate_hz = r.f32();
+        let at = r.pos;
+        c.can_bitrate = CanBitrate::from_u8(r.u8()).ok_or(ConfigError::BadEnum { offset: at })?;
         for a in c.axes.iter_mut() {
             let at = r.pos;
             a.name = AxisName::from_u8(r.u8()).ok_or(ConfigError::BadEnum { offset: at })?;
@@ -821,17 +1411,7 @@ impl Config {
                 1 => true,
                 _ => return Err(ConfigError::BadEnum { offset: at + 1 }),
             };
-            a.counts_per_unit = r.f64();
-            a.max_speed_per_s = r.f32();
         }
-        c.thermistor_r25_ohm = r.f32();
-        c.thermistor_beta_k = r.f32();
-        c.thermistor_r_fixed_ohm = r.f32();
-        c.probe_debounce_us = r.u32();
-        c.probe_reseat_us = r.u32();
-        c.can_node_id = r.u8();
-        let at = r.pos;
-        c.can_bitrate = CanBitrate::from_u8(r.u8()).ok_or(ConfigError::BadEnum { offset: at })?;
         c.validate()?;
         Ok(c)
     }

@@ -11,9 +11,11 @@
 //! - [`config`]: the pod's configuration with units, defaults, ranges and a CRC'd binary encoding;
 //! - [`metrology`]: samples → SSM position errors, circle fits, ISO 230-4 figures;
 //! - [`identify`]: test results → machine deviations and corrections;
-//! - [`session`]: runs of patterns → per-run results → procedure completeness → identification
-//!   (the session logic the firmware and the simulator share);
-//! - [`protocol`]: the CANopen and SCPI state machines over a shared pod model;
+//! - [`app`]: the pod application — session, run monitor, the armed pattern's estimators, live
+//!   values, results, procedures, recording — the same on the firmware, the simulator and
+//!   replay;
+//! - [`protocol`]: the CANopen and SCPI state machines: bytes and frames ↔ reads of the `app`
+//!   and its commands;
 //! - [`settings`]: the configuration in two power-safe flash slots;
 //! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC).
 #![no_std]
@@ -33,10 +35,10 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
 pub mod acquisition;
+pub mod app;
 pub mod config;
 pub mod identify;
 pub mod metrology;
 pub mod num;
 pub mod protocol;
-pub mod session;
 pub mod settings;

@@ -14,7 +14,6 @@ use embassy_stm32::usb::Driver;
 // defmt over RTT; the panic handler is `board::safety::panic` (reason kept across the reset).
 use defmt_rtt as _;
 
-use ballpod::acquisition::Acquisition;
 use ballpod::protocol::canopen::emcy;
 
 fn clocks() -> embassy_stm32::Config {
@@ -90,7 +89,6 @@ async fn main(spawner: Spawner) {
         e5: (p.TIM5, p.PB2, p.PC12),
     });
     let probe_in = board::probe::input(p.PB4, p.EXTI4);
-    let acq = Acquisition::new(&cfg, board::encoders::COUNTER_BITS);
 
     let (dac, ring_a, ring_b) = board::lvdt::start(
         board::lvdt::LvdtPeripherals {
@@ -104,10 +102,14 @@ async fn main(spawner: Spawner) {
     let can = board::can::start(p.FDCAN1, p.PB8, p.PB9, cfg.can_bitrate.bits_per_s());
     let usb = Driver::new(p.USB, board::Irqs, p.PA12, p.PA11);
 
+    let boot = board::compute::BootReport {
+        can: can_report,
+        usb: usb_report,
+    };
     spawn(
         &spawner,
         "compute",
-        board::compute::compute_task(cfg, acq, encoders, probe_in, flash),
+        board::compute::compute_task(cfg, encoders, probe_in, flash, device_serial(), boot),
     );
     spawn(
         &spawner,
@@ -126,12 +128,8 @@ async fn main(spawner: Spawner) {
         "thermistor",
         board::thermistor::thermistor_task(p.ADC3, p.PB0),
     );
-    spawn(
-        &spawner,
-        "can",
-        board::can::can_task(can, cfg.can_node_id, device_serial(), can_report),
-    );
-    spawn(&spawner, "usb", board::usb::usb_task(usb, usb_report));
+    spawn(&spawner, "can", board::can::can_task(can));
+    spawn(&spawner, "usb", board::usb::usb_task(usb));
     spawn(&spawner, "watchdog", board::safety::watchdog_task(p.IWDG));
 }
 

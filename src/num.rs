@@ -2,6 +2,10 @@
 //!
 //! - [`sqrtf`]: the Cortex-M4F `VSQRT.F32` instruction on the target (DESIGN §6: `libm::sqrtf` is
 //!   ~80 soft instructions on ARMv7E-M, `micromath`'s is ~6 % off), `libm` on the host.
+//! - [`sin_cos`], [`sin`], [`cos`]: f64 sine and cosine for angles up to ±8·10⁵ rad (fdlibm's
+//!   kernels with a three-part Cody–Waite reduction). Hand-written because `libm::sin`'s
+//!   reduction for any argument (`rem_pio2`, `rem_pio2_large`) is ~6 KB of the 192 KiB flash
+//!   budget, and no angle of the pod is beyond a few turns.
 //! - [`crc32`]: CRC-32/ISO-HDLC (the zlib/Ethernet CRC) from the `crc` crate, for encodings.
 
 // Cortex-M4F hardware square root. `f32::sqrt` is not in `core` on stable, and inline `asm!`
@@ -45,6 +49,112 @@ pub fn sqrtf(x: f32) -> f32 {
 #[inline]
 pub fn sqrt(x: f64) -> f64 {
     libm::sqrt(x)
+}
+
+/// Largest |angle| (rad) [`sin_cos`] reduces exactly (2¹⁹ quarter turns: the quadrant count
+/// times the first part of π/2 stays exact in f64).
+pub const SIN_COS_MAX_RAD: f64 = 823_549.6;
+
+/// Sine and cosine of `x` (rad) for |x| ≤ [`SIN_COS_MAX_RAD`], within 2 ulp of the exact
+/// values (within 1e-28·|x| absolute in the ~1e-18 rad next to a root, where the neglected
+/// fourth part of π/2 is the error; test host-tests/tests/num_trig.rs); NaN beyond that
+/// and for NaN or infinite `x`.
+///
+/// Reduction r = x − k·π/2 ([`reduce_pio2`]), then fdlibm's `__kernel_sin`/`__kernel_cos`
+/// polynomials on |r| ≤ π/4 and the quadrant k mod 4.
+pub fn sin_cos(x: f64) -> (f64, f64) {
+    let Some((k, r)) = reduce_pio2(x) else {
+        return (f64::NAN, f64::NAN);
+    };
+    let (s, c) = (kernel_sin(r), kernel_cos(r));
+    match k & 3 {
+        0 => (s, c),
+        1 => (c, -s),
+        2 => (-s, -c),
+        _ => (-c, s),
+    }
+}
+
+/// Sine of `x` (rad); see [`sin_cos`].
+pub fn sin(x: f64) -> f64 {
+    match reduce_pio2(x) {
+        Some((k, r)) => match k & 3 {
+            0 => kernel_sin(r),
+            1 => kernel_cos(r),
+            2 => -kernel_sin(r),
+            _ => -kernel_cos(r),
+        },
+        None => f64::NAN,
+    }
+}
+
+/// Cosine of `x` (rad); see [`sin_cos`].
+pub fn cos(x: f64) -> f64 {
+    match reduce_pio2(x) {
+        Some((k, r)) => match k & 3 {
+            0 => kernel_cos(r),
+            1 => -kernel_sin(r),
+            2 => -kernel_cos(r),
+            _ => kernel_sin(r),
+        },
+        None => f64::NAN,
+    }
+}
+
+/// `x = k·π/2 + r` with |r| ≤ π/4 (about), or `None` beyond [`SIN_COS_MAX_RAD`] or for NaN.
+/// π/2 in three parts of 33 bits (fdlibm `__ieee754_rem_pio2`'s pio2_1/pio2_2/pio2_3): each
+/// k·part is exact in f64 for |k| ≤ 2¹⁹.
+#[allow(clippy::excessive_precision)] // fdlibm's constants as published
+fn reduce_pio2(x: f64) -> Option<(i32, f64)> {
+    const PIO2_1: f64 = 1.570_796_326_734_125_614_17;
+    const PIO2_2: f64 = 6.077_100_506_303_965_976_60e-11;
+    const PIO2_3: f64 = 2.022_266_248_711_166_455_80e-21;
+    let a = libm::fabs(x);
+    if a <= core::f64::consts::FRAC_PI_4 {
+        return Some((0, x));
+    }
+    if !(a <= SIN_COS_MAX_RAD) {
+        return None;
+    }
+    let fk = x * core::f64::consts::FRAC_2_PI;
+    // |fk| < 2^19 + 1: the casts are exact and cannot saturate.
+    let k = if fk >= 0.0 {
+        (fk + 0.5) as i32
+    } else {
+        (fk - 0.5) as i32
+    };
+    let kf = f64::from(k);
+    Some((k, ((x - kf * PIO2_1) - kf * PIO2_2) - kf * PIO2_3))
+}
+
+/// sin r for |r| ≤ π/4 (fdlibm k_sin.c without the tail term).
+#[allow(clippy::excessive_precision)] // fdlibm's constants as published
+fn kernel_sin(r: f64) -> f64 {
+    const S1: f64 = -1.666_666_666_666_663_243_48e-1;
+    const S2: f64 = 8.333_333_333_322_489_461_24e-3;
+    const S3: f64 = -1.984_126_982_985_794_931_34e-4;
+    const S4: f64 = 2.755_731_370_707_006_767_89e-6;
+    const S5: f64 = -2.505_076_025_340_686_341_95e-8;
+    const S6: f64 = 1.589_690_995_211_550_102_21e-10;
+    let z = r * r;
+    let p = S2 + z * (S3 + z * (S4 + z * (S5 + z * S6)));
+    r + r * z * (S1 + z * p)
+}
+
+/// cos r for |r| ≤ π/4 (fdlibm k_cos.c without the tail term).
+#[allow(clippy::excessive_precision)] // fdlibm's constants as published
+fn kernel_cos(r: f64) -> f64 {
+    const C1: f64 = 4.166_666_666_666_660_190_37e-2;
+    const C2: f64 = -1.388_888_888_887_410_957_49e-3;
+    const C3: f64 = 2.480_158_728_947_672_941_78e-5;
+    const C4: f64 = -2.755_731_435_139_066_330_35e-7;
+    const C5: f64 = 2.087_572_321_298_174_827_90e-9;
+    const C6: f64 = -1.135_964_755_778_819_482_65e-11;
+    let z = r * r;
+    let p = z * (C1 + z * (C2 + z * (C3 + z * (C4 + z * (C5 + z * C6)))));
+    let hz = 0.5 * z;
+    let w = 1.0 - hz;
+    w + (((1.0 - w) - hz) + z * p)
 }
 
 /// The CRC used by every binary encoding of the pod: CRC-32/ISO-HDLC

@@ -303,8 +303,9 @@ pub fn store<F: SettingsFlash>(
     flash
         .read(slot, 0, &mut back)
         .map_err(|_| StoreError::Verify(SlotError::Read))?;
+    // Byte comparison, not `Config ==`: a set-up field that is not set is NaN, and NaN ≠ NaN.
     match decode_record(&back) {
-        Ok(r) if r.sequence == sequence && r.config == *config => Ok(Stored { slot, sequence }),
+        Ok(r) if r.sequence == sequence && back == rec => Ok(Stored { slot, sequence }),
         Ok(_) => Err(StoreError::Mismatch),
         Err(e) => Err(StoreError::Verify(e)),
     }

@@ -4,27 +4,33 @@
 //! - CAN as **SLCAN** (Lawicel ASCII) on one port: `python-can`'s `slcan` interface with
 //!   `channel='socket://127.0.0.1:PORT'`, and the `canopen` package on top of it, talk to the
 //!   core's CANopen slave (`ballpod::protocol::canopen`).
-//! - The USB command stream as a raw TCP byte stream on another port, to the core's SCPI server
-//!   (`ballpod::protocol::scpi`), e.g. `serial.serial_for_url('socket://127.0.0.1:PORT')`.
+//! - The USB command port as a raw TCP byte stream on another port, to the core's SCPI server
+//!   (`ballpod::protocol::scpi`), e.g. `serial.serial_for_url('socket://127.0.0.1:PORT')` or
+//!   PyVISA's `TCPIP::127.0.0.1::PORT::SOCKET`.
+//! - The USB sample stream (every sample of every run, the pod's CSV text) on a third port:
+//!   connect, and the runs that start from then on arrive whole.
 //!
-//! The pod runs in **virtual time** ([`crate::vmt::virtual_pod`]): a virtual ball bar on a
-//! circle about the socket (radius = bar length, a known centre offset = the truth) produces
-//! 12-bit LVDT ADC blocks, encoder counters and a thermistor code, which go through the pod's
-//! own acquisition, run monitor, metrology and protocol code at the configured sample rate. Virtual time tracks real time while idle (so
-//! heartbeats come at their period) and runs `speed` times faster while a session is running,
-//! so a full circle takes seconds; `--realtime` paces it 1:1 throughout.
+//! The pod runs in **virtual time** ([`crate::vmt::virtual_pod`]): when a client starts a run,
+//! the virtual CNC moves through the armed pattern with the pod's configured set-up and ends
+//! the run at the end of its motion ([`crate::vmt::motion`]); its sensors produce 12-bit LVDT
+//! ADC blocks, encoder counters and a thermistor code, which go through the pod's own
+//! application at the configured sample rate. Virtual time tracks real time while idle (so
+//! heartbeats come at their period) and runs `speed` times faster while a run is running, so a
+//! full circle takes seconds; `--realtime` paces it 1:1 throughout.
 //!
-//! At start the server prints one JSON line on stdout: the two ports and the truth
-//! (`{"can_port":…,"usb_port":…,"truth":{…}}`). It stops after `max_seconds` of real time.
+//! At start the server prints one JSON line on stdout: the ports and the truth
+//! (`{"can_port":…,"usb_port":…,"stream_port":…,"node_id":…,"truth":{…}}`). It stops after
+//! `max_seconds` of real time.
 
 use std::io::{self, ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::time::{Duration, Instant};
 
+use ballpod::app::SessionState;
 use ballpod::protocol::canopen::CanFrame;
-use ballpod::protocol::pod::SessionState;
 
 use crate::slcan::{LineSplitter, SlcanCommand, SlcanFrame, format_frame, parse_line};
+use crate::vmt::sensors::Instrument;
 use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
 /// Options of the serve mode.
@@ -34,20 +40,18 @@ pub struct ServeOptions {
     pub can_port: u16,
     /// SCPI port (0: any free port).
     pub usb_port: u16,
+    /// Sample stream port (0: any free port).
+    pub stream_port: u16,
     /// Pace the running session at real time too (default: `speed` × real time).
     pub realtime: bool,
     /// Virtual-time speed-up while a session runs.
     pub speed: f64,
     /// Noise seed.
     pub seed: u64,
-    /// ADC noise, counts (σ per sample).
-    pub noise_counts: f64,
+    /// Bar noise σ per sample, µm.
+    pub bar_noise_um: f64,
     /// Stop after this many seconds of real time.
     pub max_seconds: f64,
-    /// The truth: centre offset of the machine's circle, (x, y) µm.
-    pub centre_offset_um: [f64; 2],
-    /// Feed rate of the circle, mm/min.
-    pub feed_mm_per_min: f64,
 }
 
 impl Default for ServeOptions {
@@ -55,13 +59,12 @@ impl Default for ServeOptions {
         Self {
             can_port: 0,
             usb_port: 0,
+            stream_port: 0,
             realtime: false,
             speed: 20.0,
             seed: 1,
-            noise_counts: 1.0,
+            bar_noise_um: 0.2,
             max_seconds: 600.0,
-            centre_offset_um: [5.0, -3.0],
-            feed_mm_per_min: 1000.0,
         }
     }
 }
@@ -133,22 +136,31 @@ fn to_slcan(f: &CanFrame) -> SlcanFrame {
 pub fn run(opts: ServeOptions) -> io::Result<()> {
     let can_l = TcpListener::bind(("127.0.0.1", opts.can_port))?;
     let usb_l = TcpListener::bind(("127.0.0.1", opts.usb_port))?;
+    let stream_l = TcpListener::bind(("127.0.0.1", opts.stream_port))?;
     can_l.set_nonblocking(true)?;
     usb_l.set_nonblocking(true)?;
-    let mut vp: VirtualPod = VirtualPod::new(VirtualSetup {
+    stream_l.set_nonblocking(true)?;
+    let setup = VirtualSetup {
         seed: opts.seed,
-        noise_counts: opts.noise_counts,
-        centre_offset_um: opts.centre_offset_um,
-        feed_mm_per_min: opts.feed_mm_per_min,
-    });
+        instrument: Instrument {
+            bar_noise_um: opts.bar_noise_um,
+            ..Instrument::default()
+        },
+        ..VirtualSetup::default()
+    };
+    let mut vp: VirtualPod = VirtualPod::new(setup);
+    vp.stream_reader(false);
+    let truth = serde_json::to_string(vp.truth()).map_err(io::Error::other)?;
     println!(
-        "{{\"can_port\":{},\"usb_port\":{},\"truth\":{}}}",
+        "{{\"can_port\":{},\"usb_port\":{},\"stream_port\":{},\"node_id\":{},\"truth\":{truth}}}",
         can_l.local_addr()?.port(),
         usb_l.local_addr()?.port(),
-        vp.truth_json()
+        stream_l.local_addr()?.port(),
+        vp.app.config().can_node_id,
     );
     io::stdout().flush()?;
     let (mut can, mut usb) = (Client { stream: None }, Client { stream: None });
+    let mut stream = Client { stream: None };
     let mut slcan_lines = LineSplitter::default();
     let mut can_open = false;
     let start = Instant::now();
@@ -206,18 +218,35 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
                 }
             }
         }
+        // the sample stream: a new reader gets the runs from now on
+        if stream.accept(&stream_l) {
+            vp.stream_reader(true);
+        }
+        if stream.stream.is_some() {
+            let _ = stream.read();
+            if stream.stream.is_none() {
+                vp.stream_reader(false);
+            }
+            let bytes = vp.pull_stream(1 << 16);
+            if !bytes.is_empty() {
+                stream.write(&bytes);
+                if stream.stream.is_none() {
+                    vp.stream_reader(false);
+                }
+            }
+        }
         // virtual time
         let now = Instant::now();
         let dt_us = now.duration_since(last).as_secs_f64() * 1e6;
         last = now;
-        let running = vp.pod.session == SessionState::Running;
+        let running = vp.app.session() == SessionState::Running;
         let speed = if running && !opts.realtime {
             opts.speed
         } else {
             1.0
         };
         backlog_us = (backlog_us + dt_us * speed).min(200_000.0);
-        let period_us = 1e6 / f64::from(vp.pod.config.sample_rate_hz);
+        let period_us = vp.sensors.period_us() as f64;
         while backlog_us >= period_us {
             backlog_us -= period_us;
             tx.extend(vp.step());

@@ -1,15 +1,20 @@
-//! The simulated session: the virtual machine tool runs the seed 002 procedure and the
-//! ISO 230-4 circle, the virtual pod turns each pose into a sample (sensor level, through the
-//! core's acquisition). Returns the runs with their session description; [`crate::analysis`]
-//! does the rest.
+//! The simulated session of `cargo sim`: the virtual machine tool runs the seed 002 procedure
+//! and the ISO 230-4 circle through the simulated pod ([`crate::vmt::virtual_pod`]), run by
+//! run, as a client drives the pod: the set-up written to its configuration, each run armed,
+//! started and stopped through its application, its results read from the pod's results table
+//! ([`crate::replay::Report`]). The runs are recorded as the pod's stream would carry them,
+//! so a replay of them reports the same, byte for byte.
 
-use ballpod::acquisition::Sample;
-use ballpod::metrology::iso230_4::Direction;
-use ballpod::session::seed002::{Setup, Step};
+use ballpod::acquisition::MAX_AXES;
+use ballpod::app::seed002::Setup;
+use ballpod::app::{Command, Direction, Pattern};
+use ballpod::config::CirclePlane;
 
-use crate::analysis::{CircleGeometry, RunDesc, Seed002Geometry, SessionDesc, direction_name};
+use crate::recording::RecordedRun;
+use crate::replay::Report;
 use crate::vmt::machine::MachineFile;
-use crate::vmt::pod::Pod;
+use crate::vmt::motion::ServeTruth;
+use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
 /// Options of a simulated session.
 #[derive(Clone, Copy, Debug)]
@@ -38,24 +43,71 @@ impl Default for SimOptions {
     }
 }
 
-/// A simulated session: its description and one sample vector per run.
+/// A simulated session: what the pod reported and what it recorded, run by run.
 pub struct SimSession {
-    /// What each run is.
-    pub desc: SessionDesc,
-    /// The runs' samples.
-    pub runs: Vec<Vec<Sample>>,
+    /// The report (each run's results, the final results table).
+    pub report: Report,
+    /// The recorded runs with their file names (for `--write-logs`, the plots and replay).
+    pub runs: Vec<(String, RecordedRun)>,
 }
 
 /// Samples of a seed 002 step run at `rate_hz`: B arcs 0..=90° (n points), C circles
 /// 2π·i/n, at the feed's tangential speed of the T-ball.
-fn step_samples(setup: &Setup, step: Step, feed_mm_per_min: f64, rate_hz: f64) -> usize {
+fn step_samples(setup: &Setup, step: Pattern, feed_mm_per_min: f64, rate_hz: f64) -> usize {
     let g = setup.geometry(step);
     let len_mm = match step {
-        Step::Bx | Step::By => g.r_b_mm * std::f64::consts::FRAC_PI_2,
-        Step::Cr | Step::CrSecond => 2.0 * std::f64::consts::PI * (g.r_c_mm - g.l_b_mm).abs(),
-        Step::Ca => 2.0 * std::f64::consts::PI * g.r_c_mm,
+        Pattern::Bx | Pattern::By => g.r_b_mm * std::f64::consts::FRAC_PI_2,
+        Pattern::Ca => 2.0 * std::f64::consts::PI * g.r_c_mm,
+        _ => 2.0 * std::f64::consts::PI * (g.r_c_mm - g.l_b_mm).abs(),
     };
     ((len_mm / (feed_mm_per_min / 60.0) * rate_hz).round() as usize).max(16)
+}
+
+/// A client's run on the pod: pattern and direction selected, armed, the encoders homed at
+/// the first pose, started, one sample per pose, stopped; the run reported as `name`.
+pub fn run_poses(
+    vp: &mut VirtualPod,
+    report: &mut Report,
+    name: &str,
+    pattern: Pattern,
+    direction: Direction,
+    poses: impl Iterator<Item = (f64, [f64; MAX_AXES])>,
+) -> Result<(), String> {
+    let refused = |what: &str, e: ballpod::app::CommandError| {
+        let (a, b) = e.text();
+        format!("{name}: {what} refused: {a}{b}")
+    };
+    vp.app
+        .set_pattern(pattern)
+        .map_err(|e| refused("pattern", e))?;
+    vp.app
+        .set_direction(direction)
+        .map_err(|e| refused("direction", e))?;
+    vp.execute(Command::Arm).map_err(|e| refused("arm", e))?;
+    let mut poses = poses.peekable();
+    if let Some((_, start)) = poses.peek() {
+        vp.home(start);
+    }
+    vp.execute(Command::Start)
+        .map_err(|e| refused("start", e))?;
+    for (dl, axes) in poses {
+        vp.sample_at(dl, &axes);
+    }
+    // stopped; a run without results is reported as aborted with its reason
+    let _ = vp.execute(Command::Stop);
+    while vp.app.run_pending_job() {}
+    let run = vp
+        .recording
+        .runs
+        .last()
+        .ok_or(format!("{name}: nothing recorded"))?;
+    let touches = run
+        .events
+        .iter()
+        .filter(|e| matches!(e, crate::recording::Event::Touch(_)))
+        .count();
+    report.capture_run(&vp.app, name, run.events.len() - touches, touches);
+    Ok(())
 }
 
 /// Runs the session; `progress(done, total, what)` is called before each run.
@@ -63,92 +115,88 @@ pub fn simulate(
     m: &MachineFile,
     o: &SimOptions,
     progress: &mut dyn FnMut(usize, usize, &str),
-) -> SimSession {
-    let setup = Setup::thesis_table_4_3();
-    let mut desc = SessionDesc {
-        seed002: o.seed002.then(|| Seed002Geometry::from_setup(&setup)),
-        circle: o.circle.then_some(CircleGeometry {
-            radius_mm: m.circle.radius_mm,
-            socket_mm: [0.0, 0.0],
-            feed_mm_per_min: m.circle.feed_mm_per_min,
-        }),
-        runs: Vec::new(),
-    };
+) -> Result<SimSession, String> {
+    let mut vp: VirtualPod = VirtualPod::new(VirtualSetup {
+        seed: o.seed,
+        instrument: m.instrument,
+        truth: ServeTruth {
+            machine: *m,
+            ..ServeTruth::default()
+        },
+    });
+    let mut report = Report::default();
+    let mut names = Vec::new();
     let total = if o.seed002 { o.repeats * 10 } else { 0 } + if o.circle { 2 } else { 0 };
-    let mut runs = Vec::new();
     let rate = m.instrument.sample_rate_hz;
-    let mut seed = o.seed;
-    let mut next_seed = || {
-        seed = seed.wrapping_mul(6_364_136_223_846_793_005).wrapping_add(1);
-        seed
+    let bad = |e: ballpod::app::CommandError| {
+        let (a, b) = e.text();
+        format!("set-up refused: {a}{b}")
     };
     if o.seed002 {
+        let setup = Setup::thesis_table_4_3();
+        vp.sensors.set_bar_length(setup.l_b_mm);
+        vp.app
+            .configure(|c| {
+                c.bar_length_mm = setup.l_b_mm as f32;
+                setup.to_config(&mut c.setup);
+            })
+            .map_err(bad)?;
+        // the pod's own set-up (f32, as stored): the machine is commanded from what the pod
+        // was told
+        let pod_setup = Setup::from_config(&vp.app.config().setup)
+            .map_err(|f| format!("set-up: {} not set", ballpod::app::field_name(f)))?;
         for rep in 0..o.repeats {
-            for step in Step::ALL {
+            for step in Pattern::SEED002 {
                 for dir in [Direction::Cw, Direction::Ccw] {
-                    let name = format!("r{}_{}_{}.csv", rep + 1, step.name(), direction_name(dir));
-                    progress(runs.len(), total, &name);
-                    let n = step_samples(&setup, step, o.feed_mm_per_min, rate);
-                    let mut pod = Pod::new(setup.l_b_mm, &m.instrument, next_seed());
+                    let name = format!("r{}_{}_{}.csv", rep + 1, step.name(), dir.name());
+                    progress(names.len(), total, &name);
+                    let n = step_samples(&pod_setup, step, o.feed_mm_per_min, rate);
                     let angle = |i: usize| {
-                        let k = match dir {
-                            Direction::Ccw => i,
-                            Direction::Cw => n - 1 - i,
-                        };
-                        if step.pattern().is_b() {
+                        if matches!(step, Pattern::Bx | Pattern::By) {
+                            let k = match dir {
+                                Direction::Ccw => i,
+                                Direction::Cw => n - 1 - i,
+                            };
                             std::f64::consts::FRAC_PI_2 * k as f64 / (n - 1) as f64
                         } else {
                             // CW: 0, −Δ, −2Δ, … (the same angles as CCW, visited backwards)
-                            let k = match dir {
-                                Direction::Ccw => i as f64,
-                                Direction::Cw => -(i as f64),
-                            };
-                            2.0 * std::f64::consts::PI * k / n as f64
+                            dir.sign() * 2.0 * std::f64::consts::PI * i as f64 / n as f64
                         }
                     };
-                    let (_, start) = m.seed002.pose(&setup, step, angle(0));
-                    pod.reference(&start);
-                    let samples = (0..n)
-                        .map(|i| {
-                            let (dl, axes) = m.seed002.pose(&setup, step, angle(i));
-                            pod.sample(dl, &axes)
-                        })
-                        .collect();
-                    runs.push(samples);
-                    desc.runs.push(RunDesc {
-                        log: name,
-                        method: step.name().to_string(),
-                        direction: direction_name(dir).to_string(),
-                    });
+                    let poses = (0..n).map(|i| m.seed002.pose(&pod_setup, step, angle(i)));
+                    run_poses(&mut vp, &mut report, &name, step, dir, poses)?;
+                    names.push(name);
                 }
             }
         }
     }
     if o.circle {
         let c = &m.circle;
+        vp.sensors.set_bar_length(c.radius_mm);
+        vp.app
+            .configure(|cfg| {
+                cfg.bar_length_mm = c.radius_mm as f32;
+                let s = &mut cfg.setup;
+                s.circle_plane = CirclePlane::XY;
+                s.circle_centre_mm = [0.0; 3];
+                s.circle_radius_mm = c.radius_mm as f32;
+                s.circle_feed_mm_per_min = c.feed_mm_per_min as f32;
+                s.circle_min_arc_deg = 300.0;
+            })
+            .map_err(bad)?;
         let n = c.samples_per_rev(rate);
         for dir in [Direction::Ccw, Direction::Cw] {
-            let name = format!("iso230_4_{}.csv", direction_name(dir));
-            progress(runs.len(), total, &name);
-            let s = if dir == Direction::Ccw { 1.0 } else { -1.0 };
-            let mut pod = Pod::new(c.radius_mm, &m.instrument, next_seed());
-            let (_, start) = c.pose(0.0, s);
-            pod.reference(&start);
-            let samples = (0..n)
-                .map(|i| {
-                    let th = s * 2.0 * std::f64::consts::PI * i as f64 / n as f64;
-                    let (dl, axes) = c.pose(th, s);
-                    pod.sample(dl, &axes)
-                })
-                .collect();
-            runs.push(samples);
-            desc.runs.push(RunDesc {
-                log: name,
-                method: "ISO230-4".to_string(),
-                direction: direction_name(dir).to_string(),
-            });
+            let name = format!("iso230_4_{}.csv", dir.name());
+            progress(names.len(), total, &name);
+            let s = dir.sign();
+            let poses =
+                (0..n).map(|i| c.pose(s * 2.0 * std::f64::consts::PI * i as f64 / n as f64, s));
+            run_poses(&mut vp, &mut report, &name, Pattern::Circle, dir, poses)?;
+            names.push(name);
         }
     }
+    report.finish(&vp.app);
     progress(total, total, "done");
-    SimSession { desc, runs }
+    let runs = names.into_iter().zip(vp.recording.runs).collect();
+    Ok(SimSession { report, runs })
 }

@@ -1,28 +1,66 @@
 //! Bad input on the bus (issue 5, "Bad input"): random and malformed frames never panic the
 //! node, never leave an invalid configuration, and change the configuration only through a
-//! complete, accepted SDO download that hands `ConfigChanged` to the application. Every SDO
-//! request gets exactly one 8-byte response (CiA 301 §7.2.4: confirmed service) unless it is a
-//! client abort.
+//! complete SDO download in pre-operational that the application accepted (the node answered
+//! it with a download response, not an abort). Every SDO request gets exactly one 8-byte
+//! response (CiA 301 §7.2.4: confirmed service) unless it is a client abort.
+use ballpod::acquisition::MAX_AXES;
+use ballpod::app::App;
+use ballpod::config::{Config, FIELDS};
 use ballpod::protocol::canopen::{CanFrame, CanOpenNode, NmtState};
-use ballpod::protocol::pod::{PodModel, SessionCommand};
 use ballpod_host::rng::Rng;
 
 const NODE: u8 = 16;
+
+/// The configuration object of field `name` (0x2000 + its row of `config::FIELDS`).
+fn obj(name: &str) -> u16 {
+    0x2000 + FIELDS.iter().position(|f| f.name == name).unwrap() as u16
+}
+
+/// The configuration, compared as text (a set-up field that is not set is NaN, which `==`
+/// would never find equal to itself).
+fn config_text(app: &App) -> String {
+    format!("{:?}", app.config())
+}
 
 #[test]
 fn random_frames_never_half_apply() {
     let mut rng = Rng::new(5);
     let mut node = CanOpenNode::new(NODE, 0);
-    let mut pod = PodModel::default();
+    let mut app = App::new(Config::default(), [16; MAX_AXES]);
     let mut now_us = 0u64;
-    node.poll(now_us, &pod, &mut |_| {});
+    node.poll(now_us, &app, &mut |_| {});
     // Indices the random requests aim at: real objects (so that writes get far) and others.
-    let targets: [u16; 12] = [
-        0x1003, 0x1005, 0x1017, 0x1800, 0x1A00, 0x2000, 0x2002, 0x2008, 0x2022, 0x3000, 0x3002,
+    // Configuration objects of every type: REAL32, UNSIGNED8 / 16 / 32, code fields, set-up
+    // fields, an ARRAY, and the enumerated objects 0x2040–0x2043.
+    let targets: [u16; 20] = [
+        0x1003,
+        0x1005,
+        0x1017,
+        0x1800,
+        0x1A00,
+        obj("bar_length"),
+        obj("lvdt_poly"),
+        obj("samples_per_period"),
+        obj("can_node_id"),
+        obj("probe_debounce"),
+        obj("circle_plane"),
+        obj("circle_radius"),
+        obj("ts_machine"),
+        0x2040,
+        0x2041,
+        0x2042,
+        0x2043,
+        0x3000,
+        0x3002,
         0x5FFF,
     ];
     let mut accepted_config_writes = 0;
+    let mut node_id_changes = 0;
     for _ in 0..200_000 {
+        // A written can_node_id takes effect at the next reset: address the node it is now.
+        let id_now = node.node_id();
+        let sdo_rx = 0x600 + u16::from(id_now);
+        let sdo_tx = 0x580 + u16::from(id_now);
         now_us += rng.next_u64() % 3000;
         let r = rng.next_u64();
         let mut data = rng.next_u64().to_le_bytes();
@@ -30,9 +68,9 @@ fn random_frames_never_half_apply() {
             0 => 0x000,
             1 => 0x080,
             2 => (r >> 8) as u16 & 0x7FF,
-            _ => 0x600 + u16::from(NODE),
+            _ => sdo_rx,
         };
-        if id == 0x600 + u16::from(NODE) && r & 0x100 != 0 {
+        if id == sdo_rx && r & 0x100 != 0 {
             let t = targets[(r >> 16) as usize % targets.len()].to_le_bytes();
             data[1] = t[0];
             data[2] = t[1];
@@ -41,7 +79,7 @@ fn random_frames_never_half_apply() {
         if id == 0x000 && r & 0x200 != 0 {
             // Keep the node mostly pre-operational so that configuration writes can land.
             data[0] = [0x80, 0x80, 0x80, 0x01, 0x02, 0x82][(r >> 12) as usize % 6];
-            data[1] = NODE;
+            data[1] = id_now;
         }
         let len = if r & 0x400 != 0 {
             (r >> 32) as usize % 9
@@ -49,28 +87,36 @@ fn random_frames_never_half_apply() {
             8
         };
         let frame = CanFrame::new(id, &data[..len.min(if id == 0 { 2 } else { 8 })]).unwrap();
-        let before = pod.config;
+        let before = config_text(&app);
         let state = node.state();
         let mut out = Vec::new();
-        let cmd = node.on_frame(&frame, &mut pod, now_us, &mut |f| out.push(f));
-        node.poll(now_us, &pod, &mut |f| out.push(f));
-        pod.config
+        node.on_frame(&frame, &mut app, now_us, &mut |f| out.push(f));
+        let answers: Vec<CanFrame> = out.iter().copied().filter(|f| f.id == sdo_tx).collect();
+        node.poll(now_us, &app, &mut |f| out.push(f));
+        app.config()
             .validate()
             .expect("the configuration is always valid");
-        if pod.config != before {
-            assert_eq!(cmd, Some(SessionCommand::ConfigChanged));
+        if config_text(&app) != before {
+            assert_eq!(id, sdo_rx, "only an SDO download writes: {frame:?}");
             assert_eq!(
                 state,
                 NmtState::PreOperational,
                 "config changes only in pre-op"
             );
+            // The request that completed the download was answered with an initiate
+            // download response (scs 3) or a download segment response (scs 1), never with
+            // an abort (scs 4).
+            assert_eq!(answers.len(), 1, "{answers:?}");
+            let scs = answers[0].data[0] >> 5;
+            assert!(
+                scs == 3 || scs == 1,
+                "a configuration change answered {:02x?}",
+                answers[0].data
+            );
             accepted_config_writes += 1;
         }
-        if id == 0x600 + u16::from(NODE) && state.sdo_allowed() {
-            let responses: Vec<_> = out
-                .iter()
-                .filter(|f| f.id == 0x580 + u16::from(NODE))
-                .collect();
+        if id == sdo_rx && state.sdo_allowed() {
+            let responses: Vec<_> = out.iter().filter(|f| f.id == sdo_tx).collect();
             let client_abort = frame.len == 8 && frame.data[0] >> 5 == 4;
             assert!(responses.len() <= 2, "{responses:?}"); // response + possible timeout abort
             if !client_abort {
@@ -78,23 +124,44 @@ fn random_frames_never_half_apply() {
             }
             assert!(responses.iter().all(|f| f.len == 8));
         }
+        if node.node_id() != id_now {
+            // only a reset (NMT 0x81 / 0x82) takes the configuration's node-ID
+            assert_eq!(id, 0x000, "{frame:?}");
+            assert!(matches!(frame.data[0], 0x81 | 0x82), "{frame:?}");
+            assert_eq!(node.node_id(), app.config().can_node_id);
+            node_id_changes += 1;
+        }
     }
     assert!(
         accepted_config_writes > 0,
         "the test reached the write path"
     );
+    assert!(node_id_changes > 0, "the test reached a node-ID change");
 }
 
 #[test]
 fn frames_before_boot_up_are_ignored() {
     let mut node = CanOpenNode::new(NODE, 0);
-    let mut pod = PodModel::default();
+    let mut app = App::new(Config::default(), [16; MAX_AXES]);
     let mut out = Vec::new();
     let f = CanFrame::new(0x000, &[0x01, NODE]).unwrap();
-    node.on_frame(&f, &mut pod, 0, &mut |f| out.push(f));
+    node.on_frame(&f, &mut app, 0, &mut |f| out.push(f));
     assert_eq!(node.state(), NmtState::Initialising);
     assert!(out.is_empty());
-    node.poll(0, &pod, &mut |f| out.push(f));
+    // An SDO write before boot-up is not served either.
+    let sdo = 0x2000 + FIELDS.iter().position(|f| f.name == "bar_length").unwrap() as u16;
+    let i = sdo.to_le_bytes();
+    let v = 300.0f32.to_le_bytes();
+    let f = CanFrame::new(
+        0x600 + u16::from(NODE),
+        &[0x23, i[0], i[1], 0, v[0], v[1], v[2], v[3]],
+    )
+    .unwrap();
+    node.on_frame(&f, &mut app, 0, &mut |f| out.push(f));
+    assert!(out.is_empty());
+    assert_eq!(app.config().bar_length_mm, 150.0);
+    assert_eq!(node.stats().frames_ignored, 2);
+    node.poll(0, &app, &mut |f| out.push(f));
     assert_eq!(node.state(), NmtState::PreOperational);
     assert_eq!(
         out,

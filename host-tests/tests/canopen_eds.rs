@@ -4,9 +4,10 @@
 //! object the EDS does not declare).
 use std::collections::BTreeMap;
 
-use ballpod::config::FIELDS;
+use ballpod::acquisition::MAX_AXES;
+use ballpod::app::App;
+use ballpod::config::{Config, FIELDS, FieldType};
 use ballpod::protocol::canopen::{CanFrame, CanOpenNode};
-use ballpod::protocol::pod::PodModel;
 
 const NODE: u8 = 5;
 
@@ -134,49 +135,160 @@ fn eds_structure_is_consistent() {
     );
 }
 
+/// The CiA 301 data type code (§7.1.6, table 44) a field of `ty` is sent as: REAL32 for the
+/// floating-point fields (the f64 encoder scale too), UNSIGNED8/16/32 for the integers.
+fn data_type_of(ty: FieldType) -> &'static str {
+    match ty {
+        FieldType::F32 | FieldType::F64 => "0x0008",
+        FieldType::U8 => "0x0005",
+        FieldType::U16 => "0x0006",
+        FieldType::U32 => "0x0007",
+    }
+}
+
 #[test]
-fn every_config_field_has_its_object_with_the_table_range() {
+fn every_config_field_has_its_object_with_the_table_type_and_range() {
     let ini = parse_ini(&generated());
+    // 0x2000 + row must stay below the enumerated objects at 0x2040
+    assert!(FIELDS.len() <= 0x40, "{} rows", FIELDS.len());
     for (i, f) in FIELDS.iter().enumerate() {
         let sec = format!("{:04X}", 0x2000 + i);
         let o = &ini[&sec];
         assert_eq!(o["ParameterName"], f.name);
-        let var = if o["ObjectType"] == "0x7" {
-            o
+        let vars: Vec<&BTreeMap<String, String>> = if o["ObjectType"] == "0x7" {
+            assert_eq!(f.elements, 0, "{}", f.name);
+            vec![o]
         } else {
-            &ini[&format!("{sec}SUB1")]
+            assert_eq!(o["ObjectType"], "0x8", "ARRAY {}", f.name);
+            assert_eq!(
+                ini[&format!("{sec}SUB0")]["DefaultValue"],
+                f.elements.to_string()
+            );
+            (1..=f.elements)
+                .map(|k| &ini[&format!("{sec}SUB{k:X}")])
+                .collect()
         };
-        assert_eq!(var["DataType"], "0x0008", "REAL32");
-        assert_eq!(var["AccessType"], "rw");
-        assert_eq!(var["LowLimit"].parse::<f64>().unwrap(), f.min, "{}", f.name);
-        assert_eq!(
-            var["HighLimit"].parse::<f64>().unwrap(),
-            f.max,
-            "{}",
-            f.name
+        for var in vars {
+            assert_eq!(var["DataType"], data_type_of(f.ty), "{}", f.name);
+            assert_eq!(var["AccessType"], "rw");
+            assert_eq!(var["LowLimit"].parse::<f64>().unwrap(), f.min, "{}", f.name);
+            assert_eq!(
+                var["HighLimit"].parse::<f64>().unwrap(),
+                f.max,
+                "{}",
+                f.name
+            );
+            // a set-up field that is not set by default: NaN
+            if f.optional {
+                assert!(
+                    var["DefaultValue"].parse::<f32>().unwrap().is_nan(),
+                    "{}",
+                    f.name
+                );
+            }
+        }
+    }
+    // The examples of the object dictionary's doc: node-ID UNSIGNED8, samples per period
+    // UNSIGNED16, the probe times UNSIGNED32, codes UNSIGNED8, lengths REAL32.
+    let ty = |name: &str| {
+        let i = FIELDS.iter().position(|f| f.name == name).unwrap();
+        ini[&format!("{:04X}", 0x2000 + i)]["DataType"].clone()
+    };
+    assert_eq!(ty("can_node_id"), "0x0005");
+    assert_eq!(ty("samples_per_period"), "0x0006");
+    assert_eq!(ty("probe_debounce"), "0x0007");
+    assert_eq!(ty("ssm_min_dwell"), "0x0007");
+    assert_eq!(ty("circle_plane"), "0x0005");
+    assert_eq!(ty("ts_machine"), "0x0005");
+    assert_eq!(ty("bar_length"), "0x0008");
+    assert_eq!(ty("circle_radius"), "0x0008");
+    // the enumerated configuration objects follow at 0x2040–0x2043
+    for (index, name, ty) in [
+        ("2040", "lvdt_input", "0x0005"),
+        ("2041", "can_bitrate", "0x0005"),
+    ] {
+        assert_eq!(ini[index]["ParameterName"], name);
+        assert_eq!(ini[index]["DataType"], ty);
+    }
+    assert_eq!(ini["2042"]["ParameterName"], "axis_name");
+    assert_eq!(ini["2043"]["ParameterName"], "axis_reversed");
+    assert_eq!(ini["2043SUB1"]["DataType"], "0x0001", "BOOLEAN");
+}
+
+#[test]
+fn session_live_and_result_objects_are_declared_with_their_types() {
+    let ini = parse_ini(&generated());
+    // live values: ARRAY of 8 REAL32, PDO mappable; counter, status word, validity mask
+    assert_eq!(ini["2100"]["ObjectType"], "0x8");
+    assert_eq!(ini["2100"]["SubNumber"], "9");
+    for k in 1..=8 {
+        let e = &ini[&format!("2100SUB{k:X}")];
+        assert_eq!(e["DataType"], "0x0008");
+        assert_eq!(e["PDOMapping"], "1");
+        assert!(
+            e["DefaultValue"].parse::<f32>().unwrap().is_nan(),
+            "invalid: NaN"
         );
+    }
+    for (index, ty) in [("2101", "0x0007"), ("2102", "0x0006"), ("2103", "0x0006")] {
+        assert_eq!(ini[index]["DataType"], ty, "{index}");
+        assert_eq!(ini[index]["PDOMapping"], "1", "{index}");
+    }
+    assert_eq!(ini["2103"]["DefaultValue"], "0");
+    // session: command write-only 1…8, refusal and note strings, touch points
+    assert_eq!(ini["3002"]["AccessType"], "wo");
+    assert_eq!(ini["3002"]["LowLimit"], "1");
+    assert_eq!(ini["3002"]["HighLimit"], "8");
+    for index in ["3006", "3007"] {
+        assert_eq!(ini[index]["DataType"], "0x0009", "VISIBLE_STRING {index}");
+        assert_eq!(ini[index]["DefaultValue"], "", "{index}");
+    }
+    assert_eq!(ini["3008"]["DataType"], "0x0005");
+    for index in ["3009", "300A", "300B"] {
+        assert_eq!(ini[index]["ObjectType"], "0x8");
+        assert_eq!(ini[&format!("{index}SUB1")]["DataType"], "0x0008");
+    }
+    // results: three ARRAYs of RESULT_COUNT entries, named after the catalogue
+    let results = ballpod::app::RESULTS;
+    assert_eq!(results.len(), ballpod::app::RESULT_COUNT);
+    for (index, ty) in [("4000", "0x0008"), ("4001", "0x0008"), ("4002", "0x0001")] {
+        assert_eq!(ini[index]["ObjectType"], "0x8");
+        assert_eq!(
+            ini[index]["SubNumber"],
+            (results.len() + 1).to_string(),
+            "{index}"
+        );
+        assert_eq!(
+            ini[&format!("{index}SUB0")]["DefaultValue"],
+            results.len().to_string()
+        );
+        for (k, r) in results.iter().enumerate() {
+            let e = &ini[&format!("{index}SUB{:X}", k + 1)];
+            assert_eq!(e["DataType"], ty, "{index}:{}", k + 1);
+            assert_eq!(e["ParameterName"], r.name, "{index}:{}", k + 1);
+        }
     }
 }
 
 struct Node {
     node: CanOpenNode,
-    pod: PodModel,
+    app: App,
 }
 
 impl Node {
     fn new() -> Self {
         let mut n = Self {
             node: CanOpenNode::new(NODE, 0),
-            pod: PodModel::default(),
+            app: App::new(Config::default(), [16; MAX_AXES]),
         };
-        n.node.poll(0, &n.pod, &mut |_| {});
+        n.node.poll(0, &n.app, &mut |_| {});
         n
     }
     fn sdo(&mut self, req: [u8; 8]) -> [u8; 8] {
         let mut out = Vec::new();
         let f = CanFrame::new(0x600 + u16::from(NODE), &req).unwrap();
         self.node
-            .on_frame(&f, &mut self.pod, 0, &mut |f| out.push(f));
+            .on_frame(&f, &mut self.app, 0, &mut |f| out.push(f));
         assert_eq!(out.len(), 1);
         assert_eq!(out[0].id, 0x580 + u16::from(NODE));
         out[0].data
@@ -244,11 +356,15 @@ fn every_declared_entry_behaves_as_declared() {
                         "0x0009" => {
                             assert_eq!(String::from_utf8(data).unwrap(), *default, "{what}")
                         }
-                        "0x0008" => assert_eq!(
-                            f32::from_le_bytes(data.try_into().unwrap()),
-                            default.parse::<f32>().unwrap(),
-                            "{what}"
-                        ),
+                        "0x0008" => {
+                            // bit for bit: the value read, or NaN for "not set" / "invalid"
+                            let got = f32::from_le_bytes(data.try_into().unwrap());
+                            let want = default.parse::<f32>().unwrap();
+                            assert!(
+                                got.to_bits() == want.to_bits() || (got.is_nan() && want.is_nan()),
+                                "{what}: {got} vs DefaultValue {default}"
+                            );
+                        }
                         _ => {
                             let mut b = [0u8; 8];
                             b[..data.len()].copy_from_slice(&data);
@@ -260,8 +376,14 @@ fn every_declared_entry_behaves_as_declared() {
                         }
                     }
                 }
-                // Results without data: "no data available".
-                (Err(code), None) => assert_eq!(code, 0x0800_0024, "{what}"),
+                // Results and touch points without data: "no data available".
+                (Err(code), None) => {
+                    assert_eq!(code, 0x0800_0024, "{what}");
+                    assert!(
+                        (0x4000..=0x4001).contains(&index) || (0x3009..=0x300B).contains(&index),
+                        "{what}: only results and touch points have no data"
+                    );
+                }
                 (r, d) => panic!("{what}: upload {r:?} but DefaultValue {d:?}"),
             },
         }
@@ -297,4 +419,95 @@ fn every_declared_entry_behaves_as_declared() {
             assert_eq!(n.upload(index, 0), Err(0x0602_0000), "{index:04X}");
         }
     }
+}
+
+/// The REAL32 configuration entries with their declared limits: (index, sub, name, low, high).
+fn real32_limits(ini: &Ini) -> Vec<(u16, u8, String, f64, f64)> {
+    entries(ini)
+        .into_iter()
+        .filter(|(_, _, k)| k["DataType"] == "0x0008" && k["AccessType"] == "rw")
+        .map(|(i, s, k)| {
+            (
+                i,
+                s,
+                k["ParameterName"].clone(),
+                k["LowLimit"].parse().unwrap(),
+                k["HighLimit"].parse().unwrap(),
+            )
+        })
+        .collect()
+}
+
+/// A declared limit is writable as the nearest REAL32, and a REAL32 beyond it is refused as too
+/// high / too low (CiA 301 0x0609 0031 / 0032) on a fresh node (each write alone, so that no
+/// cross-field rule trips).
+#[test]
+fn real32_config_entries_take_their_declared_limits_and_refuse_beyond() {
+    let ini = parse_ini(&generated());
+    let all = real32_limits(&ini);
+    assert!(all.len() > 40, "{}", all.len());
+    for (index, sub, name, lo, hi) in all {
+        let span = (hi - lo).max(1.0);
+        for (v, ok) in [
+            (lo, Ok(())),
+            (hi, Ok(())),
+            (lo - span, Err(0x0609_0032)),
+            (hi + span, Err(0x0609_0031)),
+        ] {
+            if f64::from(v as f32) != v && ok.is_ok() {
+                // see real32_config_entries_take_declared_limits_without_an_exact_real32
+                continue;
+            }
+            let mut n = Node::new();
+            assert_eq!(
+                n.download(index, sub, &(v as f32).to_le_bytes()),
+                ok,
+                "{index:04X}sub{sub} {name} = {v}"
+            );
+            if ok.is_ok() {
+                let back = f32::from_le_bytes(n.upload(index, sub).unwrap().try_into().unwrap());
+                assert_eq!(back, v as f32, "{name}");
+            }
+        }
+    }
+}
+
+/// lvdt_max_ratio, lvdt_dc_span and ssm_dwell_speed declare LowLimit=0.01, whose nearest REAL32
+/// (0.00999999978) is below 0.01: the node takes it as the declared limit (the configuration
+/// compares with the limits rounded to f32), and refuses the next REAL32 below it.
+#[test]
+fn real32_config_entries_take_declared_limits_without_an_exact_real32() {
+    let ini = parse_ini(&generated());
+    let mut inexact = 0;
+    let mut seen = Vec::new();
+    for (index, sub, name, lo, hi) in real32_limits(&ini) {
+        for v in [lo, hi] {
+            if f64::from(v as f32) == v {
+                continue;
+            }
+            inexact += 1;
+            seen.push((name.clone(), v));
+            let mut n = Node::new();
+            assert_eq!(
+                n.download(index, sub, &(v as f32).to_le_bytes()),
+                Ok(()),
+                "{index:04X}sub{sub} {name} = {v} (REAL32 {})",
+                v as f32
+            );
+            // the neighbouring REAL32 outside the range is refused (all limits here are > 0)
+            let (outside, code) = if v == lo {
+                (f32::from_bits((v as f32).to_bits() - 1), 0x0609_0032)
+            } else {
+                (f32::from_bits((v as f32).to_bits() + 1), 0x0609_0031)
+            };
+            assert_eq!(
+                n.download(index, sub, &outside.to_le_bytes()),
+                Err(code),
+                "{index:04X}sub{sub} {name} = {outside}"
+            );
+        }
+    }
+    // lvdt_max_ratio, lvdt_min_signal, lvdt_dc_span, axis_counts_0…4, ssm_window_radius,
+    // ssm_dwell_speed
+    assert_eq!(inexact, 10, "{seen:?}");
 }

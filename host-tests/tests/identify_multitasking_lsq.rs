@@ -84,6 +84,50 @@ fn round_trip_recovers_ten_deviations() {
     }
 }
 
+/// The pod predicts each pattern from `MODEL_SAMPLES_MAX` (37) points while its runs have
+/// thousands of samples: against a 3601-point forward-model measurement the identified
+/// deviations stay within 1e-3 µm / µrad (1 nm, 0.0002″) of the truth.
+#[test]
+fn coarse_model_sampling_is_exact_enough() {
+    use ballpod::app::seed002::MODEL_SAMPLES_MAX;
+    let mut r = fwd::Rng(0x5a3b_1e02);
+    for _ in 0..3 {
+        let mut d = r.deviations();
+        without_squareness(&mut d);
+        let mut m = procedure(&d);
+        let steps = [
+            fwd::Pat::Bx,
+            fwd::Pat::By,
+            fwd::Pat::Cr,
+            fwd::Pat::Ca,
+            fwd::Pat::Cr,
+        ];
+        for (p, pf) in m.iter_mut().zip(steps) {
+            let g = fwd::Geo {
+                lb: LB,
+                zc: ZC,
+                rb: p.geometry.r_b_mm,
+                rc: RC,
+            };
+            (p.e1_um, p.e2_um) = fwd::ecc(pf, &d, &g, 3601, [0.0; 3], [0.0; 3]);
+            p.samples = MODEL_SAMPLES_MAX;
+        }
+        let got = ModelLsq::without_squareness()
+            .identify(&m)
+            .unwrap()
+            .deviations
+            .to_array();
+        for (i, p) in Parameter::ALL.iter().enumerate() {
+            assert!(
+                (got[i] - d[i]).abs() < 1e-3,
+                "{p:?}: {} vs {}",
+                got[i],
+                d[i]
+            );
+        }
+    }
+}
+
 /// Repeated runs with noise give redundancy: a residual and finite, positive uncertainties
 /// that cover the error.
 #[test]
@@ -188,20 +232,31 @@ fn without_second_tool_length_is_rank_deficient() {
             }
         }
     }
+    // identify names a combination of the same two-dimensional null space (which one within
+    // it is arbitrary: both directions are equally unobservable).
+    let four = [
+        Parameter::DxBt,
+        Parameter::BetaXb,
+        Parameter::AlphaBt,
+        Parameter::DyCz,
+    ];
     match setup.identify(&m[..4]) {
         Err(ModelLsqError::NotSeparable {
             rank: 8,
             free: 10,
+            combination,
             dominant,
             second,
-            ..
         }) => {
-            let pair = [dominant, second];
             assert!(
-                pair.contains(&Parameter::DxBt) && pair.contains(&Parameter::BetaXb)
-                    || pair.contains(&Parameter::AlphaBt) && pair.contains(&Parameter::DyCz),
-                "{pair:?}"
+                four.contains(&dominant) && four.contains(&second),
+                "{dominant:?} {second:?}"
             );
+            for (i, p) in Parameter::ALL.iter().enumerate() {
+                if !four.contains(p) {
+                    assert!(combination[i].abs() < 1e-5, "{p:?} {}", combination[i]);
+                }
+            }
         }
         other => panic!("{other:?}"),
     }
@@ -260,4 +315,48 @@ fn non_finite_fixed_value_is_typed() {
     let mut s = ModelLsq::without_squareness();
     s.fixed.gamma_xy_urad = f64::NAN;
     assert_eq!(s.identify(&m), Err(ModelLsqError::NonFiniteFixed));
+}
+
+/// The propagated uncertainty of `identify_propagated` (linear, one solve per eccentricity
+/// component) equals the one obtained by re-identifying with each component moved by its
+/// uncertainty (the full non-linear model) to 1e-3 relative.
+#[test]
+fn propagated_uncertainty_matches_re_identification() {
+    let mut r = fwd::Rng(0x7e57_0013);
+    let mut d = r.deviations();
+    without_squareness(&mut d);
+    let m = procedure(&d);
+    let u: Vec<[f64; 2]> = (0..m.len())
+        .map(|i| [0.1 + 0.02 * i as f64, 0.15])
+        .collect();
+    let lsq = ModelLsq::without_squareness();
+    let (res, got) = lsq.identify_propagated(&m, &u).unwrap();
+    let x0 = res.deviations.to_array();
+    let mut var = [0.0f64; 13];
+    for i in 0..m.len() {
+        for k in 0..2 {
+            let mut mp = m.clone();
+            if k == 0 {
+                mp[i].e1_um += u[i][0];
+            } else {
+                mp[i].e2_um += u[i][1];
+            }
+            let xp = lsq.identify(&mp).unwrap().deviations.to_array();
+            for j in 0..13 {
+                var[j] += (xp[j] - x0[j]).powi(2);
+            }
+        }
+    }
+    for (j, p) in Parameter::ALL.iter().enumerate() {
+        let want = var[j].sqrt();
+        assert!(
+            (got[j] - want).abs() <= 1e-3 * want + 1e-9,
+            "{p:?}: {} vs {want}",
+            got[j]
+        );
+    }
+    assert_eq!(
+        lsq.identify_propagated(&m, &u[..2]).map(|_| ()),
+        Err(ModelLsqError::BadMeasurement { index: 2 })
+    );
 }

@@ -25,6 +25,8 @@ fn axes_of(plane: Plane, u: f64, v: f64, w: f64) -> [f32; 5] {
         Plane::XY => [u as f32, v as f32, w as f32, 0.0, 0.0],
         Plane::XZ => [u as f32, w as f32, v as f32, 0.0, 0.0],
         Plane::YZ => [w as f32, u as f32, v as f32, 0.0, 0.0],
+        // ISO 230-4's ZX plane: u = Z, v = X
+        Plane::ZX => [v as f32, w as f32, u as f32, 0.0, 0.0],
     }
 }
 
@@ -69,6 +71,7 @@ fn oracle(run: &Run, samples: &[Sample]) -> (f64, f64, f64) {
             Plane::XY => (s.axes[0], s.axes[1]),
             Plane::XZ => (s.axes[0], s.axes[2]),
             Plane::YZ => (s.axes[1], s.axes[2]),
+            Plane::ZX => (s.axes[2], s.axes[0]),
         };
         let du = u as f64 - cu;
         let dv = v as f64 - cv;
@@ -110,10 +113,11 @@ fn streaming_f32_matches_f64_batch_oracle_within_1nm() {
             (-360.0, 10.0),
         ] {
             for &n in &[360usize, 3600, 100_000] {
-                let plane = match cases % 3 {
+                let plane = match cases % 4 {
                     0 => Plane::XY,
                     1 => Plane::XZ,
-                    _ => Plane::YZ,
+                    2 => Plane::YZ,
+                    _ => Plane::ZX,
                 };
                 let lim = 1000.0 - radius;
                 let run = Run {
@@ -360,6 +364,79 @@ fn seed002_tv7_cr_sign_anchor() {
         assert!(
             (e.e_um[0] as f64 - want).abs() < 0.01 && e.e_um[1].abs() < 0.01,
             "{e:?}"
+        );
+    }
+}
+
+/// The same TV-7 anchor through the pod's application: a seed 002 CR run (Table 4.3 set-up,
+/// R_C = 50 mm < L_B = 100 mm) armed, started and stopped on the `App`, fed with the bar's
+/// readings of the forward model above. The run's own eccentricity (`ecc_u`) and, once both
+/// directions are run, the step's CW/CCW mean (`e_CR_x`) carry the TV-7 sign: e_x = −δx_CZ.
+#[test]
+fn seed002_tv7_cr_sign_anchor_through_the_pod() {
+    use ballpod::acquisition::MAX_AXES;
+    use ballpod::app::seed002::Setup;
+    use ballpod::app::{App, Command, Direction, Pattern, ResultId, SessionState};
+    use ballpod::config::Config;
+
+    let setup = Setup::thesis_table_4_3();
+    let (rc, lb) = (setup.r_c_mm, setup.l_b_mm);
+    assert!(rc < lb, "the anchor is about the far-side T-ball");
+    for (dx_um, want) in [(20.0, -20.0), (-20.0, 20.0)] {
+        let mut cfg = Config {
+            bar_length_mm: lb as f32,
+            ..Config::default()
+        };
+        setup.to_config(&mut cfg.setup);
+        let mut app = App::new(cfg, [16; MAX_AXES]);
+        assert_eq!(
+            Setup::from_config(&app.config().setup),
+            Setup::from_config(&cfg.setup),
+            "the set-up is a valid configuration"
+        );
+        let mut seq = 0u32;
+        for d in [Direction::Ccw, Direction::Cw] {
+            app.set_pattern(Pattern::Cr).expect("pattern");
+            app.set_direction(d).expect("direction");
+            app.execute(Command::Arm).expect("arm");
+            app.execute(Command::Start).expect("start");
+            for i in 0..720 {
+                let deg = d.sign() * i as f64 * 0.5;
+                let (s, c) = deg.to_radians().sin_cos();
+                let t = [(rc - lb) * c, (rc - lb) * s];
+                let w = [rc * c + dx_um * 1e-3, rc * s];
+                let len = ((t[0] - w[0]).powi(2) + (t[1] - w[1]).powi(2)).sqrt();
+                app.on_sample(
+                    &Sample {
+                        seq,
+                        t_us: u64::from(seq) * 1000,
+                        delta_l_um: ((len - lb) * 1e3) as f32,
+                        axes: [t[0] as f32, t[1] as f32, 165.5, 0.0, deg as f32],
+                        temp_c: 20.0,
+                        flags: SampleFlags::NONE,
+                    },
+                    &mut (),
+                );
+                seq += 1;
+            }
+            app.execute(Command::Stop).expect("stop");
+            assert_eq!(app.session(), SessionState::Done, "{d:?}");
+            let (eu, ev) = (app.result(ResultId::EccU), app.result(ResultId::EccV));
+            assert!(eu.valid && ev.valid, "{d:?}: {eu:?} {ev:?}");
+            assert!(
+                (f64::from(eu.value) - want).abs() < 0.01 && ev.value.abs() < 0.01,
+                "{d:?}, δx_CZ {dx_um}: e = ({}, {})",
+                eu.value,
+                ev.value
+            );
+        }
+        let (ex, ey) = (app.result(ResultId::ECrX), app.result(ResultId::ECrY));
+        assert!(ex.valid && ey.valid, "{ex:?} {ey:?}");
+        assert!(
+            (f64::from(ex.value) - want).abs() < 0.01 && ey.value.abs() < 0.01,
+            "e_CR = ({}, {})",
+            ex.value,
+            ey.value
         );
     }
 }

@@ -1,29 +1,78 @@
 //! SCPI command interface: IEEE 488.2 common commands and status model, the SCPI-99 error
 //! queue, configuration through the `config::FIELDS` table, session control, live values,
 //! results and the log download — and every class of bad input rejected with its SCPI-99
-//! error number and no change of state.
-use ballpod::acquisition::Sample;
+//! error number and no change of state. The server executes every command in the pod
+//! application ([`App`]) at once; the application is driven here only through the port and by
+//! feeding it samples, and what it answers is checked against the standards' tables and a
+//! forward model of the ball bar.
+use ballpod::acquisition::{MAX_AXES, Sample, SampleFlags};
+use ballpod::app::log::SampleLog;
+use ballpod::app::{App, Direction, Pattern, RESULTS, SessionState, SettingsRequest, Touch};
 use ballpod::config::{AxisName, Config, FIELDS, Field};
-use ballpod::protocol::log::SampleLog;
-use ballpod::protocol::pod::{
-    Direction, Pattern, PodModel, RESULTS, ResultEntry, SessionCommand, SessionState,
-};
 use ballpod::protocol::scpi::status::ERROR_QUEUE_DEPTH;
 use ballpod::protocol::scpi::{LINE_CAPACITY, ScpiServer, number};
+
+/// Forward model of a circle run: the ball bar about a socket at the origin of the XY plane,
+/// the trajectory off-centre by E_UM and longer by R0_UM: ΔL(θ) = r0 + e_u cos θ + e_v sin θ
+/// (the limaçon of seed 002 §3.5 / ISO 230-4 about the socket).
+const RADIUS_MM: f64 = 150.0;
+const E_UM: [f64; 2] = [12.5, -7.25];
+const R0_UM: f64 = 3.0;
+/// Samples per revolution of the model circle.
+const STEPS: usize = 720;
+
+/// Sample k of the forward model's revolution (θ = 2πk/STEPS, CCW from +X).
+fn circle_sample(k: usize) -> Sample {
+    let th = 2.0 * std::f64::consts::PI * k as f64 / STEPS as f64;
+    let (s, c) = th.sin_cos();
+    Sample {
+        delta_l_um: (R0_UM + E_UM[0] * c + E_UM[1] * s) as f32,
+        axes: [
+            (RADIUS_MM * c) as f32,
+            (RADIUS_MM * s) as f32,
+            0.0,
+            0.0,
+            0.0,
+        ],
+        temp_c: 20.0,
+        ..Sample::default()
+    }
+}
+
+/// Everything the application shows but the text of its last refusal: a rejected command must
+/// leave it equal.
+fn state(app: &App) -> String {
+    format!(
+        "{:?}|{:?}|{:?}|{:?}|{:?}|{}|{:?}|{:?}|{:?}|{:?}",
+        app.config(),
+        app.session(),
+        app.pattern(),
+        app.direction(),
+        app.abort_reason(),
+        app.run_number(),
+        app.results(),
+        app.live(),
+        app.run_counters(),
+        app.touch_points()
+    )
+}
 
 /// The pod with its SCPI port, as the technician's PC sees it.
 struct Bench {
     scpi: ScpiServer,
-    pod: PodModel,
+    app: App,
     log: SampleLog<32>,
+    /// Number of the next sample.
+    seq: u32,
 }
 
 impl Bench {
     fn new() -> Self {
         Self {
             scpi: ScpiServer::new(),
-            pod: PodModel::default(),
+            app: App::new(Config::default(), [16; MAX_AXES]),
             log: SampleLog::new(),
+            seq: 0,
         }
     }
 
@@ -34,31 +83,32 @@ impl Bench {
         b
     }
 
-    /// Sends raw bytes; returns what came back and the session actions.
-    fn raw(&mut self, bytes: &[u8]) -> (Vec<u8>, Vec<SessionCommand>) {
+    /// A bench whose application has the circle's set-up (centre at the origin, radius
+    /// 150 mm); the port stays locked.
+    fn with_circle() -> Self {
+        let mut b = Self::new();
+        b.app
+            .configure(|c| {
+                c.setup.circle_centre_mm = [0.0; 3];
+                c.setup.circle_radius_mm = RADIUS_MM as f32;
+            })
+            .unwrap();
+        b
+    }
+
+    /// Sends raw bytes; returns what came back.
+    fn raw(&mut self, bytes: &[u8]) -> Vec<u8> {
         let mut out = Vec::new();
-        let actions = self
-            .scpi
-            .feed(bytes, &mut self.pod, &self.log, &mut |b: &[u8]| {
+        self.scpi
+            .feed(bytes, &mut self.app, &self.log, &mut |b: &[u8]| {
                 out.extend_from_slice(b)
             });
-        // A minimal application: executes the session actions on the model.
-        for a in &actions {
-            match a {
-                SessionCommand::Arm { .. } => self.pod.session = SessionState::Armed,
-                SessionCommand::Start => self.pod.session = SessionState::Running,
-                SessionCommand::Stop => self.pod.session = SessionState::Done,
-                SessionCommand::Abort => self.pod.session = SessionState::Aborted,
-                SessionCommand::Reset => self.pod.session = SessionState::Idle,
-                _ => {}
-            }
-        }
-        (out, actions.to_vec())
+        out
     }
 
     /// Sends one line; returns the response text (without its terminator; empty if none).
     fn send(&mut self, line: &str) -> String {
-        let (out, _) = self.raw(format!("{line}\n").as_bytes());
+        let out = self.raw(format!("{line}\n").as_bytes());
         let s = String::from_utf8(out).unwrap();
         if s.is_empty() {
             return s;
@@ -72,9 +122,20 @@ impl Bench {
         s.trim_end_matches('\n').to_string()
     }
 
-    /// Sends one line; returns the session actions.
-    fn act(&mut self, line: &str) -> Vec<SessionCommand> {
-        self.raw(format!("{line}\n").as_bytes()).1
+    /// Feeds one sample to the application (numbered in sequence; a run's samples go to the
+    /// log).
+    fn feed(&mut self, mut s: Sample) {
+        s.seq = self.seq;
+        s.t_us = 1_000_000 + u64::from(self.seq) * 1000;
+        self.seq += 1;
+        self.app.on_sample(&s, &mut self.log);
+    }
+
+    /// Feeds samples k of the model circle for k in `ks`.
+    fn feed_circle(&mut self, ks: impl IntoIterator<Item = usize>) {
+        for k in ks {
+            self.feed(circle_sample(k));
+        }
     }
 
     /// Reads one `SYSTem:ERRor?` entry: (number, message).
@@ -101,16 +162,32 @@ impl Bench {
         }
     }
 
-    /// Sends a line that must be rejected with exactly `code`, with no response, no action and
-    /// no change of the pod.
+    /// Sends a line that must be rejected with exactly `code`, with no response and no change
+    /// of the application.
     fn rejected(&mut self, line: &str, code: i32) {
-        let before = self.pod;
-        let (out, actions) = self.raw(format!("{line}\n").as_bytes());
+        let before = state(&self.app);
+        let out = self.raw(format!("{line}\n").as_bytes());
         assert!(out.is_empty(), "{line}: unexpected response {out:?}");
-        assert!(actions.is_empty(), "{line}: unexpected actions {actions:?}");
-        assert_eq!(self.pod, before, "{line}: state changed");
+        assert_eq!(state(&self.app), before, "{line}: state changed");
         assert_eq!(self.errors(), vec![code], "{line}");
     }
+
+    /// As [`rejected`](Self::rejected), and the error's message is `message`.
+    fn rejected_with(&mut self, line: &str, code: i32, message: &str) {
+        let before = state(&self.app);
+        let out = self.raw(format!("{line}\n").as_bytes());
+        assert!(out.is_empty(), "{line}: unexpected response {out:?}");
+        assert_eq!(state(&self.app), before, "{line}: state changed");
+        assert_eq!(self.error(), (code, message.to_string()), "{line}");
+        assert_eq!(self.errors(), Vec::<i32>::new(), "{line}");
+    }
+}
+
+/// A value printed with 4 decimals (0.1 nm) is the model value to within half a step plus the
+/// fit's rounding.
+fn near(text: &str, want: f64, tol: f64) -> bool {
+    let v: f64 = text.parse().unwrap_or(f64::NAN);
+    (v - want).abs() <= tol + 0.5e-4
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -189,11 +266,23 @@ fn ese_and_sre_take_0_to_255_only() {
 }
 
 #[test]
-fn rst_asks_for_a_reset_and_keeps_the_status_registers() {
-    let mut b = Bench::new();
+fn rst_resets_the_application_and_keeps_the_status_registers() {
+    let mut b = Bench::with_circle();
     b.send("*ESE 4");
     b.send("BOGUS");
-    assert_eq!(b.act("*RST"), vec![SessionCommand::Reset]);
+    b.send("SESS:ARM;STAR");
+    assert_eq!(b.send("SESS:STAT?"), "RUNNING");
+    b.feed_circle(0..=STEPS);
+    b.send("SESS:STOP");
+    assert_eq!(b.send("SESS:STAT?"), "DONE");
+    assert!(b.app.results().valid_count() > 0);
+    b.send("SESS:PATT PROBE;ARM");
+    assert_eq!(b.send("SESS:STAT?"), "ARMED");
+    assert_eq!(b.send("*RST"), "");
+    // the run is gone, the state is IDLE, the results are forgotten; the configuration stays
+    assert_eq!(b.send("SESS:STAT?;REAS?"), "IDLE;NONE");
+    assert_eq!(b.app.results().valid_count(), 0);
+    assert_eq!(b.app.config().setup.circle_radius_mm, RADIUS_MM as f32);
     // §10.32: *RST does not affect the status registers or the queue
     assert_eq!(b.send("*ESE?"), "4");
     assert_eq!(b.errors(), vec![-113]);
@@ -202,8 +291,11 @@ fn rst_asks_for_a_reset_and_keeps_the_status_registers() {
 #[test]
 fn sav_0_stores_settings() {
     let mut b = Bench::unlocked();
-    assert_eq!(b.act("*SAV 0"), vec![SessionCommand::StoreSettings]);
+    assert_eq!(b.app.take_settings_request(), None);
+    assert_eq!(b.send("*SAV 0"), "");
+    assert_eq!(b.app.take_settings_request(), Some(SettingsRequest::Store));
     b.rejected("*SAV 3", -222);
+    assert_eq!(b.app.take_settings_request(), None);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -221,11 +313,13 @@ fn error_queue_is_fifo_and_reports_no_error_when_empty() {
     assert_eq!((n, msg.as_str()), (-113, "Undefined header"));
     let (n, msg) = b.error();
     assert_eq!(n, -222);
-    assert!(msg.starts_with("Data out of range"), "{msg}");
-    assert!(msg.contains("bar_length"), "names the field: {msg}");
+    assert_eq!(
+        msg, "Data out of range;bar_length out of range",
+        "names the field"
+    );
     let (n, msg) = b.error();
     assert_eq!(n, -221);
-    assert!(msg.starts_with("Settings conflict"), "{msg}");
+    assert_eq!(msg, "Settings conflict;STOP needs RUNNING", "the reason");
     assert_eq!(b.error().0, 0);
 }
 
@@ -267,6 +361,8 @@ fn short_long_and_optional_forms_are_case_insensitive() {
     b.rejected("SYSTE:ERR?", -113);
     b.rejected("SYS:ERR?", -113);
     assert_eq!(b.send("MEAS:DL?"), b.send("measure:dl?"));
+    assert_eq!(b.send("SESS:STAT?"), b.send("session:state?"));
+    assert_eq!(b.send("MEAS:VAL?"), b.send("measure:valid?"));
 }
 
 #[test]
@@ -279,7 +375,7 @@ fn compound_messages_answer_in_order_separated_by_semicolons() {
     assert_eq!(b.send("SYST:ERR?;VERS?"), "0,\"No error\";1999.0");
     assert_eq!(b.send(":SESS:PATT BX;DIR CW;PATT?;DIR?"), "BX;CW");
     assert_eq!(
-        (b.pod.pattern, b.pod.direction),
+        (b.app.pattern(), b.app.direction()),
         (Pattern::Bx, Direction::Cw)
     );
     // a leading ':' goes back to the root
@@ -294,37 +390,36 @@ fn compound_messages_answer_in_order_separated_by_semicolons() {
 fn lines_may_arrive_in_any_chunks_and_crlf_is_accepted() {
     let mut a = Bench::new();
     let mut b = Bench::new();
-    let msg = b"*IDN?;:SESS:PATT CA\r\nSESS:ARM\r\nSESS:STAT?;PATT?\n";
-    let (whole, wa) = a.raw(msg);
+    // PROBE needs no set-up: it arms.
+    let msg = b"*IDN?;:SESS:PATT PROBE\r\nSESS:ARM\r\nSESS:STAT?;PATT?\n";
+    let whole = a.raw(msg);
     let mut bytes = Vec::new();
-    let mut acts = Vec::new();
     for c in msg.chunks(1) {
-        let (o, x) = b.raw(c);
-        bytes.extend(o);
-        acts.extend(x);
+        bytes.extend(b.raw(c));
     }
     assert_eq!(whole, bytes);
-    assert_eq!(wa, acts);
-    assert_eq!(a.pod, b.pod);
+    assert_eq!(state(&a.app), state(&b.app));
     let text = String::from_utf8(whole).unwrap();
-    assert!(text.ends_with("ARMED;CA\n"), "{text}");
+    assert!(text.ends_with("ARMED;PROBE\n"), "{text}");
+    assert_eq!(b.app.session(), SessionState::Armed);
+    assert_eq!(a.errors(), Vec::<i32>::new());
 }
 
 #[test]
 fn an_over_long_line_is_rejected_whole_and_the_next_line_parses() {
-    let mut b = Bench::new();
-    let before = b.pod;
-    // a valid command that would change state, padded beyond the buffer
-    let mut long = b"CONF:BAR_LENGTH 200;".to_vec();
+    let mut b = Bench::unlocked();
+    let before = state(&b.app);
+    // valid commands that would change state, padded beyond the buffer
+    let mut long = b"CONF:BAR_LENGTH 200;:SESS:PATT PROBE;".to_vec();
     while long.len() <= LINE_CAPACITY {
         long.extend_from_slice(b"*OPC?;");
     }
     long.extend_from_slice(b"SESS:ARM\n");
-    let (out, actions) = b.raw(&long);
-    assert!(out.is_empty() && actions.is_empty());
-    assert_eq!(b.pod, before);
+    let out = b.raw(&long);
+    assert!(out.is_empty());
+    assert_eq!(state(&b.app), before);
     // the next line, even in the same chunk, is parsed normally
-    let (out, _) = b.raw(b"\xff\xfe\n*OPC?\n");
+    let out = b.raw(b"\xff\xfe\n*OPC?\n");
     assert_eq!(out, b"1\n");
     assert_eq!(b.errors(), vec![-363, -101]);
     assert_eq!(b.scpi.counters().lines_overrun, 1);
@@ -332,7 +427,7 @@ fn an_over_long_line_is_rejected_whole_and_the_next_line_parses() {
     let mut fits = b"*OPC?".to_vec();
     fits.resize(LINE_CAPACITY, b' ');
     fits.push(b'\n');
-    assert_eq!(b.raw(&fits).0, b"1\n");
+    assert_eq!(b.raw(&fits), b"1\n");
 }
 
 #[test]
@@ -343,17 +438,57 @@ fn malformed_headers_and_parameters_get_their_error_numbers() {
     b.rejected("CONF::BAR_LENGTH 100", -102);
     b.rejected("CONF:BAR_LENGTH=100", -102);
     b.rejected("SESS:ARM?", -113); // no query form
-    b.rejected("MEAS:DL", -113); // query only
+    b.rejected("SESS:CLE?", -113);
+    b.rejected("SESS:NOTE", -113); // query only
+    b.rejected("MEAS:DL", -113);
+    b.rejected("MEAS:VAL", -113);
+    b.rejected("FETC:TOUC:COUN", -113);
     b.rejected("MEAS:DL? 3", -108);
+    b.rejected("MEAS:ALL? 3", -108);
     b.rejected("SESS:ARM 1", -108);
+    b.rejected("SESS:CLE 1", -108);
     b.rejected("SESS:PATT", -109);
     b.rejected("SESS:PATT BX,BY", -108);
     b.rejected("SESS:PATT BX,", -109);
     b.rejected("SESS:PATT 'BX'", -158);
     b.rejected("SESS:PATT 3", -104);
     b.rejected("SESS:PATT B-X", -141);
+    // the pattern names are Pattern::name(): CR2, not the old CRPRIME
     b.rejected("SESS:PATT CRP", -224);
+    b.rejected("SESS:PATT CRPRIME", -224);
     b.rejected("SESS:DIR LEFT", -224);
+    assert_eq!(
+        b.app.pattern(),
+        Pattern::Circle,
+        "nothing of the above selected a pattern"
+    );
+}
+
+#[test]
+fn every_pattern_and_direction_name_is_accepted() {
+    let mut b = Bench::new();
+    for (name, p) in [
+        ("CIRCLE", Pattern::Circle),
+        ("BX", Pattern::Bx),
+        ("BY", Pattern::By),
+        ("CR", Pattern::Cr),
+        ("CA", Pattern::Ca),
+        ("CR2", Pattern::Cr2),
+        ("SSM", Pattern::Ssm),
+        ("PROBE", Pattern::Probe),
+    ] {
+        assert_eq!(b.send(&format!("SESS:PATT {name};PATT?")), name);
+        assert_eq!(b.app.pattern(), p);
+        assert_eq!(
+            b.send(&format!("SESS:PATT {};PATT?", name.to_lowercase())),
+            name
+        );
+    }
+    for (name, d) in [("CW", Direction::Cw), ("CCW", Direction::Ccw)] {
+        assert_eq!(b.send(&format!("SESS:DIR {name};DIR?")), name);
+        assert_eq!(b.app.direction(), d);
+    }
+    assert_eq!(b.errors(), Vec::<i32>::new());
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -395,28 +530,56 @@ fn field_headers() -> Vec<(String, Field)> {
     v
 }
 
-/// The value of a field read directly from the configuration (independent of the server).
+/// The value of a field read directly from the configuration's members (independent of the
+/// server and of `Config::field_value`); codes as their number.
 fn read(c: &Config, f: Field) -> f64 {
+    let s = &c.setup;
+    let g = |v: f32| f64::from(v);
     match f {
-        Field::BarLengthMm => c.bar_length_mm as f64,
-        Field::BarCtePpmPerK => c.bar_cte_ppm_per_k as f64,
-        Field::LvdtPolyUm(k) => c.lvdt_poly_um[k as usize] as f64,
-        Field::LvdtMaxAbsRatio => c.lvdt_max_abs_ratio as f64,
-        Field::LvdtMinSignal => c.lvdt_min_signal as f64,
-        Field::LvdtDcZeroV => c.lvdt_dc_zero_v as f64,
-        Field::LvdtDcSpanV => c.lvdt_dc_span_v as f64,
-        Field::ExcitationHz => c.excitation_hz as f64,
-        Field::SamplesPerPeriod => c.samples_per_period as f64,
-        Field::SampleRateHz => c.sample_rate_hz as f64,
+        Field::BarLengthMm => g(c.bar_length_mm),
+        Field::BarCtePpmPerK => g(c.bar_cte_ppm_per_k),
+        Field::LvdtPolyUm(k) => g(c.lvdt_poly_um[k as usize]),
+        Field::LvdtMaxAbsRatio => g(c.lvdt_max_abs_ratio),
+        Field::LvdtMinSignal => g(c.lvdt_min_signal),
+        Field::LvdtDcZeroV => g(c.lvdt_dc_zero_v),
+        Field::LvdtDcSpanV => g(c.lvdt_dc_span_v),
+        Field::ExcitationHz => g(c.excitation_hz),
+        Field::SamplesPerPeriod => f64::from(c.samples_per_period),
+        Field::SampleRateHz => g(c.sample_rate_hz),
         Field::AxisCountsPerUnit(i) => c.axes[i as usize].counts_per_unit,
-        Field::AxisMaxSpeed(i) => c.axes[i as usize].max_speed_per_s as f64,
-        Field::ThermistorR25Ohm => c.thermistor_r25_ohm as f64,
-        Field::ThermistorBetaK => c.thermistor_beta_k as f64,
-        Field::ThermistorRFixedOhm => c.thermistor_r_fixed_ohm as f64,
-        Field::ProbeDebounceUs => c.probe_debounce_us as f64,
-        Field::ProbeReseatUs => c.probe_reseat_us as f64,
-        Field::CanNodeId => c.can_node_id as f64,
-        _ => unreachable!(),
+        Field::AxisMaxSpeed(i) => g(c.axes[i as usize].max_speed_per_s),
+        Field::ThermistorR25Ohm => g(c.thermistor_r25_ohm),
+        Field::ThermistorBetaK => g(c.thermistor_beta_k),
+        Field::ThermistorRFixedOhm => g(c.thermistor_r_fixed_ohm),
+        Field::ProbeDebounceUs => f64::from(c.probe_debounce_us),
+        Field::ProbeReseatUs => f64::from(c.probe_reseat_us),
+        Field::CanNodeId => f64::from(c.can_node_id),
+        Field::CirclePlane => f64::from(s.circle_plane as u8),
+        Field::CircleCentreMm(k) => g(s.circle_centre_mm[k as usize]),
+        Field::CircleRadiusMm => g(s.circle_radius_mm),
+        Field::CircleFeed => g(s.circle_feed_mm_per_min),
+        Field::CircleMinArcDeg => g(s.circle_min_arc_deg),
+        Field::S002LbMm => g(s.s002_l_b_mm),
+        Field::S002RbMm => g(s.s002_r_b_mm),
+        Field::S002Rb2Mm => g(s.s002_r_b2_mm),
+        Field::S002RcMm => g(s.s002_r_c_mm),
+        Field::S002ZcMm => g(s.s002_z_c_mm),
+        Field::S002ZtMm => g(s.s002_z_t_mm),
+        Field::S002Zt2Mm => g(s.s002_z_t2_mm),
+        Field::S002XtMm => g(s.s002_x_t_mm),
+        Field::S002OriginMm(k) => g(s.s002_origin_mm[k as usize]),
+        Field::SsmSocketMm(k) => g(s.ssm_socket_mm[k as usize]),
+        Field::SsmWindowRadiusMm => g(s.ssm_window_radius_mm),
+        Field::SsmDwellSpeed => g(s.ssm_dwell_speed_mm_per_s),
+        Field::SsmSettleMs => g(s.ssm_settle_ms),
+        Field::SsmMinDwellSamples => f64::from(s.ssm_min_dwell_samples),
+        Field::TsMachine => f64::from(s.ts_machine as u8),
+        Field::TsToolZMm => g(s.ts_tool_z_mm),
+        Field::TsZAlphaGammaMm => g(s.ts_z_alpha_gamma_mm),
+        Field::TsReferenceMm(k) => g(s.ts_reference_mm[k as usize]),
+        Field::TsOriginMm(k) => g(s.ts_origin_mm[k as usize]),
+        Field::TsAngleDeg(k) => g(s.ts_angles_deg[k as usize]),
+        Field::AdcRate | Field::AxisNameDuplicate(_) => unreachable!(),
     }
 }
 
@@ -428,29 +591,52 @@ fn close(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-6 * b.abs().max(1.0)
 }
 
+/// The same value, a field that is not set (NaN) included.
+fn same(a: f64, b: f64) -> bool {
+    a == b || (a.is_nan() && b.is_nan())
+}
+
 #[test]
 fn every_field_is_settable_at_its_limits_and_reads_back() {
     let headers = field_headers();
     assert_eq!(headers.len(), FIELDS.len() - 3 + 4 + 5 + 5);
     for (h, f) in &headers {
         let i = info(*f);
-        for (v, text) in [
-            (i.min, format!("{}", i.min)),
-            (i.max, format!("{:e}", i.max)),
-        ] {
+        // a code field takes and answers the names of its codes
+        let cases: Vec<(f64, String)> = if i.choices.is_empty() {
+            vec![
+                (i.min, format!("{}", i.min)),
+                (i.max, format!("{:e}", i.max)),
+            ]
+        } else {
+            let last = i.choices.len() - 1;
+            assert_eq!(i.max, last as f64, "{h}");
+            vec![
+                (0.0, i.choices[0].to_lowercase()),
+                (i.max, i.choices[last].to_string()),
+            ]
+        };
+        for (v, text) in cases {
+            if !exact_in_f32(i, v) {
+                // see table_limits_without_an_exact_f32_are_writable_by_value_and_keyword
+                continue;
+            }
             let mut b = Bench::unlocked();
             // (each limit alone: with the others at their defaults no cross-field check trips)
-            let actions = b.act(&format!("{h} {text}"));
-            assert_eq!(actions, vec![SessionCommand::ConfigChanged], "{h} {text}");
-            assert!(close(read(&b.pod.config, *f), v), "{h} {text}");
-            let back: f64 = b.send(&format!("{h}?")).parse().unwrap();
-            assert!(close(back, v), "{h}? = {back}, set {v}");
+            assert_eq!(b.send(&format!("{h} {text}")), "", "{h} {text}");
+            assert!(close(read(b.app.config(), *f), v), "{h} {text}");
+            let back = b.send(&format!("{h}?"));
+            if i.choices.is_empty() {
+                let back: f64 = back.parse().unwrap();
+                assert!(close(back, v), "{h}? = {back}, set {v}");
+            } else {
+                assert_eq!(back, i.choices[v as usize], "{h}?");
+            }
             // the other fields did not move
             for (_, g) in &headers {
                 if g != f {
-                    assert_eq!(
-                        read(&b.pod.config, *g),
-                        read(&Config::default(), *g),
+                    assert!(
+                        same(read(b.app.config(), *g), read(&Config::default(), *g)),
                         "{h} moved {g:?}"
                     );
                 }
@@ -460,15 +646,75 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
     }
 }
 
+/// True unless `v` is the limit of an f32 field that has no exact f32 (0.001, 0.01, 0.1).
+fn exact_in_f32(i: &ballpod::config::FieldInfo, v: f64) -> bool {
+    i.ty != ballpod::config::FieldType::F32 || f64::from(v as f32) == v
+}
+
+/// The table's limits that are not exact in f32 (lvdt_min_signal 0.001, lvdt_max_ratio and
+/// lvdt_dc_span 0.01, ssm_window_radius 0.1, ssm_dwell_speed 0.01) must be writable as typed and
+/// with the MINimum keyword (SCPI-99 Vol 1 §7.2.1.1: MIN is the smallest value accepted), also
+/// 0.001 and 0.1, whose nearest f32 is above them (the value is compared as it will be stored).
 #[test]
-fn out_of_range_values_give_minus_222_and_change_nothing() {
+fn table_limits_without_an_exact_f32_are_writable_by_value_and_keyword() {
+    let mut inexact = 0;
+    for (h, f) in field_headers() {
+        let i = info(f);
+        for (v, keyword) in [(i.min, "MIN"), (i.max, "MAX")] {
+            if exact_in_f32(i, v) {
+                continue;
+            }
+            inexact += 1;
+            for text in [format!("{v}"), keyword.to_string()] {
+                let mut b = Bench::unlocked();
+                assert_eq!(b.send(&format!("{h} {text}")), "");
+                assert_eq!(b.errors(), Vec::<i32>::new(), "{h} {text}");
+                assert_eq!(read(b.app.config(), f), f64::from(v as f32), "{h} {text}");
+            }
+        }
+    }
+    assert_eq!(inexact, 5);
+}
+
+#[test]
+fn set_up_fields_read_scpi_nan_until_set() {
+    // SCPI-99 Vol 1 §7.2.1.5: NaN is 9.91E+37.
+    let mut b = Bench::unlocked();
+    for h in [
+        "CONF:CIRCLE_RADIUS?",
+        "CONF:CIRCLE_CENTRE_X?",
+        "CONF:CIRCLE_FEED?",
+        "CONF:S002_L_B?",
+        "CONF:S002_ORIGIN_Z?",
+        "CONF:SSM_SOCKET_Y?",
+        "CONF:TS_ANGLE_2?",
+    ] {
+        assert_eq!(b.send(h), "9.91E+37", "{h}");
+    }
+    // set-up fields that have a default are not "not set"
+    assert_eq!(b.send("CONF:CIRCLE_MIN_ARC?"), "300");
+    assert_eq!(b.send("CONF:CIRCLE_PLANE?"), "XY");
+    assert_eq!(b.send("CONF:TS_MACHINE?"), "NONE");
+    b.send("CONF:CIRCLE_RADIUS 150.25");
+    assert_eq!(b.send("CONF:CIRCLE_RADIUS?"), "150.25");
+    assert_eq!(b.app.config().setup.circle_radius_mm, 150.25);
+    assert_eq!(b.errors(), Vec::<i32>::new());
+}
+
+#[test]
+fn out_of_range_values_give_minus_222_naming_the_field_and_change_nothing() {
     for (h, f) in field_headers() {
         let i = info(f);
         let mut b = Bench::unlocked();
         let span = (i.max - i.min).max(1.0);
-        b.rejected(&format!("{h} {}", i.max + span), -222);
-        b.rejected(&format!("{h} {}", i.min - span), -222);
-        b.rejected(&format!("{h} 1e300"), -222);
+        let message = format!("Data out of range;{} out of range", i.name);
+        b.rejected_with(&format!("{h} {}", i.max + span), -222, &message);
+        b.rejected_with(&format!("{h} {}", i.min - span), -222, &message);
+        b.rejected_with(&format!("{h} 1e300"), -222, &message);
+        if i.is_integer() {
+            // a whole number is required
+            b.rejected_with(&format!("{h} {}", i.min + 0.5), -222, &message);
+        }
     }
 }
 
@@ -478,12 +724,16 @@ fn min_max_def_keywords_follow_the_table() {
     let mut b = Bench::unlocked();
     assert_eq!(b.send("CONF:BAR_LENGTH? MIN"), "50");
     assert_eq!(b.send("CONF:BAR_LENGTH? MAXIMUM"), "600");
+    assert_eq!(b.send("CONF:BAR_LENGTH? DEF"), "150");
+    assert_eq!(b.send("CONF:CAN_NODE_ID? MAX"), "127");
     b.send("CONF:BAR_LENGTH MAX");
-    assert_eq!(b.pod.config.bar_length_mm, 600.0);
+    assert_eq!(b.app.config().bar_length_mm, 600.0);
     b.send("conf:bar_length def");
-    assert_eq!(b.pod.config.bar_length_mm, 150.0);
+    assert_eq!(b.app.config().bar_length_mm, 150.0);
     b.send("CONF:BAR_LENGTH min");
-    assert_eq!(b.pod.config.bar_length_mm, 50.0);
+    assert_eq!(b.app.config().bar_length_mm, 50.0);
+    b.send("CONF:CAN_NODE_ID MAX");
+    assert_eq!(b.app.config().can_node_id, 127);
     assert_eq!(b.errors(), Vec::<i32>::new());
 }
 
@@ -511,7 +761,7 @@ fn bad_numbers_get_their_error_numbers_and_change_nothing() {
         "200", "+200", "200.", "2e2", "2.0E+02", "20000e-2", "0200.000",
     ] {
         b.send(&format!("CONF:BAR_LENGTH {text}"));
-        assert_eq!(b.pod.config.bar_length_mm, 200.0, "{text}");
+        assert_eq!(b.app.config().bar_length_mm, 200.0, "{text}");
         b.send("CONF:BAR_LENGTH 150");
     }
     assert_eq!(b.errors(), Vec::<i32>::new());
@@ -525,7 +775,7 @@ fn numeric_suffix_selects_the_coefficient_or_input_and_defaults_to_1() {
     b.send("CONF:LVDT_POLY 2100");
     b.send("CONF:AXIS_COUNTS3 20000");
     b.send("CONF:AXIS_MAX_SPEED 500");
-    let c = &b.pod.config;
+    let c = b.app.config();
     assert_eq!(c.lvdt_poly_um, [-3.5, 2100.0, 0.0, 0.0]);
     assert_eq!(c.axes[2].counts_per_unit, 20000.0);
     assert_eq!(c.axes[0].max_speed_per_s, 500.0);
@@ -538,120 +788,237 @@ fn numeric_suffix_selects_the_coefficient_or_input_and_defaults_to_1() {
     assert_eq!(b.send("CONF:AXIS_COUNTS2?"), "12345.678901");
     // a field name ending in digits is not a suffix
     b.send("CONF:NTC_R25 4700");
-    assert_eq!(b.pod.config.thermistor_r25_ohm, 4700.0);
+    assert_eq!(b.app.config().thermistor_r25_ohm, 4700.0);
     assert_eq!(b.send("CONF:NTC_R25?"), "4700");
+    b.send("CONF:TS_ANGLE_2 -45.5");
+    assert!(b.app.config().setup.ts_angles_deg[0].is_nan());
+    assert_eq!(b.app.config().setup.ts_angles_deg[1], -45.5);
     assert_eq!(b.errors(), Vec::<i32>::new());
+}
+
+#[test]
+fn code_fields_take_their_names() {
+    let mut b = Bench::unlocked();
+    b.send("CONF:CIRCLE_PLANE yz");
+    assert_eq!(b.send("CONF:CIRCLE_PLANE?"), "YZ");
+    assert_eq!(b.app.config().setup.circle_plane as u8, 1);
+    b.send("CONF:TS_MACHINE RTTTR_TABLE");
+    assert_eq!(b.send("CONF:TS_MACHINE?"), "RTTTR_TABLE");
+    assert_eq!(b.app.config().setup.ts_machine as u8, 4);
+    assert_eq!(b.errors(), Vec::<i32>::new());
+    b.rejected("CONF:CIRCLE_PLANE 3", -222);
+    assert_eq!(b.send("CONF:CIRCLE_PLANE?"), "YZ");
 }
 
 #[test]
 fn cross_field_conflicts_give_minus_221_and_change_nothing() {
     let mut b = Bench::unlocked();
     b.send("CONF:SAMPLES_PER_PERIOD 64"); // 64 × 5 kHz = 320 kS/s
-    b.errors();
+    assert_eq!(b.errors(), Vec::<i32>::new());
     // 64 × 20 kHz = 1.28 MS/s > the ADC limit: config::validate rejects it
-    b.rejected("CONF:EXCITATION 20000", -221);
+    b.rejected_with(
+        "CONF:EXCITATION 20000",
+        -221,
+        "Settings conflict;excitation x samples_per_period out of range",
+    );
     // two inputs cannot read the same axis
-    b.rejected("CONF:AXIS2:NAME X", -221);
+    b.rejected_with(
+        "CONF:AXIS2:NAME X",
+        -221,
+        "Settings conflict;axis name used twice",
+    );
 }
 
 #[test]
 fn axis_names_are_set_per_input() {
     let mut b = Bench::unlocked();
     assert_eq!(b.send("CONF:AXIS4:NAME?"), "B");
-    assert_eq!(
-        b.act("CONF:AXIS4:NAME A"),
-        vec![SessionCommand::ConfigChanged]
-    );
-    assert_eq!(b.pod.config.axes[3].name, AxisName::A);
+    assert_eq!(b.send("CONF:AXIS4:NAME A"), "");
+    assert_eq!(b.app.config().axes[3].name, AxisName::A);
     b.send("CONF:AXIS5:NAME none");
     assert_eq!(b.send("CONF:AXIS5:NAME?"), "NONE");
+    assert_eq!(b.app.config().axes[4].name, AxisName::Unused);
     assert_eq!(b.send("CONF:AXIS:NAME?"), "X"); // suffix 1 by default
     b.rejected("CONF:AXIS6:NAME Y", -114);
     b.rejected("CONF:AXIS1:NAME W", -224);
 }
 
 #[test]
-fn several_config_writes_in_one_chunk_report_one_config_changed() {
+fn several_config_writes_in_one_line_all_take_effect() {
     let mut b = Bench::unlocked();
-    let actions = b.act("CONF:BAR_LENGTH 200;BAR_CTE 12;:CONF:SAMPLE_RATE 500");
-    assert_eq!(actions, vec![SessionCommand::ConfigChanged]);
-    assert_eq!(b.pod.config.sample_rate_hz, 500.0);
+    assert_eq!(
+        b.send("CONF:BAR_LENGTH 200;BAR_CTE 12;:CONF:SAMPLE_RATE 500"),
+        ""
+    );
+    let c = b.app.config();
+    assert_eq!(
+        (c.bar_length_mm, c.bar_cte_ppm_per_k, c.sample_rate_hz),
+        (200.0, 12.0, 500.0)
+    );
+    assert_eq!(b.errors(), Vec::<i32>::new());
 }
 
 // ---------------------------------------------------------------------------------------------
-// Session control
+// Session control: commands execute at once in the application, which refuses with a reason
 // ---------------------------------------------------------------------------------------------
 
 #[test]
-fn a_full_session_emits_its_actions_in_order() {
-    let mut b = Bench::new();
-    assert_eq!(b.act("SESS:PATT CRPRIME;DIR CW"), vec![]);
-    assert_eq!(b.send("SESS:PATT?"), "CRPR"); // character response in short form
+fn a_full_circle_session_from_set_up_to_results() {
+    let mut b = Bench::unlocked();
+    for l in [
+        "CONF:CIRCLE_CENTRE_X 0",
+        "CONF:CIRCLE_CENTRE_Y 0",
+        "CONF:CIRCLE_CENTRE_Z 0",
+        "CONF:CIRCLE_RADIUS 150",
+    ] {
+        assert_eq!(b.send(l), "", "{l}");
+    }
+    assert_eq!(b.send("SESS:PATT CIRCLE;DIR CCW;PATT?;DIR?"), "CIRCLE;CCW");
+    assert_eq!(b.send("SESS:ARM;STAT?"), "ARMED");
+    assert_eq!(b.send("SESS:STAR;STAT?"), "RUNNING");
+    // Half a turn: e and r0 are not observable yet (minimum arc 300°).
+    b.feed_circle(0..=STEPS / 2);
+    assert_eq!(b.send("MEAS:VAL?"), "\"delta_l\",\"temp\"");
+    b.feed_circle(STEPS / 2 + 1..=STEPS);
     assert_eq!(
-        b.act("SESS:ARM"),
-        vec![SessionCommand::Arm {
-            pattern: Pattern::CrPrime,
-            direction: Direction::Cw
-        }]
+        b.send("MEAS:VAL?"),
+        "\"delta_l\",\"ecc_u\",\"ecc_v\",\"r0\",\"temp\""
     );
-    assert_eq!(b.act("SESS:STAR"), vec![SessionCommand::Start]);
-    assert_eq!(b.send("SESS:STAT?"), "RUNNING");
-    assert_eq!(b.act("SESSION:STOP"), vec![SessionCommand::Stop]);
-    assert_eq!(b.send("SESS:STAT?"), "DONE");
+    // MEAS:ALL?: counter, the 8 live values (NaN = 9.91E+37), status word, validity mask.
+    let all = b.send("MEAS:ALL?");
+    let f: Vec<&str> = all.split(',').collect();
+    assert_eq!(f.len(), 11, "{all}");
+    assert_eq!(f[0], (b.seq - 1).to_string());
+    assert!(
+        near(f[1], f64::from(circle_sample(STEPS).delta_l_um), 0.0),
+        "{all}"
+    );
+    assert_eq!(&f[2..5], ["9.91E+37"; 3], "SSM not observable on a circle");
+    assert!(near(f[5], E_UM[0], 1e-3), "e_u {all}");
+    assert!(near(f[6], E_UM[1], 1e-3), "e_v {all}");
+    assert!(near(f[7], R0_UM, 1e-3), "r0 {all}");
+    assert_eq!(f[8], "20.0000");
+    // status: bit 9 running + bit 12 live valid; mask: bits 0, 4, 5, 6, 7
+    assert_eq!(f[9], ((1 << 9) | (1 << 12)).to_string());
+    assert_eq!(f[10], (1 | 1 << 4 | 1 << 5 | 1 << 6 | 1 << 7).to_string());
+    assert_eq!(b.send("STAT:POD?"), f[9]);
+    assert_eq!(b.send("SESS:STOP;STAT?;REAS?"), "DONE;NONE");
+    // every sample seen was used (seen, used, 5 skip counters, lost, temperature, overrun)
+    let n = STEPS + 1;
+    assert_eq!(b.send("SESS:COUN?"), format!("{n},{n},0,0,0,0,0,0,0,0"));
+    // the run's fit: the model's eccentricity and radius change, in µm
+    for (name, want) in [("ecc_u", E_UM[0]), ("ecc_v", E_UM[1]), ("r0", R0_UM)] {
+        let r = b.send(&format!("FETC:RES? {name}"));
+        let p: Vec<&str> = r.split(',').collect();
+        assert_eq!(p.len(), 3, "{r}");
+        assert!(near(p[0], want, 1e-3), "{name}: {r}");
+        assert!(p[1].parse::<f64>().unwrap() >= 0.0, "{name}: {r}");
+        assert_eq!(p[2], "UM");
+    }
+    let arc = b.send("FETC:RES? arc");
+    assert!(arc.ends_with(",DEG"), "{arc}");
+    assert!(near(arc.split(',').next().unwrap(), 360.0, 0.01), "{arc}");
+    // the same result by its index in the catalogue
+    let k = RESULTS.iter().position(|r| r.name == "ecc_u").unwrap();
+    assert_eq!(b.send(&format!("FETC:RES? {k}")), b.send("FETC:RES? ECC_U"));
     assert_eq!(b.errors(), Vec::<i32>::new());
 }
 
 #[test]
 fn one_line_may_arm_and_start() {
-    let mut b = Bench::new();
-    assert_eq!(
-        b.act("SESS:ARM;STAR;STAT?"),
-        vec![
-            SessionCommand::Arm {
-                pattern: Pattern::Circle,
-                direction: Direction::Ccw
-            },
-            SessionCommand::Start
-        ]
+    let mut b = Bench::with_circle();
+    assert_eq!(b.send("SESS:ARM;STAR;STAT?"), "RUNNING");
+    assert_eq!(b.app.session(), SessionState::Running);
+    assert_eq!(b.errors(), Vec::<i32>::new());
+}
+
+#[test]
+fn a_pattern_armed_without_its_geometry_is_refused_with_minus_221_naming_the_field() {
+    let mut b = Bench::unlocked();
+    b.rejected_with(
+        "SESS:ARM",
+        -221,
+        "Settings conflict;circle_centre_x not set",
     );
-    assert_eq!(b.pod.session, SessionState::Running); // as the application executed them
+    b.send("CONF:CIRCLE_CENTRE_X 0;CIRCLE_CENTRE_Y 0");
+    b.rejected_with("SESS:ARM", -221, "Settings conflict;circle_radius not set");
+    b.send("SESS:PATT CR2");
+    b.rejected_with("SESS:ARM", -221, "Settings conflict;s002_l_b not set");
+    b.send("SESS:PATT SSM");
+    b.rejected_with("SESS:ARM", -221, "Settings conflict;ssm_socket_x not set");
+    assert_eq!(b.send("SESS:STAT?"), "IDLE");
+    // with its geometry the circle arms
+    b.send("SESS:PATT CIRCLE;:CONF:CIRCLE_RADIUS 150");
+    assert_eq!(b.send("SESS:ARM;STAT?"), "ARMED");
+    assert_eq!(b.errors(), Vec::<i32>::new());
 }
 
 #[test]
 fn session_commands_in_the_wrong_state_give_minus_221_and_change_nothing() {
-    let mut b = Bench::unlocked();
-    b.rejected("SESS:STAR", -221);
+    let mut b = Bench::with_circle();
+    assert_eq!(b.send("CONF:UNL"), "");
+    b.rejected_with("SESS:STAR", -221, "Settings conflict;START needs ARMED");
+    b.rejected_with("SESS:STOP", -221, "Settings conflict;STOP needs RUNNING");
+    b.rejected_with(
+        "SESS:ABOR",
+        -221,
+        "Settings conflict;ABORT needs ARMED or RUNNING",
+    );
+    b.send("SESS:ARM");
+    assert_eq!(b.app.session(), SessionState::Armed);
+    let busy = "Settings conflict;not while a run is armed or running";
+    b.rejected_with(
+        "SESS:ARM",
+        -221,
+        "Settings conflict;ARM needs IDLE, DONE or ABORTED",
+    );
     b.rejected("SESS:STOP", -221);
-    b.rejected("SESS:ABOR", -221);
-    b.pod.session = SessionState::Armed;
-    b.rejected("SESS:ARM", -221);
-    b.rejected("SESS:STOP", -221);
-    b.rejected("SESS:PATT BY", -221);
-    b.rejected("SESS:DIR CW", -221);
-    b.rejected("CONF:BAR_LENGTH 200", -221);
-    assert_eq!(b.act("SESS:ABOR"), vec![SessionCommand::Abort]);
-    b.pod.session = SessionState::Running;
+    b.rejected_with("SESS:PATT BY", -221, busy);
+    b.rejected_with("SESS:DIR CW", -221, busy);
+    b.rejected_with("SESS:CLE", -221, busy);
+    b.rejected_with("CONF:BAR_LENGTH 200", -221, busy);
+    assert_eq!(b.send("SESS:ABOR;STAT?;REAS?"), "ABORTED;COMMAND");
+    b.send("SESS:ARM;STAR");
+    assert_eq!(b.app.session(), SessionState::Running);
     b.rejected("SESS:STAR", -221);
     b.rejected("SESS:ARM", -221);
-    b.rejected("CONF:AXIS1:NAME Y", -221);
-    b.pod.session = SessionState::Aborted;
-    assert!(matches!(
-        b.act("SESS:ARM")[..],
-        [SessionCommand::Arm { .. }]
-    ));
+    b.rejected_with("CONF:AXIS1:NAME Y", -221, busy);
+    b.rejected_with("CONF:CIRCLE_RADIUS 100", -221, busy);
+    b.rejected_with("CONF:CAN_NODE_ID 20", -221, busy);
+    // stopped without samples: no results, aborted as not observable
+    assert_eq!(b.send("SESS:STOP;STAT?;REAS?"), "ABORTED;UNOBSERVABLE");
+    assert_eq!(b.send("SESS:ARM;STAT?"), "ARMED");
+    assert_eq!(b.errors(), Vec::<i32>::new());
 }
 
 #[test]
-fn more_actions_than_fit_are_rejected_and_counted() {
-    let mut b = Bench::new();
-    let (_, actions) = b.raw(b"SESS:ARM;ABOR;ARM;ABOR;ARM\n");
-    assert_eq!(actions.len(), 4);
-    assert_eq!(b.errors(), vec![-200]);
-    assert_eq!(b.scpi.counters().actions_rejected, 1);
+fn commands_of_one_line_all_execute_in_order() {
+    let mut b = Bench::with_circle();
+    assert_eq!(b.send("SESS:ARM;ABOR;ARM;ABOR;ARM;STAT?"), "ARMED");
+    assert_eq!(b.app.run_number(), 3, "three runs armed");
+    assert_eq!(b.errors(), Vec::<i32>::new());
+}
+
+#[test]
+fn sess_clear_forgets_the_results_and_sess_note_is_empty_without_a_note() {
+    let mut b = Bench::with_circle();
+    b.send("SESS:ARM;STAR");
+    b.feed_circle(0..=STEPS);
+    b.send("SESS:STOP");
+    assert!(b.send("FETC:RES? ecc_u").ends_with(",UM"));
+    assert_eq!(b.send("SESS:NOTE?"), "\"\"");
+    assert_eq!(b.send("SESS:CLE"), "");
+    assert_eq!(b.app.results().valid_count(), 0);
+    b.rejected_with(
+        "FETC:RES? ecc_u",
+        -230,
+        "Data corrupt or stale;ecc_u has no valid value",
+    );
+    assert_eq!(b.errors(), Vec::<i32>::new());
 }
 
 // ---------------------------------------------------------------------------------------------
-// Live values, results, log
+// Live values, results, touch points, log
 // ---------------------------------------------------------------------------------------------
 
 #[test]
@@ -666,63 +1033,141 @@ fn live_values_print_in_fixed_point_with_0_1_nm_resolution() {
         (812.5, "812.5000"),
         (f32::NAN, "9.91E+37"), // SCPI-99 Vol 1 §7.2.1.5: NaN
     ] {
-        b.pod.live.delta_l_um = v;
+        b.feed(Sample {
+            delta_l_um: v,
+            temp_c: 20.0,
+            ..Sample::default()
+        });
         assert_eq!(b.send("MEAS:DL?"), text, "{v}");
     }
-    b.pod.live.delta_l_um = 1.5;
-    b.pod.live.sample_counter = 4711;
-    b.pod.live.ssm_e_um = [0.1, -0.2, 0.0];
-    b.pod.live.temp_c = 20.25;
-    b.pod.live.status.0 = 0x0101;
+    // an idle sample: ΔL and the temperature are valid, nothing else; a probe-event flag is no
+    // fault (status bit 3 only)
+    b.feed(Sample {
+        delta_l_um: 1.5,
+        temp_c: 20.25,
+        flags: SampleFlags::PROBE_EVENT,
+        ..Sample::default()
+    });
+    let nan = "9.91E+37";
     assert_eq!(
         b.send("MEAS:ALL?"),
-        "4711,1.5000,0.1000,-0.2000,0.0000,0.0000,0.0000,0.0000,20.2500,257"
+        format!(
+            "{},1.5000,{nan},{nan},{nan},{nan},{nan},{nan},20.2500,8,{}",
+            b.seq - 1,
+            1 | 1 << 7
+        )
     );
+    assert_eq!(b.send("MEAS:VAL?"), "\"delta_l\",\"temp\"");
 }
 
 #[test]
-fn results_by_name_or_index_with_uncertainty_and_unit() {
+fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
     let mut b = Bench::new();
-    b.pod.results[3] = ResultEntry {
-        value: 4.25,
-        std_uncertainty: 0.125,
-        valid: true,
-    };
-    b.pod.results[9] = ResultEntry {
-        value: -12.0,
-        std_uncertainty: 1.5,
-        valid: true,
-    };
-    assert_eq!(RESULTS[3].0, "G_ccw");
-    assert_eq!(b.send("FETC:RES? G_CCW"), "4.2500,0.1250,UM");
-    assert_eq!(b.send("FETCH:RESULT? 3"), "4.2500,0.1250,UM");
-    assert_eq!(b.send("FETC:RES? alpha_cz"), "-12.0000,1.5000,URAD");
-    b.rejected("FETC:RES? 0", -230); // not computed
-    b.rejected("FETC:RES? 16", -222);
+    // before any sample nothing is valid
+    assert_eq!(b.send("MEAS:DL?"), "9.91E+37");
+    assert_eq!(b.send("MEAS:VAL?"), "");
+    let all = b.send("MEAS:ALL?");
+    assert!(all.ends_with(",0,0"), "{all}");
+    assert_eq!(all.matches("9.91E+37").count(), 8, "{all}");
+    // LVDT open: ΔL invalid (a fault: status bit 1 and bit 15)
+    b.feed(Sample {
+        delta_l_um: 0.0,
+        temp_c: 21.0,
+        flags: SampleFlags::LVDT_OPEN,
+        ..Sample::default()
+    });
+    assert_eq!(b.send("MEAS:DL?"), "9.91E+37");
+    assert_eq!(b.send("MEAS:VAL?"), "\"temp\"");
+    let all = b.send("MEAS:ALL?");
+    let f: Vec<&str> = all.split(',').collect();
+    assert_eq!(f[1], "9.91E+37");
+    assert_eq!(f[8], "21.0000");
+    assert_eq!(f[9], (1 << 1 | 1 << 15).to_string());
+    assert_eq!(f[10], (1 << 7).to_string());
+    // a thermistor fault: the temperature is invalid
+    b.feed(Sample {
+        delta_l_um: 2.0,
+        temp_c: 21.0,
+        flags: SampleFlags::TEMPERATURE_FAULT,
+        ..Sample::default()
+    });
+    assert_eq!(b.send("MEAS:DL?"), "2.0000");
+    assert_eq!(b.send("MEAS:VAL?"), "\"delta_l\"");
+}
+
+#[test]
+fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid() {
+    let mut b = Bench::with_circle();
+    assert_eq!(RESULTS.len(), 80);
+    // nothing computed yet: -230 naming the result
+    b.rejected_with(
+        "FETC:RES? ecc_u",
+        -230,
+        "Data corrupt or stale;ecc_u has no valid value",
+    );
+    b.rejected_with(
+        "FETC:RES? 0",
+        -230,
+        "Data corrupt or stale;ecc_u has no valid value",
+    );
+    b.send("SESS:ARM;STAR");
+    b.feed_circle(0..=STEPS);
+    b.send("SESS:STOP");
+    let k = RESULTS.iter().position(|r| r.name == "r0").unwrap();
+    let r = b.send("FETC:RES? R0");
+    assert_eq!(b.send(&format!("FETCH:RESULT? {k}")), r);
+    assert!(near(r.split(',').next().unwrap(), R0_UM, 1e-3), "{r}");
+    // the bi-directional results need a CW run as well
+    b.rejected_with(
+        "FETC:RES? g_bidir",
+        -230,
+        "Data corrupt or stale;G_bidir has no valid value",
+    );
+    b.rejected("FETC:RES? 80", -222);
+    b.rejected("FETC:RES? -1", -222);
     b.rejected("FETC:RES? 1.5", -222);
     b.rejected("FETC:RES? nonsense", -224);
     b.rejected("FETC:RES?", -109);
+    b.rejected("FETC:RES? ecc_u,ecc_v", -108);
     let cat = b.send("FETC:RES:CAT?");
     let names: Vec<String> = cat
         .split(',')
         .map(|s| s.trim_matches('"').to_string())
         .collect();
-    let expected: Vec<String> = RESULTS.iter().map(|(n, _)| n.to_string()).collect();
+    let expected: Vec<String> = RESULTS.iter().map(|r| r.name.to_string()).collect();
     assert_eq!(names, expected);
 }
 
 #[test]
-fn log_download_is_a_definite_length_block_of_csv() {
+fn touch_points_of_a_probe_run() {
     let mut b = Bench::new();
-    for k in 0..40u64 {
-        b.log.push(&Sample {
-            t_us: 1_000_000 + k * 1000,
-            delta_l_um: k as f32 * 0.5,
+    assert_eq!(b.send("FETC:TOUC:COUN?"), "0");
+    b.rejected("FETC:TOUC? 1", -222);
+    b.send("SESS:PATT PROBE;ARM;STAR");
+    assert_eq!(b.app.session(), SessionState::Running);
+    let points = [[10.0f32, 20.0, -5.0], [10.5, 19.25, -5.125]];
+    for (k, p) in points.iter().enumerate() {
+        b.feed(Sample {
+            temp_c: 20.0,
             ..Sample::default()
         });
+        let t = Touch {
+            t_us: 5_000_000 + k as u64 * 1000,
+            axes: [p[0], p[1], p[2], 0.0, 0.0],
+        };
+        b.app.on_recorded_touch(&t, &mut b.log);
     }
-    assert_eq!(b.send("DATA:LOG:COUN?"), "32");
-    let (out, _) = b.raw(b"DATA:LOG?\n");
+    assert_eq!(b.send("FETC:TOUC:COUN?"), "2");
+    assert_eq!(b.send("FETC:TOUC? 1"), "10.0000,20.0000,-5.0000");
+    assert_eq!(b.send("FETCH:TOUCH? 2"), "10.5000,19.2500,-5.1250");
+    b.rejected("FETC:TOUC? 3", -222);
+    b.rejected("FETC:TOUC? 0", -222);
+    b.rejected("FETC:TOUC? 1.5", -222);
+    b.rejected("FETC:TOUC?", -109);
+}
+
+/// The log download's block: (announced length, body without the final NL).
+fn block(out: &[u8]) -> (usize, Vec<u8>) {
     // IEEE 488.2 §8.7.9: '#', one digit n, n digits of length, the bytes; then NL.
     assert_eq!(out[0], b'#');
     let n = (out[1] - b'0') as usize;
@@ -733,19 +1178,56 @@ fn log_download_is_a_definite_length_block_of_csv() {
     let body = &out[2 + n..];
     assert_eq!(body.len(), len + 1);
     assert_eq!(body[len], b'\n');
-    let csv = std::str::from_utf8(&body[..len]).unwrap();
-    assert!(csv.starts_with("# ballpod log v1\n"));
-    assert!(csv.contains("# overwritten=8\n"));
-    let rows = csv.lines().filter(|l| !l.starts_with('#')).count();
-    assert_eq!(rows, 1 + 32);
-    // the same bytes as the log module writes
+    (len, body[..len].to_vec())
+}
+
+#[test]
+fn log_download_is_a_definite_length_block_of_csv() {
+    let mut b = Bench::with_circle();
+    b.send("SESS:ARM;STAR");
+    // 40 samples into a log of 32 records: full at the 33rd, it keeps every other sample from
+    // then on (app::log: whole runs at the best rate that fits) → 20 records.
+    b.feed_circle(0..40);
+    b.send("SESS:STOP");
+    // the end of the run reaches the log with the next sample (app: recorder events wait for
+    // it); that sample is not the run's
+    b.feed(circle_sample(40));
+    assert_eq!(b.send("DATA:LOG:COUN?"), "20");
+    let out = b.raw(b"DATA:LOG?\n");
+    let (len, body) = block(&out);
+    assert_eq!(body.len(), len);
+    let csv = std::str::from_utf8(&body).unwrap();
+    assert!(csv.starts_with("# ballpod run v2\n"), "{csv}");
+    for line in [
+        "# run=1",
+        "# pattern=CIRCLE",
+        "# direction=CCW",
+        "# circle_radius=150",
+        "# source=log",
+        "# decimation=2",
+        "# records=20",
+        "# overwritten=0",
+        "# end=ABORTED",
+        "# reason=UNOBSERVABLE",
+        "# seen=40",
+    ] {
+        assert!(csv.lines().any(|l| l == line), "{line} in\n{csv}");
+    }
+    let rows: Vec<&str> = csv.lines().filter(|l| !l.starts_with('#')).collect();
+    assert_eq!(rows.len(), 1 + 20);
+    assert!(rows[0].starts_with("seq,t_s,dl_um,"), "{}", rows[0]);
+    // every other sample of the run, from its first
+    let seqs: Vec<u32> = rows[1..]
+        .iter()
+        .map(|r| r.split(',').next().unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(seqs, (0..40).step_by(2).collect::<Vec<u32>>());
+    // the same bytes as the download module writes from the log
     let mut direct = Vec::new();
-    ballpod::protocol::log::write_csv(
-        &b.log,
-        &ballpod::protocol::log::LogMeta::from_pod(&b.pod),
-        &mut |c: &[u8]| direct.extend_from_slice(c),
-    );
-    assert_eq!(direct, &body[..len]);
+    ballpod::protocol::download::write_csv(&b.log, b.log.meta().unwrap(), &mut |c: &[u8]| {
+        direct.extend_from_slice(c)
+    });
+    assert_eq!(direct, body);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -825,70 +1307,80 @@ fn fixed_point_printing_is_the_value_rounded_to_the_resolution() {
 }
 
 #[test]
-fn random_input_never_panics_and_changes_nothing_without_an_action() {
+fn random_input_never_panics_and_never_changes_the_locked_configuration() {
     let alphabet =
         b"SYST:ERR?CONF:BAR_LENGTH SESS:ARM*IDN?;,.'\"#0123456789eE+- \t\r\x00\xff:?;abcxyz";
     let mut r = Rng(7);
     let mut b = Bench::new();
+    let config = format!("{:?}", b.app.config());
     for _ in 0..20_000 {
-        let before = b.pod;
         let mut chunk: Vec<u8> = (0..r.below(40))
             .map(|_| alphabet[r.below(alphabet.len() as u64) as usize])
             .collect();
         if r.below(4) == 0 {
             chunk.push(b'\n');
         }
-        let (_, actions) = b.raw(&chunk);
-        if actions.is_empty() {
-            // only pattern and direction are written without an action, and only validly
-            let mut p = b.pod;
-            p.pattern = before.pattern;
-            p.direction = before.direction;
-            assert_eq!(p, before, "{chunk:?}");
-        } else {
-            b.pod.config.validate().unwrap();
-        }
-        b.pod.session = SessionState::Idle;
+        b.raw(&chunk);
+        // the port is locked and no CONF:UNL can be spelt from the alphabet
+        assert_eq!(format!("{:?}", b.app.config()), config, "{chunk:?}");
+        b.app.config().validate().unwrap();
+        // a circle without its geometry never arms
+        assert_eq!(b.app.session(), SessionState::Idle, "{chunk:?}");
     }
 }
 
 #[test]
 fn status_word_query_adds_the_error_bit_while_errors_are_queued() {
-    use ballpod::acquisition::SampleFlags;
-    use ballpod::protocol::pod::StatusWord;
-    let mut b = Bench::new();
-    b.pod.live.status = StatusWord::new(SampleFlags::LVDT_OPEN, SessionState::Running, false);
-    // bit 1 LVDT open, bit 9 running (pod.rs StatusWord)
-    assert_eq!(b.send("STAT:POD?"), "514");
+    let mut b = Bench::with_circle();
+    b.send("SESS:ARM;STAR");
+    // a sample after lost ones: status bit 4 (overrun) and bit 9 (running); no fault
+    b.feed(Sample {
+        delta_l_um: 0.5,
+        temp_c: 20.0,
+        flags: SampleFlags::OVERRUN,
+        ..Sample::default()
+    });
+    assert_eq!(b.send("STAT:POD?"), (1 << 4 | 1 << 9).to_string());
     b.send("BOGUS");
     // bit 15: an error is pending
-    assert_eq!(b.send("STATUS:POD?"), "33282");
+    assert_eq!(
+        b.send("STATUS:POD?"),
+        (1 << 4 | 1 << 9 | 1 << 15).to_string()
+    );
     b.send("*CLS");
-    assert_eq!(b.send("STAT:POD?"), "514");
+    assert_eq!(b.send("STAT:POD?"), (1 << 4 | 1 << 9).to_string());
+    // an LVDT fault sets bit 15 by itself (bit 1: LVDT open)
+    b.feed(Sample {
+        delta_l_um: 0.5,
+        temp_c: 20.0,
+        flags: SampleFlags::LVDT_OPEN,
+        ..Sample::default()
+    });
+    assert_eq!(b.send("STAT:POD?"), (1 << 1 | 1 << 9 | 1 << 15).to_string());
 }
 
-/// A bench with 20 logged samples.
+/// A bench with a run of 20 samples in its log.
 fn bench_with_log() -> Bench {
-    let mut b = Bench::new();
-    for k in 0..20u64 {
-        b.log.push(&Sample {
-            t_us: 5_000_000 + k * 1000,
+    let mut b = Bench::with_circle();
+    b.send("SESS:ARM;STAR");
+    for k in 0..20 {
+        b.feed(Sample {
             delta_l_um: k as f32 * -0.125,
-            temp_c: 21.5,
-            ..Sample::default()
+            ..circle_sample(k)
         });
     }
+    assert_eq!(b.log.len(), 20);
     b
 }
 
 #[test]
 fn pulled_download_is_byte_for_byte_the_streamed_one() {
     let mut streamed = bench_with_log();
-    let (whole, _) = streamed.raw(b"*OPC?;DATA:LOG?\n");
+    let whole = streamed.raw(b"*OPC?;DATA:LOG?\n");
     for size in [1usize, 7, 64, 4096] {
         let mut b = bench_with_log();
         b.scpi.set_pull_download(true);
-        let (mut got, _) = b.raw(b"*OPC?;DATA:LOG?\n");
+        let mut got = b.raw(b"*OPC?;DATA:LOG?\n");
         assert!(got.starts_with(b"1;#"), "only the header in feed");
         assert!(b.scpi.download_pending());
         let mut buf = vec![0u8; size];
@@ -907,18 +1399,21 @@ fn pulled_download_is_byte_for_byte_the_streamed_one() {
 #[test]
 fn pulled_download_ends_its_line_and_keeps_the_stream_order() {
     let mut streamed = bench_with_log();
-    let (whole, _) = streamed.raw(b"DATA:LOG?\n");
+    let whole = streamed.raw(b"DATA:LOG?\n");
     let mut b = bench_with_log();
     b.scpi.set_pull_download(true);
     // a unit after DATA:LOG? in the same line: -440, not executed
-    let (mut got, actions) = b.raw(b"DATA:LOG?;SESS:ARM\n");
-    assert!(actions.is_empty());
+    let mut got = b.raw(b"DATA:LOG?;SESS:ABOR\n");
+    assert_eq!(
+        b.app.session(),
+        SessionState::Running,
+        "SESS:ABOR not executed"
+    );
     let mut buf = [0u8; 100];
     let n = b.scpi.pull_download(&b.log, &mut buf);
     got.extend_from_slice(&buf[..n]);
     // input before the rest is pulled: the download completes first, then the new response
-    let (rest, _) = b.raw(b"*OPC?\n");
-    got.extend_from_slice(&rest);
+    got.extend_from_slice(&b.raw(b"*OPC?\n"));
     assert!(!b.scpi.download_pending());
     assert_eq!(b.scpi.pull_download(&b.log, &mut buf), 0);
     let mut expected = whole.clone();
@@ -937,8 +1432,10 @@ fn configuration_writes_need_the_unlock_and_get_minus_203_before() {
     assert_eq!(b.send("CONF:LOCK?"), "1");
     // SCPI-99 Vol 2 §21.8.9: -203 "Command protected".
     b.rejected("CONF:BAR_LENGTH 200", -203);
+    b.rejected("CONF:CIRCLE_RADIUS 150", -203);
     b.rejected("CONF:AXIS2:NAME Z", -203);
     b.rejected("*SAV 0", -203);
+    assert_eq!(b.app.take_settings_request(), None);
     b.send("CONF:BAR_LENGTH 200");
     assert_eq!(b.error(), (-203, "Command protected;CONF:UNL first".into()));
     // Queries and session commands are not locked.
@@ -946,18 +1443,16 @@ fn configuration_writes_need_the_unlock_and_get_minus_203_before() {
         b.send("CONF:BAR_LENGTH?").parse::<f32>().unwrap(),
         Config::default().bar_length_mm
     );
-    assert_eq!(b.act("SESS:PATT BX;:SESS:ARM").len(), 1);
+    assert_eq!(b.send("SESS:PATT PROBE;:SESS:ARM;STAT?"), "ARMED");
     b.send("SESS:ABOR");
     b.send("*RST");
     // Unlocked: the same writes go through.
     assert_eq!(b.send("CONFigure:UNLock"), "");
     assert_eq!(b.send("CONF:LOCK?"), "0");
-    assert_eq!(
-        b.act("CONF:BAR_LENGTH 200"),
-        vec![SessionCommand::ConfigChanged]
-    );
-    assert_eq!(b.pod.config.bar_length_mm, 200.0);
-    assert_eq!(b.act("*SAV 0"), vec![SessionCommand::StoreSettings]);
+    assert_eq!(b.send("CONF:BAR_LENGTH 200"), "");
+    assert_eq!(b.app.config().bar_length_mm, 200.0);
+    assert_eq!(b.send("*SAV 0"), "");
+    assert_eq!(b.app.take_settings_request(), Some(SettingsRequest::Store));
     assert_eq!(b.errors(), Vec::<i32>::new());
 }
 
@@ -980,7 +1475,10 @@ fn the_port_locks_again_on_lock_rst_and_disconnect() {
     assert!(!b.scpi.config_unlocked());
     b.raw(b"50\n");
     assert_eq!(b.errors(), vec![-102]);
-    assert_eq!(b.pod.config, Config::default());
+    assert_eq!(
+        format!("{:?}", b.app.config()),
+        format!("{:?}", Config::default())
+    );
     b.rejected("CONF:BAR_LENGTH 150", -203);
 }
 

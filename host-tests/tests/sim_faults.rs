@@ -1,22 +1,29 @@
 //! Fault scenarios on the simulated pod (issue 7 item 1): each fault is injected into a running
-//! circle test of `vmt::virtual_pod::VirtualPod` (the pod's own acquisition, run monitor, fit,
-//! log, CANopen slave and SCPI server on a virtual machine), and its documented reaction is
-//! asserted — a flag on the affected samples, an EMCY frame, an SCPI error or status, or an
-//! aborted run with its reason — together with the accounting: the run's counters add up
-//! exactly to the sample periods this test stepped (`seen + lost = stepped`,
-//! `seen = used + skipped`), so no sample goes missing without being counted.
+//! circle test of `vmt::virtual_pod::VirtualPod` (the pod's own application — acquisition, run
+//! monitor, circle fit, results — with its log, CANopen slave and SCPI server, on the sensor
+//! model), and its documented reaction is asserted — a flag on the affected samples, an EMCY
+//! frame, an SCPI error or status, or an aborted run with its reason — together with the
+//! accounting: the run's counters add up exactly to the sample periods this test stepped
+//! (`seen + lost = stepped`, `seen = used + skipped`), both protocols report them, and the log
+//! and the host's recording hold every seen sample, so no sample goes missing without being
+//! counted.
 //!
-//! Expected values come from what the test controls (how many samples it stepped and spoiled,
-//! which edges it made) and from CiA 301 / SCPI-99 / README, not from the implementation.
+//! The machine is moved by the test itself, one sample period at a time: the circular-test
+//! machine of `vmt::machine` (the forward model) without faults but a socket 5 µm / 3 µm off
+//! where the pod believes it, so the fitted eccentricity is (5, −3) µm. Expected values come from
+//! what the test controls (how many samples it stepped and spoiled, which edges it made, the
+//! injected sizes) and from CiA 301 / SCPI-99 / the documented limits, not from the
+//! implementation.
 
 use std::path::Path;
 
-use ballpod::acquisition::SampleFlags;
 use ballpod::acquisition::probe::TriggerOutcome;
+use ballpod::acquisition::{MAX_AXES, SampleFlags};
+use ballpod::app::{Live, RESULT_COUNT, ResultId, RunCounters, SessionState};
 use ballpod::protocol::canopen::{BusState, CanFrame};
-use ballpod::protocol::pod::SessionState;
-use ballpod::session::run::RunCounters;
-use ballpod_host::logfile::read_log;
+use ballpod_host::recording::{Event, parse_runs};
+use ballpod_host::vmt::machine::CircleMachine;
+use ballpod_host::vmt::sensors::Instrument;
 use ballpod_host::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
 const NODE: u16 = 16;
@@ -29,13 +36,24 @@ const HEARTBEAT: u16 = 0x700 + NODE;
 const FEED: f64 = 6000.0;
 /// Sample periods of a run long enough for the circle fit (≥ 60° of arc: 2 618 samples).
 const RUN: u32 = 4000;
-
-/// The CNC (CAN), the technician (USB) and the virtual machine around one pod.
-/// Log capacity of the test pod (every test run is shorter).
+/// The minimum arc the test sets up, degrees.
+const MIN_ARC_DEG: f64 = 60.0;
+/// The true eccentricity of the circle (the socket is at −e from where the pod believes), µm.
+const E_UM: [f64; 2] = [5.0, -3.0];
+/// The bar's temperature, °C.
+const BAR_C: f64 = 20.0;
+/// Log capacity of the test pod (every test run is shorter: the log keeps every sample).
 const LOG: usize = 8192;
 
+/// The CNC (CAN), the technician (USB) and the machine around one pod.
 struct Bench {
     vp: VirtualPod<LOG>,
+    /// The machine (forward model).
+    machine: CircleMachine,
+    /// Samples per revolution.
+    per_rev: usize,
+    /// Sample periods since power-on: where the machine is on its circle.
+    k: usize,
     /// Every frame the pod sent.
     frames: Vec<CanFrame>,
     /// Sample periods stepped while the session was running.
@@ -43,38 +61,98 @@ struct Bench {
 }
 
 impl Bench {
-    /// A pod that has booted (boot-up sent) with the circle pattern armed and started over
-    /// SCPI. Nothing is injected yet.
+    /// A pod that has booted (boot-up sent) and was given the circle's set-up over SCPI, the
+    /// circle pattern armed and started. Nothing is injected yet.
     fn running() -> Self {
         let mut b = Self::idle();
-        assert_eq!(b.scpi("SESS:PATT CIRC;DIR CCW;:SESS:ARM;STAR"), "");
-        assert_eq!(b.vp.pod.session, SessionState::Running);
+        assert_eq!(b.scpi("SESS:PATT CIRCLE;DIR CCW;:SESS:ARM;STAR"), "");
+        assert_eq!(b.scpi("SYST:ERR?"), "0,\"No error\"");
+        assert_eq!(b.vp.app.session(), SessionState::Running);
         b
     }
 
+    /// A pod that has booted, homed at the machine's start, with the circle's set-up.
     fn idle() -> Self {
-        let mut b = Self {
-            vp: VirtualPod::new(VirtualSetup {
-                feed_mm_per_min: FEED,
-                ..VirtualSetup::default()
-            }),
-            frames: Vec::new(),
-            stepped: 0,
-        };
+        let vp = VirtualPod::new(VirtualSetup {
+            seed: 1,
+            instrument: Instrument {
+                bar_temp_c: BAR_C,
+                ..Instrument::default()
+            },
+            ..VirtualSetup::default()
+        });
+        let mut b = Self::on(vp);
         b.step(1);
         assert_eq!(b.take(), vec![frame(HEARTBEAT, &[0])], "boot-up");
+        assert_eq!(
+            b.scpi(&format!(
+                "CONF:UNL;:CONF:CIRCLE_CENTRE_X 0;CIRCLE_CENTRE_Y 0;CIRCLE_RADIUS 150;\
+                 CIRCLE_MIN_ARC {MIN_ARC_DEG};:CONF:LOCK"
+            )),
+            ""
+        );
+        assert_eq!(b.scpi("SYST:ERR?"), "0,\"No error\"");
         b
     }
 
-    /// `n` sample periods.
+    /// The bench around a pod that has just powered on.
+    fn on(mut vp: VirtualPod<LOG>) -> Self {
+        let machine = CircleMachine {
+            radius_mm: 150.0,
+            feed_mm_per_min: FEED,
+            squareness_urad: 0.0,
+            scale_x_um_per_m: 0.0,
+            scale_y_um_per_m: 0.0,
+            backlash_x_um: 0.0,
+            backlash_y_um: 0.0,
+            cyclic_amplitude_um: 0.0,
+            servo_lag_x_ms: 0.0,
+            servo_lag_y_ms: 0.0,
+            socket_offset_um: [-E_UM[0], -E_UM[1]],
+            ..CircleMachine::default()
+        };
+        let per_rev = machine.samples_per_rev(1000.0);
+        vp.home(&machine.pose(0.0, 1.0).1);
+        Self {
+            vp,
+            machine,
+            per_rev,
+            k: 0,
+            frames: Vec::new(),
+            stepped: 0,
+        }
+    }
+
+    /// Where the machine is at sample period `k`: (true ΔL µm, axes).
+    fn pose(&self, k: usize) -> (f64, [f64; MAX_AXES]) {
+        let th = 2.0 * std::f64::consts::PI * k as f64 / self.per_rev as f64;
+        self.machine.pose(th, 1.0)
+    }
+
+    /// `n` sample periods of the machine turning CCW.
     fn step(&mut self, n: u32) {
         for _ in 0..n {
-            if self.vp.pod.session == SessionState::Running {
+            if self.vp.app.session() == SessionState::Running {
                 self.stepped += 1;
             }
-            let f = self.vp.step();
+            let (dl, axes) = self.pose(self.k);
+            let (_, f) = self.vp.sample_at(dl, &axes);
             self.frames.extend(f);
+            self.k += 1;
         }
+    }
+
+    /// Stops the run over SCPI (no response); the application hands the run's end to its
+    /// recorders with the next sample, one period later.
+    fn stop(&mut self) {
+        assert_eq!(self.scpi("SESS:STOP"), "");
+        self.step(1);
+    }
+
+    /// A probe edge now, the counters latched where the machine is.
+    fn edge(&mut self) -> TriggerOutcome {
+        let axes = self.pose(self.k).1;
+        self.vp.probe_edge_at(&axes)
     }
 
     fn take(&mut self) -> Vec<CanFrame> {
@@ -120,6 +198,36 @@ impl Bench {
         u32::from_le_bytes([r[4], r[5], r[6], r[7]])
     }
 
+    /// Upload of a visible string, expedited or segmented (CiA 301 §7.2.4.3.7–8).
+    fn read_string(&mut self, index: u16, sub: u8) -> String {
+        let i = index.to_le_bytes();
+        let r = self.sdo([0x40, i[0], i[1], sub, 0, 0, 0, 0]);
+        assert_eq!(r[0] & 0xE0, 0x40, "upload response to {index:#x}:{sub}");
+        if r[0] & 0x02 != 0 {
+            let n = if r[0] & 0x01 != 0 {
+                4 - usize::from((r[0] >> 2) & 3)
+            } else {
+                4
+            };
+            return String::from_utf8(r[4..4 + n].to_vec()).unwrap();
+        }
+        let size = u32::from_le_bytes([r[4], r[5], r[6], r[7]]) as usize;
+        let mut bytes = Vec::new();
+        let mut toggle = 0u8;
+        loop {
+            let s = self.sdo([0x60 | toggle << 4, 0, 0, 0, 0, 0, 0, 0]);
+            assert_eq!(s[0] & 0xF0, toggle << 4, "segment toggle");
+            let n = 7 - usize::from((s[0] >> 1) & 7);
+            bytes.extend_from_slice(&s[1..1 + n]);
+            if s[0] & 1 != 0 {
+                break;
+            }
+            toggle ^= 1;
+        }
+        assert_eq!(bytes.len(), size, "the announced size");
+        String::from_utf8(bytes).unwrap()
+    }
+
     /// Expedited download of one byte; the response command byte (0x60 = done).
     fn write_u8(&mut self, index: u16, sub: u8, v: u8) -> u8 {
         let i = index.to_le_bytes();
@@ -150,13 +258,10 @@ impl Bench {
     }
 
     /// The accounting holds: every sample period stepped in the run is seen or lost, every
-    /// seen sample used or skipped, and both protocols report the same counters.
+    /// seen sample used or skipped, both protocols report the same counters, the log and the
+    /// host's recording hold every seen sample, and an ended run recorded these counters.
     fn assert_accounts(&mut self) -> RunCounters {
-        let c = self.vp.monitor().counters();
-        assert_eq!(
-            c, self.vp.pod.run,
-            "the pod model carries the monitor's counters"
-        );
+        let c = self.vp.app.run_counters();
         assert_eq!(
             c.seen + c.lost,
             self.stepped,
@@ -170,12 +275,25 @@ impl Bench {
             c.seen as usize,
             "every seen sample is logged"
         );
+        let rec = self.vp.recording.runs.last().expect("the run is recorded");
+        assert_eq!(rec.samples().count(), c.seen as usize, "and recorded");
+        let ended = !matches!(
+            self.vp.app.session(),
+            SessionState::Armed | SessionState::Running
+        );
+        if ended {
+            assert_eq!(rec.end.expect("the end is recorded").counters, c);
+            assert_eq!(self.vp.log().end().expect("the end is logged").counters, c);
+        }
         c
     }
 
-    /// The results the CNC sees as valid (0x4002 bit mask).
-    fn valid_results(&mut self) -> u32 {
-        self.read(0x4002, 0)
+    /// How many results the CNC sees as valid (0x4002:1…).
+    fn valid_results(&mut self) -> usize {
+        assert_eq!(self.read(0x4002, 0), RESULT_COUNT as u32);
+        (1..=RESULT_COUNT as u8)
+            .filter(|&k| self.read(0x4002, k) == 1)
+            .count()
     }
 
     /// Session state (0x3003) and abort reason (0x3004) over CANopen, and `SESS:STAT?`,
@@ -188,35 +306,62 @@ impl Bench {
             self.scpi("SESS:REAS?"),
         )
     }
+
+    /// A result as the technician fetches it (`FETC:RES?`): value and unit; the CNC's 0x4000
+    /// reads the same value.
+    fn fetch(&mut self, id: ResultId) -> (f64, String) {
+        let r = self.scpi(&format!("FETC:RES? {}", id.info().name));
+        let parts: Vec<&str> = r.split(',').collect();
+        assert_eq!(parts.len(), 3, "{r}");
+        let v: f64 = parts[0].parse().unwrap();
+        let sub = id.index() as u8 + 1;
+        let can = f64::from(f32::from_bits(self.read(0x4000, sub)));
+        assert!(
+            (can - v).abs() < 1e-4,
+            "{}: CAN {can} vs USB {v}",
+            id.info().name
+        );
+        (v, parts[2].to_string())
+    }
 }
 
 fn frame(id: u16, data: &[u8]) -> CanFrame {
     CanFrame::new(id, data).unwrap()
 }
 
-/// Stops the run over SCPI; it must end DONE with the eccentricity near the truth (5, −3) µm.
+/// Stops the run over SCPI; it must end DONE with its own results valid: the eccentricity near
+/// the truth, the arc the test turned.
 fn stop_done(b: &mut Bench) {
-    assert_eq!(b.scpi("SESS:STOP"), "");
+    b.stop();
     assert_eq!(b.state(), (3, 0, "DONE".into(), "NONE".into()));
-    assert_eq!(b.valid_results() & 0b111, 0b111, "ecc_x, ecc_y, r0 valid");
-    let ex: f64 = b
-        .scpi("FETC:RES? ecc_x")
-        .split(',')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
-    let ey: f64 = b
-        .scpi("FETC:RES? ecc_y")
-        .split(',')
-        .next()
-        .unwrap()
-        .parse()
-        .unwrap();
+    for id in [
+        ResultId::EccU,
+        ResultId::EccV,
+        ResultId::R0,
+        ResultId::ResidualRms,
+        ResultId::Arc,
+    ] {
+        assert_eq!(
+            b.read(0x4002, id.index() as u8 + 1),
+            1,
+            "{} valid",
+            id.info().name
+        );
+    }
+    // no CW run: its figures are not valid
+    assert_eq!(b.read(0x4002, ResultId::GCw.index() as u8 + 1), 0);
+    let (ex, unit) = b.fetch(ResultId::EccU);
+    let (ey, _) = b.fetch(ResultId::EccV);
+    assert_eq!(unit, "UM");
     assert!(
-        (ex - 5.0).abs() < 0.5 && (ey + 3.0).abs() < 0.5,
+        (ex - E_UM[0]).abs() < 0.5 && (ey - E_UM[1]).abs() < 0.5,
         "e = ({ex}, {ey}) µm"
     );
+    // the arc from the first to the last sample of the run
+    let (arc, unit) = b.fetch(ResultId::Arc);
+    let turned = 360.0 * f64::from(b.stepped - 1) / b.per_rev as f64;
+    assert_eq!(unit, "DEG");
+    assert!((arc - turned).abs() < 0.1, "arc {arc}° vs {turned}°");
 }
 
 #[test]
@@ -226,6 +371,13 @@ fn a_clean_run_uses_every_sample() {
     let c = b.assert_accounts();
     assert_eq!((c.seen, c.used, c.skipped(), c.lost), (RUN, RUN, 0, 0));
     assert!(b.emcy_codes().is_empty());
+    // the live eccentricity is valid once the arc is turned
+    let status: u32 = b.scpi("STAT:POD?").parse().unwrap();
+    assert_eq!(
+        status & (1 << 9 | 1 << 12 | 1 << 15),
+        1 << 9 | 1 << 12,
+        "running, live valid, no error"
+    );
     stop_done(&mut b);
 }
 
@@ -234,7 +386,15 @@ fn lvdt_open_for_a_moment_is_flagged_skipped_counted_and_sent_as_emcy_5001() {
     let mut b = Bench::running();
     b.step(1000);
     b.vp.sensors.faults.lvdt_open_samples = 20;
-    b.step(RUN - 1000);
+    b.step(10);
+    // the live ΔL is not valid while the coil is open; the status word says so
+    assert_eq!(b.vp.app.live().get(Live::DeltaL), None);
+    assert_eq!(b.read(0x2103, 0) & 1, 0, "live_valid bit 0 (delta_l) clear");
+    assert_eq!(b.scpi("MEAS:DL?"), "9.91E+37", "SCPI NaN");
+    let status: u32 = b.scpi("STAT:POD?").parse().unwrap();
+    assert_eq!(status & (1 << 1 | 1 << 15), 1 << 1 | 1 << 15, "open, error");
+    b.step(RUN - 1010);
+    assert!(b.vp.app.live().get(Live::DeltaL).is_some());
     let c = b.assert_accounts();
     assert_eq!(c.skipped_lvdt_open, 20);
     assert_eq!((c.used, c.skipped()), (RUN - 20, 20));
@@ -271,9 +431,17 @@ fn lvdt_open_for_100_samples_aborts_the_run_with_lvdt_fault() {
     assert_eq!((c.used, c.skipped_lvdt_open, c.seen), (1000, 100, 1100));
     assert_eq!(b.valid_results(), 0, "an aborted run has no results");
     assert!(b.emcy_codes().starts_with(&[0x5001]));
-    // The status word says aborted (bit 11) while the open coil stays flagged (bit 1).
+    // The status word says aborted (bit 11) while the open coil stays flagged (bit 1) and is a
+    // fault (bit 15).
     let status: u32 = b.scpi("STAT:POD?").parse().unwrap();
-    assert_eq!(status & (1 << 11 | 1 << 1), 1 << 11 | 1 << 1);
+    assert_eq!(
+        status & (1 << 11 | 1 << 9 | 1 << 1 | 1 << 15),
+        1 << 11 | 1 << 1 | 1 << 15
+    );
+    // a result of the aborted run: SCPI -230 naming it
+    assert_eq!(b.scpi("FETC:RES? ecc_u"), "");
+    let e = b.scpi("SYST:ERR?");
+    assert!(e.starts_with("-230,") && e.contains("ecc_u"), "{e}");
 }
 
 #[test]
@@ -286,6 +454,7 @@ fn lvdt_over_range_for_100_samples_aborts_the_run_with_lvdt_fault() {
     assert_eq!(b.stepped, 600, "sample periods of the run");
     let c = b.assert_accounts();
     assert_eq!((c.used, c.skipped_lvdt_over_range), (500, 100));
+    assert!(b.emcy_codes().starts_with(&[0x5002]));
 }
 
 #[test]
@@ -319,7 +488,8 @@ fn a_slow_bar_change_is_not_a_jump() {
     b.step(RUN - 1001);
     let c = b.assert_accounts();
     assert_eq!((c.used, c.skipped()), (RUN, 0));
-    assert_eq!(b.vp.pod.session, SessionState::Running);
+    assert_eq!(b.vp.app.session(), SessionState::Running);
+    assert!(b.emcy_codes().is_empty());
 }
 
 #[test]
@@ -332,8 +502,24 @@ fn encoder_glitch_flags_the_spike_and_the_step_back_and_sends_emcy_5003() {
     let c = b.assert_accounts();
     assert_eq!(c.skipped_quadrature, 2, "the spike and the step back");
     assert_eq!(b.logged_with(SampleFlags::QUADRATURE_ERROR), 2);
-    assert_eq!(b.vp.sensors.counters().quadrature_errors, 2);
+    assert_eq!(b.vp.app.acquisition_counters().quadrature_errors, 2);
     assert_eq!(b.emcy_codes(), vec![0x5003, 0x0000]);
+    // the spike is in the log where it happened (X 2.5 mm off), the next sample is back
+    let logged: Vec<_> = b.vp.log().iter().collect();
+    let spike = logged
+        .iter()
+        .position(|r| SampleFlags(r.record.flags).contains(SampleFlags::QUADRATURE_ERROR))
+        .expect("spike logged");
+    // (the sample number is the sample period: nothing was lost; 0.1 µm counts, f32)
+    let x = |i: usize| f64::from(logged[i].record.axes[0]);
+    let machine_x = |i: usize| b.pose(logged[i].record.seq as usize).1[0];
+    assert!(
+        (x(spike) - machine_x(spike) - 2.5).abs() < 1e-3,
+        "{}",
+        x(spike) - machine_x(spike)
+    );
+    assert!((x(spike + 1) - machine_x(spike + 1)).abs() < 1e-3);
+    assert!((x(spike - 1) - machine_x(spike - 1)).abs() < 1e-3);
     stop_done(&mut b);
 }
 
@@ -341,32 +527,32 @@ fn encoder_glitch_flags_the_spike_and_the_step_back_and_sends_emcy_5003() {
 fn probe_bounce_and_a_missed_reseat_are_counted_and_not_touch_points() {
     let mut b = Bench::running();
     b.step(100);
-    assert!(matches!(
-        b.vp.sensors.probe_edge(),
-        TriggerOutcome::Accepted(_)
-    ));
-    b.vp.sensors.set_probe_seated(false);
+    assert!(matches!(b.edge(), TriggerOutcome::Accepted(_)));
+    b.vp.set_probe_seated(false);
     // contact bounce: within the 2 ms debounce time
-    assert_eq!(b.vp.sensors.probe_edge(), TriggerOutcome::Bounce);
+    assert_eq!(b.edge(), TriggerOutcome::Bounce);
     b.step(1);
-    assert_eq!(b.vp.sensors.probe_edge(), TriggerOutcome::Bounce);
+    assert_eq!(b.edge(), TriggerOutcome::Bounce);
     // the stylus never came back (no 50 ms seated): a missed re-seat
     b.step(5);
-    assert_eq!(b.vp.sensors.probe_edge(), TriggerOutcome::NotReseated);
-    // seated for longer than the re-seat time: the next edge is a touch point again
-    b.vp.sensors.set_probe_seated(true);
+    assert_eq!(b.edge(), TriggerOutcome::NotReseated);
+    // seated for longer than the re-seat time: the next edge is a touch again
+    b.vp.set_probe_seated(true);
     b.step(60);
-    assert!(matches!(
-        b.vp.sensors.probe_edge(),
-        TriggerOutcome::Accepted(_)
-    ));
+    assert!(matches!(b.edge(), TriggerOutcome::Accepted(_)));
     b.step(100);
-    assert_eq!(b.vp.sensors.probe_counts(), (2, 2, 1));
+    assert_eq!(b.vp.app.probe_counts(), (2, 2, 1));
     assert_eq!(
         b.logged_with(SampleFlags::PROBE_EVENT),
         2,
-        "only touch points flag"
+        "only accepted touches flag"
     );
+    // a CIRCLE run takes no touch points: both touches are counted outside a PROBE run
+    assert_eq!(b.vp.app.touches_outside_run(), 2);
+    assert!(b.vp.app.touch_points().is_empty());
+    assert_eq!(b.scpi("FETC:TOUC:COUN?"), "0");
+    let rec = b.vp.recording.runs.last().expect("recorded");
+    assert!(rec.events.iter().all(|e| matches!(e, Event::Sample(_))));
     let c = b.assert_accounts();
     assert_eq!(
         (c.used, c.skipped()),
@@ -385,6 +571,15 @@ fn a_few_lost_samples_are_counted_flagged_and_sent_as_emcy_6101() {
     assert_eq!((c.lost, c.after_overrun, c.seen), (5, 1, RUN - 5));
     assert_eq!((c.used, c.skipped()), (RUN - 5, 0));
     assert_eq!(b.logged_with(SampleFlags::OVERRUN), 1);
+    assert_eq!(b.vp.app.acquisition_counters().lost_upstream, 5);
+    // the gap is in the sample numbers: the log's sample after it is 6 on from the one before
+    let seqs: Vec<u32> = b.vp.log().iter().map(|r| r.record.seq).collect();
+    let gaps: Vec<u32> = seqs
+        .windows(2)
+        .map(|w| w[1] - w[0])
+        .filter(|&d| d != 1)
+        .collect();
+    assert_eq!(gaps, vec![6]);
     assert_eq!(b.emcy_codes(), vec![0x6101, 0x0000]);
     stop_done(&mut b);
 }
@@ -393,8 +588,8 @@ fn a_few_lost_samples_are_counted_flagged_and_sent_as_emcy_6101() {
 fn a_burst_of_lost_samples_aborts_the_run_with_overrun() {
     let mut b = Bench::running();
     b.step(1000);
-    // 12 lost after 1000: more than max(10, 1 % of 1013). (At 100 mm/s, 12 ms of travel is
-    // 12 000 counts, below the 20 000-count glitch limit: the encoders still follow.)
+    // 12 lost after 1000: more than max(10, 1 % of 1013). (At 100 mm/s, 13 ms of travel is
+    // 13 000 counts, below the 20 000-count glitch limit: the encoders still follow.)
     b.vp.lose_samples(12);
     b.step(500);
     assert_eq!(b.state(), (4, 3, "ABORTED".into(), "OVERRUN".into()));
@@ -402,14 +597,16 @@ fn a_burst_of_lost_samples_aborts_the_run_with_overrun() {
     let c = b.assert_accounts();
     assert_eq!((c.lost, c.used, c.skipped_overrun), (12, 1000, 1), "{c:?}");
     assert!(b.emcy_codes().starts_with(&[0x6101]));
+    assert_eq!(b.valid_results(), 0);
 }
 
 #[test]
 fn a_long_gap_also_loses_the_encoder_count_and_aborts_with_overrun() {
     let mut b = Bench::running();
     b.step(1000);
-    // 50 ms at 100 mm/s: 50 000 counts, beyond half the 16-bit counter range: the sample after
-    // the gap is a quadrature error as well as the one that passes the loss limit.
+    // 50 ms at 100 mm/s: 5.1 mm of travel, 4 mm of it along Y here (θ ≈ 38°): beyond half the
+    // 16-bit counter range (3.3 mm): the sample after the gap is a quadrature error as well as
+    // the one that passes the loss limit.
     b.vp.lose_samples(50);
     b.step(500);
     assert_eq!(b.state(), (4, 3, "ABORTED".into(), "OVERRUN".into()));
@@ -428,16 +625,53 @@ fn stopping_with_too_few_samples_or_too_short_an_arc_is_not_observable() {
     // 50 valid samples < 100
     let mut b = Bench::running();
     b.step(50);
-    assert_eq!(b.scpi("SESS:STOP"), "");
+    b.stop();
     assert_eq!(b.state(), (4, 4, "ABORTED".into(), "UNOBSERVABLE".into()));
     assert_eq!(b.assert_accounts().used, 50);
     assert_eq!(b.valid_results(), 0);
-    // 1000 valid samples but only 38° of arc (the fit needs 60°)
+    // 1000 valid samples but only 38° of arc (the set-up asks for 60°)
     let mut b = Bench::running();
     b.step(1000);
-    assert_eq!(b.scpi("SESS:STOP"), "");
+    assert!(360.0 * 1000.0 / (b.per_rev as f64) < MIN_ARC_DEG);
+    b.stop();
     assert_eq!(b.state(), (4, 4, "ABORTED".into(), "UNOBSERVABLE".into()));
+    assert_eq!(b.assert_accounts().used, 1000);
     assert_eq!(b.valid_results(), 0);
+}
+
+#[test]
+fn arming_without_the_circles_geometry_is_refused_with_the_field() {
+    // a pod fresh from the factory: no circle set-up
+    let mut b = Bench::on(VirtualPod::new(VirtualSetup::default()));
+    b.step(1);
+    assert_eq!(b.scpi("SESS:PATT CIRCLE;:SESS:ARM"), "");
+    assert_eq!(
+        b.scpi("SYST:ERR?"),
+        "-221,\"Settings conflict;circle_centre_x not set\""
+    );
+    assert_eq!(b.scpi("SESS:STAT?"), "IDLE");
+    // over CANopen: wrong device state (0x3002 = 1: arm), the reason in words in 0x3006
+    let r = b.sdo([0x2F, 0x02, 0x30, 0, 1, 0, 0, 0]);
+    assert_eq!(
+        (r[0], u32::from_le_bytes([r[4], r[5], r[6], r[7]])),
+        (0x80, 0x0800_0022)
+    );
+    assert_eq!(b.read_string(0x3006, 0), "circle_centre_x not set");
+    // the centre given, the radius is next
+    assert_eq!(
+        b.scpi("CONF:UNL;:CONF:CIRCLE_CENTRE_X 0;CIRCLE_CENTRE_Y 0;:SESS:ARM"),
+        ""
+    );
+    assert_eq!(
+        b.scpi("SYST:ERR?"),
+        "-221,\"Settings conflict;circle_radius not set\""
+    );
+    assert_eq!(b.scpi("CONF:CIRCLE_RADIUS 150;:SESS:ARM;STAT?"), "ARMED");
+    // the set-up does not change while a run is armed
+    assert_eq!(b.scpi("CONF:CIRCLE_RADIUS 100"), "");
+    let e = b.scpi("SYST:ERR?");
+    assert!(e.starts_with("-221,"), "{e}");
+    assert_eq!(b.vp.app.config().setup.circle_radius_mm, 150.0);
 }
 
 #[test]
@@ -445,19 +679,43 @@ fn thermistor_open_and_short_keep_the_last_temperature_flag_and_send_emcy_5004()
     let mut b = Bench::running();
     b.step(1000);
     let t_good = b.vp.last_sample().unwrap().temp_c;
-    assert!((t_good - 20.0).abs() < 0.05, "bar at 20 °C: {t_good}");
-    // open: the divider pin pulled to the rail
-    assert!(b.vp.sensors.thermistor_code(4095).is_err());
+    assert!(
+        (f64::from(t_good) - BAR_C).abs() < 0.05,
+        "bar at {BAR_C} °C: {t_good}"
+    );
+    // open: the divider pin pulled to the rail, from now on
+    b.vp.sensors.thermistor_fault = Some(4095);
+    b.vp.thermistor(4095);
     b.step(300);
+    assert_eq!(
+        b.vp.app.live().get(Live::Temp),
+        None,
+        "no valid temperature"
+    );
+    assert_eq!(
+        b.read(0x2103, 0) & (1 << 7),
+        0,
+        "live_valid bit 7 (temp) clear"
+    );
     // shorted: the pin at ground
-    assert!(b.vp.sensors.thermistor_code(0).is_err());
+    b.vp.sensors.thermistor_fault = Some(0);
+    b.vp.thermistor(0);
     b.step(200);
     let s = b.vp.last_sample().unwrap();
     assert!(s.flags.contains(SampleFlags::TEMPERATURE_FAULT));
     assert_eq!(s.temp_c, t_good, "the last good temperature is kept");
-    let code = b.vp.sensors.thermistor_good_code();
-    assert!(b.vp.sensors.thermistor_code(code).is_ok());
+    let status: u32 = b.scpi("STAT:POD?").parse().unwrap();
+    assert_eq!(
+        status & (1 << 5 | 1 << 15),
+        1 << 5 | 1 << 15,
+        "temperature fault, error"
+    );
+    // repaired: a good reading at once
+    b.vp.sensors.thermistor_fault = None;
+    let code = b.vp.sensors.thermistor_code();
+    b.vp.thermistor(code);
     b.step(RUN - 1500);
+    assert!(b.vp.app.live().get(Live::Temp).is_some());
     let c = b.assert_accounts();
     assert_eq!(c.temperature_faults, 500, "flagged but used");
     assert_eq!((c.used, c.skipped()), (RUN, 0));
@@ -477,10 +735,18 @@ fn the_cnc_aborts_a_run_over_canopen() {
     let c = b.assert_accounts();
     assert_eq!((c.seen, c.used), (1500, 1500));
     assert_eq!(b.valid_results(), 0, "no result valid");
-    // stop is refused now (CiA 301 0x0800 0022: wrong device state)
+    // stop is refused now (CiA 301 0x0800 0022: wrong device state), the reason in 0x3006
     let r = b.sdo([0x2F, 0x02, 0x30, 0, 3, 0, 0, 0]);
     assert_eq!(r[0], 0x80);
     assert_eq!(u32::from_le_bytes([r[4], r[5], r[6], r[7]]), 0x0800_0022);
+    assert_eq!(b.read_string(0x3006, 0), "STOP needs RUNNING");
+    // and over SCPI: -221 with the same reason, nothing changed
+    assert_eq!(b.scpi("SESS:STOP"), "");
+    assert_eq!(
+        b.scpi("SYST:ERR?"),
+        "-221,\"Settings conflict;STOP needs RUNNING\""
+    );
+    assert_eq!(b.scpi("SESS:STAT?"), "ABORTED");
 }
 
 #[test]
@@ -488,7 +754,7 @@ fn sdo_client_silent_mid_segment_is_aborted_and_the_run_goes_on() {
     let mut b = Bench::running();
     b.step(1000);
     let bar = 0x2000u16.to_le_bytes();
-    let before = b.vp.pod.config;
+    let before = b.vp.app.config().bar_length_mm;
     // segmented download of bar_length (4 bytes), one segment of 3 bytes, then silence
     assert_eq!(b.sdo([0x21, bar[0], bar[1], 0, 4, 0, 0, 0])[0], 0x60);
     assert_eq!(b.sdo([0x08, 0, 0, 0x16, 0, 0, 0, 0])[0], 0x20);
@@ -508,7 +774,7 @@ fn sdo_client_silent_mid_segment_is_aborted_and_the_run_goes_on() {
         "SDO protocol timed out"
     );
     assert_eq!(b.vp.node.stats().sdo_aborts, 1);
-    assert_eq!(b.vp.pod.config, before, "nothing written");
+    assert_eq!(b.vp.app.config().bar_length_mm, before, "nothing written");
     b.step(RUN - 2001);
     let c = b.assert_accounts();
     assert_eq!((c.used, c.skipped()), (RUN, 0));
@@ -587,7 +853,7 @@ fn can_error_passive_sends_emcy_8120() {
 fn usb_disconnect_mid_download_loses_nothing() {
     let mut b = Bench::running();
     b.step(3000);
-    assert_eq!(b.scpi("SESS:STOP"), "");
+    b.stop();
     let n = b.vp.log().len();
     assert_eq!(n, 3000);
     let whole_len = |header: &[u8]| -> usize {
@@ -628,21 +894,34 @@ fn usb_disconnect_mid_download_loses_nothing() {
         second.extend(chunk);
     }
     assert_eq!(second.len(), len + 1, "the block and its terminator");
+    assert_eq!(second[len], b'\n');
     assert_eq!(
         &second[..first.len()],
         &first[..],
         "the same bytes up to the cut"
     );
-    // parsed back independently: every logged sample, in order
+    // parsed back by the host's strict reader: the run, every logged sample, in order, and
+    // how it ended
     let text = std::str::from_utf8(&second[..len]).unwrap();
-    let samples = read_log(Path::new("download.csv"), text, "ISO230-4").unwrap();
+    let runs = parse_runs(Path::new("download.csv"), text).expect("the download reads");
+    assert_eq!(runs.len(), 1);
+    let run = &runs[0];
+    assert_eq!(run.meta.run, b.vp.app.run_number());
+    assert_eq!(run.meta.pattern.name(), "CIRCLE");
+    let samples: Vec<_> = run.samples().collect();
     assert_eq!(samples.len(), n);
     for (got, want) in samples.iter().zip(b.vp.log().iter()) {
-        assert_eq!(got.t_us, want.t_us);
-        // printed to 0.1 nm: half of it plus the f32 rounding of the parsed value
-        assert!((got.delta_l_um - want.record.delta_l_um).abs() <= 6e-5);
+        assert_eq!((got.seq, got.t_us), (want.record.seq, want.t_us));
+        // 9 significant digits: the same f32
+        assert_eq!(got.delta_l_um.to_bits(), want.record.delta_l_um.to_bits());
+        assert_eq!(
+            got.axes.map(f32::to_bits),
+            want.record.axes.map(f32::to_bits)
+        );
         assert_eq!(got.flags.0, want.record.flags);
     }
+    let end = run.end.expect("the end is in the download");
+    assert_eq!((end.abort, end.counters), (None, b.vp.app.run_counters()));
     assert_eq!(b.scpi("SYST:ERR?"), "0,\"No error\"");
 }
 
@@ -659,17 +938,20 @@ fn power_lost_during_a_settings_save_boots_with_the_previous_settings() {
         let mut b = Bench::idle();
         assert_eq!(b.scpi("CONF:UNL;:CONF:BAR_LENGTH 200"), "");
         assert_eq!(b.scpi("*SAV 0"), "");
-        assert_eq!(b.vp.settings_store_failures(), 0);
+        let failures = b.vp.app.settings_failures();
         assert_eq!(b.scpi("CONF:BAR_LENGTH 250"), "");
         b.vp.flash.budget = Some(k);
         assert_eq!(b.scpi("*SAV 0"), "");
-        let failed = b.vp.settings_store_failures() == 1;
-        let mut after = Bench {
-            vp: b.vp.power_on(),
-            frames: Vec::new(),
-            stepped: 0,
-        };
-        let got = after.vp.pod.config.bar_length_mm;
+        let failed = b.vp.app.settings_failures() == failures + 1;
+        if failed {
+            // the failed save is a fault in the status word (from the next sample on) until a
+            // save succeeds
+            b.step(1);
+            let status: u32 = b.scpi("STAT:POD?").parse().unwrap();
+            assert_ne!(status & 1 << 15, 0, "cut after {k} steps");
+        }
+        let mut after = Bench::on(b.vp.power_on());
+        let got = after.vp.app.config().bar_length_mm;
         let seq = after.vp.boot_settings().from.map(|(_, s)| s);
         assert!(
             (got, seq) == (200.0, Some(1)) || (got, seq) == (250.0, Some(2)),
@@ -695,4 +977,19 @@ fn power_lost_during_a_settings_save_boots_with_the_previous_settings() {
         (2048..2400).contains(&new_from),
         "complete after {new_from} steps"
     );
+}
+
+/// A complete save is reported done: no failure counted, no error bit, and the pod boots with
+/// it.
+#[test]
+fn a_complete_save_is_reported_done() {
+    let mut b = Bench::idle();
+    assert_eq!(b.scpi("CONF:UNL;:CONF:BAR_LENGTH 200;*SAV 0"), "");
+    assert_eq!(b.scpi("SYST:ERR?"), "0,\"No error\"");
+    assert_eq!(b.vp.app.settings_failures(), 0);
+    b.step(1);
+    let status: u32 = b.scpi("STAT:POD?").parse().unwrap();
+    assert_eq!(status & 1 << 15, 0, "no error bit");
+    let after = Bench::on(b.vp.power_on());
+    assert_eq!(after.vp.app.config().bar_length_mm, 200.0);
 }

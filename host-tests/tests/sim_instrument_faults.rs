@@ -1,8 +1,9 @@
 //! Instrument and machine faults of the virtual machine tool that the ISO 230-4 diagnostics do
 //! not name: straightness, a socket that is not where the pod believes, thermal drift of the
-//! machine and of the bar, LVDT non-linearity. Each is injected alone on an otherwise perfect
-//! machine (`CircleMachine` faults at 0) and its effect on what the pod reports is checked
-//! against the size computed by hand from the injected fault through the forward model.
+//! machine and of the bar, LVDT non-linearity, probe pre-travel and bounce. Each is injected
+//! alone on an otherwise perfect machine (`CircleMachine` faults at 0) and its effect on what
+//! the simulated pod reports (its results table, its recorded samples) is checked against the
+//! size computed by hand from the injected fault through the forward model.
 //!
 //! Tolerances: the circle runs have 14 137 samples (R 150 mm at F4000, 1 kHz) with the default
 //! 0.2 µm bar noise and 0.5 count ADC noise, so a fitted centre has σ ≈ 0.2·√(2/14 137) ≈
@@ -10,12 +11,13 @@
 //! are 0.05 µm / 1 % (≥ 15 σ) so that only a wrong effect fails, not noise, and f32 sample
 //! rounding (≈ 0.01 µm on ΔL at 150 mm) stays inside them.
 
-use ballpod::acquisition::Sample;
+use ballpod::acquisition::{MAX_AXES, Sample};
 use ballpod::config::Config;
-use ballpod_host::analysis::{Results, analyse};
+use ballpod_host::replay::{Report, RunReport};
 use ballpod_host::simulate::{SimOptions, SimSession, simulate};
 use ballpod_host::vmt::machine::{CircleMachine, MachineFile};
-use ballpod_host::vmt::pod::{Instrument, Pod};
+use ballpod_host::vmt::sensors::Instrument;
+use ballpod_host::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
 /// A perfect circle machine (R 150 mm, F4000) and the default instrument.
 fn perfect() -> MachineFile {
@@ -36,7 +38,8 @@ fn perfect() -> MachineFile {
     }
 }
 
-fn run(m: &MachineFile) -> (SimSession, Results) {
+/// The ISO 230-4 circle, CCW then CW, on the simulated pod.
+fn run(m: &MachineFile) -> SimSession {
     let o = SimOptions {
         seed: 5,
         repeats: 1,
@@ -44,15 +47,47 @@ fn run(m: &MachineFile) -> (SimSession, Results) {
         seed002: false,
         circle: true,
     };
-    let s = simulate(m, &o, &mut |_, _, _| {});
-    let r = analyse(&s.desc, &s.runs).expect("analysis");
-    (s, r)
+    let s = simulate(m, &o, &mut |_, _, _| {}).expect("simulated session");
+    let dirs: Vec<_> = s
+        .report
+        .runs
+        .iter()
+        .map(|r| (r.direction.as_str(), r.outcome.as_str()))
+        .collect();
+    assert_eq!(dirs, [("CCW", "DONE"), ("CW", "DONE")]);
+    s
 }
 
-/// Fitted centres (µm) of the CCW and CW runs.
-fn centres(r: &Results) -> [[f32; 2]; 2] {
-    let iso = r.iso230_4.as_ref().expect("both directions");
-    [iso.ccw.centre_um, iso.cw.centre_um]
+/// A result of a run's own (its fit).
+fn run_value(r: &RunReport, name: &str) -> f64 {
+    r.results
+        .iter()
+        .find(|f| f.name == name)
+        .map(|f| f64::from(f.value))
+        .unwrap_or_else(|| panic!("run {}: {name} not valid", r.run))
+}
+
+/// A result of the pod's table at the end.
+fn value(r: &Report, name: &str) -> f64 {
+    f64::from(
+        r.result(name)
+            .unwrap_or_else(|| panic!("{name} not valid"))
+            .value,
+    )
+}
+
+/// Fitted centres (µm: the limaçon eccentricity, u = X, v = Y) of the CCW and CW runs.
+fn centres(s: &SimSession) -> [[f64; 2]; 2] {
+    let c = |r: &RunReport| [run_value(r, "ecc_u"), run_value(r, "ecc_v")];
+    [c(&s.report.runs[0]), c(&s.report.runs[1])]
+}
+
+/// The samples of each recorded run.
+fn samples(s: &SimSession) -> Vec<Vec<Sample>> {
+    s.runs
+        .iter()
+        .map(|(_, r)| r.samples().copied().collect())
+        .collect()
 }
 
 /// Least-squares slope of ΔL over time, µm per minute.
@@ -72,12 +107,12 @@ fn slope_um_per_min(samples: &[Sample]) -> f64 {
 
 #[test]
 fn a_perfect_machine_shows_no_eccentricity_and_no_drift() {
-    let (s, r) = run(&perfect());
-    for c in centres(&r) {
+    let s = run(&perfect());
+    for c in centres(&s) {
         assert!(c[0].abs() < 0.05 && c[1].abs() < 0.05, "{c:?}");
     }
-    for run in &s.runs {
-        assert!(slope_um_per_min(run).abs() < 0.15);
+    for run in samples(&s) {
+        assert!(slope_um_per_min(&run).abs() < 0.15);
     }
 }
 
@@ -87,9 +122,9 @@ fn a_perfect_machine_shows_no_eccentricity_and_no_drift() {
 fn straightness_of_x_along_y_shifts_the_centre_by_a_quarter_of_it() {
     let mut m = perfect();
     m.circle.straightness_x_along_y_um = 8.0;
-    let (_, r) = run(&m);
-    for c in centres(&r) {
-        assert!((f64::from(c[0]) - 8.0 / 4.0).abs() < 0.05, "{c:?}");
+    let s = run(&m);
+    for c in centres(&s) {
+        assert!((c[0] - 8.0 / 4.0).abs() < 0.05, "{c:?}");
         assert!(c[1].abs() < 0.05, "{c:?}");
     }
 }
@@ -100,10 +135,10 @@ fn straightness_of_x_along_y_shifts_the_centre_by_a_quarter_of_it() {
 fn a_socket_mounting_offset_appears_as_the_same_eccentricity() {
     let mut m = perfect();
     m.circle.socket_offset_um = [3.0, -2.0];
-    let (_, r) = run(&m);
-    for c in centres(&r) {
-        assert!((f64::from(c[0]) + 3.0).abs() < 0.05, "{c:?}");
-        assert!((f64::from(c[1]) - 2.0).abs() < 0.05, "{c:?}");
+    let s = run(&m);
+    for c in centres(&s) {
+        assert!((c[0] + 3.0).abs() < 0.05, "{c:?}");
+        assert!((c[1] - 2.0).abs() < 0.05, "{c:?}");
     }
 }
 
@@ -113,9 +148,9 @@ fn thermal_growth_of_the_machine_drifts_dl_by_the_injected_rate() {
     let mut m = perfect();
     m.circle.thermal_growth_x_um_per_min = 20.0;
     m.circle.thermal_growth_y_um_per_min = 20.0;
-    let (s, _) = run(&m);
-    for run in &s.runs {
-        let k = slope_um_per_min(run);
+    let s = run(&m);
+    for run in samples(&s) {
+        let k = slope_um_per_min(&run);
         assert!((k / 20.0 - 1.0).abs() < 0.01, "slope {k} µm/min");
     }
 }
@@ -127,12 +162,12 @@ fn thermal_growth_of_the_machine_drifts_dl_by_the_injected_rate() {
 fn bar_temperature_drift_is_corrected_from_the_thermistor() {
     let mut m = perfect();
     m.instrument.bar_temp_drift_c_per_min = 10.0;
-    let (s, _) = run(&m);
+    let s = run(&m);
     let cfg = Config::default();
     let uncorrected = 150.0e3 * f64::from(cfg.bar_cte_ppm_per_k) * 1e-6 * 10.0; // µm/min
     assert!(uncorrected > 10.0, "{uncorrected}");
-    for run in &s.runs {
-        let k = slope_um_per_min(run);
+    for run in samples(&s) {
+        let k = slope_um_per_min(&run);
         assert!(
             k.abs() < 0.02 * uncorrected,
             "slope {k} vs {uncorrected} µm/min"
@@ -151,23 +186,32 @@ fn bar_temperature_drift_is_corrected_from_the_thermistor() {
 }
 
 /// The LVDT reads x + k·x²: at a constant true ΔL of 400 µm (bar at 20 °C: no expansion), the
-/// pod reports 400 + k·400².
+/// pod reports 400 + k·400² — in its samples and in its live ΔL.
 #[test]
 fn lvdt_nonlinearity_adds_k_x_squared() {
+    use ballpod::app::Live;
     for k in [0.0, 2e-5, -1e-5] {
         let inst = Instrument {
             bar_temp_c: 20.0,
             lvdt_nonlinearity_per_um: k,
             ..Instrument::default()
         };
-        let mut pod = Pod::new(150.0, &inst, 9);
-        let axes = [150.0, 0.0, 0.0, 0.0, 0.0];
-        pod.reference(&axes);
+        let mut vp: VirtualPod<16> = VirtualPod::new(VirtualSetup {
+            seed: 9,
+            instrument: inst,
+            ..VirtualSetup::default()
+        });
+        let axes: [f64; MAX_AXES] = [150.0, 0.0, 0.0, 0.0, 0.0];
+        vp.home(&axes);
         let n = 2000;
-        let mean = (0..n)
-            .map(|_| f64::from(pod.sample(400.0, &axes).delta_l_um))
-            .sum::<f64>()
-            / f64::from(n);
+        let mut sum = 0.0;
+        for _ in 0..n {
+            let s = vp.sample_at(400.0, &axes).0.expect("a sample");
+            assert!(s.flags.is_valid_for_metrology(), "{s:?}");
+            assert_eq!(vp.app.live().get(Live::DeltaL), Some(s.delta_l_um));
+            sum += f64::from(s.delta_l_um);
+        }
+        let mean = sum / f64::from(n);
         // σ of the mean 0.2/√2000 ≈ 0.005 µm
         let expected = 400.0 + k * 400.0 * 400.0;
         assert!(
@@ -194,26 +238,29 @@ fn probe_pretravel_moves_the_radius_not_the_centre_and_bounces_are_rejected() {
         };
         let mut rig = ProbeRig::new(&inst, 5);
         let m = rig.measure_sphere(centre, [0.0, 90.0]).expect("sphere");
-        (m, rig.probe_counts())
+        // the nine touches were the run's touch points, none came outside it
+        assert_eq!(rig.pod.app.touch_points().len(), 9);
+        assert_eq!(rig.pod.app.touches_outside_run(), 0);
+        (m, rig.pod.app.probe_counts())
     };
     let (ideal, _) = measure(0.0, 0);
     let (faulty, counts) = measure(20.0, 3);
     for i in 0..3 {
         assert!(
-            (ideal.fit.centre_mm[i] - centre[i]).abs() * 1e3 < 0.1,
+            (ideal.centre_mm[i] - centre[i]).abs() * 1e3 < 0.1,
             "ideal centre {:?}",
-            ideal.fit.centre_mm
+            ideal.centre_mm
         );
         assert!(
-            (faulty.fit.centre_mm[i] - ideal.fit.centre_mm[i]).abs() * 1e3 < 0.1,
+            (faulty.centre_mm[i] - ideal.centre_mm[i]).abs() * 1e3 < 0.1,
             "pre-travel moved the centre: {:?} vs {:?}",
-            faulty.fit.centre_mm,
-            ideal.fit.centre_mm
+            faulty.centre_mm,
+            ideal.centre_mm
         );
     }
     let contact = SPHERE_RADIUS_MM + STYLUS_RADIUS_MM;
-    assert!(((ideal.fit.radius_mm - contact) * 1e3).abs() < 0.1);
-    assert!(((faulty.fit.radius_mm - contact) * 1e3 + 20.0).abs() < 0.1);
+    assert!(((ideal.radius_mm - contact) * 1e3).abs() < 0.1);
+    assert!(((faulty.radius_mm - contact) * 1e3 + 20.0).abs() < 0.1);
     assert_eq!((faulty.accepted, faulty.bounces), (9, 27));
     assert_eq!(counts, (9, 27, 0));
 }
@@ -240,49 +287,39 @@ fn straightness_shows_as_a_third_order_cyclic_error_with_g_of_half_its_size() {
         } else {
             m.circle.straightness_y_along_x_um = a;
         }
-        let (_, r) = run(&m);
-        let iso = r.iso230_4.as_ref().expect("both directions");
+        let s = run(&m);
+        let r = &s.report;
         let centre = if x_along_y {
             [a / 4.0, 0.0]
         } else {
             [0.0, a / 4.0]
         };
         let f = 2.0 * a / (3.0 * 3f64.sqrt());
-        for d in [&iso.ccw, &iso.cw] {
-            let c = d.centre_um;
+        let widen = |got: f64, want: f64, up: f64| {
+            let d = got.abs() - want;
+            d > -0.05 && d < up
+        };
+        for (c, dir) in centres(&s).into_iter().zip(["ccw", "cw"]) {
             assert!(
-                (f64::from(c[0]) - centre[0]).abs() < 0.05
-                    && (f64::from(c[1]) - centre[1]).abs() < 0.05,
-                "x_along_y {x_along_y}: centre {c:?} vs {centre:?}"
+                (c[0] - centre[0]).abs() < 0.05 && (c[1] - centre[1]).abs() < 0.05,
+                "x_along_y {x_along_y} {dir}: centre {c:?} vs {centre:?}"
             );
-            let widen = |got: f32, want: f64, up: f64| {
-                let d = f64::from(got).abs() - want;
-                d > -0.05 && d < up
-            };
-            assert!(widen(d.g_um, a / 2.0, 0.3), "G {} vs {}", d.g_um, a / 2.0);
-            assert!(
-                d.f_max_um > 0.0 && widen(d.f_max_um, f, 1.5),
-                "F_max {}",
-                d.f_max_um
+            let g = value(r, &format!("G_{dir}"));
+            assert!(widen(g, a / 2.0, 0.3), "G_{dir} {g} vs {}", a / 2.0);
+            let (f_max, f_min) = (
+                value(r, &format!("F_max_{dir}")),
+                value(r, &format!("F_min_{dir}")),
             );
-            assert!(
-                d.f_min_um < 0.0 && widen(d.f_min_um, f, 1.5),
-                "F_min {}",
-                d.f_min_um
-            );
-            let g = &d.diagnostics;
-            assert_eq!(g.cyclic_order, 3, "{g:?}");
-            assert!(
-                (f64::from(g.cyclic_amplitude_um) - a / 4.0).abs() < 0.05,
-                "{g:?}"
-            );
-            assert!(g.squareness_urad.abs() < 1.0, "{g:?}");
-            assert!(g.scale_mismatch_um_per_m.abs() < 1.0, "{g:?}");
-            assert!(
-                g.reversal_x_um.abs() < 0.05 && g.reversal_y_um.abs() < 0.05,
-                "{g:?}"
-            );
+            assert!(f_max > 0.0 && widen(f_max, f, 1.5), "F_max_{dir} {f_max}");
+            assert!(f_min < 0.0 && widen(f_min, f, 1.5), "F_min_{dir} {f_min}");
         }
+        // the pod's diagnoses (mean of CCW and CW)
+        assert_eq!(value(r, "cyclic_order"), 3.0, "{:?}", r.results);
+        let amp = value(r, "cyclic_amplitude");
+        assert!((amp - a / 4.0).abs() < 0.05, "cyclic amplitude {amp}");
+        assert!(value(r, "squareness").abs() < 1.0);
+        assert!(value(r, "scale_mismatch").abs() < 1.0);
+        assert!(value(r, "reversal_u").abs() < 0.05 && value(r, "reversal_v").abs() < 0.05);
     }
 }
 
@@ -295,11 +332,11 @@ fn bar_temperature_drift_without_the_thermistor_drifts_dl_by_the_expansion_rate(
     let mut m = perfect();
     m.instrument.bar_temp_drift_c_per_min = 10.0;
     m.instrument.thermistor_detached = true;
-    let (s, _) = run(&m);
+    let s = run(&m);
     let cfg = Config::default();
     let expansion = 150.0e3 * f64::from(cfg.bar_cte_ppm_per_k) * 1e-6 * 10.0; // µm/min
-    for run in &s.runs {
-        let k = slope_um_per_min(run);
+    for run in samples(&s) {
+        let k = slope_um_per_min(&run);
         assert!(
             (k / -expansion - 1.0).abs() < 0.01,
             "slope {k} vs −{expansion} µm/min"
@@ -332,22 +369,25 @@ fn lvdt_nonlinearity_with_an_eccentric_setup_shows_as_scale_mismatch_and_radius(
         m.circle.socket_offset_um = [e, 0.0];
         m.instrument.bar_temp_c = 20.0;
         m.instrument.lvdt_nonlinearity_per_um = k;
-        run(&m).1.iso230_4.expect("both directions")
+        run(&m)
     };
     let (ideal, faulty) = (circle(0.0), circle(k));
     let ke2 = k * e * e; // 4 µm
-    for (i, f) in [(&ideal.ccw, &faulty.ccw), (&ideal.cw, &faulty.cw)] {
-        let dr0 = f64::from(f.r0_um - i.r0_um);
-        assert!((dr0 - ke2 / 2.0).abs() < 0.05, "Δr0 {dr0}");
-        for j in 0..2 {
-            let dc = f64::from(f.centre_um[j] - i.centre_um[j]);
-            assert!(dc.abs() < 0.05, "centre moved {dc} µm");
+    for (d, (i, f)) in ["ccw", "cw"]
+        .into_iter()
+        .zip(ideal.report.runs.iter().zip(&faulty.report.runs))
+    {
+        let dr0 = run_value(f, "r0") - run_value(i, "r0");
+        assert!((dr0 - ke2 / 2.0).abs() < 0.05, "{d}: Δr0 {dr0}");
+        for n in ["ecc_u", "ecc_v"] {
+            let dc = run_value(f, n) - run_value(i, n);
+            assert!(dc.abs() < 0.05, "{d}: centre moved {dc} µm");
         }
-        let ds = f64::from(f.diagnostics.scale_mismatch_um_per_m)
-            - f64::from(i.diagnostics.scale_mismatch_um_per_m);
-        assert!((ds - ke2 / (r_um * 1e-6)).abs() < 0.5, "Δscale {ds} µm/m");
         let g = 2.0 * (ke2 / 2.0 - e * e / (4.0 * r_um)).abs();
-        let dg = f64::from(f.g_um) - g;
-        assert!(dg > -0.05 && dg < 0.3, "G {} vs {g}", f.g_um);
+        let got = value(&faulty.report, &format!("G_{d}"));
+        let dg = got - g;
+        assert!(dg > -0.05 && dg < 0.3, "{d}: G {got} vs {g}");
     }
+    let ds = value(&faulty.report, "scale_mismatch") - value(&ideal.report, "scale_mismatch");
+    assert!((ds - ke2 / (r_um * 1e-6)).abs() < 0.5, "Δscale {ds} µm/m");
 }

@@ -1,13 +1,14 @@
-//! ISO 230-4 circle on the virtual machine tool: the injected linear-axis faults come back
-//! from the core's diagnostics with their injected sizes (±10 %), and the polar plot (parsed
-//! with roxmltree, a third-party XML parser) shows what its legend says.
+//! ISO 230-4 circle on the virtual machine tool: the CCW and CW runs armed, started and stopped
+//! on the simulated pod; the injected linear-axis faults come back from the pod's results table
+//! (its diagnoses) with their injected sizes (±10 %), and the polar plot (parsed with
+//! roxmltree, a third-party XML parser) shows what its legend says.
 
-use ballpod_host::analysis::{IsoResult, Results, analyse};
+use ballpod_host::replay::Report;
 use ballpod_host::report;
 use ballpod_host::simulate::{SimOptions, SimSession, simulate};
 use ballpod_host::vmt::machine::MachineFile;
 
-fn session() -> (MachineFile, SimSession, Results) {
+fn session() -> (MachineFile, SimSession) {
     let m = MachineFile::default();
     let o = SimOptions {
         seed: 11,
@@ -16,9 +17,17 @@ fn session() -> (MachineFile, SimSession, Results) {
         seed002: false,
         circle: true,
     };
-    let s = simulate(&m, &o, &mut |_, _, _| {});
-    let r = analyse(&s.desc, &s.runs).expect("analysis");
-    (m, s, r)
+    let s = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");
+    (m, s)
+}
+
+/// The value of result `name` of the pod's table (it must be valid).
+fn value(r: &Report, name: &str) -> f64 {
+    f64::from(
+        r.result(name)
+            .unwrap_or_else(|| panic!("{name} not valid"))
+            .value,
+    )
 }
 
 fn within_10_percent(name: &str, injected: f64, diagnosed: f64) {
@@ -30,33 +39,46 @@ fn within_10_percent(name: &str, injected: f64, diagnosed: f64) {
 
 #[test]
 fn injected_faults_are_diagnosed_with_their_sizes() {
-    let (m, _, r) = session();
-    let c = &m.circle;
-    let iso: &IsoResult = r.iso230_4.as_ref().expect("both directions");
-    let d = &iso.diagnostics;
-    within_10_percent(
-        "squareness",
-        c.squareness_urad,
-        f64::from(d.squareness_urad),
+    let (m, s) = session();
+    let r = &s.report;
+    assert_eq!(
+        r.runs
+            .iter()
+            .map(|x| (x.pattern.as_str(), x.direction.as_str(), x.outcome.as_str()))
+            .collect::<Vec<_>>(),
+        [("CIRCLE", "CCW", "DONE"), ("CIRCLE", "CW", "DONE")]
     );
+    let c = &m.circle;
+    within_10_percent("squareness", c.squareness_urad, value(r, "squareness"));
     within_10_percent(
         "scale mismatch",
         c.scale_x_um_per_m - c.scale_y_um_per_m,
-        f64::from(d.scale_mismatch_um_per_m),
+        value(r, "scale_mismatch"),
     );
-    within_10_percent("reversal X", c.backlash_x_um, f64::from(d.reversal_x_um));
-    within_10_percent("reversal Y", c.backlash_y_um, f64::from(d.reversal_y_um));
+    // the XY plane: u = X, v = Y
+    within_10_percent("reversal X", c.backlash_x_um, value(r, "reversal_u"));
+    within_10_percent("reversal Y", c.backlash_y_um, value(r, "reversal_v"));
     within_10_percent(
         "cyclic",
         c.cyclic_amplitude_um,
-        f64::from(d.cyclic_amplitude_um),
+        value(r, "cyclic_amplitude"),
     );
-    assert_eq!(d.cyclic_order, c.cyclic_order);
+    assert_eq!(value(r, "cyclic_order"), f64::from(c.cyclic_order));
     within_10_percent(
         "servo mismatch",
         c.servo_mismatch_ms(),
-        iso.servo_mismatch_ms,
+        value(r, "servo_mismatch"),
     );
+    // units as the table states them
+    for (name, unit) in [
+        ("squareness", "urad"),
+        ("scale_mismatch", "um/m"),
+        ("reversal_u", "um"),
+        ("servo_mismatch", "ms"),
+        ("G_bidir", "um"),
+    ] {
+        assert_eq!(r.result(name).expect(name).unit, unit, "{name}");
+    }
 }
 
 /// Radial deviation (µm) of an SVG point from the plot's data attributes.
@@ -79,8 +101,9 @@ fn points(node: roxmltree::Node) -> Vec<(f64, f64)> {
 
 #[test]
 fn the_polar_plot_is_well_formed_and_shows_what_its_legend_says() {
-    let (_, s, r) = session();
-    let plots = report::plots(&s.desc, &s.runs, &r);
+    let (_, s) = session();
+    let r = &s.report;
+    let plots = report::plots(&s.runs, r);
     let (_, svg) = plots
         .iter()
         .find(|(n, _)| n == "iso230_4.svg")
@@ -106,9 +129,9 @@ fn the_polar_plot_is_well_formed_and_shows_what_its_legend_says() {
         .filter_map(|n| n.text())
         .collect::<Vec<_>>()
         .join("\n");
-    let iso = r.iso230_4.as_ref().expect("iso");
     // the legend states G per direction: recover G from the drawn trace and fitted circle
-    for (dir, g_json) in [("ccw", iso.ccw.g_um), ("cw", iso.cw.g_um)] {
+    for dir in ["ccw", "cw"] {
+        let g_json = value(r, &format!("G_{dir}"));
         let label = format!("G({}) = {:.2} µm", dir.to_uppercase(), g_json);
         assert!(legend.contains(&label), "legend lacks {label}:\n{legend}");
         let fit = by_id(&format!("fit-{dir}"));
@@ -136,12 +159,28 @@ fn the_polar_plot_is_well_formed_and_shows_what_its_legend_says() {
             - dev.iter().cloned().fold(f64::MAX, f64::min);
         // the plot's 1° bins and 3-decimal pixels against the core's bins
         assert!(
-            (g_plot - f64::from(g_json)).abs() <= 0.05 * f64::from(g_json) + 0.05,
+            (g_plot - g_json).abs() <= 0.05 * g_json + 0.05,
             "{dir}: G from the plot {g_plot} vs legend {g_json}"
         );
+        // the dashed circle is the run's own fit
+        let run = r
+            .runs
+            .iter()
+            .find(|x| x.direction == dir.to_uppercase())
+            .expect("run");
+        let of = |n: &str| {
+            f64::from(
+                run.results
+                    .iter()
+                    .find(|f| f.name == n)
+                    .expect("run result")
+                    .value,
+            )
+        };
+        assert_eq!((r0, e[0], e[1]), (of("r0"), of("ecc_u"), of("ecc_v")));
     }
     // the CW/CCW traces differ where the legend says there is hysteresis
-    assert!(legend.contains(&format!("H = {:.2} µm", iso.hysteresis_h_um)));
+    assert!(legend.contains(&format!("H = {:.2} µm", value(r, "H"))));
     assert!(legend.contains("Squareness") && legend.contains("Reversal"));
     assert!(by_id("nominal").attribute("r").is_some());
 }

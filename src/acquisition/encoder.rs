@@ -27,6 +27,12 @@ pub struct CountUpdate {
 }
 
 impl CountExtender {
+    /// The same extender (count, last read, glitch count) with a new plausibility limit.
+    pub const fn with_max_step(mut self, max_step: u32) -> Self {
+        self.max_step = max_step;
+        self
+    }
+
     /// A new extender for a `bits`-bit counter (1…32; larger values are clamped to 32).
     /// `max_step` is the largest plausible change between two reads (axis max speed × read
     /// interval × counts per unit, with margin); 0 disables the check.
@@ -93,6 +99,11 @@ impl CountExtender {
     /// The extended count.
     pub const fn count(&self) -> i64 {
         self.count
+    }
+
+    /// The plausibility limit, counts per read (0: off).
+    pub const fn max_step(&self) -> u32 {
+        self.max_step
     }
 
     /// Implausible steps seen since start.

@@ -97,8 +97,8 @@ impl<const P: usize> ExcitationTable<P> {
         let step = 2.0 * core::f64::consts::PI / P as f64;
         for (k, (s, c)) in t.sin.iter_mut().zip(t.cos.iter_mut()).enumerate() {
             let ph = step * k as f64;
-            *s = libm::sin(ph) as f32;
-            *c = libm::cos(ph) as f32;
+            *s = crate::num::sin(ph) as f32;
+            *c = crate::num::cos(ph) as f32;
         }
         t
     }

@@ -111,6 +111,32 @@ impl Acquisition {
         }
     }
 
+    /// Takes a new configuration without losing what did not change: the extended axis counts
+    /// (the axes stay referenced; a new counts-per-unit or direction scales the same counts),
+    /// the sample counter, the temperature and the counters. Calibration, scales, glitch limits
+    /// and probe times follow the configuration. `counter_bits` is as for [`Acquisition::new`].
+    pub fn reconfigure(&mut self, cfg: &Config, counter_bits: [u32; MAX_AXES]) {
+        let fresh = Self::new(cfg, counter_bits);
+        for (ext, new) in self.counters_hw.iter_mut().zip(fresh.counters_hw.iter()) {
+            *ext = ext.with_max_step(new.max_step());
+        }
+        for (old, new) in self.scales.iter_mut().zip(fresh.scales.iter()) {
+            *old = AxisScale {
+                offset: old.offset,
+                ..*new
+            };
+        }
+        self.lvdt = fresh.lvdt;
+        self.dc = fresh.dc;
+        self.thermistor = fresh.thermistor;
+        self.bar_length_mm = fresh.bar_length_mm;
+        self.cte_ppm_per_k = fresh.cte_ppm_per_k;
+        self.probe = self.probe.with_times(
+            u64::from(cfg.probe_debounce_us),
+            u64::from(cfg.probe_reseat_us),
+        );
+    }
+
     /// The LVDT calibration in use (from the configuration), e.g. for the R-test head's
     /// three channels ([`super::rtest_head::RtestHead::read`]).
     pub fn lvdt_calibration(&self) -> LvdtCalibration {
@@ -201,8 +227,9 @@ impl Acquisition {
     ///
     /// - `lvdt`: the block's demodulation (or a DC reading); an error flags the sample open.
     /// - `raw`: the hardware encoder counters now.
-    /// - `lost_total`: the cumulative overrun count of the queues feeding this sample; if it
-    ///   grew since the previous sample, this one carries [`SampleFlags::OVERRUN`].
+    /// - `lost_total`: the cumulative count of samples lost upstream (ADC blocks the queues
+    ///   dropped); if it grew since the previous sample, this one carries
+    ///   [`SampleFlags::OVERRUN`] and its `seq` skips the lost ones.
     /// - `probe_event`: a probe trigger was accepted since the previous sample.
     pub fn sample(
         &mut self,
@@ -242,6 +269,8 @@ impl Acquisition {
             flags.insert(SampleFlags::OVERRUN);
             self.counters.lost_upstream = self.counters.lost_upstream.saturating_add(lost);
             self.last_lost = lost_total;
+            // the lost samples keep their numbers: the gap in `seq` is the loss
+            self.seq = self.seq.wrapping_add(lost);
         }
         if probe_event {
             flags.insert(SampleFlags::PROBE_EVENT);

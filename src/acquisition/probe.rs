@@ -58,6 +58,13 @@ pub struct ProbeDebouncer {
 }
 
 impl ProbeDebouncer {
+    /// The same debouncer (state and counters) with new times.
+    pub const fn with_times(mut self, debounce_us: u64, reseat_us: u64) -> Self {
+        self.debounce_us = debounce_us;
+        self.reseat_us = reseat_us;
+        self
+    }
+
     /// A debouncer, armed. `debounce_us`: bounce window after a trigger; `reseat_us`: how long
     /// the stylus must read seated before the next trigger counts.
     pub const fn new(debounce_us: u64, reseat_us: u64) -> Self {

@@ -58,7 +58,8 @@ impl SampleFlags {
 /// measured quantity ΔL is a small deviation and keeps nm resolution in `f32` (DESIGN §6).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Sample {
-    /// Sample counter since the session started (gaps show up here and in the overrun counter).
+    /// Sample number since boot, counting the samples lost upstream too: a gap between two
+    /// consecutive samples is the number lost between them (also in the overrun counter).
     pub seq: u32,
     /// Time stamp, µs since boot.
     pub t_us: u64,

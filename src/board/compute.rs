@@ -1,179 +1,218 @@
-//! The compute task: one pod sample per LVDT block through the core's acquisition pipeline;
-//! it publishes the live values, passes the samples of a running session through the core's
-//! run monitor (an abort for a fault reaches the pod model: CANopen 0x3003/0x3004, SCPI
-//! `SESS:STAT?` / `SESS:REAS?`) and logs them, and carries out the session commands the
-//! protocol tasks queue.
+//! The application task: it owns the pod — the core's [`App`], the CANopen node, the SCPI
+//! server, the sample log and the USB sample stream — and wires them to the queues. Per LVDT
+//! block: temperature codes, probe edges and the encoder counters go to the application with
+//! the block, the node sees the sample's flags; CAN frames and USB bytes go to the node and
+//! the server, whose answers go back out; every millisecond the node is polled. It takes no
+//! decision of its own: every one is the application's.
 
-use core::cell::Cell;
-
+use embassy_futures::select::{Either4, select4};
 use embassy_stm32::exti::ExtiInput;
 use embassy_stm32::mode::Blocking;
-use embassy_sync::blocking_mutex::Mutex;
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_time::{Duration, Instant, Ticker};
 
-use ballpod::acquisition::probe::{ProbeLatch, TriggerOutcome};
-use ballpod::acquisition::{Acquisition, Sample};
+use ballpod::acquisition::probe::TriggerOutcome;
+use ballpod::app::log::{LOG_CAPACITY, SampleLog};
+use ballpod::app::{App, Recorder, SettingsRequest};
 use ballpod::config::Config;
-use ballpod::protocol::log::LogMeta;
-use ballpod::protocol::pod::{PodModel, SessionCommand, SessionState, StatusWord};
-use ballpod::session::run::{RunLimits, RunMonitor, Verdict};
-
+use ballpod::protocol::canopen::{CanFrame, CanOpenNode};
+use ballpod::protocol::scpi::ScpiServer;
+use ballpod::protocol::stream::SampleStream;
 use ballpod::settings;
 
 use super::settings::SettingsPages;
-use super::{Overruns, encoders, lvdt, probe, state, thermistor};
+use super::state::{self, UsbEvent};
+use super::{Overruns, encoders, lvdt, probe, thermistor};
 
-/// The latest accepted touch point.
-pub static LAST_TOUCH: Mutex<CriticalSectionRawMutex, Cell<Option<ProbeLatch>>> =
-    Mutex::new(Cell::new(None));
+/// Bytes of the stream's ring (the USB task drains it through `STREAM_TX`).
+const STREAM_RING: usize = 2048;
 
-/// Carries out the application side of a session command (the protocol task already applied
-/// the state change to the pod model).
-fn execute(
-    cmd: SessionCommand,
-    acq: &mut Acquisition,
-    monitor: &mut RunMonitor,
-    flash: &mut SettingsPages,
+/// Saves that failed (driver error or read-back mismatch).
+pub static SETTINGS_STORE_FAILURES: Overruns = Overruns::new();
+/// Samples not logged because a log download was in progress (the log is one snapshot while
+/// it is downloaded; the stream still has them).
+pub static LOG_PAUSED_SAMPLES: Overruns = Overruns::new();
+
+/// What the boot found, for the protocols to report.
+pub struct BootReport {
+    /// CANopen EMCY (code, reason) of the previous run's end, if it was a fault.
+    pub can: Option<(u16, u8)>,
+    /// The same for `SYSTem:ERRor?`.
+    pub usb: Option<&'static str>,
+}
+
+/// Where the application records runs: the log (paused while it is downloaded: the samples it
+/// misses are counted; the stream still has them) and the USB stream.
+struct Recorders<'a> {
+    log: &'a mut SampleLog<LOG_CAPACITY>,
+    stream: &'a mut SampleStream<STREAM_RING>,
+    log_paused: bool,
+}
+
+impl Recorder for Recorders<'_> {
+    fn begin_run(&mut self, meta: &ballpod::app::RunMeta) {
+        if !self.log_paused {
+            self.log.begin_run(meta);
+        }
+        self.stream.begin_run(meta);
+    }
+    fn sample(&mut self, s: &ballpod::acquisition::Sample) {
+        if self.log_paused {
+            LOG_PAUSED_SAMPLES.count();
+        } else {
+            self.log.sample(s);
+        }
+        self.stream.sample(s);
+    }
+    fn touch(&mut self, t: &ballpod::app::Touch) {
+        if !self.log_paused {
+            self.log.touch(t);
+        }
+        self.stream.touch(t);
+    }
+    fn end_run(&mut self, end: &ballpod::app::RunEnd) {
+        if !self.log_paused {
+            self.log.end_run(end);
+        }
+        self.stream.end_run(end);
+    }
+}
+
+/// Runs the application.
+#[embassy_executor::task]
+pub async fn compute_task(
+    cfg: Config,
+    _encoders: encoders::Encoders,
+    probe_in: ExtiInput<'static, Blocking>,
+    mut flash: SettingsPages,
+    serial: u32,
+    boot: BootReport,
 ) {
-    match cmd {
-        SessionCommand::Arm { .. } => {
-            if let Some(meta) = state::with_pod(|pod| LogMeta::from_pod(pod)) {
-                state::LOG.lock(|log| log.borrow_mut().begin_run(meta));
+    let mut app = App::new(cfg, encoders::COUNTER_BITS);
+    let mut log = SampleLog::<LOG_CAPACITY>::new();
+    let mut stream = SampleStream::<STREAM_RING>::new();
+    let mut node = CanOpenNode::new(app.config().can_node_id, serial);
+    if let Some((code, reason)) = boot.can {
+        node.report_boot_error(code, reason);
+    }
+    let mut scpi = ScpiServer::new();
+    scpi.set_pull_download(true);
+    if let Some(text) = boot.usb {
+        scpi.push_device_error(text);
+    }
+    let can_out = &mut |f: CanFrame| {
+        if state::CAN_TX.try_send(f).is_err() {
+            state::CAN_TX_OVERRUNS.count();
+        }
+    };
+    let usb_out = &mut |b: &[u8]| {
+        if state::USB_TX.try_write(b).unwrap_or(0) < b.len() {
+            state::USB_TX_OVERRUNS.count();
+        }
+    };
+    let mut ticker = Ticker::every(Duration::from_millis(1));
+    loop {
+        let now = Instant::now().as_micros();
+        match select4(
+            lvdt::BLOCKS.receive(),
+            state::CAN_RX.receive(),
+            state::USB_RX.receive(),
+            ticker.next(),
+        )
+        .await
+        {
+            Either4::First(block) => {
+                while let Ok(code) = thermistor::CODES.try_receive() {
+                    if app.on_thermistor(code).is_err() {
+                        defmt::warn!("thermistor fault, code {}", code);
+                    }
+                }
+                let mut rec = Recorders {
+                    log_paused: scpi.download_pending(),
+                    log: &mut log,
+                    stream: &mut stream,
+                };
+                while let Ok(edge) = probe::EDGES.try_receive() {
+                    let o = app.on_probe_edge(edge.t_us, edge.raw, &mut rec);
+                    if !matches!(o, TriggerOutcome::Accepted(_)) {
+                        defmt::debug!("probe edge rejected");
+                    }
+                }
+                // NC contact to ground with pull-up: seated reads low.
+                app.on_probe_level(block.t_us, probe_in.is_low());
+                let (raw, lost) = (encoders::raw_counts(), super::lost_upstream());
+                let s = app.on_raw_sample(block.t_us, block.reading, raw, lost, &mut rec);
+                node.on_sample(s.flags, now, can_out);
+                super::safety::progress();
+            }
+            Either4::Second(frame) => node.on_frame(&frame, &mut app, now, can_out),
+            Either4::Third(UsbEvent::Bytes { data, len }) => {
+                scpi.feed(data.get(..len).unwrap_or(&[]), &mut app, &log, usb_out);
+            }
+            Either4::Third(UsbEvent::CommandClosed) => scpi.connection_closed(),
+            Either4::Third(UsbEvent::StreamOpened) => stream.set_enabled(true),
+            Either4::Third(UsbEvent::StreamClosed) => stream.set_enabled(false),
+            Either4::Fourth(()) => {
+                if let Some(bus) = state::CAN_BUS.try_take() {
+                    node.on_bus_state(bus, now, can_out);
+                }
+                node.poll(now, &app, can_out);
             }
         }
-        SessionCommand::ConfigChanged => {
-            // New calibration and scales; the encoder extension restarts (axes need homing).
-            if let Some(cfg) = state::with_pod(|pod| pod.config) {
-                *acq = Acquisition::new(&cfg, encoders::COUNTER_BITS);
+        // A run armed or stopped by the commands just handled is recorded now, not at the
+        // next sample.
+        app.flush(&mut Recorders {
+            log_paused: scpi.download_pending(),
+            log: &mut log,
+            stream: &mut stream,
+        });
+        // A pulled log download goes out as the command port takes it.
+        let mut packet = [0u8; state::PACKET];
+        while scpi.download_pending() && state::USB_TX.free_capacity() >= state::PACKET {
+            let n = scpi.pull_download(&log, &mut packet);
+            usb_out(packet.get(..n).unwrap_or(&[]));
+        }
+        // The stream's text goes out as the stream port takes it.
+        let room = state::STREAM_TX.free_capacity().min(packet.len());
+        let n = stream.pull(packet.get_mut(..room).unwrap_or(&mut []));
+        let _ = state::STREAM_TX.try_write(packet.get(..n).unwrap_or(&[]));
+        match app.take_settings_request() {
+            Some(SettingsRequest::Store) => {
+                let ok = save(&mut flash, app.config());
+                app.settings_stored(ok);
             }
-        }
-        SessionCommand::StoreSettings => {
-            if let Some(cfg) = state::with_pod(|pod| pod.config) {
-                save(flash, &cfg);
+            Some(SettingsRequest::RestoreDefaults) => {
+                // CiA 301 0x1011: the defaults take effect at the next reset.
+                let ok = save(&mut flash, &Config::default());
+                app.settings_stored(ok);
             }
+            None => {}
         }
-        SessionCommand::RestoreDefaults => {
-            // CiA 301 0x1011: the defaults take effect at the next reset; the running
-            // configuration stays until then.
-            save(flash, &Config::default());
+        if app.job_pending() {
+            // The seed 002 identification: seconds of f64 on the M4 (the queues fill and are
+            // counted meanwhile; no run is running: the procedure's last run just ended).
+            let t0 = Instant::now();
+            app.run_pending_job();
+            defmt::info!("identification took {} ms", t0.elapsed().as_millis());
         }
-        SessionCommand::Start => {
-            monitor.start(acq.counters.lost_upstream);
-            let counters = monitor.counters();
-            state::with_pod(|pod| pod.run = counters);
-        }
-        SessionCommand::Stop => {
-            if let Err(reason) = monitor.stop() {
-                state::with_pod(|pod| pod.abort_run(reason));
-                defmt::warn!("run has no results: {}", reason as u8);
-            }
-        }
-        SessionCommand::Abort | SessionCommand::Reset => monitor.end(),
     }
 }
 
 /// Stores a configuration in the next settings slot (logged; on failure the previous
-/// settings are still the ones loaded at boot).
-fn save(flash: &mut SettingsPages, cfg: &Config) {
+/// settings are still the ones loaded at boot). Returns whether it worked.
+fn save(flash: &mut SettingsPages, cfg: &Config) -> bool {
     match settings::store(flash, cfg) {
-        Ok(s) => defmt::info!(
-            "settings stored in slot {}, sequence {}",
-            s.slot.index(),
-            s.sequence
-        ),
+        Ok(s) => {
+            defmt::info!(
+                "settings stored in slot {}, sequence {}",
+                s.slot.index(),
+                s.sequence
+            );
+            true
+        }
         Err(e) => {
             SETTINGS_STORE_FAILURES.count();
             defmt::error!("settings not stored: {}", super::settings::store_reason(&e));
-        }
-    }
-}
-
-/// Saves that failed (driver error or read-back mismatch).
-pub static SETTINGS_STORE_FAILURES: Overruns = Overruns::new();
-
-/// Turns each LVDT block, the encoder counters, the probe edges and the temperature into a
-/// calibrated sample with the core, and publishes it.
-#[embassy_executor::task]
-pub async fn compute_task(
-    cfg: Config,
-    mut acq: Acquisition,
-    _encoders: encoders::Encoders,
-    probe_in: ExtiInput<'static, Blocking>,
-    mut flash: SettingsPages,
-) {
-    state::POD.lock(|p| {
-        *p.borrow_mut() = Some(PodModel {
-            config: cfg,
-            ..PodModel::default()
-        })
-    });
-    let mut monitor = RunMonitor::new(RunLimits::DEFAULT);
-    loop {
-        let block = lvdt::BLOCKS.receive().await;
-        while let Ok(cmd) = state::COMMANDS.try_receive() {
-            execute(cmd, &mut acq, &mut monitor, &mut flash);
-        }
-        while let Ok(code) = thermistor::CODES.try_receive() {
-            if let Err(e) = acq.update_temperature(code) {
-                defmt::warn!("thermistor fault {}", defmt::Debug2Format(&e));
-            }
-        }
-        let mut probe_event = false;
-        while let Ok(edge) = probe::EDGES.try_receive() {
-            if let TriggerOutcome::Accepted(latch) = acq.probe_trigger(edge.t_us, edge.raw) {
-                probe_event = true;
-                LAST_TOUCH.lock(|c| c.set(Some(latch)));
-            }
-        }
-        // NC contact to ground with pull-up: seated reads low.
-        acq.probe.poll(block.t_us, probe_in.is_low());
-        let s = acq.sample(
-            block.t_us,
-            block.reading,
-            encoders::raw_counts(),
-            super::lost_upstream(),
-            probe_event,
-        );
-        let verdict = monitor.on_sample(&s, acq.counters.lost_upstream);
-        publish(&s, verdict, &monitor);
-        super::safety::progress();
-        if s.seq.is_multiple_of(1000) {
-            defmt::info!(
-                "sample {} dl={} um flags={=u16:#x}",
-                s.seq,
-                s.delta_l_um,
-                s.flags.0
-            );
-        }
-    }
-}
-
-/// Live values for CAN and USB; the run monitor's verdict and counters; every sample the run
-/// counted goes into the log (skipped ones too: the log shows their flags). A sample before
-/// the compute task has started the monitor is not part of the run: neither counted nor
-/// logged.
-fn publish(s: &Sample, verdict: Verdict, monitor: &RunMonitor) {
-    let counted = verdict != Verdict::NotRunning;
-    state::with_pod(|pod| {
-        pod.live.sample_counter = s.seq;
-        pod.live.delta_l_um = s.delta_l_um;
-        pod.live.temp_c = s.temp_c;
-        if counted {
-            pod.run = monitor.counters();
-        }
-        if let Verdict::Abort(_, reason) = verdict
-            && pod.session == SessionState::Running
-        {
-            pod.abort_run(reason);
-            defmt::warn!("run aborted: reason {}", reason as u8);
-        }
-        pod.live.status = StatusWord::new(s.flags, pod.session, false);
-    });
-    if counted {
-        if state::download_active() {
-            state::LOG_PAUSED_SAMPLES.count();
-        } else {
-            state::LOG.lock(|log| log.borrow_mut().record(s));
+            false
         }
     }
 }

@@ -63,11 +63,11 @@ impl Overruns {
     }
 }
 
-/// Items lost by every queue feeding the samples (ADC DMA ring, LVDT block queue): the compute
-/// task hands this total to the core, which flags the next sample `OVERRUN`.
+/// Samples lost by the queues feeding them (ADC DMA ring, LVDT block queue): the application
+/// task hands this total to the core, which flags the next sample `OVERRUN` and numbers it past
+/// the lost ones. (A dropped probe edge is no lost sample: `probe::PROBE_QUEUE_OVERRUNS`.)
 pub fn lost_upstream() -> u32 {
     lvdt::ADC_RING_OVERRUNS
         .get()
         .wrapping_add(lvdt::BLOCK_QUEUE_OVERRUNS.get())
-        .wrapping_add(probe::PROBE_QUEUE_OVERRUNS.get())
 }

@@ -1,56 +1,56 @@
-//! State shared between the tasks: the pod model the protocols read and write, the sample log,
-//! and the queue of session commands the protocols hand to the compute task.
+//! The queues between the I/O tasks and the application task. The application task owns the
+//! pod ([`ballpod::app::App`], the CANopen node, the SCPI server, the log and the stream); the
+//! CAN and USB tasks only move frames and bytes through these bounded queues. A producer that
+//! finds a queue full drops the item and counts it (never silently).
 
-use core::cell::RefCell;
-use core::sync::atomic::{AtomicBool, Ordering};
-
-use embassy_sync::blocking_mutex::Mutex;
 use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
+use embassy_sync::pipe::Pipe;
+use embassy_sync::signal::Signal;
 
-use ballpod::protocol::log::{LOG_CAPACITY, SampleLog};
-use ballpod::protocol::pod::{PodModel, SessionCommand};
+use ballpod::protocol::canopen::{BusState, CanFrame};
 
 use super::Overruns;
 
-/// The pod as CAN and USB see it (live values, configuration, session, results).
-pub static POD: Mutex<CriticalSectionRawMutex, RefCell<Option<PodModel>>> =
-    Mutex::new(RefCell::new(None));
+/// Frames received on the bus, for the application task.
+pub static CAN_RX: Channel<CriticalSectionRawMutex, CanFrame, 16> = Channel::new();
+/// Received frames dropped because the application task had not taken the previous ones.
+pub static CAN_RX_OVERRUNS: Overruns = Overruns::new();
+/// Frames the CANopen node sends, for the CAN task.
+pub static CAN_TX: Channel<CriticalSectionRawMutex, CanFrame, 16> = Channel::new();
+/// Frames the node produced that did not fit the transmit queue.
+pub static CAN_TX_OVERRUNS: Overruns = Overruns::new();
+/// The controller's fault-confinement state when it changes (the CAN task reads FDCAN `PSR`).
+pub static CAN_BUS: Signal<CriticalSectionRawMutex, BusState> = Signal::new();
 
-/// The sample log downloaded over USB (32 KiB: `LOG_CAPACITY` records of 32 bytes).
-pub static LOG: Mutex<CriticalSectionRawMutex, RefCell<SampleLog<LOG_CAPACITY>>> =
-    Mutex::new(RefCell::new(SampleLog::new()));
+/// Bytes of one USB packet.
+pub const PACKET: usize = 64;
 
-/// Session commands from the protocol tasks to the compute task.
-pub static COMMANDS: Channel<CriticalSectionRawMutex, SessionCommand, 8> = Channel::new();
-/// Commands dropped because the compute task had not taken the previous ones.
-pub static COMMAND_QUEUE_OVERRUNS: Overruns = Overruns::new();
-
-/// Runs `f` on the pod model (inside a short critical section); `None` before the compute
-/// task has published the first model.
-pub fn with_pod<R>(f: impl FnOnce(&mut PodModel) -> R) -> Option<R> {
-    POD.lock(|p| p.borrow_mut().as_mut().map(f))
+/// What the USB task tells the application task.
+#[derive(Clone, Copy, Debug)]
+pub enum UsbEvent {
+    /// Bytes received on the command port (`len` of `data`).
+    Bytes {
+        /// The packet.
+        data: [u8; PACKET],
+        /// Bytes used.
+        len: usize,
+    },
+    /// The command port's host went away (DTR dropped or a write failed).
+    CommandClosed,
+    /// A host opened the stream port (DTR set): the stream starts writing.
+    StreamOpened,
+    /// The stream port's host went away.
+    StreamClosed,
 }
 
-/// Queues a command for the compute task (counted if the queue is full).
-pub fn submit(cmd: SessionCommand) {
-    if COMMANDS.try_send(cmd).is_err() {
-        COMMAND_QUEUE_OVERRUNS.count();
-    }
-}
-
-/// True while a USB log download is in progress: the compute task does not log meanwhile (the
-/// download announced its length), and counts the samples it could not log.
-static DOWNLOAD_ACTIVE: AtomicBool = AtomicBool::new(false);
-/// Samples not logged because a download was in progress.
-pub static LOG_PAUSED_SAMPLES: Overruns = Overruns::new();
-
-/// Marks a log download as running or finished.
-pub fn set_download_active(on: bool) {
-    DOWNLOAD_ACTIVE.store(on, Ordering::Release);
-}
-
-/// True while a log download is in progress.
-pub fn download_active() -> bool {
-    DOWNLOAD_ACTIVE.load(Ordering::Acquire)
-}
+/// USB events, for the application task.
+pub static USB_RX: Channel<CriticalSectionRawMutex, UsbEvent, 8> = Channel::new();
+/// USB events dropped because the application task had not taken the previous ones.
+pub static USB_RX_OVERRUNS: Overruns = Overruns::new();
+/// SCPI responses and log downloads, for the command port.
+pub static USB_TX: Pipe<CriticalSectionRawMutex, 2048> = Pipe::new();
+/// Response bytes dropped because the command port's host did not read them.
+pub static USB_TX_OVERRUNS: Overruns = Overruns::new();
+/// The sample stream's text, for the stream port (the stream counts what did not fit).
+pub static STREAM_TX: Pipe<CriticalSectionRawMutex, 2048> = Pipe::new();

@@ -454,7 +454,7 @@ pub fn axis_direction_two_positions(
     let (n3, n4) = (unit(v3(n3))?, unit(v3(n4))?);
     let e = unit(v3(nominal))?;
     let theta = sense.physical_deg(commanded_deg).to_radians();
-    let cos_t = libm::cos(theta);
+    let cos_t = crate::num::cos(theta);
     if 1.0 - cos_t < 1e-12 {
         return Err(CentrelineError::NoRotation);
     }
@@ -465,7 +465,7 @@ pub fn axis_direction_two_positions(
         return Err(CentrelineError::InconsistentAngle);
     }
     let k = crate::num::sqrt(k2.clamp(0.0, 1.0));
-    let (ch, sh) = (libm::cos(theta / 2.0), libm::sin(theta / 2.0));
+    let (ch, sh) = (crate::num::cos(theta / 2.0), crate::num::sin(theta / 2.0));
     let cross = n3.cross(&n4) * ch;
     let sum = (n3.into_inner() + n4.into_inner()) * sh;
     let plus = orient(unit(cross + sum * k)?.into_inner(), &e)?;
@@ -588,7 +588,7 @@ pub fn axis_direction_lsq(
 /// About Z on (X, Y): [[c, −s], [s, c]]; about Y on (X, Z): [[c, s], [−s, c]];
 /// about X on (Y, Z): [[c, −s], [s, c]].
 fn in_plane_rotation(axis: NominalAxis, theta_rad: f64) -> [[f64; 2]; 2] {
-    let (s, c) = (libm::sin(theta_rad), libm::cos(theta_rad));
+    let (s, c) = (crate::num::sin(theta_rad), crate::num::cos(theta_rad));
     match axis {
         NominalAxis::Z | NominalAxis::X => [[c, -s], [s, c]],
         NominalAxis::Y => [[c, s], [-s, c]],

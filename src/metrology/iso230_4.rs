@@ -31,20 +31,13 @@
 
 use super::angle::quadrant_angle;
 use super::circle_fit::{CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, Moments};
+use super::solve3::cholesky_solve;
 use crate::acquisition::Sample;
-use nalgebra::{SMatrix, SVector};
 
 /// Highest harmonic order searched for the cyclic error.
 pub const MAX_CYCLIC_ORDER: u32 = 16;
 
-/// Direction of a circular run: counter-clockwise = θ increasing (from +u towards +v).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Direction {
-    /// θ increasing.
-    Ccw,
-    /// θ decreasing.
-    Cw,
-}
+pub use super::pattern::Direction;
 
 /// Why ISO 230-4 figures are not available.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -168,6 +161,27 @@ impl<const BINS: usize> CircularTest<BINS> {
         }
     }
 
+    /// Forgets the samples of direction `d` (a new run of that direction replaces the old one:
+    /// runs are not merged); the other direction is kept.
+    pub fn reset_direction(&mut self, d: Direction) {
+        let [ccw, cw] = &mut self.runs;
+        let run = match d {
+            Direction::Ccw => ccw,
+            Direction::Cw => cw,
+        };
+        *run = Run {
+            fit: CircleFit::new(*run.fit.config()),
+            bins: [Bin::default(); BINS],
+            f_max_um: f32::NEG_INFINITY,
+            f_min_um: f32::INFINITY,
+        };
+    }
+
+    /// The nominal radius the test was built with, mm.
+    pub fn radius_mm(&self) -> f32 {
+        self.radius_mm
+    }
+
     fn run(&self, d: Direction) -> &Run<BINS> {
         let [ccw, cw] = &self.runs;
         match d {
@@ -287,16 +301,16 @@ impl<const BINS: usize> CircularTest<BINS> {
             Direction::Cw => -1.0,
         };
         // weighted least squares on the bin means, 7 unknowns
-        let mut a = SMatrix::<f64, 7, 7>::zeros();
-        let mut rhs = SVector::<f64, 7>::zeros();
-        let basis = |i: usize, nu: f64, nv: f64| -> SVector<f64, 7> {
+        let mut a = [[0.0f64; 7]; 7];
+        let mut rhs = [0.0f64; 7];
+        let basis = |i: usize, nu: f64, nv: f64| -> [f64; 7] {
             let q = i / per_q;
             let r = crate::num::sqrt(nu * nu + nv * nv).max(1e-12);
             let (c, s) = (nu / r, nv / r);
             // sign(sin θ), sign(cos θ) are constant within a quadrant's bins
             let ssin = if q < 2 { 1.0 } else { -1.0 };
             let scos = if q == 0 || q == 3 { 1.0 } else { -1.0 };
-            SVector::<f64, 7>::from([
+            [
                 1.0,
                 nu,
                 nv,
@@ -304,20 +318,25 @@ impl<const BINS: usize> CircularTest<BINS> {
                 2.0 * c * s,
                 0.5 * dir * nu * ssin,
                 -0.5 * dir * nv * scos,
-            ])
+            ]
         };
         for (i, b) in run.bins.iter().enumerate() {
             if let Some((dl, nu, nv)) = b.mean() {
                 let w = f64::from(b.n);
                 let g = basis(i, nu, nv);
-                a += g * g.transpose() * w;
-                rhs += g * (dl * w);
+                for (row, gi) in a.iter_mut().zip(g) {
+                    for (x, gj) in row.iter_mut().zip(g) {
+                        *x += gi * gj * w;
+                    }
+                }
+                for (r, gi) in rhs.iter_mut().zip(g) {
+                    *r += gi * dl * w;
+                }
             }
         }
-        let chol = a.cholesky().ok_or(IsoError::IllConditioned)?;
-        let sol = chol.solve(&rhs);
         // [r0, e_u, e_v, cos 2θ, sin 2θ, reversal u, reversal v]
-        let p: [f64; 7] = core::array::from_fn(|i| sol.get(i).copied().unwrap_or(0.0));
+        let p = cholesky_solve(a, rhs).ok_or(IsoError::IllConditioned)?;
+        let dot = |g: [f64; 7]| g.iter().zip(p).map(|(x, y)| x * y).sum::<f64>();
         // residual profile and its harmonics
         let (mut ss, mut wsum) = (0.0, 0.0);
         let mut best = (0.0f64, 0u32);
@@ -326,7 +345,7 @@ impl<const BINS: usize> CircularTest<BINS> {
             if let Some((dl, nu, nv)) = b.mean() {
                 let w = f64::from(b.n);
                 let g = basis(i, nu, nv);
-                let r = dl - g.dot(&sol);
+                let r = dl - dot(g);
                 ss += w * r * r;
                 wsum += w;
                 let rn = crate::num::sqrt(nu * nu + nv * nv).max(1e-12);

@@ -23,6 +23,8 @@ pub enum Plane {
     XZ,
     /// u = Y, v = Z.
     YZ,
+    /// u = Z, v = X (ISO 230-4's ZX plane: counter-clockwise is positive about +Y).
+    ZX,
 }
 
 impl Plane {
@@ -34,6 +36,58 @@ impl Plane {
             Plane::XY => (x, y),
             Plane::XZ => (x, z),
             Plane::YZ => (y, z),
+            Plane::ZX => (z, x),
+        }
+    }
+}
+
+/// Direction of a run along its pattern: counter-clockwise = the pattern angle θ increasing
+/// (from +u towards +v; for the seed 002 B arcs φ increasing, for the C circles C increasing).
+/// The one direction type of the pod: metrology, the application, both protocols, the logs and
+/// replay use it and its [`name`](Direction::name).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[repr(u8)]
+pub enum Direction {
+    /// Counter-clockwise: θ increasing (code 0).
+    #[default]
+    Ccw = 0,
+    /// Clockwise: θ decreasing (code 1).
+    Cw = 1,
+}
+
+impl Direction {
+    /// Both directions, in code order.
+    pub const ALL: [Direction; 2] = [Direction::Ccw, Direction::Cw];
+
+    /// The name: `"CCW"` or `"CW"`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            Direction::Ccw => "CCW",
+            Direction::Cw => "CW",
+        }
+    }
+
+    /// The direction of a name, in any letter case.
+    pub fn from_name(name: &[u8]) -> Option<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|d| d.name().as_bytes().eq_ignore_ascii_case(name))
+    }
+
+    /// The direction of a code (0 CCW, 1 CW).
+    pub const fn from_u8(v: u8) -> Option<Self> {
+        match v {
+            0 => Some(Direction::Ccw),
+            1 => Some(Direction::Cw),
+            _ => None,
+        }
+    }
+
+    /// +1 for CCW, −1 for CW.
+    pub const fn sign(self) -> f64 {
+        match self {
+            Direction::Ccw => 1.0,
+            Direction::Cw => -1.0,
         }
     }
 }

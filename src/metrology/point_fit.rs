@@ -10,7 +10,7 @@
 //!
 //! Residual RMS is the RMS of the geometric distances, µm.
 
-use nalgebra::{SMatrix, SVector, SymmetricEigen};
+use nalgebra::{SMatrix, SVector};
 
 /// Why a point fit failed.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -48,16 +48,92 @@ pub struct PointFit<const D: usize> {
 
 /// Circle through 2-D points (mm): Taubin, then Gauss–Newton.
 pub fn fit_circle(points: &[[f64; 2]]) -> Result<PointFit<2>, PointFitError> {
-    fit::<2, 3>(points, |m| {
-        SymmetricEigen::try_new(m, f64::EPSILON, 10_000).map(|e| (e.eigenvalues, e.eigenvectors))
-    })
+    fit::<2, 3>(points, jacobi_eigen::<3>)
 }
 
 /// Sphere through 3-D points (mm): Taubin, then Gauss–Newton.
 pub fn fit_sphere(points: &[[f64; 3]]) -> Result<PointFit<3>, PointFitError> {
-    fit::<3, 4>(points, |m| {
-        SymmetricEigen::try_new(m, f64::EPSILON, 10_000).map(|e| (e.eigenvalues, e.eigenvectors))
-    })
+    fit::<3, 4>(points, jacobi_eigen::<4>)
+}
+
+/// Eigenvalues and eigenvectors (columns) of a symmetric K×K matrix by cyclic Jacobi rotations
+/// (Golub & Van Loan §8.5). Written by hand rather than nalgebra's `SymmetricEigen`: for the
+/// 3×3 / 4×4 Taubin matrices it is a few hundred bytes of code instead of ~5 KB on the pod,
+/// and accurate to working precision. `None` if it does not converge (never seen: 10 sweeps
+/// are ample for K ≤ 4) or the matrix is not finite.
+fn jacobi_eigen<const K: usize>(
+    m: SMatrix<f64, K, K>,
+) -> Option<(SVector<f64, K>, SMatrix<f64, K, K>)> {
+    if !m.iter().all(|v| v.is_finite()) {
+        return None;
+    }
+    let mut a = m;
+    let mut v = SMatrix::<f64, K, K>::identity();
+    let scale = a.iter().fold(0.0f64, |acc, x| acc.max(x.abs()));
+    for _ in 0..32 {
+        let mut off = 0.0f64;
+        for p in 0..K {
+            for q in (p + 1)..K {
+                off = off.max(a.get((p, q)).copied().unwrap_or(0.0).abs());
+            }
+        }
+        if !(off > f64::EPSILON * f64::EPSILON * scale) {
+            return Some((a.diagonal(), v));
+        }
+        for p in 0..K {
+            for q in (p + 1)..K {
+                let apq = a.get((p, q)).copied().unwrap_or(0.0);
+                if apq == 0.0 {
+                    continue;
+                }
+                let app = a.get((p, p)).copied().unwrap_or(0.0);
+                let aqq = a.get((q, q)).copied().unwrap_or(0.0);
+                let theta = (aqq - app) / (2.0 * apq);
+                let t = theta.signum() / (theta.abs() + crate::num::sqrt(theta * theta + 1.0));
+                let t = if theta == 0.0 { 1.0 } else { t };
+                let c = 1.0 / crate::num::sqrt(t * t + 1.0);
+                let s = t * c;
+                // A ← Jᵀ A J on rows/columns p, q; V ← V J
+                for k in 0..K {
+                    let (akp, akq) = (
+                        a.get((k, p)).copied().unwrap_or(0.0),
+                        a.get((k, q)).copied().unwrap_or(0.0),
+                    );
+                    if let Some(x) = a.get_mut((k, p)) {
+                        *x = c * akp - s * akq;
+                    }
+                    if let Some(x) = a.get_mut((k, q)) {
+                        *x = s * akp + c * akq;
+                    }
+                }
+                for k in 0..K {
+                    let (apk, aqk) = (
+                        a.get((p, k)).copied().unwrap_or(0.0),
+                        a.get((q, k)).copied().unwrap_or(0.0),
+                    );
+                    if let Some(x) = a.get_mut((p, k)) {
+                        *x = c * apk - s * aqk;
+                    }
+                    if let Some(x) = a.get_mut((q, k)) {
+                        *x = s * apk + c * aqk;
+                    }
+                }
+                for k in 0..K {
+                    let (vkp, vkq) = (
+                        v.get((k, p)).copied().unwrap_or(0.0),
+                        v.get((k, q)).copied().unwrap_or(0.0),
+                    );
+                    if let Some(x) = v.get_mut((k, p)) {
+                        *x = c * vkp - s * vkq;
+                    }
+                    if let Some(x) = v.get_mut((k, q)) {
+                        *x = s * vkp + c * vkq;
+                    }
+                }
+            }
+        }
+    }
+    None
 }
 
 /// Eigen-decomposition of a symmetric K×K matrix: (eigenvalues, eigenvectors as columns).
@@ -137,29 +213,36 @@ fn fit<const D: usize, const K: usize>(
     let mut iterations = 0;
     let mut converged = false;
     for it in 1..=50u32 {
-        let mut jtj = SMatrix::<f64, K, K>::zeros();
-        let mut jtr = SVector::<f64, K>::zeros();
+        let mut jtj = [[0.0f64; K]; K];
+        let mut jtr = [0.0f64; K];
         for p in pts {
             let d = SVector::<f64, D>::from(*p) - m - c;
             let dn = d.norm();
             if !(dn > 0.0) {
                 return Err(PointFitError::Degenerate);
             }
-            let j = SVector::<f64, K>::from_iterator(
-                d.iter().map(|di| -di / dn).chain(core::iter::once(-1.0)),
-            );
+            let mut j = [-1.0f64; K];
+            for (ji, di) in j.iter_mut().zip(d.iter()) {
+                *ji = -di / dn;
+            }
             let res = dn - r;
-            jtj += j * j.transpose();
-            jtr += j * res;
+            for (row, a) in jtj.iter_mut().zip(j) {
+                for (x, b) in row.iter_mut().zip(j) {
+                    *x += a * b;
+                }
+            }
+            for (x, a) in jtr.iter_mut().zip(j) {
+                *x -= a * res;
+            }
         }
-        let chol = jtj.cholesky().ok_or(PointFitError::Degenerate)?;
-        let delta = chol.solve(&(-jtr));
+        let delta = super::solve3::cholesky_solve(jtj, jtr).ok_or(PointFitError::Degenerate)?;
         for (ci, di) in c.iter_mut().zip(delta.iter()) {
             *ci += di;
         }
         r += delta.get(D).copied().unwrap_or(0.0);
         iterations = it;
-        if delta.amax() < 1e-12 * (1.0 + r) {
+        let step = delta.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        if step < 1e-12 * (1.0 + r) {
             converged = true;
             break;
         }

@@ -149,8 +149,8 @@ impl Sym3 {
                 + self.a02 * (self.a01 * self.a12 - d1 * self.a02);
             let r = (det / (p * p * p) / 2.0).clamp(-1.0, 1.0);
             let phi = libm::acos(r) / 3.0;
-            let e_max = q + 2.0 * p * libm::cos(phi);
-            let e_min = q + 2.0 * p * libm::cos(phi + 2.0 * core::f64::consts::PI / 3.0);
+            let e_max = q + 2.0 * p * crate::num::cos(phi);
+            let e_min = q + 2.0 * p * crate::num::cos(phi + 2.0 * core::f64::consts::PI / 3.0);
             let e_mid = 3.0 * q - e_max - e_min;
             (e_min, e_mid, e_max)
         };
@@ -238,4 +238,56 @@ pub fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 /// Dot product a · b.
 pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+/// Solves the symmetric positive definite system `a x = b` (N ≤ 16) by Cholesky, f64; `None`
+/// if `a` is not positive definite to working precision (a pivot below
+/// [`PIVOT_REL_TOL`] × the largest diagonal) or not finite. Hand-written for the same reason as
+/// [`Sym3`]: a fixed-size solve in a few hundred bytes of code, where nalgebra's generic one
+/// costs kilobytes of flash per size.
+pub fn cholesky_solve<const N: usize>(a: [[f64; N]; N], b: [f64; N]) -> Option<[f64; N]> {
+    let scale = (0..N)
+        .filter_map(|i| a.get(i).and_then(|r| r.get(i)))
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    if !(scale > 0.0 && scale.is_finite()) {
+        return None;
+    }
+    // lower factor L, row by row: a = L Lᵀ
+    let mut l = [[0.0f64; N]; N];
+    for i in 0..N {
+        for j in 0..=i {
+            let mut s = a.get(i).and_then(|r| r.get(j)).copied()?;
+            for k in 0..j {
+                let (lik, ljk) = (l.get(i)?.get(k)?, l.get(j)?.get(k)?);
+                s -= lik * ljk;
+            }
+            let v = if i == j {
+                if !(s > PIVOT_REL_TOL * scale) {
+                    return None;
+                }
+                crate::num::sqrt(s)
+            } else {
+                s / l.get(j)?.get(j)?
+            };
+            *l.get_mut(i)?.get_mut(j)? = v;
+        }
+    }
+    // L y = b, then Lᵀ x = y
+    let mut y = [0.0f64; N];
+    for i in 0..N {
+        let mut s = *b.get(i)?;
+        for k in 0..i {
+            s -= l.get(i)?.get(k)? * y.get(k)?;
+        }
+        *y.get_mut(i)? = s / l.get(i)?.get(i)?;
+    }
+    let mut x = [0.0f64; N];
+    for i in (0..N).rev() {
+        let mut s = *y.get(i)?;
+        for k in (i + 1)..N {
+            s -= l.get(k)?.get(i)? * x.get(k)?;
+        }
+        *x.get_mut(i)? = s / l.get(i)?.get(i)?;
+    }
+    x.iter().all(|v| v.is_finite()).then_some(x)
 }

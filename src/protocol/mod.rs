@@ -1,17 +1,20 @@
-//! Protocol layers: the CNC's CANopen view and the technician's SCPI view of the same pod.
+//! Protocol layers: the CNC's CANopen view and the technician's SCPI view of the same pod, and
+//! the text the pod records runs in.
 //!
 //! Both are transport-agnostic state machines over plain data (frames / lines and elapsed time
-//! in, frames / lines out). They read and write the pod through [`pod::PodModel`] — live
-//! values, configuration, session state, results — and hand session actions back to the
-//! application as [`pod::SessionCommand`]s, so the same code runs in the firmware and in the
-//! simulator.
+//! in, frames / lines out). They read the pod's state from the application
+//! ([`crate::app::App`]: live values, configuration, session, results) and hand it the clients'
+//! commands; every decision (is this command allowed now, is that result valid) is the
+//! application's, so both protocols answer the same way.
 //!
-//! - [`pod`]: the shared model (live values, status word, session, results table).
 //! - [`canopen`]: the CiA 301 slave (NMT, heartbeat, SDO, SYNC/TPDO, EMCY) and its EDS.
 //! - [`scpi`]: the USB command interface (IEEE 488.2 / SCPI-99 parser, status model, error queue).
-//! - [`log`]: the fixed-capacity sample log and its CSV download format.
+//! - [`csv`]: the text of a recorded run (header, samples, touch points, end);
+//! - [`download`]: the log download (`DATA:LOG?`) in that text;
+//! - [`stream`]: the USB sample stream in that text.
 
 pub mod canopen;
-pub mod log;
-pub mod pod;
+pub mod csv;
+pub mod download;
 pub mod scpi;
+pub mod stream;

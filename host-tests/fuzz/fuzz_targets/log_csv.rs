@@ -1,68 +1,113 @@
-//! The log's CSV writer on arbitrary samples (any f32 including NaN, ±inf and extremes) and
-//! metadata. Invariants: no panic; `csv_len` equals the bytes written; no line is cut short
-//! (every line ends in `\n` and is at most `CSV_LINE_MAX` bytes); pulling the file with
-//! `CsvCursor::fill` in arbitrary buffer sizes gives the same bytes as streaming it.
+//! The log's CSV writer on arbitrary runs (samples with any f32 including NaN, ±inf and
+//! extremes, touches, an end with arbitrary counters) and metadata. Invariants: no panic;
+//! `csv_len` equals the bytes written; no line is cut short (every line ends in `\n` and is at
+//! most `CSV_LINE_MAX` bytes); pulling the file with `CsvCursor::fill` in arbitrary buffer sizes
+//! gives the same bytes as streaming it; with a valid configuration the replay's reader takes
+//! the file back with the log's samples (number, time, ΔL and flags bit for bit).
 #![no_main]
 
+use std::path::Path;
+
 use arbitrary::{Arbitrary, Unstructured};
-use ballpod::acquisition::{Sample, SampleFlags};
-use ballpod::config::AxisName;
-use ballpod::protocol::log::{CSV_LINE_MAX, CsvCursor, LogMeta, SampleLog, csv_len, write_csv};
-use ballpod::protocol::pod::{Direction, Pattern};
+use ballpod::acquisition::{MAX_AXES, Sample, SampleFlags};
+use ballpod::app::log::SampleLog;
+use ballpod::app::{
+    AbortReason, Direction, Pattern, Recorder, RunCounters, RunEnd, RunMeta, Touch,
+};
+use ballpod::config::{AxisName, Config};
+use ballpod::protocol::csv::CSV_LINE_MAX;
+use ballpod::protocol::download::{CsvCursor, csv_len, write_csv};
+use ballpod_host::recording::parse_runs;
 use libfuzzer_sys::fuzz_target;
 
 #[derive(Arbitrary, Debug)]
-struct RawSample {
-    seq: u32,
-    t_us: u64,
-    delta_l_um: f32,
-    axes: [f32; 5],
-    temp_c: f32,
-    flags: u16,
+enum Event {
+    Sample {
+        seq_step: u8,
+        t_step_us: u32,
+        delta_l_um: f32,
+        axes: [f32; MAX_AXES],
+        temp_c: f32,
+        flags: u16,
+    },
+    Touch {
+        axes: [f32; MAX_AXES],
+    },
 }
-
-const PATTERNS: [Pattern; 8] = [
-    Pattern::Circle,
-    Pattern::Bx,
-    Pattern::By,
-    Pattern::Cr,
-    Pattern::Ca,
-    Pattern::CrPrime,
-    Pattern::Ssm,
-    Pattern::Probe,
-];
 
 fuzz_target!(|data: &[u8]| {
     let mut u = Unstructured::new(data);
-    let Ok((bar, rate, pat, dir, names, dec)) =
-        <(f32, f32, u8, bool, [u8; 5], u8)>::arbitrary(&mut u)
-    else {
+    let Ok((bar, pat, dir, names, end, abort, counters)) = <(
+        f32,
+        u8,
+        bool,
+        [u8; MAX_AXES],
+        bool,
+        u8,
+        [u32; RunCounters::LEN],
+    )>::arbitrary(&mut u) else {
         return;
     };
-    let mut axes = [AxisName::Unused; 5];
-    for (a, n) in axes.iter_mut().zip(names) {
-        *a = AxisName::from_u8(n % 8).unwrap_or(AxisName::Unused);
-    }
-    let meta = LogMeta {
+    let mut config = Config {
         bar_length_mm: bar,
-        pattern: PATTERNS[usize::from(pat) % PATTERNS.len()],
+        ..Config::default()
+    };
+    for (a, n) in config.axes.iter_mut().zip(names) {
+        a.name = AxisName::from_u8(n % 8).unwrap_or(AxisName::Unused);
+    }
+    let meta = RunMeta {
+        run: u32::from(pat),
+        pattern: Pattern::ALL[usize::from(pat) % Pattern::ALL.len()],
         direction: if dir { Direction::Cw } else { Direction::Ccw },
-        sample_rate_hz: rate,
-        axes,
+        config,
     };
     let mut log: SampleLog<16> = SampleLog::new();
-    log.set_decimation(u16::from(dec % 4));
+    log.begin_run(&meta);
+    let (mut seq, mut t_us) = (0u32, 0u64);
     while !u.is_empty() {
-        let Ok(r) = RawSample::arbitrary(&mut u) else {
+        let Ok(e) = Event::arbitrary(&mut u) else {
             break;
         };
-        log.push(&Sample {
-            seq: r.seq,
-            t_us: r.t_us,
-            delta_l_um: r.delta_l_um,
-            axes: r.axes,
-            temp_c: r.temp_c,
-            flags: SampleFlags(r.flags),
+        match e {
+            Event::Sample {
+                seq_step,
+                t_step_us,
+                delta_l_um,
+                axes,
+                temp_c,
+                flags,
+            } => {
+                seq = seq.wrapping_add(u32::from(seq_step).max(1));
+                t_us += u64::from(t_step_us);
+                log.sample(&Sample {
+                    seq,
+                    t_us,
+                    delta_l_um,
+                    axes,
+                    temp_c,
+                    flags: SampleFlags(flags),
+                });
+            }
+            Event::Touch { axes } => log.touch(&Touch { t_us, axes }),
+        }
+    }
+    if end {
+        let [seen, used, a, b, c, d, e, lost, t, o] = counters;
+        log.end_run(&RunEnd {
+            run: meta.run,
+            abort: AbortReason::from_u8(abort),
+            counters: RunCounters {
+                seen,
+                used,
+                skipped_lvdt_open: a,
+                skipped_lvdt_over_range: b,
+                skipped_quadrature: c,
+                skipped_jump: d,
+                skipped_overrun: e,
+                lost,
+                temperature_faults: t,
+                after_overrun: o,
+            },
         });
     }
     let mut file = Vec::new();
@@ -84,7 +129,7 @@ fuzz_target!(|data: &[u8]| {
     }
     let mut pulled = Vec::new();
     let mut c = CsvCursor::new();
-    let mut size = 1 + usize::from(dec % 61);
+    let mut size = 1 + usize::from(pat % 61);
     loop {
         let mut buf = vec![0u8; size];
         let k = c.fill(&log, &meta, &mut buf);
@@ -95,4 +140,22 @@ fuzz_target!(|data: &[u8]| {
         size = size % 97 + 3;
     }
     assert_eq!(pulled, file);
+    // The replay reads what the pod wrote (a run with a valid configuration and samples).
+    let kept: Vec<Sample> = log
+        .iter()
+        .filter(|r| !r.record.is_touch())
+        .map(|r| r.sample())
+        .collect();
+    if meta.config.validate().is_ok() && !kept.is_empty() {
+        let text = String::from_utf8(file).expect("the pod writes ASCII");
+        let runs = parse_runs(Path::new("log.csv"), &text)
+            .unwrap_or_else(|e| panic!("the replay refused the pod's own log: {e}\n{text}"));
+        let got: Vec<&Sample> = runs[0].samples().collect();
+        assert_eq!(got.len(), kept.len());
+        let same = |a: f32, b: f32| a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan());
+        for (g, k) in got.iter().zip(&kept) {
+            assert_eq!((g.seq, g.t_us, g.flags), (k.seq, k.t_us, k.flags));
+            assert!(same(g.delta_l_um, k.delta_l_um), "{g:?} vs {k:?}");
+        }
+    }
 });

@@ -26,10 +26,15 @@ use cortex_m::peripheral::{SYST, syst::SystClkSource};
 use cortex_m_rt::entry;
 use cortex_m_semihosting::{debug, hprintln};
 
+use core::sync::atomic::{AtomicU32, Ordering};
+
 use ballpod::acquisition::lvdt::{ExcitationTable, LvdtReading, demodulate};
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
+use ballpod::app::seed002::{Procedure, Setup};
+use ballpod::app::{App, Command, Direction as RunDirection, Pattern};
 use ballpod::config::Config;
 use ballpod::identify::lsq::GivensLsq;
+use ballpod::metrology::circle_fit::CircleEstimate;
 use ballpod::metrology::circle_fit::{CircleFit, CircleFitConfig};
 use ballpod::metrology::iso230_4::{CircularTest, Direction};
 use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
@@ -43,6 +48,59 @@ const TICKS_PER_10_INSN: u32 = 256;
 fn now() -> u32 {
     // SAFETY: a read of the SysTick current-value register, which has no side effects.
     0x00FF_FFFF - unsafe { (*SYST::PTR).cvr.read() }
+}
+
+/// SysTick wraps (every 2^24 ticks = 655 360 instructions), for [`measure_long`].
+static WRAPS: AtomicU32 = AtomicU32::new(0);
+
+#[cortex_m_rt::exception]
+fn SysTick() {
+    WRAPS.fetch_add(1, Ordering::Relaxed);
+}
+
+/// Runs `f` (which may take billions of instructions) and returns its result and the
+/// instructions it took, counting the SysTick wraps (the wrap interrupt's own few dozen
+/// instructions per 655 360 are included: < 0.01 %).
+fn measure_long<R>(f: impl FnOnce() -> R) -> (R, u64) {
+    let w0 = WRAPS.load(Ordering::Relaxed);
+    let t0 = now();
+    let r = black_box(f());
+    let t1 = now();
+    let w1 = WRAPS.load(Ordering::Relaxed);
+    let ticks = (u64::from(w1.wrapping_sub(w0)) << 24) + u64::from(t1) - u64::from(t0);
+    (
+        r,
+        (ticks * 10 + u64::from(TICKS_PER_10_INSN) / 2) / u64::from(TICKS_PER_10_INSN),
+    )
+}
+
+/// An application armed and started on `pattern` with a set-up matching [`data`]'s circle
+/// about the socket, the encoders homed at the first sample. The circle's minimum arc is 10°
+/// so that the live fit solves from the start (the worst case of every sample).
+fn started_app(pattern: Pattern, first: &Sample) -> App {
+    let mut app = App::new(Config::default(), [16; MAX_AXES]);
+    let _ = app.configure(|c| {
+        c.bar_length_mm = data::BAR_MM;
+        let s = &mut c.setup;
+        s.circle_centre_mm = data::SOCKET_MM;
+        s.circle_radius_mm = data::BAR_MM;
+        s.circle_min_arc_deg = 10.0;
+        s.ssm_socket_mm = data::SOCKET_MM;
+        Setup::thesis_table_4_3().to_config(s);
+        // the C circle of the data about the socket
+        s.s002_origin_mm = data::SOCKET_MM;
+    });
+    let _ = app.set_pattern(pattern);
+    let _ = app.execute(Command::Arm);
+    app.reference_axes(raw_counts(first), first.axes.map(f64::from));
+    let _ = app.execute(Command::Start);
+    app
+}
+
+/// The encoder counters (16-bit, 10 000 counts/mm) of a sample's positions.
+fn raw_counts(s: &Sample) -> [u32; MAX_AXES] {
+    s.axes
+        .map(|p| (libm::round(f64::from(p) * 10_000.0) as i64).rem_euclid(1 << 16) as u32)
 }
 
 /// Runs `f` and returns its result and the instructions it took (harness overhead included;
@@ -183,11 +241,12 @@ fn main() -> ! {
     cp.SYST.set_clock_source(SystClkSource::Core);
     cp.SYST.set_reload(0x00FF_FFFF);
     cp.SYST.clear_current();
+    cp.SYST.enable_interrupt();
     cp.SYST.enable_counter();
 
     let (_, empty) = measure(|| ());
     let top = stack::sp();
-    let mut stack_rows: [(&str, usize); 8] = [("", 0); 8];
+    let mut stack_rows: [(&str, usize); 16] = [("", 0); 16];
     let mut n_stack = 0;
     let mut record_stack = |name: &'static str, lo: usize| {
         if let Some(r) = stack_rows.get_mut(n_stack) {
@@ -425,7 +484,81 @@ fn main() -> ! {
         min_ratio: Some(3.0),
     });
 
+    // ---- the whole live pipeline --------------------------------------------------------------
+    // What the firmware's application task does per LVDT block: the block's demodulation, the
+    // acquisition sample (calibration, axes, thermal, flags) and `App::on_raw_sample` with the
+    // armed pattern's estimators and every live value refreshed (the circle fit solved, the
+    // SSM neighbourhood solved), on the circle data.
+    for (name, pattern) in [
+        (
+            "**whole live pipeline, CIRCLE** (demodulation + acquisition + App::on_raw_sample)",
+            Pattern::Circle,
+        ),
+        ("**whole live pipeline, seed 002 CR**", Pattern::Cr),
+        ("**whole live pipeline, SSM**", Pattern::Ssm),
+    ] {
+        let mut app = started_app(pattern, &samples[0]);
+        let lo = stack::paint(top);
+        let mut total = 0u32;
+        for s in samples.iter() {
+            let raw = raw_counts(s);
+            let (_, n) = measure(|| {
+                let r = demodulate(black_box(&a[..]), black_box(&b[..]), black_box(&table));
+                app.on_raw_sample(s.t_us, r, raw, 0, &mut ())
+            });
+            total += n.saturating_sub(empty);
+        }
+        record_stack(name, lo);
+        print(&Row {
+            name,
+            unit: "sample",
+            insns_per_unit: total as f32 / samples.len() as f32,
+            flops_per_unit: 0,
+            naive_per_unit: None,
+            max_insns: Some(2500.0),
+            min_ratio: None,
+        });
+    }
+
     // ---- identification (per test) ----------------------------------------------------------
+    // The seed 002 identification on the pod (model mode with its uncertainty propagation,
+    // thesis mode), once per procedure: the thesis's Table 4.4 mean eccentricities as every
+    // step's CW and CCW run.
+    const T44_MEANS: [[f32; 2]; 5] = [
+        [-51.70, -41.67],
+        [-9.73, -36.10],
+        [-48.00, 25.77],
+        [-6.10, -0.27],
+        [-57.73, 28.50],
+    ];
+    let mut procedure = Procedure::new(Setup::thesis_table_4_3());
+    for (step, e) in Pattern::SEED002.into_iter().zip(T44_MEANS) {
+        for d in [RunDirection::Cw, RunDirection::Ccw] {
+            let _ = procedure.record(
+                step,
+                d,
+                CircleEstimate {
+                    r0_um: 0.0,
+                    e_um: e,
+                    u_r0_um: 0.1,
+                    u_e_um: [0.1, 0.1],
+                    residual_rms_um: 0.2,
+                    samples: 30_000,
+                    cond: 3.2,
+                },
+            );
+        }
+    }
+    let lo = stack::paint(top);
+    let (id, n) = measure_long(|| procedure.identify());
+    record_stack("seed 002 identification (Procedure::identify)", lo);
+    hprintln!(
+        "| seed 002 identification on the pod (model mode + u, thesis mode; f64 soft-float) | procedure | {} | — | — | — | — | {:.2} s at 170 MHz (1 insn/cycle), ok = {} |",
+        n,
+        n as f64 / 170e6,
+        id.is_ok()
+    );
+
     let mut lsq = GivensLsq::<11>::new();
     let row = [1.0, 0.5, -0.25, 2.0, 0.1, -1.5, 0.7, 0.3, -0.9, 1.1, 0.05];
     let lo = stack::paint(top);
@@ -459,6 +592,10 @@ fn main() -> ! {
         core::mem::size_of::<ExcitationTable<P>>()
     );
     hprintln!("| Acquisition | {} |", core::mem::size_of::<Acquisition>());
+    hprintln!(
+        "| App (the whole pod application, incl. its Acquisition) | {} |",
+        core::mem::size_of::<App>()
+    );
     hprintln!("| CircleFit | {} |", core::mem::size_of::<CircleFit>());
     hprintln!(
         "| CircularTest<{}> (CW + CCW) | {} |",

@@ -5,7 +5,7 @@ use core::ptr;
 
 const PAINT: u32 = 0xC0DE_F00D;
 /// Bytes painted below the caller's stack pointer (more than any path here uses).
-const PAINT_BYTES: usize = 16 * 1024;
+const PAINT_BYTES: usize = 64 * 1024;
 /// Bytes left untouched just below the stack pointer (the painting function's own frame; a path using less reads as 64).
 const GUARD: usize = 64;
 

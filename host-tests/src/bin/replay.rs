@@ -1,81 +1,70 @@
-//! `cargo replay SESSION [--out DIR]`: reads a session description (JSON or TOML) and the
-//! sample logs it lists (CSV, as the pod streams them over USB), runs them through the same
-//! core code as the simulator and writes the same `results.json` and SVG plots.
+//! `cargo replay FILE… [--out DIR]`: recorded runs — the pod's stream or log files, or a
+//! session file (TOML / JSON) listing logs and the host-only methods' readings — fed back into
+//! the pod's own application; writes `results.json` and the SVG plots (the same as `cargo sim`
+//! for the runs it recorded, byte for byte).
 //!
 //! A malformed file is rejected with its name, line and field, and nothing is written.
 
 use std::path::PathBuf;
 
-use ballpod_host::analysis::analyse;
-use ballpod_host::logfile::read_session;
+use clap::Parser;
+
+use ballpod_host::replay::{Report, replay};
 use ballpod_host::report;
+use ballpod_host::session_file::read_inputs;
 
-const USAGE: &str = "usage: cargo replay SESSION.json|SESSION.toml [--out DIR]";
-
-fn main() {
-    let mut session = None;
-    let mut out = PathBuf::from("replay-out");
-    let mut it = std::env::args().skip(1);
-    while let Some(a) = it.next() {
-        match a.as_str() {
-            "--out" => match it.next() {
-                Some(d) => out = PathBuf::from(d),
-                None => fail("--out needs a value", 2),
-            },
-            "-h" | "--help" => fail("", 2),
-            _ if session.is_none() && !a.starts_with("--") => session = Some(PathBuf::from(a)),
-            _ => fail(&format!("unexpected argument {a}"), 2),
-        }
-    }
-    let Some(session) = session else {
-        fail("no session file given", 2)
-    };
-    let (desc, runs) = match read_session(&session) {
-        Ok(v) => v,
-        Err(e) => fail(&e.to_string(), 1),
-    };
-    let results = match analyse(&desc, &runs) {
-        Ok(r) => r,
-        Err(e) => fail(&e, 1),
-    };
-    let write = |name: &str, text: &str| {
-        let p = out.join(name);
-        if let Err(e) = std::fs::write(&p, text) {
-            fail(&format!("{}: {e}", p.display()), 1);
-        }
-    };
-    if let Err(e) = std::fs::create_dir_all(&out) {
-        fail(&format!("{}: {e}", out.display()), 1);
-    }
-    match report::results_json(&results) {
-        Ok(j) => write("results.json", &j),
-        Err(e) => fail(&e, 1),
-    }
-    for (name, svg) in report::plots(&desc, &runs, &results) {
-        write(&name, &svg);
-    }
-    println!(
-        "replayed {} logs: {} run fits{}{}; results in {}",
-        runs.len(),
-        results.runs.len(),
-        if results.seed002.is_some() {
-            ", seed 002 identification"
-        } else {
-            ""
-        },
-        if results.iso230_4.is_some() {
-            ", ISO 230-4 figures"
-        } else {
-            ""
-        },
-        out.display()
-    );
+/// Recorded runs through the pod's application.
+#[derive(Parser, Debug)]
+#[command(name = "cargo replay", version, about)]
+struct Args {
+    /// Pod files (a recorded stream or a `DATA:LOG?` download) or a session file (.toml, .json).
+    #[arg(required = true)]
+    files: Vec<PathBuf>,
+    /// Output directory.
+    #[arg(long, default_value = "replay-out")]
+    out: PathBuf,
 }
 
-fn fail(msg: &str, code: i32) -> ! {
-    if !msg.is_empty() {
-        eprintln!("replay: {msg}");
+fn main() {
+    let mut raw: Vec<String> = std::env::args().collect();
+    if raw.get(1).is_some_and(|a| a == "--") {
+        raw.remove(1);
     }
-    eprintln!("{USAGE}");
-    std::process::exit(code)
+    let args = Args::parse_from(raw);
+    if let Err(e) = run(&args) {
+        eprintln!("replay: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(args: &Args) -> Result<(), String> {
+    let (runs, host) = read_inputs(&args.files).map_err(|e| e.to_string())?;
+    let mut report = if runs.is_empty() {
+        Report::default()
+    } else {
+        replay(&runs)?
+    };
+    report.host = host;
+    std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
+    let write = |name: &str, text: &str| -> Result<(), String> {
+        let p = args.out.join(name);
+        std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
+    };
+    write("results.json", &report.to_json()?)?;
+    for (name, svg) in report::plots(&runs, &report) {
+        write(&name, &svg)?;
+    }
+    println!(
+        "replayed {} runs ({} done), {} results{}; written to {}",
+        report.runs.len(),
+        report.runs.iter().filter(|r| r.outcome == "DONE").count(),
+        report.results.len(),
+        if report.host.is_empty() {
+            String::new()
+        } else {
+            format!(", {} host-method figures", report.host.len())
+        },
+        args.out.display()
+    );
+    Ok(())
 }

@@ -1,94 +1,104 @@
 //! `cargo sim`: the pod on a virtual machine tool — the seed 002 ball-bar procedure (BX, BY,
-//! CR, CA, CR′, CW and CCW, repeated) on a machine whose deviations are the thesis's identified
-//! values, and an ISO 230-4 circular test with typical linear-axis faults. Prints truth vs
-//! identified ± uncertainty, writes `results.json`, `truth.json` and SVG polar plots.
+//! CR, CA, CR2, CW and CCW, repeated) on a machine whose deviations are the thesis's identified
+//! values, and an ISO 230-4 circular test with typical linear-axis faults, each run armed,
+//! started and stopped on the simulated pod and its results read from the pod's results
+//! table. Prints truth vs identified ± uncertainty, writes `results.json`, `truth.json` and
+//! SVG polar plots, and with `--write-logs` the recorded runs for `cargo replay`.
 //!
-//! Options: `--seed N`, `--noise UM` (bar noise σ, µm), `--machine FILE` (TOML/JSON),
-//! `--out DIR` (default `sim-out`), `--write-logs DIR`, `--repeats N`.
-//!
-//! `--serve`: instead, the simulated pod on loopback TCP for CANopen / SCPI clients (SLCAN and
-//! the USB command stream; see `ballpod_host::serve`).
+//! `--serve`: instead, the simulated pod on loopback TCP for CANopen / SCPI clients (SLCAN, the
+//! USB command port, the USB sample stream; see `ballpod_host::serve`).
 
 use std::path::PathBuf;
 use std::time::Instant;
 
-use ballpod::identify::multitasking::model_lsq::ModelLsq;
+use clap::Parser;
+
 use ballpod::identify::multitasking::{Parameter, urad_to_arcsec};
-use ballpod_host::analysis::{Results, analyse};
+use ballpod_host::replay::Report;
 use ballpod_host::report;
 use ballpod_host::simulate::{SimOptions, simulate};
 use ballpod_host::vmt::machine::MachineFile;
 
-const USAGE: &str = "usage: cargo sim [--seed N] [--noise UM] [--machine FILE] [--out DIR] \
-                     [--write-logs DIR] [--repeats N]\n       cargo sim -- --serve [--can-port N] \
-                     [--usb-port N] [--realtime] [--speed X] [--seed N] [--noise COUNTS] \
-                     [--max-seconds S]";
-
+/// The pod on a virtual machine tool.
+#[derive(Parser, Debug)]
+#[command(name = "cargo sim", version, about)]
 struct Args {
-    opts: SimOptions,
-    noise_um: Option<f64>,
+    /// Noise seed.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+    /// Bar noise σ, µm (default: the machine file's instrument, 0.2).
+    #[arg(long, value_parser = non_negative)]
+    noise: Option<f64>,
+    /// Machine description (TOML or JSON; every key optional).
+    #[arg(long)]
     machine: Option<PathBuf>,
+    /// Output directory.
+    #[arg(long, default_value = "sim-out")]
     out: PathBuf,
-    logs: Option<PathBuf>,
+    /// Write the recorded runs (the pod's stream text, one file per run) and `session.toml` here.
+    #[arg(long)]
+    write_logs: Option<PathBuf>,
+    /// Repeats of the seed 002 procedure.
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=ballpod::app::seed002::MAX_REPEATS as u64))]
+    repeats: u64,
+    /// Serve the simulated pod to CANopen / SCPI clients on loopback TCP instead.
+    #[arg(long)]
+    serve: bool,
+    /// `--serve`: SLCAN port (0: any free port).
+    #[arg(long, default_value_t = 0)]
+    can_port: u16,
+    /// `--serve`: SCPI (USB command) port (0: any free port).
+    #[arg(long, default_value_t = 0)]
+    usb_port: u16,
+    /// `--serve`: sample stream port (0: any free port).
+    #[arg(long, default_value_t = 0)]
+    stream_port: u16,
+    /// `--serve`: pace the running session at real time too.
+    #[arg(long)]
+    realtime: bool,
+    /// `--serve`: virtual-time speed-up while a run runs.
+    #[arg(long, default_value_t = 20.0)]
+    speed: f64,
+    /// `--serve`: stop after this many seconds of real time.
+    #[arg(long, default_value_t = 600.0)]
+    max_seconds: f64,
 }
 
-fn parse_args() -> Result<Args, String> {
-    let mut a = Args {
-        opts: SimOptions::default(),
-        noise_um: None,
-        machine: None,
-        out: PathBuf::from("sim-out"),
-        logs: None,
-    };
-    let mut it = std::env::args().skip(1);
-    while let Some(k) = it.next() {
-        let mut v = || it.next().ok_or(format!("{k} needs a value"));
-        let bad = |k: &str| format!("{k}: not a valid value");
-        match k.as_str() {
-            "--seed" => a.opts.seed = v()?.parse().map_err(|_| bad(&k))?,
-            "--noise" => {
-                let n: f64 = v()?.parse().map_err(|_| bad(&k))?;
-                if !(n >= 0.0 && n.is_finite()) {
-                    return Err(bad(&k));
-                }
-                a.noise_um = Some(n);
-            }
-            "--repeats" => {
-                a.opts.repeats = v()?.parse().map_err(|_| bad(&k))?;
-                if !(1..=ballpod::session::seed002::MAX_REPEATS).contains(&a.opts.repeats) {
-                    return Err(bad(&k));
-                }
-            }
-            "--machine" => a.machine = Some(PathBuf::from(v()?)),
-            "--out" => a.out = PathBuf::from(v()?),
-            "--write-logs" => a.logs = Some(PathBuf::from(v()?)),
-            "-h" | "--help" => return Err(String::new()),
-            _ => return Err(format!("unknown option {k}")),
-        }
+fn non_negative(s: &str) -> Result<f64, String> {
+    match s.parse::<f64>() {
+        Ok(v) if v >= 0.0 && v.is_finite() => Ok(v),
+        _ => Err(format!("{s:?}: not a non-negative number")),
     }
-    Ok(a)
 }
 
 fn main() {
-    let raw: Vec<String> = std::env::args().skip(1).collect();
-    if raw.iter().any(|a| a == "--serve") {
-        serve(&raw);
-        return;
+    // `cargo sim -- --seed 3` hands the binary a leading `--` (the alias already ends in one):
+    // drop it, so both spellings work.
+    let mut raw: Vec<String> = std::env::args().collect();
+    if raw.get(1).is_some_and(|a| a == "--") {
+        raw.remove(1);
     }
-    let args = match parse_args() {
-        Ok(a) => a,
-        Err(e) => {
-            if !e.is_empty() {
-                eprintln!("sim: {e}");
-            }
-            eprintln!("{USAGE}");
-            std::process::exit(2);
-        }
-    };
-    if let Err(e) = run(&args) {
+    let args = Args::parse_from(raw);
+    let result = if args.serve { serve(&args) } else { run(&args) };
+    if let Err(e) = result {
         eprintln!("sim: {e}");
         std::process::exit(1);
     }
+}
+
+fn serve(a: &Args) -> Result<(), String> {
+    let d = ballpod_host::serve::ServeOptions::default();
+    ballpod_host::serve::run(ballpod_host::serve::ServeOptions {
+        can_port: a.can_port,
+        usb_port: a.usb_port,
+        stream_port: a.stream_port,
+        realtime: a.realtime,
+        speed: a.speed,
+        seed: a.seed,
+        bar_noise_um: a.noise.unwrap_or(d.bar_noise_um),
+        max_seconds: a.max_seconds,
+    })
+    .map_err(|e| format!("--serve: {e}"))
 }
 
 fn run(args: &Args) -> Result<(), String> {
@@ -97,9 +107,14 @@ fn run(args: &Args) -> Result<(), String> {
         Some(p) => MachineFile::read(p)?,
         None => MachineFile::default(),
     };
-    if let Some(n) = args.noise_um {
+    if let Some(n) = args.noise {
         machine.instrument.bar_noise_um = n;
     }
+    let opts = SimOptions {
+        seed: args.seed,
+        repeats: args.repeats as usize,
+        ..SimOptions::default()
+    };
     let mut progress = |done: usize, total: usize, what: &str| {
         eprint!(
             "\rsim: run {:>2}/{total} {what:<24} {:>5.1} s",
@@ -110,23 +125,34 @@ fn run(args: &Args) -> Result<(), String> {
             eprintln!();
         }
     };
-    let session = simulate(&machine, &args.opts, &mut progress);
-    let results = analyse(&session.desc, &session.runs)?;
-    print_seed002(&machine, &results);
-    print_iso(&machine, &results);
+    let session = simulate(&machine, &opts, &mut progress)?;
+    let report = &session.report;
+    print_seed002(&machine, report);
+    print_iso(&machine, report);
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
-    let write = |name: &str, text: &str| -> Result<(), String> {
-        let p = args.out.join(name);
+    let write = |dir: &PathBuf, name: &str, text: &str| -> Result<(), String> {
+        let p = dir.join(name);
         std::fs::write(&p, text).map_err(|e| format!("{}: {e}", p.display()))
     };
-    write("results.json", &report::results_json(&results)?)?;
-    write("truth.json", &report::truth_json(&machine)?)?;
-    for (name, svg) in report::plots(&session.desc, &session.runs, &results) {
-        write(&name, &svg)?;
+    write(&args.out, "results.json", &report.to_json()?)?;
+    write(&args.out, "truth.json", &report::truth_json(&machine)?)?;
+    for (name, svg) in report::plots(&session.runs, report) {
+        write(&args.out, &name, &svg)?;
     }
-    if let Some(dir) = &args.logs {
-        ballpod_host::logfile::write_session(dir, &session.desc, &session.runs)?;
-        println!("logs and session.json written to {}", dir.display());
+    if let Some(dir) = &args.write_logs {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let mut session_toml = String::from(
+            "# The runs of `cargo sim`, as the pod's USB stream records them: `cargo replay` this file.\n",
+        );
+        for (name, run) in &session.runs {
+            write(dir, name, &run.to_csv())?;
+            session_toml.push_str(&format!("\n[[runs]]\nlog = \"{name}\"\n"));
+        }
+        write(dir, "session.toml", &session_toml)?;
+        println!(
+            "recorded runs and session.toml written to {}",
+            dir.display()
+        );
     }
     println!(
         "results written to {} ({:.1} s)",
@@ -146,52 +172,55 @@ fn truth_of(m: &MachineFile, p: Parameter) -> f64 {
     }
 }
 
-fn print_seed002(m: &MachineFile, r: &Results) {
-    let Some(s) = &r.seed002 else {
+fn print_seed002(m: &MachineFile, r: &Report) {
+    if r.result("alpha_CZ").is_none() {
         return;
-    };
+    }
     println!(
         "\nseed 002 ball-bar procedure (BX, BY, CR, CA, CR2; CW+CCW each; thesis Table 4.3 set-up)"
     );
     println!(
-        "{:<5} {:>22} {:>22} {:>8} {:>8}",
-        "step", "e1 ± u (µm)", "e2 ± u (µm)", "pairs", "rms µm"
+        "{:<5} {:>22} {:>22}",
+        "step", "ex ± u (µm)", "ez/ey ± u (µm)"
     );
-    for (st, run) in s.steps.iter().zip(
-        ballpod::session::seed002::Step::ALL
-            .iter()
-            .map(|x| x.name()),
-    ) {
-        let rms = r
-            .runs
-            .iter()
-            .filter(|x| x.method == run)
-            .map(|x| x.residual_rms_um)
-            .fold(0.0f32, f32::max);
+    for step in ballpod::app::Pattern::SEED002 {
+        let n = step.name();
+        let second = if matches!(step, ballpod::app::Pattern::Bx | ballpod::app::Pattern::By) {
+            "z"
+        } else {
+            "y"
+        };
+        let (Some(a), Some(b)) = (
+            r.result(&format!("e_{n}_x")),
+            r.result(&format!("e_{n}_{second}")),
+        ) else {
+            continue;
+        };
         println!(
-            "{:<5} {:>12.4} ± {:<7.4} {:>12.4} ± {:<7.4} {:>8} {:>8.3}",
-            st.step, st.e_um[0], st.u_e_um[0], st.e_um[1], st.u_e_um[1], st.repeats, rms
+            "{:<5} {:>12.4} ± {:<7.4} {:>12.4} ± {:<7.4}",
+            n,
+            a.value,
+            a.u.unwrap_or(f32::NAN),
+            b.value,
+            b.u.unwrap_or(f32::NAN)
         );
     }
     println!(
-        "\nmodel mode (literal HTM model, 10 deviations): truth vs identified, u standard, U = 3u expanded"
+        "\nmodel mode (literal HTM model, 10 deviations, read from the pod's results): truth vs identified, u standard, U = 3u expanded"
     );
     println!(
         "{:<10} {:>10} {:>12} {:>9} {:>9} {:>7}  check",
         "deviation", "truth", "identified", "u", "diff", "|d|/u"
     );
-    let lsq = ModelLsq::without_squareness();
     let mut all_ok = true;
-    for v in &s.model {
-        let Some(p) = Parameter::ALL.iter().copied().find(|p| p.name() == v.name) else {
+    for p in Parameter::ALL {
+        let Some(v) = r.result(p.name()) else {
             continue;
         };
-        if !lsq.free[p.index()] {
-            continue;
-        }
         let t = truth_of(m, p);
-        let d = v.value - t;
-        let ok = d.abs() <= 3.0 * v.u && d.abs() <= 0.5;
+        let u = f64::from(v.u.unwrap_or(f32::NAN));
+        let d = f64::from(v.value) - t;
+        let ok = d.abs() <= 3.0 * u && d.abs() <= 0.5;
         all_ok &= ok;
         let unit = if v.unit == "um" { "µm" } else { "″" };
         println!(
@@ -199,9 +228,9 @@ fn print_seed002(m: &MachineFile, r: &Results) {
             v.name,
             t,
             v.value,
-            v.u,
+            u,
             d,
-            d.abs() / v.u.max(1e-12),
+            d.abs() / u.max(1e-12),
             if ok { "ok" } else { "FAIL" }
         );
     }
@@ -214,72 +243,66 @@ fn print_seed002(m: &MachineFile, r: &Results) {
     );
     let d = m.seed002.deviations();
     let truth_thesis = [
-        ("alpha_CZ", urad_to_arcsec(d.alpha_cz_urad)),
-        ("beta_CZ", urad_to_arcsec(d.beta_cz_urad)),
-        ("alpha_XB", urad_to_arcsec(d.alpha_xb_urad)),
-        ("beta_XB", urad_to_arcsec(d.beta_xb_urad)),
-        ("gamma_XB", urad_to_arcsec(d.gamma_xb_urad)),
-        ("alpha_BT", urad_to_arcsec(d.alpha_bt_urad)),
-        ("dx_CZ-dx_BT", d.dx_cz_um - d.dx_bt_um),
-        ("dy_CZ", d.dy_cz_um),
+        ("th_alpha_CZ", urad_to_arcsec(d.alpha_cz_urad)),
+        ("th_beta_CZ", urad_to_arcsec(d.beta_cz_urad)),
+        ("th_alpha_XB", urad_to_arcsec(d.alpha_xb_urad)),
+        ("th_beta_XB", urad_to_arcsec(d.beta_xb_urad)),
+        ("th_gamma_XB", urad_to_arcsec(d.gamma_xb_urad)),
+        ("th_alpha_BT", urad_to_arcsec(d.alpha_bt_urad)),
+        ("th_dx_CZ_minus_dx_BT", d.dx_cz_um - d.dx_bt_um),
+        ("th_dy_CZ", d.dy_cz_um),
     ];
-    for (v, (_, t)) in s.thesis.iter().zip(truth_thesis) {
-        println!(
-            "{:<12} truth {:>9.3}  thesis {:>9.3} ± {:<7.4} {}",
-            v.name, t, v.value, v.u, v.unit
-        );
+    for (name, t) in truth_thesis {
+        if let Some(v) = r.result(name) {
+            println!(
+                "{:<22} truth {:>9.3}  thesis {:>9.3} ± {:<7.4} {}",
+                name,
+                t,
+                v.value,
+                v.u.unwrap_or(f32::NAN),
+                v.unit
+            );
+        }
     }
 }
 
-fn print_iso(m: &MachineFile, r: &Results) {
-    let Some(i) = &r.iso230_4 else {
+fn print_iso(m: &MachineFile, r: &Report) {
+    let f = |n: &str| r.result(n).map_or(f64::NAN, |v| f64::from(v.value));
+    if r.result("G_bidir").is_none() {
         return;
-    };
+    }
     let c = &m.circle;
     println!(
-        "\nISO 230-4 circular test, R = {} mm, F{} mm/min",
-        i.radius_mm, c.feed_mm_per_min
+        "\nISO 230-4 circular test, R = {} mm, F{} mm/min (from the pod's results)",
+        c.radius_mm, c.feed_mm_per_min
     );
     println!(
         "G ccw {:.3} µm, G cw {:.3} µm, G(b) {:.3} µm, H {:.3} µm, F ccw {:+.3}/{:+.3} µm",
-        i.ccw.g_um,
-        i.cw.g_um,
-        i.bidirectional_g_um,
-        i.hysteresis_h_um,
-        i.ccw.f_max_um,
-        i.ccw.f_min_um
+        f("G_ccw"),
+        f("G_cw"),
+        f("G_bidir"),
+        f("H"),
+        f("F_max_ccw"),
+        f("F_min_ccw")
     );
-    let d = &i.diagnostics;
     let rows = [
-        (
-            "squareness (µrad)",
-            c.squareness_urad,
-            f64::from(d.squareness_urad),
-        ),
+        ("squareness (µrad)", c.squareness_urad, f("squareness")),
         (
             "scale mismatch x−y (µm/m)",
             c.scale_x_um_per_m - c.scale_y_um_per_m,
-            f64::from(d.scale_mismatch_um_per_m),
+            f("scale_mismatch"),
         ),
-        (
-            "reversal X (µm)",
-            c.backlash_x_um,
-            f64::from(d.reversal_x_um),
-        ),
-        (
-            "reversal Y (µm)",
-            c.backlash_y_um,
-            f64::from(d.reversal_y_um),
-        ),
+        ("reversal X (µm)", c.backlash_x_um, f("reversal_u")),
+        ("reversal Y (µm)", c.backlash_y_um, f("reversal_v")),
         (
             "cyclic amplitude (µm)",
             c.cyclic_amplitude_um,
-            f64::from(d.cyclic_amplitude_um),
+            f("cyclic_amplitude"),
         ),
         (
             "servo mismatch x−y (ms)",
             c.servo_mismatch_ms(),
-            i.servo_mismatch_ms,
+            f("servo_mismatch"),
         ),
     ];
     println!(
@@ -296,46 +319,7 @@ fn print_iso(m: &MachineFile, r: &Results) {
     }
     println!(
         "cyclic order: injected {}, diagnosed {}",
-        c.cyclic_order, d.cyclic_order
+        c.cyclic_order,
+        f("cyclic_order")
     );
-}
-
-fn arg<T: std::str::FromStr>(args: &[String], name: &str, default: T) -> Result<T, String> {
-    match args.iter().position(|a| a == name) {
-        None => Ok(default),
-        Some(i) => args
-            .get(i + 1)
-            .ok_or(format!("{name} needs a value"))?
-            .parse()
-            .map_err(|_| format!("{name}: not a valid value")),
-    }
-}
-
-/// `--serve`: the simulated pod on loopback TCP (SLCAN and SCPI), see `ballpod_host::serve`.
-fn serve(args: &[String]) {
-    let d = ballpod_host::serve::ServeOptions::default();
-    let parsed = (|| -> Result<ballpod_host::serve::ServeOptions, String> {
-        Ok(ballpod_host::serve::ServeOptions {
-            can_port: arg(args, "--can-port", d.can_port)?,
-            usb_port: arg(args, "--usb-port", d.usb_port)?,
-            realtime: args.iter().any(|a| a == "--realtime"),
-            speed: arg(args, "--speed", d.speed)?,
-            seed: arg(args, "--seed", d.seed)?,
-            noise_counts: arg(args, "--noise", d.noise_counts)?,
-            max_seconds: arg(args, "--max-seconds", d.max_seconds)?,
-            ..d.clone()
-        })
-    })();
-    match parsed {
-        Ok(opts) => {
-            if let Err(e) = ballpod_host::serve::run(opts) {
-                eprintln!("sim --serve: {e}");
-                std::process::exit(1);
-            }
-        }
-        Err(e) => {
-            eprintln!("sim --serve: {e}\n{USAGE}");
-            std::process::exit(2);
-        }
-    }
 }

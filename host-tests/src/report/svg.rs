@@ -13,10 +13,13 @@
 use std::fmt::Write;
 
 use ballpod::acquisition::Sample;
-use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
-use ballpod::session::seed002::Step;
+use ballpod::app::circle::CircleGeometry;
+use ballpod::app::seed002::Setup;
+use ballpod::app::{Direction, Pattern};
+use ballpod::metrology::pattern::PatternGeometry;
 
-use crate::analysis::{Results, RunResult, SessionDesc};
+use crate::recording::RecordedRun;
+use crate::replay::{Report, RunReport};
 
 const SIZE: f64 = 640.0;
 const CX: f64 = 320.0;
@@ -196,133 +199,176 @@ fn esc(s: &str) -> String {
         .replace('>', "&gt;")
 }
 
-fn fit_of(id: &'static str, colour: &'static str, r: &RunResult) -> Fit {
-    Fit {
+/// The run's fit r0 + e·n from its report.
+fn fit_of(id: &'static str, colour: &'static str, r: &RunReport) -> Option<Fit> {
+    let v = |n: &str| {
+        r.results
+            .iter()
+            .find(|f| f.name == n)
+            .map(|f| f64::from(f.value))
+    };
+    Some(Fit {
         id,
         colour,
-        r0_um: f64::from(r.r0_um),
-        e_um: [f64::from(r.e_um[0]), f64::from(r.e_um[1])],
-    }
+        r0_um: v("r0")?,
+        e_um: [v("ecc_u")?, v("ecc_v")?],
+    })
 }
 
-/// All plots of a session: `iso230_4.svg` and one `seed002_<STEP>.svg` per step (first
-/// CW/CCW pair).
-pub fn plots(desc: &SessionDesc, runs: &[Vec<Sample>], r: &Results) -> Vec<(String, String)> {
+/// The value of a result of the report, `NaN` if not valid.
+fn figure(r: &Report, name: &str) -> f64 {
+    r.result(name).map_or(f64::NAN, |f| f64::from(f.value))
+}
+
+/// All plots of a session: `iso230_4.svg` (the last CCW and CW circles) and one
+/// `seed002_<STEP>.svg` per step (its first CW/CCW pair).
+pub fn plots(runs: &[(String, RecordedRun)], report: &Report) -> Vec<(String, String)> {
     let mut out = Vec::new();
-    let first = |method: &str, dir: &str| {
-        desc.runs
-            .iter()
-            .zip(runs)
-            .zip(&r.runs)
-            .find(|((d, _), _)| d.method == method && d.direction == dir)
-            .map(|((_, s), rr)| (s, rr))
+    let done = |p: Pattern, d: Direction| {
+        runs.iter()
+            .zip(&report.runs)
+            .filter(move |((_, rr), rep)| {
+                rr.meta.pattern == p && rr.meta.direction == d && rep.outcome == "DONE"
+            })
+            .map(|((_, rr), rep)| (rr, rep))
     };
-    if let (Some(iso), Some(c)) = (&r.iso230_4, &desc.circle) {
-        let g = PatternGeometry {
-            plane: Plane::XY,
-            centre_u_mm: c.socket_mm[0] as f32,
-            centre_v_mm: c.socket_mm[1] as f32,
-            sensitivity: Sensitivity::Outward,
-        };
-        if let (Some((ccw, rccw)), Some((cw, rcw))) =
-            (first("ISO230-4", "CCW"), first("ISO230-4", "CW"))
-        {
-            let d = &iso.diagnostics;
-            let legend = vec![
-                format!(
-                    "ISO 230-4 circle R = {} mm, F{} mm/min. CCW (blue) and CW (red) traces, dashed: fitted circles",
-                    c.radius_mm, c.feed_mm_per_min
-                ),
-                format!(
-                    "G(CCW) = {:.2} µm  G(CW) = {:.2} µm  G(b) = {:.2} µm  H = {:.2} µm",
-                    iso.ccw.g_um, iso.cw.g_um, iso.bidirectional_g_um, iso.hysteresis_h_um
-                ),
-                format!(
-                    "F(CCW) = {:+.2}/{:+.2} µm  F(CW) = {:+.2}/{:+.2} µm",
-                    iso.ccw.f_max_um, iso.ccw.f_min_um, iso.cw.f_max_um, iso.cw.f_min_um
-                ),
-                format!(
-                    "Squareness {:.1} µrad  Scale mismatch X−Y {:.1} µm/m  Reversal X {:.2} µm  Y {:.2} µm",
-                    d.squareness_urad, d.scale_mismatch_um_per_m, d.reversal_x_um, d.reversal_y_um
-                ),
-                format!(
-                    "Cyclic error {:.2} µm (order {})  Servo mismatch X−Y {:.2} ms",
-                    d.cyclic_amplitude_um, d.cyclic_order, iso.servo_mismatch_ms
-                ),
-            ];
-            let svg = render(
-                "ISO 230-4 circular test",
-                &[
-                    Trace {
-                        id: "trace-ccw",
-                        colour: "#1f4fd1",
-                        points: bin_means(&g, ccw),
-                    },
-                    Trace {
-                        id: "trace-cw",
-                        colour: "#d12a1f",
-                        points: bin_means(&g, cw),
-                    },
-                ],
-                &[
-                    fit_of("fit-ccw", "#1f4fd1", rccw),
-                    fit_of("fit-cw", "#d12a1f", rcw),
-                ],
-                &legend,
-            );
-            out.push(("iso230_4.svg".to_string(), svg));
-        }
+    let samples = |rr: &RecordedRun| rr.samples().copied().collect::<Vec<Sample>>();
+    if let (Some((ccw, rccw)), Some((cw, rcw))) = (
+        done(Pattern::Circle, Direction::Ccw).next_back(),
+        done(Pattern::Circle, Direction::Cw).next_back(),
+    ) && let Ok(g) = CircleGeometry::from_config(&ccw.meta.config.setup)
+    {
+        let f = |n| figure(report, n);
+        let legend = vec![
+            format!(
+                "ISO 230-4 circle R = {} mm, F{} mm/min. CCW (blue) and CW (red) traces, dashed: fitted circles",
+                g.radius_mm, g.feed_mm_per_min
+            ),
+            format!(
+                "G(CCW) = {:.2} µm  G(CW) = {:.2} µm  G(b) = {:.2} µm  H = {:.2} µm",
+                f("G_ccw"),
+                f("G_cw"),
+                f("G_bidir"),
+                f("H")
+            ),
+            format!(
+                "F(CCW) = {:+.2}/{:+.2} µm  F(CW) = {:+.2}/{:+.2} µm",
+                f("F_max_ccw"),
+                f("F_min_ccw"),
+                f("F_max_cw"),
+                f("F_min_cw")
+            ),
+            format!(
+                "Squareness {:.1} µrad  Scale mismatch {:.1} µm/m  Reversal u {:.2} µm  v {:.2} µm",
+                f("squareness"),
+                f("scale_mismatch"),
+                f("reversal_u"),
+                f("reversal_v")
+            ),
+            format!(
+                "Cyclic error {:.2} µm (order {})  Servo mismatch {:.2} ms",
+                f("cyclic_amplitude"),
+                f("cyclic_order"),
+                f("servo_mismatch")
+            ),
+        ];
+        let svg = render(
+            "ISO 230-4 circular test",
+            &[
+                Trace {
+                    id: "trace-ccw",
+                    colour: "#1f4fd1",
+                    points: bin_means(&g.fit.geometry, &samples(ccw)),
+                },
+                Trace {
+                    id: "trace-cw",
+                    colour: "#d12a1f",
+                    points: bin_means(&g.fit.geometry, &samples(cw)),
+                },
+            ],
+            &[
+                fit_of("fit-ccw", "#1f4fd1", rccw),
+                fit_of("fit-cw", "#d12a1f", rcw),
+            ]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>(),
+            &legend,
+        );
+        out.push(("iso230_4.svg".to_string(), svg));
     }
-    if let (Some(s2), Some(g2)) = (&r.seed002, &desc.seed002) {
-        let setup = g2.setup();
-        for (step, st) in Step::ALL.iter().zip(&s2.steps) {
-            let (Some((ccw, rccw)), Some((cw, rcw))) =
-                (first(step.name(), "CCW"), first(step.name(), "CW"))
-            else {
-                continue;
-            };
-            let g = setup.fit_geometry(*step);
-            let (c1, c2) = if step.pattern().is_b() {
-                ("ex", "ez")
-            } else {
-                ("ex", "ey")
-            };
-            let legend = vec![
-                format!(
-                    "Seed 002 step {} (first repeat): CCW (blue) and CW (red), dashed: fitted limaçon r0 + e·n",
-                    step.name()
-                ),
-                format!(
-                    "CCW: {c1} = {:.3} µm, {c2} = {:.3} µm;  CW: {c1} = {:.3} µm, {c2} = {:.3} µm",
-                    rccw.e_um[0], rccw.e_um[1], rcw.e_um[0], rcw.e_um[1]
-                ),
-                format!(
-                    "Mean of {} pairs: {c1} = {:.3} ± {:.3} µm, {c2} = {:.3} ± {:.3} µm",
-                    st.repeats, st.e_um[0], st.u_e_um[0], st.e_um[1], st.u_e_um[1]
-                ),
-            ];
-            let svg = render(
-                &format!("Seed 002 {}", step.name()),
-                &[
-                    Trace {
-                        id: "trace-ccw",
-                        colour: "#1f4fd1",
-                        points: bin_means(&g, ccw),
-                    },
-                    Trace {
-                        id: "trace-cw",
-                        colour: "#d12a1f",
-                        points: bin_means(&g, cw),
-                    },
-                ],
-                &[
-                    fit_of("fit-ccw", "#1f4fd1", rccw),
-                    fit_of("fit-cw", "#d12a1f", rcw),
-                ],
-                &legend,
-            );
-            out.push((format!("seed002_{}.svg", step.name()), svg));
-        }
+    for step in Pattern::SEED002 {
+        let (Some((ccw, rccw)), Some((cw, rcw))) = (
+            done(step, Direction::Ccw).next(),
+            done(step, Direction::Cw).next(),
+        ) else {
+            continue;
+        };
+        let Ok(setup) = Setup::from_config(&ccw.meta.config.setup) else {
+            continue;
+        };
+        let g = setup.fit_geometry(step);
+        let (c1, c2) = if matches!(step, Pattern::Bx | Pattern::By) {
+            ("ex", "ez")
+        } else {
+            ("ex", "ey")
+        };
+        let e = |r: &RunReport, n: &str| {
+            r.results
+                .iter()
+                .find(|f| f.name == n)
+                .map_or(f64::NAN, |f| f64::from(f.value))
+        };
+        let name = step.name();
+        let mean = |k: &str| {
+            report
+                .result(&format!("e_{name}_{k}"))
+                .map_or((f64::NAN, f64::NAN), |f| {
+                    (f64::from(f.value), f.u.map_or(f64::NAN, f64::from))
+                })
+        };
+        let ((m1, u1), (m2, u2)) = if matches!(step, Pattern::Bx | Pattern::By) {
+            (mean("x"), mean("z"))
+        } else {
+            (mean("x"), mean("y"))
+        };
+        let legend = vec![
+            format!(
+                "Seed 002 step {name} (first repeat): CCW (blue) and CW (red), dashed: fitted limaçon r0 + e·n"
+            ),
+            format!(
+                "CCW: {c1} = {:.3} µm, {c2} = {:.3} µm;  CW: {c1} = {:.3} µm, {c2} = {:.3} µm",
+                e(rccw, "ecc_u"),
+                e(rccw, "ecc_v"),
+                e(rcw, "ecc_u"),
+                e(rcw, "ecc_v")
+            ),
+            format!("Step mean: {c1} = {m1:.3} ± {u1:.3} µm, {c2} = {m2:.3} ± {u2:.3} µm"),
+        ];
+        let svg = render(
+            &format!("Seed 002 {name}"),
+            &[
+                Trace {
+                    id: "trace-ccw",
+                    colour: "#1f4fd1",
+                    points: bin_means(&g, &samples(ccw)),
+                },
+                Trace {
+                    id: "trace-cw",
+                    colour: "#d12a1f",
+                    points: bin_means(&g, &samples(cw)),
+                },
+            ],
+            &[
+                fit_of("fit-ccw", "#1f4fd1", rccw),
+                fit_of("fit-cw", "#d12a1f", rcw),
+            ]
+            .into_iter()
+            .flatten()
+            .collect::<Vec<_>>(),
+            &legend,
+        );
+        out.push((format!("seed002_{name}.svg"), svg));
     }
     out
 }

@@ -26,7 +26,6 @@
 
 use serde::Deserialize;
 
-use crate::analysis::analyse;
 use crate::simulate::{SimOptions, simulate};
 use crate::vmt::machine::MachineFile;
 
@@ -251,28 +250,29 @@ fn seed002_ballbar(s: &Scenario) -> Result<Vec<Check>, String> {
         seed002: true,
         circle: false,
     };
-    let sim = simulate(&m, &o, &mut |_, _, _| {});
-    let r = analyse(&sim.desc, &sim.runs)?;
-    let id = r.seed002.ok_or("procedure incomplete")?;
+    let sim = simulate(&m, &o, &mut |_, _, _| {})?;
     let truth = m.seed002.deviations();
     let mut out = Vec::new();
-    for v in &id.model {
-        let p = Parameter::ALL
-            .iter()
-            .find(|p| p.name() == v.name)
-            .ok_or(format!("unknown parameter {}", v.name))?;
+    // the model-mode deviations as the pod's results table reports them
+    for p in Parameter::ALL {
+        let Some(v) = sim.report.result(p.name()) else {
+            continue;
+        };
         let (t, unit) = if p.is_positional() {
-            (truth.get(*p), "um")
+            (truth.get(p), "um")
         } else {
-            (urad_to_arcsec(truth.get(*p)), "arcsec")
+            (urad_to_arcsec(truth.get(p)), "arcsec")
         };
         out.push(Check {
             name: v.name.clone(),
             truth: t,
-            got: v.value,
-            u: v.u,
+            got: f64::from(v.value),
+            u: v.u.map_or(0.0, f64::from),
             unit,
         });
+    }
+    if out.len() != 10 {
+        return Err(format!("{} of 10 deviations identified", out.len()));
     }
     Ok(out)
 }
@@ -287,49 +287,45 @@ fn iso230_4(s: &Scenario) -> Result<Vec<Check>, String> {
         seed002: false,
         circle: true,
     };
-    let sim = simulate(&m, &o, &mut |_, _, _| {});
-    let r = analyse(&sim.desc, &sim.runs)?;
-    let i = r.iso230_4.ok_or("circle incomplete")?;
+    let sim = simulate(&m, &o, &mut |_, _, _| {})?;
+    let r = &sim.report;
     let c = &m.circle;
-    let d = &i.diagnostics;
-    let rel = |name: &str, truth: f64, got: f32| Check {
-        name: name.to_string(),
-        truth,
-        got: f64::from(got),
-        u: 0.0,
-        unit: "relative",
-    };
     let mut out = Vec::new();
     // only injected faults are checked (a ratio to 0 means nothing)
-    for (name, truth, got) in [
-        ("squareness_urad", c.squareness_urad, d.squareness_urad),
+    for (name, truth, result) in [
+        ("squareness_urad", c.squareness_urad, "squareness"),
         (
             "scale_mismatch_um_per_m",
             c.scale_x_um_per_m - c.scale_y_um_per_m,
-            d.scale_mismatch_um_per_m,
+            "scale_mismatch",
         ),
-        ("reversal_x_um", c.backlash_x_um, d.reversal_x_um),
-        ("reversal_y_um", c.backlash_y_um, d.reversal_y_um),
+        ("reversal_x_um", c.backlash_x_um, "reversal_u"),
+        ("reversal_y_um", c.backlash_y_um, "reversal_v"),
         (
             "cyclic_amplitude_um",
             c.cyclic_amplitude_um,
-            d.cyclic_amplitude_um,
+            "cyclic_amplitude",
         ),
-        (
-            "servo_mismatch_ms",
-            c.servo_mismatch_ms(),
-            i.servo_mismatch_ms as f32,
-        ),
+        ("servo_mismatch_ms", c.servo_mismatch_ms(), "servo_mismatch"),
     ] {
         if truth != 0.0 {
-            out.push(rel(name, truth, got));
+            let got = r
+                .result(result)
+                .ok_or(format!("the pod reports no {result}"))?;
+            out.push(Check {
+                name: name.to_string(),
+                truth,
+                got: f64::from(got.value),
+                u: 0.0,
+                unit: "relative",
+            });
         }
     }
     Ok(out)
 }
 
 fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
-    use ballpod::identify::multitasking::probe::{CAxisProbe, ProbeMode, identify_c_axis};
+    use ballpod::app::ResultId;
     use ballpod::identify::multitasking::urad_to_arcsec;
     let d = s.machine.seed002.deviations();
     let da = d.to_array();
@@ -337,15 +333,22 @@ fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
     let (rc, zc) = (100.0, 64.838);
     let origin = [-490.0, 0.0, -536.838];
     // sensor level: nine touches per sphere through the pod's probe latch (pre-travel,
-    // repeatability σ = noise_um, bounce edges from the instrument), the core's sphere fit
-    let inst = crate::vmt::pod::Instrument {
+    // repeatability σ = noise_um, bounce edges from the instrument); the pod fits each sphere
+    // and, with the four C positions in, identifies the C axis
+    let inst = crate::vmt::sensors::Instrument {
         probe_repeatability_um: s.noise_um,
         ..s.machine.instrument
     };
     let mut rig = crate::vmt::probe_rig::ProbeRig::new(&inst, s.seed);
-    let mut centres = [[0.0; 3]; 4];
+    rig.pod
+        .app
+        .configure(|c| {
+            c.setup.s002_origin_mm = origin.map(|v| v as f32);
+            c.setup.s002_z_c_mm = zc as f32;
+        })
+        .map_err(|e| format!("set-up: {:?}", e.text()))?;
     let mut radius_dev_um = Vec::new();
-    for (k, c) in centres.iter_mut().enumerate() {
+    for k in 0..4 {
         let th = k as f64 * std::f64::consts::FRAC_PI_2;
         let p = crate::forward_seed002::apply(
             &crate::forward_seed002::mul(&mcz, &crate::forward_seed002::ec(th)),
@@ -362,22 +365,19 @@ fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
             ));
         }
         radius_dev_um.push(
-            (m.fit.radius_mm
+            (m.radius_mm
                 - crate::vmt::probe_rig::SPHERE_RADIUS_MM
                 - crate::vmt::probe_rig::STYLUS_RADIUS_MM)
                 * 1e3,
         );
-        *c = m.fit.centre_mm;
     }
-    let r = identify_c_axis(
-        &CAxisProbe {
-            centres_mm: centres,
-            nominal_axis_xy_mm: [origin[0], origin[1]],
-            z_c_mm: zc,
-        },
-        ProbeMode::Corrected,
-    )
-    .map_err(|e| format!("probe: {e:?}"))?;
+    let app = &rig.pod.app;
+    let got = |id: ResultId| {
+        let e = app.result(id);
+        e.valid
+            .then_some(f64::from(e.value))
+            .ok_or(format!("the pod reports no {}", id.info().name))
+    };
     let c = |name: &str, truth: f64, got: f64, unit| Check {
         name: name.to_string(),
         truth,
@@ -389,17 +389,17 @@ fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
         c(
             "alpha_CZ",
             urad_to_arcsec(d.alpha_cz_urad),
-            r.alpha_cz_arcsec,
+            got(ResultId::ProbeAlphaCz)?,
             "arcsec",
         ),
         c(
             "beta_CZ",
             urad_to_arcsec(d.beta_cz_urad),
-            r.beta_cz_arcsec,
+            got(ResultId::ProbeBetaCz)?,
             "arcsec",
         ),
-        c("dx_CZ", d.dx_cz_um, r.dx_cz_um, "um"),
-        c("dy_CZ", d.dy_cz_um, r.dy_cz_um, "um"),
+        c("dx_CZ", d.dx_cz_um, got(ResultId::ProbeDxCz)?, "um"),
+        c("dy_CZ", d.dy_cz_um, got(ResultId::ProbeDyCz)?, "um"),
         // the pre-travel shows in the fitted radius (mean of the four spheres), not the centres
         c(
             "sphere_radius_deviation",
@@ -541,32 +541,84 @@ fn urad_check(name: &str, truth: f64, got: f64, u: f64) -> Check {
     }
 }
 
-/// Both SSM measurements of a two-step procedure at sensor level: (ΔV1, ΔV2, their standard
-/// uncertainty), the larger of the two measurements' uncertainties.
-fn two_ssm(
-    s: &Scenario,
-    first: ([f64; 3], [f64; 3]),
-    second: ([f64; 3], [f64; 3]),
-) -> Result<([f64; 3], [f64; 3], f64), String> {
-    let mut rig = crate::vmt::ssm_rig::SsmRig::new(s.noise_um, s.seed);
-    let m1 = rig.measure(first.0, first.1)?;
-    let m2 = rig.measure(second.0, second.1)?;
-    Ok((m1.e_um, m2.e_um, m1.std_um.max(m2.std_um)))
+/// The two-step set-up the pod is given (its `ts_*` configuration fields).
+struct TwoStepSetup {
+    machine: ballpod::config::TwoStepMachine,
+    tool_z_mm: f64,
+    z_alpha_gamma_mm: f64,
+    reference_mm: [f64; 3],
+    origin_mm: [f64; 3],
+    angles_deg: [f64; 2],
 }
 
-/// RRTTT head: tool tip of the forward model (eqs 2/4) → SSM → `identify_rrttt`.
+/// Both SSM runs of a two-step procedure on the simulated pod at sensor level — after the
+/// translation `first` and after the rotation `second` (nominal, actual tool point, mm) — with
+/// the pod's two-step set-up; returns the pod's results table after the second run.
+fn two_step_on_pod(
+    s: &Scenario,
+    t: &TwoStepSetup,
+    first: ([f64; 3], [f64; 3]),
+    second: ([f64; 3], [f64; 3]),
+) -> Result<ballpod::app::Results, String> {
+    let mut rig = crate::vmt::ssm_rig::SsmRig::new(s.noise_um, s.seed);
+    rig.pod
+        .app
+        .configure(|c| {
+            let st = &mut c.setup;
+            st.ts_machine = t.machine;
+            st.ts_tool_z_mm = t.tool_z_mm as f32;
+            st.ts_z_alpha_gamma_mm = t.z_alpha_gamma_mm as f32;
+            st.ts_reference_mm = t.reference_mm.map(|v| v as f32);
+            st.ts_origin_mm = t.origin_mm.map(|v| v as f32);
+            st.ts_angles_deg = t.angles_deg.map(|v| v as f32);
+        })
+        .map_err(|e| format!("two-step set-up: {:?}", e.text()))?;
+    rig.measure(first.0, first.1)?;
+    rig.measure(second.0, second.1)?;
+    if let Some(note) = rig.pod.app.procedure_note() {
+        return Err(format!("two-step: {:?}", note.text()));
+    }
+    Ok(*rig.pod.app.results())
+}
+
+/// The pod's two-step result `id` as a check against `truth` (µrad).
+fn ts_check(
+    r: &ballpod::app::Results,
+    id: ballpod::app::ResultId,
+    truth: f64,
+) -> Result<Check, String> {
+    let e = r.get(id);
+    if !e.valid {
+        return Err(format!("the pod reports no {}", id.info().name));
+    }
+    Ok(urad_check(
+        id.info().name,
+        truth,
+        f64::from(e.value),
+        f64::from(e.std_uncertainty),
+    ))
+}
+
+/// RRTTT head: tool tip of the forward model (eqs 2/4) → two SSM runs on the pod → the pod's
+/// two-step identification.
 fn seed000_rrttt(s: &Scenario, t: &Rrttt) -> Result<Vec<Check>, String> {
     use crate::forward_seed000 as fwd;
-    use ballpod::identify::two_step::{
-        self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, RotationOrder, RrtttConfig,
-        RrtttMeasurement,
-    };
+    use ballpod::app::ResultId;
     let pivot = [-50.0, -15.0, 500.0];
     let (a, b) = (t.alpha_deg.to_radians(), t.beta_deg.to_radians());
     let (d1, d2) = (t.delta_alpha_urad * 1e-6, t.delta_beta_urad * 1e-6);
     let e1 = t.dv1_um.map(|v| v * 1e-3);
-    let (dv1, dv2, u) = two_ssm(
+    let setup = TwoStepSetup {
+        machine: ballpod::config::TwoStepMachine::Rrttt,
+        tool_z_mm: t.tool_z_mm,
+        z_alpha_gamma_mm: f64::NAN,
+        reference_mm: [f64::NAN; 3],
+        origin_mm: pivot,
+        angles_deg: [t.alpha_deg, t.beta_deg],
+    };
+    let r = two_step_on_pod(
         s,
+        &setup,
         (
             fwd::rrttt_tip(pivot, [0.0; 3], 0.0, 0.0, t.tool_z_mm),
             fwd::rrttt_tip(pivot, e1, 0.0, 0.0, t.tool_z_mm),
@@ -576,104 +628,66 @@ fn seed000_rrttt(s: &Scenario, t: &Rrttt) -> Result<Vec<Check>, String> {
             fwd::rrttt_tip(pivot, e1, a + d1, b + d2, t.tool_z_mm),
         ),
     )?;
-    let cfg = RrtttConfig {
-        tool_z_mm: t.tool_z_mm,
-        rotation_order: RotationOrder::AlphaThenBeta,
-        reference_end: ReferenceEnd::OtherMember,
-        min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
-    };
-    let m = RrtttMeasurement {
-        pivot_mm: pivot,
-        alpha_deg: t.alpha_deg,
-        beta_deg: t.beta_deg,
-        dv1_um: dv1,
-        dv2_um: dv2,
-        ssm_std_um: u,
-    };
-    let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).map_err(|e| format!("{e:?}"))?;
     Ok(vec![
-        urad_check(
-            "delta_alpha_urad",
-            t.delta_alpha_urad,
-            r.delta_alpha_urad,
-            r.std_uncertainty_urad[0],
-        ),
-        urad_check(
-            "delta_beta_urad",
-            t.delta_beta_urad,
-            r.delta_beta_urad,
-            r.std_uncertainty_urad[1],
-        ),
+        ts_check(&r, ResultId::TsDeltaAlpha, t.delta_alpha_urad)?,
+        ts_check(&r, ResultId::TsDeltaBeta, t.delta_beta_urad)?,
     ])
 }
 
-/// TTTRR table: reference point of the forward model (eq 8) → SSM → `identify_tttrr`.
+/// TTTRR table: reference point of the forward model (eq 8) → the pod's two-step.
 fn seed000_tttrr(s: &Scenario, t: &Tttrr) -> Result<Vec<Check>, String> {
     use crate::forward_seed000 as fwd;
-    use ballpod::identify::two_step::{
-        self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, TttrrConfig, TttrrMeasurement,
-    };
+    use ballpod::app::ResultId;
     let origin = [-30.0, 15.0, 120.0];
     let (a, g) = (t.alpha_deg.to_radians(), t.gamma_deg.to_radians());
     let (da, dg) = (t.delta_alpha_urad * 1e-6, t.delta_gamma_urad * 1e-6);
     let e1 = t.dv1_um.map(|v| v * 1e-3);
-    let (z, r) = (t.z_alpha_gamma_mm, t.reference_point_mm);
-    let (dv1, dv2, u) = two_ssm(
+    let (z, rp) = (t.z_alpha_gamma_mm, t.reference_point_mm);
+    let setup = TwoStepSetup {
+        machine: ballpod::config::TwoStepMachine::Tttrr,
+        tool_z_mm: f64::NAN,
+        z_alpha_gamma_mm: z,
+        reference_mm: rp,
+        origin_mm: origin,
+        angles_deg: [t.alpha_deg, t.gamma_deg],
+    };
+    let r = two_step_on_pod(
         s,
+        &setup,
         (
-            fwd::tttrr_point(origin, [0.0; 3], 0.0, 0.0, z, r),
-            fwd::tttrr_point(origin, e1, 0.0, 0.0, z, r),
+            fwd::tttrr_point(origin, [0.0; 3], 0.0, 0.0, z, rp),
+            fwd::tttrr_point(origin, e1, 0.0, 0.0, z, rp),
         ),
         (
-            fwd::tttrr_point(origin, [0.0; 3], a, g, z, r),
-            fwd::tttrr_point(origin, e1, a + da, g + dg, z, r),
+            fwd::tttrr_point(origin, [0.0; 3], a, g, z, rp),
+            fwd::tttrr_point(origin, e1, a + da, g + dg, z, rp),
         ),
     )?;
-    let cfg = TttrrConfig {
-        z_alpha_gamma_mm: z,
-        reference_point_mm: r,
-        reference_end: ReferenceEnd::OtherMember,
-        min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
-    };
-    let m = TttrrMeasurement {
-        origin_mm: origin,
-        alpha_deg: t.alpha_deg,
-        gamma_deg: t.gamma_deg,
-        dv1_um: dv1,
-        dv2_um: dv2,
-        ssm_std_um: u,
-    };
-    let res = two_step::identify_tttrr(&cfg, &m, Mode::Exact).map_err(|e| format!("{e:?}"))?;
     Ok(vec![
-        urad_check(
-            "delta_alpha_urad",
-            t.delta_alpha_urad,
-            res.delta_alpha_urad,
-            res.std_uncertainty_urad[0],
-        ),
-        urad_check(
-            "delta_gamma_urad",
-            t.delta_gamma_urad,
-            res.delta_gamma_urad,
-            res.std_uncertainty_urad[1],
-        ),
+        ts_check(&r, ResultId::TsDeltaAlpha, t.delta_alpha_urad)?,
+        ts_check(&r, ResultId::TsDeltaGamma, t.delta_gamma_urad)?,
     ])
 }
 
-/// RTTTR spindle head: tool tip of the forward model (eqs 13/15) → SSM →
-/// `identify_rtttr_spindle`.
+/// RTTTR spindle head: tool tip of the forward model (eqs 13/15) → the pod's two-step.
 fn seed000_rtttr_spindle(s: &Scenario, t: &RtttrSpindle) -> Result<Vec<Check>, String> {
     use crate::forward_seed000 as fwd;
-    use ballpod::identify::two_step::{
-        self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, RtttrSpindleConfig,
-        SingleAxisMeasurement,
-    };
+    use ballpod::app::ResultId;
     let pivot = [20.0, 10.0, 350.0];
     let b = t.beta_deg.to_radians();
     let db = t.delta_beta_urad * 1e-6;
     let e1 = t.dv1_um.map(|v| v * 1e-3);
-    let (dv1, dv2, u) = two_ssm(
+    let setup = TwoStepSetup {
+        machine: ballpod::config::TwoStepMachine::RtttrSpindle,
+        tool_z_mm: t.tool_z_mm,
+        z_alpha_gamma_mm: f64::NAN,
+        reference_mm: [f64::NAN; 3],
+        origin_mm: pivot,
+        angles_deg: [t.beta_deg, f64::NAN],
+    };
+    let r = two_step_on_pod(
         s,
+        &setup,
         (
             fwd::rtttr_tip(pivot, [0.0; 3], 0.0, t.tool_z_mm),
             fwd::rtttr_tip(pivot, e1, 0.0, t.tool_z_mm),
@@ -683,69 +697,45 @@ fn seed000_rtttr_spindle(s: &Scenario, t: &RtttrSpindle) -> Result<Vec<Check>, S
             fwd::rtttr_tip(pivot, e1, b + db, t.tool_z_mm),
         ),
     )?;
-    let cfg = RtttrSpindleConfig {
-        tool_z_mm: t.tool_z_mm,
-        reference_end: ReferenceEnd::OtherMember,
-        min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
-    };
-    let m = SingleAxisMeasurement {
-        origin_mm: pivot,
-        angle_deg: t.beta_deg,
-        dv1_um: dv1,
-        dv2_um: dv2,
-        ssm_std_um: u,
-    };
-    let r =
-        two_step::identify_rtttr_spindle(&cfg, &m, Mode::Exact).map_err(|e| format!("{e:?}"))?;
-    Ok(vec![urad_check(
-        "delta_beta_urad",
+    Ok(vec![ts_check(
+        &r,
+        ResultId::TsDeltaBeta,
         t.delta_beta_urad,
-        r.delta_urad,
-        r.std_uncertainty_urad,
-    )])
+    )?])
 }
 
-/// RTTTR table: reference point of the forward model (eqs 14/16) → SSM →
-/// `identify_rtttr_table`.
+/// RTTTR table: reference point of the forward model (eqs 14/16) → the pod's two-step.
 fn seed000_rtttr_table(s: &Scenario, t: &RtttrTable) -> Result<Vec<Check>, String> {
     use crate::forward_seed000 as fwd;
-    use ballpod::identify::two_step::{
-        self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, RtttrTableConfig, SingleAxisMeasurement,
-    };
+    use ballpod::app::ResultId;
     let origin = [-30.0, 15.0, 120.0];
     let a = t.alpha_deg.to_radians();
     let da = t.delta_alpha_urad * 1e-6;
     let e1 = t.dv1_um.map(|v| v * 1e-3);
-    let r = t.reference_point_mm;
-    let (dv1, dv2, u) = two_ssm(
+    let rp = t.reference_point_mm;
+    let setup = TwoStepSetup {
+        machine: ballpod::config::TwoStepMachine::RtttrTable,
+        tool_z_mm: f64::NAN,
+        z_alpha_gamma_mm: f64::NAN,
+        reference_mm: rp,
+        origin_mm: origin,
+        angles_deg: [t.alpha_deg, f64::NAN],
+    };
+    let r = two_step_on_pod(
         s,
+        &setup,
         (
-            fwd::rtttr_table_point(origin, [0.0; 3], 0.0, r),
-            fwd::rtttr_table_point(origin, e1, 0.0, r),
+            fwd::rtttr_table_point(origin, [0.0; 3], 0.0, rp),
+            fwd::rtttr_table_point(origin, e1, 0.0, rp),
         ),
         (
-            fwd::rtttr_table_point(origin, [0.0; 3], a, r),
-            fwd::rtttr_table_point(origin, e1, a + da, r),
+            fwd::rtttr_table_point(origin, [0.0; 3], a, rp),
+            fwd::rtttr_table_point(origin, e1, a + da, rp),
         ),
     )?;
-    let cfg = RtttrTableConfig {
-        reference_point_mm: r,
-        reference_end: ReferenceEnd::OtherMember,
-        min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
-    };
-    let m = SingleAxisMeasurement {
-        origin_mm: origin,
-        angle_deg: t.alpha_deg,
-        dv1_um: dv1,
-        dv2_um: dv2,
-        ssm_std_um: u,
-    };
-    let res =
-        two_step::identify_rtttr_table(&cfg, &m, Mode::Exact).map_err(|e| format!("{e:?}"))?;
-    Ok(vec![urad_check(
-        "delta_alpha_urad",
+    Ok(vec![ts_check(
+        &r,
+        ResultId::TsDeltaAlpha,
         t.delta_alpha_urad,
-        res.delta_urad,
-        res.std_uncertainty_urad,
-    )])
+    )?])
 }

@@ -6,9 +6,10 @@
 //! - [`CircleMachine`]: an XY machine for the ISO 230-4 circular test with linear-axis faults
 //!   (squareness, scale, reversal/backlash, cyclic error, servo lag per axis).
 
+use ballpod::app::Pattern;
+use ballpod::app::seed002::{Setup, model_pattern};
 use ballpod::identify::multitasking::patterns::command;
 use ballpod::identify::multitasking::{Deviations, arcsec_to_urad};
-use ballpod::session::seed002::{Setup, Step};
 use serde::{Deserialize, Serialize};
 
 use crate::forward_seed002 as fwd;
@@ -97,9 +98,9 @@ impl Machine002 {
 
     /// At pattern angle `angle_rad` of `step`: the true bar-length deviation (µm, ball
     /// distance − L_B) and the axis positions the encoders read (X, Y, Z mm; B, C degrees).
-    pub fn pose(&self, setup: &Setup, step: Step, angle_rad: f64) -> (f64, [f64; 5]) {
+    pub fn pose(&self, setup: &Setup, step: Pattern, angle_rad: f64) -> (f64, [f64; 5]) {
         let g = setup.geometry(step);
-        let c = command(step.pattern(), &g, angle_rad);
+        let c = command(model_pattern(step), &g, angle_rad);
         let d = self.deviations().to_array();
         let t = fwd::t_ball(
             &d,
@@ -110,7 +111,11 @@ impl Machine002 {
             g.r_b_mm,
             self.t_offset_um,
         );
-        let xw = if step.pattern().is_b() { 0.0 } else { g.r_c_mm };
+        let xw = if model_pattern(step).is_b() {
+            0.0
+        } else {
+            g.r_c_mm
+        };
         let w = fwd::w_ball(&d, c.c_rad, g.z_c_mm, g.r_b_mm, xw, self.w_offset_um);
         let dist = ((t[0] - w[0]).powi(2) + (t[1] - w[1]).powi(2) + (t[2] - w[2]).powi(2)).sqrt();
         let o = &setup.offset;
@@ -247,7 +252,7 @@ pub struct MachineFile {
     /// The circular-test machine.
     pub circle: CircleMachine,
     /// The instrument.
-    pub instrument: super::pod::Instrument,
+    pub instrument: super::sensors::Instrument,
 }
 
 impl MachineFile {

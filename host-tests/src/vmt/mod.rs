@@ -19,8 +19,9 @@
 
 pub mod lvdt_channel;
 pub mod machine;
-pub mod pod;
+pub mod motion;
 pub mod probe_rig;
 pub mod rtest_rig;
+pub mod sensors;
 pub mod ssm_rig;
 pub mod virtual_pod;

@@ -1,9 +1,10 @@
 //! Touch-probe measurement of a precision sphere at sensor level (seed 002 chapter 5): the
-//! machine approaches the sphere along its normal at nine points of the upper hemisphere,
-//! the probe switches after its pre-travel (plus a repeatability scatter) and may bounce, the
-//! pod latches the encoder counters at the edge (`Pod::probe_edge_at` → the core's
-//! `Acquisition::probe_trigger` with its debounce and re-seat lock-out), the machine retracts
-//! and the stylus re-seats; the latched points go to the core's `metrology::point_fit::fit_sphere`.
+//! simulated pod runs a PROBE run while the machine approaches the sphere along its normal at
+//! nine points of the upper hemisphere; the probe switches after its pre-travel (plus a
+//! repeatability scatter) and may bounce; the pod latches the encoder counters at the edge
+//! (its application's probe latch, debounce and re-seat lock-out), the machine retracts and
+//! the stylus re-seats. At the end of the run the pod fits the sphere (results `sphere_*`),
+//! and once it has spheres at C = 0/90/180/270° it identifies the C axis (`probe_*_CZ`).
 //!
 //! A constant pre-travel shrinks the fitted radius by the pre-travel and leaves the centre
 //! where it is (every point moves along its own normal by the same amount) — the reason the
@@ -11,15 +12,13 @@
 
 use ballpod::acquisition::MAX_AXES;
 use ballpod::acquisition::probe::TriggerOutcome;
-use ballpod::metrology::point_fit::{PointFit, fit_sphere};
+use ballpod::app::{Command, Pattern, ResultId};
 
-use super::pod::{Instrument, Pod};
+use super::sensors::Instrument;
+use super::virtual_pod::{VirtualPod, VirtualSetup};
 use crate::rng::Rng;
 
-/// Radius of the precision sphere, mm.
-pub const SPHERE_RADIUS_MM: f64 = 12.7;
-/// Radius of the stylus ball, mm.
-pub const STYLUS_RADIUS_MM: f64 = 1.5;
+pub use super::motion::{SPHERE_RADIUS_MM, STYLUS_RADIUS_MM};
 /// Approach: start this far from contact, mm, at this feed, mm/min.
 const APPROACH_MM: f64 = 0.3;
 const PROBING_FEED_MM_PER_MIN: f64 = 100.0;
@@ -44,11 +43,13 @@ fn directions() -> [[f64; 3]; 9] {
     ]
 }
 
-/// A sphere measurement: the fit and what the debouncer rejected.
+/// A sphere measurement as the pod reports it.
 #[derive(Clone, Copy, Debug)]
 pub struct SphereMeasurement {
-    /// The core's sphere fit of the latched points (centre mm, radius mm, residual µm).
-    pub fit: PointFit<3>,
+    /// Fitted centre, mm (results `sphere_x/y/z`).
+    pub centre_mm: [f64; 3],
+    /// Fitted radius, mm (`sphere_radius`).
+    pub radius_mm: f64,
     /// Touch points accepted.
     pub accepted: u32,
     /// Edges rejected as bounce.
@@ -57,7 +58,8 @@ pub struct SphereMeasurement {
 
 /// The simulated pod probing spheres.
 pub struct ProbeRig {
-    pod: Pod,
+    /// The pod (set its configuration, read its results).
+    pub pod: VirtualPod,
     inst: Instrument,
     rng: Rng,
     at: Option<[f64; MAX_AXES]>,
@@ -67,23 +69,19 @@ impl ProbeRig {
     /// A pod with the probe faults and noise of `inst` (pre-travel, repeatability, bounces).
     pub fn new(inst: &Instrument, seed: u64) -> Self {
         Self {
-            pod: Pod::new(100.0, inst, seed),
+            pod: VirtualPod::new(VirtualSetup {
+                seed,
+                instrument: *inst,
+                ..VirtualSetup::default()
+            }),
             inst: *inst,
             rng: Rng::new(seed ^ 0x0005_eed0_f9e0_be00),
             at: None,
         }
     }
 
-    /// The debouncer's counters (accepted, bounces, not re-seated).
-    pub fn probe_counts(&self) -> (u32, u32, u32) {
-        self.pod.probe_counts()
-    }
-
     fn move_to(&mut self, to: [f64; MAX_AXES], feed_mm_per_min: f64) {
         let from = self.at.unwrap_or(to);
-        if self.at.is_none() {
-            self.pod.reference(&to);
-        }
         let d: [f64; 3] = std::array::from_fn(|i| to[i] - from[i]);
         let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         let step = feed_mm_per_min / 60.0 / self.inst.sample_rate_hz;
@@ -91,24 +89,33 @@ impl ProbeRig {
         for j in 1..=n {
             let f = j as f64 / n as f64;
             let p: [f64; MAX_AXES] = std::array::from_fn(|i| from[i] + (to[i] - from[i]) * f);
-            self.pod.sample(0.0, &p);
+            self.pod.sample_at(0.0, &p);
         }
         self.at = Some(to);
     }
 
-    /// Probes the sphere whose true centre is `centre_mm` (machine X, Y, Z) with the rotary
-    /// axes at `rotary_deg` (B, C), and fits it.
+    /// A PROBE run on the sphere whose true centre is `centre_mm` (machine X, Y, Z) with the
+    /// rotary axes at `rotary_deg` (B, C): nine touches, and the pod's sphere.
     pub fn measure_sphere(
         &mut self,
         centre_mm: [f64; 3],
         rotary_deg: [f64; 2],
     ) -> Result<SphereMeasurement, String> {
-        let (a0, b0, _) = self.pod.probe_counts();
+        let (a0, b0, _) = self.pod.app.probe_counts();
         let contact = SPHERE_RADIUS_MM + STYLUS_RADIUS_MM;
         let axes = |p: [f64; 3]| [p[0], p[1], p[2], rotary_deg[0], rotary_deg[1]];
         let on =
             |n: [f64; 3], r: f64| -> [f64; 3] { std::array::from_fn(|i| centre_mm[i] + n[i] * r) };
-        let mut points = Vec::new();
+        let start = axes(on(directions()[0], contact + RETRACT_MM));
+        if self.at.is_none() {
+            self.pod.home(&start);
+        }
+        self.move_to(start, RETRACT_FEED_MM_PER_MIN);
+        let app = &mut self.pod.app;
+        let cmd = |e: ballpod::app::CommandError| format!("{:?}", e.text());
+        app.set_pattern(Pattern::Probe).map_err(cmd)?;
+        self.pod.execute(Command::Arm).map_err(cmd)?;
+        self.pod.execute(Command::Start).map_err(cmd)?;
         for n in directions() {
             // clear of the sphere, then the approach along −n
             self.move_to(axes(on(n, contact + RETRACT_MM)), RETRACT_FEED_MM_PER_MIN);
@@ -116,17 +123,15 @@ impl ProbeRig {
             let trigger_r = contact - self.inst.probe_pretravel_um * 1e-3
                 + self.inst.probe_repeatability_um * 1e-3 * self.rng.normal();
             self.move_to(axes(on(n, trigger_r)), PROBING_FEED_MM_PER_MIN);
-            let latch = match self.pod.probe_edge_at(&axes(on(n, trigger_r))) {
-                TriggerOutcome::Accepted(l) => l,
+            match self.pod.probe_edge_at(&axes(on(n, trigger_r))) {
+                TriggerOutcome::Accepted(_) => {}
                 other => return Err(format!("probe: touch not accepted ({other:?})")),
-            };
+            }
             for _ in 0..self.inst.probe_bounces {
                 if self.pod.probe_edge_at(&axes(on(n, trigger_r))) != TriggerOutcome::Bounce {
                     return Err("probe: a bounce edge was not rejected as bounce".into());
                 }
             }
-            let p = self.pod.latch_positions(&latch);
-            points.push([f64::from(p[0]), f64::from(p[1]), f64::from(p[2])]);
             // deflected until the retract has lifted the stylus off, then seated
             self.pod.set_probe_seated(false);
             self.move_to(axes(on(n, contact + 0.05)), RETRACT_FEED_MM_PER_MIN);
@@ -135,13 +140,27 @@ impl ProbeRig {
             // the re-seat time before the next touch counts
             let here = axes(on(n, contact + RETRACT_MM));
             for _ in 0..(0.06 * self.inst.sample_rate_hz) as usize {
-                self.pod.sample(0.0, &here);
+                self.pod.sample_at(0.0, &here);
             }
         }
-        let fit = fit_sphere(&points).map_err(|e| format!("sphere fit: {e:?}"))?;
-        let (a1, b1, _) = self.pod.probe_counts();
+        self.pod.execute(Command::Stop).map_err(cmd)?;
+        let app = &mut self.pod.app;
+        let r = |id| {
+            let e = app.result(id);
+            e.valid.then_some(f64::from(e.value)).ok_or(format!(
+                "probe: no {} ({:?})",
+                id.info().name,
+                app.abort_reason()
+            ))
+        };
+        let (a1, b1, _) = app.probe_counts();
         Ok(SphereMeasurement {
-            fit,
+            centre_mm: [
+                r(ResultId::SphereX)?,
+                r(ResultId::SphereY)?,
+                r(ResultId::SphereZ)?,
+            ],
+            radius_mm: r(ResultId::SphereRadius)?,
             accepted: a1 - a0,
             bounces: b1 - b0,
         })

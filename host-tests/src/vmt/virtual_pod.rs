@@ -1,91 +1,134 @@
-//! The pod's application in virtual time, as the firmware's tasks run it on the board: a ball
-//! bar driven on a circle about the socket (radius = bar length, a known centre offset = the
-//! truth) through the sensor models of [`crate::vmt::pod`], the core's acquisition, run
-//! monitor (`ballpod::session::run`), circle fit, sample log, CANopen slave and SCPI server.
+//! The simulated pod: the core's application (`ballpod::app::App`) with the CANopen slave, the
+//! SCPI server, the sample log and the USB sample stream, on the sensor model of
+//! [`super::sensors`] in virtual time — the firmware's application task with the board
+//! replaced by the virtual machine tool. This shell only moves readings, frames and bytes;
+//! every decision is the application's.
 //!
-//! `sim --serve` ([`crate::serve`]) puts it behind TCP ports; the fault-scenario tests drive it
-//! directly: frames and bytes in, frames and bytes out, one [`VirtualPod::step`] per sample
-//! period, faults injected through [`VirtualPod::sensors`].
+//! Two ways to drive it:
+//! - **by hand** (the simulator's procedures, the scenario rigs, the tests): the caller moves
+//!   the machine one sample period at a time ([`VirtualPod::sample_at`]), homes the encoders,
+//!   fires probe edges, injects faults through [`VirtualPod::sensors`], and commands the pod
+//!   through its protocols or the application;
+//! - **served** ([`VirtualPod::step`], behind `sim --serve`): when a client starts a run, the
+//!   virtual CNC ([`super::motion`]) moves through the armed pattern with the pod's set-up and
+//!   ends the run at the end of its motion.
 
+use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::acquisition::{MAX_AXES, Sample};
-use ballpod::config::Config;
-use ballpod::metrology::circle_fit::{CircleFit, CircleFitConfig};
-use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
-use ballpod::protocol::canopen::{BusState, CanFrame, CanOpenNode};
-use ballpod::protocol::log::{LogMeta, SampleLog};
-use ballpod::protocol::pod::{
-    AbortReason, Direction, PodModel, ResultEntry, SessionCommand, SessionState, StatusWord,
+use ballpod::app::log::{LOG_CAPACITY, SampleLog};
+use ballpod::app::{
+    App, Command, CommandError, Pattern, Recorder, RunEnd, RunMeta, SessionState, SettingsRequest,
+    Touch,
 };
+use ballpod::config::Config;
+use ballpod::protocol::canopen::{BusState, CanFrame, CanOpenNode};
 use ballpod::protocol::scpi::ScpiServer;
-use ballpod::session::run::{RunLimits, RunMonitor, Verdict};
+use ballpod::protocol::stream::SampleStream;
 use ballpod::settings::{self, Loaded};
 
-use super::pod::{Instrument, Pod};
+use super::motion::{Motion, ServeTruth};
+use super::sensors::{Instrument, Sensors};
 use crate::flash_model::FlashModel;
+use crate::recording::Recording;
 
-/// Samples the simulated pod's log holds: a whole circle at 1 kHz (the firmware keeps 1024 and
-/// decimates; the host has the memory to keep every sample, so a replay sees them all).
-pub const LOG_CAPACITY: usize = 1 << 17;
+/// Bytes of the sample stream's ring (the host drains it every few samples).
+pub const STREAM_BYTES: usize = 1 << 18;
 
-/// What the virtual machine and instrument are.
+/// What the virtual instrument is.
 #[derive(Clone, Copy, Debug)]
 pub struct VirtualSetup {
     /// Noise seed.
     pub seed: u64,
-    /// ADC noise, counts (σ per sample).
-    pub noise_counts: f64,
-    /// The truth: centre offset of the machine's circle, (x, y) µm.
-    pub centre_offset_um: [f64; 2],
-    /// Feed rate of the circle, mm/min.
-    pub feed_mm_per_min: f64,
+    /// The instrument (noise, sample rate, faults).
+    pub instrument: Instrument,
+    /// The serving machine (truth).
+    pub truth: ServeTruth,
 }
 
 impl Default for VirtualSetup {
     fn default() -> Self {
         Self {
             seed: 1,
-            noise_counts: 1.0,
-            centre_offset_um: [5.0, -3.0],
-            feed_mm_per_min: 1000.0,
+            instrument: Instrument::default(),
+            truth: ServeTruth::default(),
         }
     }
 }
 
-/// The virtual machine and the pod's own code running on it; its sample log holds `N` samples
-/// (a debug build constructs the log on the stack before boxing it: tests use a small `N`).
+/// The recorders of the simulated pod: the pod's log and stream, and the host's whole record.
+struct Recorders<'a, const N: usize> {
+    log: &'a mut SampleLog<N>,
+    log_paused: bool,
+    stream: &'a mut SampleStream<STREAM_BYTES>,
+    recording: &'a mut Recording,
+}
+
+impl<const N: usize> Recorder for Recorders<'_, N> {
+    fn begin_run(&mut self, meta: &RunMeta) {
+        if !self.log_paused {
+            self.log.begin_run(meta);
+        }
+        self.stream.begin_run(meta);
+        self.recording.begin_run(meta);
+    }
+    fn sample(&mut self, s: &Sample) {
+        if !self.log_paused {
+            self.log.sample(s);
+        }
+        self.stream.sample(s);
+        self.recording.sample(s);
+    }
+    fn touch(&mut self, t: &Touch) {
+        if !self.log_paused {
+            self.log.touch(t);
+        }
+        self.stream.touch(t);
+        self.recording.touch(t);
+    }
+    fn end_run(&mut self, end: &RunEnd) {
+        if !self.log_paused {
+            self.log.end_run(end);
+        }
+        self.stream.end_run(end);
+        self.recording.end_run(end);
+    }
+}
+
+/// The simulated pod (module doc); its log holds `N` records (the firmware's by default).
 pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     setup: VirtualSetup,
-    /// The pod model the protocols read and write.
-    pub pod: PodModel,
-    /// The pod's peripherals and acquisition; inject sensor faults here.
-    pub sensors: Pod,
-    fit: CircleFit,
-    monitor: RunMonitor,
-    log: Box<SampleLog<N>>,
+    /// The pod's application.
+    pub app: App,
+    /// The sensors; inject sensor faults here.
+    pub sensors: Sensors,
     /// The CANopen slave.
     pub node: CanOpenNode,
-    /// The SCPI server of the USB port (pull-mode downloads, as the firmware's).
+    /// The SCPI server of the USB command port (pull-mode downloads, as the firmware's).
     pub scpi: ScpiServer,
-    /// Virtual time, µs.
-    t_us: u64,
-    /// Angle of the machine on its circle, rad (0 = +X).
-    theta: f64,
-    /// Angle turned in the current run, rad.
-    turned: f64,
-    /// Sample periods still to lose upstream (queue overrun), from the next step on.
-    losing: u32,
-    last: Option<Sample>,
+    log: Box<SampleLog<N>>,
+    stream: Box<SampleStream<STREAM_BYTES>>,
+    /// Every run whole, as the host recorded it (the stream's content, never dropped).
+    pub recording: Recording,
     /// The two settings pages (`*SAV 0`, CANopen 0x1010); set a power-cut budget here.
     pub flash: FlashModel,
-    /// What the boot found in the settings pages.
     boot_settings: Loaded,
-    /// Settings saves that failed (power cut, flash fault).
-    settings_store_failures: u32,
+    /// The served machine's motion of the current run.
+    motion: Motion,
+    /// PROBE runs served so far (the C position of the next one).
+    probe_runs: u32,
+    /// Whether the last served step had a run running.
+    serving: bool,
+    /// Sample periods still to lose upstream (queue overrun), from the next step on.
+    losing: u32,
+    /// The probe level (seated) the application sees each period.
+    probe_seated: bool,
+    /// Where the machine is (the encoders' positions), mm / degrees.
+    at: [f64; MAX_AXES],
+    last: Option<Sample>,
 }
 
 impl<const N: usize> VirtualPod<N> {
-    /// A pod with erased settings pages (so the default configuration) on the machine
-    /// `setup`, idle at angle 0.
+    /// A pod with erased settings pages (so the default configuration) on the machine `setup`.
     pub fn new(setup: VirtualSetup) -> Self {
         Self::boot(setup, FlashModel::erased())
     }
@@ -95,29 +138,34 @@ impl<const N: usize> VirtualPod<N> {
     pub fn boot(setup: VirtualSetup, mut flash: FlashModel) -> Self {
         let boot_settings = settings::load(&mut flash);
         let config = boot_settings.config;
-        let sensors = Self::sensors(&setup, &config, 0.0);
+        let sensors = Sensors::new(
+            f64::from(config.bar_length_mm),
+            &setup.instrument,
+            setup.seed,
+        );
+        let app = App::new(config, [16; MAX_AXES]);
         let mut scpi = ScpiServer::new();
         scpi.set_pull_download(true);
+        let mut stream = Box::new(SampleStream::new());
+        stream.set_enabled(true);
         Self {
-            node: CanOpenNode::new(config.can_node_id, 0x0BA1_1000),
-            pod: PodModel {
-                config,
-                ..PodModel::default()
-            },
+            node: CanOpenNode::new(app.config().can_node_id, 0x0BA1_1000),
+            app,
             sensors,
-            fit: CircleFit::new(Self::fit_config()),
-            monitor: RunMonitor::new(RunLimits::DEFAULT),
-            log: Box::new(SampleLog::new()),
             scpi,
-            setup,
-            t_us: 0,
-            theta: 0.0,
-            turned: 0.0,
-            losing: 0,
-            last: None,
+            log: Box::new(SampleLog::new()),
+            stream,
+            recording: Recording::default(),
             flash,
             boot_settings,
-            settings_store_failures: 0,
+            motion: Motion::none(),
+            probe_runs: 0,
+            serving: false,
+            losing: 0,
+            probe_seated: true,
+            at: [0.0; MAX_AXES],
+            last: None,
+            setup,
         }
     }
 
@@ -132,146 +180,198 @@ impl<const N: usize> VirtualPod<N> {
         &self.boot_settings
     }
 
-    /// Settings saves that failed (the firmware's `SETTINGS_STORE_FAILURES`).
-    pub fn settings_store_failures(&self) -> u32 {
-        self.settings_store_failures
+    /// The truth of the served machine.
+    pub fn truth(&self) -> &ServeTruth {
+        &self.setup.truth
     }
 
-    fn save(&mut self, config: &Config) {
-        if settings::store(&mut self.flash, config).is_err() {
-            self.settings_store_failures += 1;
-        }
-    }
-
-    /// The virtual instrument for `config` (bar length, sample rate), homed at angle `theta`
-    /// on the circle; ADC noise from the set-up, the bar at 20 °C.
-    fn sensors(setup: &VirtualSetup, config: &Config, theta: f64) -> Pod {
-        let inst = Instrument {
-            bar_noise_um: 0.0,
-            adc_noise_counts: setup.noise_counts,
-            bar_temp_c: 20.0,
-            lvdt_nonlinearity_per_um: 0.0,
-            sample_rate_hz: f64::from(config.sample_rate_hz),
-            ..Instrument::default()
-        };
-        let mut p = Pod::new(f64::from(config.bar_length_mm), &inst, setup.seed);
-        p.reference(&Self::axes(f64::from(config.bar_length_mm), theta));
-        p
-    }
-
-    /// Commanded axis positions (mm) at angle `theta` on a circle of radius `r_mm`.
-    fn axes(r_mm: f64, theta: f64) -> [f64; MAX_AXES] {
-        [r_mm * theta.cos(), r_mm * theta.sin(), 0.0, 0.0, 0.0]
-    }
-
-    fn fit_config() -> CircleFitConfig {
-        CircleFitConfig {
-            geometry: PatternGeometry {
-                plane: Plane::XY,
-                centre_u_mm: 0.0,
-                centre_v_mm: 0.0,
-                sensitivity: Sensitivity::Outward,
-            },
-            min_arc_deg: 60.0,
-        }
-    }
-
-    /// The truth the clients may compare against, as JSON.
-    pub fn truth_json(&self) -> String {
-        format!(
-            "{{\"ecc_x_um\":{},\"ecc_y_um\":{},\"bar_length_mm\":{},\"feed_mm_per_min\":{},\"node_id\":{}}}",
-            self.setup.centre_offset_um[0],
-            self.setup.centre_offset_um[1],
-            self.pod.config.bar_length_mm,
-            self.setup.feed_mm_per_min,
-            self.pod.config.can_node_id
-        )
-    }
-
-    /// Virtual time, µs.
-    pub fn t_us(&self) -> u64 {
-        self.t_us
-    }
-
-    /// The sample log.
+    /// The sample log (what `DATA:LOG?` downloads).
     pub fn log(&self) -> &SampleLog<N> {
         &self.log
     }
 
-    /// The run monitor (the current / last run's accounting and abort reason).
-    pub fn monitor(&self) -> &RunMonitor {
-        &self.monitor
-    }
-
-    /// The latest sample the sensors delivered.
+    /// The latest sample.
     pub fn last_sample(&self) -> Option<Sample> {
         self.last
     }
 
+    /// Virtual time of the next sample, µs.
+    pub fn t_us(&self) -> u64 {
+        self.sensors.t_us()
+    }
+
     /// Sample period of the configuration, µs.
     pub fn period_us(&self) -> f64 {
-        1e6 / f64::from(self.pod.config.sample_rate_hz)
+        1e6 / f64::from(self.app.config().sample_rate_hz)
     }
 
-    /// Carries out the application side of accepted commands (the state change first).
-    pub fn execute(&mut self, cmd: SessionCommand) {
-        self.pod.apply(cmd);
-        match cmd {
-            SessionCommand::Arm { .. } => {
-                self.fit = CircleFit::new(Self::fit_config());
-                self.log.begin_run(LogMeta::from_pod(&self.pod));
-                self.pod.results = Default::default();
-            }
-            SessionCommand::Start => {
-                self.turned = 0.0;
-                self.monitor.start(self.sensors.counters().lost_upstream);
-                self.pod.run = self.monitor.counters();
-            }
-            SessionCommand::Stop => match self.monitor.stop() {
-                Ok(()) => self.publish_results(),
-                Err(reason) => self.pod.abort_run(reason),
-            },
-            SessionCommand::Abort | SessionCommand::Reset => self.monitor.end(),
-            SessionCommand::ConfigChanged => {
-                // the virtual instrument follows the new bar length and sample rate
-                self.sensors = Self::sensors(&self.setup, &self.pod.config, self.theta);
-            }
-            SessionCommand::StoreSettings => self.save(&self.pod.config.clone()),
-            // CiA 301 0x1011: the defaults take effect at the next reset
-            SessionCommand::RestoreDefaults => self.save(&Config::default()),
-        }
+    /// The settings the application asked to store, stored (as the firmware's task does).
+    /// A session command given to the application directly (as the protocols do), then what
+    /// the firmware does after commands: the run's begin or end reaches the recorders now.
+    pub fn execute(&mut self, cmd: Command) -> Result<(), CommandError> {
+        let r = self.app.execute(cmd);
+        self.after_commands();
+        r
     }
 
-    fn publish_results(&mut self) {
-        let Ok(e) = self.fit.estimate() else {
-            // too short an arc or degenerate geometry: no results
-            self.pod.abort_run(AbortReason::NotObservable);
-            return;
+    /// What the firmware's application task does after the commands of a frame or a line:
+    /// records a run the commands armed or stopped, carries out a settings request.
+    fn after_commands(&mut self) {
+        self.app.flush(&mut Recorders {
+            log_paused: self.scpi.download_pending(),
+            log: &mut self.log,
+            stream: &mut self.stream,
+            recording: &mut self.recording,
+        });
+        let ok = match self.app.take_settings_request() {
+            Some(SettingsRequest::Store) => {
+                settings::store(&mut self.flash, self.app.config()).is_ok()
+            }
+            Some(SettingsRequest::RestoreDefaults) => {
+                settings::store(&mut self.flash, &Config::default()).is_ok()
+            }
+            None => return,
         };
-        let entry = |value: f32, u: f32| ResultEntry {
-            value,
-            std_uncertainty: u,
-            valid: true,
-        };
-        if let Some(r) = self.pod.results.get_mut(0..3) {
-            r.copy_from_slice(&[
-                entry(e.e_um[0], e.u_e_um[0]),
-                entry(e.e_um[1], e.u_e_um[1]),
-                entry(e.r0_um, e.u_r0_um),
-            ]);
-        }
+        self.app.settings_stored(ok);
     }
 
-    /// A received CAN frame: the slave's answer frames; a session command it accepted is
-    /// carried out.
+    // ------------------------------------------------------------------ by hand
+
+    /// Homes the encoders at `axes` (mm / degrees).
+    pub fn home(&mut self, axes: &[f64; MAX_AXES]) {
+        let (raw, pos) = self.sensors.reference(axes);
+        self.app.reference_axes(raw, pos);
+        self.at = *axes;
+    }
+
+    /// A probe trigger edge now, the encoders latched at `axes` (where the machine is at the
+    /// edge); an accepted touch of a PROBE run is kept and recorded.
+    pub fn probe_edge_at(&mut self, axes: &[f64; MAX_AXES]) -> TriggerOutcome {
+        let (t, raw) = self.sensors.probe_edge(axes);
+        let mut rec = Recorders {
+            log_paused: self.scpi.download_pending(),
+            log: &mut self.log,
+            stream: &mut self.stream,
+            recording: &mut self.recording,
+        };
+        self.app.on_probe_edge(t, raw, &mut rec)
+    }
+
+    /// The probe stylus level from the next sample on (`true` = seated, at rest).
+    pub fn set_probe_seated(&mut self, seated: bool) {
+        self.probe_seated = seated;
+    }
+
+    /// The next `n` sample periods' ADC blocks are lost upstream (queue overrun): the next
+    /// sample comes `n` periods later and carries `OVERRUN`.
+    pub fn lose_samples(&mut self, n: u32) {
+        self.losing = self.losing.saturating_add(n);
+    }
+
+    /// One sample period with the machine at `axes` (mm / degrees) and the true bar-length
+    /// deviation `dl_um` (µm): the sensors read, the application processes the sample, the
+    /// CANopen node sees its flags and is polled. Returns the sample (`None` if the period was
+    /// lost upstream) and the frames the node sent.
+    pub fn sample_at(
+        &mut self,
+        dl_um: f64,
+        axes: &[f64; MAX_AXES],
+    ) -> (Option<Sample>, Vec<CanFrame>) {
+        let mut tx = Vec::new();
+        self.at = *axes;
+        if self.losing > 0 {
+            self.losing -= 1;
+            self.sensors.lose_samples(1);
+            self.node
+                .poll(self.sensors.t_us(), &self.app, &mut |f| tx.push(f));
+            return (None, tx);
+        }
+        let r = self.sensors.read(dl_um, axes);
+        if let Some(code) = r.thermistor {
+            let _ = self.app.on_thermistor(code);
+        }
+        self.app.on_probe_level(r.t_us, self.probe_seated);
+        let mut rec = Recorders {
+            log_paused: self.scpi.download_pending(),
+            log: &mut self.log,
+            stream: &mut self.stream,
+            recording: &mut self.recording,
+        };
+        let s = self
+            .app
+            .on_raw_sample(r.t_us, r.lvdt, r.raw, r.lost_total, &mut rec);
+        self.last = Some(s);
+        self.node.on_sample(s.flags, r.t_us, &mut |f| tx.push(f));
+        self.node.poll(r.t_us, &self.app, &mut |f| tx.push(f));
+        self.after_commands();
+        while self.app.run_pending_job() {}
+        (Some(s), tx)
+    }
+
+    /// A thermistor ADC code from the thermistor task (12-bit; 0 = shorted, 4095 = open).
+    pub fn thermistor(&mut self, code: u16) {
+        let _ = self.app.on_thermistor(code);
+    }
+
+    // ------------------------------------------------------------------ served
+
+    /// One sample period of the served machine: a run that started gets the virtual CNC's
+    /// motion of its pattern, which ends the run when it is over; otherwise the machine stands
+    /// still. Returns the frames the node sent.
+    pub fn step(&mut self) -> Vec<CanFrame> {
+        let running = self.app.session() == SessionState::Running;
+        if running && !self.serving {
+            let cfg = *self.app.config();
+            match Motion::plan(
+                &self.setup.truth,
+                &cfg,
+                self.app.pattern(),
+                self.app.direction(),
+                self.probe_runs,
+            ) {
+                Ok(m) => {
+                    if self.app.pattern() == Pattern::Probe {
+                        self.probe_runs += 1;
+                    }
+                    if let Some(start) = m.start() {
+                        self.home(&start);
+                    }
+                    self.motion = m;
+                }
+                Err(_) => self.motion = Motion::none(),
+            }
+        }
+        self.serving = running;
+        let (dl, axes) = match running.then(|| self.motion.next_step()).flatten() {
+            Some(m) => {
+                if let Some(edge) = m.edge {
+                    self.probe_edge_at(&edge);
+                }
+                self.probe_seated = m.seated;
+                (m.dl_um, m.axes)
+            }
+            None => {
+                if running {
+                    // the part program's last block: the run ends with the motion
+                    let _ = self.execute(Command::Stop);
+                    self.serving = false;
+                }
+                (0.0, self.at)
+            }
+        };
+        self.sample_at(dl, &axes).1
+    }
+
+    // ------------------------------------------------------------------ protocols
+
+    /// A received CAN frame: the slave's answer frames.
     pub fn can_frame(&mut self, frame: &CanFrame) -> Vec<CanFrame> {
         let mut tx = Vec::new();
-        let cmd = self
-            .node
-            .on_frame(frame, &mut self.pod, self.t_us, &mut |f| tx.push(f));
-        if let Some(c) = cmd {
-            self.execute(c);
-        }
+        self.node
+            .on_frame(frame, &mut self.app, self.sensors.t_us(), &mut |f| {
+                tx.push(f)
+            });
+        self.after_commands();
         tx
     }
 
@@ -279,24 +379,19 @@ impl<const N: usize> VirtualPod<N> {
     pub fn bus_state(&mut self, state: BusState) -> Vec<CanFrame> {
         let mut tx = Vec::new();
         self.node
-            .on_bus_state(state, self.t_us, &mut |f| tx.push(f));
+            .on_bus_state(state, self.sensors.t_us(), &mut |f| tx.push(f));
         tx
     }
 
-    /// Bytes from the USB host: the response bytes (of a `DATA:LOG?` only its block header;
-    /// pull the rest with [`pull_download`](Self::pull_download)). Accepted session commands
-    /// are carried out.
+    /// Bytes from the USB host on the command port: the response bytes (of a `DATA:LOG?` only
+    /// its block header; pull the rest with [`pull_download`](Self::pull_download)).
     pub fn usb(&mut self, bytes: &[u8]) -> Vec<u8> {
         let mut response = Vec::new();
-        let cmds = self
-            .scpi
-            .feed(bytes, &mut self.pod, &*self.log, &mut |b: &[u8]| {
+        self.scpi
+            .feed(bytes, &mut self.app, &*self.log, &mut |b: &[u8]| {
                 response.extend_from_slice(b)
             });
-        for c in cmds {
-            // feed already checked the state; the application side follows
-            self.execute(c);
-        }
+        self.after_commands();
         response
     }
 
@@ -308,77 +403,26 @@ impl<const N: usize> VirtualPod<N> {
         buf
     }
 
-    /// The USB host went away (cable pulled, TCP closed).
+    /// The USB host went away from the command port (cable pulled, TCP closed).
     pub fn usb_disconnected(&mut self) {
         self.scpi.connection_closed();
     }
 
-    /// The next `n` sample periods' ADC blocks are lost upstream (queue overrun): each later
-    /// [`step`](Self::step) loses one instead of delivering a sample.
-    pub fn lose_samples(&mut self, n: u32) {
-        self.losing = self.losing.saturating_add(n);
+    /// A reader opened (`true`) or closed the stream port.
+    pub fn stream_reader(&mut self, connected: bool) {
+        self.stream.set_enabled(connected);
     }
 
-    /// One pod sample period of virtual time: the machine moves, the sensors deliver a sample
-    /// (or lose it), the run monitor, fit and log take it, the slave sends what is due.
-    /// Returns the frames sent.
-    pub fn step(&mut self) -> Vec<CanFrame> {
-        let mut tx = Vec::new();
-        let cfg = self.pod.config;
-        let dt_s = 1.0 / f64::from(cfg.sample_rate_hz);
-        self.t_us += (dt_s * 1e6).round() as u64;
-        let r = f64::from(cfg.bar_length_mm);
-        let running = self.pod.session == SessionState::Running;
-        if running && self.turned < 2.0 * std::f64::consts::PI {
-            let sign = if self.pod.direction == Direction::Cw {
-                -1.0
-            } else {
-                1.0
-            };
-            let dtheta = self.setup.feed_mm_per_min / 60.0 * dt_s / r;
-            self.theta += sign * dtheta;
-            self.turned += dtheta;
-        }
-        if self.losing > 0 {
-            self.losing -= 1;
-            self.sensors.lose_samples(1);
-            self.node.poll(self.t_us, &self.pod, &mut |f| tx.push(f));
-            return tx;
-        }
-        // commanded (encoder) position on the nominal circle; actual ball centre offset by the truth
-        let axes = Self::axes(r, self.theta);
-        let [ex, ey] = self.setup.centre_offset_um;
-        let truth_um = ((axes[0] + ex * 1e-3).hypot(axes[1] + ey * 1e-3) - r) * 1e3;
-        let s = self.sensors.sample(truth_um, &axes);
-        self.last = Some(s);
-        if running {
-            let lost = self.sensors.counters().lost_upstream;
-            match self.monitor.on_sample(&s, lost) {
-                Verdict::Use => {
-                    self.fit.update(&s);
-                    self.log.record(&s);
-                    if let Ok(e) = self.fit.estimate() {
-                        self.pod.live.ecc_x_um = e.e_um[0];
-                        self.pod.live.ecc_y_um = e.e_um[1];
-                        self.pod.live.r0_um = e.r0_um;
-                    }
-                }
-                Verdict::Skip(_) => self.log.record(&s),
-                Verdict::Abort(_, reason) => {
-                    self.log.record(&s);
-                    self.pod.abort_run(reason);
-                }
-                Verdict::NotRunning => {}
-            }
-            self.pod.run = self.monitor.counters();
-        }
-        self.pod.live.sample_counter = s.seq;
-        self.pod.live.delta_l_um = s.delta_l_um;
-        self.pod.live.temp_c = s.temp_c;
-        self.pod.live.status =
-            StatusWord::new(s.flags, self.pod.session, self.node.error_register() != 0);
-        self.node.on_sample(s.flags, self.t_us, &mut |f| tx.push(f));
-        self.node.poll(self.t_us, &self.pod, &mut |f| tx.push(f));
-        tx
+    /// The next at most `max` bytes of the sample stream.
+    pub fn pull_stream(&mut self, max: usize) -> Vec<u8> {
+        let mut buf = vec![0u8; max.max(1)];
+        let n = self.stream.pull(&mut buf);
+        buf.truncate(n);
+        buf
+    }
+
+    /// Stream lines dropped because the ring was full.
+    pub fn stream_dropped(&self) -> u32 {
+        self.stream.dropped_lines()
     }
 }

@@ -104,13 +104,13 @@ pub fn m_cz_inv_first_order(d: &Deviations) -> Matrix4<f64> {
 
 /// E_B, eq 2.4: rotation φ (rad) about Y.
 pub fn e_b(phi_rad: f64) -> Matrix4<f64> {
-    let (s, c) = (libm::sin(phi_rad), libm::cos(phi_rad));
+    let (s, c) = (crate::num::sin(phi_rad), crate::num::cos(phi_rad));
     htm([[c, 0.0, s], [0.0, 1.0, 0.0], [-s, 0.0, c]], [0.0; 3])
 }
 
 /// E_C, eq 2.12: rotation θ (rad) about Z.
 pub fn e_c(theta_rad: f64) -> Matrix4<f64> {
-    let (s, c) = (libm::sin(theta_rad), libm::cos(theta_rad));
+    let (s, c) = (crate::num::sin(theta_rad), crate::num::cos(theta_rad));
     htm([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]], [0.0; 3])
 }
 

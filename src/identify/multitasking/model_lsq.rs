@@ -4,8 +4,8 @@
 //! Each measured pattern contributes two equations: its eccentricity (e1, e2) (µm, §3.5
 //! convention, see [`super::patterns`]) equals the eccentricity the literal model predicts for
 //! the deviations, simulated over the same sampling ([`super::patterns::simulate_eccentricity`]).
-//! The map is solved by Gauss–Newton: Jacobian by central differences of the full model (exact
-//! for its quadratic part), each step a weighted linear least squares in
+//! The map is solved by a chord Gauss–Newton iteration (one Jacobian by forward differences of
+//! the full model, reused while it converges), each step a weighted linear least squares in
 //! [`crate::identify::lsq::GivensLsq`] with a rank check. The unknowns are the chosen subset
 //! of the 13 deviations (µm / µrad); the others stay at given fixed values.
 //!
@@ -53,6 +53,8 @@ pub struct PatternMeasurement {
 pub enum ModelLsqError {
     /// No measurements or no free parameters.
     Empty,
+    /// More measurements than [`MAX_MEASUREMENTS`].
+    TooMany,
     /// A fixed (or start) deviation value is NaN or infinite.
     NonFiniteFixed,
     /// A measurement's σ is ≤ 0 or not finite, or an eccentricity is not finite (index).
@@ -184,6 +186,9 @@ impl ModelLsq {
         if m.is_empty() || self.free_count() == 0 {
             return Err(ModelLsqError::Empty);
         }
+        if m.len() > MAX_MEASUREMENTS {
+            return Err(ModelLsqError::TooMany);
+        }
         if !self.fixed.is_finite() {
             return Err(ModelLsqError::NonFiniteFixed);
         }
@@ -202,82 +207,120 @@ impl ModelLsq {
         Ok(())
     }
 
-    /// One linearised system at `x`: the accumulator, the unweighted RSS of the eccentricity
-    /// residuals and the number of measurement equations.
+    /// The eccentricities the literal model predicts at `x` for each measurement (µm).
+    fn predict(
+        m: &[PatternMeasurement],
+        x: &[f64; 13],
+    ) -> Result<[[f64; 2]; MAX_MEASUREMENTS], ModelLsqError> {
+        let mut out = [[0.0f64; 2]; MAX_MEASUREMENTS];
+        for (index, (p, dst)) in m.iter().zip(out.iter_mut()).enumerate() {
+            *dst = predict_one(index, p, x)?;
+        }
+        Ok(out)
+    }
+
+    /// The sensitivity rows at `x` (`pred` = [`Self::predict`] at `x`).
+    ///
+    /// `Differences::Forward` (the iteration: one simulation per free deviation and pattern;
+    /// its accuracy sets only the convergence rate): step 0.01 µm / µrad, truncation error
+    /// (step × the model's curvature) and rounding (~1e-11 µm of a 10² mm bar over the step)
+    /// both near 1e-8 of a sensitivity. `Differences::Central` (the identifiability report,
+    /// whose null combinations need the sensitivities to rounding): step 1 µm / µrad, exact
+    /// for the model's quadratic part, twice the simulations.
+    fn jacobian(
+        &self,
+        m: &[PatternMeasurement],
+        x: &[f64; 13],
+        pred: &[[f64; 2]; MAX_MEASUREMENTS],
+        differences: Differences,
+    ) -> Result<Jacobian, ModelLsqError> {
+        let mut jac = Jacobian {
+            rows: [[0.0; 13]; 2 * MAX_MEASUREMENTS],
+            scale: 1.0,
+        };
+        let h = match differences {
+            Differences::Forward => 0.01,
+            Differences::Central => 1.0,
+        };
+        for (j, free) in self.free.iter().enumerate() {
+            if !free {
+                continue;
+            }
+            let (mut xp, mut xm) = (*x, *x);
+            if let (Some(a), Some(b)) = (xp.get_mut(j), xm.get_mut(j)) {
+                *a += h;
+                *b -= h;
+            }
+            for (index, ((p, rows), base)) in m
+                .iter()
+                .zip(jac.rows.chunks_exact_mut(2))
+                .zip(pred.iter())
+                .enumerate()
+            {
+                let ep = predict_one(index, p, &xp)?;
+                let (em, span) = match differences {
+                    Differences::Forward => (*base, h),
+                    Differences::Central => (predict_one(index, p, &xm)?, 2.0 * h),
+                };
+                for ((row, a), b) in rows.iter_mut().zip(ep.iter()).zip(em.iter()) {
+                    if let Some(v) = row.get_mut(j) {
+                        *v = (a - b) / span;
+                    }
+                }
+            }
+        }
+        // Scale of the fixing/damping rows: the largest weighted sensitivity column norm.
+        let mut col2 = [0.0f64; 13];
+        for (p, rows) in m.iter().zip(jac.rows.chunks_exact(2)) {
+            let w = p.weight();
+            for row in rows {
+                col2.iter_mut()
+                    .zip(row.iter())
+                    .for_each(|(c, v)| *c += w * v * v);
+            }
+        }
+        let scale = crate::num::sqrt(col2.iter().fold(0.0f64, |a, v| a.max(*v)));
+        if scale > 0.0 && scale.is_finite() {
+            jac.scale = scale;
+        }
+        Ok(jac)
+    }
+
+    /// The linear system `J Δx ≈ b` (`b` per measurement and component, µm).
     ///
     /// Rows: the weighted measurement equations; `Δx_j = 0` for every fixed deviation (weight
     /// scaled to the largest weighted sensitivity column, so it never limits the rank test);
     /// and a damping row `λ·Δx_j = 0` for every free deviation, λ = [`DAMPING`] × that column
-    /// norm (Levenberg–Marquardt on the step: it vanishes at the Gauss–Newton fixed point, keeps
-    /// the SVD well posed when the set-up is rank-deficient, and puts an inseparable direction at
+    /// norm (Levenberg–Marquardt on the step: it vanishes at the fixed point, keeps the SVD
+    /// well posed when the set-up is rank-deficient, and puts an inseparable direction at
     /// singular value ≈ λ, far below the rank threshold [`RANK_REL_TOL`]).
-    fn linearise(
+    fn system(
         &self,
         m: &[PatternMeasurement],
-        x: &[f64; 13],
-    ) -> Result<(GivensLsq<13>, f64, usize), ModelLsqError> {
+        jac: &Jacobian,
+        b: &[[f64; 2]; MAX_MEASUREMENTS],
+    ) -> Result<GivensLsq<13>, ModelLsqError> {
         let mut lsq = GivensLsq::<13>::new();
-        let mut rss = 0.0;
-        let mut eqs = 0usize;
-        let mut col2 = [0.0f64; 13];
-        let sim = |index: usize, p: &PatternMeasurement, d: &[f64; 13]| {
-            simulate_eccentricity(
-                p.pattern,
-                &p.geometry,
-                &Deviations::from_array(d),
-                &Mounting::default(),
-                p.samples,
-            )
-            .map(|e| [e.e1_um, e.e2_um])
-            .map_err(|cause| ModelLsqError::Pattern { index, cause })
-        };
-        for (index, p) in m.iter().enumerate() {
-            let pred = sim(index, p, x)?;
-            let mut jac = [[0.0f64; 13]; 2];
-            for (j, free) in self.free.iter().enumerate() {
-                if !free {
-                    continue;
-                }
-                // Central difference with a 1 µm / 1 µrad step: exact for the quadratic part.
-                let h = 1.0;
-                let (mut xp, mut xm) = (*x, *x);
-                if let (Some(a), Some(b)) = (xp.get_mut(j), xm.get_mut(j)) {
-                    *a += h;
-                    *b -= h;
-                }
-                let (ep, em) = (sim(index, p, &xp)?, sim(index, p, &xm)?);
-                for ((row, a), b) in jac.iter_mut().zip(ep.iter()).zip(em.iter()) {
-                    if let Some(v) = row.get_mut(j) {
-                        *v = (a - b) / (2.0 * h);
-                    }
-                }
-            }
-            let w = 1.0 / (p.sigma_um * p.sigma_um);
-            for ((row, meas), pr) in jac.iter().zip([p.e1_um, p.e2_um]).zip(pred) {
-                lsq.add_row(row, meas - pr, w).map_err(ModelLsqError::Lsq)?;
-                col2.iter_mut()
-                    .zip(row.iter())
-                    .for_each(|(c, v)| *c += w * v * v);
-                rss += (meas - pr) * (meas - pr);
-                eqs += 1;
+        for ((p, rows), rhs) in m.iter().zip(jac.rows.chunks_exact(2)).zip(b.iter()) {
+            for (row, v) in rows.iter().zip(rhs.iter()) {
+                lsq.add_row(row, *v, p.weight())
+                    .map_err(ModelLsqError::Lsq)?;
             }
         }
-        let scale = crate::num::sqrt(col2.iter().fold(0.0f64, |a, v| a.max(*v)));
-        let scale = if scale > 0.0 && scale.is_finite() {
-            scale
-        } else {
-            1.0
-        };
         for (j, free) in self.free.iter().enumerate() {
             let mut row = [0.0f64; 13];
             if let Some(v) = row.get_mut(j) {
                 *v = 1.0;
             }
-            let lambda = if *free { DAMPING * scale } else { scale };
+            let lambda = if *free {
+                DAMPING * jac.scale
+            } else {
+                jac.scale
+            };
             lsq.add_row(&row, 0.0, lambda * lambda)
                 .map_err(ModelLsqError::Lsq)?;
         }
-        Ok((lsq, rss, eqs))
+        Ok(lsq)
     }
 
     /// Rank of a solved linearisation among all 13 columns (fixed ones count as resolved).
@@ -322,8 +365,12 @@ impl ModelLsq {
     ) -> Result<IdentifiabilityReport, ModelLsqError> {
         self.check(m)?;
         let x = self.fixed.to_array();
-        let (lsq, _, equations) = self.linearise(m, &x)?;
-        let sol = lsq.solve(DEFAULT_RANK_TOL).map_err(ModelLsqError::Lsq)?;
+        let pred = Self::predict(m, &x)?;
+        let jac = self.jacobian(m, &x, &pred, Differences::Central)?;
+        let sol = self
+            .system(m, &jac, &pred)?
+            .solve(DEFAULT_RANK_TOL)
+            .map_err(ModelLsqError::Lsq)?;
         let fixed = 13 - self.free_count();
         let rank = Self::rank_of(&sol).saturating_sub(fixed);
         let mut null_combinations = [[0.0f64; 13]; 13];
@@ -342,59 +389,175 @@ impl ModelLsq {
         Ok(IdentifiabilityReport {
             free: self.free_count(),
             rank,
-            equations,
+            equations: 2 * m.len(),
             null_combinations,
             condition,
         })
     }
 
-    /// Identifies the free deviations from the measured patterns (Gauss–Newton on the literal
-    /// model). Rank deficiency is an error naming the inseparable combination.
+    /// Identifies the free deviations from the measured patterns on the literal model. Rank
+    /// deficiency is an error naming the inseparable combination.
     pub fn identify(&self, m: &[PatternMeasurement]) -> Result<ModelLsqResult, ModelLsqError> {
+        self.solve(m).map(|(result, _)| result)
+    }
+
+    /// [`Self::identify`], plus the standard uncertainty of every deviation propagated from
+    /// the standard uncertainties `u_um[i]` of measurement `i`'s two components (µm; same
+    /// length as `m`; 0 or NaN for a component without one): linear propagation through the
+    /// solution's sensitivity, `u(x_j)² = Σ (∂x_j/∂e_k · u_k)²` (GUM §5.1.2, uncorrelated
+    /// inputs), each `∂x/∂e_k` one solve of the same weighted system. Result in µm / µrad,
+    /// 0 for fixed deviations.
+    pub fn identify_propagated(
+        &self,
+        m: &[PatternMeasurement],
+        u_um: &[[f64; 2]],
+    ) -> Result<(ModelLsqResult, [f64; 13]), ModelLsqError> {
+        if u_um.len() != m.len() {
+            return Err(ModelLsqError::BadMeasurement {
+                index: m.len().min(u_um.len()),
+            });
+        }
+        let (result, jac) = self.solve(m)?;
+        let mut var = [0.0f64; 13];
+        for (i, u) in u_um.iter().enumerate() {
+            for (k, &uk) in u.iter().enumerate() {
+                if !(uk > 0.0 && uk.is_finite()) {
+                    continue;
+                }
+                let mut b = [[0.0f64; 2]; MAX_MEASUREMENTS];
+                if let Some(v) = b.get_mut(i).and_then(|r| r.get_mut(k)) {
+                    *v = uk;
+                }
+                let dx = self
+                    .system(m, &jac, &b)?
+                    .solve(DEFAULT_RANK_TOL)
+                    .map_err(ModelLsqError::Lsq)?
+                    .x;
+                var.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
+            }
+        }
+        let mut u = [0.0f64; 13];
+        for ((dst, v), f) in u.iter_mut().zip(var.iter()).zip(self.free.iter()) {
+            *dst = if *f { crate::num::sqrt(*v) } else { 0.0 };
+        }
+        Ok((result, u))
+    }
+
+    /// Chord (frozen-Jacobian) Gauss–Newton: the sensitivities are taken once at the start
+    /// values and reused while the steps shrink at least tenfold per iteration (refreshed
+    /// otherwise). The deviations are µm and µrad on lever arms of 10²–10³ mm, so the model is
+    /// linear to ~1e-5 and the chord iteration contracts by about that factor per step; its
+    /// fixed point is the Gauss–Newton one when every equation is met (5 patterns, 10
+    /// unknowns) and differs from it by (J − J₀)ᵀ·residual ≈ 1e-5 × the residual otherwise.
+    /// One Jacobian costs a model simulation per free deviation and pattern; each iteration
+    /// one per pattern — the reason for the chord method on the pod (soft f64 on the M4).
+    fn solve(&self, m: &[PatternMeasurement]) -> Result<(ModelLsqResult, Jacobian), ModelLsqError> {
         self.check(m)?;
         let mut x = self.fixed.to_array();
+        let mut pred = Self::predict(m, &x)?;
+        let mut jac = self.jacobian(m, &x, &pred, Differences::Forward)?;
+        let mut last_step = f64::INFINITY;
+        let mut checked_rank = false;
         for it in 0..self.max_iterations.max(1) {
-            let (lsq, _, _) = self.linearise(m, &x)?;
-            let sol = lsq.solve(DEFAULT_RANK_TOL).map_err(ModelLsqError::Lsq)?;
-            let rank = Self::rank_of(&sol);
-            if rank < 13 {
-                let v = sol
-                    .right_singular_vectors
-                    .last()
-                    .copied()
-                    .unwrap_or([0.0; 13]);
-                return Err(self.not_separable(rank, &v));
+            let mut b = [[0.0f64; 2]; MAX_MEASUREMENTS];
+            let mut rss = 0.0;
+            for ((dst, p), pr) in b.iter_mut().zip(m.iter()).zip(pred.iter()) {
+                *dst = [p.e1_um - pr[0], p.e2_um - pr[1]];
+                rss += dst[0] * dst[0] + dst[1] * dst[1];
+            }
+            let sol = self
+                .system(m, &jac, &b)?
+                .solve(DEFAULT_RANK_TOL)
+                .map_err(ModelLsqError::Lsq)?;
+            if !checked_rank {
+                let rank = Self::rank_of(&sol);
+                if rank < 13 {
+                    let v = sol
+                        .right_singular_vectors
+                        .last()
+                        .copied()
+                        .unwrap_or([0.0; 13]);
+                    return Err(self.not_separable(rank, &v));
+                }
+                checked_rank = true;
             }
             let scale = x.iter().fold(1.0f64, |a, v| a.max(libm::fabs(*v)));
             let step = sol.x.iter().fold(0.0f64, |a, v| a.max(libm::fabs(*v)));
-            x.iter_mut().zip(sol.x.iter()).for_each(|(a, d)| *a += d);
             if step <= 1e-10 * scale {
-                // Converged: report the quality figures at the solution.
-                let (lsq, rss, eqs) = self.linearise(m, &x)?;
-                let fin = lsq.solve(DEFAULT_RANK_TOL).map_err(ModelLsqError::Lsq)?;
+                // Converged: the quality figures of this last system (residual at x).
+                let eqs = 2 * m.len();
                 // GivensLsq divides the RSS by (rows − 13), counting the 13 fixing/damping
                 // rows (zero residual at the solution); the true redundancy is eqs − free.
-                let dof_lsq = (fin.rows as usize).saturating_sub(13);
+                let dof_lsq = (sol.rows as usize).saturating_sub(13);
                 let dof = eqs.saturating_sub(self.free_count());
                 let k = if dof > 0 {
                     crate::num::sqrt(dof_lsq as f64 / dof as f64)
                 } else {
                     0.0
                 };
-                let mut std_uncertainty = fin.std_uncertainty;
+                let mut std_uncertainty = sol.std_uncertainty;
                 std_uncertainty
                     .iter_mut()
                     .zip(self.free.iter())
                     .for_each(|(u, f)| *u = if *f { *u * k } else { 0.0 });
-                return Ok(ModelLsqResult {
+                let result = ModelLsqResult {
                     deviations: Deviations::from_array(&x),
                     std_uncertainty,
                     residual_rms_um: crate::num::sqrt(rss / eqs.max(1) as f64),
-                    condition: fin.condition,
+                    condition: sol.condition,
                     iterations: it + 1,
-                });
+                };
+                return Ok((result, jac));
             }
+            x.iter_mut().zip(sol.x.iter()).for_each(|(a, d)| *a += d);
+            pred = Self::predict(m, &x)?;
+            if step > 0.1 * last_step {
+                jac = self.jacobian(m, &x, &pred, Differences::Forward)?;
+            }
+            last_step = step;
         }
         Err(ModelLsqError::NoConvergence)
+    }
+}
+
+/// Largest number of measurements one identification takes (2 equations each; the
+/// sensitivities are kept, 2 × 16 × 13 f64 = 3.3 KiB).
+pub const MAX_MEASUREMENTS: usize = 16;
+
+/// Sensitivity rows ∂e/∂x of the measurement equations (µm per µm / µrad, unweighted; two
+/// per measurement), and the largest weighted column norm.
+struct Jacobian {
+    rows: [[f64; 13]; 2 * MAX_MEASUREMENTS],
+    scale: f64,
+}
+
+/// How [`ModelLsq::jacobian`] differentiates the model.
+#[derive(Clone, Copy)]
+enum Differences {
+    Forward,
+    Central,
+}
+
+/// The model's eccentricity for measurement `index` at deviations `x` (µm).
+fn predict_one(
+    index: usize,
+    p: &PatternMeasurement,
+    x: &[f64; 13],
+) -> Result<[f64; 2], ModelLsqError> {
+    simulate_eccentricity(
+        p.pattern,
+        &p.geometry,
+        &Deviations::from_array(x),
+        &Mounting::default(),
+        p.samples,
+    )
+    .map(|e| [e.e1_um, e.e2_um])
+    .map_err(|cause| ModelLsqError::Pattern { index, cause })
+}
+
+impl PatternMeasurement {
+    /// Weight 1/σ² of each component (1/µm²).
+    fn weight(&self) -> f64 {
+        1.0 / (self.sigma_um * self.sigma_um)
     }
 }

@@ -116,7 +116,7 @@ impl PatternGeometry {
 /// [`PatternGeometry::validate`]; [`nc_block`], [`PatternProgram`] and
 /// [`simulate_eccentricity`] validate).
 pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCommand {
-    let (s, c) = (libm::sin(angle_rad), libm::cos(angle_rad));
+    let (s, c) = (crate::num::sin(angle_rad), crate::num::cos(angle_rad));
     let (lb, rb, rc, zc) = (g.l_b_mm, g.r_b_mm, g.r_c_mm, g.z_c_mm);
     let b = |x, y, z| AxisCommand {
         x_mm: x,
@@ -137,9 +137,9 @@ pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCom
         Pattern::Bt => {
             let (rbt, a) = (r_bt_mm(rb, lb), libm::atan2(lb, rb));
             b(
-                rbt * libm::sin(angle_rad + a),
+                rbt * crate::num::sin(angle_rad + a),
                 0.0,
-                zc + rbt * libm::cos(angle_rad + a),
+                zc + rbt * crate::num::cos(angle_rad + a),
             )
         }
         Pattern::Ba | Pattern::By => b(rb * s, lb, zc + rb * c),
@@ -149,8 +149,8 @@ pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCom
         Pattern::Ct => {
             let (rct, a) = (r_ct_mm(rc, lb), libm::atan2(lb, rc));
             cc(
-                rct * libm::cos(angle_rad + a),
-                rct * libm::sin(angle_rad + a),
+                rct * crate::num::cos(angle_rad + a),
+                rct * crate::num::sin(angle_rad + a),
                 zc + rb,
             )
         }
@@ -162,7 +162,7 @@ pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCom
 
 /// Sensitive direction (n1, n2) of `pattern` at `angle_rad` (§3.5; see the module doc).
 pub fn sensitive_direction(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> (f64, f64) {
-    let (s, c) = (libm::sin(angle_rad), libm::cos(angle_rad));
+    let (s, c) = (crate::num::sin(angle_rad), crate::num::cos(angle_rad));
     if pattern.is_b() {
         (s, c)
     } else if pattern == Pattern::Cr && g.r_c_mm < g.l_b_mm {

@@ -18,7 +18,7 @@
 //!
 //! **Paper mode** evaluates (5.5), (5.6), (5.12), (5.13), (5.15), (5.17), (5.19) verbatim
 //! (TV-12). The thesis's Table 5.3 is not reproducible from its Table 5.2 by either mode.
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::Vector3;
 
 use super::ARCSEC_PER_RAD;
 use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError};
@@ -120,9 +120,14 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
     let [nx, ny] = input.nominal_axis_xy_mm;
     let (dxc, dyc) = (centre.x - nx, centre.y - ny);
     // (5.7), mm
-    let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), -alpha);
-    let ry = Rotation3::from_axis_angle(&Vector3::y_axis(), -beta);
-    let d = rx * ry * Vector3::new(dxc, dyc, input.z_c_mm);
+    // R_x(−α)·R_y(−β)·(Δx, Δy, Z_C), written out (nalgebra's Rotation3 would link libm's
+    // general sin/cos; see crate::num::sin_cos).
+    let d = {
+        let (sb, cb) = crate::num::sin_cos(-beta);
+        let (sa, ca) = crate::num::sin_cos(-alpha);
+        let (x1, z1) = (cb * dxc + sb * input.z_c_mm, -sb * dxc + cb * input.z_c_mm);
+        Vector3::new(x1, ca * dyc - sa * z1, sa * dyc + ca * z1)
+    };
     Ok(CAxisResult {
         alpha_cz_arcsec: alpha * ARCSEC_PER_RAD,
         beta_cz_arcsec: beta * ARCSEC_PER_RAD,

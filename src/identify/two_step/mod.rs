@@ -132,21 +132,21 @@ pub enum TwoStepError {
 
 /// Nominal rotation of a 3-vector by Rx(a) (right-handed, radians).
 fn rot_x(a: f64, v: [f64; 3]) -> [f64; 3] {
-    let (s, c) = libm::sincos(a);
+    let (s, c) = crate::num::sin_cos(a);
     let [x, y, z] = v;
     [x, c * y - s * z, s * y + c * z]
 }
 
 /// Rotation by Ry(b) (right-handed, radians).
 fn rot_y(b: f64, v: [f64; 3]) -> [f64; 3] {
-    let (s, c) = libm::sincos(b);
+    let (s, c) = crate::num::sin_cos(b);
     let [x, y, z] = v;
     [c * x + s * z, y, -s * x + c * z]
 }
 
 /// Rotation by Rz(g) (right-handed, radians).
 fn rot_z(g: f64, v: [f64; 3]) -> [f64; 3] {
-    let (s, c) = libm::sincos(g);
+    let (s, c) = crate::num::sin_cos(g);
     let [x, y, z] = v;
     [c * x - s * y, s * x + c * y, z]
 }
@@ -243,11 +243,11 @@ pub mod paper {
         beta_rad: f64,
         min_lever_arm_mm: f64,
     ) -> Result<f64, TwoStepError> {
-        let lever = z_r_mm * libm::cos(beta_rad);
+        let lever = z_r_mm * crate::num::cos(beta_rad);
         if !(libm::fabs(lever) >= min_lever_arm_mm) {
             return Err(TwoStepError::Singular(Singularity::SpindleBetaLever));
         }
-        let num = x1_mm - x2_mm + (dx_v1_um - dx_v2_um) * 1e-3 + z_r_mm * libm::sin(beta_rad);
+        let num = x1_mm - x2_mm + (dx_v1_um - dx_v2_um) * 1e-3 + z_r_mm * crate::num::sin(beta_rad);
         Ok(-num / lever)
     }
 
@@ -270,7 +270,7 @@ pub mod paper {
         let [_, dy2, dz2] = dv2_um;
         let u = y2 - y1 + (dy2 - dy1) * 1e-3;
         let w = z2 - z1 + (dz2 - dz1) * 1e-3;
-        let (s, c) = libm::sincos(alpha_rad);
+        let (s, c) = crate::num::sin_cos(alpha_rad);
         let den = -w * c + u * s;
         if !(libm::fabs(den) >= min_lever_arm_mm) {
             return Err(TwoStepError::Singular(Singularity::ToolAlongFirstAxis));
@@ -292,7 +292,7 @@ pub mod paper {
         min_lever_arm_mm: f64,
     ) -> Result<f64, TwoStepError> {
         let [xr, yr, _] = r_mm;
-        let (s, c) = libm::sincos(gamma_rad);
+        let (s, c) = crate::num::sin_cos(gamma_rad);
         let q0 = xr * s + yr * c;
         if !(libm::fabs(q0) >= min_lever_arm_mm) {
             return Err(TwoStepError::Singular(Singularity::GammaLever));
@@ -320,10 +320,10 @@ pub mod paper {
         min_lever_arm_mm: f64,
     ) -> Result<f64, TwoStepError> {
         let [xr, yr, zr] = r_mm;
-        let (sg, cg) = libm::sincos(gamma_rad);
+        let (sg, cg) = crate::num::sin_cos(gamma_rad);
         let q = xr * sg + yr * cg + delta_gamma_rad * (xr * cg - yr * sg);
         let h = zr + z_alpha_gamma_mm;
-        let (sa, ca) = libm::sincos(alpha_rad);
+        let (sa, ca) = crate::num::sin_cos(alpha_rad);
         let den = h * ca + q * sa;
         if !(libm::fabs(den) >= min_lever_arm_mm) {
             return Err(TwoStepError::Singular(Singularity::AlphaLever));
@@ -344,7 +344,7 @@ pub mod paper {
         min_lever_arm_mm: f64,
     ) -> Result<f64, TwoStepError> {
         let [_, ytr, ztr] = r_mm;
-        let (s, c) = libm::sincos(alpha_rad);
+        let (s, c) = crate::num::sin_cos(alpha_rad);
         let den = ztr * c + ytr * s;
         if !(libm::fabs(den) >= min_lever_arm_mm) {
             return Err(TwoStepError::Singular(Singularity::TableAlphaLever));
@@ -510,12 +510,15 @@ pub fn identify_rrttt(
     let sd_z = angle_std_urad(m.ssm_std_um, cfg.tool_z_mm);
     let std_uncertainty_urad = match cfg.rotation_order {
         RotationOrder::AlphaThenBeta => [
-            angle_std_urad(m.ssm_std_um, cfg.tool_z_mm * libm::cos(beta + d_beta)),
+            angle_std_urad(m.ssm_std_um, cfg.tool_z_mm * crate::num::cos(beta + d_beta)),
             sd_z,
         ],
         RotationOrder::BetaThenAlpha => [
             sd_z,
-            angle_std_urad(m.ssm_std_um, cfg.tool_z_mm * libm::cos(alpha + d_alpha)),
+            angle_std_urad(
+                m.ssm_std_um,
+                cfg.tool_z_mm * crate::num::cos(alpha + d_alpha),
+            ),
         ],
     };
     let out = RrtttResult {
@@ -643,7 +646,7 @@ pub fn identify_tttrr(
     let nom = tttrr_offset(cfg, alpha, gamma);
     let v = add(nom, scale(1e-3, add(dv2, scale(-1.0, dv1))));
     let h = zr + cfg.z_alpha_gamma_mm;
-    let q0 = xr * libm::sin(gamma) + yr * libm::cos(gamma);
+    let q0 = xr * crate::num::sin(gamma) + yr * crate::num::cos(gamma);
     if !(libm::fabs(q0) >= cfg.min_lever_arm_mm) {
         return Err(TwoStepError::Singular(Singularity::GammaLever));
     }
@@ -666,7 +669,7 @@ pub fn identify_tttrr(
                 g_b
             };
             let g1 = gamma + d_gamma;
-            let q1 = xr * libm::sin(g1) + yr * libm::cos(g1);
+            let q1 = xr * crate::num::sin(g1) + yr * crate::num::cos(g1);
             if !(libm::hypot(h, q1) >= cfg.min_lever_arm_mm) {
                 return Err(TwoStepError::Singular(Singularity::AlphaLever));
             }
@@ -705,8 +708,8 @@ pub fn identify_tttrr(
     };
     let model = tttrr_offset(cfg, alpha + d_alpha, gamma + d_gamma);
     let g1 = gamma + d_gamma;
-    let q1 = xr * libm::sin(g1) + yr * libm::cos(g1);
-    let c1 = xr * libm::cos(g1) - yr * libm::sin(g1);
+    let q1 = xr * crate::num::sin(g1) + yr * crate::num::cos(g1);
+    let c1 = xr * crate::num::cos(g1) - yr * crate::num::sin(g1);
     // the actual lever arm must be usable too (data far off the nominal can drive it to zero)
     if !(libm::fabs(q1) >= cfg.min_lever_arm_mm) {
         return Err(TwoStepError::Singular(Singularity::GammaLever));

@@ -1,10 +1,12 @@
 //! The Electronic Data Sheet (CiA 306 v1.3 INI format) generated from the object dictionary
 //! [`super::od`], so `ballpod.eds` can never disagree with what the firmware answers.
 //!
-//! Default values are read from the objects themselves on a default [`PodModel`] and fresh
-//! communication parameters; COB-IDs derived from the node-ID are written `$NODEID+0x…`. Units
-//! are given as `; unit:` comment lines (CiA 306 has no unit key). The text is deterministic
-//! (fixed file dates) so a test can compare it with the committed file.
+//! Default values are read from the objects themselves on an application with the default
+//! configuration and fresh communication parameters (a set-up field that is not set reads
+//! `NaN`); COB-IDs derived from the node-ID are written `$NODEID+0x…`. Units and meanings are
+//! given as `; unit:` and `; what:` comment lines, the codes of a code field as `; codes:` (CiA
+//! 306 has no keys for them). The text is deterministic (fixed file dates) so a test can
+//! compare it with the committed file.
 //!
 //! Float formatting (`core::fmt` for REAL32 defaults and limits) is used only here; the
 //! firmware never calls this module, so the formatting code is not linked into the image.
@@ -13,7 +15,9 @@ use core::fmt::{self, Write};
 
 use super::od::{self, Access, CommParams, DataType, Entry, MAX_VALUE_LEN, ObjectKind};
 use super::pdo::TPDO_COUNT;
-use crate::protocol::pod::PodModel;
+use crate::app::App;
+use crate::app::results::RESULT_MEANINGS;
+use crate::config::Config;
 
 /// File name of the EDS.
 pub const FILE_NAME: &str = "ballpod.eds";
@@ -54,7 +58,7 @@ fn write_entry(
     e: &Entry,
     section_sub: Option<u8>,
     comm: &CommParams,
-    pod: &PodModel,
+    app: &App,
 ) -> fmt::Result {
     match section_sub {
         Some(s) => writeln!(w, "[{:04X}sub{:X}]", e.index, s)?,
@@ -62,6 +66,31 @@ fn write_entry(
     }
     if !e.unit.is_empty() {
         writeln!(w, "; unit: {}", e.unit)?;
+    }
+    match e.var {
+        od::Var::ResultValue(k) | od::Var::ResultUncertainty(k) | od::Var::ResultValid(k) => {
+            if let Some(what) = RESULT_MEANINGS.get(usize::from(k)) {
+                writeln!(w, "; what: {what}")?;
+            }
+        }
+        od::Var::Config(f) => {
+            if let Some(i) = Config::field_info(f) {
+                if !i.choices.is_empty() {
+                    w.write_str("; codes:")?;
+                    for (code, name) in i.choices.iter().enumerate() {
+                        write!(w, " {code}={name}")?;
+                    }
+                    writeln!(w)?;
+                }
+                if i.optional {
+                    writeln!(
+                        w,
+                        "; not set (NaN) until written; a pattern that needs it is refused"
+                    )?;
+                }
+            }
+        }
+        _ => {}
     }
     w.write_str("ParameterName=")?;
     write_name(w, e)?;
@@ -75,7 +104,7 @@ fn write_entry(
     }
     let mut buf = [0u8; MAX_VALUE_LEN];
     if e.access != Access::Wo
-        && let Ok(n) = od::read(comm, pod, e.var, &mut buf)
+        && let Ok(n) = od::read(comm, app, e.var, &mut buf)
     {
         w.write_str("DefaultValue=")?;
         write_value(w, e, buf.get(..n).unwrap_or(&[]))?;
@@ -97,7 +126,7 @@ fn write_list(w: &mut impl Write, section: &str, pick: impl Fn(u16) -> bool) -> 
 
 /// Writes the complete EDS of the pod.
 pub fn write_eds(w: &mut impl Write) -> fmt::Result {
-    let pod = PodModel::default();
+    let app = App::new(Config::default(), [16; crate::acquisition::MAX_AXES]);
     // Node-ID 0 so that node-relative defaults come out as the bare offset.
     let comm = CommParams::new(0, 0);
     let version = env!("CARGO_PKG_VERSION");
@@ -159,7 +188,8 @@ pub fn write_eds(w: &mut impl Write) -> fmt::Result {
     writeln!(w, "[Comments]")?;
     let comments = [
         "Configuration objects 0x2000-0x20FF are written only in pre-operational (abort 0x08000022 otherwise).",
-        "Session command 0x3002: 1 arm, 2 start, 3 stop, 4 abort. Results 0x4000/0x4001 abort 0x08000024 until valid.",
+        "Session command 0x3002: 1 arm, 2 start, 3 stop, 4 abort, 5 clear, 6 reset, 7 store, 8 restore; a refusal aborts 0x08000022 and 0x3006 says why.",
+        "Results 0x4000/0x4001 abort 0x08000024 until valid (0x4002); live values 0x2100 read NaN while invalid (0x2103).",
         "TPDO transmission types: 1-240 (SYNC) and 254/255 (event timer).",
     ];
     writeln!(w, "Lines={}", comments.len())?;
@@ -178,7 +208,7 @@ pub fn write_eds(w: &mut impl Write) -> fmt::Result {
         };
         if obj.kind == ObjectKind::Var {
             if let Ok(e) = od::entry(index, 0) {
-                write_entry(w, &e, None, &comm, &pod)?;
+                write_entry(w, &e, None, &comm, &app)?;
             }
             continue;
         }
@@ -190,7 +220,7 @@ pub fn write_eds(w: &mut impl Write) -> fmt::Result {
         writeln!(w)?;
         for s in subs {
             if let Ok(e) = od::entry(index, s) {
-                write_entry(w, &e, Some(s), &comm, &pod)?;
+                write_entry(w, &e, Some(s), &comm, &app)?;
             }
         }
     }

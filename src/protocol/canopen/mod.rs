@@ -1,18 +1,19 @@
 //! CANopen (CiA 301) slave: the CNC's view of the pod.
 //!
-//! Transport-agnostic: CAN frames and elapsed time go in, frames come out through a callback,
-//! and session actions come back as [`SessionCommand`]s. The same code runs on FDCAN1 in the
-//! firmware and behind the simulator's SLCAN port.
+//! Transport-agnostic: CAN frames and elapsed time go in, frames come out through a callback;
+//! the pod is the application ([`App`]), which the node reads and hands the CNC's requests to
+//! (it accepts or refuses them). The same code runs on FDCAN1 in the firmware and behind the
+//! simulator's SLCAN port.
 //!
 //! # Using it
 //! ```ignore
-//! let mut node = CanOpenNode::new(pod.config.can_node_id, serial);
+//! let mut node = CanOpenNode::new(app.config().can_node_id, serial);
 //! // every received standard data frame (RTR and 29-bit frames are dropped by the driver):
-//! if let Some(cmd) = node.on_frame(&frame, &mut pod, now_us, &mut |f| tx.push(f)) { app.run(cmd) }
+//! node.on_frame(&frame, &mut app, now_us, &mut |f| tx.push(f));
 //! // after every new sample (EMCY on new sensor / overrun faults):
 //! node.on_sample(sample.flags, now_us, &mut |f| tx.push(f));
 //! // at least every millisecond: boot-up, heartbeat, event-timer TPDOs, SDO timeout, EMCY:
-//! node.poll(now_us, &pod, &mut |f| tx.push(f));
+//! node.poll(now_us, &app, &mut |f| tx.push(f));
 //! // the controller's error state (error active / passive / bus-off), e.g. before each poll:
 //! node.on_bus_state(BusState::BusOff, now_us, &mut |f| tx.push(f));
 //! ```
@@ -23,10 +24,11 @@
 //! driver cannot queue it should count.
 //!
 //! # What it implements
-//! - NMT slave (CiA 301 §7.3.2): pre-operational / operational / stopped, reset node (also
-//!   hands [`SessionCommand::Reset`] to the application), reset communication (re-reads the
-//!   node-ID from `pod.config.can_node_id`, restores the communication parameters, sends
-//!   boot-up). NMT frames must have 2 data bytes; others are counted and ignored.
+//! - NMT slave (CiA 301 §7.3.2): pre-operational / operational / stopped, reset node, reset
+//!   communication (re-reads the
+//!   node-ID from the configuration's `can_node_id`, restores the communication parameters,
+//!   sends boot-up; reset node also resets the application, [`crate::app::Command::Reset`]).
+//!   NMT frames must have 2 data bytes; others are counted and ignored.
 //! - Heartbeat producer 0x1017 (§7.2.8.3.2), no node guarding.
 //! - SDO server (§7.2.4): expedited and segmented upload/download, one channel (0x1200),
 //!   1 s segment timeout, abort codes of CiA 301 table 22 ([`SdoAbort`]); no block transfer.
@@ -39,9 +41,9 @@
 //! - CAN error states ([`CanOpenNode::on_bus_state`]): EMCY 0x8120 on error passive; while
 //!   bus-off nothing is sent (counted in [`Stats::frames_dropped_bus_off`]), on recovery EMCY
 //!   0x8140 and the heartbeat resume at once.
-//! - Store / restore parameters 0x1010 / 0x1011 with the "save" / "load" signatures: they
-//!   hand [`SessionCommand::StoreSettings`] / [`SessionCommand::RestoreDefaults`] to the
-//!   application (which owns the flash); a wrong signature is aborted with 0x0800 0020.
+//! - Store / restore parameters 0x1010 / 0x1011 with the "save" / "load" signatures: they ask
+//!   the application to store the configuration or the defaults (the shell owns the flash); a
+//!   wrong signature is aborted with 0x0800 0020.
 //! - The object dictionary ([`od`]) and the EDS (CiA 306) generated from it ([`eds`]).
 //!
 //! **Configuration is written only in pre-operational**: a write to 0x2000–0x20FF in
@@ -64,37 +66,16 @@
 //! - CANopenNode: C with its own OD generator; needs a C toolchain and FFI for the firmware and
 //!   the host tests, and duplicates the object table.
 //!
-//! The stack here is ~2500 lines (with docs), adds no dependency, is allocation-free, reads and
-//! writes the [`PodModel`] directly (no copy of values), and generates the EDS from the same
+//! The stack here is ~2500 lines (with docs), adds no dependency, is allocation-free, reads the
+//! application's state directly (no copy of values), and generates the EDS from the same
 //! table. Cost
 //! measured on thumbv7em (opt-level "s", fat LTO, a staticlib calling `on_frame`, `on_sample`
 //! and `poll`): about 16.6 kB of flash and 464 bytes of RAM for one [`CanOpenNode`]; no float
 //! formatting is linked (only [`eds`] formats floats, and the firmware does not call it).
 //!
-//! # Object dictionary (summary; `ballpod.eds` has every entry)
-//! | index | name | type | access |
-//! |---|---|---|---|
-//! | 0x1000 | device type (0: no profile) | U32 | const |
-//! | 0x1001 | error register | U8 | ro, PDO |
-//! | 0x1003 | pre-defined error field (8) | U32 | sub0 rw (write 0 clears), ro |
-//! | 0x1005 | COB-ID SYNC (0x80) | U32 | rw |
-//! | 0x1008/9/A | device name / hardware / software version | STRING | const |
-//! | 0x1010/0x1011 | store ("save") / restore ("load") | U32 | rw |
-//! | 0x1015 | inhibit time EMCY, 100 µs (1000) | U16 | rw |
-//! | 0x1017 | producer heartbeat time, ms (1000) | U16 | rw |
-//! | 0x1018 | identity: vendor 0, product 0xBA110001, revision, serial | U32 | ro |
-//! | 0x1200 | SDO server COB-IDs | U32 | ro |
-//! | 0x1800–3 / 0x1A00–3 | TPDO communication / mapping | | rw |
-//! | 0x2000+i | configuration field `FIELDS[i]` in its unit (indexed fields: ARRAY) | REAL32 | rw, pre-op |
-//! | 0x2020–0x2023 | lvdt_input, can_bitrate, axis_name\[5\], axis_reversed\[5\] | U8/BOOL | rw, pre-op |
-//! | 0x2100:1–8 | ΔL, SSM E_x/E_y/E_z, e_x, e_y, r0 (µm), temperature (°C) | REAL32 | ro, PDO |
-//! | 0x2101 / 0x2102 | sample counter / status word | U32 / U16 | ro, PDO |
-//! | 0x3000 / 0x3001 | pattern (0–7) / direction (0 CCW, 1 CW) | U8 | rw |
-//! | 0x3002 | session command: 1 arm, 2 start, 3 stop, 4 abort | U8 | wo |
-//! | 0x3003 / 0x3004 | session state / abort reason | U8 | ro (state: PDO) |
-//! | 0x3005:1–10 | run counters ([`crate::session::run::RunCounters::NAMES`]) | U32 | ro |
-//! | 0x4000 / 0x4001 | result value / standard uncertainty, sub k+1 = `RESULTS[k]` | REAL32 | ro |
-//! | 0x4002 | valid-result bit mask | U16 | ro |
+//! # Object dictionary
+//! `ballpod.eds` has every entry (the README's CANopen section lists them); [`od`] says where
+//! each value comes from.
 
 pub mod abort;
 pub mod eds;
@@ -109,7 +90,7 @@ pub use nmt::{NmtCommand, NmtState};
 pub use od::CommParams;
 
 use crate::acquisition::SampleFlags;
-use crate::protocol::pod::{PodModel, SessionCommand};
+use crate::app::{App, Command};
 use pdo::{TPDO_COUNT, TT_EVENT_MANUFACTURER, TT_EVENT_PROFILE};
 use sdo::SdoServer;
 
@@ -267,11 +248,11 @@ impl CanOpenNode {
         }
     }
 
-    /// Reset communication: node-ID from `pod.config`, default communication parameters,
+    /// Reset communication: node-ID from the configuration, default communication parameters,
     /// boot-up, pre-operational (CiA 301 §7.3.2.2.1).
-    fn reset_communication(&mut self, pod: &PodModel, now_us: u64, out: &mut impl FnMut(CanFrame)) {
+    fn reset_communication(&mut self, app: &App, now_us: u64, out: &mut impl FnMut(CanFrame)) {
         let serial = self.comm.serial;
-        self.comm = CommParams::new(valid_node_id(pod.config.can_node_id), serial);
+        self.comm = CommParams::new(valid_node_id(app.config().can_node_id), serial);
         self.sdo.reset();
         self.faults_reported = 0;
         self.faults_raised = self.faults_current;
@@ -315,22 +296,21 @@ impl CanOpenNode {
         }
     }
 
-    /// Handles one received frame; returns the session command it asks of the application.
-    /// Unknown COB-IDs are ignored (counted); nothing a frame carries changes state unless it
-    /// is complete and valid.
+    /// Handles one received frame (an SDO write is handed to the application, which accepts
+    /// or refuses it). Unknown COB-IDs are ignored (counted); nothing a frame carries changes
+    /// state unless it is complete and valid.
     pub fn on_frame(
         &mut self,
         frame: &CanFrame,
-        pod: &mut PodModel,
+        app: &mut App,
         now_us: u64,
         out: &mut impl FnMut(CanFrame),
-    ) -> Option<SessionCommand> {
+    ) {
         let mut dropped = 0u32;
         let bus_off = self.bus == BusState::BusOff;
         let mut gate = |f| if bus_off { dropped += 1 } else { out(f) };
-        let cmd = self.handle_frame(frame, pod, now_us, &mut gate);
+        self.handle_frame(frame, app, now_us, &mut gate);
         self.count_dropped(dropped);
-        cmd
     }
 
     fn count_dropped(&mut self, n: u32) {
@@ -340,67 +320,61 @@ impl CanOpenNode {
     fn handle_frame(
         &mut self,
         frame: &CanFrame,
-        pod: &mut PodModel,
+        app: &mut App,
         now_us: u64,
         out: &mut impl FnMut(CanFrame),
-    ) -> Option<SessionCommand> {
+    ) {
         if self.nmt == NmtState::Initialising {
             self.stats.frames_ignored = self.stats.frames_ignored.saturating_add(1);
-            return None;
+            return;
         }
         let data = frame.payload();
         let node = self.comm.node_id;
         if frame.id == COB_NMT {
             let [cs, target] = data else {
                 self.stats.frames_malformed = self.stats.frames_malformed.saturating_add(1);
-                return None;
+                return;
             };
             if *target != 0 && *target != node {
-                return None;
+                return;
             }
             let Some(cmd) = NmtCommand::from_cs(*cs) else {
                 self.stats.frames_malformed = self.stats.frames_malformed.saturating_add(1);
-                return None;
+                return;
             };
-            return match cmd {
+            match cmd {
                 NmtCommand::Start => {
                     if self.nmt != NmtState::Operational {
                         self.enter_operational(now_us);
                     }
-                    None
                 }
                 NmtCommand::Stop => {
                     self.nmt = NmtState::Stopped;
                     self.sdo.reset();
-                    None
                 }
-                NmtCommand::EnterPreOperational => {
-                    self.nmt = NmtState::PreOperational;
-                    None
-                }
-                NmtCommand::ResetCommunication => {
-                    self.reset_communication(pod, now_us, out);
-                    None
-                }
+                NmtCommand::EnterPreOperational => self.nmt = NmtState::PreOperational,
+                NmtCommand::ResetCommunication => self.reset_communication(app, now_us, out),
                 NmtCommand::ResetNode => {
-                    self.reset_communication(pod, now_us, out);
-                    Some(SessionCommand::Reset)
+                    // the application's reset cannot be refused
+                    let _ = app.execute(Command::Reset);
+                    self.reset_communication(app, now_us, out);
                 }
-            };
+            }
+            return;
         }
         if frame.id == (self.comm.cob_id_sync & 0x7FF) as u16 {
             if data.len() > 1 {
                 self.stats.frames_malformed = self.stats.frames_malformed.saturating_add(1);
-                return None;
+                return;
             }
-            self.on_sync(pod, out);
-            return None;
+            self.on_sync(app, out);
+            return;
         }
         if frame.id == COB_SDO_RX + u16::from(node) && self.nmt.sdo_allowed() {
             let heartbeat = self.comm.heartbeat_ms;
             let r = self
                 .sdo
-                .on_request(data, &mut self.comm, pod, self.nmt, now_us);
+                .on_request(data, &mut self.comm, app, self.nmt, now_us);
             if let Some(resp) = r.response {
                 self.send(out, COB_SDO_TX, &resp);
             }
@@ -411,15 +385,14 @@ impl CanOpenNode {
                 // A new heartbeat time starts a new period (CiA 301 §7.2.8.3.2).
                 self.schedule_heartbeat(now_us);
             }
-            return r.command;
+            return;
         }
         self.stats.frames_ignored = self.stats.frames_ignored.saturating_add(1);
-        None
     }
 
     /// SYNC: every valid TPDO of type 1–240 counts SYNCs and is sent on every n-th
     /// (CiA 301 §7.2.5, table 71). Only in operational.
-    fn on_sync(&mut self, pod: &PodModel, out: &mut impl FnMut(CanFrame)) {
+    fn on_sync(&mut self, app: &App, out: &mut impl FnMut(CanFrame)) {
         if !self.nmt.pdo_allowed() {
             return;
         }
@@ -430,7 +403,7 @@ impl CanOpenNode {
             *count = count.saturating_add(1);
             if *count >= p.transmission_type {
                 *count = 0;
-                if let Some(f) = pdo::pack(p, &self.comm, pod) {
+                if let Some(f) = pdo::pack(p, &self.comm, app) {
                     out(f);
                     self.stats.tpdos_sent = self.stats.tpdos_sent.saturating_add(1);
                 }
@@ -544,15 +517,15 @@ impl CanOpenNode {
 
     /// Time-driven work: boot-up (first call), heartbeat, event-timer TPDOs (types 254/255),
     /// SDO segment timeout, pending EMCY. Call at least every millisecond.
-    pub fn poll(&mut self, now_us: u64, pod: &PodModel, out: &mut impl FnMut(CanFrame)) {
+    pub fn poll(&mut self, now_us: u64, app: &App, out: &mut impl FnMut(CanFrame)) {
         let mut dropped = 0u32;
         let bus_off = self.bus == BusState::BusOff;
         let mut gate = |f| if bus_off { dropped += 1 } else { out(f) };
-        self.poll_inner(now_us, pod, &mut gate);
+        self.poll_inner(now_us, app, &mut gate);
         self.count_dropped(dropped);
     }
 
-    fn poll_inner(&mut self, now_us: u64, pod: &PodModel, out: &mut impl FnMut(CanFrame)) {
+    fn poll_inner(&mut self, now_us: u64, app: &App, out: &mut impl FnMut(CanFrame)) {
         if self.nmt == NmtState::Initialising {
             self.boot(now_us, out);
         }
@@ -593,7 +566,7 @@ impl CanOpenNode {
                 if now_us < due {
                     continue;
                 }
-                if let Some(f) = pdo::pack(p, &self.comm, pod) {
+                if let Some(f) = pdo::pack(p, &self.comm, app) {
                     out(f);
                     self.stats.tpdos_sent = self.stats.tpdos_sent.saturating_add(1);
                 }

@@ -5,31 +5,36 @@
 //! values: [`object`] describes an index, [`entry`] describes an index:sub-index with its
 //! data type, access, PDO mappability, limits and the [`Var`] that says where its value lives.
 //! Values are never copied into a dictionary: [`read()`] and [`write()`] go straight to the
-//! [`PodModel`] (live values, configuration, session, results) and to the node's
-//! [`CommParams`]. Configuration objects are generated from [`crate::config::FIELDS`], so a new
-//! configuration field appears here, in the SDO server and in `ballpod.eds` at once.
+//! application ([`App`]: live values, configuration, session, results) and to the node's
+//! [`CommParams`]; a write is a request the application accepts or refuses (the same rules as
+//! over SCPI). Configuration objects are generated from [`crate::config::FIELDS`], the live
+//! values from [`crate::app::LIVE`], the results from [`crate::app::RESULTS`], so a new field,
+//! live value or result appears here, in the SDO server and in `ballpod.eds` at once.
 //!
 //! Index map (see the module doc of [`super`] for the full table):
 //! - 0x1000–0x1A03: communication profile area (CiA 301 §7.5.2);
-//! - 0x2000 + i: configuration field `FIELDS[i]` (REAL32 in the field's unit, rw, range checked,
-//!   written only in pre-operational); 0x2020–0x2023: the enumerated configuration fields;
-//! - 0x2100–0x2102: live process values (REAL32 µm / °C, sample counter, status word), PDO
-//!   mappable;
-//! - 0x3000–0x3005: session control and state, the run's counters;
-//! - 0x4000–0x4002: the results table (value, standard uncertainty, validity mask).
+//! - 0x2000 + i: configuration field `FIELDS[i]` in the field's unit and type (REAL32, or
+//!   UNSIGNED8/16/32 for integers and codes; rw, range checked, written only in
+//!   pre-operational); 0x2040–0x2043: the enumerated configuration fields;
+//! - 0x2100–0x2103: live process values (REAL32 µm / °C, NaN while invalid), sample counter,
+//!   status word, live-value validity mask; PDO mappable;
+//! - 0x3000–0x300B: session control and state, the run's counters, the last refusal, the touch
+//!   points of the last PROBE run;
+//! - 0x4000–0x4002: the results table (value, standard uncertainty, validity).
 
 use super::abort::SdoAbort;
 use super::nmt::NmtState;
 use super::pdo::{self, COB_ID_EXTENDED, COB_ID_INVALID, MAX_MAPPED, TPDO_COUNT, TpdoParams};
 use crate::acquisition::MAX_AXES;
-use crate::config::{AxisName, CanBitrate, Config, ConfigError, FIELDS, Field, LvdtInput};
-use crate::protocol::pod::{
-    Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState,
+use crate::app::probe::MAX_TOUCHES;
+use crate::app::{
+    App, Command, CommandError, Direction, LIVE, LIVE_COUNT, Pattern, RESULT_COUNT, RESULTS,
+    RunCounters,
 };
-use crate::session::run::RunCounters;
+use crate::config::{AxisName, CanBitrate, ConfigError, FIELDS, Field, FieldType, LvdtInput};
 
 /// Largest value of any object, bytes (the longest VISIBLE_STRING).
-pub const MAX_VALUE_LEN: usize = 32;
+pub const MAX_VALUE_LEN: usize = 64;
 /// Entries of the pre-defined error field 0x1003.
 pub const ERROR_HISTORY_LEN: usize = 8;
 
@@ -61,6 +66,9 @@ pub const DEFAULT_HEARTBEAT_MS: u16 = 1000;
 
 /// Index of the first configuration object (`FIELDS[i]` is at `CONFIG_BASE + i`).
 pub const CONFIG_BASE: u16 = 0x2000;
+/// Index of the first enumerated configuration object (0x2040 lvdt_input … 0x2043
+/// axis_reversed).
+pub const CONFIG_ENUMS: u16 = 0x2040;
 /// Index of the live REAL32 values (0x2100:1 ΔL … 0x2100:8 temperature).
 pub const LIVE_VALUES: u16 = 0x2100;
 /// Index of the results' values (sub-index k+1 = `RESULTS[k]`).
@@ -195,15 +203,16 @@ pub enum Var {
     TpdoMapCount(u8),
     /// 0x1A0n:k mapping entry k (1…8).
     TpdoMap(u8, u8),
-    /// A REAL32 configuration field (the field, with the element number for indexed fields).
+    /// A configuration field (the field, with the element number for indexed fields), in the
+    /// entry's data type.
     Config(Field),
-    /// 0x2020 LVDT input mode.
+    /// 0x2040 LVDT input mode.
     LvdtInput,
-    /// 0x2021 CAN bit rate code.
+    /// 0x2041 CAN bit rate code.
     CanBitrate,
-    /// 0x2022:k axis name of input k.
+    /// 0x2042:k axis name of input k.
     AxisName(u8),
-    /// 0x2023:k counting direction of input k.
+    /// 0x2043:k counting direction of input k.
     AxisReversed(u8),
     /// 0x2100:k live REAL32 value k (1…8).
     Live(u8),
@@ -211,6 +220,8 @@ pub enum Var {
     SampleCounter,
     /// 0x2102 status word.
     StatusWord,
+    /// 0x2103 validity mask of the live values (bit k−1 = 0x2100:k).
+    LiveValid,
     /// 0x3000 pattern of the next run.
     Pattern,
     /// 0x3001 direction of the next run.
@@ -223,12 +234,20 @@ pub enum Var {
     AbortReason,
     /// 0x3005:k run counter k (1…[`RunCounters::LEN`], [`RunCounters::NAMES`] order).
     RunCounter(u8),
+    /// 0x3006 why the last command was refused (text).
+    Refusal,
+    /// 0x3007 what the last procedure step could not do (text).
+    ProcedureNote,
+    /// 0x3008 number of touch points of the last PROBE run.
+    TouchCount,
+    /// 0x3009–0x300B:k coordinate (0 X, 1 Y, 2 Z) of touch point k.
+    Touch(u8, u8),
     /// 0x4000:k+1 result k value.
     ResultValue(u8),
     /// 0x4001:k+1 result k standard uncertainty.
     ResultUncertainty(u8),
-    /// 0x4002 bit mask of the valid results (bit k = `RESULTS[k]`).
-    ResultValid,
+    /// 0x4002:k+1 result k valid.
+    ResultValid(u8),
 }
 
 /// One entry (index:sub-index) of the dictionary.
@@ -307,34 +326,13 @@ impl Entry {
 use Access::{Const, Ro, Rw, Wo};
 use DataType::{Boolean, Real32, Unsigned8, Unsigned16, Unsigned32, VisibleString};
 
-/// Names of the live REAL32 values 0x2100:1…8 with their units.
-pub const LIVE_NAMES: [(&str, &str); 8] = [
-    ("delta_l_um", "um"),
-    ("ssm_ex_um", "um"),
-    ("ssm_ey_um", "um"),
-    ("ssm_ez_um", "um"),
-    ("ecc_x_um", "um"),
-    ("ecc_y_um", "um"),
-    ("r0_um", "um"),
-    ("temp_c", "degC"),
-];
-
-/// Number of elements of an indexed configuration field (0 for a scalar one).
-const fn field_elements(f: Field) -> u8 {
-    match f {
-        Field::LvdtPolyUm(_) => 4,
-        Field::AxisCountsPerUnit(_) | Field::AxisMaxSpeed(_) => MAX_AXES as u8,
-        _ => 0,
-    }
-}
-
-/// The field `f` with element number `k` (indexed fields) or unchanged.
-const fn field_element(f: Field, k: u8) -> Field {
-    match f {
-        Field::LvdtPolyUm(_) => Field::LvdtPolyUm(k),
-        Field::AxisCountsPerUnit(_) => Field::AxisCountsPerUnit(k),
-        Field::AxisMaxSpeed(_) => Field::AxisMaxSpeed(k),
-        f => f,
+/// The data type of a configuration field's object.
+const fn field_type(ty: FieldType) -> DataType {
+    match ty {
+        FieldType::F32 | FieldType::F64 => DataType::Real32,
+        FieldType::U8 => DataType::Unsigned8,
+        FieldType::U16 => DataType::Unsigned16,
+        FieldType::U32 => DataType::Unsigned32,
     }
 }
 
@@ -349,8 +347,9 @@ pub fn indices() -> impl Iterator<Item = u16> {
         .chain(0x1800..0x1800 + TPDO_COUNT as u16)
         .chain(0x1A00..0x1A00 + TPDO_COUNT as u16)
         .chain((0..FIELDS.len() as u16).map(|i| CONFIG_BASE + i))
-        .chain([0x2020, 0x2021, 0x2022, 0x2023, 0x2100, 0x2101, 0x2102])
-        .chain(0x3000..=0x3005)
+        .chain(CONFIG_ENUMS..CONFIG_ENUMS + 4)
+        .chain(0x2100..=0x2103)
+        .chain(0x3000..=0x300B)
         .chain(0x4000..=0x4002)
 }
 
@@ -401,25 +400,32 @@ pub fn object(index: u16) -> Option<Object> {
                 MAX_MAPPED as u8,
             )
         }
-        0x2020 => o("lvdt_input", V, 0),
-        0x2021 => o("can_bitrate", V, 0),
-        0x2022 => o("axis_name", Array, MAX_AXES as u8),
-        0x2023 => o("axis_reversed", Array, MAX_AXES as u8),
-        0x2100 => o("live_values", Array, LIVE_NAMES.len() as u8),
+        0x2040 => o("lvdt_input", V, 0),
+        0x2041 => o("can_bitrate", V, 0),
+        0x2042 => o("axis_name", Array, MAX_AXES as u8),
+        0x2043 => o("axis_reversed", Array, MAX_AXES as u8),
+        0x2100 => o("live_values", Array, LIVE_COUNT as u8),
         0x2101 => o("sample_counter", V, 0),
         0x2102 => o("status_word", V, 0),
+        0x2103 => o("live_valid", V, 0),
         0x3000 => o("pattern", V, 0),
         0x3001 => o("direction", V, 0),
         0x3002 => o("session_command", V, 0),
         0x3003 => o("session_state", V, 0),
         0x3004 => o("abort_reason", V, 0),
         0x3005 => o("run_counters", Array, RunCounters::LEN as u8),
+        0x3006 => o("last_refusal", V, 0),
+        0x3007 => o("procedure_note", V, 0),
+        0x3008 => o("touch_count", V, 0),
+        0x3009 => o("touch_x", Array, MAX_TOUCHES as u8),
+        0x300A => o("touch_y", Array, MAX_TOUCHES as u8),
+        0x300B => o("touch_z", Array, MAX_TOUCHES as u8),
         0x4000 => o("result_value", Array, RESULT_COUNT as u8),
         0x4001 => o("result_uncertainty", Array, RESULT_COUNT as u8),
-        0x4002 => o("result_valid", V, 0),
+        0x4002 => o("result_valid", Array, RESULT_COUNT as u8),
         i if i >= CONFIG_BASE && usize::from(i - CONFIG_BASE) < FIELDS.len() => {
             let info = FIELDS.get(usize::from(i - CONFIG_BASE))?;
-            match field_elements(info.field) {
+            match info.elements {
                 0 => o(info.name, V, 0),
                 n => o(info.name, Array, n),
             }
@@ -611,9 +617,9 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
                 .element(k),
             })
         }
-        0x2020 => var(Unsigned8, Rw, Var::LvdtInput).map(|e| e.limits(0.0, 1.0)),
-        0x2021 => var(Unsigned8, Rw, Var::CanBitrate).map(|e| e.limits(0.0, 3.0)),
-        0x2022 => match sub {
+        0x2040 => var(Unsigned8, Rw, Var::LvdtInput).map(|e| e.limits(0.0, 1.0)),
+        0x2041 => var(Unsigned8, Rw, Var::CanBitrate).map(|e| e.limits(0.0, 3.0)),
+        0x2042 => match sub {
             0 => count(MAX_AXES as u8),
             k => Ok(
                 e(index, k, "axis_name", Unsigned8, Rw, Var::AxisName(k - 1))
@@ -621,7 +627,7 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
                     .element(k - 1),
             ),
         },
-        0x2023 => match sub {
+        0x2043 => match sub {
             0 => count(MAX_AXES as u8),
             k => Ok(e(
                 index,
@@ -634,12 +640,9 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
             .element(k - 1)),
         },
         0x2100 => match sub {
-            0 => count(LIVE_NAMES.len() as u8),
+            0 => count(LIVE_COUNT as u8),
             k => {
-                let (name, unit) = LIVE_NAMES
-                    .get(usize::from(k - 1))
-                    .copied()
-                    .unwrap_or(("", ""));
+                let (name, unit) = LIVE.get(usize::from(k - 1)).copied().unwrap_or(("", ""));
                 Ok(e(index, k, name, Real32, Ro, Var::Live(k))
                     .mappable()
                     .unit(unit))
@@ -647,9 +650,10 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
         },
         0x2101 => var(Unsigned32, Ro, Var::SampleCounter).map(Entry::mappable),
         0x2102 => var(Unsigned16, Ro, Var::StatusWord).map(Entry::mappable),
+        0x2103 => var(Unsigned16, Ro, Var::LiveValid).map(Entry::mappable),
         0x3000 => var(Unsigned8, Rw, Var::Pattern).map(|e| e.limits(0.0, 7.0)),
         0x3001 => var(Unsigned8, Rw, Var::Direction).map(|e| e.limits(0.0, 1.0)),
-        0x3002 => var(Unsigned8, Wo, Var::Command).map(|e| e.limits(1.0, 4.0)),
+        0x3002 => var(Unsigned8, Wo, Var::Command).map(|e| e.limits(1.0, 8.0)),
         0x3003 => var(Unsigned8, Ro, Var::SessionState).map(Entry::mappable),
         0x3004 => var(Unsigned8, Ro, Var::AbortReason),
         0x3005 => match sub {
@@ -662,32 +666,50 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
                 Ok(e(index, k, name, Unsigned32, Ro, Var::RunCounter(k)))
             }
         },
-        0x4000 | 0x4001 => match sub {
+        0x3006 => var(VisibleString, Ro, Var::Refusal),
+        0x3007 => var(VisibleString, Ro, Var::ProcedureNote),
+        0x3008 => var(Unsigned8, Ro, Var::TouchCount),
+        0x3009..=0x300B => match sub {
+            0 => count(MAX_TOUCHES as u8),
+            k => Ok(e(
+                index,
+                k,
+                obj.name,
+                Real32,
+                Ro,
+                Var::Touch((index - 0x3009) as u8, k - 1),
+            )
+            .unit("mm")
+            .element(k - 1)),
+        },
+        0x4000..=0x4002 => match sub {
             0 => count(RESULT_COUNT as u8),
             k => {
-                let (name, unit) = RESULTS.get(usize::from(k - 1)).copied().unwrap_or(("", ""));
-                let v = if index == 0x4000 {
-                    Var::ResultValue(k - 1)
-                } else {
-                    Var::ResultUncertainty(k - 1)
-                };
-                Ok(e(index, k, name, Real32, Ro, v).unit(unit))
+                let r = RESULTS
+                    .get(usize::from(k - 1))
+                    .ok_or(SdoAbort::NoSubIndex)?;
+                Ok(match index {
+                    0x4000 => e(index, k, r.name, Real32, Ro, Var::ResultValue(k - 1)).unit(r.unit),
+                    0x4001 => {
+                        e(index, k, r.name, Real32, Ro, Var::ResultUncertainty(k - 1)).unit(r.unit)
+                    }
+                    _ => e(index, k, r.name, Boolean, Ro, Var::ResultValid(k - 1)),
+                })
             }
         },
-        0x4002 => var(Unsigned16, Ro, Var::ResultValid),
         _ => {
             let info = FIELDS
                 .get(usize::from(index.wrapping_sub(CONFIG_BASE)))
                 .ok_or(SdoAbort::NoObject)?;
             let base = |sub, f, name| {
-                e(index, sub, name, Real32, Rw, Var::Config(f))
+                e(index, sub, name, field_type(info.ty), Rw, Var::Config(f))
                     .limits(info.min, info.max)
                     .unit(info.unit)
             };
-            match (field_elements(info.field), sub) {
+            match (info.elements, sub) {
                 (0, 0) => Ok(base(0, info.field, info.name)),
-                (_, 0) => count(field_elements(info.field)),
-                (_, k) => Ok(base(k, field_element(info.field, k - 1), info.name).element(k - 1)),
+                (_, 0) => count(info.elements),
+                (_, k) => Ok(base(k, info.element(k - 1), info.name).element(k - 1)),
             }
         }
     }
@@ -743,23 +765,32 @@ impl CommParams {
     }
 }
 
-/// Maps a rejected configuration to its abort code: the written field out of range →
-/// 0x0609 0031 / 0x0609 0032 (CiA 301 table 22), a cross-field rule (ADC rate, duplicate axis
-/// name) → 0x0604 0043.
-fn config_abort(err: ConfigError, written: Field) -> SdoAbort {
+/// Maps a refused command to its abort code: a configuration value out of the written field's
+/// range → 0x0609 0031 / 0x0609 0032, NaN or a value with no meaning → 0x0609 0030 (CiA 301
+/// table 22), a cross-field rule (ADC rate, duplicate axis name) → 0x0604 0043; a command the
+/// session state does not allow, a pattern without its geometry, a change while a run is armed
+/// or running → 0x0800 0022 (the reason in words: 0x3006).
+fn refusal_abort(err: CommandError, written: Option<Field>) -> SdoAbort {
     match err {
-        ConfigError::OutOfRange {
-            field, value, max, ..
-        } if field == written => {
-            if value.is_nan() {
-                SdoAbort::InvalidValue
-            } else if value > max {
+        CommandError::Config(ConfigError::OutOfRange {
+            field,
+            value,
+            min,
+            max,
+        }) if Some(field) == written => {
+            if value > max {
                 SdoAbort::ValueTooHigh
-            } else {
+            } else if value < min {
                 SdoAbort::ValueTooLow
+            } else {
+                // NaN, or inside the range but not a whole number / not a code
+                SdoAbort::InvalidValue
             }
         }
-        _ => SdoAbort::ParameterIncompatible,
+        CommandError::Config(_) => SdoAbort::ParameterIncompatible,
+        CommandError::WrongState(_) | CommandError::Busy | CommandError::Missing(_) => {
+            SdoAbort::WrongState
+        }
     }
 }
 
@@ -769,25 +800,36 @@ fn put(buf: &mut [u8; MAX_VALUE_LEN], bytes: &[u8]) -> Result<usize, SdoAbort> {
     Ok(bytes.len())
 }
 
+/// Puts the two parts of a refusal's text.
+fn put_text(buf: &mut [u8; MAX_VALUE_LEN], text: (&str, &str)) -> Result<usize, SdoAbort> {
+    let (a, b) = text;
+    let n = a.len().min(MAX_VALUE_LEN);
+    put(buf, a.as_bytes().get(..n).unwrap_or_default())?;
+    let m = b.len().min(MAX_VALUE_LEN - n);
+    if let (Some(dst), Some(src)) = (buf.get_mut(n..n + m), b.as_bytes().get(..m)) {
+        dst.copy_from_slice(src);
+    }
+    Ok(n + m)
+}
+
 /// Reads the value of `var` into `buf` (little-endian, CiA 301 §7.1.7); returns its length.
-/// Errors: [`SdoAbort::WriteOnly`] for the command object, [`SdoAbort::NoData`] for a result
-/// that is not valid.
+/// Errors: [`SdoAbort::WriteOnly`] for the command object, [`SdoAbort::NoData`] for a result or
+/// touch point that is not valid.
 pub fn read(
     comm: &CommParams,
-    pod: &PodModel,
+    app: &App,
     var: Var,
     buf: &mut [u8; MAX_VALUE_LEN],
 ) -> Result<usize, SdoAbort> {
     let u8v = |v: u8| [v];
     let tpdo = |n: u8| comm.tpdo.get(usize::from(n)).ok_or(SdoAbort::NoObject);
     let result = |k: u8| {
-        RESULTS
-            .get(usize::from(k))
-            .and(pod.results.get(usize::from(k)))
+        crate::app::ResultId::from_index(usize::from(k))
+            .map(|id| app.result(id))
             .filter(|r| r.valid)
             .ok_or(SdoAbort::NoData)
     };
-    let c = &pod.config;
+    let c = app.config();
     match var {
         Var::ConstU8(v) => put(buf, &u8v(v)),
         Var::ConstU32(v) => put(buf, &v.to_le_bytes()),
@@ -823,7 +865,14 @@ pub fn read(
         }
         Var::Config(f) => {
             let v = c.field_value(f).ok_or(SdoAbort::NoObject)?;
-            put(buf, &(v as f32).to_le_bytes())
+            let ty = crate::config::Config::field_info(f).map_or(FieldType::F32, |i| i.ty);
+            match ty {
+                // a set-up field that is not set reads NaN
+                FieldType::F32 | FieldType::F64 => put(buf, &(v as f32).to_le_bytes()),
+                FieldType::U8 => put(buf, &u8v(v as u8)),
+                FieldType::U16 => put(buf, &(v as u16).to_le_bytes()),
+                FieldType::U32 => put(buf, &(v as u32).to_le_bytes()),
+            }
         }
         Var::LvdtInput => put(buf, &u8v(c.lvdt_input as u8)),
         Var::CanBitrate => put(buf, &u8v(c.can_bitrate as u8)),
@@ -836,42 +885,50 @@ pub fn read(
             put(buf, &u8v(u8::from(a.reversed)))
         }
         Var::Live(k) => {
-            let l = &pod.live;
-            let v = match k {
-                1 => l.delta_l_um,
-                2 => l.ssm_e_um[0],
-                3 => l.ssm_e_um[1],
-                4 => l.ssm_e_um[2],
-                5 => l.ecc_x_um,
-                6 => l.ecc_y_um,
-                7 => l.r0_um,
-                8 => l.temp_c,
-                _ => return Err(SdoAbort::NoSubIndex),
-            };
+            // NaN while invalid (bit k−1 of 0x2103 clear): never a plausible 0.0
+            let v = app
+                .live()
+                .values
+                .get(usize::from(k).wrapping_sub(1))
+                .copied()
+                .ok_or(SdoAbort::NoSubIndex)?;
             put(buf, &v.to_le_bytes())
         }
-        Var::SampleCounter => put(buf, &pod.live.sample_counter.to_le_bytes()),
-        Var::StatusWord => put(buf, &pod.live.status.0.to_le_bytes()),
-        Var::Pattern => put(buf, &u8v(pod.pattern as u8)),
-        Var::Direction => put(buf, &u8v(pod.direction as u8)),
+        Var::SampleCounter => put(buf, &app.live().sample_counter.to_le_bytes()),
+        Var::StatusWord => put(buf, &app.live().status.0.to_le_bytes()),
+        Var::LiveValid => put(buf, &app.live().valid.to_le_bytes()),
+        Var::Pattern => put(buf, &u8v(app.pattern() as u8)),
+        Var::Direction => put(buf, &u8v(app.direction() as u8)),
         Var::Command => Err(SdoAbort::WriteOnly),
-        Var::SessionState => put(buf, &u8v(pod.session as u8)),
-        Var::AbortReason => put(buf, &u8v(pod.abort_reason.map_or(0, |r| r as u8))),
+        Var::SessionState => put(buf, &u8v(app.session() as u8)),
+        Var::AbortReason => put(buf, &u8v(app.abort_reason().map_or(0, |r| r as u8))),
         Var::RunCounter(k) => {
-            let counters = pod.run.as_array();
+            let counters = app.run_counters().as_array();
             let v = counters
                 .get(usize::from(k).wrapping_sub(1))
                 .ok_or(SdoAbort::NoSubIndex)?;
             put(buf, &v.to_le_bytes())
         }
+        Var::Refusal => put_text(buf, app.last_refusal().map_or(("", ""), |r| r.text())),
+        Var::ProcedureNote => put_text(buf, app.procedure_note().map_or(("", ""), |r| r.text())),
+        Var::TouchCount => put(buf, &u8v(app.touch_points().len() as u8)),
+        Var::Touch(axis, k) => {
+            let p = app
+                .touch_points()
+                .get(usize::from(k))
+                .ok_or(SdoAbort::NoData)?;
+            let v = p
+                .get(usize::from(axis))
+                .copied()
+                .ok_or(SdoAbort::NoSubIndex)?;
+            put(buf, &(v as f32).to_le_bytes())
+        }
         Var::ResultValue(k) => put(buf, &result(k)?.value.to_le_bytes()),
         Var::ResultUncertainty(k) => put(buf, &result(k)?.std_uncertainty.to_le_bytes()),
-        Var::ResultValid => {
-            let mask = (0u16..)
-                .zip(pod.results.iter())
-                .filter(|(_, r)| r.valid)
-                .fold(0u16, |m, (k, _)| m | 1 << k);
-            put(buf, &mask.to_le_bytes())
+        Var::ResultValid(k) => {
+            let valid = crate::app::ResultId::from_index(usize::from(k))
+                .is_some_and(|id| app.result(id).valid);
+            put(buf, &u8v(u8::from(valid)))
         }
     }
 }
@@ -895,20 +952,20 @@ fn check_limits(e: &Entry, v: f64) -> Result<(), SdoAbort> {
 
 /// Writes `data` (exactly the entry's size; the SDO server checked it) to entry `e`.
 ///
-/// Every check happens before anything changes: on error the pod and the parameters are as
-/// before. Rules: configuration objects (0x2000–0x20FF) only in pre-operational
-/// ([`SdoAbort::WrongState`] otherwise); pattern / direction not while a run is armed or
-/// running; session commands only in a session state where they make sense (CiA 301 abort
-/// 0x0800 0022); PDO mapping only while the PDO is invalid and its sub-index 0 is 0 (the
-/// procedure of CiA 301 §7.5.2.38). Returns the [`SessionCommand`] the write asks of the
-/// application, if any.
+/// Every check happens before anything changes: on error the application and the parameters
+/// are as before. Rules of CANopen: configuration objects (0x2000–0x20FF) only in
+/// pre-operational ([`SdoAbort::WrongState`] otherwise); PDO mapping only while the PDO is
+/// invalid and its sub-index 0 is 0 (the procedure of CiA 301 §7.5.2.38). Everything else —
+/// whether a command fits the session state, a pattern's geometry is set, a value is
+/// acceptable — the application decides ([`App::execute`], [`App::set_field`]), and a refusal
+/// is aborted with the code of [`refusal_abort`].
 pub fn write(
     comm: &mut CommParams,
-    pod: &mut PodModel,
+    app: &mut App,
     nmt: NmtState,
     e: &Entry,
     data: &[u8],
-) -> Result<Option<SessionCommand>, SdoAbort> {
+) -> Result<(), SdoAbort> {
     if !e.access.writable() {
         return Err(SdoAbort::ReadOnly);
     }
@@ -917,11 +974,11 @@ pub fn write(
     if is_config && nmt != NmtState::PreOperational {
         return Err(SdoAbort::WrongState);
     }
-    if !matches!(e.var, Var::Config(_)) {
+    if !(matches!(e.var, Var::Config(_)) && e.ty == DataType::Real32) {
         check_limits(e, f64::from(raw))?;
     }
     let tpdo_index = |n: u8| usize::from(n).min(TPDO_COUNT - 1);
-    let mut cmd = None;
+    let refused = |f: Option<Field>| move |err| refusal_abort(err, f);
     match e.var {
         Var::ErrorCount => {
             comm.errors = [0; ERROR_HISTORY_LEN];
@@ -940,13 +997,14 @@ pub fn write(
             if raw != SAVE_SIGNATURE {
                 return Err(SdoAbort::CannotStore);
             }
-            cmd = Some(SessionCommand::StoreSettings);
+            app.execute(Command::StoreSettings).map_err(refused(None))?;
         }
         Var::Restore => {
             if raw != LOAD_SIGNATURE {
                 return Err(SdoAbort::CannotStore);
             }
-            cmd = Some(SessionCommand::RestoreDefaults);
+            app.execute(Command::RestoreDefaults)
+                .map_err(refused(None))?;
         }
         Var::EmcyInhibit => comm.emcy_inhibit_100us = raw as u16,
         Var::Heartbeat => comm.heartbeat_ms = raw as u16,
@@ -1022,46 +1080,39 @@ pub fn write(
             *slot = raw;
         }
         Var::Config(f) => {
-            let v = f64::from(f32::from_le_bytes(raw.to_le_bytes()));
-            if v.is_nan() {
-                return Err(SdoAbort::InvalidValue);
-            }
-            check_limits(e, v)?;
-            if Config::is_integer_field(f) && v != libm::trunc(v) {
-                return Err(SdoAbort::InvalidValue);
-            }
-            pod.config
-                .try_update(|c| c.set_field(f, v))
-                .map_err(|err| config_abort(err, f))?;
-            cmd = Some(SessionCommand::ConfigChanged);
+            let v = if e.ty == DataType::Real32 {
+                let v = f64::from(f32::from_le_bytes(raw.to_le_bytes()));
+                if v.is_nan() {
+                    return Err(SdoAbort::InvalidValue);
+                }
+                // Range: the configuration's own check (limits rounded to REAL32, so the
+                // EDS's LowLimit/HighLimit are writable), aborted by `refusal_abort`.
+                v
+            } else {
+                f64::from(raw)
+            };
+            app.set_field(f, v).map_err(refused(Some(f)))?;
         }
         Var::LvdtInput => {
             let m = match raw {
                 0 => LvdtInput::AcRatiometric,
                 _ => LvdtInput::DcConditioner,
             };
-            pod.config
-                .try_update(|c| c.lvdt_input = m)
-                .map_err(|_| SdoAbort::ParameterIncompatible)?;
-            cmd = Some(SessionCommand::ConfigChanged);
+            app.configure(|c| c.lvdt_input = m).map_err(refused(None))?;
         }
         Var::CanBitrate => {
             let b = CanBitrate::from_u8(raw as u8).ok_or(SdoAbort::ValueTooHigh)?;
-            pod.config
-                .try_update(|c| c.can_bitrate = b)
-                .map_err(|_| SdoAbort::ParameterIncompatible)?;
-            cmd = Some(SessionCommand::ConfigChanged);
+            app.configure(|c| c.can_bitrate = b)
+                .map_err(refused(None))?;
         }
         Var::AxisName(i) => {
             let name = AxisName::from_u8(raw as u8).ok_or(SdoAbort::ValueTooHigh)?;
-            pod.config
-                .try_update(|c| {
-                    if let Some(a) = c.axes.get_mut(usize::from(i)) {
-                        a.name = name;
-                    }
-                })
-                .map_err(|_| SdoAbort::ParameterIncompatible)?;
-            cmd = Some(SessionCommand::ConfigChanged);
+            app.configure(|c| {
+                if let Some(a) = c.axes.get_mut(usize::from(i)) {
+                    a.name = name;
+                }
+            })
+            .map_err(refused(None))?;
         }
         Var::AxisReversed(i) => {
             let rev = match raw {
@@ -1069,52 +1120,26 @@ pub fn write(
                 1 => true,
                 _ => return Err(SdoAbort::InvalidValue),
             };
-            pod.config
-                .try_update(|c| {
-                    if let Some(a) = c.axes.get_mut(usize::from(i)) {
-                        a.reversed = rev;
-                    }
-                })
-                .map_err(|_| SdoAbort::ParameterIncompatible)?;
-            cmd = Some(SessionCommand::ConfigChanged);
+            app.configure(|c| {
+                if let Some(a) = c.axes.get_mut(usize::from(i)) {
+                    a.reversed = rev;
+                }
+            })
+            .map_err(refused(None))?;
         }
-        Var::Pattern | Var::Direction => {
-            if matches!(pod.session, SessionState::Armed | SessionState::Running) {
-                return Err(SdoAbort::WrongState);
-            }
-            if e.var == Var::Pattern {
-                pod.pattern = Pattern::from_u8(raw as u8).ok_or(SdoAbort::ValueTooHigh)?;
-            } else {
-                pod.direction = if raw == 0 {
-                    Direction::Ccw
-                } else {
-                    Direction::Cw
-                };
-            }
+        Var::Pattern => {
+            let p = Pattern::from_u8(raw as u8).ok_or(SdoAbort::ValueTooHigh)?;
+            app.set_pattern(p).map_err(refused(None))?;
+        }
+        Var::Direction => {
+            let d = Direction::from_u8(raw as u8).ok_or(SdoAbort::ValueTooHigh)?;
+            app.set_direction(d).map_err(refused(None))?;
         }
         Var::Command => {
-            use SessionState as S;
-            let (allowed, c) = match raw {
-                1 => (
-                    matches!(pod.session, S::Idle | S::Done | S::Aborted),
-                    SessionCommand::Arm {
-                        pattern: pod.pattern,
-                        direction: pod.direction,
-                    },
-                ),
-                2 => (pod.session == S::Armed, SessionCommand::Start),
-                3 => (pod.session == S::Running, SessionCommand::Stop),
-                _ => (
-                    matches!(pod.session, S::Armed | S::Running),
-                    SessionCommand::Abort,
-                ),
-            };
-            if !allowed {
-                return Err(SdoAbort::WrongState);
-            }
-            cmd = Some(c);
+            let c = Command::from_u8(raw as u8).ok_or(SdoAbort::ValueTooHigh)?;
+            app.execute(c).map_err(refused(None))?;
         }
         _ => return Err(SdoAbort::ReadOnly),
     }
-    Ok(cmd)
+    Ok(())
 }

@@ -3,7 +3,7 @@
 
 use super::CanFrame;
 use super::od::{self, CommParams, MAX_VALUE_LEN};
-use crate::protocol::pod::PodModel;
+use crate::app::App;
 
 /// Number of TPDOs (0x1800–0x1803 / 0x1A00–0x1A03).
 pub const TPDO_COUNT: usize = 4;
@@ -68,8 +68,8 @@ pub const fn map_entry(index: u16, sub: u8, bits: u8) -> u32 {
 /// CiA 301 §7.3.5: COB-IDs 0x180/0x280/0x380/0x480 + node-ID):
 /// - TPDO1: ΔL (0x2100:1, REAL32 µm) + sample counter (0x2101, UNSIGNED32), every SYNC;
 /// - TPDO2: eccentricities e_x, e_y (0x2100:5/6, REAL32 µm), every SYNC;
-/// - TPDO3: r0 (0x2100:7, REAL32 µm) + status word (0x2102) + session state (0x3003) +
-///   error register (0x1001), every SYNC;
+/// - TPDO3: r0 (0x2100:7, REAL32 µm) + status word (0x2102: sample flags, session state,
+///   live-valid, error) + live-value validity mask (0x2103), every SYNC;
 /// - TPDO4: SSM position errors E_x, E_y (0x2100:2/3, REAL32 µm), every SYNC, disabled
 ///   (COB-ID bit 31 set) until the master enables it.
 pub fn default_tpdo(n: usize, node_id: u8) -> TpdoParams {
@@ -89,8 +89,7 @@ pub fn default_tpdo(n: usize, node_id: u8) -> TpdoParams {
         2 => &[
             map_entry(0x2100, 7, 32),
             map_entry(0x2102, 0, 16),
-            map_entry(0x3003, 0, 8),
-            map_entry(0x1001, 0, 8),
+            map_entry(0x2103, 0, 16),
         ],
         _ => &[map_entry(0x2100, 2, 32), map_entry(0x2100, 3, 32)],
     };
@@ -107,7 +106,7 @@ pub fn default_tpdo(n: usize, node_id: u8) -> TpdoParams {
 /// Packs the mapped objects of `p` into a frame (CiA 301 §7.2.2: objects in mapping order,
 /// each little-endian). Returns `None` if the PDO is invalid or a mapped object can no longer
 /// be read (the mapping was checked when written, so this does not happen in practice).
-pub fn pack(p: &TpdoParams, comm: &CommParams, pod: &PodModel) -> Option<CanFrame> {
+pub fn pack(p: &TpdoParams, comm: &CommParams, app: &App) -> Option<CanFrame> {
     if !p.is_valid() {
         return None;
     }
@@ -119,7 +118,7 @@ pub fn pack(p: &TpdoParams, comm: &CommParams, pod: &PodModel) -> Option<CanFram
         let bytes = ((m & 0xFF) / 8) as usize;
         let e = od::entry(index, sub).ok()?;
         let mut buf = [0u8; MAX_VALUE_LEN];
-        let n = od::read(comm, pod, e.var, &mut buf).ok()?;
+        let n = od::read(comm, app, e.var, &mut buf).ok()?;
         let src = buf.get(..n.min(bytes))?;
         data.get_mut(len..len + src.len())?.copy_from_slice(src);
         len += bytes;

@@ -9,7 +9,7 @@
 use super::abort::SdoAbort;
 use super::nmt::NmtState;
 use super::od::{self, CommParams, Entry, MAX_VALUE_LEN};
-use crate::protocol::pod::{PodModel, SessionCommand};
+use crate::app::App;
 
 /// Time the server waits for the next segment of a transfer, µs (then abort 0x0504 0000).
 pub const SDO_TIMEOUT_US: u64 = 1_000_000;
@@ -55,16 +55,13 @@ impl Default for SdoServer {
     }
 }
 
-/// What one request produced: the response payload (always 8 bytes, CiA 301) and the session
-/// command a completed write asks for.
+/// What one request produced: the response payload (always 8 bytes, CiA 301).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SdoOutcome {
     /// Response to send on 0x580 + node-ID (`None` after a client abort).
     pub response: Option<[u8; 8]>,
     /// The aborted transfer's code, if the response is an abort.
     pub abort: Option<SdoAbort>,
-    /// The command of a completed write.
-    pub command: Option<SessionCommand>,
 }
 
 /// An abort frame (CiA 301 §7.2.4.3.17): cs 0x80, multiplexer, code (LE).
@@ -110,7 +107,6 @@ impl SdoServer {
         SdoOutcome {
             response: Some(abort_frame(index, sub, code)),
             abort: Some(code),
-            command: None,
         }
     }
 
@@ -136,7 +132,7 @@ impl SdoServer {
         &mut self,
         data: &[u8],
         comm: &mut CommParams,
-        pod: &mut PodModel,
+        app: &mut App,
         nmt: NmtState,
         now_us: u64,
     ) -> SdoOutcome {
@@ -153,17 +149,16 @@ impl SdoServer {
         let deadline_us = now_us.saturating_add(SDO_TIMEOUT_US);
         match b0 >> 5 {
             CCS_INITIATE_DOWNLOAD => {
-                self.initiate_download(b0, index, sub, payload, comm, pod, nmt, deadline_us)
+                self.initiate_download(b0, index, sub, payload, comm, app, nmt, deadline_us)
             }
-            CCS_DOWNLOAD_SEGMENT => self.download_segment(&d, comm, pod, nmt, deadline_us),
-            CCS_INITIATE_UPLOAD => self.initiate_upload(index, sub, comm, pod, deadline_us),
+            CCS_DOWNLOAD_SEGMENT => self.download_segment(&d, comm, app, nmt, deadline_us),
+            CCS_INITIATE_UPLOAD => self.initiate_upload(index, sub, comm, app, deadline_us),
             CCS_UPLOAD_SEGMENT => self.upload_segment(b0, deadline_us),
             CCS_ABORT => {
                 self.transfer = Transfer::Idle;
                 SdoOutcome {
                     response: None,
                     abort: None,
-                    command: None,
                 }
             }
             // Block upload (5), block download (6) and 7 are not supported.
@@ -186,7 +181,7 @@ impl SdoServer {
         sub: u8,
         payload: [u8; 4],
         comm: &mut CommParams,
-        pod: &mut PodModel,
+        app: &mut App,
         nmt: NmtState,
         deadline_us: u64,
     ) -> SdoOutcome {
@@ -212,11 +207,10 @@ impl SdoServer {
                 return self.abort(index, sub, SdoAbort::LengthMismatch);
             }
             let data = payload.get(..len).unwrap_or(&[]);
-            match od::write(comm, pod, nmt, &entry, data) {
-                Ok(command) => SdoOutcome {
+            match od::write(comm, app, nmt, &entry, data) {
+                Ok(()) => SdoOutcome {
                     response: Some(reply(0x60, index, sub, [0; 4])),
                     abort: None,
-                    command,
                 },
                 Err(code) => self.abort(index, sub, code),
             }
@@ -235,7 +229,6 @@ impl SdoServer {
             SdoOutcome {
                 response: Some(reply(0x60, index, sub, [0; 4])),
                 abort: None,
-                command: None,
             }
         }
     }
@@ -244,7 +237,7 @@ impl SdoServer {
         &mut self,
         d: &[u8; 8],
         comm: &mut CommParams,
-        pod: &mut PodModel,
+        app: &mut App,
         nmt: NmtState,
         deadline: u64,
     ) -> SdoOutcome {
@@ -288,18 +281,16 @@ impl SdoServer {
             return SdoOutcome {
                 response,
                 abort: None,
-                command: None,
             };
         }
         if new_len != size {
             return self.abort(entry.index, entry.sub, SdoAbort::LengthMismatch);
         }
         self.transfer = Transfer::Idle;
-        match od::write(comm, pod, nmt, &entry, buf.get(..new_len).unwrap_or(&[])) {
-            Ok(command) => SdoOutcome {
+        match od::write(comm, app, nmt, &entry, buf.get(..new_len).unwrap_or(&[])) {
+            Ok(()) => SdoOutcome {
                 response,
                 abort: None,
-                command,
             },
             Err(code) => self.abort(entry.index, entry.sub, code),
         }
@@ -310,7 +301,7 @@ impl SdoServer {
         index: u16,
         sub: u8,
         comm: &CommParams,
-        pod: &PodModel,
+        app: &App,
         deadline_us: u64,
     ) -> SdoOutcome {
         self.transfer = Transfer::Idle;
@@ -322,14 +313,13 @@ impl SdoServer {
             return self.abort(index, sub, SdoAbort::WriteOnly);
         }
         let mut buf = [0u8; MAX_VALUE_LEN];
-        let len = match od::read(comm, pod, entry.var, &mut buf) {
+        let len = match od::read(comm, app, entry.var, &mut buf) {
             Ok(n) => n,
             Err(code) => return self.abort(index, sub, code),
         };
         let ok = |response| SdoOutcome {
             response: Some(response),
             abort: None,
-            command: None,
         };
         if (1..=4).contains(&len) {
             // Expedited, size indicated: n = 4 − len unused bytes (CiA 301 §7.2.4.3.6).
@@ -393,7 +383,6 @@ impl SdoServer {
         SdoOutcome {
             response: Some(r),
             abort: None,
-            command: None,
         }
     }
 }

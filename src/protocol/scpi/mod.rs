@@ -6,8 +6,7 @@
 //! ```text
 //! let mut scpi = ScpiServer::new();
 //! // for every chunk received from USB CDC-ACM (or the simulator's TCP socket):
-//! let actions = scpi.feed(chunk, &mut pod, &log, &mut |bytes| usb_write(bytes));
-//! for a in actions { app.execute(a) }   // Arm / Start / Stop / Abort / ConfigChanged / …
+//! scpi.feed(chunk, &mut app, &log, &mut |bytes| usb_write(bytes));
 //! // async transports: scpi.set_pull_download(true) once, then after each feed
 //! while scpi.download_pending() { let n = scpi.pull_download(&log, &mut buf); usb_write(&buf[..n]).await }
 //! ```
@@ -18,11 +17,11 @@
 //! responses ends with `\n`, their units separated by `;` (IEEE 488.2 §8.4). Execution is
 //! synchronous and bounded: no call blocks or waits for time.
 //!
-//! The server writes the pattern, direction and configuration of `pod` itself (configuration only
-//! through [`Config::try_update`]) and reads its live values, results and session state; session
-//! actions come back as [`SessionCommand`]s for the application to execute after `feed` returns
-//! (and then update [`PodModel::session`]). Within one `feed` call, a session command is checked
-//! against the state the earlier accepted commands lead to, so `SESS:ARM;STAR` works.
+//! The server hands every setting and session command to the application ([`App`]), which
+//! accepts or refuses it (the same rules as over CANopen: a command that does not fit the
+//! session state, a pattern whose geometry is not set, a change while a run is armed or
+//! running → -221 with the reason), and reads its live values, results and session state.
+//! Commands take effect at once, so `SESS:ARM;STAR` works.
 //!
 //! # Bad input
 //!
@@ -48,58 +47,33 @@
 //!
 //! # Command set
 //!
-//! | command | what |
-//! |---|---|
-//! | `*IDN?` `*RST` `*CLS` `*OPC` `*OPC?` `*WAI` `*ESR?` `*ESE[?]` `*SRE[?]` `*STB?` `*SAV 0` | IEEE 488.2 §10 common commands (`*SAV 0` stores the configuration; needs the unlock) |
-//! | `CONFigure:UNLock`, `CONFigure:LOCK`, `CONFigure:LOCK?` | allow / forbid configuration writes and `*SAV` on this port; `LOCK?` is 1 while locked |
-//! | `SYSTem:ERRor[:NEXT]?` | oldest queued error: `<code>,"<message>[;<detail>]"` |
-//! | `SYSTem:VERSion?` | `1999.0` (SCPI version) |
-//! | `CONFigure:<field>[<k>] <value\|MIN\|MAX\|DEF>`, `CONFigure:<field>[<k>]? [MIN\|MAX\|DEF]` | a [`FIELDS`] entry by its name (e.g. `CONF:BAR_LENGTH 150`); `LVDT_POLY<k>` k = 0…3 (coefficient c_k), `AXIS_COUNTS<n>` / `AXIS_MAX_SPEED<n>` n = 1…5 (input); suffix default 1 |
-//! | `CONFigure:AXIS<n>:NAME <X\|Y\|Z\|A\|B\|C\|NONE>`, `…?` | axis of encoder input n = 1…5 |
-//! | `SESSion:PATTern <CIRCle\|BX\|BY\|CR\|CA\|CRPRime\|SSM\|PROBe>`, `…?` | pattern of the next run |
-//! | `SESSion:DIRection <CW\|CCW>`, `…?` | direction of the next run |
-//! | `SESSion:ARM` `SESSion:STARt` `SESSion:STOP` `SESSion:ABORt` | session control |
-//! | `SESSion:STATe?` | `IDLE`, `ARMED`, `RUNNING`, `DONE` or `ABORTED` |
-//! | `SESSion:REASon?` | why the last run was aborted: `NONE`, `COMMAND`, `LVDT` (open / over-range / ΔL jump: bar dropped from the socket), `OVERRUN` (samples lost), `UNOBSERVABLE` (too few valid samples) |
-//! | `SESSion:COUNt?` | the run's counters ([`crate::session::run::RunCounters::NAMES`], comma-separated integers): `seen,used,skipped_lvdt_open,skipped_lvdt_over_range,skipped_quadrature,skipped_jump,skipped_overrun,lost,temperature_faults,after_overrun` |
-//! | `STATus:POD?` | the pod's status word ([`StatusWord`], decimal; bit 15 also set while this port's error queue is not empty) |
-//! | `MEASure:DL?` | live ΔL, µm (4 decimals) |
-//! | `MEASure:ALL?` | `counter,dl_um,ex_um,ey_um,ez_um,ecc_x_um,ecc_y_um,r0_um,temp_c,status` |
-//! | `FETCh:RESult? <name\|index>` | `value,uncertainty,UNIT` of a [`RESULTS`] entry (index 0…15) |
-//! | `FETCh:RESult:CATalog?` | the result names, quoted, in index order |
-//! | `DATA:LOG:COUNt?` | samples in the log |
-//! | `DATA:LOG?` | the log as CSV ([`crate::protocol::log`]) in a definite-length block `#<d><len><csv>` (IEEE 488.2 §8.7.9); metadata from [`SampleLog::begin_run`] or else the pod's current settings |
+//! The table is in README.md ("USB command interface"); the host tests execute its examples.
+//! Names of patterns, directions, abort reasons, results and live values are the application's
+//! ([`crate::app`]); configuration fields are [`FIELDS`] by name.
 //!
 //! Configuration writes (`CONFigure:<field>`, `CONFigure:AXIS<n>:NAME`) and `*SAV` are
 //! protected: they need `CONFigure:UNLock` first on this port, else -203 "Command protected" and
 //! nothing changes. The port locks again at power-on, on `*RST`, on `CONFigure:LOCK` and when the
 //! transport reports a disconnect ([`ScpiServer::connection_closed`]). Queries are never locked.
-//!
-//! Session commands in the wrong state (`ARM` while armed or running, `STARt` unless armed,
-//! `STOP` unless running, `ABORt` unless armed or running; pattern, direction and configuration
-//! while armed or running) are rejected with -221 "Settings conflict".
 
 pub mod number;
 pub mod parse;
 pub mod status;
 
 use crate::acquisition::MAX_AXES;
-use crate::config::{AxisName, Config, ConfigError, FIELDS, Field, FieldInfo};
-use crate::protocol::log::{CsvCursor, LogMeta, SampleLog, csv_len, write_csv};
-use crate::protocol::pod::{
-    AbortReason, Direction, Pattern, PodModel, RESULT_COUNT, RESULTS, SessionCommand, SessionState,
-    StatusWord,
+use crate::app::log::SampleLog;
+use crate::app::{
+    App, Command as AppCommand, CommandError, Direction, LIVE, Pattern, RESULT_COUNT, RESULTS,
+    ResultId, RunMeta, StatusWord,
 };
+use crate::config::{AxisName, Config, ConfigError, FIELDS, Field, FieldInfo};
+use crate::protocol::download::{CsvCursor, csv_len, write_csv};
 use number::{SCPI_NAN, Text, push_bytes, push_fixed, push_i64, push_significant, push_u64};
 use parse::{Header, MAX_DEPTH, Mnemonic, character, keyword};
 use status::{ScpiError, StatusModel, code, esr};
 
 /// Input line buffer, bytes (the longest program message accepted, without its `\n`).
 pub const LINE_CAPACITY: usize = 256;
-/// Most session actions one [`ScpiServer::feed`] call can return.
-pub const MAX_ACTIONS: usize = 4;
-/// The session actions of one [`ScpiServer::feed`] call, in order.
-pub type Actions = heapless::Vec<SessionCommand, MAX_ACTIONS>;
 
 /// `*IDN?` response (IEEE 488.2 §10.14: manufacturer, model, serial number (0: not set),
 /// firmware version).
@@ -115,8 +89,6 @@ type Response = Text<256>;
 pub struct ScpiCounters {
     /// Lines rejected because they exceeded [`LINE_CAPACITY`].
     pub lines_overrun: u32,
-    /// Session actions rejected because [`MAX_ACTIONS`] were already pending in one `feed`.
-    pub actions_rejected: u32,
     /// Pulled log downloads cut short by a disconnect ([`ScpiServer::connection_closed`]).
     pub downloads_cut: u32,
 }
@@ -125,7 +97,7 @@ pub struct ScpiCounters {
 #[derive(Clone, Copy, Debug)]
 struct Download {
     cursor: CsvCursor,
-    meta: LogMeta,
+    meta: RunMeta,
 }
 
 /// One SCPI session (one USB CDC-ACM port or TCP connection): line buffer, status model and
@@ -152,15 +124,12 @@ impl Default for ScpiServer {
 struct Exec<'a, F: FnMut(&[u8]), const N: usize> {
     status: &'a mut StatusModel,
     counters: &'a mut ScpiCounters,
-    pod: &'a mut PodModel,
+    app: &'a mut App,
     log: &'a SampleLog<N>,
     out: &'a mut F,
     pull_mode: bool,
     download: &'a mut Option<Download>,
     config_unlocked: &'a mut bool,
-    actions: Actions,
-    /// The session state the accepted actions lead to.
-    session: SessionState,
     /// A response unit was sent on the current line.
     responded: bool,
 }
@@ -174,7 +143,6 @@ impl ScpiServer {
             status: StatusModel::new(),
             counters: ScpiCounters {
                 lines_overrun: 0,
-                actions_rejected: 0,
                 downloads_cut: 0,
             },
             pull_mode: false,
@@ -257,26 +225,24 @@ impl ScpiServer {
         self.counters
     }
 
-    /// Takes received bytes; executes every complete line; sends responses through `out`;
-    /// returns the session actions to execute, in order (module doc).
+    /// Takes received bytes; executes every complete line (settings and commands go to `app`
+    /// at once); sends responses through `out` (module doc).
     pub fn feed<const N: usize>(
         &mut self,
         bytes: &[u8],
-        pod: &mut PodModel,
+        app: &mut App,
         log: &SampleLog<N>,
         out: &mut impl FnMut(&[u8]),
-    ) -> Actions {
+    ) {
         let mut x = Exec {
             status: &mut self.status,
             counters: &mut self.counters,
-            session: pod.session,
-            pod,
+            app,
             log,
             out,
             pull_mode: self.pull_mode,
             download: &mut self.download,
             config_unlocked: &mut self.config_unlocked,
-            actions: Actions::new(),
             responded: false,
         };
         for &b in bytes {
@@ -302,46 +268,8 @@ impl ScpiServer {
                 }
             }
         }
-        x.actions
     }
 }
-
-/// A session state's name in `SESSion:STATe?`.
-const fn state_name(s: SessionState) -> &'static str {
-    match s {
-        SessionState::Idle => "IDLE",
-        SessionState::Armed => "ARMED",
-        SessionState::Running => "RUNNING",
-        SessionState::Done => "DONE",
-        SessionState::Aborted => "ABORTED",
-    }
-}
-
-/// An abort reason's name in `SESSion:REASon?` (`NONE` if the last run was not aborted).
-const fn reason_name(r: Option<AbortReason>) -> &'static str {
-    match r {
-        None => "NONE",
-        Some(AbortReason::ByCommand) => "COMMAND",
-        Some(AbortReason::LvdtFault) => "LVDT",
-        Some(AbortReason::Overrun) => "OVERRUN",
-        Some(AbortReason::NotObservable) => "UNOBSERVABLE",
-    }
-}
-
-/// Patterns with their SCPI forms (short form = upper-case letters).
-const PATTERNS: [(Pattern, &str); 8] = [
-    (Pattern::Circle, "CIRCle"),
-    (Pattern::Bx, "BX"),
-    (Pattern::By, "BY"),
-    (Pattern::Cr, "CR"),
-    (Pattern::Ca, "CA"),
-    (Pattern::CrPrime, "CRPRime"),
-    (Pattern::Ssm, "SSM"),
-    (Pattern::Probe, "PROBe"),
-];
-
-/// Directions with their SCPI forms.
-const DIRECTIONS: [(Direction, &str); 2] = [(Direction::Cw, "CW"), (Direction::Ccw, "CCW")];
 
 /// Axis names with their SCPI forms.
 const AXIS_NAMES: [(AxisName, &str); 7] = [
@@ -353,13 +281,6 @@ const AXIS_NAMES: [(AxisName, &str); 7] = [
     (AxisName::C, "C"),
     (AxisName::Unused, "NONE"),
 ];
-
-/// The short form of an SCPI-cased keyword (character response data is sent in short form,
-/// upper case: SCPI-99 Vol 1 §7.3, IEEE 488.2 §8.7.1).
-fn short_form(form: &str) -> &str {
-    let n = form.bytes().take_while(|c| !c.is_ascii_lowercase()).count();
-    form.get(..n).unwrap_or(form)
-}
 
 /// A resolved command.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -386,14 +307,19 @@ enum Command {
     SessStart,
     SessStop,
     SessAbort,
+    SessClear,
     SessState,
     SessReason,
     SessCount,
+    SessNote,
     StatPod,
     MeasDl,
     MeasAll,
+    MeasValid,
     FetchResult,
     FetchCatalog,
+    FetchTouch,
+    FetchTouchCount,
     DataLogCount,
     DataLog,
 }
@@ -402,11 +328,11 @@ enum Command {
 const fn forms(c: Command) -> (bool, bool) {
     use Command::*;
     match c {
-        Idn | Esr | Stb | SystErr | SystVersion | SessState | SessReason | SessCount | StatPod
-        | MeasDl | MeasAll | FetchResult | FetchCatalog | DataLogCount | DataLog => (true, false),
-        Rst | Cls | Wai | Sav | ConfUnlock | SessArm | SessStart | SessStop | SessAbort => {
-            (false, true)
-        }
+        Idn | Esr | Stb | SystErr | SystVersion | SessState | SessReason | SessCount | SessNote
+        | StatPod | MeasDl | MeasAll | MeasValid | FetchResult | FetchCatalog | FetchTouch
+        | FetchTouchCount | DataLogCount | DataLog => (true, false),
+        Rst | Cls | Wai | Sav | ConfUnlock | SessArm | SessStart | SessStop | SessAbort
+        | SessClear => (false, true),
         Opc | Ese | Sre | ConfLock | ConfField(..) | ConfAxisName(_) | SessPattern
         | SessDirection => (true, true),
     }
@@ -484,16 +410,18 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
         [c, l] if c.is("CONFigure") && l.is("LOCK") => Command::ConfLock,
         [c, f] if c.is("CONFigure") => config_field(f)?,
         [s, x] if s.is("SESSion") => {
-            const SESSION: [(&str, Command); 9] = [
+            const SESSION: [(&str, Command); 11] = [
                 ("PATTern", Command::SessPattern),
                 ("DIRection", Command::SessDirection),
                 ("ARM", Command::SessArm),
                 ("STARt", Command::SessStart),
                 ("STOP", Command::SessStop),
                 ("ABORt", Command::SessAbort),
+                ("CLEar", Command::SessClear),
                 ("STATe", Command::SessState),
                 ("REASon", Command::SessReason),
                 ("COUNt", Command::SessCount),
+                ("NOTE", Command::SessNote),
             ];
             SESSION
                 .iter()
@@ -504,8 +432,11 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
         [s, p] if s.is("STATus") && p.is("POD") => Command::StatPod,
         [m, x] if m.is("MEASure") && x.is("DL") => Command::MeasDl,
         [m, x] if m.is("MEASure") && x.is("ALL") => Command::MeasAll,
+        [m, x] if m.is("MEASure") && x.is("VALid") => Command::MeasValid,
         [f, r] if f.is("FETCh") && r.is("RESult") => Command::FetchResult,
         [f, r, c] if f.is("FETCh") && r.is("RESult") && c.is("CATalog") => Command::FetchCatalog,
+        [f, t] if f.is("FETCh") && t.is("TOUCh") => Command::FetchTouch,
+        [f, t, c] if f.is("FETCh") && t.is("TOUCh") && c.is("COUNt") => Command::FetchTouchCount,
         [d, l] if d.is("DATA") && l.is("LOG") => Command::DataLog,
         [d, l, c] if d.is("DATA") && l.is("LOG") && c.is("COUNt") => Command::DataLogCount,
         _ => return Err(undefined),
@@ -529,6 +460,11 @@ fn numeric(p: &[u8]) -> Result<f64, ScpiError> {
 
 /// A numeric parameter that may also be `MINimum`, `MAXimum` or `DEFault` (SCPI-99 Vol 1
 /// §7.2.1.1).
+/// True for the keywords a numeric parameter may take instead of a number (SCPI-99 §7.2.1).
+fn is_keyword_value(k: &[u8]) -> bool {
+    keyword(k, "MINimum") || keyword(k, "MAXimum") || keyword(k, "DEFault")
+}
+
 fn numeric_or_keyword(p: &[u8], min: f64, max: f64, default: f64) -> Result<f64, ScpiError> {
     if p.first().is_some_and(|c| c.is_ascii_alphabetic()) {
         let k = character(p)?;
@@ -545,21 +481,20 @@ fn numeric_or_keyword(p: &[u8], min: f64, max: f64, default: f64) -> Result<f64,
     numeric(p)
 }
 
-/// The SCPI error of a configuration rejected by [`Config::try_update`].
-fn config_error(e: ConfigError, name: &'static str) -> ScpiError {
-    match e {
-        ConfigError::OutOfRange {
+/// The SCPI error of a command the application refused: a value out of its field's range → -222
+/// naming the field; anything else (state, geometry not set, a change while a run is armed or
+/// running, a cross-field rule) → -221 with the application's reason.
+fn refusal(e: CommandError) -> ScpiError {
+    let (detail, suffix) = e.text();
+    let code = match e {
+        CommandError::Config(ConfigError::OutOfRange {
             field: Field::AdcRate,
             ..
-        } => ScpiError::with(
-            code::SETTINGS_CONFLICT,
-            "excitation x samples_per_period exceeds the ADC rate",
-        ),
-        ConfigError::Duplicate { .. } => {
-            ScpiError::with(code::SETTINGS_CONFLICT, "axis name used twice")
-        }
-        _ => ScpiError::with(code::DATA_OUT_OF_RANGE, name),
-    }
+        }) => code::SETTINGS_CONFLICT,
+        CommandError::Config(ConfigError::OutOfRange { .. }) => code::DATA_OUT_OF_RANGE,
+        _ => code::SETTINGS_CONFLICT,
+    };
+    ScpiError::with_suffix(code, detail, suffix)
 }
 
 impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
@@ -668,15 +603,9 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
         self.responded = true;
     }
 
-    /// Queues a session action (no duplicate `ConfigChanged`).
-    fn act(&mut self, a: SessionCommand) -> Result<(), ScpiError> {
-        if a == SessionCommand::ConfigChanged && self.actions.contains(&a) {
-            return Ok(());
-        }
-        self.actions.push(a).map_err(|_| {
-            self.counters.actions_rejected = self.counters.actions_rejected.saturating_add(1);
-            ScpiError::with(code::EXECUTION_ERROR, "too many actions in one input chunk")
-        })
+    /// Hands a session command to the application.
+    fn act(&mut self, c: AppCommand) -> Result<(), ScpiError> {
+        self.app.execute(c).map_err(refusal)
     }
 
     /// Rejects configuration writes unless this port was unlocked.
@@ -685,15 +614,6 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             Ok(())
         } else {
             Err(ScpiError::with(code::COMMAND_PROTECTED, what))
-        }
-    }
-
-    /// Rejects settings changes while a run is armed or running.
-    fn idle_for_settings(&self, what: &'static str) -> Result<(), ScpiError> {
-        if matches!(self.session, SessionState::Armed | SessionState::Running) {
-            Err(ScpiError::with(code::SETTINGS_CONFLICT, what))
-        } else {
-            Ok(())
         }
     }
 
@@ -719,8 +639,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             Command::Rst => {
                 // IEEE 488.2 §10.32: device reset; the status registers and the queue stay.
                 none()?;
-                self.act(SessionCommand::Reset)?;
-                self.session = SessionState::Idle;
+                self.act(AppCommand::Reset)?;
                 *self.config_unlocked = false;
             }
             Command::Cls => {
@@ -751,7 +670,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                     return Err(ScpiError::with(code::DATA_OUT_OF_RANGE, "one register: 0"));
                 }
                 self.unlocked_for("*SAV: CONF:UNL first")?;
-                self.act(SessionCommand::StoreSettings)?;
+                self.act(AppCommand::StoreSettings)?;
             }
             Command::ConfUnlock => {
                 none()?;
@@ -763,23 +682,39 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             }
             Command::ConfField(field, info) => {
                 self.unlocked_for("CONF:UNL first")?;
-                self.idle_for_settings(info.name)?;
-                let default = Config::default().field_value(field).unwrap_or(info.min);
-                let v = numeric_or_keyword(arg(0)?, info.min, info.max, default)?;
-                // The range check of the table (same as `Config::validate`), so the error names
-                // the field; cross-field checks are `try_update`'s.
-                if !(v >= info.min && v <= info.max) {
-                    return Err(ScpiError::with(code::DATA_OUT_OF_RANGE, info.name));
+                let a = arg(0)?;
+                let choice = match character(a) {
+                    // a code field given by name: one of its choices, else -224 (a number
+                    // is taken as the code itself below)
+                    Ok(name) if !info.choices.is_empty() && !is_keyword_value(name) => {
+                        Some(info.choice(name).map(f64::from).ok_or(ScpiError {
+                            code: code::ILLEGAL_PARAMETER_VALUE,
+                            detail: crate::app::field_name(field),
+                            suffix: ": unknown code name",
+                        })?)
+                    }
+                    _ => None,
+                };
+                let v = match choice {
+                    Some(v) => v,
+                    None => {
+                        let default = Config::default().field_value(field).unwrap_or(info.min);
+                        numeric_or_keyword(a, info.min, info.max, default)?
+                    }
+                };
+                if v.is_nan() {
+                    // A set-up field's default is "not set": as over CANopen, only restoring
+                    // the defaults clears it (src/config.rs, `FieldInfo::optional`).
+                    return Err(ScpiError {
+                        code: code::ILLEGAL_PARAMETER_VALUE,
+                        detail: crate::app::field_name(field),
+                        suffix: " has no default (restoring the defaults clears it)",
+                    });
                 }
-                self.pod
-                    .config
-                    .try_update(|c| c.set_field(field, v))
-                    .map_err(|e| config_error(e, info.name))?;
-                self.act(SessionCommand::ConfigChanged)?;
+                self.app.set_field(field, v).map_err(refusal)?;
             }
             Command::ConfAxisName(i) => {
                 self.unlocked_for("CONF:UNL first")?;
-                self.idle_for_settings("axis name")?;
                 let k = character(arg(0)?)?;
                 let name = AXIS_NAMES
                     .iter()
@@ -789,73 +724,41 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                         code::ILLEGAL_PARAMETER_VALUE,
                         "X|Y|Z|A|B|C|NONE",
                     ))?;
-                self.pod
-                    .config
-                    .try_update(|c| {
+                self.app
+                    .configure(|c| {
                         if let Some(a) = c.axes.get_mut(i) {
                             a.name = name;
                         }
                     })
-                    .map_err(|e| config_error(e, "axis name"))?;
-                self.act(SessionCommand::ConfigChanged)?;
+                    .map_err(refusal)?;
             }
             Command::SessPattern => {
                 let k = character(arg(0)?)?;
-                let pattern = PATTERNS
-                    .iter()
-                    .find(|(_, f)| keyword(k, f))
-                    .map(|&(v, _)| v)
-                    .ok_or(ScpiError::with(code::ILLEGAL_PARAMETER_VALUE, "pattern"))?;
-                self.idle_for_settings("pattern")?;
-                self.pod.pattern = pattern;
+                let pattern = Pattern::from_name(k).ok_or(ScpiError::with(
+                    code::ILLEGAL_PARAMETER_VALUE,
+                    "CIRCLE|BX|BY|CR|CA|CR2|SSM|PROBE",
+                ))?;
+                self.app.set_pattern(pattern).map_err(refusal)?;
             }
             Command::SessDirection => {
                 let k = character(arg(0)?)?;
-                let direction = DIRECTIONS
-                    .iter()
-                    .find(|(_, f)| keyword(k, f))
-                    .map(|&(v, _)| v)
+                let direction = Direction::from_name(k)
                     .ok_or(ScpiError::with(code::ILLEGAL_PARAMETER_VALUE, "CW|CCW"))?;
-                self.idle_for_settings("direction")?;
-                self.pod.direction = direction;
+                self.app.set_direction(direction).map_err(refusal)?;
             }
-            Command::SessArm | Command::SessStart | Command::SessStop | Command::SessAbort => {
+            Command::SessArm
+            | Command::SessStart
+            | Command::SessStop
+            | Command::SessAbort
+            | Command::SessClear => {
                 none()?;
-                use SessionState::*;
-                let (ok, next, action, what) = match cmd {
-                    Command::SessArm => (
-                        matches!(self.session, Idle | Done | Aborted),
-                        Armed,
-                        SessionCommand::Arm {
-                            pattern: self.pod.pattern,
-                            direction: self.pod.direction,
-                        },
-                        "ARM needs IDLE, DONE or ABORTED",
-                    ),
-                    Command::SessStart => (
-                        self.session == Armed,
-                        Running,
-                        SessionCommand::Start,
-                        "STARt needs ARMED",
-                    ),
-                    Command::SessStop => (
-                        self.session == Running,
-                        Done,
-                        SessionCommand::Stop,
-                        "STOP needs RUNNING",
-                    ),
-                    _ => (
-                        matches!(self.session, Armed | Running),
-                        Aborted,
-                        SessionCommand::Abort,
-                        "ABORt needs ARMED or RUNNING",
-                    ),
-                };
-                if !ok {
-                    return Err(ScpiError::with(code::SETTINGS_CONFLICT, what));
-                }
-                self.act(action)?;
-                self.session = next;
+                self.act(match cmd {
+                    Command::SessArm => AppCommand::Arm,
+                    Command::SessStart => AppCommand::Start,
+                    Command::SessStop => AppCommand::Stop,
+                    Command::SessAbort => AppCommand::Abort,
+                    _ => AppCommand::Clear,
+                })?;
             }
             _ => return Err(ScpiError::new(code::UNDEFINED_HEADER)),
         }
@@ -910,6 +813,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 if !e.detail.is_empty() {
                     push_bytes(&mut r, b";");
                     push_bytes(&mut r, e.detail.as_bytes());
+                    push_bytes(&mut r, e.suffix.as_bytes());
                 }
                 push_bytes(&mut r, b"\"");
             }
@@ -923,7 +827,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             }
             Command::ConfField(field, info) => {
                 let v = match p {
-                    [] => self.pod.config.field_value(field),
+                    [] => self.app.config().field_value(field),
                     [k] => {
                         let k = character(k)?;
                         if keyword(k, "MINimum") {
@@ -938,19 +842,29 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                     }
                     _ => return Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED)),
                 };
-                // f32 fields as typed (7 digits); the f64 encoder scale with 15.
-                let digits = if matches!(field, Field::AxisCountsPerUnit(_)) {
-                    15
-                } else {
-                    7
-                };
-                push_significant(&mut r, v.unwrap_or(f64::NAN), digits, SCPI_NAN);
+                let v = v.unwrap_or(f64::NAN);
+                match info.choices.get(v as usize).filter(|_| v >= 0.0) {
+                    // a code field answers its code's name
+                    Some(name) => {
+                        push_bytes(&mut r, name.as_bytes());
+                    }
+                    None => {
+                        // f32 fields as typed (7 digits); the f64 encoder scale with 15; a
+                        // set-up field that is not set answers 9.91E+37 (SCPI NaN)
+                        let digits = if matches!(field, Field::AxisCountsPerUnit(_)) {
+                            15
+                        } else {
+                            7
+                        };
+                        push_significant(&mut r, v, digits, SCPI_NAN);
+                    }
+                }
             }
             Command::ConfAxisName(i) => {
                 none()?;
                 let name = self
-                    .pod
-                    .config
+                    .app
+                    .config()
                     .axes
                     .get(i)
                     .map_or(AxisName::Unused, |a| a.name);
@@ -962,31 +876,33 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             }
             Command::SessPattern => {
                 none()?;
-                let form = PATTERNS
-                    .iter()
-                    .find(|(v, _)| *v == self.pod.pattern)
-                    .map_or("CIRC", |&(_, f)| short_form(f));
-                push_bytes(&mut r, form.as_bytes());
+                push_bytes(&mut r, self.app.pattern().name().as_bytes());
             }
             Command::SessDirection => {
                 none()?;
-                let form = DIRECTIONS
-                    .iter()
-                    .find(|(v, _)| *v == self.pod.direction)
-                    .map_or("CCW", |&(_, f)| f);
-                push_bytes(&mut r, form.as_bytes());
+                push_bytes(&mut r, self.app.direction().name().as_bytes());
             }
             Command::SessState => {
                 none()?;
-                push_bytes(&mut r, state_name(self.session).as_bytes());
+                push_bytes(&mut r, self.app.session().name().as_bytes());
             }
             Command::SessReason => {
                 none()?;
-                push_bytes(&mut r, reason_name(self.pod.abort_reason).as_bytes());
+                let name = self.app.abort_reason().map_or("NONE", |a| a.name());
+                push_bytes(&mut r, name.as_bytes());
+            }
+            Command::SessNote => {
+                // what the last procedure step could not do, quoted (empty: nothing)
+                none()?;
+                let (a, b) = self.app.procedure_note().map_or(("", ""), |e| e.text());
+                push_bytes(&mut r, b"\"");
+                push_bytes(&mut r, a.as_bytes());
+                push_bytes(&mut r, b.as_bytes());
+                push_bytes(&mut r, b"\"");
             }
             Command::SessCount => {
                 none()?;
-                for (k, v) in self.pod.run.as_array().into_iter().enumerate() {
+                for (k, v) in self.app.run_counters().as_array().into_iter().enumerate() {
                     if k > 0 {
                         push_bytes(&mut r, b",");
                     }
@@ -995,7 +911,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             }
             Command::StatPod => {
                 none()?;
-                let mut w = self.pod.live.status.0;
+                let mut w = self.app.live().status.0;
                 if !self.status.is_empty() {
                     w |= StatusWord::ERROR;
                 }
@@ -1003,27 +919,44 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             }
             Command::MeasDl => {
                 none()?;
-                fixed(&mut r, self.pod.live.delta_l_um);
+                fixed(
+                    &mut r,
+                    self.app
+                        .live()
+                        .get(crate::app::Live::DeltaL)
+                        .unwrap_or(f32::NAN),
+                );
             }
             Command::MeasAll => {
+                // invalid values (bit clear in the mask) read 9.91E+37, SCPI's NaN
                 none()?;
-                let l = &self.pod.live;
+                let l = self.app.live();
                 push_u64(&mut r, u64::from(l.sample_counter));
-                for v in [
-                    l.delta_l_um,
-                    l.ssm_e_um[0],
-                    l.ssm_e_um[1],
-                    l.ssm_e_um[2],
-                    l.ecc_x_um,
-                    l.ecc_y_um,
-                    l.r0_um,
-                    l.temp_c,
-                ] {
+                for v in l.values {
                     push_bytes(&mut r, b",");
                     fixed(&mut r, v);
                 }
                 push_bytes(&mut r, b",");
                 push_u64(&mut r, u64::from(l.status.0));
+                push_bytes(&mut r, b",");
+                push_u64(&mut r, u64::from(l.valid));
+            }
+            Command::MeasValid => {
+                // the names of the valid live values, quoted
+                none()?;
+                let l = self.app.live();
+                let mut first = true;
+                for (k, (name, _)) in LIVE.iter().enumerate() {
+                    if l.valid & (1 << k) != 0 {
+                        if !first {
+                            push_bytes(&mut r, b",");
+                        }
+                        first = false;
+                        push_bytes(&mut r, b"\"");
+                        push_bytes(&mut r, name.as_bytes());
+                        push_bytes(&mut r, b"\"");
+                    }
+                }
             }
             Command::FetchResult => {
                 let arg = match p {
@@ -1031,29 +964,31 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                     [a] => *a,
                     _ => return Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED)),
                 };
-                let index = if arg.first().is_some_and(|c| c.is_ascii_alphabetic()) {
-                    let name = character(arg)?;
-                    RESULTS
-                        .iter()
-                        .position(|(n, _)| name.eq_ignore_ascii_case(n.as_bytes()))
-                        .ok_or(ScpiError::with(
-                            code::ILLEGAL_PARAMETER_VALUE,
-                            "result name",
-                        ))?
+                let id = if arg.first().is_some_and(|c| c.is_ascii_alphabetic()) {
+                    ResultId::from_name(character(arg)?).ok_or(ScpiError::with(
+                        code::ILLEGAL_PARAMETER_VALUE,
+                        "result name (FETC:RES:CAT?)",
+                    ))?
                 } else {
                     let v = numeric(arg)?;
                     if !(v >= 0.0 && v <= (RESULT_COUNT - 1) as f64 && v == libm::round(v)) {
                         return Err(ScpiError::with(
                             code::DATA_OUT_OF_RANGE,
-                            "result index 0..15",
+                            "result index (FETC:RES:CAT?)",
                         ));
                     }
-                    v as usize
+                    ResultId::from_index(v as usize)
+                        .ok_or(ScpiError::new(code::DATA_OUT_OF_RANGE))?
                 };
-                let entry = self.pod.results.get(index).copied().unwrap_or_default();
-                let (name, unit) = RESULTS.get(index).copied().unwrap_or(("", ""));
+                let entry = self.app.result(id);
+                let info = id.info();
+                let unit = info.unit;
                 if !entry.valid {
-                    return Err(ScpiError::with(code::DATA_CORRUPT_OR_STALE, name));
+                    return Err(ScpiError::with_suffix(
+                        code::DATA_CORRUPT_OR_STALE,
+                        info.name,
+                        " has no valid value",
+                    ));
                 }
                 fixed(&mut r, entry.value);
                 push_bytes(&mut r, b",");
@@ -1065,13 +1000,47 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             }
             Command::FetchCatalog => {
                 none()?;
-                for (k, (name, _)) in RESULTS.iter().enumerate() {
+                // one response unit per name: the catalogue is longer than a response buffer
+                for (k, info) in RESULTS.iter().enumerate() {
+                    let mut n = Response::new();
                     if k > 0 {
+                        push_bytes(&mut n, b",");
+                    }
+                    push_bytes(&mut n, b"\"");
+                    push_bytes(&mut n, info.name.as_bytes());
+                    push_bytes(&mut n, b"\"");
+                    if k == 0 {
+                        self.respond(&n);
+                    } else {
+                        (self.out)(&n);
+                    }
+                }
+                return Ok(());
+            }
+            Command::FetchTouchCount => {
+                none()?;
+                push_u64(&mut r, self.app.touch_points().len() as u64);
+            }
+            Command::FetchTouch => {
+                // touch point k (1-based) of the last PROBE run: x,y,z in mm
+                let k = match p {
+                    [] => return Err(ScpiError::new(code::MISSING_PARAMETER)),
+                    [a] => numeric(a)?,
+                    _ => return Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED)),
+                };
+                let points = self.app.touch_points();
+                let point = (k >= 1.0 && k == libm::round(k))
+                    .then(|| points.get(k as usize - 1))
+                    .flatten()
+                    .ok_or(ScpiError::with(
+                        code::DATA_OUT_OF_RANGE,
+                        "touch point 1..FETC:TOUC:COUN?",
+                    ))?;
+                for (i, v) in point.iter().enumerate() {
+                    if i > 0 {
                         push_bytes(&mut r, b",");
                     }
-                    push_bytes(&mut r, b"\"");
-                    push_bytes(&mut r, name.as_bytes());
-                    push_bytes(&mut r, b"\"");
+                    push_fixed(&mut r, *v, RESPONSE_DECIMALS, false, SCPI_NAN);
                 }
             }
             Command::DataLogCount => {
@@ -1083,10 +1052,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 // IEEE 488.2 §8.7.9 definite length arbitrary block: `#`, the number of length
                 // digits, the length, the bytes. The length comes from a counting pass.
                 // The run's metadata if the application recorded it at arm, else the pod's now.
-                let meta = self
-                    .log
-                    .meta()
-                    .unwrap_or_else(|| LogMeta::from_pod(self.pod));
+                let meta = self.log.meta().copied().unwrap_or(*self.app.run_meta());
                 let len = csv_len(self.log, &meta);
                 let mut digits: Text<24> = Text::new();
                 push_u64(&mut digits, len as u64);

@@ -151,6 +151,104 @@ pub fn push_significant<const C: usize>(
     push_fixed(buf, v, decimals, true, nan_text)
 }
 
+/// Appends `v` with `significant` significant digits (1…17, trailing zeros dropped) in fixed
+/// notation for 10⁻⁵ ≤ |v| < 10¹⁵, else as `d.ddde±x`; a non-finite value as `nan_text`;
+/// −0 as `-0`.
+/// With 9 digits an `f32` reads back to the same `f32` (9 significant digits always do, even
+/// with an error of one in the last digit: half an `f32` ulp is ≥ 3·10⁻⁸ of the value, one in
+/// the ninth digit ≤ 10⁻⁸), which the logs and the sample stream need for replay bit for bit.
+pub fn push_exact<const C: usize>(
+    buf: &mut Text<C>,
+    v: f64,
+    significant: u32,
+    nan_text: &[u8],
+) -> bool {
+    if !v.is_finite() {
+        return push_bytes(buf, nan_text);
+    }
+    if v == 0.0 {
+        // the sign of a zero is part of the value read back
+        return push_bytes(buf, if v.is_sign_negative() { b"-0" } else { b"0" });
+    }
+    let sig = significant.clamp(1, 17) as i32;
+    let a = v.abs();
+    // e = floor(log10 a), estimated by comparison, then corrected on the scaled mantissa
+    let mut e: i32 = 0;
+    let mut p = 1.0;
+    if a >= 1.0 {
+        while a >= p * 10.0 && e < 330 {
+            p *= 10.0;
+            e += 1;
+        }
+    } else {
+        while a < p && e > -330 {
+            p /= 10.0;
+            e -= 1;
+        }
+    }
+    let lo = pow10((sig - 1) as u32) as u64;
+    let hi = lo.saturating_mul(10);
+    let mut m = 0u64;
+    for _ in 0..3 {
+        let k = sig - 1 - e;
+        let x = if k >= 0 {
+            a * pow10(k as u32)
+        } else {
+            a / pow10((-k) as u32)
+        };
+        m = (x + 0.5) as u64;
+        if m >= hi {
+            e += 1;
+        } else if m < lo {
+            e -= 1;
+        } else {
+            break;
+        }
+    }
+    // digits of m, most significant first
+    let mut digits = [b'0'; 17];
+    let mut t = m;
+    for d in digits.iter_mut().take(sig as usize).rev() {
+        *d = b'0' + (t % 10) as u8;
+        t /= 10;
+    }
+    let mut n = sig as usize;
+    while n > 1 && digits.get(n - 1) == Some(&b'0') {
+        n -= 1;
+    }
+    let digits = digits.get(..n).unwrap_or(&[]);
+    if v < 0.0 && !push_bytes(buf, b"-") {
+        return false;
+    }
+    if (-5..15).contains(&e) {
+        if e >= 0 {
+            let int_len = (e + 1) as usize;
+            for i in 0..int_len {
+                let d = digits.get(i).copied().unwrap_or(b'0');
+                if !push_bytes(buf, &[d]) {
+                    return false;
+                }
+            }
+            if n > int_len {
+                push_bytes(buf, b".") && push_bytes(buf, digits.get(int_len..).unwrap_or(&[]))
+            } else {
+                true
+            }
+        } else {
+            let zeros = [b'0'; 5];
+            push_bytes(buf, b"0.")
+                && push_bytes(buf, zeros.get(..(-e - 1) as usize).unwrap_or(&[]))
+                && push_bytes(buf, digits)
+        }
+    } else {
+        push_bytes(buf, digits.get(..1).unwrap_or(&[]))
+            && (n == 1
+                || (push_bytes(buf, b".") && push_bytes(buf, digits.get(1..).unwrap_or(&[]))))
+            && push_bytes(buf, b"e")
+            && push_i64(buf, i64::from(e))
+    }
+}
+
 /// Why a decimal numeric program datum was rejected (mapped to SCPI-99 Vol 2 §21.8 error numbers
 /// by the caller).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -20,16 +20,34 @@ pub struct ScpiError {
     pub code: i16,
     /// What it concerns (a field or command name), appended to the message after `;`.
     pub detail: &'static str,
+    /// Appended to the detail (e.g. `" not set"`).
+    pub suffix: &'static str,
 }
 
 impl ScpiError {
     /// An error without detail.
     pub const fn new(code: i16) -> Self {
-        Self { code, detail: "" }
+        Self {
+            code,
+            detail: "",
+            suffix: "",
+        }
     }
     /// An error with a detail.
     pub const fn with(code: i16, detail: &'static str) -> Self {
-        Self { code, detail }
+        Self {
+            code,
+            detail,
+            suffix: "",
+        }
+    }
+    /// An error with a detail and a suffix (`circle_radius` + ` not set`).
+    pub const fn with_suffix(code: i16, detail: &'static str, suffix: &'static str) -> Self {
+        Self {
+            code,
+            detail,
+            suffix,
+        }
     }
     /// The standard message of the number (SCPI-99 Vol 2 §21.8).
     pub const fn message(self) -> &'static str {

@@ -1,17 +1,19 @@
-//! The pod's peripherals in virtual time: the ball bar's LVDT secondaries as 12-bit ADC blocks
-//! (through [`crate::lvdt_model`]), the encoders as 16-bit hardware counters, the bar
-//! thermistor as an ADC code. Each sample goes through the core's
-//! `ballpod::acquisition::lvdt::demodulate` and `Acquisition::sample`, as on the board.
+//! The simulated pod's sensor model: its peripherals in virtual time. The ball bar's LVDT
+//! secondaries become 12-bit ADC blocks (through [`crate::lvdt_model`], demodulated by the core's
+//! `ballpod::acquisition::lvdt::demodulate` as the board's LVDT task does), the encoders 16-bit
+//! hardware counters, the bar thermistor an ADC code, the touch probe an edge with the counters
+//! latched. What a sample period delivers is a [`Readings`]: the application
+//! (`ballpod::app::App::on_raw_sample`) does the rest, with its own configuration.
 //!
-//! Fault injection ([`SensorFaults`], [`Pod::lose_samples`], [`Pod::thermistor_code`],
-//! [`Pod::probe_edge`], [`Pod::set_probe_seated`]) makes the peripherals misbehave the way the
+//! Fault injection ([`SensorFaults`], [`Sensors::lose_samples`], the thermistor code and probe
+//! level the caller hands the application) makes the peripherals misbehave the way the
 //! hardware does: an open LVDT coil, a core beyond its stroke, a ball that left its socket, an
 //! encoder glitch, ADC blocks lost to a queue overrun, a thermistor open or shorted, probe
 //! contact bounce.
 
-use ballpod::acquisition::probe::TriggerOutcome;
-use ballpod::acquisition::thermal::{ThermistorFault, bar_expansion_um};
-use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
+use ballpod::acquisition::MAX_AXES;
+use ballpod::acquisition::lvdt::{DemodError, LvdtReading};
+use ballpod::acquisition::thermal::bar_expansion_um;
 use ballpod::config::Config;
 use serde::{Deserialize, Serialize};
 
@@ -82,68 +84,78 @@ pub struct SensorFaults {
     pub encoder_glitch_counts: i64,
 }
 
-/// The simulated pod: configuration, acquisition pipeline and sensor models.
-pub struct Pod {
-    /// The pod's configuration (bar length set by the set-up).
+/// What one sample period delivers to the application (as the board's tasks hand it over).
+#[derive(Clone, Copy, Debug)]
+pub struct Readings {
+    /// Time of the sample, µs.
+    pub t_us: u64,
+    /// The LVDT block's demodulation.
+    pub lvdt: Result<LvdtReading, DemodError>,
+    /// The encoders' hardware counters.
+    pub raw: [u32; MAX_AXES],
+    /// Samples lost upstream so far (the queues' overrun counter).
+    pub lost_total: u32,
+    /// The thermistor code read this period, if the thermistor task read one (every 100 ms).
+    pub thermistor: Option<u16>,
+}
+
+/// The sensor model of the simulated pod: the instrument (bar, LVDT, encoders, thermistor,
+/// probe) with its noise and faults, in virtual time.
+pub struct Sensors {
+    /// The configuration the sensors are built for (bar length, calibration, counts per unit,
+    /// thermistor): a different configuration in the application reads them the way the board
+    /// would with a wrong setting.
     pub config: Config,
-    acq: Acquisition,
     lvdt: LvdtChannel,
     inst: Instrument,
     rng: Rng,
     t_us: u64,
     /// Faults on the next samples.
     pub faults: SensorFaults,
-    /// Items lost upstream so far (the queues' overrun counter the acquisition reads).
+    /// The thermistor's ADC code while it is faulty (0 = shorted, 4095 = open), else `None`.
+    pub thermistor_fault: Option<u16>,
     lost_total: u32,
-    /// A probe trigger was accepted since the last sample.
-    probe_event: bool,
-    /// The probe stylus is seated (the input level polled each sample).
-    probe_seated: bool,
-    /// The encoder positions of the last sample, mm / degrees.
-    last_axes: [f64; MAX_AXES],
-    /// The thermistor ADC code of the bar temperature.
-    good_code: u16,
 }
 
-/// Encoder counts per mm or degree of the default configuration.
+/// Encoder counts per mm or degree of a configuration.
 fn counts_per_unit(cfg: &Config, axis: usize) -> f64 {
     cfg.axes.get(axis).map(|a| a.counts_per_unit).unwrap_or(1.0)
 }
 
-impl Pod {
-    /// A pod with a bar of `bar_length_mm`, the instrument `inst` and noise seed `seed`.
+impl Sensors {
+    /// The sensors of a bar of `bar_length_mm` with the instrument `inst` and noise seed
+    /// `seed`, under the default configuration otherwise.
     pub fn new(bar_length_mm: f64, inst: &Instrument, seed: u64) -> Self {
         let config = Config {
             bar_length_mm: bar_length_mm as f32,
             sample_rate_hz: inst.sample_rate_hz as f32,
             ..Config::default()
         };
-        let mut acq = Acquisition::new(&config, [16; MAX_AXES]);
-        let r = f64::from(config.thermistor_r25_ohm)
-            * (f64::from(config.thermistor_beta_k)
-                * (1.0 / (inst.bar_temp_c + 273.15) - 1.0 / 298.15))
-                .exp();
-        let code = (4095.0 * r / (r + f64::from(config.thermistor_r_fixed_ohm))).round() as u16;
-        // a fault here shows up as TEMPERATURE_FAULT flags on the samples
-        let _ = acq.update_temperature(code);
-        let good_code = code;
         Self {
             config,
-            acq,
             lvdt: LvdtChannel::new(&config),
             inst: *inst,
             rng: Rng::new(seed),
             t_us: 0,
             faults: SensorFaults::default(),
+            thermistor_fault: None,
             lost_total: 0,
-            probe_event: false,
-            probe_seated: true,
-            last_axes: [0.0; MAX_AXES],
-            good_code,
         }
     }
 
-    fn raw(&self, axes: &[f64; MAX_AXES]) -> [u32; MAX_AXES] {
+    /// Another bar is mounted (the technician swaps bars between procedures): its length,
+    /// mm.
+    pub fn set_bar_length(&mut self, bar_length_mm: f64) {
+        self.config.bar_length_mm = bar_length_mm as f32;
+    }
+
+    /// The instrument.
+    pub fn instrument(&self) -> &Instrument {
+        &self.inst
+    }
+
+    /// The hardware counter values of axis positions `axes` (mm / degrees).
+    pub fn raw(&self, axes: &[f64; MAX_AXES]) -> [u32; MAX_AXES] {
         let mut raw = [0u32; MAX_AXES];
         for (i, (r, p)) in raw.iter_mut().zip(axes).enumerate() {
             let c = (p * counts_per_unit(&self.config, i)).round() as i64;
@@ -152,27 +164,31 @@ impl Pod {
         raw
     }
 
-    /// Homes the encoders at `axes` (mm / degrees) before a run: the counters start there.
-    pub fn reference(&mut self, axes: &[f64; MAX_AXES]) {
+    /// Homing at `axes` (mm / degrees): the counters read there and the positions they mean
+    /// (rounded to whole counts), for `App::reference_axes`.
+    pub fn reference(&self, axes: &[f64; MAX_AXES]) -> ([u32; MAX_AXES], [f64; MAX_AXES]) {
         let q: [f64; MAX_AXES] = std::array::from_fn(|i| {
             (axes[i] * counts_per_unit(&self.config, i)).round() / counts_per_unit(&self.config, i)
         });
-        let raw = self.raw(axes);
-        self.acq.reference_axes(raw, q);
+        (self.raw(axes), q)
     }
 
-    /// One sample: the true bar-length deviation `dl_um` (ball distance − L_B, µm) and the axis
-    /// positions `axes` the encoders read (mm / degrees). Advances virtual time by one period.
-    pub fn sample(&mut self, dl_um: f64, axes: &[f64; MAX_AXES]) -> Sample {
+    /// One sample period: the true bar-length deviation `dl_um` (ball distance − L_B, µm) and
+    /// the axis positions `axes` the encoders read (mm / degrees). Advances virtual time by
+    /// one period.
+    pub fn read(&mut self, dl_um: f64, axes: &[f64; MAX_AXES]) -> Readings {
         let temp_c = self.bar_temp_now_c();
-        if self.inst.bar_temp_drift_c_per_min != 0.0
-            && !self.inst.thermistor_detached
-            && self.t_us.is_multiple_of(100_000)
-        {
-            // the thermistor task's read every 100 ms
-            let code = self.thermistor_code_of(temp_c);
-            let _ = self.acq.update_temperature(code);
-        }
+        // the thermistor task's read every 100 ms (a detached thermistor keeps reading the
+        // temperature the bar had at the start)
+        let thermistor = self.t_us.is_multiple_of(100_000).then(|| {
+            self.thermistor_fault.unwrap_or_else(|| {
+                self.thermistor_code_of(if self.inst.thermistor_detached {
+                    self.inst.bar_temp_c
+                } else {
+                    temp_c
+                })
+            })
+        });
         let expansion = f64::from(bar_expansion_um(
             self.config.bar_length_mm,
             self.config.bar_cte_ppm_per_k,
@@ -198,14 +214,15 @@ impl Pod {
         if glitch != 0 {
             raw[0] = (i64::from(raw[0]) + glitch).rem_euclid(1 << 16) as u32;
         }
-        self.acq.probe.poll(self.t_us, self.probe_seated);
-        let probe_event = std::mem::take(&mut self.probe_event);
-        let s = self
-            .acq
-            .sample(self.t_us, reading, raw, self.lost_total, probe_event);
-        self.last_axes = *axes;
+        let r = Readings {
+            t_us: self.t_us,
+            lvdt: reading,
+            raw,
+            lost_total: self.lost_total,
+            thermistor,
+        };
         self.t_us += self.period_us();
-        s
+        r
     }
 
     /// The bar's true temperature now, °C (`bar_temp_c` plus the drift since the pod started).
@@ -222,7 +239,13 @@ impl Pod {
         (4095.0 * r / (r + f64::from(c.thermistor_r_fixed_ohm))).round() as u16
     }
 
-    fn period_us(&self) -> u64 {
+    /// The thermistor code of the bar's true temperature now.
+    pub fn thermistor_code(&self) -> u16 {
+        self.thermistor_code_of(self.bar_temp_now_c())
+    }
+
+    /// Sample period, µs.
+    pub fn period_us(&self) -> u64 {
         (1e6 / self.inst.sample_rate_hz).round() as u64
     }
 
@@ -233,66 +256,14 @@ impl Pod {
         self.t_us += self.period_us() * u64::from(n);
     }
 
-    /// Feeds a thermistor ADC code (12-bit; 0 = shorted, 4095 = open) to the acquisition, as
-    /// the thermistor task does every 100 ms.
-    pub fn thermistor_code(&mut self, code: u16) -> Result<f32, ThermistorFault> {
-        self.acq.update_temperature(code)
-    }
-
-    /// The thermistor ADC code of the bar's true temperature.
-    pub fn thermistor_good_code(&self) -> u16 {
-        self.good_code
-    }
-
-    /// A probe trigger edge now, the encoders latched at the last sample's positions; an
-    /// accepted touch flags the next sample `PROBE_EVENT`.
-    pub fn probe_edge(&mut self) -> TriggerOutcome {
-        let raw = self.raw(&self.last_axes);
-        let o = self.acq.probe_trigger(self.t_us, raw);
-        if matches!(o, TriggerOutcome::Accepted(_)) {
-            self.probe_event = true;
-        }
-        o
-    }
-
-    /// A probe trigger edge between samples, the encoders latched at `axes` (mm / degrees:
-    /// where the machine is at the edge — the EXTI interrupt latches the counters there, not
-    /// at the last sample); an accepted touch flags the next sample `PROBE_EVENT`.
-    pub fn probe_edge_at(&mut self, axes: &[f64; MAX_AXES]) -> TriggerOutcome {
-        let raw = self.raw(axes);
-        let o = self.acq.probe_trigger(self.t_us, raw);
-        if matches!(o, TriggerOutcome::Accepted(_)) {
-            self.probe_event = true;
-        }
-        o
-    }
-
-    /// The positions (mm / degrees) of a latch's counts, as the pod converts them.
-    pub fn latch_positions(
-        &self,
-        latch: &ballpod::acquisition::probe::ProbeLatch,
-    ) -> [f32; MAX_AXES] {
-        self.acq.positions(&latch.counts)
-    }
-
-    /// The probe stylus level from the next sample on (`true` = seated, at rest).
-    pub fn set_probe_seated(&mut self, seated: bool) {
-        self.probe_seated = seated;
-    }
-
-    /// The probe debouncer's counters: (accepted, bounces, not re-seated).
-    pub fn probe_counts(&self) -> (u32, u32, u32) {
-        let p = &self.acq.probe;
-        (p.accepted, p.bounces, p.not_reseated)
+    /// A probe edge now with the counters latched at `axes` (mm / degrees): (time µs, raw
+    /// counters), for `App::on_probe_edge`.
+    pub fn probe_edge(&self, axes: &[f64; MAX_AXES]) -> (u64, [u32; MAX_AXES]) {
+        (self.t_us, self.raw(axes))
     }
 
     /// Virtual time of the next sample, µs.
     pub fn t_us(&self) -> u64 {
         self.t_us
-    }
-
-    /// What the acquisition flagged or lost so far.
-    pub fn counters(&self) -> ballpod::acquisition::AcquisitionCounters {
-        self.acq.counters
     }
 }

@@ -12,10 +12,62 @@
 //!   [`AbortReason::NotObservable`].
 //!
 //! Invariants (tested): `seen = used + skipped()`, and the samples the sensors produced during
-//! the run are `seen + lost`.
+//! the run are `seen + lost`. Lost samples are counted from the gaps in the sample counter
+//! ([`Sample::seq`] counts every sample the pod produced, lost ones included), from the run's
+//! first sample on.
 
 use crate::acquisition::{Sample, SampleFlags};
-use crate::protocol::pod::AbortReason;
+
+/// Why a run was aborted (CANopen 0x3004 code = the discriminant).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum AbortReason {
+    /// Aborted by the CNC or the technician.
+    ByCommand = 1,
+    /// The LVDT went open or over-range, or ΔL jumped (bar dropped from the socket).
+    LvdtFault = 2,
+    /// Samples were lost (overrun).
+    Overrun = 3,
+    /// Too few valid samples, too short an arc, or a degenerate geometry for the pattern: the
+    /// run has no results.
+    NotObservable = 4,
+}
+
+impl AbortReason {
+    /// The name (SCPI `SESSion:REASon?`, log metadata): `COMMAND`, `LVDT`, `OVERRUN`,
+    /// `UNOBSERVABLE`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            AbortReason::ByCommand => "COMMAND",
+            AbortReason::LvdtFault => "LVDT",
+            AbortReason::Overrun => "OVERRUN",
+            AbortReason::NotObservable => "UNOBSERVABLE",
+        }
+    }
+
+    /// The reason of a code (1…4).
+    pub const fn from_u8(v: u8) -> Option<Self> {
+        Some(match v {
+            1 => AbortReason::ByCommand,
+            2 => AbortReason::LvdtFault,
+            3 => AbortReason::Overrun,
+            4 => AbortReason::NotObservable,
+            _ => return None,
+        })
+    }
+
+    /// The reason of a name (any letter case).
+    pub fn from_name(name: &[u8]) -> Option<Self> {
+        [
+            AbortReason::ByCommand,
+            AbortReason::LvdtFault,
+            AbortReason::Overrun,
+            AbortReason::NotObservable,
+        ]
+        .into_iter()
+        .find(|r| r.name().as_bytes().eq_ignore_ascii_case(name))
+    }
+}
 
 /// Limits of the run monitor (defaults: [`RunLimits::DEFAULT`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -87,9 +139,8 @@ pub struct RunCounters {
     pub skipped_jump: u32,
     /// Skipped: a valid sample on which the lost samples passed the limit (the run aborted).
     pub skipped_overrun: u32,
-    /// Samples lost upstream (queue overruns) during the run; never seen. It is the growth of
-    /// the acquisition's lost-item count, so on the board a probe edge dropped by a full edge
-    /// queue counts here too (it also flags the next sample `OVERRUN`).
+    /// Samples lost upstream (queue overruns) during the run; never seen: the gaps in the
+    /// sample counter after the run's first sample.
     pub lost: u32,
     /// Used samples whose temperature correction used the last good temperature
     /// ([`SampleFlags::TEMPERATURE_FAULT`]).
@@ -99,6 +150,20 @@ pub struct RunCounters {
 }
 
 impl RunCounters {
+    /// Every counter zero.
+    pub const ZERO: Self = Self {
+        seen: 0,
+        used: 0,
+        skipped_lvdt_open: 0,
+        skipped_lvdt_over_range: 0,
+        skipped_quadrature: 0,
+        skipped_jump: 0,
+        skipped_overrun: 0,
+        lost: 0,
+        temperature_faults: 0,
+        after_overrun: 0,
+    };
+
     /// Number of counters in [`as_array`](Self::as_array) (CANopen 0x3005, SCPI `SESS:COUN?`).
     pub const LEN: usize = 10;
     /// Their names, in [`as_array`](Self::as_array) order.
@@ -178,7 +243,7 @@ pub struct RunMonitor {
     running: bool,
     last_valid_dl_um: Option<f32>,
     lvdt_fault_streak: u32,
-    lost_at_start: u32,
+    last_seq: Option<u32>,
     abort: Option<AbortReason>,
 }
 
@@ -187,22 +252,11 @@ impl RunMonitor {
     pub const fn new(limits: RunLimits) -> Self {
         Self {
             limits,
-            counters: RunCounters {
-                seen: 0,
-                used: 0,
-                skipped_lvdt_open: 0,
-                skipped_lvdt_over_range: 0,
-                skipped_quadrature: 0,
-                skipped_jump: 0,
-                skipped_overrun: 0,
-                lost: 0,
-                temperature_faults: 0,
-                after_overrun: 0,
-            },
+            counters: RunCounters::ZERO,
             running: false,
             last_valid_dl_um: None,
             lvdt_fault_streak: 0,
-            lost_at_start: 0,
+            last_seq: None,
             abort: None,
         }
     }
@@ -227,13 +281,10 @@ impl RunMonitor {
         self.running
     }
 
-    /// Starts a run: counters to zero. `lost_total` is the acquisition's cumulative count of
-    /// items lost upstream now ([`crate::acquisition::AcquisitionCounters::lost_upstream`]);
-    /// losses are counted from here.
-    pub fn start(&mut self, lost_total: u32) {
+    /// Starts a run: counters to zero; losses are counted from the run's first sample.
+    pub fn start(&mut self) {
         *self = Self::new(self.limits);
         self.running = true;
-        self.lost_at_start = lost_total;
     }
 
     /// Ends the run by command (abort): later samples are not counted.
@@ -241,15 +292,22 @@ impl RunMonitor {
         self.running = false;
     }
 
-    /// Classifies the next sample of the run and counts it. `lost_total` is the acquisition's
-    /// cumulative lost count after producing `s` (as for [`start`](Self::start)).
-    pub fn on_sample(&mut self, s: &Sample, lost_total: u32) -> Verdict {
+    /// Classifies the next sample of the run and counts it (a gap in [`Sample::seq`] since the
+    /// previous one counts as lost samples).
+    pub fn on_sample(&mut self, s: &Sample) -> Verdict {
         if !self.running {
             return Verdict::NotRunning;
         }
         let c = &mut self.counters;
         c.seen = c.seen.saturating_add(1);
-        c.lost = lost_total.wrapping_sub(self.lost_at_start);
+        if let Some(prev) = self.last_seq {
+            let gap = s.seq.wrapping_sub(prev).wrapping_sub(1);
+            // a counter that went backwards (a restarted acquisition) is no loss
+            if gap < u32::MAX / 2 {
+                c.lost = c.lost.saturating_add(gap);
+            }
+        }
+        self.last_seq = Some(s.seq);
         if s.flags.contains(SampleFlags::OVERRUN) {
             c.after_overrun = c.after_overrun.saturating_add(1);
         }

@@ -1,5 +1,6 @@
 //! The seed 002 ball-bar procedure (spec seed-002 §5.3, Table 4.3): steps BX, BY, CR, CA and CR′
-//! (CR with the second tool length R′_B), each run CW and CCW, the whole procedure repeated.
+//! (`CR2`: CR with the second tool length R′_B), each run CW and CCW, the whole procedure
+//! repeated. The steps are the seed 002 [`Pattern`]s ([`Pattern::SEED002`]).
 //!
 //! Per run: a [`CircleFit`] with the step's sensitive directions ([`Procedure::run_fit`]), fed
 //! with the run's samples; its estimate is [`Procedure::record`]ed. Per step: each repeat's CW
@@ -8,8 +9,9 @@
 //! - thesis mode: eqs 4.10–4.18 verbatim ([`identify_thesis`]), and
 //! - model mode: the literal HTM model ([`ModelLsq::without_squareness`], 10 deviations),
 //!
-//! both with standard uncertainties propagated from the eccentricity uncertainties (one
-//! perturbation per eccentricity component, as [`identify_thesis`] does).
+//! both with standard uncertainties propagated from the eccentricity uncertainties (thesis
+//! mode: one perturbation per eccentricity component; model mode: linear propagation through
+//! the solution's sensitivities, [`ModelLsq::identify_propagated`]).
 //!
 //! Eccentricity uncertainty of a step: u = max(u_fit, s/√m) per component, u_fit from the runs'
 //! residuals (combined CW/CCW, averaged over the m repeats), s the repeat scatter (m ≥ 2).
@@ -17,18 +19,19 @@
 //! Machine coordinates of the samples: the Table 2.2/2.3 model frame plus the procedure's
 //! [`NcOffset`] (linear axes in mm; B and C in degrees, unused by the fits).
 
+use super::pattern::{Direction, Pattern};
 use crate::acquisition::Sample;
+use crate::config::{Field, TestSetup};
 use crate::identify::multitasking::ballbar::{
     BallBarError, ThesisEccentricities, ThesisGeometry, ThesisResult, identify_thesis,
 };
 use crate::identify::multitasking::model_lsq::{
     ModelLsq, ModelLsqError, ModelLsqResult, PatternMeasurement,
 };
-use crate::identify::multitasking::patterns::{NcOffset, Pattern, PatternGeometry};
+use crate::identify::multitasking::patterns::{NcOffset, Pattern as ModelPattern, PatternGeometry};
 use crate::metrology::circle_fit::{
     self, CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, SampleUse,
 };
-use crate::metrology::iso230_4::Direction;
 use crate::metrology::pattern::{self, Plane, Sensitivity};
 
 /// Most repeats of each step and direction a session keeps (the thesis ran 3).
@@ -37,60 +40,23 @@ pub const MAX_REPEATS: usize = 8;
 /// Minimum turned arc for a run's estimate, degrees (the B arcs turn 90°).
 pub const MIN_ARC_DEG: f32 = 80.0;
 
-/// Most sampling points the model-mode prediction uses per pattern. The measured runs have
-/// tens of thousands of samples (1 kHz); the model's eccentricity of an equally spaced
-/// sampling of the same arc changes only by the second-order (non-limaçon) part, ≪ 1 nm, so
-/// the prediction uses at most this many points and stays fast on the pod.
-pub const MODEL_SAMPLES_MAX: usize = 721;
+/// Most sampling points the model-mode prediction uses per pattern (B arcs every 2.5°, C
+/// circles every 10°). The measured runs have thousands of samples; the model's eccentricity
+/// depends on the sampling only through its second-order (non-limaçon) part, so predicting it
+/// from 37 equally spaced points moves the identified deviations by ≤ 3e-4 µm / µrad against
+/// a 3601-point measurement of ~100 µm deviations (test `coarse_model_sampling_is_exact_enough`
+/// in host-tests/tests/identify_multitasking_lsq.rs), while each model simulation — the cost
+/// of the identification on the pod, soft f64 on the M4 — is 20× cheaper than at 721 points.
+pub const MODEL_SAMPLES_MAX: usize = 37;
 
-/// A step of the procedure (Table 4.3).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Step {
-    /// Step 1: BX (bar along X, B arc 0 → 90°).
-    Bx,
-    /// Step 2: BY (bar along Y, B arc).
-    By,
-    /// Step 3: CR (C circle, bar radial, tool length R_B).
-    Cr,
-    /// Step 4: CA (C circle, bar axial).
-    Ca,
-    /// Step 5: CR′ (CR with the second tool length R′_B).
-    CrSecond,
-}
-
-impl Step {
-    /// The five steps in procedure order.
-    pub const ALL: [Step; 5] = [Step::Bx, Step::By, Step::Cr, Step::Ca, Step::CrSecond];
-
-    /// Index in [`Step::ALL`].
-    pub const fn index(self) -> usize {
-        self as usize
-    }
-
-    /// Short name: `"BX"`, `"BY"`, `"CR"`, `"CA"`, `"CR2"`.
-    pub const fn name(self) -> &'static str {
-        match self {
-            Step::Bx => "BX",
-            Step::By => "BY",
-            Step::Cr => "CR",
-            Step::Ca => "CA",
-            Step::CrSecond => "CR2",
-        }
-    }
-
-    /// The step of a short name (case-sensitive, as [`Step::name`]).
-    pub fn from_name(name: &str) -> Option<Step> {
-        Step::ALL.iter().copied().find(|s| s.name() == name)
-    }
-
-    /// The measuring pattern the step runs.
-    pub const fn pattern(self) -> Pattern {
-        match self {
-            Step::Bx => Pattern::Bx,
-            Step::By => Pattern::By,
-            Step::Cr | Step::CrSecond => Pattern::Cr,
-            Step::Ca => Pattern::Ca,
-        }
+/// The model pattern (Tables 2.2/2.3) a step runs: CR′ is CR with R′_B (a pattern that is no
+/// seed 002 step is taken as CR).
+pub const fn model_pattern(step: Pattern) -> ModelPattern {
+    match step {
+        Pattern::Bx => ModelPattern::Bx,
+        Pattern::By => ModelPattern::By,
+        Pattern::Ca => ModelPattern::Ca,
+        _ => ModelPattern::Cr,
     }
 }
 
@@ -137,11 +103,56 @@ impl Setup {
         }
     }
 
-    /// The pattern geometry of a step (R′_B for CR′).
-    pub fn geometry(&self, step: Step) -> PatternGeometry {
+    /// The set-up of the configuration, or the first field it lacks (the thesis lever arms
+    /// Z_T, Z′_T, X_T may be not set: thesis mode then gives no result).
+    pub fn from_config(t: &TestSetup) -> Result<Self, Field> {
+        let need = |v: f32, f: Field| {
+            if crate::config::is_set(v) {
+                Ok(f64::from(v))
+            } else {
+                Err(f)
+            }
+        };
+        let [ox, oy, oz] = t.s002_origin_mm;
+        Ok(Self {
+            l_b_mm: need(t.s002_l_b_mm, Field::S002LbMm)?,
+            r_b_mm: need(t.s002_r_b_mm, Field::S002RbMm)?,
+            r_b2_mm: need(t.s002_r_b2_mm, Field::S002Rb2Mm)?,
+            r_c_mm: need(t.s002_r_c_mm, Field::S002RcMm)?,
+            z_c_mm: need(t.s002_z_c_mm, Field::S002ZcMm)?,
+            z_t_mm: f64::from(t.s002_z_t_mm),
+            z_t2_mm: f64::from(t.s002_z_t2_mm),
+            x_t_mm: f64::from(t.s002_x_t_mm),
+            offset: NcOffset {
+                x_mm: need(ox, Field::S002OriginMm(0))?,
+                y_mm: need(oy, Field::S002OriginMm(1))?,
+                z_mm: need(oz, Field::S002OriginMm(2))?,
+            },
+        })
+    }
+
+    /// The configuration's set-up fields holding this set-up (f32, as stored).
+    pub fn to_config(&self, t: &mut TestSetup) {
+        t.s002_l_b_mm = self.l_b_mm as f32;
+        t.s002_r_b_mm = self.r_b_mm as f32;
+        t.s002_r_b2_mm = self.r_b2_mm as f32;
+        t.s002_r_c_mm = self.r_c_mm as f32;
+        t.s002_z_c_mm = self.z_c_mm as f32;
+        t.s002_z_t_mm = self.z_t_mm as f32;
+        t.s002_z_t2_mm = self.z_t2_mm as f32;
+        t.s002_x_t_mm = self.x_t_mm as f32;
+        t.s002_origin_mm = [
+            self.offset.x_mm as f32,
+            self.offset.y_mm as f32,
+            self.offset.z_mm as f32,
+        ];
+    }
+
+    /// The pattern geometry of a step (R′_B for CR2).
+    pub fn geometry(&self, step: Pattern) -> PatternGeometry {
         PatternGeometry {
             l_b_mm: self.l_b_mm,
-            r_b_mm: if step == Step::CrSecond {
+            r_b_mm: if step == Pattern::Cr2 {
                 self.r_b2_mm
             } else {
                 self.r_b_mm
@@ -153,12 +164,12 @@ impl Setup {
 
     /// The metrology geometry of a step in machine coordinates: the commanded T-ball path's
     /// centre and plane, n outward (which is sign(R_C − L_B)(cos θ, sin θ) for CR, §3.5).
-    pub fn fit_geometry(&self, step: Step) -> pattern::PatternGeometry {
+    pub fn fit_geometry(&self, step: Pattern) -> pattern::PatternGeometry {
         let o = &self.offset;
         let (plane, cu, cv) = match step {
-            Step::Bx => (Plane::XZ, self.l_b_mm + o.x_mm, self.z_c_mm + o.z_mm),
-            Step::By => (Plane::XZ, o.x_mm, self.z_c_mm + o.z_mm),
-            Step::Cr | Step::CrSecond | Step::Ca => (Plane::XY, o.x_mm, o.y_mm),
+            Pattern::Bx => (Plane::XZ, self.l_b_mm + o.x_mm, self.z_c_mm + o.z_mm),
+            Pattern::By => (Plane::XZ, o.x_mm, self.z_c_mm + o.z_mm),
+            _ => (Plane::XY, o.x_mm, o.y_mm),
         };
         pattern::PatternGeometry {
             plane,
@@ -185,20 +196,20 @@ impl Setup {
 pub enum SessionError {
     /// A run's fit gave no estimate.
     Fit(CircleFitError),
+    /// The pattern is not a seed 002 step.
+    NotAStep(Pattern),
     /// The step already holds [`MAX_REPEATS`] runs in this direction (the run is not kept).
     TooManyRuns {
         /// The step.
-        step: Step,
+        step: Pattern,
     },
     /// The procedure lacks a run (the first missing one is named).
     Incomplete {
         /// Step without a run.
-        step: Step,
+        step: Pattern,
         /// Direction without a run.
         direction: Direction,
     },
-    /// Thesis-mode identification failed.
-    Thesis(BallBarError),
     /// Model-based identification failed.
     Model(ModelLsqError),
 }
@@ -233,10 +244,11 @@ pub struct ModelIdentification {
 /// Everything the procedure identifies.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Identification {
-    /// Eccentricity of each step, in [`Step::ALL`] order.
+    /// Eccentricity of each step, in [`Pattern::SEED002`] order.
     pub steps: [StepEccentricity; 5],
-    /// Thesis mode (eqs 4.10–4.18; its relations differ from the literal model, spec §9.1).
-    pub thesis: ThesisResult,
+    /// Thesis mode (eqs 4.10–4.18; its relations differ from the literal model, spec §9.1), or
+    /// why it has no result (e.g. the lever arms Z_T, Z′_T, X_T are not set).
+    pub thesis: Result<ThesisResult, BallBarError>,
     /// Model mode (literal HTM model).
     pub model: ModelIdentification,
 }
@@ -270,11 +282,16 @@ impl Procedure {
     }
 
     /// A fresh running fit for a run of `step`.
-    pub fn run_fit(&self, step: Step) -> CircleFit {
+    pub fn run_fit(&self, step: Pattern) -> CircleFit {
         CircleFit::new(CircleFitConfig {
             geometry: self.setup.fit_geometry(step),
             min_arc_deg: MIN_ARC_DEG,
         })
+    }
+
+    /// Forgets every run (a new procedure with the same set-up).
+    pub fn clear(&mut self) {
+        *self = Self::new(self.setup);
     }
 
     /// Feeds a whole run's samples to a fresh fit and records the estimate (host convenience;
@@ -282,7 +299,7 @@ impl Procedure {
     /// Returns the estimate and how many samples were skipped.
     pub fn run<'a, I: IntoIterator<Item = &'a Sample>>(
         &mut self,
-        step: Step,
+        step: Pattern,
         direction: Direction,
         samples: I,
     ) -> Result<(CircleEstimate, u32), SessionError> {
@@ -301,13 +318,14 @@ impl Procedure {
     /// Keeps a finished run's estimate.
     pub fn record(
         &mut self,
-        step: Step,
+        step: Pattern,
         direction: Direction,
         estimate: CircleEstimate,
     ) -> Result<(), SessionError> {
+        let index = step.seed002_step().ok_or(SessionError::NotAStep(step))?;
         let slot = self
             .runs
-            .get_mut(step.index())
+            .get_mut(index)
             .and_then(|s| s.get_mut(dir_index(direction)))
             .and_then(|r| r.iter_mut().find(|e| e.is_none()))
             .ok_or(SessionError::TooManyRuns { step })?;
@@ -315,17 +333,17 @@ impl Procedure {
         Ok(())
     }
 
-    fn runs_of(&self, step: Step, d: Direction) -> impl Iterator<Item = &CircleEstimate> {
+    fn runs_of(&self, step: Pattern, d: Direction) -> impl Iterator<Item = &CircleEstimate> {
         self.runs
-            .get(step.index())
+            .get(step.seed002_step().unwrap_or(usize::MAX))
             .and_then(|s| s.get(dir_index(d)))
             .into_iter()
             .flat_map(|r| r.iter().flatten())
     }
 
     /// The first step and direction without a run, or `None` when the procedure is complete.
-    pub fn missing(&self) -> Option<(Step, Direction)> {
-        Step::ALL.iter().find_map(|&s| {
+    pub fn missing(&self) -> Option<(Pattern, Direction)> {
+        Pattern::SEED002.iter().find_map(|&s| {
             [Direction::Cw, Direction::Ccw]
                 .into_iter()
                 .find(|&d| self.runs_of(s, d).next().is_none())
@@ -334,7 +352,7 @@ impl Procedure {
     }
 
     /// Eccentricity of one step over its CW/CCW pairs (a run without a partner is ignored).
-    pub fn step_eccentricity(&self, step: Step) -> Result<StepEccentricity, SessionError> {
+    pub fn step_eccentricity(&self, step: Pattern) -> Result<StepEccentricity, SessionError> {
         let mut m = 0usize;
         let (mut sum, mut sum2, mut u2, mut diff) = ([0.0f64; 2], [0.0f64; 2], [0.0; 2], [0.0; 2]);
         let mut samples = 0usize;
@@ -423,7 +441,7 @@ impl Procedure {
             return Err(SessionError::Incomplete { step, direction });
         }
         let mut steps = [StepEccentricity::default(); 5];
-        for (dst, &s) in steps.iter_mut().zip(Step::ALL.iter()) {
+        for (dst, &s) in steps.iter_mut().zip(Pattern::SEED002.iter()) {
             *dst = self.step_eccentricity(s)?;
         }
         let [bx, by, cr, ca, cr2] = steps;
@@ -443,8 +461,7 @@ impl Procedure {
             &ecc(|s| s.e_um),
             &self.setup.thesis_geometry(),
             Some(&ecc(|s| s.u_e_um)),
-        )
-        .map_err(SessionError::Thesis)?;
+        );
         let model = self.identify_model(&steps)?;
         Ok(Identification {
             steps,
@@ -455,20 +472,20 @@ impl Procedure {
 
     fn measurements(&self, steps: &[StepEccentricity; 5]) -> [PatternMeasurement; 5] {
         let mut m = [PatternMeasurement {
-            pattern: Pattern::Bx,
-            geometry: self.setup.geometry(Step::Bx),
+            pattern: ModelPattern::Bx,
+            geometry: self.setup.geometry(Pattern::Bx),
             samples: 0,
             e1_um: 0.0,
             e2_um: 0.0,
             sigma_um: 1.0,
         }; 5];
-        for ((dst, s), &step) in m.iter_mut().zip(steps.iter()).zip(Step::ALL.iter()) {
+        for ((dst, s), &step) in m.iter_mut().zip(steps.iter()).zip(Pattern::SEED002.iter()) {
             let [e1_um, e2_um] = s.e_um;
             let [u1, u2] = s.u_e_um;
             // a zero uncertainty (noise-free simulation) would make the weights infinite
             let sigma_um = u1.max(u2).max(1e-6);
             *dst = PatternMeasurement {
-                pattern: step.pattern(),
+                pattern: model_pattern(step),
                 geometry: self.setup.geometry(step),
                 samples: s.samples.min(MODEL_SAMPLES_MAX),
                 e1_um,
@@ -485,43 +502,13 @@ impl Procedure {
     ) -> Result<ModelIdentification, SessionError> {
         let lsq = ModelLsq::without_squareness();
         let m = self.measurements(steps);
-        let result = lsq.identify(&m).map_err(SessionError::Model)?;
-        // Propagation: re-identify with each eccentricity component moved by its uncertainty,
-        // starting from the solution (converges in a step or two).
-        let start = ModelLsq {
-            fixed: result.deviations,
-            ..lsq
-        };
-        let x0 = result.deviations.to_array();
-        let mut var = [0.0f64; 13];
-        for (i, s) in steps.iter().enumerate() {
-            for k in 0..2 {
-                let u = s.u_e_um.get(k).copied().unwrap_or(0.0);
-                if !(u > 0.0) {
-                    continue;
-                }
-                let mut mp = m;
-                if let Some(p) = mp.get_mut(i) {
-                    if k == 0 {
-                        p.e1_um += u;
-                    } else {
-                        p.e2_um += u;
-                    }
-                }
-                let xp = start
-                    .identify(&mp)
-                    .map_err(SessionError::Model)?
-                    .deviations
-                    .to_array();
-                for ((v, a), b) in var.iter_mut().zip(xp.iter()).zip(x0.iter()) {
-                    *v += (a - b) * (a - b);
-                }
-            }
-        }
-        let mut std_uncertainty = [0.0f64; 13];
-        for ((u, v), f) in std_uncertainty.iter_mut().zip(var.iter()).zip(lsq.free) {
-            *u = if f { crate::num::sqrt(*v) } else { 0.0 };
-        }
+        let mut u = [[0.0f64; 2]; 5];
+        u.iter_mut()
+            .zip(steps.iter())
+            .for_each(|(u, s)| *u = s.u_e_um);
+        let (result, std_uncertainty) = lsq
+            .identify_propagated(&m, &u)
+            .map_err(SessionError::Model)?;
         Ok(ModelIdentification {
             result,
             std_uncertainty,

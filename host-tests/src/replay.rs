@@ -1,0 +1,211 @@
+//! Replay: recorded runs fed back into the pod's own application (`ballpod::app::App`), run by
+//! run — the run's configuration, pattern and direction, arm, start, its samples and touch
+//! points, stop (or abort as recorded) — and what the application reports, as JSON. The
+//! simulator reports its live runs with the same [`Report`], so a replay of what it recorded
+//! gives the same `results.json` byte for byte.
+
+use serde::{Deserialize, Serialize};
+
+use ballpod::app::{AbortReason, App, Command, ResultId, RunCounters, SessionState};
+
+use crate::recording::{Event, RecordedRun};
+
+/// One figure of the results table.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Figure {
+    /// Name (`ballpod::app::RESULTS`).
+    pub name: String,
+    /// Value in `unit`.
+    pub value: f32,
+    /// Standard uncertainty (`null`: not evaluated).
+    pub u: Option<f32>,
+    /// Unit.
+    pub unit: String,
+}
+
+/// The valid figures among `ids`, in catalogue order.
+pub fn figures(app: &App, ids: &[ResultId]) -> Vec<Figure> {
+    ids.iter()
+        .filter_map(|&id| {
+            let e = app.result(id);
+            e.valid.then(|| Figure {
+                name: id.info().name.to_string(),
+                value: e.value,
+                u: (!e.std_uncertainty.is_nan()).then_some(e.std_uncertainty),
+                unit: id.info().unit.to_string(),
+            })
+        })
+        .collect()
+}
+
+/// What one run gave.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunReport {
+    /// Run number (the pod's).
+    pub run: u32,
+    /// Where it was recorded (file name).
+    pub source: String,
+    /// Pattern name.
+    pub pattern: String,
+    /// Direction name.
+    pub direction: String,
+    /// `DONE` or `ABORTED`.
+    pub outcome: String,
+    /// Abort reason (`NONE` when done).
+    pub reason: String,
+    /// Samples recorded.
+    pub samples: usize,
+    /// Touch points recorded.
+    pub touches: usize,
+    /// The run monitor's counters by name (`ballpod::app::RunCounters::NAMES`).
+    pub counters: std::collections::BTreeMap<String, u32>,
+    /// The run's own results (its fit, E, or sphere).
+    pub results: Vec<Figure>,
+}
+
+/// A session's report: each run, then the results table at the end (procedures included).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Report {
+    /// The runs, in order.
+    pub runs: Vec<RunReport>,
+    /// Every valid result at the end, in catalogue order.
+    pub results: Vec<Figure>,
+    /// Results of the host-only methods (seed 003 R-test, seed 004 dial gauge), when replayed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub host: Vec<Figure>,
+}
+
+impl Report {
+    /// Adds the run that just ended on `app`, recorded as `source` with `samples` samples and
+    /// `touches` touch points.
+    pub fn capture_run(&mut self, app: &App, source: &str, samples: usize, touches: usize) {
+        let meta = app.run_meta();
+        let counters = app.run_counters();
+        self.runs.push(RunReport {
+            run: meta.run,
+            source: source.to_string(),
+            pattern: meta.pattern.name().to_string(),
+            direction: meta.direction.name().to_string(),
+            outcome: app.session().name().to_string(),
+            reason: app
+                .abort_reason()
+                .map_or("NONE", AbortReason::name)
+                .to_string(),
+            samples,
+            touches,
+            counters: RunCounters::NAMES
+                .iter()
+                .zip(counters.as_array())
+                .map(|(n, v)| (n.to_string(), v))
+                .collect(),
+            results: figures(app, ResultId::of_run(meta.pattern)),
+        });
+    }
+
+    /// Takes the final results table of `app`.
+    pub fn finish(&mut self, app: &App) {
+        self.results = figures(app, ResultId::ALL);
+    }
+
+    /// The value of result `name`, if valid.
+    pub fn result(&self, name: &str) -> Option<&Figure> {
+        self.results.iter().find(|f| f.name == name)
+    }
+
+    /// As pretty JSON.
+    pub fn to_json(&self) -> Result<String, String> {
+        serde_json::to_string_pretty(self).map_err(|e| format!("results JSON: {e}"))
+    }
+}
+
+/// Feeds one recorded run into `app` as the pod ran it (a refusal or a run that ends
+/// otherwise than recorded is an error naming the run).
+pub fn replay_run(app: &mut App, r: &RecordedRun) -> Result<(), String> {
+    let name = format!(
+        "run {} ({} {})",
+        r.meta.run,
+        r.meta.pattern.name(),
+        r.meta.direction.name()
+    );
+    let refused = |what: &str, e: ballpod::app::CommandError| {
+        let (a, b) = e.text();
+        format!("{name}: {what} refused: {a}{b}")
+    };
+    let cfg = r.meta.config;
+    if *app.config() != cfg {
+        app.configure(|c| *c = cfg)
+            .map_err(|e| refused("configuration", e))?;
+    }
+    app.set_pattern(r.meta.pattern)
+        .map_err(|e| refused("pattern", e))?;
+    app.set_direction(r.meta.direction)
+        .map_err(|e| refused("direction", e))?;
+    app.execute(Command::Arm).map_err(|e| refused("arm", e))?;
+    app.execute(Command::Start)
+        .map_err(|e| refused("start", e))?;
+    for e in &r.events {
+        match e {
+            Event::Sample(s) => app.on_sample(s, &mut ()),
+            Event::Touch(t) => app.on_recorded_touch(t, &mut ()),
+        }
+    }
+    let recorded = r.end.map(|e| e.abort);
+    match (app.session(), recorded) {
+        // the application aborted by itself (a fault in the samples), as recorded
+        (SessionState::Aborted, Some(Some(reason))) if app.abort_reason() == Some(reason) => {}
+        (SessionState::Running, Some(Some(AbortReason::ByCommand))) => {
+            app.execute(Command::Abort)
+                .map_err(|e| refused("abort", e))?;
+        }
+        // stopped (or the recording ends before the run did: stop there)
+        (SessionState::Running, Some(None) | None) => {
+            let _ = app.execute(Command::Stop);
+        }
+        (SessionState::Running, Some(Some(reason))) => {
+            // the pod stopped and found no results (too few samples, too short an arc)
+            let _ = app.execute(Command::Stop);
+            if app.abort_reason() != Some(reason) {
+                return Err(format!(
+                    "{name}: recorded as aborted ({}), replayed as {}",
+                    reason.name(),
+                    app.abort_reason().map_or("done", |a| a.name())
+                ));
+            }
+        }
+        (state, rec) => {
+            return Err(format!(
+                "{name}: replayed as {} ({}), recorded as {}",
+                state.name(),
+                app.abort_reason().map_or("NONE", |a| a.name()),
+                match rec {
+                    Some(Some(a)) => a.name(),
+                    Some(None) => "DONE",
+                    None => "not ended",
+                }
+            ));
+        }
+    }
+    while app.run_pending_job() {}
+    Ok(())
+}
+
+/// Replays recorded runs (each with the name of its file) into a fresh application and
+/// reports them.
+pub fn replay(runs: &[(String, RecordedRun)]) -> Result<Report, String> {
+    let Some((_, first)) = runs.first() else {
+        return Err("no runs to replay".into());
+    };
+    let mut app = App::new(first.meta.config, [16; ballpod::acquisition::MAX_AXES]);
+    let mut report = Report::default();
+    for (source, r) in runs {
+        replay_run(&mut app, r)?;
+        let touches = r
+            .events
+            .iter()
+            .filter(|e| matches!(e, Event::Touch(_)))
+            .count();
+        report.capture_run(&app, source, r.events.len() - touches, touches);
+    }
+    report.finish(&app);
+    Ok(report)
+}

@@ -1,0 +1,522 @@
+//! Replay's input: recorded runs in the pod's CSV text ([`crate::recording`]) given directly,
+//! or a session file (TOML or JSON) that lists logs — the pod's own files or plain logs of one
+//! run from elsewhere — with the set-up they need, and the inputs of the host-only methods
+//! (seed 003 R-test readings, seed 004 dial-gauge readings).
+//!
+//! ```toml
+//! [setup]                  # configuration fields by name (config::FIELDS); they override
+//! circle_radius = 150.0    # what each run recorded (a pod file records its whole set-up)
+//! circle_centre_x = 0.0
+//! circle_centre_y = 0.0
+//!
+//! [[runs]]
+//! log = "ccw.csv"          # a pod file: all its runs, pattern and direction from its header
+//!
+//! [[runs]]
+//! log = "cw_plain.csv"     # a plain log (t_s, dl_um, axes…): pattern and direction needed
+//! pattern = "circle"       # any letter case
+//! direction = "cw"
+//!
+//! [rtest]                  # seed 003 R-test (host only): rows a_deg,c_deg,dx_um,dy_um,dz_um
+//! readings = "rtest.csv"
+//! zero = "absolute"        # or "first_pose"
+//!
+//! [dial]                   # seed 004 dial gauge (host only): rows b_deg,u_mm,v_mm,reading_um
+//! readings = "dial.csv"
+//! ```
+//!
+//! Only the keys a method needs are required. A fault names the file, line and field.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use serde::Deserialize;
+
+use ballpod::app::{Direction, Pattern, RunMeta};
+use ballpod::config::Config;
+
+use crate::recording::{LogError, RecordedRun, excerpt, parse_plain, parse_runs, pattern_names};
+use crate::replay::Figure;
+
+/// A value of the `[setup]` table: a number or a code's name.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(untagged)]
+pub enum SetupValue {
+    /// A number in the field's unit.
+    Number(f64),
+    /// A code's name (`circle_plane = "ZX"`).
+    Text(String),
+}
+
+/// One `[[runs]]` entry.
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunEntry {
+    /// The file, relative to the session file.
+    pub log: String,
+    /// Pattern (required for a plain log).
+    #[serde(default)]
+    pub pattern: Option<String>,
+    /// Direction (required for a plain log of a circular pattern).
+    #[serde(default)]
+    pub direction: Option<String>,
+}
+
+/// `[rtest]`: the seed 003 R-test (host only).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RtestEntry {
+    /// Readings file: `a_deg,c_deg,dx_um,dy_um,dz_um` (ball-centre displacement, probe − ball).
+    pub readings: String,
+    /// Ball centre in the c frame X, Y, Z and the c-frame origin X, Y, Z from the A axis, mm
+    /// (default: seed 003 Table 3).
+    #[serde(default)]
+    pub geometry_mm: Option<[f64; 6]>,
+    /// `absolute` (default) or `first_pose`.
+    #[serde(default)]
+    pub zero: Option<String>,
+}
+
+/// `[dial]`: the seed 004 dial-gauge centreline (host only).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DialEntry {
+    /// Readings file: `b_deg,u_mm,v_mm,reading_um`.
+    pub readings: String,
+    /// Nominal axis direction (default +Y).
+    #[serde(default)]
+    pub axis: Option<[f64; 3]>,
+    /// Gauge reading direction at angle 0 (default +Z; turned with the axis for the others).
+    #[serde(default)]
+    pub reading_dir: Option<[f64; 3]>,
+    /// `primed` (default, seed 004's table axis) or `right_handed`.
+    #[serde(default)]
+    pub sense: Option<String>,
+}
+
+/// A session file.
+#[derive(Clone, Debug, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SessionFile {
+    /// Configuration overrides by field name.
+    #[serde(default)]
+    pub setup: BTreeMap<String, SetupValue>,
+    /// The logs.
+    #[serde(default)]
+    pub runs: Vec<RunEntry>,
+    /// The seed 003 R-test.
+    #[serde(default)]
+    pub rtest: Option<RtestEntry>,
+    /// The seed 004 dial gauge.
+    #[serde(default)]
+    pub dial: Option<DialEntry>,
+}
+
+fn whole(file: &Path, what: String) -> LogError {
+    LogError {
+        file: file.to_path_buf(),
+        line: 0,
+        field: None,
+        what,
+    }
+}
+
+/// Reads a text file; bytes that are not UTF-8 are an error with line and column.
+pub fn read_text(file: &Path) -> Result<String, LogError> {
+    let bytes = std::fs::read(file).map_err(|e| whole(file, e.to_string()))?;
+    String::from_utf8(bytes).map_err(|e| {
+        let at = e.utf8_error().valid_up_to();
+        let before = &e.as_bytes()[..at];
+        let line = before.iter().filter(|&&b| b == b'\n').count() + 1;
+        let col = at
+            - before
+                .iter()
+                .rposition(|&b| b == b'\n')
+                .map_or(0, |p| p + 1)
+            + 1;
+        LogError {
+            line,
+            what: format!("column {col}: not UTF-8 text"),
+            ..whole(file, String::new())
+        }
+    })
+}
+
+/// Parses a session file: TOML when `path` ends in `.toml`, JSON otherwise (`path` only names
+/// the file in errors and picks the format; nothing is read).
+pub fn parse_session(path: &Path, text: &str) -> Result<SessionFile, LogError> {
+    let s: SessionFile = if path.extension().is_some_and(|e| e == "toml") {
+        toml::from_str(text).map_err(|e| LogError {
+            line: e
+                .span()
+                .and_then(|s| text.get(..s.start))
+                .map(|t| t.matches('\n').count() + 1)
+                .unwrap_or(0),
+            ..whole(path, e.message().to_string())
+        })?
+    } else {
+        serde_json::from_str(text).map_err(|e| LogError {
+            line: e.line(),
+            ..whole(path, e.to_string())
+        })?
+    };
+    if s.runs.is_empty() && s.rtest.is_none() && s.dial.is_none() {
+        return Err(whole(
+            path,
+            "nothing to replay: no runs, no [rtest], no [dial]".into(),
+        ));
+    }
+    for (i, r) in s.runs.iter().enumerate() {
+        let bad = |key: &str, value: &str, what: String| LogError {
+            field: Some(format!("runs[{i}].{key}")),
+            line: line_of(text, key, value),
+            ..whole(path, what)
+        };
+        if let Some(p) = &r.pattern
+            && Pattern::from_name(p.as_bytes()).is_none()
+        {
+            let what = format!(
+                "unknown pattern {} (known: {})",
+                excerpt(p),
+                pattern_names()
+            );
+            return Err(bad("pattern", p, what));
+        }
+        if let Some(d) = &r.direction
+            && Direction::from_name(d.as_bytes()).is_none()
+        {
+            return Err(bad(
+                "direction",
+                d,
+                format!("direction {} (CW or CCW)", excerpt(d)),
+            ));
+        }
+    }
+    Ok(s)
+}
+
+/// The line (1-based) of the first `key` … `"value"` pair in a session file's text, 0 if none
+/// is found (the parsers give positions of syntax errors only, not of values they accepted).
+fn line_of(text: &str, key: &str, value: &str) -> usize {
+    let quoted = format!("\"{value}\"");
+    text.lines()
+        .position(|l| l.contains(key) && l.contains(&quoted))
+        .map_or(0, |k| k + 1)
+}
+
+/// Applies the `[setup]` overrides to a configuration.
+fn apply_setup(
+    path: &Path,
+    setup: &BTreeMap<String, SetupValue>,
+    c: &mut Config,
+) -> Result<(), LogError> {
+    for (k, v) in setup {
+        let bad = |what: String| LogError {
+            field: Some(format!("setup.{k}")),
+            ..whole(path, what)
+        };
+        let f = Config::field_by_name(k).ok_or(bad("unknown configuration field".into()))?;
+        let info = Config::field_info(f).ok_or(bad("unknown configuration field".into()))?;
+        let x = match v {
+            SetupValue::Number(x) => *x,
+            SetupValue::Text(t) => f64::from(info.choice(t.as_bytes()).ok_or(bad(format!(
+                "{} is not one of {:?}",
+                excerpt(t),
+                info.choices
+            )))?),
+        };
+        c.set(f, x).map_err(|e| bad(format!("refused: {e:?}")))?;
+    }
+    Ok(())
+}
+
+/// The runs a session file lists (paths relative to it), in order, each with its file name.
+pub fn read_runs(path: &Path, s: &SessionFile) -> Result<Vec<(String, RecordedRun)>, LogError> {
+    let base = path.parent().unwrap_or(Path::new("."));
+    let mut out = Vec::new();
+    for (i, entry) in s.runs.iter().enumerate() {
+        let file = base.join(&entry.log);
+        let text = read_text(&file)?;
+        let pattern = entry
+            .pattern
+            .as_ref()
+            .and_then(|p| Pattern::from_name(p.as_bytes()));
+        let direction = entry
+            .direction
+            .as_ref()
+            .and_then(|d| Direction::from_name(d.as_bytes()));
+        let runs = if text.trim_start().starts_with("# ballpod run v") {
+            let mut runs = parse_runs(&file, &text)?;
+            for r in &mut runs {
+                let disagree = |what: &str, rec: &str| LogError {
+                    field: Some(format!("runs[{i}].{what}")),
+                    ..whole(path, format!("the log recorded {rec}"))
+                };
+                if pattern.is_some_and(|p| p != r.meta.pattern) {
+                    return Err(disagree("pattern", r.meta.pattern.name()));
+                }
+                if direction.is_some_and(|d| d != r.meta.direction) {
+                    return Err(disagree("direction", r.meta.direction.name()));
+                }
+                apply_setup(path, &s.setup, &mut r.meta.config)?;
+            }
+            runs
+        } else {
+            let missing = |what: &str| LogError {
+                field: Some(format!("runs[{i}].{what}")),
+                ..whole(path, format!("a plain log needs its {what}"))
+            };
+            let pattern = pattern.ok_or(missing("pattern"))?;
+            let direction = match direction {
+                Some(d) => d,
+                None if pattern.has_direction() => return Err(missing("direction")),
+                None => Direction::Ccw,
+            };
+            let mut config = Config::default();
+            apply_setup(path, &s.setup, &mut config)?;
+            let meta = RunMeta {
+                run: i as u32 + 1,
+                pattern,
+                direction,
+                config,
+            };
+            vec![parse_plain(&file, &text, meta)?]
+        };
+        let n = runs.len();
+        for (k, r) in runs.into_iter().enumerate() {
+            let name = if n == 1 {
+                entry.log.clone()
+            } else {
+                format!("{}#{}", entry.log, k + 1)
+            };
+            out.push((name, r));
+        }
+    }
+    Ok(out)
+}
+
+/// A readings file of the host-only methods: comma-separated numbers under a header with the
+/// columns `names` (any order, `#` comments).
+fn read_table(file: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, LogError> {
+    let text = read_text(file)?;
+    let mut cols: Option<Vec<usize>> = None;
+    let mut rows = Vec::new();
+    for (k, l) in text.lines().enumerate() {
+        let l = l.trim_end_matches('\r');
+        if l.starts_with('#') || l.trim().is_empty() {
+            continue;
+        }
+        let fields: Vec<&str> = l.split(',').map(str::trim).collect();
+        let err = |field: Option<String>, what: String| LogError {
+            file: file.to_path_buf(),
+            line: k + 1,
+            field,
+            what,
+        };
+        match &cols {
+            None => {
+                let idx = names
+                    .iter()
+                    .map(|n| {
+                        fields
+                            .iter()
+                            .position(|f| f == n)
+                            .ok_or(err(Some((*n).into()), "required column missing".into()))
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                cols = Some(idx);
+            }
+            Some(idx) => {
+                let row = idx
+                    .iter()
+                    .zip(names)
+                    .map(|(&i, n)| {
+                        let v = fields.get(i).copied().unwrap_or("");
+                        v.parse::<f64>()
+                            .ok()
+                            .filter(|x| x.is_finite())
+                            .ok_or(err(Some((*n).into()), format!("bad number {}", excerpt(v))))
+                    })
+                    .collect::<Result<Vec<_>, _>>()?;
+                rows.push(row);
+            }
+        }
+    }
+    if rows.is_empty() {
+        return Err(whole(file, "no readings".into()));
+    }
+    Ok(rows)
+}
+
+/// The seed 003 R-test of `[rtest]`: the 11 location and ball errors.
+pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
+    use ballpod::identify::rtest::{
+        ReadingZero, RtestConfig, RtestGeometry, RtestSample, identify,
+    };
+    let file = path.parent().unwrap_or(Path::new(".")).join(&e.readings);
+    let rows = read_table(&file, &["a_deg", "c_deg", "dx_um", "dy_um", "dz_um"])?;
+    let samples: Vec<RtestSample> = rows
+        .iter()
+        .map(|r| RtestSample {
+            a_deg: r[0],
+            c_deg: r[1],
+            reading_um: [r[2], r[3], r[4]],
+        })
+        .collect();
+    let geometry = match e.geometry_mm {
+        Some([x_w_mm, y_w_mm, z_w_mm, x_c_mm, y_c_mm, z_c_mm]) => RtestGeometry {
+            x_w_mm,
+            y_w_mm,
+            z_w_mm,
+            x_c_mm,
+            y_c_mm,
+            z_c_mm,
+        },
+        None => RtestGeometry::SEED003_TABLE3,
+    };
+    let zero = match e.zero.as_deref() {
+        None | Some("absolute") => ReadingZero::Absolute,
+        Some("first_pose") => ReadingZero::FirstPose,
+        Some(z) => {
+            return Err(LogError {
+                field: Some("rtest.zero".into()),
+                ..whole(path, format!("{} (absolute or first_pose)", excerpt(z)))
+            });
+        }
+    };
+    let cfg = RtestConfig {
+        zero,
+        ..RtestConfig::default()
+    };
+    let r = identify(&geometry, &samples, &cfg)
+        .map_err(|x| whole(&file, format!("R-test identification: {x:?}")))?;
+    const NAMES: [(&str, &str); 11] = [
+        ("XOW", "um"),
+        ("YOW", "um"),
+        ("ZOW", "um"),
+        ("YOA", "um"),
+        ("ZOA", "um"),
+        ("BOA", "arcsec"),
+        ("COA", "arcsec"),
+        ("XOC", "um"),
+        ("YOC", "um"),
+        ("AOC", "arcsec"),
+        ("BOC", "arcsec"),
+    ];
+    let (v, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
+    Ok(NAMES
+        .iter()
+        .zip(v.iter().zip(u.iter()))
+        .map(|((n, unit), (v, u))| Figure {
+            name: format!("rtest_{n}"),
+            value: *v as f32,
+            u: Some(*u as f32),
+            unit: (*unit).into(),
+        })
+        .collect())
+}
+
+/// The seed 004 dial-gauge axis direction of `[dial]`: the tilts of the axis.
+pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
+    use ballpod::identify::centreline::{
+        DialPoint, GaugeFrame, NormalAtAngle, RotationSense, axis_direction_lsq, plane_normal,
+    };
+    let file = path.parent().unwrap_or(Path::new(".")).join(&e.readings);
+    let rows = read_table(&file, &["b_deg", "u_mm", "v_mm", "reading_um"])?;
+    let axis = e.axis.unwrap_or([0.0, 1.0, 0.0]);
+    let w0 = e.reading_dir.unwrap_or([0.0, 0.0, 1.0]);
+    let sense = match e.sense.as_deref() {
+        None | Some("primed") => RotationSense::Primed,
+        Some("right_handed") => RotationSense::RightHanded,
+        Some(s) => {
+            return Err(LogError {
+                field: Some("dial.sense".into()),
+                ..whole(path, format!("{} (primed or right_handed)", excerpt(s)))
+            });
+        }
+    };
+    use crate::forward_seed004 as fw;
+    let mut angles: Vec<f64> = rows.iter().map(|r| r[0]).collect();
+    angles.dedup();
+    let mut positions = Vec::new();
+    for b in angles {
+        let pts: Vec<DialPoint> = rows
+            .iter()
+            .filter(|r| r[0] == b)
+            .map(|r| DialPoint {
+                u_mm: r[1],
+                v_mm: r[2],
+                reading_um: r[3],
+            })
+            .collect();
+        let w = fw::normalize(fw::mul(fw::rodrigues(axis, -b.to_radians()), w0));
+        let u = fw::normalize(fw::sub(axis, fw::scale(fw::dot(axis, w), w)));
+        let g = GaugeFrame {
+            lateral_u: u,
+            lateral_v: fw::cross(w, u),
+            reading_dir: w,
+        };
+        let pn =
+            plane_normal(&pts, &g).map_err(|x| whole(&file, format!("face at {b}°: {x:?}")))?;
+        positions.push(NormalAtAngle {
+            commanded_deg: b,
+            normal: pn.normal,
+        });
+    }
+    let est = axis_direction_lsq(&positions, sense, axis)
+        .map_err(|x| whole(&file, format!("axis direction: {x:?}")))?;
+    Ok(vec![
+        Figure {
+            name: "dial_tilt_x".into(),
+            value: (est.direction[0] * 1e6) as f32,
+            u: Some(est.tilt_uncertainty_urad[0] as f32),
+            unit: "urad".into(),
+        },
+        Figure {
+            name: "dial_tilt_z".into(),
+            value: (est.direction[2] * 1e6) as f32,
+            u: Some(est.tilt_uncertainty_urad[1] as f32),
+            unit: "urad".into(),
+        },
+    ])
+}
+
+/// The runs replay reads, each with the name of its source, and the host-only figures.
+pub type Inputs = (Vec<(String, RecordedRun)>, Vec<Figure>);
+
+/// What replay reads: the files it was given (pod files, or one session file).
+pub fn read_inputs(files: &[PathBuf]) -> Result<Inputs, LogError> {
+    let mut runs = Vec::new();
+    let mut host = Vec::new();
+    for f in files {
+        let is_session = f.extension().is_some_and(|e| e == "toml" || e == "json");
+        if is_session {
+            let s = parse_session(f, &read_text(f)?)?;
+            runs.extend(read_runs(f, &s)?);
+            if let Some(r) = &s.rtest {
+                host.extend(rtest(f, r)?);
+            }
+            if let Some(d) = &s.dial {
+                host.extend(dial(f, d)?);
+            }
+        } else {
+            let text = read_text(f)?;
+            let name = f
+                .file_name()
+                .map_or(String::new(), |n| n.to_string_lossy().into_owned());
+            let rs = parse_runs(f, &text)?;
+            let n = rs.len();
+            for (k, r) in rs.into_iter().enumerate() {
+                runs.push((
+                    if n == 1 {
+                        name.clone()
+                    } else {
+                        format!("{name}#{}", k + 1)
+                    },
+                    r,
+                ));
+            }
+        }
+    }
+    Ok((runs, host))
+}

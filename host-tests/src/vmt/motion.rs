@@ -1,0 +1,320 @@
+//! The virtual CNC of the simulated pod (`sim --serve`): when a client starts a run, the
+//! machine moves through the armed pattern with the pod's own set-up (its configuration) and,
+//! like the last block of a part program, ends the run at the end of the motion (a client may
+//! stop or abort it earlier). Each sample period gives the true bar-length deviation, the axis
+//! positions the encoders read, and for a PROBE run the probe's edges and level.
+//!
+//! - CIRCLE: one revolution about the configured centre in the configured plane at the
+//!   configured feed (else the machine's), with the circular-test machine's faults
+//!   ([`super::machine::CircleMachine`]);
+//! - BX … CR2: the step's B arc or C circle on the seed 002 machine ([`super::machine::Machine002`])
+//!   with the configured Table 4.3 set-up, at the machine's feed;
+//! - SSM: three dwells (0.4 s) on the bar's sphere around the configured socket, 2000 mm/min
+//!   between them, the tool point off by the truth's E;
+//! - PROBE: nine touches on a sphere (radius 12.7 mm, stylus 1.5 mm) on the C table, the n-th
+//!   PROBE run at C = n·90° (mod 360°), the sphere carried by the seed 002 machine's C axis.
+
+use ballpod::acquisition::MAX_AXES;
+use ballpod::app::Pattern;
+use ballpod::app::seed002::Setup;
+use ballpod::config::{CirclePlane, Config};
+use serde::{Deserialize, Serialize};
+
+use super::machine::MachineFile;
+use crate::forward_seed002 as fwd;
+
+/// What the serving simulator's machine is (the truth the clients compare against).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ServeTruth {
+    /// The machines (circle faults, seed 002 deviations, instrument).
+    pub machine: MachineFile,
+    /// E of an SSM run, µm: the tool point is this far from where it is commanded.
+    pub ssm_error_um: [f64; 3],
+    /// The probed sphere's distance from the C axis, mm, and its centre height above the
+    /// seed 002 origin, mm.
+    pub sphere_rc_zc_mm: [f64; 2],
+}
+
+impl Default for ServeTruth {
+    fn default() -> Self {
+        let mut machine = MachineFile::default();
+        // a socket 5 µm / 3 µm off where the pod believes it: the circle's eccentricity
+        machine.circle.socket_offset_um = [-5.0, 3.0];
+        Self {
+            machine,
+            ssm_error_um: [3.0, -2.0, 1.5],
+            sphere_rc_zc_mm: [100.0, 64.838],
+        }
+    }
+}
+
+/// One sample period of the machine.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MachineStep {
+    /// True bar-length deviation, µm.
+    pub dl_um: f64,
+    /// Axis positions the encoders read (X, Y, Z mm; B, C degrees).
+    pub axes: [f64; MAX_AXES],
+    /// A probe edge before this sample, the counters latched at these positions.
+    pub edge: Option<[f64; MAX_AXES]>,
+    /// The probe stylus is seated.
+    pub seated: bool,
+}
+
+impl MachineStep {
+    fn at(dl_um: f64, axes: [f64; MAX_AXES]) -> Self {
+        Self {
+            dl_um,
+            axes,
+            edge: None,
+            seated: true,
+        }
+    }
+}
+
+/// The planned motion of one run.
+#[derive(Clone, Debug, Default)]
+pub struct Motion {
+    steps: Vec<MachineStep>,
+    next: usize,
+}
+
+/// Radius of the probed sphere, mm.
+pub const SPHERE_RADIUS_MM: f64 = 12.7;
+/// Radius of the stylus ball, mm.
+pub const STYLUS_RADIUS_MM: f64 = 1.5;
+
+impl Motion {
+    /// No motion.
+    pub fn none() -> Self {
+        Self::default()
+    }
+
+    /// The motion of a run of `pattern` in `direction` with the pod's configuration `cfg`
+    /// (set-up, bar length, sample rate); `probe_runs` PROBE runs came before this one. `Err`
+    /// names what the set-up lacks for the machine to move.
+    pub fn plan(
+        truth: &ServeTruth,
+        cfg: &Config,
+        pattern: Pattern,
+        direction: ballpod::app::Direction,
+        probe_runs: u32,
+    ) -> Result<Self, String> {
+        let rate = f64::from(cfg.sample_rate_hz);
+        let t = &cfg.setup;
+        let sign = direction.sign();
+        let bar = f64::from(cfg.bar_length_mm);
+        let steps = match pattern {
+            Pattern::Circle => {
+                let c = |k: usize| f64::from(t.circle_centre_mm[k]);
+                let r = f64::from(t.circle_radius_mm);
+                if r.is_nan()
+                    || r <= 0.0
+                    || (0..3).any(|k| c(k).is_nan() && !in_plane_unused(t.circle_plane, k))
+                {
+                    return Err("circle set-up not complete".into());
+                }
+                let mut m = truth.machine.circle;
+                m.radius_mm = r;
+                if t.circle_feed_mm_per_min > 0.0 {
+                    m.feed_mm_per_min = f64::from(t.circle_feed_mm_per_min);
+                }
+                let n = m.samples_per_rev(rate);
+                (0..n)
+                    .map(|i| {
+                        let th = sign * 2.0 * std::f64::consts::PI * i as f64 / n as f64;
+                        let (dl, a) = m.pose(th, sign);
+                        let (u, v) = (a[0], a[1]);
+                        let cz = |k: usize| if c(k).is_nan() { 0.0 } else { c(k) };
+                        let xyz = match t.circle_plane {
+                            CirclePlane::XY => [cz(0) + u, cz(1) + v, cz(2)],
+                            CirclePlane::YZ => [cz(0), cz(1) + u, cz(2) + v],
+                            CirclePlane::ZX => [cz(0) + v, cz(1), cz(2) + u],
+                        };
+                        MachineStep::at(dl + (r - bar) * 1e3, [xyz[0], xyz[1], xyz[2], 0.0, 0.0])
+                    })
+                    .collect()
+            }
+            Pattern::Ssm => ssm_path(truth.ssm_error_um, cfg)?,
+            Pattern::Probe => probe_path(truth, cfg, probe_runs)?,
+            step => {
+                let setup = Setup::from_config(t).map_err(|f| {
+                    format!("seed 002 set-up: {} not set", ballpod::app::field_name(f))
+                })?;
+                let g = setup.geometry(step);
+                let feed = truth.machine.circle.feed_mm_per_min;
+                let b = matches!(step, Pattern::Bx | Pattern::By);
+                let len_mm = if b {
+                    g.r_b_mm * std::f64::consts::FRAC_PI_2
+                } else if step == Pattern::Ca {
+                    2.0 * std::f64::consts::PI * g.r_c_mm
+                } else {
+                    2.0 * std::f64::consts::PI * (g.r_c_mm - g.l_b_mm).abs()
+                };
+                let n = ((len_mm / (feed / 60.0) * rate).round() as usize).max(16);
+                (0..n)
+                    .map(|i| {
+                        let angle = if b {
+                            let k = if sign > 0.0 { i } else { n - 1 - i };
+                            std::f64::consts::FRAC_PI_2 * k as f64 / (n - 1) as f64
+                        } else {
+                            sign * 2.0 * std::f64::consts::PI * i as f64 / n as f64
+                        };
+                        let (dl, axes) = truth.machine.seed002.pose(&setup, step, angle);
+                        MachineStep::at(dl, axes)
+                    })
+                    .collect()
+            }
+        };
+        Ok(Self { steps, next: 0 })
+    }
+
+    /// Where the motion starts (the encoders are homed there), if it moves at all.
+    pub fn start(&self) -> Option<[f64; MAX_AXES]> {
+        self.steps.first().map(|s| s.axes)
+    }
+
+    /// The next sample period, `None` once the motion is over.
+    pub fn next_step(&mut self) -> Option<MachineStep> {
+        let s = self.steps.get(self.next).copied();
+        self.next += 1;
+        s
+    }
+
+    /// Sample periods left.
+    pub fn remaining(&self) -> usize {
+        self.steps.len().saturating_sub(self.next)
+    }
+}
+
+/// True if axis `k` (0 X, 1 Y, 2 Z) is the plane's normal (its coordinate may be not set: the
+/// machine keeps it at 0).
+fn in_plane_unused(p: CirclePlane, k: usize) -> bool {
+    matches!(
+        (p, k),
+        (CirclePlane::XY, 2) | (CirclePlane::YZ, 0) | (CirclePlane::ZX, 1)
+    )
+}
+
+/// Station directions from the socket (normalised in use): three azimuths 120° apart, 16.7°
+/// above the horizontal, as seed 000 §3 places the stations around the socket.
+pub const STATION_DIRS: [[f64; 3]; 3] = [[1.0, 0.0, 0.3], [-0.5, 0.866, 0.3], [-0.5, -0.866, 0.3]];
+
+/// Three dwells on the bar's sphere around the configured socket, the tool point E = `e_um`
+/// off its nominal (µm). Between the stations, and to leave the last dwell (5 mm on towards
+/// the first station), the machine moves on the sphere (arcs about the socket at 2000
+/// mm/min), so the bar stays within the LVDT's range as on a real SSM.
+pub fn ssm_path(e_um: [f64; 3], cfg: &Config) -> Result<Vec<MachineStep>, String> {
+    let s = cfg.setup.ssm_socket_mm;
+    if s.iter().any(|v| v.is_nan()) {
+        return Err("SSM socket not set".into());
+    }
+    let socket = s.map(f64::from);
+    let l = f64::from(cfg.bar_length_mm);
+    let rate = f64::from(cfg.sample_rate_hz);
+    let unit = |u: [f64; 3]| {
+        let n = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+        u.map(|v| v / n)
+    };
+    let on_sphere = |u: [f64; 3]| [0, 1, 2].map(|i| socket[i] + l * u[i]);
+    let dl = |p: [f64; 3]| {
+        let q = [0, 1, 2].map(|i| p[i] + e_um[i] * 1e-3 - socket[i]);
+        ((q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt() - l) * 1e3
+    };
+    let step = |p: [f64; 3]| MachineStep::at(dl(p), [p[0], p[1], p[2], 0.0, 0.0]);
+    let step_mm = 2000.0 / 60.0 / rate;
+    let dwell = (0.4 * rate) as usize;
+    let dirs: Vec<[f64; 3]> = STATION_DIRS.iter().map(|u| unit(*u)).collect();
+    // the arc from direction a to b (normalised chord points: no antipodal stations here)
+    let arc = |a: [f64; 3], b: [f64; 3], to_mm: f64, out: &mut Vec<MachineStep>| {
+        let cos = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0);
+        let theta = cos.acos();
+        let t_end = (to_mm / (l * theta)).min(1.0);
+        let n = (to_mm.min(l * theta) / step_mm).ceil().max(1.0) as usize;
+        for j in 1..=n {
+            // the direction at arc fraction t (spherical interpolation)
+            let t = t_end * j as f64 / n as f64;
+            let (wa, wb) = (((1.0 - t) * theta).sin(), (t * theta).sin());
+            let u = unit([0, 1, 2].map(|i| wa * a[i] + wb * b[i]));
+            out.push(step(on_sphere(u)));
+        }
+    };
+    let mut out = Vec::new();
+    for (k, u) in dirs.iter().enumerate() {
+        if k > 0 {
+            arc(dirs[k - 1], *u, f64::INFINITY, &mut out);
+        }
+        for _ in 0..dwell {
+            out.push(step(on_sphere(*u)));
+        }
+    }
+    if let (Some(last), Some(first)) = (dirs.last(), dirs.first()) {
+        arc(*last, *first, 5.0, &mut out);
+    }
+    Ok(out)
+}
+
+/// Nine touches on the sphere carried by the C axis at C = `probe_runs`·90°.
+fn probe_path(
+    truth: &ServeTruth,
+    cfg: &Config,
+    probe_runs: u32,
+) -> Result<Vec<MachineStep>, String> {
+    let t = &cfg.setup;
+    let origin = t
+        .s002_origin_mm
+        .map(|v| if v.is_nan() { 0.0 } else { f64::from(v) });
+    let [rc, zc] = truth.sphere_rc_zc_mm;
+    let c_deg = 90.0 * f64::from(probe_runs % 4);
+    let d = truth.machine.seed002.deviations().to_array();
+    let (_, _, _, _, mcz, _) = fwd::mats(&d);
+    let p = fwd::apply(&fwd::mul(&mcz, &fwd::ec(c_deg.to_radians())), [rc, 0.0, zc]);
+    let centre: [f64; 3] = std::array::from_fn(|i| origin[i] + p[i]);
+    let rate = f64::from(cfg.sample_rate_hz);
+    let contact = SPHERE_RADIUS_MM + STYLUS_RADIUS_MM;
+    let axes = |p: [f64; 3]| [p[0], p[1], p[2], 0.0, c_deg];
+    let on = |n: [f64; 3], r: f64| -> [f64; 3] { std::array::from_fn(|i| centre[i] + n[i] * r) };
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    let dirs = [
+        [0.0, 0.0, 1.0],
+        [s, 0.0, s],
+        [0.0, s, s],
+        [-s, 0.0, s],
+        [0.0, -s, s],
+        [s, s, 0.0],
+        [-s, s, 0.0],
+        [-s, -s, 0.0],
+        [s, -s, 0.0],
+    ];
+    let mut out: Vec<MachineStep> = Vec::new();
+    let mut at = on(dirs[0], contact + 0.5);
+    let go =
+        |out: &mut Vec<MachineStep>, at: &mut [f64; 3], to: [f64; 3], feed: f64, seated: bool| {
+            let d: [f64; 3] = std::array::from_fn(|i| to[i] - at[i]);
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            let n = (len / (feed / 60.0 / rate)).ceil().max(1.0) as usize;
+            for j in 1..=n {
+                let p: [f64; 3] = std::array::from_fn(|i| at[i] + d[i] * j as f64 / n as f64);
+                out.push(MachineStep {
+                    seated,
+                    ..MachineStep::at(0.0, axes(p))
+                });
+            }
+            *at = to;
+        };
+    for n in dirs {
+        go(&mut out, &mut at, on(n, contact + 0.5), 1000.0, true);
+        go(&mut out, &mut at, on(n, contact + 0.3), 1000.0, true);
+        go(&mut out, &mut at, on(n, contact), 100.0, true);
+        if let Some(last) = out.last_mut() {
+            last.edge = Some(axes(on(n, contact)));
+        }
+        go(&mut out, &mut at, on(n, contact + 0.05), 1000.0, false);
+        go(&mut out, &mut at, on(n, contact + 0.5), 1000.0, true);
+        // the re-seat time before the next touch
+        for _ in 0..(0.06 * rate) as usize {
+            out.push(MachineStep::at(0.0, axes(at)));
+        }
+    }
+    Ok(out)
+}

@@ -1,0 +1,61 @@
+//! `ballpod::num::sin_cos` (the pod's own f64 sine/cosine, written to keep libm's general
+//! argument reduction out of flash) against the host's libm (`f64::sin_cos` of std, an
+//! independent implementation) over the angles the pod meets and beyond.
+
+use ballpod::num::{SIN_COS_MAX_RAD, cos, sin, sin_cos};
+
+/// Distance in units in the last place, measured at the larger of |a|, 2^-60 (so values near
+/// zero compare absolutely, as an angle error does).
+fn ulps(a: f64, b: f64) -> f64 {
+    let scale = a.abs().max(b.abs()).max(2f64.powi(-60));
+    (a - b).abs() / (scale * f64::EPSILON)
+}
+
+#[test]
+fn matches_std_within_two_ulp() {
+    // Dense near the quadrant boundaries and zero, then a sweep up to the limit.
+    let mut xs: Vec<f64> = Vec::new();
+    for k in -40..=40 {
+        let b = k as f64 * std::f64::consts::FRAC_PI_2;
+        for d in [0.0, 1e-12, -1e-12, 1e-6, -1e-6, 0.3, -0.3, 0.785, -0.785] {
+            xs.push(b + d);
+        }
+    }
+    let mut x = 1e-300f64;
+    while x < SIN_COS_MAX_RAD {
+        xs.push(x);
+        xs.push(-x * 1.000_37);
+        x *= 1.013;
+    }
+    for i in 0..200_000 {
+        xs.push(-7.0 + 14.0 * i as f64 / 200_000.0);
+    }
+    for &x in &xs {
+        let (s, c) = sin_cos(x);
+        let (rs, rc) = x.sin_cos();
+        // Relative to 2 ulp, except within ~1e-18 of a root of sin/cos, where the neglected
+        // fourth part of π/2 (8.5e-32 per quarter turn) is the error: absolute ≤ 1e-28·|x|.
+        let ok = |a: f64, b: f64| ulps(a, b) <= 2.0 || (a - b).abs() <= 1e-28 * x.abs().max(1.0);
+        assert!(
+            ok(s, rs) && ok(c, rc),
+            "x = {x:e}: ({s:e}, {c:e}) vs ({rs:e}, {rc:e})"
+        );
+        assert_eq!((sin(x), cos(x)), (s, c));
+    }
+}
+
+#[test]
+fn out_of_range_is_nan() {
+    for x in [
+        SIN_COS_MAX_RAD * 1.001,
+        -1e9,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NAN,
+    ] {
+        let (s, c) = sin_cos(x);
+        assert!(s.is_nan() && c.is_nan(), "{x}");
+    }
+    let (s, c) = sin_cos(SIN_COS_MAX_RAD);
+    assert!(s.is_finite() && c.is_finite());
+}

@@ -1,0 +1,230 @@
+//! CIRCLE: the ISO 230-4 circular test about the socket, in the configured plane, full circle
+//! or partial arc.
+//!
+//! Each run feeds one direction of a [`CircularTest`]; arming a new run of a direction
+//! replaces that direction's previous run (runs are never merged), the other direction is
+//! kept while the geometry stays the same. At the end of a run: the run's limaçon fit, G and F
+//! of its direction; once the latest CCW and CW runs are both complete: G(b), H, the mean
+//! bi-directional radial deviation and (full circles) the ball-bar diagnoses, and the servo
+//! mismatch when the feed is set.
+
+use super::pattern::Direction;
+use super::results::{ResultId, Results};
+use crate::config::{CirclePlane, Field, TestSetup, is_set};
+use crate::metrology::circle_fit::{CircleEstimate, CircleFitConfig, CircleFitError, SampleUse};
+use crate::metrology::iso230_4::{self, CircularTest, IsoError};
+use crate::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+
+/// Angular bins of the ISO 230-4 profile (1° each; 11.8 KiB of state).
+pub const ISO_BINS: usize = 360;
+
+/// The geometry of a circular test, from the configuration's set-up.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CircleGeometry {
+    /// The fit: plane, centre (the socket), outward sensitivity, minimum arc.
+    pub fit: CircleFitConfig,
+    /// Nominal radius, mm.
+    pub radius_mm: f32,
+    /// Programmed feed, mm/min (NaN if not set: no servo mismatch).
+    pub feed_mm_per_min: f32,
+}
+
+impl CircleGeometry {
+    /// The geometry of the set-up, or the first field it lacks (the circle centre's in-plane
+    /// coordinates and the radius).
+    pub fn from_config(t: &TestSetup) -> Result<Self, Field> {
+        let (plane, u, v) = match t.circle_plane {
+            CirclePlane::XY => (Plane::XY, 0, 1),
+            CirclePlane::YZ => (Plane::YZ, 1, 2),
+            CirclePlane::ZX => (Plane::ZX, 2, 0),
+        };
+        let c = |k: u8| {
+            t.circle_centre_mm
+                .get(usize::from(k))
+                .copied()
+                .filter(|x| is_set(*x))
+                .ok_or(Field::CircleCentreMm(k))
+        };
+        let (cu, cv) = (c(u)?, c(v)?);
+        if !is_set(t.circle_radius_mm) {
+            return Err(Field::CircleRadiusMm);
+        }
+        Ok(Self {
+            fit: CircleFitConfig {
+                geometry: PatternGeometry {
+                    plane,
+                    centre_u_mm: cu,
+                    centre_v_mm: cv,
+                    sensitivity: Sensitivity::Outward,
+                },
+                min_arc_deg: t.circle_min_arc_deg,
+            },
+            radius_mm: t.circle_radius_mm,
+            feed_mm_per_min: t.circle_feed_mm_per_min,
+        })
+    }
+}
+
+const fn dir_index(d: Direction) -> usize {
+    match d {
+        Direction::Ccw => 0,
+        Direction::Cw => 1,
+    }
+}
+
+/// The circular test: both directions' latest runs (state 11.9 KiB).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CircleTest {
+    geometry: CircleGeometry,
+    test: CircularTest<ISO_BINS>,
+    /// A completed run (with a fit) of each direction, CCW and CW.
+    complete: [bool; 2],
+}
+
+impl CircleTest {
+    /// An empty test of `geometry`.
+    pub fn new(geometry: CircleGeometry) -> Self {
+        Self {
+            geometry,
+            test: CircularTest::new(geometry.fit, geometry.radius_mm),
+            complete: [false; 2],
+        }
+    }
+
+    /// The geometry.
+    pub fn geometry(&self) -> &CircleGeometry {
+        &self.geometry
+    }
+
+    /// A run of direction `d` begins with `geometry`: a new geometry starts a new test, else
+    /// the direction's previous run is forgotten.
+    pub fn begin_run(&mut self, geometry: CircleGeometry, d: Direction) {
+        if geometry != self.geometry {
+            *self = Self::new(geometry);
+        } else {
+            self.test.reset_direction(d);
+            if let Some(c) = self.complete.get_mut(dir_index(d)) {
+                *c = false;
+            }
+        }
+    }
+
+    /// Feeds one sample of the run in direction `d`.
+    pub fn update(&mut self, s: &crate::acquisition::Sample, d: Direction) -> SampleUse {
+        self.test.update(s, d)
+    }
+
+    /// The arc turned by the latest run of direction `d`, degrees.
+    pub fn arc_deg(&self, d: Direction) -> f32 {
+        self.test.fit(d).arc_deg()
+    }
+
+    /// The running fit of direction `d` (the live eccentricity and r0).
+    pub fn live(&self, d: Direction) -> Result<CircleEstimate, CircleFitError> {
+        self.test.fit(d).estimate()
+    }
+
+    /// Ends the run of direction `d`: its results, and the bi-directional ones when both
+    /// directions are complete. `Err` if the run has no fit (too short an arc, too few samples).
+    pub fn finish_run(
+        &mut self,
+        d: Direction,
+        results: &mut Results,
+    ) -> Result<CircleEstimate, CircleFitError> {
+        results.clear(ResultId::GBidir, ResultId::ServoMismatch);
+        let (g, fmax, fmin) = match d {
+            Direction::Ccw => (ResultId::GCcw, ResultId::FMaxCcw, ResultId::FMinCcw),
+            Direction::Cw => (ResultId::GCw, ResultId::FMaxCw, ResultId::FMinCw),
+        };
+        for id in [g, fmax, fmin] {
+            results.clear(id, id);
+        }
+        let est = self.live(d)?;
+        if let Some(c) = self.complete.get_mut(dir_index(d)) {
+            *c = true;
+        }
+        const NOT_EVALUATED: f64 = f64::NAN;
+        if let Ok(f) = self.test.direction_figures(d) {
+            results.set(g, f64::from(f.circular_deviation_g_um), NOT_EVALUATED);
+            results.set(fmax, f64::from(f.radial_deviation_f_max_um), NOT_EVALUATED);
+            results.set(fmin, f64::from(f.radial_deviation_f_min_um), NOT_EVALUATED);
+        }
+        if self.complete == [true, true] {
+            self.bidirectional(results);
+        }
+        Ok(est)
+    }
+
+    fn bidirectional(&self, results: &mut Results) {
+        const NOT_EVALUATED: f64 = f64::NAN;
+        if let Ok(b) = self.test.bidirectional_figures() {
+            results.set(
+                ResultId::GBidir,
+                f64::from(b.bidirectional_circular_deviation_um),
+                NOT_EVALUATED,
+            );
+            results.set(
+                ResultId::H,
+                f64::from(b.circular_hysteresis_h_um),
+                NOT_EVALUATED,
+            );
+            results.set(
+                ResultId::RadialBidir,
+                f64::from(b.mean_bidirectional_radial_deviation_um),
+                NOT_EVALUATED,
+            );
+        }
+        let diag = |d| self.test.diagnostics(d);
+        let (Ok(ccw), Ok(cw)) = (diag(Direction::Ccw), diag(Direction::Cw)) else {
+            // a partial arc: no diagnoses (IsoError::NotFullCircle)
+            return;
+        };
+        let m = iso230_4::mean_diagnostics(&ccw, &cw);
+        for (id, v) in [
+            (ResultId::Squareness, m.squareness_urad),
+            (ResultId::ScaleMismatch, m.scale_mismatch_um_per_m),
+            (ResultId::ReversalU, m.reversal_step_u_um),
+            (ResultId::ReversalV, m.reversal_step_v_um),
+            (ResultId::CyclicAmplitude, m.cyclic_amplitude_um),
+            (ResultId::CyclicOrder, m.cyclic_order as f32),
+        ] {
+            results.set(id, f64::from(v), NOT_EVALUATED);
+        }
+        let tau = servo_mismatch_ms(
+            &ccw,
+            &cw,
+            f64::from(self.geometry.radius_mm),
+            f64::from(self.geometry.feed_mm_per_min),
+        );
+        if let Some(t) = tau {
+            results.set(ResultId::ServoMismatch, t, NOT_EVALUATED);
+        }
+    }
+
+    /// Why the diagnoses of direction `d` are not available (e.g. a partial arc).
+    pub fn diagnostics_error(&self, d: Direction) -> Option<IsoError> {
+        self.test.diagnostics(d).err()
+    }
+}
+
+/// Servo mismatch τ_u − τ_v (ms) from the per-direction squareness of a circular test at
+/// `feed_mm_per_min` on radius `radius_mm`; `None` if the feed or radius is not a positive
+/// number.
+///
+/// An axis that follows its command τ late on a circle at angular speed ω errs by
+/// E_u = ω·τ_u·v (CCW; the sign flips CW), which is an out-of-squareness of ω·(τ_u − τ_v)
+/// (E_u = S·v convention of [`crate::metrology::iso230_4`]) that changes sign with the
+/// direction, so S_ccw − S_cw = 2ω(τ_u − τ_v) while the true squareness cancels.
+pub fn servo_mismatch_ms(
+    ccw: &iso230_4::Diagnostics,
+    cw: &iso230_4::Diagnostics,
+    radius_mm: f64,
+    feed_mm_per_min: f64,
+) -> Option<f64> {
+    if !(radius_mm > 0.0 && feed_mm_per_min > 0.0) {
+        return None;
+    }
+    let omega_rad_per_s = feed_mm_per_min / 60.0 / radius_mm;
+    let ds_urad = f64::from(ccw.squareness_urad) - f64::from(cw.squareness_urad);
+    Some(ds_urad * 0.5 * 1e-6 / omega_rad_per_s * 1e3)
+}

@@ -1,0 +1,134 @@
+//! The live process values, refreshed every sample (CANopen 0x2100–0x2103 and TPDOs, SCPI
+//! `MEASure:ALL?`), and the status word. A live value that is not observable yet (the circle
+//! has not turned its minimum arc, an SSM component the path cannot see, the LVDT open) is
+//! **invalid**: its bit in [`LiveValues::valid`] is clear and the value is NaN, never 0.0.
+
+use super::SessionState;
+use crate::acquisition::SampleFlags;
+
+/// Names and units of the live REAL32 values, in CANopen sub-index order (0x2100:k+1) and bit
+/// order of [`LiveValues::valid`].
+pub const LIVE: [(&str, &str); LIVE_COUNT] = [
+    ("delta_l", "um"),
+    ("ssm_ex", "um"),
+    ("ssm_ey", "um"),
+    ("ssm_ez", "um"),
+    ("ecc_u", "um"),
+    ("ecc_v", "um"),
+    ("r0", "um"),
+    ("temp", "degC"),
+];
+
+/// Number of live REAL32 values.
+pub const LIVE_COUNT: usize = 8;
+
+/// Index of each live value in [`LIVE`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Live {
+    /// ΔL of the latest sample, µm.
+    DeltaL = 0,
+    /// SSM E_x at the latest sample (streaming neighbourhood), µm.
+    SsmEx = 1,
+    /// SSM E_y, µm.
+    SsmEy = 2,
+    /// SSM E_z, µm.
+    SsmEz = 3,
+    /// Running circle-fit eccentricity e_u, µm.
+    EccU = 4,
+    /// Running circle-fit eccentricity e_v, µm.
+    EccV = 5,
+    /// Running circle-fit radius change r0, µm.
+    R0 = 6,
+    /// Bar temperature, °C.
+    Temp = 7,
+}
+
+/// The live values of the latest sample.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LiveValues {
+    /// Sample counter of the latest sample (counts lost samples too).
+    pub sample_counter: u32,
+    /// The values in [`LIVE`] order (NaN where invalid).
+    pub values: [f32; LIVE_COUNT],
+    /// Bit k set: `values[k]` is valid.
+    pub valid: u16,
+    /// Status word.
+    pub status: StatusWord,
+}
+
+impl Default for LiveValues {
+    fn default() -> Self {
+        Self {
+            sample_counter: 0,
+            values: [f32::NAN; LIVE_COUNT],
+            valid: 0,
+            status: StatusWord::default(),
+        }
+    }
+}
+
+impl LiveValues {
+    /// The value `k`, or `None` while it is invalid.
+    pub fn get(&self, k: Live) -> Option<f32> {
+        let i = k as usize;
+        if self.valid & (1 << i) != 0 {
+            self.values.get(i).copied()
+        } else {
+            None
+        }
+    }
+
+    /// Sets value `k` (`None` or a non-finite value marks it invalid).
+    pub fn set(&mut self, k: Live, v: Option<f32>) {
+        let i = k as usize;
+        let v = v.filter(|x| x.is_finite());
+        if let Some(slot) = self.values.get_mut(i) {
+            *slot = v.unwrap_or(f32::NAN);
+        }
+        if v.is_some() {
+            self.valid |= 1 << i;
+        } else {
+            self.valid &= !(1 << i);
+        }
+    }
+}
+
+/// Status word bits (CANopen 0x2102, SCPI `STATus:POD?`): sample validity, faults and the
+/// session state in one `u16`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct StatusWord(pub u16);
+
+impl StatusWord {
+    /// Bits 0–5: the latest sample's [`SampleFlags`] (same bit positions).
+    pub const SAMPLE_FLAGS_MASK: u16 = 0x003F;
+    /// Bit 8: a run is armed.
+    pub const ARMED: u16 = 1 << 8;
+    /// Bit 9: a run is running (samples go into its estimators).
+    pub const RUNNING: u16 = 1 << 9;
+    /// Bit 10: the last run ended normally and has valid results.
+    pub const RESULTS_READY: u16 = 1 << 10;
+    /// Bit 11: the last run was aborted (reason: CANopen 0x3004, SCPI `SESSion:REASon?`).
+    pub const ABORTED: u16 = 1 << 11;
+    /// Bit 12: every live value of the armed pattern is valid (CIRCLE / seed 002: e and r0;
+    /// SSM: all three components of E).
+    pub const LIVE_VALID: u16 = 1 << 12;
+    /// Bit 13: an identification is pending (seed 002 procedure complete, computing).
+    pub const IDENTIFYING: u16 = 1 << 13;
+    /// Bit 15: a fault is present: the latest sample is flagged invalid for metrology or its
+    /// temperature is faulty, or the last settings save failed.
+    pub const ERROR: u16 = 1 << 15;
+
+    /// The status word of a sample's flags, a session state and the other bits.
+    pub const fn new(flags: SampleFlags, session: SessionState, extra: u16) -> Self {
+        let mut w = flags.0 & Self::SAMPLE_FLAGS_MASK;
+        w |= match session {
+            SessionState::Idle => 0,
+            SessionState::Armed => Self::ARMED,
+            SessionState::Running => Self::RUNNING,
+            SessionState::Done => Self::RESULTS_READY,
+            SessionState::Aborted => Self::ABORTED,
+        };
+        Self(w | extra)
+    }
+}

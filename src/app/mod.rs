@@ -1,0 +1,1092 @@
+//! The pod application (DESIGN §4, §7a): everything the pod decides about a run, the same on the
+//! firmware, in the simulator and in replay.
+//!
+//! [`App`] owns the configuration, the acquisition pipeline, the session state machine, the
+//! run monitor, the armed pattern's estimators, the live values with their validity, the
+//! results table and the procedures (seed 002, the seed 000 two-step, the touch-probe C axis).
+//! Its inputs are the sensor readings of each sample period ([`App::on_raw_sample`], or an
+//! already calibrated [`Sample`] in replay: [`App::on_sample`]), probe edges and the client
+//! commands ([`App::execute`], [`App::set_field`], …); its outputs are read by the protocols
+//! (live values, state, results) and written to a [`Recorder`] (the log, the USB stream). A
+//! shell — the firmware's compute task, the simulated pod, replay — moves readings, bytes and
+//! samples; it takes no decision of its own.
+//!
+//! # A run
+//!
+//! configure (set-up fields) → [`Command::Arm`] (the pattern's geometry must be set: the
+//! missing field is named) → [`Command::Start`] → samples: each goes through the run monitor
+//! ([`run`]), a used one into the estimators, and the live values are refreshed → [`Command::Stop`]
+//! (results, or an abort with the reason if the run has none) or [`Command::Abort`].
+//!
+//! | pattern | per sample (live) | at stop (results) | procedure |
+//! |---|---|---|---|
+//! | CIRCLE | e_u, e_v, r0 of the direction's limaçon fit | the run's fit, G, F; with both directions G(b), H, radial, diagnoses | latest CCW and CW runs ([`circle`]) |
+//! | BX BY CR CA CR2 | e, r0 of the step's fit | the run's fit; the step's CW/CCW eccentricity | seed 002 identification when every step has CW and CCW ([`seed002`]) |
+//! | SSM | E_x, E_y, E_z of the neighbourhood (each or none) | E from the dwell stations, u(E) | seed 000 two-step over two SSM runs ([`ssm`]) |
+//! | PROBE | – | the sphere through the touch points | touch-probe C axis over four spheres ([`probe`]) |
+//!
+//! The seed 002 identification takes seconds on the M4 (f64 in software): [`App::execute`]
+//! only marks it pending (status bit [`StatusWord::IDENTIFYING`]); the shell runs it with
+//! [`App::run_pending_job`] where a long computation does no harm.
+
+pub mod circle;
+pub mod live;
+pub mod log;
+pub mod pattern;
+pub mod probe;
+pub mod record;
+pub mod results;
+pub mod run;
+pub mod seed002;
+pub mod ssm;
+
+pub use live::{LIVE, LIVE_COUNT, Live, LiveValues, StatusWord};
+pub use pattern::{Direction, Pattern};
+pub use record::{Recorder, RunEnd, RunMeta, Touch};
+pub use results::{RESULT_COUNT, RESULTS, ResultEntry, ResultId, Results};
+pub use run::{AbortReason, RunCounters, RunLimits};
+
+use crate::acquisition::lvdt::{DemodError, LvdtReading};
+use crate::acquisition::probe::{ProbeLatch, TriggerOutcome};
+use crate::acquisition::{Acquisition, AcquisitionCounters, MAX_AXES, Sample, SampleFlags};
+use crate::config::{AxisName, Config, ConfigError, Field};
+use crate::identify::multitasking::{Parameter, urad_to_arcsec};
+use crate::metrology::circle_fit::{CircleEstimate, CircleFit};
+use circle::{CircleGeometry, CircleTest};
+use probe::{CAxisSpheres, ProbeRun};
+use run::{RunMonitor, Verdict};
+use seed002::{Procedure, Setup};
+use ssm::{SsmRun, TwoStep};
+
+/// Session state (DESIGN §7a: configure → arm → run → results).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[repr(u8)]
+pub enum SessionState {
+    /// Nothing armed.
+    #[default]
+    Idle = 0,
+    /// Armed: waiting for start.
+    Armed = 1,
+    /// Running: samples go into the estimators.
+    Running = 2,
+    /// Stopped normally: the run's results are valid.
+    Done = 3,
+    /// Aborted (by command or a fault): see [`App::abort_reason`].
+    Aborted = 4,
+}
+
+impl SessionState {
+    /// The name (SCPI `SESSion:STATe?`): `IDLE`, `ARMED`, `RUNNING`, `DONE`, `ABORTED`.
+    pub const fn name(self) -> &'static str {
+        match self {
+            SessionState::Idle => "IDLE",
+            SessionState::Armed => "ARMED",
+            SessionState::Running => "RUNNING",
+            SessionState::Done => "DONE",
+            SessionState::Aborted => "ABORTED",
+        }
+    }
+}
+
+/// A session command (CANopen 0x3002 code = the discriminant; SCPI `SESSion:…`, `*RST`,
+/// `*SAV`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Command {
+    /// Arm a run of the selected pattern and direction (needs Idle, Done or Aborted and the
+    /// pattern's geometry).
+    Arm = 1,
+    /// Start the armed run.
+    Start = 2,
+    /// Stop the running run: results, or an abort if it has none.
+    Stop = 3,
+    /// Abort the armed or running run (no results).
+    Abort = 4,
+    /// Forget the procedures' runs (circle directions, seed 002 steps, two-step, probe
+    /// spheres) and every result (not while a run is armed or running).
+    Clear = 5,
+    /// Reset the application state: a run in progress is aborted, procedures and results are
+    /// forgotten, the state is Idle; the configuration stays (`*RST`, NMT reset node).
+    Reset = 6,
+    /// Store the configuration in non-volatile memory (the shell does it: [`App::take_settings_request`]).
+    StoreSettings = 7,
+    /// Restore the default configuration at the next reset (CiA 301 0x1011).
+    RestoreDefaults = 8,
+}
+
+impl Command {
+    /// The command of a code.
+    pub const fn from_u8(v: u8) -> Option<Self> {
+        Some(match v {
+            1 => Command::Arm,
+            2 => Command::Start,
+            3 => Command::Stop,
+            4 => Command::Abort,
+            5 => Command::Clear,
+            6 => Command::Reset,
+            7 => Command::StoreSettings,
+            8 => Command::RestoreDefaults,
+            _ => return None,
+        })
+    }
+}
+
+/// Why a command was refused (nothing changed).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CommandError {
+    /// The command does not fit the session state; the text says what it needs.
+    WrongState(&'static str),
+    /// Pattern, direction, configuration and procedures do not change while a run is armed
+    /// or running.
+    Busy,
+    /// The armed pattern needs this set-up field, which is not set.
+    Missing(Field),
+    /// The configuration refused the value.
+    Config(ConfigError),
+}
+
+impl CommandError {
+    /// The refusal in words, as two static parts to print one after the other (a field name
+    /// and what is wrong with it): e.g. `("circle_radius", " not set")`.
+    pub fn text(&self) -> (&'static str, &'static str) {
+        match *self {
+            CommandError::WrongState(needs) => (needs, ""),
+            CommandError::Busy => ("not while a run is armed or running", ""),
+            CommandError::Missing(f) => (field_name(f), " not set"),
+            CommandError::Config(ConfigError::OutOfRange { field, .. }) => {
+                (field_name(field), " out of range")
+            }
+            CommandError::Config(ConfigError::Duplicate { .. }) => ("axis name used twice", ""),
+            CommandError::Config(_) => ("configuration refused", ""),
+        }
+    }
+}
+
+/// The user-facing name of a field.
+pub fn field_name(f: Field) -> &'static str {
+    match f {
+        Field::AdcRate => "excitation x samples_per_period",
+        Field::AxisNameDuplicate(_) => "axis name",
+        f => Config::field_info(f).map_or("field", |i| i.name),
+    }
+}
+
+/// The armed run's estimator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[allow(clippy::large_enum_variant)] // one lives in the App; its size is the largest pattern's
+enum RunEstimator {
+    /// Nothing armed (or the last run is over).
+    None,
+    /// CIRCLE: the samples go into [`App::circle`] (both directions live there).
+    Circle,
+    /// A seed 002 step's running fit.
+    Step(Pattern, CircleFit),
+    /// SSM.
+    Ssm(SsmRun),
+    /// PROBE.
+    Probe(ProbeRun),
+}
+
+/// Recorder events waiting for the next sample (commands arrive between samples, without the
+/// recorder at hand).
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Pending {
+    Begin(u32),
+    End(RunEnd),
+}
+
+/// Settings the shell is asked to store.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SettingsRequest {
+    /// Store the running configuration ([`App::config`]).
+    Store,
+    /// Store the defaults, to take effect at the next reset.
+    RestoreDefaults,
+}
+
+/// Where each machine axis is among the encoder inputs: the estimators see samples in the
+/// canonical order X, Y, Z, then the other inputs in input order (the rotary axes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct AxisMap {
+    /// `order[k]` = the input read for canonical slot k.
+    order: [usize; MAX_AXES],
+    identity: bool,
+    /// Canonical slots of the B and C axes, if configured.
+    b: Option<usize>,
+    c: Option<usize>,
+}
+
+impl AxisMap {
+    fn new(cfg: &Config) -> Self {
+        let find = |n: AxisName| cfg.axes.iter().position(|a| a.name == n);
+        let mut order = [0usize; MAX_AXES];
+        let mut used = [false; MAX_AXES];
+        let mut k = 0;
+        for n in [AxisName::X, AxisName::Y, AxisName::Z] {
+            // an unconfigured linear axis reads NaN (slot points at no input)
+            let i = find(n).unwrap_or(MAX_AXES);
+            if let Some(o) = order.get_mut(k) {
+                *o = i;
+            }
+            if let Some(u) = used.get_mut(i) {
+                *u = true;
+            }
+            k += 1;
+        }
+        for (i, u) in used.iter().enumerate() {
+            if !u && k < MAX_AXES {
+                if let Some(o) = order.get_mut(k) {
+                    *o = i;
+                }
+                k += 1;
+            }
+        }
+        let slot = |n: AxisName| {
+            let i = find(n)?;
+            order.iter().position(|&o| o == i)
+        };
+        Self {
+            order,
+            identity: order == [0, 1, 2, 3, 4],
+            b: slot(AxisName::B),
+            c: slot(AxisName::C),
+        }
+    }
+
+    fn canonical(&self, axes: &[f32; MAX_AXES]) -> [f32; MAX_AXES] {
+        if self.identity {
+            return *axes;
+        }
+        self.order.map(|i| axes.get(i).copied().unwrap_or(f32::NAN))
+    }
+}
+
+/// The pod application (module doc). State size: see `cargo bench-m4` / the size report.
+#[derive(Clone, Debug)]
+pub struct App {
+    config: Config,
+    counter_bits: [u32; MAX_AXES],
+    acq: Acquisition,
+    axes: AxisMap,
+    limits: RunLimits,
+    session: SessionState,
+    pattern: Pattern,
+    direction: Direction,
+    abort_reason: Option<AbortReason>,
+    monitor: RunMonitor,
+    estimator: RunEstimator,
+    meta: RunMeta,
+    circle: Option<CircleTest>,
+    seed002: Option<Procedure>,
+    seed002_runs_not_kept: u32,
+    identify_pending: bool,
+    two_step: TwoStep,
+    spheres: CAxisSpheres,
+    touches_outside_run: u32,
+    probe_event: bool,
+    last_touch: Option<Touch>,
+    live: LiveValues,
+    results: Results,
+    pending: heapless::Deque<Pending, 4>,
+    refusal: Option<CommandError>,
+    procedure_note: Option<CommandError>,
+    settings_request: Option<SettingsRequest>,
+    settings_failures: u32,
+    settings_failed: bool,
+    last_flags: SampleFlags,
+}
+
+impl App {
+    /// The application with configuration `config` (validated: a configuration that fails
+    /// [`Config::validate`] is replaced by the defaults) and hardware counters of
+    /// `counter_bits` bits per encoder input. Idle, no results.
+    pub fn new(config: Config, counter_bits: [u32; MAX_AXES]) -> Self {
+        let config = if config.validate().is_ok() {
+            config
+        } else {
+            Config::default()
+        };
+        Self {
+            config,
+            counter_bits,
+            acq: Acquisition::new(&config, counter_bits),
+            axes: AxisMap::new(&config),
+            limits: RunLimits::DEFAULT,
+            session: SessionState::Idle,
+            pattern: Pattern::Circle,
+            direction: Direction::Ccw,
+            abort_reason: None,
+            monitor: RunMonitor::new(RunLimits::DEFAULT),
+            estimator: RunEstimator::None,
+            meta: RunMeta {
+                config,
+                ..RunMeta::ZERO
+            },
+            circle: None,
+            seed002: None,
+            seed002_runs_not_kept: 0,
+            identify_pending: false,
+            two_step: TwoStep::default(),
+            spheres: CAxisSpheres::default(),
+            touches_outside_run: 0,
+            probe_event: false,
+            last_touch: None,
+            live: LiveValues::default(),
+            results: Results::new(),
+            pending: heapless::Deque::new(),
+            refusal: None,
+            procedure_note: None,
+            settings_request: None,
+            settings_failures: 0,
+            settings_failed: false,
+            last_flags: SampleFlags::NONE,
+        }
+    }
+
+    // ------------------------------------------------------------------ read access
+
+    /// The active configuration.
+    pub fn config(&self) -> &Config {
+        &self.config
+    }
+    /// Session state.
+    pub fn session(&self) -> SessionState {
+        self.session
+    }
+    /// Pattern of the current / next run.
+    pub fn pattern(&self) -> Pattern {
+        self.pattern
+    }
+    /// Direction of the current / next run.
+    pub fn direction(&self) -> Direction {
+        self.direction
+    }
+    /// Why the last run was aborted, if it was.
+    pub fn abort_reason(&self) -> Option<AbortReason> {
+        self.abort_reason
+    }
+    /// Accounting of the current / last run.
+    pub fn run_counters(&self) -> RunCounters {
+        self.monitor.counters()
+    }
+    /// The run monitor's limits.
+    pub fn run_limits(&self) -> &RunLimits {
+        &self.limits
+    }
+    /// Number of the current / last run (0 before the first).
+    pub fn run_number(&self) -> u32 {
+        self.meta.run
+    }
+    /// The live values of the latest sample.
+    pub fn live(&self) -> &LiveValues {
+        &self.live
+    }
+    /// The results table.
+    pub fn results(&self) -> &Results {
+        &self.results
+    }
+    /// One result.
+    pub fn result(&self, id: ResultId) -> ResultEntry {
+        self.results.get(id)
+    }
+    /// What the acquisition counted (samples, faults, lost upstream).
+    pub fn acquisition_counters(&self) -> AcquisitionCounters {
+        self.acq.counters
+    }
+    /// The touch-probe debouncer's counters: (accepted, bounces, not re-seated).
+    pub fn probe_counts(&self) -> (u32, u32, u32) {
+        let p = &self.acq.probe;
+        (p.accepted, p.bounces, p.not_reseated)
+    }
+    /// Accepted touches that came while no PROBE run was running (not used).
+    pub fn touches_outside_run(&self) -> u32 {
+        self.touches_outside_run
+    }
+    /// The touch points of the current / last PROBE run, mm (X, Y, Z).
+    pub fn touch_points(&self) -> &[[f64; 3]] {
+        match &self.estimator {
+            RunEstimator::Probe(p) => p.points(),
+            _ => &[],
+        }
+    }
+    /// The latest accepted touch point (any run), input order.
+    pub fn last_touch(&self) -> Option<Touch> {
+        self.last_touch
+    }
+    /// Why the last command was refused (for CANopen's diagnostic object), if one was.
+    pub fn last_refusal(&self) -> Option<CommandError> {
+        self.refusal
+    }
+    /// What the last procedure step could not do although its run had results (e.g. the
+    /// two-step or C-axis identification lacked a set-up field).
+    pub fn procedure_note(&self) -> Option<CommandError> {
+        self.procedure_note
+    }
+    /// Seed 002 runs with results that were not kept because the step already held
+    /// [`seed002::MAX_REPEATS`] runs of that direction.
+    pub fn seed002_runs_not_kept(&self) -> u32 {
+        self.seed002_runs_not_kept
+    }
+    /// The seed 002 procedure of the present set-up, once a step was armed.
+    pub fn seed002(&self) -> Option<&Procedure> {
+        self.seed002.as_ref()
+    }
+    /// Settings saves that failed (reported by the shell).
+    pub fn settings_failures(&self) -> u32 {
+        self.settings_failures
+    }
+    /// True while an identification waits for [`run_pending_job`](Self::run_pending_job).
+    pub fn job_pending(&self) -> bool {
+        self.identify_pending
+    }
+    /// The header of the current / last run.
+    pub fn run_meta(&self) -> &RunMeta {
+        &self.meta
+    }
+
+    // ------------------------------------------------------------------ commands
+
+    fn refuse<T>(&mut self, e: CommandError) -> Result<T, CommandError> {
+        self.refusal = Some(e);
+        Err(e)
+    }
+
+    fn idle(&self) -> bool {
+        !matches!(self.session, SessionState::Armed | SessionState::Running)
+    }
+
+    /// Selects the pattern of the next run (not while a run is armed or running).
+    pub fn set_pattern(&mut self, p: Pattern) -> Result<(), CommandError> {
+        if !self.idle() {
+            return self.refuse(CommandError::Busy);
+        }
+        self.pattern = p;
+        Ok(())
+    }
+
+    /// Selects the direction of the next run (not while a run is armed or running).
+    pub fn set_direction(&mut self, d: Direction) -> Result<(), CommandError> {
+        if !self.idle() {
+            return self.refuse(CommandError::Busy);
+        }
+        self.direction = d;
+        Ok(())
+    }
+
+    /// Changes the configuration (not while a run is armed or running): `edit` works on a copy,
+    /// which replaces the configuration only if it is valid. The acquisition follows at once,
+    /// keeping the axis references, sample counter, temperature and counters.
+    pub fn configure(&mut self, edit: impl FnOnce(&mut Config)) -> Result<(), CommandError> {
+        if !self.idle() {
+            return self.refuse(CommandError::Busy);
+        }
+        let mut next = self.config;
+        if let Err(e) = next.try_update(edit) {
+            return self.refuse(CommandError::Config(e));
+        }
+        self.apply_config(next);
+        Ok(())
+    }
+
+    /// Sets one numeric field ([`Config::set`]: range, whole numbers, codes) — the common case
+    /// of [`configure`](Self::configure).
+    pub fn set_field(&mut self, f: Field, v: f64) -> Result<(), CommandError> {
+        if let Err(e) = Config::check_write(f, v) {
+            return self.refuse(CommandError::Config(e));
+        }
+        self.configure(|c| c.set_field(f, v))
+    }
+
+    fn apply_config(&mut self, next: Config) {
+        self.config = next;
+        self.acq.reconfigure(&next, self.counter_bits);
+        self.axes = AxisMap::new(&next);
+    }
+
+    /// Carries out a session command, or refuses it (nothing changes; the reason is kept for
+    /// [`last_refusal`](Self::last_refusal)).
+    pub fn execute(&mut self, cmd: Command) -> Result<(), CommandError> {
+        let r = self.execute_inner(cmd);
+        self.update_status();
+        r
+    }
+
+    fn execute_inner(&mut self, cmd: Command) -> Result<(), CommandError> {
+        use SessionState as S;
+        match cmd {
+            Command::Arm => {
+                if !self.idle() {
+                    return self
+                        .refuse(CommandError::WrongState("ARM needs IDLE, DONE or ABORTED"));
+                }
+                self.arm()
+            }
+            Command::Start => {
+                if self.session != S::Armed {
+                    return self.refuse(CommandError::WrongState("START needs ARMED"));
+                }
+                self.session = S::Running;
+                self.monitor.start();
+                Ok(())
+            }
+            Command::Stop => {
+                if self.session != S::Running {
+                    return self.refuse(CommandError::WrongState("STOP needs RUNNING"));
+                }
+                self.stop();
+                Ok(())
+            }
+            Command::Abort => {
+                if self.idle() {
+                    return self.refuse(CommandError::WrongState("ABORT needs ARMED or RUNNING"));
+                }
+                self.abort(AbortReason::ByCommand);
+                Ok(())
+            }
+            Command::Clear => {
+                if !self.idle() {
+                    return self.refuse(CommandError::Busy);
+                }
+                self.clear_procedures();
+                Ok(())
+            }
+            Command::Reset => {
+                if !self.idle() {
+                    self.abort(AbortReason::ByCommand);
+                }
+                self.clear_procedures();
+                self.session = S::Idle;
+                self.abort_reason = None;
+                Ok(())
+            }
+            Command::StoreSettings => {
+                self.settings_request = Some(SettingsRequest::Store);
+                Ok(())
+            }
+            Command::RestoreDefaults => {
+                self.settings_request = Some(SettingsRequest::RestoreDefaults);
+                Ok(())
+            }
+        }
+    }
+
+    /// The settings the shell is asked to store (taken once).
+    pub fn take_settings_request(&mut self) -> Option<SettingsRequest> {
+        self.settings_request.take()
+    }
+
+    /// The shell reports how a settings save went (a failure sets the status word's error bit
+    /// until the next successful save, and is counted).
+    pub fn settings_stored(&mut self, ok: bool) {
+        self.settings_failed = !ok;
+        if !ok {
+            self.settings_failures = self.settings_failures.saturating_add(1);
+        }
+        self.update_status();
+    }
+
+    fn clear_procedures(&mut self) {
+        self.circle = None;
+        self.seed002 = None;
+        self.identify_pending = false;
+        self.two_step.clear();
+        self.spheres.clear();
+        self.estimator = RunEstimator::None;
+        self.results = Results::new();
+        self.procedure_note = None;
+    }
+
+    fn arm(&mut self) -> Result<(), CommandError> {
+        let setup = self.config.setup;
+        let est = match self.pattern {
+            Pattern::Circle => {
+                let g = match CircleGeometry::from_config(&setup) {
+                    Ok(g) => g,
+                    Err(f) => return self.refuse(CommandError::Missing(f)),
+                };
+                match self.circle.as_mut() {
+                    Some(c) => c.begin_run(g, self.direction),
+                    None => self.circle = Some(CircleTest::new(g)),
+                }
+                RunEstimator::Circle
+            }
+            Pattern::Ssm => match SsmRun::new(&setup, self.config.bar_length_mm) {
+                Ok(r) => RunEstimator::Ssm(r),
+                Err(f) => return self.refuse(CommandError::Missing(f)),
+            },
+            Pattern::Probe => RunEstimator::Probe(ProbeRun::new()),
+            step => {
+                let s = match Setup::from_config(&setup) {
+                    Ok(s) => s,
+                    Err(f) => return self.refuse(CommandError::Missing(f)),
+                };
+                if self.seed002.as_ref().map(|p| *p.setup()) != Some(s) {
+                    // a new set-up starts a new procedure
+                    self.seed002 = Some(Procedure::new(s));
+                    self.identify_pending = false;
+                    self.results.clear(ResultId::EBxX, ResultId::CorrBetaCz);
+                }
+                let fit = match self.seed002.as_ref() {
+                    Some(p) => p.run_fit(step),
+                    None => return self.refuse(CommandError::WrongState("no procedure")),
+                };
+                RunEstimator::Step(step, fit)
+            }
+        };
+        self.estimator = est;
+        self.session = SessionState::Armed;
+        self.abort_reason = None;
+        self.monitor = RunMonitor::new(self.limits);
+        self.results.clear(ResultId::EccU, ResultId::Arc);
+        match self.pattern {
+            Pattern::Ssm => self.results.clear(ResultId::SsmEx, ResultId::SsmStations),
+            Pattern::Probe => self
+                .results
+                .clear(ResultId::SphereX, ResultId::SphereResidualRms),
+            _ => {}
+        }
+        self.meta = RunMeta {
+            run: self.meta.run.wrapping_add(1),
+            pattern: self.pattern,
+            direction: self.direction,
+            config: self.config,
+        };
+        self.queue(Pending::Begin(self.meta.run));
+        Ok(())
+    }
+
+    fn queue(&mut self, p: Pending) {
+        if self.pending.is_full() {
+            // only runs without a single sample can pile up here: the oldest goes
+            self.pending.pop_front();
+        }
+        let _ = self.pending.push_back(p);
+    }
+
+    fn end_run(&mut self, abort: Option<AbortReason>) {
+        self.queue(Pending::End(RunEnd {
+            run: self.meta.run,
+            abort,
+            counters: self.monitor.counters(),
+        }));
+    }
+
+    fn abort(&mut self, reason: AbortReason) {
+        self.monitor.end();
+        self.session = SessionState::Aborted;
+        self.abort_reason = Some(reason);
+        self.results.clear(ResultId::EccU, ResultId::Arc);
+        self.end_run(Some(reason));
+    }
+
+    fn publish_run_fit(&mut self, e: &CircleEstimate, arc_deg: f32) {
+        let r = &mut self.results;
+        let [eu, ev] = e.e_um;
+        let [uu, uv] = e.u_e_um;
+        r.set(ResultId::EccU, f64::from(eu), f64::from(uu));
+        r.set(ResultId::EccV, f64::from(ev), f64::from(uv));
+        r.set(ResultId::R0, f64::from(e.r0_um), f64::from(e.u_r0_um));
+        r.set(
+            ResultId::ResidualRms,
+            f64::from(e.residual_rms_um),
+            f64::NAN,
+        );
+        r.set(ResultId::Arc, f64::from(arc_deg), f64::NAN);
+    }
+
+    fn stop(&mut self) {
+        if let Err(reason) = self.monitor.stop() {
+            self.abort(reason);
+            return;
+        }
+        let d = self.direction;
+        let setup = self.config.setup;
+        self.procedure_note = None;
+        let ok = match &mut self.estimator {
+            RunEstimator::None => false,
+            RunEstimator::Circle => match self.circle.as_mut() {
+                Some(c) => match c.finish_run(d, &mut self.results) {
+                    Ok(e) => {
+                        let arc = c.arc_deg(d);
+                        self.publish_run_fit(&e, arc);
+                        true
+                    }
+                    Err(_) => false,
+                },
+                None => false,
+            },
+            RunEstimator::Step(step, fit) => {
+                let (step, fit) = (*step, *fit);
+                match fit.estimate() {
+                    Ok(e) => {
+                        self.publish_run_fit(&e, fit.arc_deg());
+                        self.record_step(step, d, e);
+                        true
+                    }
+                    Err(_) => false,
+                }
+            }
+            RunEstimator::Ssm(run) => match run.finish() {
+                Ok(m) => {
+                    ssm::publish(&m, &mut self.results);
+                    match self.two_step.on_measurement(&setup, &m, &mut self.results) {
+                        Err(ssm::TwoStepFailure::Missing(f)) => {
+                            self.procedure_note = Some(CommandError::Missing(f));
+                        }
+                        Err(ssm::TwoStepFailure::Identify(_)) => {
+                            self.procedure_note =
+                                Some(CommandError::WrongState("two-step identification failed"));
+                        }
+                        Ok(_) => {}
+                    }
+                    true
+                }
+                Err(_) => false,
+            },
+            RunEstimator::Probe(run) => match run.finish() {
+                Ok(fit) => {
+                    probe::publish(&fit, &mut self.results);
+                    match self.spheres.on_sphere(run, &fit, &setup, &mut self.results) {
+                        Err(probe::CAxisFailure::Missing(f)) => {
+                            self.procedure_note = Some(CommandError::Missing(f));
+                        }
+                        Err(probe::CAxisFailure::Identify(_)) => {
+                            self.procedure_note =
+                                Some(CommandError::WrongState("C-axis identification failed"));
+                        }
+                        Ok(_) => {}
+                    }
+                    true
+                }
+                Err(_) => false,
+            },
+        };
+        if ok {
+            self.session = SessionState::Done;
+            self.end_run(None);
+        } else {
+            self.abort(AbortReason::NotObservable);
+        }
+    }
+
+    fn record_step(&mut self, step: Pattern, d: Direction, e: CircleEstimate) {
+        let Some(p) = self.seed002.as_mut() else {
+            return;
+        };
+        if p.record(step, d, e).is_err() {
+            self.seed002_runs_not_kept = self.seed002_runs_not_kept.saturating_add(1);
+            return;
+        }
+        if let (Ok(se), Some(k)) = (p.step_eccentricity(step), step.seed002_step()) {
+            let ids = [
+                (ResultId::EBxX, ResultId::EBxZ),
+                (ResultId::EByX, ResultId::EByZ),
+                (ResultId::ECrX, ResultId::ECrY),
+                (ResultId::ECaX, ResultId::ECaY),
+                (ResultId::ECr2X, ResultId::ECr2Y),
+            ];
+            if let Some(&(a, b)) = ids.get(k) {
+                let [e1, e2] = se.e_um;
+                let [u1, u2] = se.u_e_um;
+                self.results.set(a, e1, u1);
+                self.results.set(b, e2, u2);
+            }
+        }
+        if p.missing().is_none() {
+            self.identify_pending = true;
+        }
+    }
+
+    /// Runs a pending identification (the seed 002 procedure once every step has its CW and
+    /// CCW runs: model mode, thesis mode, corrections) into the results. Returns whether there
+    /// was one. Takes seconds on the M4: the shell calls it where that does no harm.
+    pub fn run_pending_job(&mut self) -> bool {
+        if !self.identify_pending {
+            return false;
+        }
+        self.identify_pending = false;
+        self.results.clear(ResultId::DxBt, ResultId::CorrBetaCz);
+        let Some(id) = self.seed002.as_ref().map(Procedure::identify) else {
+            return true;
+        };
+        let Ok(id) = id else {
+            self.procedure_note = Some(CommandError::WrongState("seed 002 identification failed"));
+            return true;
+        };
+        let r = &mut self.results;
+        let m = &id.model;
+        let x = m.result.deviations.to_array();
+        const MODEL: [(Parameter, ResultId, ResultId); 10] = [
+            (Parameter::DxBt, ResultId::DxBt, ResultId::CorrDxBt),
+            (Parameter::DzBt, ResultId::DzBt, ResultId::CorrDzBt),
+            (Parameter::AlphaBt, ResultId::AlphaBt, ResultId::CorrAlphaBt),
+            (Parameter::AlphaXb, ResultId::AlphaXb, ResultId::CorrAlphaXb),
+            (Parameter::BetaXb, ResultId::BetaXb, ResultId::CorrBetaXb),
+            (Parameter::GammaXb, ResultId::GammaXb, ResultId::CorrGammaXb),
+            (Parameter::DxCz, ResultId::DxCz, ResultId::CorrDxCz),
+            (Parameter::DyCz, ResultId::DyCz, ResultId::CorrDyCz),
+            (Parameter::AlphaCz, ResultId::AlphaCz, ResultId::CorrAlphaCz),
+            (Parameter::BetaCz, ResultId::BetaCz, ResultId::CorrBetaCz),
+        ];
+        for (p, id, corr) in MODEL {
+            let i = p.index();
+            let (v, u) = (
+                x.get(i).copied().unwrap_or(f64::NAN),
+                m.std_uncertainty.get(i).copied().unwrap_or(f64::NAN),
+            );
+            let (v, u) = if p.is_positional() {
+                (v, u)
+            } else {
+                (urad_to_arcsec(v), urad_to_arcsec(u))
+            };
+            r.set(id, v, u);
+            r.set(corr, -v, u);
+        }
+        r.set(
+            ResultId::ModelResidualRms,
+            m.result.residual_rms_um,
+            f64::NAN,
+        );
+        r.set(ResultId::ModelCondition, m.result.condition, f64::NAN);
+        if let Ok(t) = &id.thesis {
+            let (d, u) = (&t.deviations, &t.std_uncertainty);
+            for (id, v, uu) in [
+                (ResultId::ThAlphaCz, d.alpha_cz_arcsec, u.alpha_cz_arcsec),
+                (ResultId::ThBetaCz, d.beta_cz_arcsec, u.beta_cz_arcsec),
+                (ResultId::ThAlphaXb, d.alpha_xb_arcsec, u.alpha_xb_arcsec),
+                (ResultId::ThBetaXb, d.beta_xb_arcsec, u.beta_xb_arcsec),
+                (ResultId::ThGammaXb, d.gamma_xb_arcsec, u.gamma_xb_arcsec),
+                (ResultId::ThAlphaBt, d.alpha_bt_arcsec, u.alpha_bt_arcsec),
+                (
+                    ResultId::ThDxCzMinusDxBt,
+                    d.dx_cz_minus_dx_bt_um,
+                    u.dx_cz_minus_dx_bt_um,
+                ),
+                (ResultId::ThDyCz, d.dy_cz_um, u.dy_cz_um),
+            ] {
+                r.set(id, v, uu);
+            }
+            r.set(ResultId::ThDzBtSetting, t.dz_bt_setting_um, f64::NAN);
+        }
+        true
+    }
+
+    // ------------------------------------------------------------------ samples
+
+    /// Homes the axes: the hardware counters reading `raw` are at `positions` (input order,
+    /// mm / degrees).
+    pub fn reference_axes(&mut self, raw: [u32; MAX_AXES], positions: [f64; MAX_AXES]) {
+        self.acq.reference_axes(raw, positions);
+    }
+
+    /// A thermistor ADC code (12-bit) from the thermistor task.
+    pub fn on_thermistor(
+        &mut self,
+        code: u16,
+    ) -> Result<f32, crate::acquisition::thermal::ThermistorFault> {
+        self.acq.update_temperature(code)
+    }
+
+    /// The probe input level at `t_us` (`true` = seated), once per sample period.
+    pub fn on_probe_level(&mut self, t_us: u64, seated: bool) {
+        self.acq.probe.poll(t_us, seated);
+    }
+
+    /// A probe trigger edge whose raw counters were latched at `t_us`. An accepted touch
+    /// during a PROBE run is kept and recorded; the next sample carries `PROBE_EVENT`.
+    pub fn on_probe_edge<R: Recorder>(
+        &mut self,
+        t_us: u64,
+        raw: [u32; MAX_AXES],
+        rec: &mut R,
+    ) -> TriggerOutcome {
+        let outcome = self.acq.probe_trigger(t_us, raw);
+        if let TriggerOutcome::Accepted(latch) = outcome {
+            self.on_touch(&latch, rec);
+        }
+        outcome
+    }
+
+    fn on_touch<R: Recorder>(&mut self, latch: &ProbeLatch, rec: &mut R) {
+        self.flush(rec);
+        self.probe_event = true;
+        let t = Touch {
+            t_us: latch.t_us,
+            axes: self.acq.positions(&latch.counts),
+        };
+        self.last_touch = Some(t);
+        self.touch(&t, rec);
+    }
+
+    /// A recorded touch point (replay): as an accepted probe edge of the run.
+    pub fn on_recorded_touch<R: Recorder>(&mut self, t: &Touch, rec: &mut R) {
+        self.flush(rec);
+        self.last_touch = Some(*t);
+        self.touch(t, rec);
+    }
+
+    fn touch<R: Recorder>(&mut self, t: &Touch, rec: &mut R) {
+        let running = self.session == SessionState::Running;
+        match &mut self.estimator {
+            RunEstimator::Probe(run) if running => {
+                let a = self.axes.canonical(&t.axes);
+                let at = |k: Option<usize>| {
+                    k.and_then(|k| a.get(k))
+                        .copied()
+                        .map_or(f64::NAN, f64::from)
+                };
+                let [x, y, z, _, _] = a;
+                run.touch(
+                    [f64::from(x), f64::from(y), f64::from(z)],
+                    at(self.axes.b),
+                    at(self.axes.c),
+                );
+                rec.touch(t);
+            }
+            _ => self.touches_outside_run = self.touches_outside_run.saturating_add(1),
+        }
+    }
+
+    /// One sample period's readings: the LVDT block's demodulation (or a DC reading), the raw
+    /// encoder counters, the cumulative count of samples lost upstream. Turns them into a
+    /// calibrated [`Sample`] and processes it ([`on_sample`](Self::on_sample)).
+    pub fn on_raw_sample<R: Recorder>(
+        &mut self,
+        t_us: u64,
+        lvdt: Result<LvdtReading, DemodError>,
+        raw: [u32; MAX_AXES],
+        lost_total: u32,
+        rec: &mut R,
+    ) -> Sample {
+        let probe_event = core::mem::take(&mut self.probe_event);
+        let s = self.acq.sample(t_us, lvdt, raw, lost_total, probe_event);
+        self.on_sample(&s, rec);
+        s
+    }
+
+    /// The LVDT reading of a DC conditioner voltage under the configured zero and span.
+    pub fn dc_reading(&self, volts: f32) -> LvdtReading {
+        self.acq.dc_reading(volts)
+    }
+
+    /// Hands the run begins and ends pending since the last sample to `rec`. Samples do it
+    /// themselves; a shell calls it after the commands it passed on, so that a stopped run's
+    /// end reaches the log and the stream without waiting for the next sample.
+    pub fn flush<R: Recorder>(&mut self, rec: &mut R) {
+        let mut skipped_run = None;
+        while let Some(p) = self.pending.pop_front() {
+            match p {
+                Pending::Begin(run) if run == self.meta.run => rec.begin_run(&self.meta),
+                // armed and over before its first sample, then re-armed: nothing to record
+                Pending::Begin(run) => skipped_run = Some(run),
+                Pending::End(end) if Some(end.run) != skipped_run => rec.end_run(&end),
+                Pending::End(_) => {}
+            }
+        }
+    }
+
+    /// Processes one calibrated sample: the run monitor, the armed pattern's estimators, the
+    /// live values; a sample of the run is recorded.
+    pub fn on_sample<R: Recorder>(&mut self, s: &Sample, rec: &mut R) {
+        self.flush(rec);
+        self.last_flags = s.flags;
+        let live = &mut self.live;
+        live.sample_counter = s.seq;
+        let lvdt_ok = !s
+            .flags
+            .intersects(SampleFlags::LVDT_OPEN.with(SampleFlags::LVDT_OVER_RANGE));
+        live.set(Live::DeltaL, lvdt_ok.then_some(s.delta_l_um));
+        live.set(
+            Live::Temp,
+            (!s.flags.contains(SampleFlags::TEMPERATURE_FAULT)).then_some(s.temp_c),
+        );
+        if self.session == SessionState::Running {
+            let verdict = self.monitor.on_sample(s);
+            if verdict != Verdict::NotRunning {
+                rec.sample(s);
+            }
+            match verdict {
+                Verdict::Use => {
+                    let c = Sample {
+                        axes: self.axes.canonical(&s.axes),
+                        ..*s
+                    };
+                    self.feed(&c);
+                }
+                Verdict::Abort(_, reason) => {
+                    self.abort(reason);
+                    self.flush(rec);
+                }
+                Verdict::Skip(_) | Verdict::NotRunning => {}
+            }
+        }
+        self.refresh_live();
+        self.update_status();
+    }
+
+    fn feed(&mut self, s: &Sample) {
+        let d = self.direction;
+        match &mut self.estimator {
+            RunEstimator::Circle => {
+                if let Some(c) = self.circle.as_mut() {
+                    c.update(s, d);
+                }
+            }
+            RunEstimator::Step(_, fit) => {
+                fit.update(s);
+            }
+            RunEstimator::Ssm(run) => run.update(s),
+            RunEstimator::Probe(_) | RunEstimator::None => {}
+        }
+    }
+
+    fn refresh_live(&mut self) {
+        let running = self.session == SessionState::Running;
+        let fit = match (&self.estimator, running) {
+            (RunEstimator::Circle, true) => self
+                .circle
+                .as_ref()
+                .and_then(|c| c.live(self.direction).ok()),
+            (RunEstimator::Step(_, f), true) => f.estimate().ok(),
+            _ => None,
+        };
+        let e = match (&self.estimator, running) {
+            (RunEstimator::Ssm(r), true) => r.live(),
+            _ => [None; 3],
+        };
+        let live = &mut self.live;
+        live.set(Live::EccU, fit.map(|f| f.e_um[0]));
+        live.set(Live::EccV, fit.map(|f| f.e_um[1]));
+        live.set(Live::R0, fit.map(|f| f.r0_um));
+        let [ex, ey, ez] = e;
+        live.set(Live::SsmEx, ex);
+        live.set(Live::SsmEy, ey);
+        live.set(Live::SsmEz, ez);
+    }
+
+    fn update_status(&mut self) {
+        let l = &self.live;
+        let all = |ks: &[Live]| ks.iter().all(|k| l.get(*k).is_some());
+        let live_valid = match self.pattern {
+            _ if self.session != SessionState::Running => false,
+            Pattern::Ssm => all(&[Live::SsmEx, Live::SsmEy, Live::SsmEz]),
+            Pattern::Probe => false,
+            _ => all(&[Live::EccU, Live::EccV, Live::R0]),
+        };
+        let fault = self
+            .last_flags
+            .intersects(SampleFlags::INVALID_FOR_METROLOGY.with(SampleFlags::TEMPERATURE_FAULT))
+            || self.settings_failed;
+        let mut extra = 0;
+        if live_valid {
+            extra |= StatusWord::LIVE_VALID;
+        }
+        if self.identify_pending {
+            extra |= StatusWord::IDENTIFYING;
+        }
+        if fault {
+            extra |= StatusWord::ERROR;
+        }
+        self.live.status = StatusWord::new(self.last_flags, self.session, extra);
+    }
+}

@@ -1,0 +1,262 @@
+//! The results table: every figure the pod computes from its runs, with its unit, standard
+//! uncertainty and validity (CANopen 0x4000–0x4002, SCPI `FETCh:RESult?`). The list below is the
+//! one catalogue: [`ResultId`] names an entry, [`RESULTS`] gives its name and unit and
+//! [`RESULT_MEANINGS`] its meaning in the same order, and the EDS and the docs are generated
+//! from it.
+//!
+//! A result that has not been computed for the present runs is **invalid**: CANopen answers
+//! "no data available" (0x0800 0024), SCPI -230 with its name. Never 0.0.
+//! A standard uncertainty of NaN means "not evaluated" (the method does not state one yet).
+
+/// Name and unit of a result.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ResultInfo {
+    /// Name (CANopen sub-entry name, SCPI `FETCh:RESult? <name>`).
+    pub name: &'static str,
+    /// Unit (`um`, `urad`, `arcsec`, `mm`, `deg`, `um/m`, `ms`, `1`).
+    pub unit: &'static str,
+}
+
+macro_rules! results {
+    ($($id:ident => ($name:literal, $unit:literal, $what:literal),)*) => {
+        /// A result of the table (the discriminant is its index: CANopen sub-index − 1).
+        #[derive(Clone, Copy, Debug, PartialEq, Eq)]
+        #[repr(u8)]
+        #[allow(non_camel_case_types)]
+        pub enum ResultId {
+            $(#[doc = $what] $id,)*
+        }
+        /// Name and unit of every result, in [`ResultId`] order.
+        pub const RESULTS: &[ResultInfo] = &[$(ResultInfo { name: $name, unit: $unit },)*];
+        /// What each result is, in [`ResultId`] order (for the EDS and the docs: kept apart from
+        /// [`RESULTS`] so the firmware does not carry the text).
+        pub const RESULT_MEANINGS: &[&str] = &[$($what,)*];
+        impl ResultId {
+            /// Every result, in order.
+            pub const ALL: &[ResultId] = &[$(ResultId::$id,)*];
+        }
+    };
+}
+
+results! {
+    EccU => ("ecc_u", "um", "Last circular run (CIRCLE or seed 002 step): eccentricity along the pattern plane's first axis (limaçon fit; seed 002 §3.5)"),
+    EccV => ("ecc_v", "um", "Last circular run: eccentricity along the pattern plane's second axis"),
+    R0 => ("r0", "um", "Last circular run: radius change r0 (mean ΔL of the fit)"),
+    ResidualRms => ("residual_rms", "um", "Last circular run: RMS of the fit residuals"),
+    Arc => ("arc", "deg", "Last circular run: arc turned"),
+    GCcw => ("G_ccw", "um", "ISO 230-4 circular deviation G (2022: circular error), CCW"),
+    GCw => ("G_cw", "um", "ISO 230-4 circular deviation G, CW"),
+    FMaxCcw => ("F_max_ccw", "um", "ISO 230-4 radial deviation F_max about the socket, CCW"),
+    FMinCcw => ("F_min_ccw", "um", "ISO 230-4 radial deviation F_min about the socket, CCW"),
+    FMaxCw => ("F_max_cw", "um", "ISO 230-4 radial deviation F_max about the socket, CW"),
+    FMinCw => ("F_min_cw", "um", "ISO 230-4 radial deviation F_min about the socket, CW"),
+    GBidir => ("G_bidir", "um", "ISO 230-4 bi-directional circular deviation G(b) (latest CCW and CW runs)"),
+    H => ("H", "um", "ISO 230-4 circular hysteresis H (latest CCW and CW runs)"),
+    RadialBidir => ("radial_bidir", "um", "ISO 230-4 mean bi-directional radial deviation"),
+    Squareness => ("squareness", "urad", "Ball-bar diagnosis: out-of-squareness of the plane's axes (mean of CCW and CW; full circles)"),
+    ScaleMismatch => ("scale_mismatch", "um/m", "Ball-bar diagnosis: scale mismatch k_u − k_v"),
+    ReversalU => ("reversal_u", "um", "Ball-bar diagnosis: reversal step (backlash) of the first axis"),
+    ReversalV => ("reversal_v", "um", "Ball-bar diagnosis: reversal step (backlash) of the second axis"),
+    CyclicAmplitude => ("cyclic_amplitude", "um", "Ball-bar diagnosis: amplitude of the largest residual harmonic of order 3–16"),
+    CyclicOrder => ("cyclic_order", "1", "Ball-bar diagnosis: order of that harmonic (cycles per revolution)"),
+    ServoMismatch => ("servo_mismatch", "ms", "Ball-bar diagnosis: servo mismatch τ_u − τ_v (needs circle_feed)"),
+    EBxX => ("e_BX_x", "um", "Seed 002 step BX: eccentricity ex (mean of CW/CCW over the repeats)"),
+    EBxZ => ("e_BX_z", "um", "Seed 002 step BX: eccentricity ez"),
+    EByX => ("e_BY_x", "um", "Seed 002 step BY: eccentricity ex"),
+    EByZ => ("e_BY_z", "um", "Seed 002 step BY: eccentricity ez"),
+    ECrX => ("e_CR_x", "um", "Seed 002 step CR: eccentricity ex"),
+    ECrY => ("e_CR_y", "um", "Seed 002 step CR: eccentricity ey"),
+    ECaX => ("e_CA_x", "um", "Seed 002 step CA: eccentricity ex"),
+    ECaY => ("e_CA_y", "um", "Seed 002 step CA: eccentricity ey"),
+    ECr2X => ("e_CR2_x", "um", "Seed 002 step CR2 (CR′): eccentricity ex"),
+    ECr2Y => ("e_CR2_y", "um", "Seed 002 step CR2 (CR′): eccentricity ey"),
+    DxBt => ("dx_BT", "um", "Seed 002 model mode (literal HTM model): δx_BT"),
+    DzBt => ("dz_BT", "um", "Seed 002 model mode: δz_BT"),
+    AlphaBt => ("alpha_BT", "arcsec", "Seed 002 model mode: α_BT"),
+    AlphaXb => ("alpha_XB", "arcsec", "Seed 002 model mode: α_XB"),
+    BetaXb => ("beta_XB", "arcsec", "Seed 002 model mode: β_XB"),
+    GammaXb => ("gamma_XB", "arcsec", "Seed 002 model mode: γ_XB"),
+    DxCz => ("dx_CZ", "um", "Seed 002 model mode: δx_CZ"),
+    DyCz => ("dy_CZ", "um", "Seed 002 model mode: δy_CZ"),
+    AlphaCz => ("alpha_CZ", "arcsec", "Seed 002 model mode: α_CZ"),
+    BetaCz => ("beta_CZ", "arcsec", "Seed 002 model mode: β_CZ"),
+    ModelResidualRms => ("model_residual_rms", "um", "Seed 002 model mode: RMS of the eccentricity residuals"),
+    ModelCondition => ("model_condition", "1", "Seed 002 model mode: condition number of the last Gauss–Newton step"),
+    ThAlphaCz => ("th_alpha_CZ", "arcsec", "Seed 002 thesis mode (eqs 4.10–4.18): α_CZ"),
+    ThBetaCz => ("th_beta_CZ", "arcsec", "Seed 002 thesis mode: β_CZ"),
+    ThAlphaXb => ("th_alpha_XB", "arcsec", "Seed 002 thesis mode: α_XB"),
+    ThBetaXb => ("th_beta_XB", "arcsec", "Seed 002 thesis mode: β_XB"),
+    ThGammaXb => ("th_gamma_XB", "arcsec", "Seed 002 thesis mode: γ_XB"),
+    ThAlphaBt => ("th_alpha_BT", "arcsec", "Seed 002 thesis mode: α_BT"),
+    ThDxCzMinusDxBt => ("th_dx_CZ_minus_dx_BT", "um", "Seed 002 thesis mode: δx_CZ − δx_BT"),
+    ThDyCz => ("th_dy_CZ", "um", "Seed 002 thesis mode: δy_CZ"),
+    ThDzBtSetting => ("th_dz_BT_setting", "um", "Seed 002 thesis mode: the δz_BT (tool-length) setting ex_BX"),
+    CorrDxBt => ("corr_dx_BT", "um", "Seed 002 correction (compensation = −error) of δx_BT"),
+    CorrDzBt => ("corr_dz_BT", "um", "Seed 002 correction of δz_BT"),
+    CorrAlphaBt => ("corr_alpha_BT", "arcsec", "Seed 002 correction of α_BT"),
+    CorrAlphaXb => ("corr_alpha_XB", "arcsec", "Seed 002 correction of α_XB"),
+    CorrBetaXb => ("corr_beta_XB", "arcsec", "Seed 002 correction of β_XB"),
+    CorrGammaXb => ("corr_gamma_XB", "arcsec", "Seed 002 correction of γ_XB"),
+    CorrDxCz => ("corr_dx_CZ", "um", "Seed 002 correction of δx_CZ"),
+    CorrDyCz => ("corr_dy_CZ", "um", "Seed 002 correction of δy_CZ"),
+    CorrAlphaCz => ("corr_alpha_CZ", "arcsec", "Seed 002 correction of α_CZ"),
+    CorrBetaCz => ("corr_beta_CZ", "arcsec", "Seed 002 correction of β_CZ"),
+    SsmEx => ("ssm_ex", "um", "SSM run: position error E_x from the dwell stations (seed 000 eq 1, Gauss–Newton refined)"),
+    SsmEy => ("ssm_ey", "um", "SSM run: position error E_y"),
+    SsmEz => ("ssm_ez", "um", "SSM run: position error E_z"),
+    SsmCond => ("ssm_cond", "1", "SSM run: condition number of the station directions"),
+    SsmResidualRms => ("ssm_residual_rms", "um", "SSM run: RMS residual of the station equations (0 for exactly three)"),
+    SsmStations => ("ssm_stations", "1", "SSM run: dwell stations used"),
+    TsDeltaAlpha => ("ts_d_alpha", "urad", "Seed 000 two-step: Δα (RRTTT, TTTRR, RTTTR table)"),
+    TsDeltaBeta => ("ts_d_beta", "urad", "Seed 000 two-step: Δβ (RRTTT, RTTTR spindle)"),
+    TsDeltaGamma => ("ts_d_gamma", "urad", "Seed 000 two-step: Δγ (TTTRR)"),
+    SphereX => ("sphere_x", "mm", "PROBE run: fitted sphere centre X (stylus-ball centre path)"),
+    SphereY => ("sphere_y", "mm", "PROBE run: fitted sphere centre Y"),
+    SphereZ => ("sphere_z", "mm", "PROBE run: fitted sphere centre Z"),
+    SphereRadius => ("sphere_radius", "mm", "PROBE run: fitted radius (sphere + stylus ball − pre-travel)"),
+    SphereResidualRms => ("sphere_residual_rms", "um", "PROBE run: RMS residual of the touch points"),
+    ProbeAlphaCz => ("probe_alpha_CZ", "arcsec", "Seed 002 chapter 5 touch-probe C axis (spheres at C = 0/90/180/270°, B = 0): α_CZ"),
+    ProbeBetaCz => ("probe_beta_CZ", "arcsec", "Touch-probe C axis: β_CZ"),
+    ProbeDxCz => ("probe_dx_CZ", "um", "Touch-probe C axis: δx_CZ"),
+    ProbeDyCz => ("probe_dy_CZ", "um", "Touch-probe C axis: δy_CZ"),
+}
+
+/// Number of results.
+pub const RESULT_COUNT: usize = RESULTS.len();
+
+impl ResultId {
+    /// Its index in [`RESULTS`].
+    pub const fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Its name and unit.
+    pub fn info(self) -> ResultInfo {
+        RESULTS
+            .get(self.index())
+            .copied()
+            .unwrap_or(ResultInfo { name: "", unit: "" })
+    }
+
+    /// What it is (docs and EDS).
+    pub fn meaning(self) -> &'static str {
+        RESULT_MEANINGS.get(self.index()).copied().unwrap_or("")
+    }
+
+    /// The result at `index`.
+    pub fn from_index(index: usize) -> Option<Self> {
+        Self::ALL.get(index).copied()
+    }
+
+    /// The result called `name` (any letter case).
+    pub fn from_name(name: &[u8]) -> Option<Self> {
+        RESULTS
+            .iter()
+            .position(|r| r.name.as_bytes().eq_ignore_ascii_case(name))
+            .and_then(Self::from_index)
+    }
+}
+
+impl ResultId {
+    /// The results a run of `pattern` gives by itself (its procedure's results — the other
+    /// direction, the identification — are the rest of the table).
+    pub fn of_run(pattern: crate::app::Pattern) -> &'static [ResultId] {
+        use crate::app::Pattern as P;
+        let (first, last) = match pattern {
+            P::Ssm => (ResultId::SsmEx, ResultId::SsmStations),
+            P::Probe => (ResultId::SphereX, ResultId::SphereResidualRms),
+            _ => (ResultId::EccU, ResultId::Arc),
+        };
+        Self::ALL.get(first.index()..=last.index()).unwrap_or(&[])
+    }
+}
+
+/// One result with its quality.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ResultEntry {
+    /// The value in the unit of [`RESULTS`] (NaN while invalid).
+    pub value: f32,
+    /// Its standard uncertainty, same unit (NaN: not evaluated).
+    pub std_uncertainty: f32,
+    /// True once computed from the present runs.
+    pub valid: bool,
+}
+
+impl ResultEntry {
+    /// An entry with no value.
+    pub const INVALID: Self = Self {
+        value: f32::NAN,
+        std_uncertainty: f32::NAN,
+        valid: false,
+    };
+}
+
+impl Default for ResultEntry {
+    fn default() -> Self {
+        Self::INVALID
+    }
+}
+
+/// The results table.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Results {
+    entries: [ResultEntry; RESULT_COUNT],
+}
+
+impl Default for Results {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl Results {
+    /// Every entry invalid.
+    pub const fn new() -> Self {
+        Self {
+            entries: [ResultEntry::INVALID; RESULT_COUNT],
+        }
+    }
+
+    /// The entry of `id`.
+    pub fn get(&self, id: ResultId) -> ResultEntry {
+        self.entries.get(id.index()).copied().unwrap_or_default()
+    }
+
+    /// Every entry, in [`RESULTS`] order.
+    pub fn entries(&self) -> &[ResultEntry] {
+        &self.entries
+    }
+
+    /// Sets `id` to `value` ± `u` (standard uncertainty, NaN if not evaluated); a value that
+    /// is not finite leaves the entry invalid.
+    pub fn set(&mut self, id: ResultId, value: f64, u: f64) {
+        if let Some(e) = self.entries.get_mut(id.index()) {
+            *e = if value.is_finite() {
+                ResultEntry {
+                    value: value as f32,
+                    std_uncertainty: u as f32,
+                    valid: true,
+                }
+            } else {
+                ResultEntry::INVALID
+            };
+        }
+    }
+
+    /// Invalidates the results from `first` to `last` (inclusive, in [`RESULTS`] order).
+    pub fn clear(&mut self, first: ResultId, last: ResultId) {
+        for e in self
+            .entries
+            .iter_mut()
+            .take(last.index() + 1)
+            .skip(first.index())
+        {
+            *e = ResultEntry::INVALID;
+        }
+    }
+
+    /// Number of valid results.
+    pub fn valid_count(&self) -> usize {
+        self.entries.iter().filter(|e| e.valid).count()
+    }
+}

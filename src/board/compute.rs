@@ -32,6 +32,12 @@ pub static SETTINGS_STORE_FAILURES: Overruns = Overruns::new();
 /// it is downloaded; the stream still has them).
 pub static LOG_PAUSED_SAMPLES: Overruns = Overruns::new();
 
+/// Bytes of the application's state ([`App`], which this task owns), for the size report
+/// (`.ci/size-report` reads this word from the ELF): 4 bytes of flash.
+#[used]
+#[unsafe(no_mangle)]
+static BALLPOD_APP_STATE_BYTES: u32 = core::mem::size_of::<App>() as u32;
+
 /// What the boot found, for the protocols to report.
 pub struct BootReport {
     /// CANopen EMCY (code, reason) of the previous run's end, if it was a fault.

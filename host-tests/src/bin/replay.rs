@@ -13,9 +13,10 @@ use ballpod_host::replay::{Report, replay};
 use ballpod_host::report;
 use ballpod_host::session_file::read_inputs;
 
-/// Recorded runs through the pod's application.
+/// Recorded runs (the pod's stream or log, or a session file) through the pod's own
+/// application: results.json and polar plots.
 #[derive(Parser, Debug)]
-#[command(name = "cargo replay", version, about)]
+#[command(name = "cargo replay", version)]
 struct Args {
     /// Pod files (a recorded stream or a `DATA:LOG?` download) or a session file (.toml, .json).
     #[arg(required = true)]

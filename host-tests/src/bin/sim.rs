@@ -19,9 +19,10 @@ use ballpod_host::report;
 use ballpod_host::simulate::{SimOptions, simulate};
 use ballpod_host::vmt::machine::MachineFile;
 
-/// The pod on a virtual machine tool.
+/// The pod on a virtual machine tool: the seed 002 procedure and an ISO 230-4 circle test through
+/// the pod's own application, truth vs measured (or `--serve` for CANopen / SCPI clients).
 #[derive(Parser, Debug)]
-#[command(name = "cargo sim", version, about)]
+#[command(name = "cargo sim", version)]
 struct Args {
     /// Noise seed.
     #[arg(long, default_value_t = 1)]

@@ -14,19 +14,36 @@
 //!   pod's probe latch and debouncer, the core's sphere fit) → `identify::multitasking::probe`;
 //! - `seed003_rtest`: the R-test head on path K4 of the A/C table-tilting machine
 //!   ([`crate::vmt::rtest_rig`]: the exact chain of [`crate::forward_seed003`], three noisy
-//!   sensors through LVDT channels, the core's `acquisition::rtest_head`) → `identify::rtest`;
+//!   sensors through LVDT channels, the core's `acquisition::rtest_head`) → the readings file
+//!   → `identify::rtest`;
 //! - `seed004_dial_gauge`: dial-gauge readings on a face turned by a tilted axis
 //!   ([`crate::forward_seed004`]) plus noise, read by a contact LVDT on one of the pod's
-//!   channels ([`crate::vmt::lvdt_channel::LvdtProbe`]) → `identify::centreline`;
+//!   channels ([`crate::vmt::lvdt_channel::LvdtProbe`]) → the readings file →
+//!   `identify::centreline`;
 //! - `seed000_two_step`: the SSM after the translation and after the rotation of an RRTTT
 //!   head, a TTTRR table, or an RTTTR spindle head or table ([`crate::forward_seed000`]), at
 //!   sensor level ([`crate::vmt::ssm_rig`]: three dwells on the bar's sphere through the pod
 //!   and the core's station collector) → `identify::two_step` (exact mode: the paper's
 //!   truncated formulas are checked against their own tables in `identify_two_step.rs`).
+//!
+//! Every scenario also goes through replay, as a user would repeat it from files: the pod's
+//! recorded stream of the probe and SSM runs is replayed through a fresh application and must
+//! give the live pod's results table exactly ([`replay_reproduces`]; the simulator's own runs
+//! are checked the same way in `replay_roundtrip.rs`), and the R-test and dial-gauge readings
+//! are written as the session file's readings tables and identified by `cargo replay`'s reader
+//! ([`crate::session_file::read_inputs`]).
+
+use std::path::{Path, PathBuf};
 
 use serde::Deserialize;
 
+use ballpod::app::ResultId;
+
+use crate::recording::parse_runs;
+use crate::replay::{Figure, figures, replay};
+use crate::session_file::read_inputs;
 use crate::simulate::{SimOptions, simulate};
+use crate::vmt::virtual_pod::VirtualPod;
 use crate::vmt::machine::MachineFile;
 
 /// A scenario file.
@@ -325,7 +342,6 @@ fn iso230_4(s: &Scenario) -> Result<Vec<Check>, String> {
 }
 
 fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
-    use ballpod::app::ResultId;
     use ballpod::identify::multitasking::urad_to_arcsec;
     let d = s.machine.seed002.deviations();
     let da = d.to_array();
@@ -371,6 +387,7 @@ fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
                 * 1e3,
         );
     }
+    replay_reproduces(&rig.pod)?;
     let app = &rig.pod.app;
     let got = |id: ResultId| {
         let e = app.result(id);
@@ -412,12 +429,8 @@ fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
 
 fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {
     use crate::vmt::rtest_rig::{RtestRig, path_k4, seed003_table3_kinematics};
-    use ballpod::identify::rtest::{RtestConfig, RtestGeometry, identify};
     const NAMES: [&str; 11] = [
         "XOW", "YOW", "ZOW", "YOA", "ZOA", "BOA", "COA", "XOC", "YOC", "AOC", "BOC",
-    ];
-    const ANGULAR: [bool; 11] = [
-        false, false, false, false, false, true, true, false, false, true, true,
     ];
     let truth = s.rtest_errors.ok_or("seed003_rtest needs rtest_errors")?;
     // sensor level: the exact chain → three LVDT channels → the core's head combination
@@ -429,29 +442,36 @@ fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {
             rig.invalid_samples
         ));
     }
-    let r = identify(
-        &RtestGeometry::SEED003_TABLE3,
-        &samples,
-        &RtestConfig::default(),
-    )
-    .map_err(|e| format!("R-test: {e:?}"))?;
-    let (got, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
-    Ok((0..11)
-        .map(|i| Check {
-            name: NAMES[i].to_string(),
-            truth: truth[i],
-            got: got[i],
-            u: u[i],
-            unit: if ANGULAR[i] { "arcsec" } else { "um" },
+    // the readings as the technician's file, identified by `cargo replay` (`{:?}` prints the
+    // shortest text that reads back to the same f64)
+    let mut table = String::from("a_deg,c_deg,dx_um,dy_um,dz_um\n");
+    for r in &samples {
+        let [x, y, z] = r.reading_um;
+        table.push_str(&format!("{:?},{:?},{x:?},{y:?},{z:?}\n", r.a_deg, r.c_deg));
+    }
+    let figs = replay_session(
+        &format!("rtest-{}", s.seed),
+        "[rtest]\nreadings = \"readings.csv\"\n",
+        &table,
+    )?;
+    NAMES
+        .iter()
+        .zip(truth)
+        .map(|(n, t)| {
+            let f = figure(&figs, &format!("rtest_{n}"))?;
+            Ok(Check {
+                name: (*n).to_string(),
+                truth: t,
+                got: f64::from(f.value),
+                u: f.u.map_or(0.0, f64::from),
+                unit: if f.unit == "arcsec" { "arcsec" } else { "um" },
+            })
         })
-        .collect())
+        .collect()
 }
 
 fn seed004_dial_gauge(s: &Scenario) -> Result<Vec<Check>, String> {
     use crate::forward_seed004 as fw;
-    use ballpod::identify::centreline::{
-        DialPoint, GaugeFrame, NormalAtAngle, RotationSense, axis_direction_lsq, plane_normal,
-    };
     let [tx, tz] = s
         .axis_tilt_urad
         .ok_or("seed004_dial_gauge needs axis_tilt_urad")?;
@@ -467,53 +487,40 @@ fn seed004_dial_gauge(s: &Scenario) -> Result<Vec<Check>, String> {
         (60.0, 40.0),
         (30.0, 20.0),
     ];
-    // the dial gauge is a contact LVDT on one of the pod's channels (sensor level)
+    // the dial gauge is a contact LVDT on one of the pod's channels (sensor level), reading
+    // along the nominal axis' frame turned to each angle (the session file's defaults: axis +Y,
+    // reading direction +Z at 0°)
     let mut probe = crate::vmt::lvdt_channel::LvdtProbe::new(s.noise_um, s.seed);
-    let mut pos = Vec::new();
+    let mut table = String::from("b_deg,u_mm,v_mm,reading_um\n");
     for b in [0.0f64, 30.0, 60.0, 90.0] {
         let n = fw::mul(fw::rodrigues(d, -b.to_radians()), n0);
         let w = fw::normalize(fw::mul(fw::rodrigues(Y, -b.to_radians()), Z));
         let u = fw::normalize(fw::sub(Y, fw::scale(fw::dot(Y, w), w)));
-        let g = GaugeFrame {
-            lateral_u: u,
-            lateral_v: fw::cross(w, u),
-            reading_dir: w,
-        };
-        let zero = fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, 0.0, 0.0, 0.0);
-        let pts = grid
-            .iter()
-            .map(|&(u, v)| {
-                let x = fw::dial_reading_um(n, g.lateral_u, g.lateral_v, g.reading_dir, u, v, zero);
-                Ok(DialPoint {
-                    u_mm: u,
-                    v_mm: v,
-                    reading_um: probe.read_um(x)?,
-                })
-            })
-            .collect::<Result<Vec<DialPoint>, String>>()?;
-        let pn = plane_normal(&pts, &g).map_err(|e| format!("plane: {e:?}"))?;
-        pos.push(NormalAtAngle {
-            commanded_deg: b,
-            normal: pn.normal,
-        });
+        let v = fw::cross(w, u);
+        let zero = fw::dial_reading_um(n, u, v, w, 0.0, 0.0, 0.0);
+        for &(pu, pv) in &grid {
+            let x = probe.read_um(fw::dial_reading_um(n, u, v, w, pu, pv, zero))?;
+            table.push_str(&format!("{b:?},{pu:?},{pv:?},{x:?}\n"));
+        }
     }
-    let est =
-        axis_direction_lsq(&pos, RotationSense::Primed, Y).map_err(|e| format!("axis: {e:?}"))?;
+    let figs = replay_session(
+        &format!("dial-{}", s.seed),
+        "[dial]\nreadings = \"readings.csv\"\n",
+        &table,
+    )?;
+    let check = |name: &str, fig: &str, truth: f64| -> Result<Check, String> {
+        let f = figure(&figs, fig)?;
+        Ok(Check {
+            name: name.into(),
+            truth,
+            got: f64::from(f.value),
+            u: f.u.map_or(0.0, f64::from),
+            unit: "urad",
+        })
+    };
     Ok(vec![
-        Check {
-            name: "tilt_x_urad".into(),
-            truth: d[0] * 1e6,
-            got: est.direction[0] * 1e6,
-            u: est.tilt_uncertainty_urad[0],
-            unit: "urad",
-        },
-        Check {
-            name: "tilt_z_urad".into(),
-            truth: d[2] * 1e6,
-            got: est.direction[2] * 1e6,
-            u: est.tilt_uncertainty_urad[1],
-            unit: "urad",
-        },
+        check("tilt_x_urad", "dial_tilt_x", d[0] * 1e6)?,
+        check("tilt_z_urad", "dial_tilt_z", d[2] * 1e6)?,
     ])
 }
 
@@ -578,6 +585,7 @@ fn two_step_on_pod(
     if let Some(note) = rig.pod.app.procedure_note() {
         return Err(format!("two-step: {:?}", note.text()));
     }
+    replay_reproduces(&rig.pod)?;
     Ok(*rig.pod.app.results())
 }
 
@@ -603,7 +611,6 @@ fn ts_check(
 /// two-step identification.
 fn seed000_rrttt(s: &Scenario, t: &Rrttt) -> Result<Vec<Check>, String> {
     use crate::forward_seed000 as fwd;
-    use ballpod::app::ResultId;
     let pivot = [-50.0, -15.0, 500.0];
     let (a, b) = (t.alpha_deg.to_radians(), t.beta_deg.to_radians());
     let (d1, d2) = (t.delta_alpha_urad * 1e-6, t.delta_beta_urad * 1e-6);
@@ -637,7 +644,6 @@ fn seed000_rrttt(s: &Scenario, t: &Rrttt) -> Result<Vec<Check>, String> {
 /// TTTRR table: reference point of the forward model (eq 8) → the pod's two-step.
 fn seed000_tttrr(s: &Scenario, t: &Tttrr) -> Result<Vec<Check>, String> {
     use crate::forward_seed000 as fwd;
-    use ballpod::app::ResultId;
     let origin = [-30.0, 15.0, 120.0];
     let (a, g) = (t.alpha_deg.to_radians(), t.gamma_deg.to_radians());
     let (da, dg) = (t.delta_alpha_urad * 1e-6, t.delta_gamma_urad * 1e-6);
@@ -672,7 +678,6 @@ fn seed000_tttrr(s: &Scenario, t: &Tttrr) -> Result<Vec<Check>, String> {
 /// RTTTR spindle head: tool tip of the forward model (eqs 13/15) → the pod's two-step.
 fn seed000_rtttr_spindle(s: &Scenario, t: &RtttrSpindle) -> Result<Vec<Check>, String> {
     use crate::forward_seed000 as fwd;
-    use ballpod::app::ResultId;
     let pivot = [20.0, 10.0, 350.0];
     let b = t.beta_deg.to_radians();
     let db = t.delta_beta_urad * 1e-6;
@@ -707,7 +712,6 @@ fn seed000_rtttr_spindle(s: &Scenario, t: &RtttrSpindle) -> Result<Vec<Check>, S
 /// RTTTR table: reference point of the forward model (eqs 14/16) → the pod's two-step.
 fn seed000_rtttr_table(s: &Scenario, t: &RtttrTable) -> Result<Vec<Check>, String> {
     use crate::forward_seed000 as fwd;
-    use ballpod::app::ResultId;
     let origin = [-30.0, 15.0, 120.0];
     let a = t.alpha_deg.to_radians();
     let da = t.delta_alpha_urad * 1e-6;
@@ -738,4 +742,57 @@ fn seed000_rtttr_table(s: &Scenario, t: &RtttrTable) -> Result<Vec<Check>, Strin
         ResultId::TsDeltaAlpha,
         t.delta_alpha_urad,
     )?])
+}
+
+/// The pod's recorded runs, as its USB stream sent them (one text), parsed and replayed
+/// through a fresh application: the results table must be the live pod's, value for value.
+pub fn replay_reproduces(pod: &VirtualPod) -> Result<(), String> {
+    let text: String = pod.recording.runs.iter().map(|r| r.to_csv()).collect();
+    let runs = parse_runs(Path::new("stream.csv"), &text).map_err(|e| e.to_string())?;
+    let named: Vec<_> = runs
+        .into_iter()
+        .enumerate()
+        .map(|(k, r)| (format!("run {}", k + 1), r))
+        .collect();
+    let replayed = replay(&named)?;
+    let live = figures(&pod.app, ResultId::ALL);
+    if replayed.results != live {
+        return Err(format!(
+            "replay of the recorded stream differs from the live pod:\n  live   {live:?}\n  replay {:?}",
+            replayed.results
+        ));
+    }
+    Ok(())
+}
+
+/// A scratch directory for the files of one scenario (removed by [`replay_session`]).
+fn scratch(name: &str) -> PathBuf {
+    std::env::temp_dir().join(format!("ballpod-scenario-{}-{name}", std::process::id()))
+}
+
+/// `cargo replay` of a session file whose readings table is `table` (header line first), with
+/// `section` the session file's table (`[rtest]` or `[dial]` lines, the readings file named
+/// `readings.csv`): the host-only figures.
+fn replay_session(name: &str, section: &str, table: &str) -> Result<Vec<Figure>, String> {
+    let dir = scratch(name);
+    std::fs::create_dir_all(&dir).map_err(|e| e.to_string())?;
+    let session = dir.join("session.toml");
+    let written = std::fs::write(dir.join("readings.csv"), table)
+        .and_then(|_| std::fs::write(&session, section));
+    let out = written
+        .map_err(|e| e.to_string())
+        .and_then(|_| read_inputs(&[session]).map_err(|e| e.to_string()));
+    let _ = std::fs::remove_dir_all(&dir);
+    let (runs, host) = out?;
+    if !runs.is_empty() {
+        return Err("the session file replayed pod runs it does not list".into());
+    }
+    Ok(host)
+}
+
+/// The figure `name` of a replay.
+fn figure<'a>(figs: &'a [Figure], name: &str) -> Result<&'a Figure, String> {
+    figs.iter()
+        .find(|f| f.name == name)
+        .ok_or(format!("replay reports no {name}"))
 }

@@ -179,8 +179,10 @@ fn partial_arcs_on_the_pod_and_in_replay_match_an_f64_fit_within_1_nm() {
                 let centre = [120.5f32, -40.25, -310.0];
                 let e_um = [rng.range(-8.0, 8.0), rng.range(-8.0, 8.0)];
                 let r0_um = rng.range(-3.0, 3.0);
-                let mut cfg = Config::default();
-                cfg.bar_length_mm = radius as f32;
+                let mut cfg = Config {
+                    bar_length_mm: radius as f32,
+                    ..Config::default()
+                };
                 cfg.setup.circle_plane = plane;
                 cfg.setup.circle_centre_mm = centre;
                 cfg.setup.circle_radius_mm = radius as f32;
@@ -204,9 +206,7 @@ fn partial_arcs_on_the_pod_and_in_replay_match_an_f64_fit_within_1_nm() {
                     let dl = (len - radius) * 1e3 + r0_um + 0.2 * rng.normal();
                     let (u, v) = (radius * c, radius * s);
                     let mut axes = [0.0f32; MAX_AXES];
-                    for k in 0..3 {
-                        axes[k] = centre[k];
-                    }
+                    axes[..3].copy_from_slice(&centre);
                     let (iu, iv) = match plane {
                         CirclePlane::XY => (0, 1),
                         CirclePlane::YZ => (1, 2),
@@ -250,12 +250,15 @@ fn partial_arcs_on_the_pod_and_in_replay_match_an_f64_fit_within_1_nm() {
                 }
                 // and the truth it was made from, within the noise (σ ≈ 0.2/√n µm, larger on
                 // a short arc where e and r0 correlate)
-                assert!((eu - e_um[0]).abs() < 0.1 && (ev - e_um[1]).abs() < 0.1, "{what}");
+                assert!(
+                    (eu - e_um[0]).abs() < 0.1 && (ev - e_um[1]).abs() < 0.1,
+                    "{what}"
+                );
                 assert!((got(ResultId::Arc).abs() - arc_deg).abs() < 0.1, "{what}");
                 // the stream's text replays to the same results table, figure for figure
                 let parsed = parse_runs(Path::new("arc.csv"), &run.to_csv()).expect("parse");
-                let replayed = replay(&[("arc.csv".to_string(), parsed[0].clone())])
-                    .expect("replay");
+                let replayed =
+                    replay(&[("arc.csv".to_string(), parsed[0].clone())]).expect("replay");
                 assert_eq!(
                     replayed.results,
                     figures(&app, ResultId::ALL),

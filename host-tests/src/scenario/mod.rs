@@ -43,8 +43,8 @@ use crate::recording::parse_runs;
 use crate::replay::{Figure, figures, replay};
 use crate::session_file::read_inputs;
 use crate::simulate::{SimOptions, simulate};
-use crate::vmt::virtual_pod::VirtualPod;
 use crate::vmt::machine::MachineFile;
+use crate::vmt::virtual_pod::VirtualPod;
 
 /// A scenario file.
 #[derive(Clone, Debug, Deserialize)]

@@ -1,5 +1,6 @@
 //! Host side of ballpod: independent f64 oracles, the virtual machine tool and the simulator.
 
+pub mod app_state;
 pub mod flash_model;
 pub mod forward_seed000;
 pub mod forward_seed001;

@@ -485,22 +485,10 @@ pub fn parse_runs(file: &Path, text: &str) -> Result<Vec<RecordedRun>, LogError>
                     }
                 }
                 if let Some((abort, _)) = end {
-                    let [seen, used, a, b, c, d, e, lost, t, o] = counters;
                     run.end = Some(RunEnd {
                         run: run.meta.run,
                         abort,
-                        counters: RunCounters {
-                            seen,
-                            used,
-                            skipped_lvdt_open: a,
-                            skipped_lvdt_over_range: b,
-                            skipped_quadrature: c,
-                            skipped_jump: d,
-                            skipped_overrun: e,
-                            lost,
-                            temperature_faults: t,
-                            after_overrun: o,
-                        },
+                        counters: RunCounters::from_array(counters),
                     });
                 }
                 continue;

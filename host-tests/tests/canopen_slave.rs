@@ -10,6 +10,8 @@ use ballpod::app::{App, Direction, Pattern, RESULTS, SessionState, SettingsReque
 use ballpod::config::{Config, FIELDS};
 use ballpod::protocol::canopen::{CanFrame, CanOpenNode, NmtState};
 use ballpod::protocol::scpi::ScpiServer;
+use ballpod_host::app_state::snapshot as state;
+use ballpod_host::vmt::machine::linear_circle_sample;
 
 const NODE: u8 = 16;
 const SDO_RX: u16 = 0x600 + NODE as u16;
@@ -73,23 +75,6 @@ const E_UM: [f64; 2] = [12.5, -7.25];
 const R0_UM: f64 = 3.0;
 /// Samples per revolution of the model circle.
 const STEPS: usize = 720;
-
-/// A snapshot of everything the application shows (configuration, session, live values,
-/// results, counters) but the text of the last refusal: an aborted write must leave it equal.
-fn state(app: &App) -> String {
-    format!(
-        "{:?}|{:?}|{:?}|{:?}|{:?}|{}|{:?}|{:?}|{:?}",
-        app.config(),
-        app.session(),
-        app.pattern(),
-        app.direction(),
-        app.abort_reason(),
-        app.run_number(),
-        app.results(),
-        app.live(),
-        app.run_counters()
-    )
-}
 
 fn fresh_app() -> App {
     App::new(Config::default(), [16; MAX_AXES])
@@ -277,19 +262,7 @@ impl Bench {
 /// Sample k of the forward model's revolution (θ = 2πk/STEPS, CCW from +X).
 fn circle_sample(k: usize) -> Sample {
     let th = 2.0 * std::f64::consts::PI * k as f64 / STEPS as f64;
-    let (s, c) = th.sin_cos();
-    Sample {
-        delta_l_um: (R0_UM + E_UM[0] * c + E_UM[1] * s) as f32,
-        axes: [
-            (RADIUS_MM * c) as f32,
-            (RADIUS_MM * s) as f32,
-            0.0,
-            0.0,
-            0.0,
-        ],
-        temp_c: 20.0,
-        ..Sample::default()
-    }
+    linear_circle_sample(th, RADIUS_MM, E_UM, R0_UM)
 }
 
 fn frame(id: u16, data: &[u8]) -> CanFrame {

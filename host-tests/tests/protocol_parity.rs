@@ -8,10 +8,11 @@
 //! rules (DESIGN.md §protocols: configuration is written only while no run runs; a run starts
 //! only when armed; `circle_min_arc` ≥ 10°; patterns 0…7), not read from either shell.
 
-use ballpod::app::{App, Direction, Pattern, ResultId, SessionState};
+use ballpod::app::{Direction, Pattern, ResultId, SessionState};
 use ballpod::config::{FIELDS, FieldType};
 use ballpod::protocol::canopen::CanFrame;
 use ballpod::protocol::canopen::od::CONFIG_BASE;
+use ballpod_host::app_state::snapshot as state;
 use ballpod_host::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
 const NODE: u16 = 16;
@@ -194,32 +195,6 @@ fn play(shell: &mut dyn Shell) -> Vec<bool> {
             s => shell.request(s),
         })
         .collect()
-}
-
-/// What both pods must agree on, bit for bit where it is a number.
-fn state(app: &App) -> String {
-    let live = app.live();
-    let results: Vec<_> = ResultId::ALL
-        .iter()
-        .map(|&id| {
-            let r = app.result(id);
-            (id, r.valid, r.value.to_bits(), r.std_uncertainty.to_bits())
-        })
-        .collect();
-    format!(
-        "config {:?}\nsession {:?} pattern {:?} direction {:?} run {} abort {:?}\n\
-         counters {:?}\nlive {} {:?} valid {:#x}\nresults {results:?}",
-        app.config(),
-        app.session(),
-        app.pattern(),
-        app.direction(),
-        app.run_number(),
-        app.abort_reason(),
-        app.run_counters(),
-        live.sample_counter,
-        live.values.map(f32::to_bits),
-        live.valid,
-    )
 }
 
 #[test]

@@ -11,6 +11,8 @@ use ballpod::app::{App, Direction, Pattern, RESULTS, SessionState, SettingsReque
 use ballpod::config::{AxisName, Config, FIELDS, Field};
 use ballpod::protocol::scpi::status::ERROR_QUEUE_DEPTH;
 use ballpod::protocol::scpi::{LINE_CAPACITY, ScpiServer, number};
+use ballpod_host::app_state::snapshot as state;
+use ballpod_host::vmt::machine::linear_circle_sample;
 
 /// Forward model of a circle run: the ball bar about a socket at the origin of the XY plane,
 /// the trajectory off-centre by E_UM and longer by R0_UM: ΔL(θ) = r0 + e_u cos θ + e_v sin θ
@@ -24,37 +26,7 @@ const STEPS: usize = 720;
 /// Sample k of the forward model's revolution (θ = 2πk/STEPS, CCW from +X).
 fn circle_sample(k: usize) -> Sample {
     let th = 2.0 * std::f64::consts::PI * k as f64 / STEPS as f64;
-    let (s, c) = th.sin_cos();
-    Sample {
-        delta_l_um: (R0_UM + E_UM[0] * c + E_UM[1] * s) as f32,
-        axes: [
-            (RADIUS_MM * c) as f32,
-            (RADIUS_MM * s) as f32,
-            0.0,
-            0.0,
-            0.0,
-        ],
-        temp_c: 20.0,
-        ..Sample::default()
-    }
-}
-
-/// Everything the application shows but the text of its last refusal: a rejected command must
-/// leave it equal.
-fn state(app: &App) -> String {
-    format!(
-        "{:?}|{:?}|{:?}|{:?}|{:?}|{}|{:?}|{:?}|{:?}|{:?}",
-        app.config(),
-        app.session(),
-        app.pattern(),
-        app.direction(),
-        app.abort_reason(),
-        app.run_number(),
-        app.results(),
-        app.live(),
-        app.run_counters(),
-        app.touch_points()
-    )
+    linear_circle_sample(th, RADIUS_MM, E_UM, R0_UM)
 }
 
 /// The pod with its SCPI port, as the technician's PC sees it.

@@ -100,16 +100,8 @@ impl Bench {
         let machine = CircleMachine {
             radius_mm: 150.0,
             feed_mm_per_min: FEED,
-            squareness_urad: 0.0,
-            scale_x_um_per_m: 0.0,
-            scale_y_um_per_m: 0.0,
-            backlash_x_um: 0.0,
-            backlash_y_um: 0.0,
-            cyclic_amplitude_um: 0.0,
-            servo_lag_x_ms: 0.0,
-            servo_lag_y_ms: 0.0,
             socket_offset_um: [-E_UM[0], -E_UM[1]],
-            ..CircleMachine::default()
+            ..CircleMachine::perfect()
         };
         let per_rev = machine.samples_per_rev(1000.0);
         vp.home(&machine.pose(0.0, 1.0).1);

@@ -24,15 +24,7 @@ fn perfect() -> MachineFile {
     MachineFile {
         circle: CircleMachine {
             feed_mm_per_min: 4000.0,
-            squareness_urad: 0.0,
-            scale_x_um_per_m: 0.0,
-            scale_y_um_per_m: 0.0,
-            backlash_x_um: 0.0,
-            backlash_y_um: 0.0,
-            cyclic_amplitude_um: 0.0,
-            servo_lag_x_ms: 0.0,
-            servo_lag_y_ms: 0.0,
-            ..CircleMachine::default()
+            ..CircleMachine::perfect()
         },
         ..MachineFile::default()
     }

@@ -204,6 +204,34 @@ impl RunCounters {
             self.after_overrun,
         ]
     }
+
+    /// The counters from their [`as_array`](Self::as_array) form (a log or stream record).
+    pub const fn from_array(c: [u32; Self::LEN]) -> Self {
+        let [
+            seen,
+            used,
+            lvdt_open,
+            over_range,
+            quadrature,
+            jump,
+            overrun,
+            lost,
+            temp,
+            after,
+        ] = c;
+        Self {
+            seen,
+            used,
+            skipped_lvdt_open: lvdt_open,
+            skipped_lvdt_over_range: over_range,
+            skipped_quadrature: quadrature,
+            skipped_jump: jump,
+            skipped_overrun: overrun,
+            lost,
+            temperature_faults: temp,
+            after_overrun: after,
+        }
+    }
 }
 
 /// Why a sample was not handed to metrology.

@@ -92,22 +92,10 @@ fuzz_target!(|data: &[u8]| {
         }
     }
     if end {
-        let [seen, used, a, b, c, d, e, lost, t, o] = counters;
         log.end_run(&RunEnd {
             run: meta.run,
             abort: AbortReason::from_u8(abort),
-            counters: RunCounters {
-                seen,
-                used,
-                skipped_lvdt_open: a,
-                skipped_lvdt_over_range: b,
-                skipped_quadrature: c,
-                skipped_jump: d,
-                skipped_overrun: e,
-                lost,
-                temperature_faults: t,
-                after_overrun: o,
-            },
+            counters: RunCounters::from_array(counters),
         });
     }
     let mut file = Vec::new();

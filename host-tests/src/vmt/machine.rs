@@ -6,6 +6,7 @@
 //! - [`CircleMachine`]: an XY machine for the ISO 230-4 circular test with linear-axis faults
 //!   (squareness, scale, reversal/backlash, cyclic error, servo lag per axis).
 
+use ballpod::acquisition::Sample;
 use ballpod::app::Pattern;
 use ballpod::app::seed002::{Setup, model_pattern};
 use ballpod::identify::multitasking::patterns::command;
@@ -197,6 +198,22 @@ impl Default for CircleMachine {
 }
 
 impl CircleMachine {
+    /// A machine without geometric or servo errors (R 150 mm, F1000): a test sets the one
+    /// error it studies on top of it.
+    pub fn perfect() -> Self {
+        Self {
+            squareness_urad: 0.0,
+            scale_x_um_per_m: 0.0,
+            scale_y_um_per_m: 0.0,
+            backlash_x_um: 0.0,
+            backlash_y_um: 0.0,
+            cyclic_amplitude_um: 0.0,
+            servo_lag_x_ms: 0.0,
+            servo_lag_y_ms: 0.0,
+            ..Self::default()
+        }
+    }
+
     /// Servo mismatch τ_x − τ_y, ms.
     pub fn servo_mismatch_ms(&self) -> f64 {
         self.servo_lag_x_ms - self.servo_lag_y_ms
@@ -264,5 +281,24 @@ impl MachineFile {
         } else {
             serde_json::from_str(&text).map_err(|e| format!("{}: {e}", path.display()))
         }
+    }
+}
+
+/// A sample of an ideal XY circle about (0, 0) at `theta_rad` (CCW from +X) with the bar read to
+/// first order in the eccentricity: ΔL = r0 + e_x cos θ + e_y sin θ, µm (the linearised
+/// circle-fit model, ISO 230-4 Annex / DESIGN.md §numerics), at 20 °C.
+pub fn linear_circle_sample(theta_rad: f64, radius_mm: f64, e_um: [f64; 2], r0_um: f64) -> Sample {
+    let (s, c) = theta_rad.sin_cos();
+    Sample {
+        delta_l_um: (r0_um + e_um[0] * c + e_um[1] * s) as f32,
+        axes: [
+            (radius_mm * c) as f32,
+            (radius_mm * s) as f32,
+            0.0,
+            0.0,
+            0.0,
+        ],
+        temp_c: 20.0,
+        ..Sample::default()
     }
 }

@@ -27,8 +27,9 @@ const RETRACT_MM: f64 = 0.5;
 const RETRACT_FEED_MM_PER_MIN: f64 = 1000.0;
 
 /// The nine probing directions (unit normals, upper hemisphere: the stem blocks the lower
-/// one): the pole, four at 45° latitude, four on the equator between them.
-fn directions() -> [[f64; 3]; 9] {
+/// one): the pole, four at 45° latitude, four on the equator between them. The probing
+/// motion of the served pod ([`super::motion`]) touches along the same ones.
+pub fn directions() -> [[f64; 3]; 9] {
     let s = std::f64::consts::FRAC_1_SQRT_2;
     [
         [0.0, 0.0, 1.0],

@@ -21,7 +21,6 @@ use ballpod::config::{CirclePlane, Config};
 use serde::{Deserialize, Serialize};
 
 use super::machine::MachineFile;
-use super::probe_rig::directions;
 use crate::forward_seed002 as fwd;
 
 /// What the serving simulator's machine is (the truth the clients compare against).
@@ -275,7 +274,7 @@ fn probe_path(
     let contact = SPHERE_RADIUS_MM + STYLUS_RADIUS_MM;
     let axes = |p: [f64; 3]| [p[0], p[1], p[2], 0.0, c_deg];
     let on = |n: [f64; 3], r: f64| -> [f64; 3] { std::array::from_fn(|i| centre[i] + n[i] * r) };
-    let dirs = directions();
+    let dirs = probing_directions();
     let mut out: Vec<MachineStep> = Vec::new();
     let mut at = on(dirs[0], contact + 0.5);
     let go =
@@ -307,4 +306,22 @@ fn probe_path(
         }
     }
     Ok(out)
+}
+
+/// The nine probing directions (unit normals, upper hemisphere: the stem blocks the lower
+/// one): the pole, four at 45° latitude, four on the equator between them. The served
+/// pod's PROBE motion and the probe rig ([`super::probe_rig`]) touch along them.
+pub fn probing_directions() -> [[f64; 3]; 9] {
+    let s = std::f64::consts::FRAC_1_SQRT_2;
+    [
+        [0.0, 0.0, 1.0],
+        [s, 0.0, s],
+        [0.0, s, s],
+        [-s, 0.0, s],
+        [0.0, -s, s],
+        [s, s, 0.0],
+        [-s, s, 0.0],
+        [-s, -s, 0.0],
+        [s, -s, 0.0],
+    ]
 }

@@ -14,6 +14,7 @@ use ballpod::acquisition::MAX_AXES;
 use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::app::{Command, Pattern, ResultId};
 
+use super::motion::probing_directions;
 use super::sensors::Instrument;
 use super::virtual_pod::{VirtualPod, VirtualSetup};
 use crate::rng::Rng;
@@ -25,24 +26,6 @@ const PROBING_FEED_MM_PER_MIN: f64 = 100.0;
 /// Retract after a touch, mm, at this feed, mm/min.
 const RETRACT_MM: f64 = 0.5;
 const RETRACT_FEED_MM_PER_MIN: f64 = 1000.0;
-
-/// The nine probing directions (unit normals, upper hemisphere: the stem blocks the lower
-/// one): the pole, four at 45° latitude, four on the equator between them. The probing
-/// motion of the served pod ([`super::motion`]) touches along the same ones.
-pub fn directions() -> [[f64; 3]; 9] {
-    let s = std::f64::consts::FRAC_1_SQRT_2;
-    [
-        [0.0, 0.0, 1.0],
-        [s, 0.0, s],
-        [0.0, s, s],
-        [-s, 0.0, s],
-        [0.0, -s, s],
-        [s, s, 0.0],
-        [-s, s, 0.0],
-        [-s, -s, 0.0],
-        [s, -s, 0.0],
-    ]
-}
 
 /// A sphere measurement as the pod reports it.
 #[derive(Clone, Copy, Debug)]
@@ -107,7 +90,7 @@ impl ProbeRig {
         let axes = |p: [f64; 3]| [p[0], p[1], p[2], rotary_deg[0], rotary_deg[1]];
         let on =
             |n: [f64; 3], r: f64| -> [f64; 3] { std::array::from_fn(|i| centre_mm[i] + n[i] * r) };
-        let start = axes(on(directions()[0], contact + RETRACT_MM));
+        let start = axes(on(probing_directions()[0], contact + RETRACT_MM));
         if self.at.is_none() {
             self.pod.home(&start);
         }
@@ -117,7 +100,7 @@ impl ProbeRig {
         app.set_pattern(Pattern::Probe).map_err(cmd)?;
         self.pod.execute(Command::Arm).map_err(cmd)?;
         self.pod.execute(Command::Start).map_err(cmd)?;
-        for n in directions() {
+        for n in probing_directions() {
             // clear of the sphere, then the approach along −n
             self.move_to(axes(on(n, contact + RETRACT_MM)), RETRACT_FEED_MM_PER_MIN);
             self.move_to(axes(on(n, contact + APPROACH_MM)), RETRACT_FEED_MM_PER_MIN);

@@ -269,3 +269,109 @@ fn partial_arcs_on_the_pod_and_in_replay_match_an_f64_fit_within_1_nm() {
     }
     assert_eq!(cases, 8);
 }
+
+/// The ```toml block after `heading` in README.md.
+fn readme_toml_after(heading: &str) -> String {
+    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md"))
+        .expect("README");
+    let at = readme.find(heading).expect("heading in README");
+    let rest = &readme[at..];
+    let start = rest.find("```toml\n").expect("toml block") + "```toml\n".len();
+    let len = rest[start..].find("```").expect("block end");
+    rest[start..start + len].to_string()
+}
+
+#[test]
+fn the_readme_session_file_replays_a_pod_file_and_a_plain_log() {
+    // The README's example verbatim, with its two logs made here from the forward model: a
+    // CCW circle recorded by the pod's application (a pod file), the CW circle as a plain log of
+    // another recorder. R 150 mm about (0, 0), traced e = (4, −2.5) µm off the socket, r0 1 µm.
+    const R_MM: f64 = 150.0;
+    const E_UM: [f64; 2] = [4.0, -2.5];
+    const R0_UM: f64 = 1.0;
+    const PER_REV: usize = 3600;
+    let dir = std::env::temp_dir().join(format!("ballpod-readme-session-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("scratch");
+    let sample = |k: usize, sign: f64| {
+        let th = sign * 2.0 * std::f64::consts::PI * k as f64 / PER_REV as f64;
+        Sample {
+            seq: k as u32,
+            t_us: 1_000_000 + k as u64 * 1000,
+            ..ballpod_host::vmt::machine::linear_circle_sample(th, R_MM, E_UM, R0_UM)
+        }
+    };
+
+    // the pod's set-up is the README's [setup] (circle_centre_z stays unset: an XY circle does
+    // not need it), so both runs belong to one circular test
+    let mut cfg = Config::default();
+    cfg.setup.circle_centre_mm[0] = 0.0;
+    cfg.setup.circle_centre_mm[1] = 0.0;
+    cfg.setup.circle_radius_mm = R_MM as f32;
+    let mut app = App::new(cfg, [16; MAX_AXES]);
+    let mut rec = Recording::default();
+    app.set_pattern(Pattern::Circle).expect("pattern");
+    app.set_direction(Direction::Ccw).expect("direction");
+    app.execute(Command::Arm).expect("arm");
+    app.execute(Command::Start).expect("start");
+    for k in 0..=PER_REV {
+        app.on_sample(&sample(k, 1.0), &mut rec);
+    }
+    app.execute(Command::Stop).expect("stop");
+    app.flush(&mut rec);
+    std::fs::write(dir.join("ccw.csv"), rec.runs[0].to_csv()).expect("ccw.csv");
+
+    let mut plain = String::from("# exported from another recorder\nt_s,dl_um,x_mm,y_mm\n");
+    for k in 0..=PER_REV {
+        let s = sample(k, -1.0);
+        plain += &format!(
+            "{:.6},{},{},{}\n",
+            s.t_us as f64 * 1e-6,
+            s.delta_l_um,
+            s.axes[0],
+            s.axes[1]
+        );
+    }
+    std::fs::write(dir.join("cw_plain.csv"), plain).expect("cw_plain.csv");
+    let session = dir.join("session.toml");
+    std::fs::write(&session, readme_toml_after("**Session file**")).expect("session");
+
+    let read = read_inputs(&[session]);
+    let _ = std::fs::remove_dir_all(&dir);
+    let (runs, host) = read.expect("the README's session file reads");
+    assert!(host.is_empty());
+    let names: Vec<_> = runs
+        .iter()
+        .map(|(n, r)| (n.as_str(), r.meta.pattern, r.meta.direction))
+        .collect();
+    assert_eq!(
+        names,
+        [
+            ("ccw.csv", Pattern::Circle, Direction::Ccw),
+            ("cw_plain.csv", Pattern::Circle, Direction::Cw)
+        ]
+    );
+    let report = replay(&runs).expect("replay");
+    // each run's eccentricity is the traced one (first-order model: exact to 1e-7 µm)
+    for run in &report.runs {
+        let fig = |name: &str| {
+            run.results
+                .iter()
+                .find(|f| f.name == name)
+                .unwrap_or_else(|| panic!("{} has {name}", run.source))
+                .value
+        };
+        assert_eq!(run.outcome, "DONE", "{}", run.source);
+        for (name, truth) in [("ecc_u", E_UM[0]), ("ecc_v", E_UM[1]), ("r0", R0_UM)] {
+            let got = f64::from(fig(name));
+            assert!(
+                (got - truth).abs() < 1e-3,
+                "{}: {name} {got} µm",
+                run.source
+            );
+        }
+    }
+    // both directions measured: the bidirectional figures exist
+    for name in ["G_ccw", "G_cw", "G_bidir", "H"] {
+        assert!(report.result(name).is_some(), "{name}");
+    }
+}

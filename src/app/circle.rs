@@ -63,6 +63,16 @@ impl CircleGeometry {
             feed_mm_per_min: t.circle_feed_mm_per_min,
         })
     }
+
+    /// True when `other` describes the same circular test. Field by field, with an unset
+    /// (NaN) feed equal to an unset feed: `==` on the struct would make every run with no feed
+    /// a new test and lose the bi-directional figures.
+    fn same_test(&self, other: &Self) -> bool {
+        let same = |a: f32, b: f32| a == b || (a.is_nan() && b.is_nan());
+        self.fit == other.fit
+            && same(self.radius_mm, other.radius_mm)
+            && same(self.feed_mm_per_min, other.feed_mm_per_min)
+    }
 }
 
 const fn dir_index(d: Direction) -> usize {
@@ -99,7 +109,7 @@ impl CircleTest {
     /// A run of direction `d` begins with `geometry`: a new geometry starts a new test, else
     /// the direction's previous run is forgotten.
     pub fn begin_run(&mut self, geometry: CircleGeometry, d: Direction) {
-        if geometry != self.geometry {
+        if !geometry.same_test(&self.geometry) {
             *self = Self::new(geometry);
         } else {
             self.test.reset_direction(d);

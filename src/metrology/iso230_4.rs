@@ -139,6 +139,9 @@ pub struct CircularTest<const BINS: usize> {
 }
 
 impl<const BINS: usize> CircularTest<BINS> {
+    /// Angle bins per quadrant (at least 1).
+    const BINS_PER_QUADRANT: usize = if BINS >= 4 { BINS / 4 } else { 1 };
+
     const CHECK: () = assert!(
         BINS.is_multiple_of(4) && BINS >= 8 && BINS <= 4096,
         "BINS: multiple of 4"
@@ -216,7 +219,8 @@ impl<const BINS: usize> CircularTest<BINS> {
             run.f_min_um = dl;
         }
         let (q, a) = quadrant_angle(nu, nv);
-        let per_q = BINS / 4;
+        // a constant divisor: no division-by-zero check (a panic path) in the bin loops
+        let per_q = Self::BINS_PER_QUADRANT;
         let k = ((a * (per_q as f32 / core::f32::consts::FRAC_PI_2)) as usize).min(per_q - 1);
         if let Some(bin) = run.bins.get_mut(usize::from(q) * per_q + k) {
             bin.dl_um += dl;
@@ -284,7 +288,8 @@ impl<const BINS: usize> CircularTest<BINS> {
     pub fn diagnostics(&self, d: Direction) -> Result<Diagnostics, IsoError> {
         let run = self.run(d);
         run.fit.estimate().map_err(IsoError::Fit)?;
-        let per_q = BINS / 4;
+        // a constant divisor: no division-by-zero check (a panic path) in the bin loops
+        let per_q = Self::BINS_PER_QUADRANT;
         let mut covered = [false; 4];
         for (i, b) in run.bins.iter().enumerate() {
             if b.n > 0
@@ -304,7 +309,7 @@ impl<const BINS: usize> CircularTest<BINS> {
         let mut a = [[0.0f64; 7]; 7];
         let mut rhs = [0.0f64; 7];
         let basis = |i: usize, nu: f64, nv: f64| -> [f64; 7] {
-            let q = i / per_q;
+            let q = i / Self::BINS_PER_QUADRANT;
             let r = crate::num::sqrt(nu * nu + nv * nv).max(1e-12);
             let (c, s) = (nu / r, nv / r);
             // sign(sin θ), sign(cos θ) are constant within a quadrant's bins

@@ -174,16 +174,25 @@ fn fit<const D: usize, const K: usize>(
     let mut mm = SMatrix::<f64, K, K>::zeros();
     for p in pts {
         let x = (SVector::<f64, D>::from(*p) - m) / s;
-        let v = SVector::<f64, K>::from_iterator(
-            core::iter::once(x.norm_squared() - 1.0).chain(x.iter().copied()),
-        );
+        // element-wise (`from_iterator` asserts the iterator's length: a panic path)
+        let z = x.norm_squared() - 1.0;
+        let v = SVector::<f64, K>::from_fn(|r, _| match r {
+            0 => z,
+            _ => x.get(r - 1).copied().unwrap_or(0.0),
+        });
         mm += v * v.transpose();
     }
     mm /= nf;
     // N^{-1/2} M N^{-1/2}: first row and column halved (N_00 = 4)
     let mut ms = mm;
-    ms.row_mut(0).iter_mut().for_each(|v| *v *= 0.5);
-    ms.column_mut(0).iter_mut().for_each(|v| *v *= 0.5);
+    // element-wise with `get_mut`: nalgebra's `row_mut`/`column_mut` assert their index
+    for k in 0..K {
+        for idx in [(0, k), (k, 0)] {
+            if let Some(v) = ms.get_mut(idx) {
+                *v *= 0.5;
+            }
+        }
+    }
     let (values, vectors) = eigen(ms).ok_or(PointFitError::Degenerate)?;
     let mut order: [usize; K] = core::array::from_fn(|i| i);
     order.sort_unstable_by(|a, b| {
@@ -199,9 +208,10 @@ fn fit<const D: usize, const K: usize>(
     if !(values.get(i1).copied().unwrap_or(0.0) > 1e-10 * lmax) {
         return Err(PointFitError::Degenerate);
     }
-    let w: SVector<f64, K> = vectors.column(i0).into_owned();
+    // element-wise with `get`: nalgebra's `column(i)` asserts its index (a panic path)
+    let w = SVector::<f64, K>::from_fn(|r, _| vectors.get((r, i0)).copied().unwrap_or(0.0));
     let a = 0.5 * w.get(0).copied().unwrap_or(0.0);
-    let b = SVector::<f64, D>::from_iterator(w.iter().skip(1).copied());
+    let b = SVector::<f64, D>::from_fn(|r, _| w.get(r + 1).copied().unwrap_or(0.0));
     if !(a.abs() > 1e-9 * b.norm()) {
         return Err(PointFitError::Degenerate); // a line/plane fits better than any circle/sphere
     }

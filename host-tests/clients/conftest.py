@@ -1,9 +1,13 @@
-"""Starts the simulated pod (`sim --serve`) for the client tests and hands its ports and truth
-to them. The binary is taken from $BALLPOD_SIM (set by .ci/run), else built with cargo."""
+"""Starts the simulated pod (`sim --serve`) for each client test and hands its JSON line to it.
+The binary is taken from $BALLPOD_SIM (set by .ci/run), else built with cargo.
+
+`pod` is that JSON line: can_port, usb_port, stream_port, node_id and truth (the served machine:
+truth.machine.circle / .seed002 / .instrument, truth.ssm_error_um, truth.sphere_rc_zc_mm).
+`@pytest.mark.sim_args("--speed", "40")` passes options to that test's pod."""
 import json
 import os
-import subprocess
 import pathlib
+import subprocess
 
 import pytest
 
@@ -22,18 +26,20 @@ def host_binary(name):
     return str(ROOT / "host-tests" / "target" / triple / "release" / name)
 
 
-def sim_binary():
-    return host_binary("sim")
+def pytest_configure(config):
+    config.addinivalue_line("markers", "sim_args(*args): extra options of that test's `sim --serve`")
 
 
 @pytest.fixture()
-def pod():
-    """A fresh simulated pod per test: dict with can_port, usb_port, truth."""
-    proc = subprocess.Popen([sim_binary(), "--serve", "--max-seconds", "120"], stdout=subprocess.PIPE,
-                            text=True)
+def pod(request):
+    """A fresh simulated pod per test (killed after it): its JSON line as a dict."""
+    marker = request.node.get_closest_marker("sim_args")
+    extra = list(marker.args) if marker else []
+    proc = subprocess.Popen([host_binary("sim"), "--serve", "--max-seconds", "150", *extra],
+                            stdout=subprocess.PIPE, text=True)
     try:
-        line = proc.stdout.readline()
-        info = json.loads(line)
+        info = json.loads(proc.stdout.readline())
+        assert {"can_port", "usb_port", "stream_port", "node_id", "truth"} <= info.keys(), info
         yield info
     finally:
         proc.kill()

@@ -1,28 +1,126 @@
-"""A serial client (pyserial over socket://) runs a full session on the simulated pod by SCPI
-commands and downloads the log. `replay` turns the log into the same results; the log is also
-checked independently here: a least-squares fit of ΔL = r0 + e·n over its rows (numpy) must give
-the pod's reported eccentricity and the simulator's truth."""
+"""The technician's side: SCPI over the USB command port, by PyVISA (pyvisa-py's TCPIP SOCKET
+resource) and by pyserial (socket://), against the simulated pod. The results are held against
+a numpy fit of the samples the pod streamed, the CANopen side's SDO reads, the served machine's
+truth, and `replay` of the streamed runs."""
 import json
+import math
+import pathlib
+import re
 import subprocess
-import time
 
 import numpy as np
 import pytest
+import pyvisa
 import serial
 
+from conftest import host_binary
+from podlib import (LIVE, SCPI_ERROR, StreamCapture, connect, fit_run, iso230_4, scpi_nan, scpi_result,
+                    wait_until)
 
-def open_port(pod):
-    port = serial.serial_for_url(f"socket://127.0.0.1:{pod['usb_port']}", timeout=5)
-    return port
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
-def ask(port, line):
-    port.write((line + "\n").encode())
-    return port.readline().decode().strip()
+def open_visa(pod):
+    rm = pyvisa.ResourceManager("@py")
+    inst = rm.open_resource(f"TCPIP::127.0.0.1::{pod['usb_port']}::SOCKET", read_termination="\n",
+                            write_termination="\n")
+    inst.timeout = 5000  # ms
+    return rm, inst
+
+
+def error(query):
+    """The oldest queued error: (code, message)."""
+    m = SCPI_ERROR.match(query("SYST:ERR?"))
+    assert m, "SYST:ERR? answer"
+    return int(m.group(1)), m.group(2)
+
+
+def configure_circle(write, circle):
+    """The truth's circle machine's ISO 230-4 set-up (socket at X = Y = 0, radius = bar length)."""
+    r, f = circle["radius_mm"], circle["feed_mm_per_min"]
+    write(f"CONF:BAR_LENGTH {r};CIRCLE_PLANE XY;CIRCLE_CENTRE_X 0;CIRCLE_CENTRE_Y 0;"
+          f"CIRCLE_RADIUS {r};CIRCLE_FEED {f}")
+
+
+def run_circle(query, write, direction):
+    write(f"SESS:PATT CIRCLE;DIR {direction};:SESS:ARM;STAR")
+    wait_until(lambda: query("SESS:STAT?") != "RUNNING", 30, f"the CIRCLE {direction} run's end")
+    assert query("SESS:STAT?") == "DONE"
+
+
+def test_pyvisa_circle_session(pod, eds):
+    truth = pod["truth"]["machine"]["circle"]
+    stream = StreamCapture(pod["stream_port"])
+    rm, inst = open_visa(pod)
+    q, w = inst.query, inst.write
+    try:
+        # IEEE 488.2 §10.14: manufacturer, model, serial, firmware version (the crate's)
+        idn = q("*IDN?").split(",")
+        version = re.search(r'^version\s*=\s*"([^"]+)"', (ROOT / "Cargo.toml").read_text(), re.M).group(1)
+        assert len(idn) == 4 and idn[0] == "BALLPOD" and idn[3] == version
+        assert error(q) == (0, "No error")
+        # nothing computed yet: no answer, -230 naming the result
+        w("FETC:RES? ecc_u")
+        assert error(q) == (-230, "Data corrupt or stale;ecc_u has no valid value")
+        # configuration is locked until CONF:UNL (-203), then range checked (-222)
+        w("CONF:CIRCLE_RADIUS 150")
+        assert error(q)[0] == -203
+        w("CONF:UNL")
+        configure_circle(w, truth)
+        assert error(q) == (0, "No error")
+        assert (q("CONF:CIRCLE_PLANE?"), float(q("CONF:CIRCLE_RADIUS?"))) == ("XY", truth["radius_mm"])
+        w("CONF:BAR_LENGTH 20")
+        assert error(q) == (-222, "Data out of range;bar_length out of range")
+        assert float(q("CONF:BAR_LENGTH?")) == truth["radius_mm"]
+        # the live values: counter, 8 values (9.91E+37 where invalid), status word, validity mask
+        w("SESS:PATT CIRCLE;DIR CCW;:SESS:ARM;STAR")
+        assert q("SESS:STAT?") == "RUNNING"
+        for _ in range(5):
+            f = q("MEAS:ALL?").split(",")
+            assert len(f) == 1 + len(LIVE) + 2
+            values, status, mask = [scpi_nan(float(v)) for v in f[1:9]], int(f[9]), int(f[10])
+            assert status & 1 << 9  # running
+            names = [n.strip('"') for n in q("MEAS:VAL?").split(",") if n]
+            for k, name in enumerate(LIVE):
+                assert (mask >> k & 1) == (not math.isnan(values[k])), f
+            assert set(names) <= set(LIVE) and "delta_l" in names
+        wait_until(lambda: q("SESS:STAT?") != "RUNNING", 30, "the CCW run's end")
+        assert q("SESS:STAT?") == "DONE"
+        w("FETC:RES? G_bidir")
+        assert error(q)[0] == -230  # needs the CW run
+        ccw = {n: scpi_result(q, n) for n in ("ecc_u", "ecc_v", "r0", "G_ccw")}
+        run_circle(q, w, "CW")
+        cw = {n: scpi_result(q, n) for n in ("ecc_u", "ecc_v", "r0", "G_cw", "G_bidir", "H")}
+        fits = [fit_run(r) for r in stream.runs(2)]
+        iso = iso230_4(*fits)
+        for p, f in zip((ccw, cw), fits):
+            assert p["ecc_u"][0] == pytest.approx(f["e_u"], abs=2e-3)
+            assert p["ecc_v"][0] == pytest.approx(f["e_v"], abs=2e-3)
+            assert p["r0"][0] == pytest.approx(f["r0"], abs=2e-3)
+            assert p["ecc_u"][1] == pytest.approx(f["u_e"], rel=0.02)
+            assert p["ecc_u"][2] == "UM"
+            s = truth["socket_offset_um"]  # e = −(socket offset) within 3u
+            assert abs(p["ecc_u"][0] + s[0]) <= 3 * p["ecc_u"][1]
+            assert abs(p["ecc_v"][0] + s[1]) <= 3 * p["ecc_v"][1]
+        for name, (v, u, unit) in list(cw.items())[3:] + [("G_ccw", ccw["G_ccw"])]:
+            assert v == pytest.approx(iso[name], abs=0.01), name
+            assert math.isnan(scpi_nan(u)) and unit == "UM"  # G, H: uncertainty not evaluated
+        # the same numbers over CANopen
+        net, node = connect(pod, eds)
+        try:
+            for name, (v, u, _) in cw.items():
+                assert node.sdo["result_value"][name].raw == pytest.approx(v, abs=1e-4), name
+        finally:
+            net.disconnect()
+        assert error(q) == (0, "No error")
+    finally:
+        inst.close()
+        rm.close()
+        stream.close()
 
 
 def read_block(port):
-    """IEEE 488.2 definite-length block: '#', n, n digits of length, bytes, then '\\n'."""
+    """IEEE 488.2 §8.7.9 definite-length block: '#', n, n digits of length, bytes; then '\\n'."""
     assert port.read(1) == b"#"
     n = int(port.read(1))
     length = int(port.read(n))
@@ -35,81 +133,97 @@ def read_block(port):
     return data.decode()
 
 
-def test_full_session_and_log_download(pod, tmp_path):
-    port = open_port(pod)
+def test_pyserial_ssm_session_and_log_download(pod):
+    """A serial client: error queue, an over-long line, an SSM run whose E is the truth's, and the
+    log download, whose rows are the streamed rows of the same samples."""
+    stream = StreamCapture(pod["stream_port"])
+    port = serial.serial_for_url(f"socket://127.0.0.1:{pod['usb_port']}", timeout=5)
+
+    def ask(line):
+        port.write((line + "\n").encode())
+        return port.readline().decode().rstrip("\n")
+
     try:
-        idn = ask(port, "*IDN?").split(",")
-        assert len(idn) == 4 and idn[0].upper() == "BALLPOD"
-        assert ask(port, "SYST:ERR?").startswith("0,")
-        # configuration is locked until CONF:UNL: -203 "Command protected", unchanged
-        port.write(b"CONF:BAR_LENGTH 150.0\n")
-        assert ask(port, "SYST:ERR?").startswith("-203")
-        assert ask(port, "CONF:LOCK?") == "1"
-        port.write(b"CONF:UNL\n")
-        assert ask(port, "CONF:LOCK?") == "0"
-        # configuration: accepted, read back; out of range rejected with -222, unchanged
-        port.write(b"CONF:BAR_LENGTH 150.0\n")
-        assert float(ask(port, "CONF:BAR_LENGTH?")) == pytest.approx(150.0)
-        port.write(b"CONF:BAR_LENGTH 20\n")
-        assert ask(port, "SYST:ERR?").startswith("-222")
-        assert float(ask(port, "CONF:BAR_LENGTH?")) == pytest.approx(150.0)
-        # a line longer than the buffer is rejected whole; the next parses normally
-        port.write(b"CONF:BAR_LENGTH " + b"1" * 400 + b"\n")
-        assert ask(port, "SYST:ERR?").startswith("-363")
-        assert float(ask(port, "CONF:BAR_LENGTH?")) == pytest.approx(150.0)
-        # a session command in the wrong state: -221, state unchanged
+        assert ask("*IDN?").startswith("BALLPOD,")
+        # a line longer than the 256-byte buffer is rejected whole (-363); the next parses normally
+        port.write(b"CONF:UNL;:CONF:BAR_LENGTH " + b"1" * 400 + b"\n")
+        assert ask("SYST:ERR?").startswith("-363,")
+        assert ask("CONF:LOCK?") == "1"
+        # a session command in the wrong state: -221 with the reason, state unchanged
         port.write(b"SESS:STOP\n")
-        assert ask(port, "SYST:ERR?").startswith("-221")
-        assert ask(port, "SESS:STAT?") == "IDLE"
-        # the run
-        port.write(b"SESS:PATT CIRC;DIR CCW;:SESS:ARM;STAR\n")
-        assert ask(port, "SESS:STAT?") == "RUNNING"
-        t0 = time.time()
-        count = 0
-        while time.time() - t0 < 10.0:
-            count = int(ask(port, "DATA:LOG:COUN?"))
-            if count >= 56_000:  # a full circle: 2π·150 mm at 1000 mm/min, 1 kHz
-                break
-            time.sleep(0.2)
-        assert count >= 56_000
-        port.write(b"SESS:STOP\n")
-        assert ask(port, "SESS:STAT?") == "DONE"
-        ex = [float(v) for v in ask(port, "FETC:RES? ecc_x").split(",")[:2]]
-        ey = [float(v) for v in ask(port, "FETC:RES? ecc_y").split(",")[:2]]
-        truth = pod["truth"]
-        assert ex[0] == pytest.approx(truth["ecc_x_um"], abs=max(0.1, 5 * ex[1]))
-        assert ey[0] == pytest.approx(truth["ecc_y_um"], abs=max(0.1, 5 * ey[1]))
-        # the log
+        assert ask("SYST:ERR?") == '-221,"Settings conflict;STOP needs RUNNING"'
+        assert ask("SESS:STAT?") == "IDLE"
+        port.write(b"SESS:PATT SSM;:SESS:ARM\n")
+        assert ask("SYST:ERR?") == '-221,"Settings conflict;ssm_socket_x not set"'
+        port.write(b"CONF:UNL;:CONF:SSM_SOCKET_X 0;SSM_SOCKET_Y 0;SSM_SOCKET_Z 0\n")
+        port.write(b"SESS:ARM;STAR\n")
+        wait_until(lambda: ask("SESS:STAT?") != "RUNNING", 30, "the SSM run's end")
+        assert ask("SESS:STAT?") == "DONE"
+        e_true = pod["truth"]["ssm_error_um"]
+        for k, name in enumerate(("ssm_ex", "ssm_ey", "ssm_ez")):
+            v, u, unit = scpi_result(ask, name)
+            assert unit == "UM" and abs(v - e_true[k]) <= 3 * u, (name, v, u, e_true[k])
+        # the log: a definite-length block of the run's text
         port.write(b"DATA:LOG?\n")
-        csv = read_block(port)
-        meta = [l for l in csv.splitlines() if l.startswith("#")]
-        rows = [l for l in csv.splitlines() if l and not l.startswith("#")]
-        assert "# pattern=CIRCLE" in meta and "# direction=CCW" in meta
-        header = rows[0].split(",")
-        assert header[:2] == ["t_s", "dl_um"] and "x_mm" in header and "y_mm" in header
-        data = np.array([[float(v) for v in r.split(",")] for r in rows[1:]])
-        t, dl = data[:, 0], data[:, 1]
-        x, y = data[:, header.index("x_mm")], data[:, header.index("y_mm")]
-        assert np.all(np.diff(t) > 0)
-        # independent limaçon fit over the logged samples
-        r = np.hypot(x, y)
-        a = np.column_stack([np.ones_like(x), x / r, y / r])
-        sol, *_ = np.linalg.lstsq(a, dl, rcond=None)
-        assert sol[1] == pytest.approx(ex[0], abs=0.02)
-        assert sol[2] == pytest.approx(ey[0], abs=0.02)
-        assert ask(port, "SYST:ERR?").startswith("0,")
-        # replay: the downloaded log + a session description -> the same results
-        (tmp_path / "circle.csv").write_text(csv)
-        session = {"circle": {"radius_mm": 150.0, "socket_mm": [0.0, 0.0], "feed_mm_per_min": 1000.0},
-                   "runs": [{"log": "circle.csv", "method": "ISO230-4", "direction": "CCW"}]}
-        (tmp_path / "session.json").write_text(json.dumps(session))
-        from conftest import host_binary
-        subprocess.run([host_binary("replay"), str(tmp_path / "session.json"), "--out", str(tmp_path / "out")],
-                       check=True, capture_output=True)
-        results = json.loads((tmp_path / "out" / "results.json").read_text())
-        run = results["runs"][0]
-        assert run["samples"] == len(rows) - 1
-        assert run["e_um"][0] == pytest.approx(ex[0], abs=0.01)
-        assert run["e_um"][1] == pytest.approx(ey[0], abs=0.01)
+        log = read_block(port)
+        lines = log.split("\n")
+        assert lines[0].startswith("# ballpod run v") and "# pattern=SSM" in lines and "# end=DONE" in lines
+        (run,) = stream.runs(1)
+        rows = [l for l in lines if l and not l.startswith("#")]
+        assert rows[0].split(",") == run.cols
+        streamed = {int(r[0]): r for r in run.data}
+        logged = np.array([[float(v) for v in r.split(",")] for r in rows[1:]])
+        assert len(logged) > 100
+        for r in logged:
+            assert np.array_equal(r, streamed[int(r[0])]), r
+        # *RST: IDLE, the port locked again
+        port.write(b"*RST\n")
+        assert (ask("SESS:STAT?"), ask("CONF:LOCK?")) == ("IDLE", "1")
+        assert ask("SYST:ERR?") == '0,"No error"'
     finally:
         port.close()
+        stream.close()
+
+
+def test_replay_of_the_stream_gives_the_pods_results(pod, tmp_path):
+    """The stream text of a CCW and a CW run, replayed by `replay` into a fresh application, gives
+    the results table the pod reports over SCPI — every valid result, and only those."""
+    stream = StreamCapture(pod["stream_port"])
+    rm, inst = open_visa(pod)
+    q, w = inst.query, inst.write
+    try:
+        w("CONF:UNL")
+        configure_circle(w, pod["truth"]["machine"]["circle"])
+        run_circle(q, w, "CCW")
+        run_circle(q, w, "CW")
+        stream.runs(2)
+        (tmp_path / "circle.csv").write_text(stream.text())
+        out = subprocess.run([host_binary("replay"), str(tmp_path / "circle.csv"), "--out", str(tmp_path / "out")],
+                             capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr
+        replayed = json.loads((tmp_path / "out" / "results.json").read_text())
+        assert [(r["pattern"], r["direction"], r["outcome"]) for r in replayed["runs"]] == \
+            [("CIRCLE", "CCW", "DONE"), ("CIRCLE", "CW", "DONE")]
+        names = [n.strip('"') for n in q("FETC:RES:CAT?").split(",")]
+        pod_results = {}
+        for name in names:
+            # a valid result answers, an invalid one queues -230: one line each
+            answer = q(f"FETC:RES? {name};:SYST:ERR?")
+            if answer.startswith("-230,"):
+                continue
+            first, _, err = answer.partition(";")  # response units are separated by ';'
+            v, u, unit = first.split(",")
+            assert err == '0,"No error"', answer
+            pod_results[name] = (float(v), scpi_nan(float(u)), unit)
+        assert len(pod_results) >= 20
+        rep = {f["name"]: f for f in replayed["results"]}
+        assert set(rep) == set(pod_results)
+        for name, (v, u, unit) in pod_results.items():
+            f = rep[name]
+            assert f["value"] == pytest.approx(v, abs=1e-4), name
+            assert (f["u"] is None) == math.isnan(u), name
+            assert f["unit"].upper() == unit, name
+    finally:
+        inst.close()
+        rm.close()
+        stream.close()

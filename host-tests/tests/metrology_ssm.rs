@@ -543,3 +543,61 @@ fn streaming_refinement_removes_linearisation_error() {
         refined.e_um
     );
 }
+
+#[test]
+fn streaming_on_a_tilted_planar_arc_keeps_the_in_plane_component_observable_every_sample() {
+    // A great-circle arc of the bar's sphere in the plane with normal n = (sin a, 0, cos a)
+    // (the served pod's SSM arc between stations 2 and 3), axes read at the encoders' 0.1 µm
+    // resolution, a 5 mm neighbourhood: E_y lies in the plane, so it is observable at every
+    // sample (its validity must not flicker with the quantisation), E_x and E_z are not.
+    let p0 = [10.0, -20.0, -150.0];
+    let l = 150.0;
+    let a = 31.0f64.to_radians();
+    let (u, w) = ([a.cos(), 0.0, -a.sin()], [0.0, 1.0, 0.0]);
+    let e_um = [3.0, -4.0, 2.0];
+    let quantise = |x: f64| (x * 1e4).round() / 1e4;
+    let mut ssm = StreamingSsm::<512>::new(StreamingConfig {
+        geometry: SsmGeometry {
+            socket_mm: p0,
+            bar_length_mm: l,
+        },
+        radius_mm: 5.0,
+        rotary_tol_deg: 0.001,
+    });
+    let n = 4000;
+    let (mut checked, mut flicker) = (0, 0);
+    for i in 0..n {
+        let ph = std::f64::consts::FRAC_PI_2 * i as f64 / n as f64;
+        let p: [f64; 3] =
+            std::array::from_fn(|k| quantise(p0[k] + l * (ph.cos() * u[k] + ph.sin() * w[k])));
+        let d: [f64; 3] = std::array::from_fn(|k| p[k] - p0[k] + e_um[k] * 1e-3);
+        let s = Sample {
+            seq: i as u32,
+            t_us: i as u64 * 1000,
+            delta_l_um: ((norm(d) - l) * 1e3) as f32,
+            axes: [p[0] as f32, p[1] as f32, p[2] as f32, 0.0, 0.0],
+            temp_c: 20.0,
+            flags: SampleFlags::NONE,
+        };
+        assert_eq!(ssm.update(&s), StreamUse::Used);
+        if i < 200 {
+            continue;
+        }
+        let est = ssm.estimate().expect("estimate");
+        let obs = est.solution.observable();
+        assert!(
+            !obs[0] && !obs[2],
+            "sample {i}: out-of-plane mix observable {obs:?}"
+        );
+        match est.solution.e_um[1] {
+            // within two encoder steps: the 0.1 µm quantisation over a 5 mm window
+            Some(ey) => assert!((ey - e_um[1]).abs() < 0.2, "sample {i}: E_y {ey}"),
+            None => flicker += 1,
+        }
+        checked += 1;
+    }
+    assert_eq!(
+        flicker, 0,
+        "E_y unobservable at {flicker} of {checked} samples"
+    );
+}

@@ -322,6 +322,9 @@ impl<const N: usize> VirtualPod<N> {
         let running = self.app.session() == SessionState::Running;
         if running && !self.serving {
             let cfg = *self.app.config();
+            // the technician mounted the bar the configuration names (as `cargo sim` swaps
+            // bars between procedures): its expansion is modelled on that length
+            self.sensors.set_bar_length(f64::from(cfg.bar_length_mm));
             match Motion::plan(
                 &self.setup.truth,
                 &cfg,

@@ -19,7 +19,7 @@ use crate::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
 pub const ISO_BINS: usize = 360;
 
 /// The geometry of a circular test, from the configuration's set-up.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug)]
 pub struct CircleGeometry {
     /// The fit: plane, centre (the socket), outward sensitivity, minimum arc.
     pub fit: CircleFitConfig,
@@ -63,11 +63,13 @@ impl CircleGeometry {
             feed_mm_per_min: t.circle_feed_mm_per_min,
         })
     }
+}
 
-    /// True when `other` describes the same circular test. Field by field, with an unset
-    /// (NaN) feed equal to an unset feed: `==` on the struct would make every run with no feed
-    /// a new test and lose the bi-directional figures.
-    fn same_test(&self, other: &Self) -> bool {
+/// The same circular test: field by field, with an unset (NaN) radius or feed equal to an unset
+/// one (a derived `==` made every run without a programmed feed a new test and lost the
+/// bi-directional figures).
+impl PartialEq for CircleGeometry {
+    fn eq(&self, other: &Self) -> bool {
         let same = |a: f32, b: f32| a == b || (a.is_nan() && b.is_nan());
         self.fit == other.fit
             && same(self.radius_mm, other.radius_mm)
@@ -109,7 +111,7 @@ impl CircleTest {
     /// A run of direction `d` begins with `geometry`: a new geometry starts a new test, else
     /// the direction's previous run is forgotten.
     pub fn begin_run(&mut self, geometry: CircleGeometry, d: Direction) {
-        if !geometry.same_test(&self.geometry) {
+        if geometry != self.geometry {
             *self = Self::new(geometry);
         } else {
             self.test.reset_direction(d);

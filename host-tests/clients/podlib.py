@@ -226,6 +226,16 @@ def connect(pod, eds):
     return net, node
 
 
+def tpdo_snapshots(node, others):
+    """A list that fills, per SYNC, with one dict of the mapped values: TPDO1 (it carries the
+    sample counter) starts a snapshot, the TPDOs `others` of the same SYNC add to it."""
+    snaps = []
+    node.tpdo[1].add_callback(lambda m: snaps.append({v.name: v.raw for v in m.map}))
+    for k in others:
+        node.tpdo[k].add_callback(lambda m: snaps and snaps[-1].update({v.name: v.raw for v in m.map}))
+    return snaps
+
+
 def configure_circle(sdo, circle):
     """The ISO 230-4 set-up of the truth's circle machine: socket at X = Y = 0 (machine file
     doc), radius = bar length, the machine's feed (so the servo mismatch is evaluated)."""

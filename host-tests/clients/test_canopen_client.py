@@ -18,7 +18,7 @@ from podlib import (ABORT_DEVICE_STATE, ABORT_INVALID_VALUE, ABORT_LENGTH, ABORT
                     ABORT_TOO_LOW, ABORT_WRITE_ONLY, BOOLEAN, COMMAND, LIVE, PATTERN, REAL32,
                     STATUS_RUNNING, TYPE_SIZE, UNSIGNED8, UNSIGNED16, UNSIGNED32, StreamCapture,
                     abort_code, assert_invalid, configure_circle, connect, fit_run, iso230_4,
-                    limacon_fit, result, run)
+                    limacon_fit, result, run, tpdo_snapshots)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -208,10 +208,7 @@ def test_circle_ccw_then_cw_against_numpy_and_truth(pod, eds):
         configure_circle(sdo, truth)
         # TPDOs 1–3 (ΔL + sample counter, e_u + e_v, r0 + status word + validity) on each SYNC
         node.tpdo.read()
-        snaps = []
-        node.tpdo[1].add_callback(lambda m: snaps.append({v.name: v.raw for v in m.map}))
-        for k in (2, 3):
-            node.tpdo[k].add_callback(lambda m: snaps and snaps[-1].update({v.name: v.raw for v in m.map}))
+        snaps = tpdo_snapshots(node, (2, 3))
         node.nmt.state = "OPERATIONAL"
         net.sync.start(0.02)
         assert run(sdo, "CIRCLE", "CCW") == 3

@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from podlib import (COMMAND, PATTERN, STATUS_RUNNING, StreamCapture, assert_invalid, connect, result,
-                    wait_until)
+                    tpdo_snapshots, wait_until)
 
 # The pod's streaming neighbourhood holds at most this many samples (src/app/ssm.rs SSM_WINDOW);
 # samples farther than ssm_window_radius from the current point leave it, oldest first.
@@ -47,10 +47,7 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
         node.tpdo[4].enabled = True
         node.tpdo[4].save()
         assert [v.name for v in node.tpdo[4].map] == ["live_values.ssm_ex", "live_values.ssm_ey"]
-        snaps = []
-        node.tpdo[1].add_callback(lambda m: snaps.append({v.name: v.raw for v in m.map}))
-        for k in (3, 4):
-            node.tpdo[k].add_callback(lambda m: snaps and snaps[-1].update({v.name: v.raw for v in m.map}))
+        snaps = tpdo_snapshots(node, (3, 4))
         sdo["pattern"].raw = PATTERN["SSM"]
         sdo["session_command"].raw = COMMAND["arm"]
         node.nmt.state = "OPERATIONAL"

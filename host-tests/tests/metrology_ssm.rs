@@ -358,6 +358,20 @@ fn field(p: [f64; 3], p0: [f64; 3], s: f64) -> [f64; 3] {
     ]
 }
 
+/// Sample `i` (1 kHz) of a bar from the socket `p0` of length `l` to the nominal point `p`, the
+/// machine `e_um` off it: ΔL = |p − p0 + e| − l (the exact sphere equation).
+fn bar_sample(i: usize, p: [f64; 3], p0: [f64; 3], l: f64, e_um: [f64; 3]) -> Sample {
+    let d: [f64; 3] = std::array::from_fn(|k| p[k] - p0[k] + e_um[k] * 1e-3);
+    Sample {
+        seq: i as u32,
+        t_us: i as u64 * 1000,
+        delta_l_um: ((norm(d) - l) * 1e3) as f32,
+        axes: [p[0] as f32, p[1] as f32, p[2] as f32, 0.0, 0.0],
+        temp_c: 20.0,
+        flags: SampleFlags::NONE,
+    }
+}
+
 fn cone_path(p0: [f64; 3], l: f64, half_angle_deg: f64, n: usize, s: f64) -> Path {
     let a = half_angle_deg.to_radians();
     let mut samples = Vec::new();
@@ -370,19 +384,7 @@ fn cone_path(p0: [f64; 3], l: f64, half_angle_deg: f64, n: usize, s: f64) -> Pat
             p0[2] + l * a.cos(),
         ];
         let e = field(p, p0, s);
-        let d = [
-            p[0] - p0[0] + e[0] * 1e-3,
-            p[1] - p0[1] + e[1] * 1e-3,
-            p[2] - p0[2] + e[2] * 1e-3,
-        ];
-        samples.push(Sample {
-            seq: i as u32,
-            t_us: i as u64 * 1000,
-            delta_l_um: ((norm(d) - l) * 1e3) as f32,
-            axes: [p[0] as f32, p[1] as f32, p[2] as f32, 0.0, 0.0],
-            temp_c: 20.0,
-            flags: SampleFlags::NONE,
-        });
+        samples.push(bar_sample(i, p, p0, l, e));
         truth.push(e);
     }
     Path { samples, truth }
@@ -570,16 +572,7 @@ fn streaming_on_a_tilted_planar_arc_keeps_the_in_plane_component_observable_ever
         let ph = std::f64::consts::FRAC_PI_2 * i as f64 / n as f64;
         let p: [f64; 3] =
             std::array::from_fn(|k| quantise(p0[k] + l * (ph.cos() * u[k] + ph.sin() * w[k])));
-        let d: [f64; 3] = std::array::from_fn(|k| p[k] - p0[k] + e_um[k] * 1e-3);
-        let s = Sample {
-            seq: i as u32,
-            t_us: i as u64 * 1000,
-            delta_l_um: ((norm(d) - l) * 1e3) as f32,
-            axes: [p[0] as f32, p[1] as f32, p[2] as f32, 0.0, 0.0],
-            temp_c: 20.0,
-            flags: SampleFlags::NONE,
-        };
-        assert_eq!(ssm.update(&s), StreamUse::Used);
+        assert_eq!(ssm.update(&bar_sample(i, p, p0, l, e_um)), StreamUse::Used);
         if i < 200 {
             continue;
         }

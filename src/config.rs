@@ -246,6 +246,10 @@ pub struct TestSetup {
     /// Two-step: nominal angles of the rotation step, degrees: RRTTT (α, β), TTTRR (α, γ),
     /// RTTTR spindle (β, –), RTTTR table (α, –).
     pub ts_angles_deg: [f32; 2],
+    /// PROBE: tool length R, B-axis centre → stylus-ball centre along the tool axis, mm. Set, a
+    /// touch point is the nominal stylus-ball centre `axes − R·(sin B, 0, cos B)`; not set
+    /// (default), it is the X, Y, Z positions as latched. The B-axis probe method needs it.
+    pub probe_length_mm: f32,
 }
 
 /// The pod's configuration (see the module doc; fields listed with unit, default and range in
@@ -383,6 +387,8 @@ pub enum Field {
     TsOriginMm(u8),
     /// [`TestSetup::ts_angles_deg`] component k.
     TsAngleDeg(u8),
+    /// [`TestSetup::probe_length_mm`] (added in encoding version 3).
+    ProbeLengthMm,
     /// The LVDT sample rate (excitation × samples per period) exceeds what the ADCs can do.
     AdcRate,
     /// An axis name is used by two inputs.
@@ -738,6 +744,15 @@ pub const FIELDS: &[FieldInfo] = &[
         -360.0,
         360.0,
     )),
+    // new fields go last: a field's CANopen index is 0x2000 + its row, and the version 2
+    // encoding is this table's prefix
+    unset(real(
+        Field::ProbeLengthMm,
+        "probe_length",
+        "mm",
+        1.0,
+        POS_MM,
+    )),
 ];
 
 /// Why a configuration was rejected.
@@ -813,6 +828,7 @@ impl Default for TestSetup {
             ts_reference_mm: [NOT_SET; 3],
             ts_origin_mm: [NOT_SET; 3],
             ts_angles_deg: [NOT_SET; 2],
+            probe_length_mm: NOT_SET,
         }
     }
 }
@@ -919,6 +935,7 @@ impl Config {
                 ts_reference_mm: [0.0; 3],
                 ts_origin_mm: [0.0; 3],
                 ts_angles_deg: [0.0; 2],
+                probe_length_mm: 0.0,
             },
         }
     };
@@ -996,6 +1013,20 @@ fn check(field: Field, value: f64) -> Result<(), ConfigError> {
 /// True if `v` is a set value (a set-up field that is not set reads NaN).
 pub fn is_set(v: f32) -> bool {
     !v.is_nan()
+}
+
+/// The value of set-up field `f` that a computation needs (`v`, as f64), or `f` when it is
+/// not set.
+// one copy in flash for the many set-up fields the application reads
+#[inline(never)]
+pub fn required(v: f32, f: Field) -> Result<f64, Field> {
+    if is_set(v) { Ok(f64::from(v)) } else { Err(f) }
+}
+
+/// The X, Y, Z components of set-up field `f` (e.g. [`Field::S002OriginMm`]), all needed.
+pub fn required3(v: [f32; 3], f: fn(u8) -> Field) -> Result<[f64; 3], Field> {
+    let [x, y, z] = v;
+    Ok([required(x, f(0))?, required(y, f(1))?, required(z, f(2))?])
 }
 
 impl Config {
@@ -1099,6 +1130,7 @@ impl Config {
             Field::TsReferenceMm(k) => at(&s.ts_reference_mm, k)?,
             Field::TsOriginMm(k) => at(&s.ts_origin_mm, k)?,
             Field::TsAngleDeg(k) => at(&s.ts_angles_deg, k)?,
+            Field::ProbeLengthMm => f64::from(s.probe_length_mm),
             Field::AdcRate | Field::AxisNameDuplicate(_) => return None,
         })
     }
@@ -1183,6 +1215,7 @@ impl Config {
             Field::TsReferenceMm(k) => put(&mut s.ts_reference_mm, k),
             Field::TsOriginMm(k) => put(&mut s.ts_origin_mm, k),
             Field::TsAngleDeg(k) => put(&mut s.ts_angles_deg, k),
+            Field::ProbeLengthMm => s.probe_length_mm = x,
             Field::AdcRate | Field::AxisNameDuplicate(_) => {}
         }
     }
@@ -1228,9 +1261,12 @@ impl Config {
 
 /// Magic at the start of an encoded configuration.
 pub const MAGIC: [u8; 4] = *b"BPOD";
-/// Current encoding version (2: table-driven, with the test set-up; version 1 records are not
-/// read: the pod boots on the defaults and says so).
-pub const ENCODING_VERSION: u16 = 2;
+/// Current encoding version (3: version 2 plus `probe_length`). Version 2 encodings are read
+/// and migrated (the fields added since keep their defaults); version 1 records are not read:
+/// the pod boots on the defaults and says so.
+pub const ENCODING_VERSION: u16 = 3;
+/// The one field version 3 added (the last [`FIELDS`] row, so version 2 is the prefix).
+const ADDED_IN_V3: Field = Field::ProbeLengthMm;
 
 /// Bytes of one stored value of `ty`.
 const fn type_bytes(ty: FieldType) -> usize {
@@ -1263,6 +1299,8 @@ const PAYLOAD: usize = {
 };
 /// Total encoded size: magic, version u16, payload length u16, payload, CRC-32.
 pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD + 4;
+/// Total size of a version 2 encoding (read and migrated, never written): no `probe_length`.
+pub const ENCODED_LEN_V2: usize = ENCODED_LEN - 4;
 
 /// Little-endian writer over a fixed buffer (never writes past its end).
 struct Writer<'a> {
@@ -1345,29 +1383,37 @@ impl Config {
 
     /// Decodes and validates an encoding. Every check (length, magic, version, CRC, enum
     /// bytes, ranges) must pass; otherwise the error says which failed and nothing is returned.
+    /// A version 2 encoding ([`ENCODED_LEN_V2`] bytes) is read too: the fields added since
+    /// keep their defaults.
     pub fn decode(bytes: &[u8]) -> Result<Config, ConfigError> {
-        if bytes.len() != ENCODED_LEN {
-            return Err(ConfigError::BadLength {
-                len: bytes.len(),
-                expected: ENCODED_LEN,
-            });
-        }
         let mut r = Reader { buf: bytes, pos: 0 };
         if r.take::<4>() != MAGIC {
             return Err(ConfigError::BadMagic);
         }
         let version = u16::from_le_bytes(r.take());
-        if version != ENCODING_VERSION {
+        let v2 = version == 2;
+        if !(v2 || version == ENCODING_VERSION) {
             return Err(ConfigError::UnsupportedVersion(version));
         }
-        let payload = usize::from(u16::from_le_bytes(r.take()));
-        if payload != PAYLOAD {
+        let (len, payload_len) = if v2 {
+            (ENCODED_LEN_V2, PAYLOAD - 4)
+        } else {
+            (ENCODED_LEN, PAYLOAD)
+        };
+        if bytes.len() != len {
             return Err(ConfigError::BadLength {
-                len: payload,
-                expected: PAYLOAD,
+                len: bytes.len(),
+                expected: len,
             });
         }
-        let crc_at = ENCODED_LEN - 4;
+        let payload = usize::from(u16::from_le_bytes(r.take()));
+        if payload != payload_len {
+            return Err(ConfigError::BadLength {
+                len: payload,
+                expected: payload_len,
+            });
+        }
+        let crc_at = len - 4;
         let computed = bytes.get(..crc_at).map_or(0, crate::num::crc32);
         let stored = bytes
             .get(crc_at..)
@@ -1379,6 +1425,9 @@ impl Config {
         let mut c = Config::default();
         for row in FIELDS {
             for f in row.fields() {
+                if v2 && f == ADDED_IN_V3 {
+                    continue;
+                }
                 let at = r.pos;
                 let v = match row.ty {
                     FieldType::F32 => f64::from(f32::from_le_bytes(r.take())),

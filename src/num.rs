@@ -45,6 +45,14 @@ pub fn sqrtf(x: f32) -> f32 {
     }
 }
 
+/// True if every value is finite (no NaN, no infinity): the input check of the core's
+/// methods (arrays of points: `all_finite(points.as_flattened())`).
+// one copy in flash for the many input checks
+#[inline(never)]
+pub fn all_finite(v: &[f64]) -> bool {
+    v.iter().all(|x| x.is_finite())
+}
+
 /// Square root of an `f64` (software on the M4F: fine at per-test rates, DESIGN §6).
 #[inline]
 pub fn sqrt(x: f64) -> f64 {

@@ -132,13 +132,15 @@ pub fn decode_record(bytes: &[u8]) -> Result<Record, SlotError> {
         return Err(SlotError::UnsupportedVersion(version));
     }
     let len = u16_at(6);
-    if usize::from(len) != config::ENCODED_LEN {
+    // a record of the previous configuration encoding is read and migrated (config::decode)
+    if ![config::ENCODED_LEN, config::ENCODED_LEN_V2].contains(&usize::from(len)) {
         return Err(SlotError::BadLength(len));
     }
-    if u32_at(CRC_AT) != crate::num::crc32(field(0, CRC_AT)) {
+    let crc_at = HEADER_LEN + usize::from(len);
+    if u32_at(crc_at) != crate::num::crc32(field(0, crc_at)) {
         return Err(SlotError::BadCrc);
     }
-    let config = Config::decode(field(HEADER_LEN, CRC_AT)).map_err(SlotError::Config)?;
+    let config = Config::decode(field(HEADER_LEN, crc_at)).map_err(SlotError::Config)?;
     Ok(Record {
         sequence: u32_at(8),
         config,

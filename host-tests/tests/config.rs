@@ -191,3 +191,53 @@ fn every_f32_limit_can_itself_be_written() {
     assert!(c.try_update(|c| c.lvdt_max_abs_ratio = 0.0099).is_err());
     assert!(c.try_update(|c| c.bar_length_mm = 600.01).is_err());
 }
+
+/// The bytes of `data/settings_record_v2.hex` (a record the version 2 firmware wrote).
+fn v2_record() -> Vec<u8> {
+    include_str!("data/settings_record_v2.hex")
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .flat_map(|l| {
+            (0..l.len())
+                .step_by(2)
+                .map(move |i| u8::from_str_radix(&l[i..i + 2], 16).unwrap())
+        })
+        .collect()
+}
+
+#[test]
+fn a_settings_record_of_encoding_version_2_is_read_and_migrated() {
+    use ballpod::config::CirclePlane;
+    use ballpod::settings::{RECORD_LEN, decode_record};
+    let mut slot = v2_record();
+    // the rest of the erase page is erased flash
+    slot.resize(slot.len().max(RECORD_LEN), 0xFF);
+    let rec = decode_record(&slot).expect("a version 2 record is read");
+    assert_eq!(rec.sequence, 7);
+    // what the file's header says it holds; the field version 3 added keeps its default
+    let mut want = Config {
+        bar_length_mm: 150.0123,
+        lvdt_poly_um: [10.0, 1000.5, -2.25, 0.125],
+        can_node_id: 42,
+        ..Config::default()
+    };
+    want.setup.circle_plane = CirclePlane::ZX;
+    want.setup.circle_centre_mm = [-490.0, 0.0, -471.5];
+    want.setup.circle_radius_mm = 150.0;
+    want.setup.s002_origin_mm = [-490.0, 0.0, -536.838];
+    want.setup.s002_z_c_mm = 64.838;
+    want.setup.ts_angles_deg = [90.0, f32::NAN];
+    assert!(same(&rec.config, &want), "{:?}", rec.config);
+    assert!(rec.config.setup.probe_length_mm.is_nan());
+    // damaged, it is refused as any record is
+    let mut bad = slot.clone();
+    bad[40] ^= 4;
+    assert!(decode_record(&bad).is_err());
+    // and the next save writes the current version
+    let now = ballpod::settings::encode_record(&rec.config, 8).unwrap();
+    assert_eq!(
+        u16::from_le_bytes([now[12 + 4], now[12 + 5]]),
+        ballpod::config::ENCODING_VERSION
+    );
+    assert!(same(&decode_record(&now).unwrap().config, &want));
+}

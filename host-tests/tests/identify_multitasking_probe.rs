@@ -73,6 +73,7 @@ fn tv12_b_axis_formula_outputs() {
             [-493.2231, 0.04745, -468.8442],
         ],
         nominal_mm: [[-490.0, 0.0, -472.0]; 4],
+        measured_std_uncertainty_um: [[0.0; 3]; 4],
         r_b_mm: 382.950,
         r_b2_mm: 433.062,
         x_t_mm: 490.0,
@@ -128,6 +129,7 @@ fn b_axis_corrected_round_trip() {
         let input = BAxisProbe {
             measured_mm: [m0, m90, n0, n90],
             nominal_mm: [sphere; 4],
+            measured_std_uncertainty_um: [[0.0; 3]; 4],
             r_b_mm: rb,
             r_b2_mm: rb2,
             x_t_mm: 490.0,
@@ -165,12 +167,114 @@ fn b_axis_redundancy_shows_in_residual() {
     let input = BAxisProbe {
         measured_mm: [m0, m90, n0, n90],
         nominal_mm: [sphere; 4],
+        measured_std_uncertainty_um: [[0.0; 3]; 4],
         r_b_mm: 380.0,
         r_b2_mm: 430.0,
         x_t_mm: 490.0,
     };
     let c = identify_b_axis(&input, ProbeMode::Corrected).unwrap();
     assert!(c.residual_rms_um > 0.1 && c.std_uncertainty.iter().all(|u| *u > 0.0));
+}
+
+/// Monte-Carlo of the B-axis identification over noisy centres (σ per component, µm; with
+/// `known` the σ are given to it): per result the RMS of the stated standard uncertainty and
+/// the scatter of the value, in the result's unit.
+fn b_axis_monte_carlo(sigma_um: [f64; 3], known: bool) -> [(f64, f64); 5] {
+    let sphere = [-490.0, 0.0, -472.0];
+    let d = [
+        10.0, -5.0, 20.0, 30.0, 40.0, -25.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+    ];
+    let (rb, rb2) = (382.95, 433.062);
+    let clean = [b_probe(&d, rb, sphere), b_probe(&d, rb2, sphere)];
+    let mut r = fwd::Rng(0x005e_edb0);
+    let mut normal = || {
+        let (u1, u2) = ((r.uniform() + 1.0) / 2.0, (r.uniform() + 1.0) / 2.0);
+        (-2.0 * (u1.max(1e-300)).ln()).sqrt() * (2.0 * std::f64::consts::PI * u2).cos()
+    };
+    let trials = 4000;
+    // per result: Σ value, Σ value², Σ u²
+    let mut acc = [[0.0f64; 3]; 5];
+    for _ in 0..trials {
+        let mut m = [[0.0; 3]; 4];
+        for (k, c) in m.iter_mut().enumerate() {
+            for (i, v) in c.iter_mut().enumerate() {
+                *v = clean[k / 2][k % 2][i] + sigma_um[i] * 1e-3 * normal();
+            }
+        }
+        let input = BAxisProbe {
+            measured_mm: m,
+            nominal_mm: [sphere; 4],
+            measured_std_uncertainty_um: [if known { sigma_um } else { [0.0; 3] }; 4],
+            r_b_mm: rb,
+            r_b2_mm: rb2,
+            x_t_mm: 490.0,
+        };
+        let c = identify_b_axis(&input, ProbeMode::Corrected).unwrap();
+        let vals = [
+            (c.beta_xb_arcsec, c.std_uncertainty[0]),
+            (c.dx_bt_um, c.std_uncertainty[1]),
+            (c.dz_bt_um, c.std_uncertainty[2]),
+            (
+                c.alpha_bt_plus_alpha_xb_arcsec.unwrap(),
+                c.std_uncertainty_y[0],
+            ),
+            (
+                c.alpha_bt_minus_gamma_xb_arcsec.unwrap(),
+                c.std_uncertainty_y[1],
+            ),
+        ];
+        for (a, (v, u)) in acc.iter_mut().zip(vals) {
+            a[0] += v;
+            a[1] += v * v;
+            a[2] += u * u;
+        }
+    }
+    let n = trials as f64;
+    acc.map(|a| ((a[2] / n).sqrt(), (a[1] / n - (a[0] / n).powi(2)).sqrt()))
+}
+
+/// The stated standard uncertainties of the B-axis results against the scatter of the results
+/// over many noisy probings (Y: the analytic σ/√(l₁² + l₂²) of the two-lever least squares).
+#[test]
+fn b_axis_uncertainties_match_the_scatter() {
+    let (rb, rb2) = (382.95f64, 433.062f64);
+    // σ not known: from the residual (unbiased variance: the RMS u is the scatter)
+    let sigma_um = 0.5;
+    let analytic_y_arcsec =
+        sigma_um / ((rb * 1e-3).powi(2) + (rb2 * 1e-3).powi(2)).sqrt() * 1e-6 * AS;
+    for (k, (stated, scatter)) in b_axis_monte_carlo([sigma_um; 3], false)
+        .into_iter()
+        .enumerate()
+    {
+        assert!(
+            (stated / scatter - 1.0).abs() < 0.1,
+            "result {k}: stated u {stated} vs scatter {scatter}"
+        );
+        if k >= 3 {
+            assert!(
+                (scatter / analytic_y_arcsec - 1.0).abs() < 0.1,
+                "result {k}: scatter {scatter} vs analytic {analytic_y_arcsec}"
+            );
+        }
+    }
+    // σ known and unequal: propagated, never below the scatter; the Birge ratio raises it
+    // only by what the 5 and 2 degrees of freedom of the residual ask
+    let sigma_xyz = [0.3, 0.5, 0.8];
+    let analytic_y_arcsec =
+        sigma_xyz[1] / ((rb * 1e-3).powi(2) + (rb2 * 1e-3).powi(2)).sqrt() * 1e-6 * AS;
+    for (k, (stated, scatter)) in b_axis_monte_carlo(sigma_xyz, true).into_iter().enumerate() {
+        let ratio = stated / scatter;
+        assert!(
+            (0.97..1.35).contains(&ratio),
+            "result {k}: stated u {stated} vs scatter {scatter}"
+        );
+        if k >= 3 {
+            assert!(
+                (scatter / analytic_y_arcsec - 1.0).abs() < 0.1,
+                "result {k}: scatter {scatter} vs analytic {analytic_y_arcsec}"
+            );
+        }
+    }
 }
 
 #[test]
@@ -267,6 +371,7 @@ fn bad_input_is_typed() {
     let b = BAxisProbe {
         measured_mm: [[0.0; 3]; 4],
         nominal_mm: [[0.0; 3]; 4],
+        measured_std_uncertainty_um: [[0.0; 3]; 4],
         r_b_mm: 380.0,
         r_b2_mm: 380.0,
         x_t_mm: 490.0,

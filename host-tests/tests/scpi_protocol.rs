@@ -551,6 +551,7 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::TsReferenceMm(k) => g(s.ts_reference_mm[k as usize]),
         Field::TsOriginMm(k) => g(s.ts_origin_mm[k as usize]),
         Field::TsAngleDeg(k) => g(s.ts_angles_deg[k as usize]),
+        Field::ProbeLengthMm => g(s.probe_length_mm),
         Field::AdcRate | Field::AxisNameDuplicate(_) => unreachable!(),
     }
 }
@@ -1070,7 +1071,7 @@ fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
 #[test]
 fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid() {
     let mut b = Bench::with_circle();
-    assert_eq!(RESULTS.len(), 80);
+    assert_eq!(RESULTS.len(), 86);
     // nothing computed yet: -230 naming the result
     b.rejected_with(
         "FETC:RES? ecc_u",
@@ -1095,7 +1096,7 @@ fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid()
         -230,
         "Data corrupt or stale;G_bidir has no valid value",
     );
-    b.rejected("FETC:RES? 80", -222);
+    b.rejected("FETC:RES? 86", -222);
     b.rejected("FETC:RES? -1", -222);
     b.rejected("FETC:RES? 1.5", -222);
     b.rejected("FETC:RES? nonsense", -224);

@@ -3,7 +3,8 @@
 //!
 //! [`App`] owns the configuration, the acquisition pipeline, the session state machine, the
 //! run monitor, the armed pattern's estimators, the live values with their validity, the
-//! results table and the procedures (seed 002, the seed 000 two-step, the touch-probe C axis).
+//! results table and the procedures (seed 002, the seed 000 two-step, the touch-probe C and B
+//! axes).
 //! Its inputs are the sensor readings of each sample period ([`App::on_raw_sample`], or an
 //! already calibrated [`Sample`] in replay: [`App::on_sample`]), probe edges and the client
 //! commands ([`App::execute`], [`App::set_field`], …); its outputs are read by the protocols
@@ -23,7 +24,7 @@
 //! | CIRCLE | e_u, e_v, r0 of the direction's limaçon fit | the run's fit, G, F; with both directions G(b), H, radial, diagnoses | latest CCW and CW runs ([`circle`]) |
 //! | BX BY CR CA CR2 | e, r0 of the step's fit | the run's fit; the step's CW/CCW eccentricity | seed 002 identification when every step has CW and CCW ([`seed002`]) |
 //! | SSM | E_x, E_y, E_z of the neighbourhood (each or none) | E from the dwell stations, u(E) | seed 000 two-step over two SSM runs ([`ssm`]) |
-//! | PROBE | – | the sphere through the touch points | touch-probe C axis over four spheres ([`probe`]) |
+//! | PROBE | – | the sphere through the touch points | touch-probe C axis over four spheres, B axis over B = 0/90° with two tool lengths ([`probe`]) |
 //!
 //! The seed 002 identification takes seconds on the M4 (f64 in software): [`App::execute`]
 //! only marks it pending (status bit [`StatusWord::IDENTIFYING`]); the shell runs it with
@@ -53,7 +54,7 @@ use crate::config::{AxisName, Config, ConfigError, Field};
 use crate::identify::multitasking::{Parameter, urad_to_arcsec};
 use crate::metrology::circle_fit::{CircleEstimate, CircleFit};
 use circle::{CircleGeometry, CircleTest};
-use probe::{CAxisSpheres, ProbeRun};
+use probe::{ProbeRun, Spheres};
 use run::{RunMonitor, Verdict};
 use seed002::{Procedure, Setup};
 use ssm::{SsmRun, TwoStep};
@@ -281,7 +282,7 @@ pub struct App {
     seed002_runs_not_kept: u32,
     identify_pending: bool,
     two_step: TwoStep,
-    spheres: CAxisSpheres,
+    spheres: Spheres,
     touches_outside_run: u32,
     probe_event: bool,
     last_touch: Option<Touch>,
@@ -327,7 +328,7 @@ impl App {
             seed002_runs_not_kept: 0,
             identify_pending: false,
             two_step: TwoStep::default(),
-            spheres: CAxisSpheres::default(),
+            spheres: Spheres::default(),
             touches_outside_run: 0,
             probe_event: false,
             last_touch: None,
@@ -614,7 +615,7 @@ impl App {
                 Ok(r) => RunEstimator::Ssm(r),
                 Err(f) => return self.refuse(CommandError::Missing(f)),
             },
-            Pattern::Probe => RunEstimator::Probe(ProbeRun::new()),
+            Pattern::Probe => RunEstimator::Probe(ProbeRun::new(f64::from(setup.probe_length_mm))),
             step => {
                 let s = match Setup::from_config(&setup) {
                     Ok(s) => s,
@@ -747,12 +748,16 @@ impl App {
                 Ok(fit) => {
                     probe::publish(&fit, &mut self.results);
                     match self.spheres.on_sphere(run, &fit, &setup, &mut self.results) {
-                        Err(probe::CAxisFailure::Missing(f)) => {
+                        Err(probe::ProbeFailure::Missing(f)) => {
                             self.procedure_note = Some(CommandError::Missing(f));
                         }
-                        Err(probe::CAxisFailure::Identify(_)) => {
+                        Err(probe::ProbeFailure::CAxis(_)) => {
                             self.procedure_note =
                                 Some(CommandError::WrongState("C-axis identification failed"));
+                        }
+                        Err(probe::ProbeFailure::BAxis(_)) => {
+                            self.procedure_note =
+                                Some(CommandError::WrongState("B-axis identification failed"));
                         }
                         Ok(_) => {}
                     }

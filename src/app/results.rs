@@ -119,6 +119,12 @@ results! {
     ProbeBetaCz => ("probe_beta_CZ", "arcsec", "Touch-probe C axis: β_CZ"),
     ProbeDxCz => ("probe_dx_CZ", "um", "Touch-probe C axis: δx_CZ"),
     ProbeDyCz => ("probe_dy_CZ", "um", "Touch-probe C axis: δy_CZ"),
+    ProbeDxBt => ("probe_dx_BT", "um", "Seed 002 chapter 5 touch-probe B axis (sphere on the C centreline at B = 0/90° with two tool lengths, probe_length): δx_BT"),
+    ProbeDzBt => ("probe_dz_BT", "um", "Touch-probe B axis: δz_BT"),
+    ProbeBetaXb => ("probe_beta_XB", "arcsec", "Touch-probe B axis: β_XB"),
+    ProbeAlphaBtPlusAlphaXb => ("probe_alpha_BT_plus_alpha_XB", "arcsec", "Touch-probe B axis: α_BT + α_XB (not separable with B = 0/90° alone)"),
+    ProbeAlphaBtMinusGammaXb => ("probe_alpha_BT_minus_gamma_XB", "arcsec", "Touch-probe B axis: α_BT − γ_XB"),
+    ProbeBResidualRms => ("probe_B_residual_rms", "um", "Touch-probe B axis: RMS residual of the X/Z equations (8 equations, 3 unknowns)"),
 }
 
 /// Number of results.
@@ -229,6 +235,8 @@ impl Results {
 
     /// Sets `id` to `value` ± `u` (standard uncertainty, NaN if not evaluated); a value that
     /// is not finite leaves the entry invalid.
+    // one copy, not one per result the application sets (flash: ~1.5 KiB)
+    #[inline(never)]
     pub fn set(&mut self, id: ResultId, value: f64, u: f64) {
         if let Some(e) = self.entries.get_mut(id.index()) {
             *e = if value.is_finite() {

@@ -106,14 +106,8 @@ impl Setup {
     /// The set-up of the configuration, or the first field it lacks (the thesis lever arms
     /// Z_T, Z′_T, X_T may be not set: thesis mode then gives no result).
     pub fn from_config(t: &TestSetup) -> Result<Self, Field> {
-        let need = |v: f32, f: Field| {
-            if crate::config::is_set(v) {
-                Ok(f64::from(v))
-            } else {
-                Err(f)
-            }
-        };
-        let [ox, oy, oz] = t.s002_origin_mm;
+        use crate::config::{required as need, required3};
+        // fields in table order: the first missing one is named
         Ok(Self {
             l_b_mm: need(t.s002_l_b_mm, Field::S002LbMm)?,
             r_b_mm: need(t.s002_r_b_mm, Field::S002RbMm)?,
@@ -123,10 +117,9 @@ impl Setup {
             z_t_mm: f64::from(t.s002_z_t_mm),
             z_t2_mm: f64::from(t.s002_z_t2_mm),
             x_t_mm: f64::from(t.s002_x_t_mm),
-            offset: NcOffset {
-                x_mm: need(ox, Field::S002OriginMm(0))?,
-                y_mm: need(oy, Field::S002OriginMm(1))?,
-                z_mm: need(oz, Field::S002OriginMm(2))?,
+            offset: {
+                let [x_mm, y_mm, z_mm] = required3(t.s002_origin_mm, Field::S002OriginMm)?;
+                NcOffset { x_mm, y_mm, z_mm }
             },
         })
     }

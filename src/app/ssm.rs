@@ -9,7 +9,7 @@
 
 use super::results::{ResultId, Results};
 use crate::acquisition::Sample;
-use crate::config::{Field, TestSetup, TwoStepMachine, is_set};
+use crate::config::{Field, TestSetup, TwoStepMachine, required, required3};
 use crate::identify::two_step::{
     self, DEFAULT_MIN_LEVER_ARM_MM, Mode, ReferenceEnd, RotationOrder, RrtttConfig,
     RrtttMeasurement, RtttrSpindleConfig, RtttrTableConfig, SingleAxisMeasurement, TttrrConfig,
@@ -58,13 +58,7 @@ impl SsmRun {
     /// A run on the set-up's socket with a bar of `bar_length_mm`, or the first field the
     /// set-up lacks (the socket position).
     pub fn new(t: &TestSetup, bar_length_mm: f32) -> Result<Self, Field> {
-        let mut socket_mm = [0.0; 3];
-        for (k, (dst, v)) in (0u8..).zip(socket_mm.iter_mut().zip(t.ssm_socket_mm)) {
-            if !is_set(v) {
-                return Err(Field::SsmSocketMm(k));
-            }
-            *dst = f64::from(v);
-        }
+        let socket_mm = required3(t.ssm_socket_mm, Field::SsmSocketMm)?;
         let geometry = SsmGeometry {
             socket_mm,
             bar_length_mm: f64::from(bar_length_mm),
@@ -195,20 +189,10 @@ impl TwoStep {
     }
 }
 
-fn need(v: f32, f: Field) -> Result<f64, TwoStepFailure> {
-    if is_set(v) {
-        Ok(f64::from(v))
-    } else {
-        Err(TwoStepFailure::Missing(f))
+impl From<Field> for TwoStepFailure {
+    fn from(f: Field) -> Self {
+        Self::Missing(f)
     }
-}
-
-fn need3(v: [f32; 3], f: fn(u8) -> Field) -> Result<[f64; 3], TwoStepFailure> {
-    let mut out = [0.0; 3];
-    for (k, (o, x)) in (0u8..).zip(out.iter_mut().zip(v)) {
-        *o = need(x, f(k))?;
-    }
-    Ok(out)
 }
 
 /// The two-step identification of the configured machine (exact mode, seed 000 B.3–B.5;
@@ -221,7 +205,7 @@ fn identify(
     results: &mut Results,
 ) -> Result<(), TwoStepFailure> {
     let [a1, a2] = t.ts_angles_deg;
-    let origin = need3(t.ts_origin_mm, Field::TsOriginMm)?;
+    let origin = required3(t.ts_origin_mm, Field::TsOriginMm)?;
     let fail = TwoStepFailure::Identify;
     let single = |angle_deg| SingleAxisMeasurement {
         origin_mm: origin,
@@ -234,15 +218,15 @@ fn identify(
         TwoStepMachine::None => {}
         TwoStepMachine::Rrttt => {
             let cfg = RrtttConfig {
-                tool_z_mm: need(t.ts_tool_z_mm, Field::TsToolZMm)?,
+                tool_z_mm: required(t.ts_tool_z_mm, Field::TsToolZMm)?,
                 rotation_order: RotationOrder::AlphaThenBeta,
                 reference_end: ReferenceEnd::OtherMember,
                 min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
             };
             let m = RrtttMeasurement {
                 pivot_mm: origin,
-                alpha_deg: need(a1, Field::TsAngleDeg(0))?,
-                beta_deg: need(a2, Field::TsAngleDeg(1))?,
+                alpha_deg: required(a1, Field::TsAngleDeg(0))?,
+                beta_deg: required(a2, Field::TsAngleDeg(1))?,
                 dv1_um,
                 dv2_um,
                 ssm_std_um,
@@ -254,15 +238,15 @@ fn identify(
         }
         TwoStepMachine::Tttrr => {
             let cfg = TttrrConfig {
-                z_alpha_gamma_mm: need(t.ts_z_alpha_gamma_mm, Field::TsZAlphaGammaMm)?,
-                reference_point_mm: need3(t.ts_reference_mm, Field::TsReferenceMm)?,
+                z_alpha_gamma_mm: required(t.ts_z_alpha_gamma_mm, Field::TsZAlphaGammaMm)?,
+                reference_point_mm: required3(t.ts_reference_mm, Field::TsReferenceMm)?,
                 reference_end: ReferenceEnd::OtherMember,
                 min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
             };
             let m = TttrrMeasurement {
                 origin_mm: origin,
-                alpha_deg: need(a1, Field::TsAngleDeg(0))?,
-                gamma_deg: need(a2, Field::TsAngleDeg(1))?,
+                alpha_deg: required(a1, Field::TsAngleDeg(0))?,
+                gamma_deg: required(a2, Field::TsAngleDeg(1))?,
                 dv1_um,
                 dv2_um,
                 ssm_std_um,
@@ -274,21 +258,21 @@ fn identify(
         }
         TwoStepMachine::RtttrSpindle => {
             let cfg = RtttrSpindleConfig {
-                tool_z_mm: need(t.ts_tool_z_mm, Field::TsToolZMm)?,
+                tool_z_mm: required(t.ts_tool_z_mm, Field::TsToolZMm)?,
                 reference_end: ReferenceEnd::OtherMember,
                 min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
             };
-            let m = single(need(a1, Field::TsAngleDeg(0))?);
+            let m = single(required(a1, Field::TsAngleDeg(0))?);
             let r = two_step::identify_rtttr_spindle(&cfg, &m, Mode::Exact).map_err(fail)?;
             results.set(ResultId::TsDeltaBeta, r.delta_urad, r.std_uncertainty_urad);
         }
         TwoStepMachine::RtttrTable => {
             let cfg = RtttrTableConfig {
-                reference_point_mm: need3(t.ts_reference_mm, Field::TsReferenceMm)?,
+                reference_point_mm: required3(t.ts_reference_mm, Field::TsReferenceMm)?,
                 reference_end: ReferenceEnd::OtherMember,
                 min_lever_arm_mm: DEFAULT_MIN_LEVER_ARM_MM,
             };
-            let m = single(need(a1, Field::TsAngleDeg(0))?);
+            let m = single(required(a1, Field::TsAngleDeg(0))?);
             let r = two_step::identify_rtttr_table(&cfg, &m, Mode::Exact).map_err(fail)?;
             results.set(ResultId::TsDeltaAlpha, r.delta_urad, r.std_uncertainty_urad);
         }

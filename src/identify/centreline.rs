@@ -298,10 +298,6 @@ fn arr(v: &Vector3<f64>) -> [f64; 3] {
     [v.x, v.y, v.z]
 }
 
-fn finite3(a: &[f64; 3]) -> bool {
-    a.iter().all(|x| x.is_finite())
-}
-
 /// Normalises `v`, or `ZeroVector` if |v| < 1e-12 (or non-finite).
 fn unit(v: Vector3<f64>) -> Result<Unit<Vector3<f64>>, CentrelineError> {
     let n = crate::num::sqrt(v.dot(&v));
@@ -354,7 +350,10 @@ pub fn plane_normal(
         v3(frame.lateral_v),
         v3(frame.reading_dir),
     );
-    if !(finite3(&frame.lateral_u) && finite3(&frame.lateral_v) && finite3(&frame.reading_dir)) {
+    if !(crate::num::all_finite(&frame.lateral_u)
+        && crate::num::all_finite(&frame.lateral_v)
+        && crate::num::all_finite(&frame.reading_dir))
+    {
         return Err(CentrelineError::NonFinite);
     }
     let tol = 1e-9;
@@ -414,7 +413,10 @@ pub fn axis_direction_half_turn(
     n2: [f64; 3],
     nominal: [f64; 3],
 ) -> Result<AxisDirection, CentrelineError> {
-    if !(finite3(&n1) && finite3(&n2) && finite3(&nominal)) {
+    if !(crate::num::all_finite(&n1)
+        && crate::num::all_finite(&n2)
+        && crate::num::all_finite(&nominal))
+    {
         return Err(CentrelineError::NonFinite);
     }
     let (n1, n2) = (unit(v3(n1))?, unit(v3(n2))?);
@@ -448,7 +450,11 @@ pub fn axis_direction_two_positions(
     sense: RotationSense,
     nominal: [f64; 3],
 ) -> Result<TwoPositionAxis, CentrelineError> {
-    if !(finite3(&n3) && finite3(&n4) && finite3(&nominal) && commanded_deg.is_finite()) {
+    if !(crate::num::all_finite(&n3)
+        && crate::num::all_finite(&n4)
+        && crate::num::all_finite(&nominal)
+        && commanded_deg.is_finite())
+    {
         return Err(CentrelineError::NonFinite);
     }
     let (n3, n4) = (unit(v3(n3))?, unit(v3(n4))?);
@@ -524,10 +530,10 @@ pub fn axis_direction_lsq(
             needed: 3,
         });
     }
-    if !finite3(&nominal)
+    if !crate::num::all_finite(&nominal)
         || positions
             .iter()
-            .any(|p| !(finite3(&p.normal) && p.commanded_deg.is_finite()))
+            .any(|p| !(crate::num::all_finite(&p.normal) && p.commanded_deg.is_finite()))
     {
         return Err(CentrelineError::NonFinite);
     }
@@ -616,7 +622,7 @@ pub fn axis_centre(
     }
     if positions
         .iter()
-        .any(|p| !(p.commanded_deg.is_finite() && p.point_mm.iter().all(|x| x.is_finite())))
+        .any(|p| !(p.commanded_deg.is_finite() && crate::num::all_finite(&p.point_mm)))
     {
         return Err(CentrelineError::NonFinite);
     }
@@ -691,7 +697,7 @@ pub fn nc_correction(
         nominal.tilt.point_mm,
         work_point_mm,
     ];
-    if !(all.iter().all(finite3) && eps_deg.is_finite() && phi_deg.is_finite()) {
+    if !(crate::num::all_finite(all.as_flattened()) && eps_deg.is_finite() && phi_deg.is_finite()) {
         return Err(CentrelineError::NonFinite);
     }
     let p = v3(work_point_mm);

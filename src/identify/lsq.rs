@@ -104,7 +104,7 @@ impl<const N: usize> GivensLsq<N> {
     /// Adds the equation `a · x = b` with weight `w` (w = 1/σ² of b for weighted least squares;
     /// 1 for ordinary). Non-finite input is rejected and leaves the state unchanged.
     pub fn add_row(&mut self, a: &[f64; N], b: f64, w: f64) -> Result<(), LsqError> {
-        if !(b.is_finite() && w.is_finite() && w >= 0.0 && a.iter().all(|v| v.is_finite())) {
+        if !(b.is_finite() && w.is_finite() && w >= 0.0 && crate::num::all_finite(a)) {
             return Err(LsqError::NonFinite { row: self.rows });
         }
         let sw = libm::sqrt(w);

@@ -576,8 +576,7 @@ pub fn predict_um(
     c_deg: f64,
 ) -> Result<[f64; 3], RtestError> {
     let x = e.to_array();
-    if !(g.is_finite() && x.iter().all(|v| v.is_finite()) && a_deg.is_finite() && c_deg.is_finite())
-    {
+    if !(g.is_finite() && crate::num::all_finite(&x) && a_deg.is_finite() && c_deg.is_finite()) {
         return Err(RtestError::BadParameter);
     }
     let h = reduced_gains(g, a_deg, c_deg);
@@ -777,10 +776,7 @@ fn check_inputs(g: &RtestGeometry, samples: &[RtestSample]) -> Result<(), RtestE
         return Err(RtestError::BadParameter);
     }
     for (i, s) in samples.iter().enumerate() {
-        if !(s.a_deg.is_finite()
-            && s.c_deg.is_finite()
-            && s.reading_um.iter().all(|v| v.is_finite()))
-        {
+        if !(s.a_deg.is_finite() && s.c_deg.is_finite() && crate::num::all_finite(&s.reading_um)) {
             return Err(RtestError::NonFiniteSample { sample: i });
         }
     }
@@ -840,7 +836,7 @@ pub fn identify(
     check_inputs(g, samples)?;
     if !(cfg.rank_tol.is_finite()
         && cfg.rank_tol > 0.0
-        && cfg.fixed_values.to_array().iter().all(|v| v.is_finite()))
+        && crate::num::all_finite(&cfg.fixed_values.to_array()))
     {
         return Err(RtestError::BadParameter);
     }
@@ -985,7 +981,7 @@ pub fn axis_lines(
     g: &RtestGeometry,
     e: &LocationErrors,
 ) -> Result<(AxisLine, AxisLine), RtestError> {
-    if !(g.is_finite() && e.to_array().iter().all(|v| v.is_finite())) {
+    if !(g.is_finite() && crate::num::all_finite(&e.to_array())) {
         return Err(RtestError::BadParameter);
     }
     let um = 1e-3;
@@ -1025,7 +1021,7 @@ pub fn verify(
     zero: ReadingZero,
 ) -> Result<Residuals, RtestError> {
     check_inputs(g, samples)?;
-    if !errors.to_array().iter().all(|v| v.is_finite()) {
+    if !crate::num::all_finite(&errors.to_array()) {
         return Err(RtestError::BadParameter);
     }
     residuals(g, errors, samples, zero)

@@ -151,7 +151,7 @@ fn fit<const D: usize, const K: usize>(
     if n < K {
         return Err(PointFitError::TooFewPoints { have: n, need: K });
     }
-    if !pts.iter().all(|p| p.iter().all(|v| v.is_finite())) {
+    if !crate::num::all_finite(pts.as_flattened()) {
         return Err(PointFitError::NotFinite);
     }
     let nf = n as f64;
@@ -273,7 +273,7 @@ fn fit<const D: usize, const K: usize>(
         points: n,
         iterations,
     };
-    if out.centre_mm.iter().all(|v| v.is_finite()) && r.is_finite() && r > 0.0 {
+    if crate::num::all_finite(&out.centre_mm) && r.is_finite() && r > 0.0 {
         Ok(out)
     } else {
         Err(PointFitError::Degenerate)

@@ -116,7 +116,7 @@ impl Sym3 {
 
     /// Solves A·x = b by Cholesky.
     pub fn solve(&self, b: [f64; 3]) -> Result<[f64; 3], Solve3Error> {
-        if !b.iter().all(|v| v.is_finite()) {
+        if !crate::num::all_finite(&b) {
             return Err(Solve3Error::NotFinite);
         }
         Ok(self.cholesky()?.solve(b))
@@ -289,5 +289,5 @@ pub fn cholesky_solve<const N: usize>(a: [[f64; N]; N], b: [f64; N]) -> Option<[
         }
         *x.get_mut(i)? = s / l.get(i)?.get(i)?;
     }
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    crate::num::all_finite(&x).then_some(x)
 }

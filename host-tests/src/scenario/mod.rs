@@ -8,8 +8,9 @@
 //!   `max_abs_error_um` / `max_abs_error_arcsec` of the truth;
 //! - `iso230_4`: the sensor-level circular test; each injected fault diagnosed within
 //!   `max_relative_error`;
-//! - `seed002_probe`: spheres at C = 0/90/180/270° placed by the literal HTM model
-//!   ([`crate::forward_seed002`]), each touched nine times at sensor level
+//! - `seed002_probe` / `seed002_probe_b_axis`: the chapter 5 spheres at C = 0/90/180/270° /
+//!   at B = 0/90° with two tool lengths, placed by the literal HTM model
+//!   ([`crate::vmt::motion::probe_target`]), each touched nine times at sensor level
 //!   ([`crate::vmt::probe_rig`]: pre-travel, repeatability σ = `noise_um`, bounce edges, the
 //!   pod's probe latch and debouncer, the core's sphere fit) → `identify::multitasking::probe`;
 //! - `seed003_rtest`: the R-test head on path K4 of the A/C table-tilting machine
@@ -248,7 +249,8 @@ pub fn run(s: &Scenario) -> Result<Vec<Check>, String> {
     match s.method.as_str() {
         "seed002_ballbar" => seed002_ballbar(s),
         "iso230_4" => iso230_4(s),
-        "seed002_probe" => seed002_probe(s),
+        "seed002_probe" => seed002_probe(s, 0..4),
+        "seed002_probe_b_axis" => seed002_probe(s, 4..8),
         "seed003_rtest" => seed003_rtest(s),
         "seed004_dial_gauge" => seed004_dial_gauge(s),
         "seed000_two_step" => seed000_two_step(s),
@@ -341,37 +343,46 @@ fn iso230_4(s: &Scenario) -> Result<Vec<Check>, String> {
     Ok(out)
 }
 
-fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
+/// The chapter 5 probe runs `runs` of the sequence ([`crate::vmt::motion::probe_target`]) on
+/// one simulated pod: C = 0/90/180/270° (runs 0–3) → the C axis; B = 0/90° with R_B and R′_B
+/// (runs 4–7) → the B axis.
+fn seed002_probe(s: &Scenario, runs: std::ops::Range<u32>) -> Result<Vec<Check>, String> {
+    use crate::vmt::motion::probe_target;
     use ballpod::identify::multitasking::urad_to_arcsec;
     let d = s.machine.seed002.deviations();
     let da = d.to_array();
-    let (_, _, _, _, mcz, _) = crate::forward_seed002::mats(&da);
     let (rc, zc) = (100.0, 64.838);
     let origin = [-490.0, 0.0, -536.838];
+    // the thesis's styli (Table 5.2 conditions): R_B, then R′_B for the second B pair
+    let (r_b, r_b2) = (382.95, 433.062);
     // sensor level: nine touches per sphere through the pod's probe latch (pre-travel,
-    // repeatability σ = noise_um, bounce edges from the instrument); the pod fits each sphere
-    // and, with the four C positions in, identifies the C axis
+    // repeatability σ = noise_um, bounce edges from the instrument); the pod fits each sphere,
+    // identifies the C axis once the four C positions are in and the B axis once B = 0/90°
+    // are in with both styli
     let inst = crate::vmt::sensors::Instrument {
         probe_repeatability_um: s.noise_um,
         ..s.machine.instrument
     };
     let mut rig = crate::vmt::probe_rig::ProbeRig::new(&inst, s.seed);
-    rig.pod
-        .app
-        .configure(|c| {
-            c.setup.s002_origin_mm = origin.map(|v| v as f32);
-            c.setup.s002_z_c_mm = zc as f32;
-        })
-        .map_err(|e| format!("set-up: {:?}", e.text()))?;
     let mut radius_dev_um = Vec::new();
-    for k in 0..4 {
-        let th = k as f64 * std::f64::consts::FRAC_PI_2;
-        let p = crate::forward_seed002::apply(
-            &crate::forward_seed002::mul(&mcz, &crate::forward_seed002::ec(th)),
-            [rc, 0.0, zc],
-        );
-        let truth: [f64; 3] = std::array::from_fn(|i| origin[i] + p[i]);
-        let m = rig.measure_sphere(truth, [0.0, th.to_degrees()])?;
+    for run in runs.clone() {
+        // the C-axis runs with no tool length (touch points = axis positions), the B pairs
+        // with R_B then R′_B
+        let length = match run {
+            0..4 => f64::NAN,
+            4 | 5 => r_b,
+            _ => r_b2,
+        };
+        rig.pod
+            .app
+            .configure(|c| {
+                c.setup.s002_origin_mm = origin.map(|v| v as f32);
+                c.setup.s002_z_c_mm = zc as f32;
+                c.setup.probe_length_mm = length as f32;
+            })
+            .map_err(|e| format!("set-up: {:?}", e.text()))?;
+        let (centre, rotary) = probe_target(&da, origin, [rc, zc], length, run);
+        let m = rig.measure_sphere(centre, rotary)?;
         if m.accepted != 9 || m.bounces != 9 * inst.probe_bounces {
             return Err(format!(
                 "probe: {} touches accepted (9 made), {} bounces rejected ({} made)",
@@ -389,42 +400,73 @@ fn seed002_probe(s: &Scenario) -> Result<Vec<Check>, String> {
     }
     replay_reproduces(&rig.pod)?;
     let app = &rig.pod.app;
-    let got = |id: ResultId| {
+    let c = |name: &str, truth: f64, id: ResultId, unit| -> Result<Check, String> {
         let e = app.result(id);
-        e.valid
-            .then_some(f64::from(e.value))
-            .ok_or(format!("the pod reports no {}", id.info().name))
+        if !e.valid {
+            return Err(format!("the pod reports no {}", id.info().name));
+        }
+        let u = f64::from(e.std_uncertainty);
+        Ok(Check {
+            name: name.to_string(),
+            truth,
+            got: f64::from(e.value),
+            u: if u.is_nan() { 0.0 } else { u },
+            unit,
+        })
     };
-    let c = |name: &str, truth: f64, got: f64, unit| Check {
-        name: name.to_string(),
-        truth,
-        got,
+    let asec = urad_to_arcsec;
+    let mut out = Vec::new();
+    if runs.contains(&3) {
+        out.extend([
+            c(
+                "alpha_CZ",
+                asec(d.alpha_cz_urad),
+                ResultId::ProbeAlphaCz,
+                "arcsec",
+            )?,
+            c(
+                "beta_CZ",
+                asec(d.beta_cz_urad),
+                ResultId::ProbeBetaCz,
+                "arcsec",
+            )?,
+            c("dx_CZ", d.dx_cz_um, ResultId::ProbeDxCz, "um")?,
+            c("dy_CZ", d.dy_cz_um, ResultId::ProbeDyCz, "um")?,
+        ]);
+    }
+    if runs.contains(&7) {
+        out.extend([
+            c("dx_BT", d.dx_bt_um, ResultId::ProbeDxBt, "um")?,
+            c("dz_BT", d.dz_bt_um, ResultId::ProbeDzBt, "um")?,
+            c(
+                "beta_XB",
+                asec(d.beta_xb_urad),
+                ResultId::ProbeBetaXb,
+                "arcsec",
+            )?,
+            c(
+                "alpha_BT_plus_alpha_XB",
+                asec(d.alpha_bt_urad + d.alpha_xb_urad),
+                ResultId::ProbeAlphaBtPlusAlphaXb,
+                "arcsec",
+            )?,
+            c(
+                "alpha_BT_minus_gamma_XB",
+                asec(d.alpha_bt_urad - d.gamma_xb_urad),
+                ResultId::ProbeAlphaBtMinusGammaXb,
+                "arcsec",
+            )?,
+        ]);
+    }
+    // the pre-travel shows in the fitted radius (mean of the spheres), not the centres
+    out.push(Check {
+        name: "sphere_radius_deviation".into(),
+        truth: -inst.probe_pretravel_um,
+        got: radius_dev_um.iter().sum::<f64>() / radius_dev_um.len() as f64,
         u: 0.0,
-        unit,
-    };
-    Ok(vec![
-        c(
-            "alpha_CZ",
-            urad_to_arcsec(d.alpha_cz_urad),
-            got(ResultId::ProbeAlphaCz)?,
-            "arcsec",
-        ),
-        c(
-            "beta_CZ",
-            urad_to_arcsec(d.beta_cz_urad),
-            got(ResultId::ProbeBetaCz)?,
-            "arcsec",
-        ),
-        c("dx_CZ", d.dx_cz_um, got(ResultId::ProbeDxCz)?, "um"),
-        c("dy_CZ", d.dy_cz_um, got(ResultId::ProbeDyCz)?, "um"),
-        // the pre-travel shows in the fitted radius (mean of the four spheres), not the centres
-        c(
-            "sphere_radius_deviation",
-            -inst.probe_pretravel_um,
-            radius_dev_um.iter().sum::<f64>() / radius_dev_um.len() as f64,
-            "um",
-        ),
-    ])
+        unit: "um",
+    });
+    Ok(out)
 }
 
 fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {

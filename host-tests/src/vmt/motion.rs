@@ -11,8 +11,10 @@
 //!   with the configured Table 4.3 set-up, at the machine's feed;
 //! - SSM: three dwells (0.4 s) on the bar's sphere around the configured socket, 2000 mm/min
 //!   between them, the tool point off by the truth's E;
-//! - PROBE: nine touches on a sphere (radius 12.7 mm, stylus 1.5 mm) on the C table, the n-th
-//!   PROBE run at C = n·90° (mod 360°), the sphere carried by the seed 002 machine's C axis.
+//! - PROBE: nine touches on a sphere (radius 12.7 mm, stylus 1.5 mm), the runs going through
+//!   the seed 002 chapter 5 sequence of eight ([`probe_target`]): C = 0/90/180/270° then
+//!   B = 0/90° twice (change `probe_length` between the two B pairs, as the thesis changes to
+//!   the long stylus).
 
 use ballpod::acquisition::MAX_AXES;
 use ballpod::app::Pattern;
@@ -254,7 +256,57 @@ pub fn ssm_path(e_um: [f64; 3], cfg: &Config) -> Result<Vec<MachineStep>, String
     Ok(out)
 }
 
-/// Nine touches on the sphere carried by the C axis at C = `probe_runs`·90°.
+/// PROBE runs in the seed 002 chapter 5 sequence (then it starts over).
+pub const PROBE_SEQUENCE: u32 = 8;
+
+/// Where PROBE run `run` of the seed 002 chapter 5 sequence finds the sphere on the seed 002
+/// machine with deviations `d` (µm, µrad; the literal HTM model): the sphere centre in the
+/// axis positions the encoders read when the stylus ball's nominal centre (`axes −
+/// R·(sin B, 0, cos B)`, R = `length_mm`, 0 if not set) is on it, mm, and the rotary axes
+/// (B, C), degrees. `origin_mm` is the seed 002 origin O_M, `rc_zc_mm` the C-axis sphere's
+/// radius R_C and height Z_C.
+///
+/// - runs 0–3: the sphere at R_C on the C table at C = run·90°, B = 0, carried by the C axis
+///   (its location and orientation errors; the spindle side is taken as known, as the C-axis
+///   method does);
+/// - runs 4–7: the sphere on the C centreline at height Z_C, B = 0° (4, 6) or 90° (5, 7); the
+///   stylus ball displaced by the B-axis and spindle deviations (δx_BT, δz_BT, α_BT, α_XB,
+///   β_XB, γ_XB; the sphere itself at its nominal place, the "standard position" the B-axis
+///   method assumes).
+pub fn probe_target(
+    d: &[f64; 13],
+    origin_mm: [f64; 3],
+    rc_zc_mm: [f64; 2],
+    length_mm: f64,
+    run: u32,
+) -> ([f64; 3], [f64; 2]) {
+    let r = if length_mm.is_nan() { 0.0 } else { length_mm };
+    let [rc, zc] = rc_zc_mm;
+    let k = run % PROBE_SEQUENCE;
+    if k < 4 {
+        let c_deg = 90.0 * f64::from(k);
+        let (_, _, _, _, mcz, _) = fwd::mats(d);
+        let p = fwd::apply(&fwd::mul(&mcz, &fwd::ec(c_deg.to_radians())), [rc, 0.0, zc]);
+        let centre = std::array::from_fn(|i| origin_mm[i] + p[i] + if i == 2 { r } else { 0.0 });
+        return (centre, [0.0, c_deg]);
+    }
+    let b_deg = if k.is_multiple_of(2) { 0.0 } else { 90.0 };
+    let b = f64::to_radians(b_deg);
+    let sphere = [origin_mm[0], origin_mm[1], origin_mm[2] + zc];
+    // the spindle and B deviations only (the B-axis method's model)
+    let mut spindle = [0.0; 13];
+    spindle[..6].copy_from_slice(&d[..6]);
+    let cmd = [sphere[0] + r * b.sin(), sphere[1], sphere[2] + r * b.cos()];
+    let actual = fwd::t_ball(&spindle, cmd[0], cmd[1], cmd[2], b, r, [0.0; 3]);
+    let nominal = fwd::t_ball(&[0.0; 13], cmd[0], cmd[1], cmd[2], b, r, [0.0; 3]);
+    // the actual ball touches the sphere where the nominal one is displaced by −(actual − nominal)
+    (
+        std::array::from_fn(|i| cmd[i] - (actual[i] - nominal[i])),
+        [b_deg, 0.0],
+    )
+}
+
+/// Nine touches on the sphere of PROBE run `probe_runs` of the sequence ([`probe_target`]).
 fn probe_path(
     truth: &ServeTruth,
     cfg: &Config,
@@ -264,15 +316,17 @@ fn probe_path(
     let origin = t
         .s002_origin_mm
         .map(|v| if v.is_nan() { 0.0 } else { f64::from(v) });
-    let [rc, zc] = truth.sphere_rc_zc_mm;
-    let c_deg = 90.0 * f64::from(probe_runs % 4);
     let d = truth.machine.seed002.deviations().to_array();
-    let (_, _, _, _, mcz, _) = fwd::mats(&d);
-    let p = fwd::apply(&fwd::mul(&mcz, &fwd::ec(c_deg.to_radians())), [rc, 0.0, zc]);
-    let centre: [f64; 3] = std::array::from_fn(|i| origin[i] + p[i]);
+    let (centre, [b_deg, c_deg]) = probe_target(
+        &d,
+        origin,
+        truth.sphere_rc_zc_mm,
+        f64::from(t.probe_length_mm),
+        probe_runs,
+    );
     let rate = f64::from(cfg.sample_rate_hz);
     let contact = SPHERE_RADIUS_MM + STYLUS_RADIUS_MM;
-    let axes = |p: [f64; 3]| [p[0], p[1], p[2], 0.0, c_deg];
+    let axes = |p: [f64; 3]| [p[0], p[1], p[2], b_deg, c_deg];
     let on = |n: [f64; 3], r: f64| -> [f64; 3] { std::array::from_fn(|i| centre[i] + n[i] * r) };
     let dirs = probing_directions();
     let mut out: Vec<MachineStep> = Vec::new();

@@ -49,7 +49,7 @@ pub fn run_statistics(runs: &[f64]) -> Result<RunStatistics, BallBarError> {
     if runs.is_empty() {
         return Err(BallBarError::NoRuns);
     }
-    if !runs.iter().all(|v| v.is_finite()) {
+    if !crate::num::all_finite(runs) {
         return Err(BallBarError::NonFinite);
     }
     let n = runs.len() as f64;
@@ -252,7 +252,7 @@ pub fn identify_thesis(
     sigma: Option<&ThesisEccentricities>,
 ) -> Result<ThesisResult, BallBarError> {
     let lens = [g.r_b_mm, g.r_c_mm, g.z_c_mm, g.z_t_mm, g.z_t2_mm, g.x_t_mm];
-    if !(lens.iter().all(|v| v.is_finite()) && e.to_array().iter().all(|v| v.is_finite())) {
+    if !(crate::num::all_finite(&lens) && crate::num::all_finite(&e.to_array())) {
         return Err(BallBarError::NonFinite);
     }
     if g.r_b_mm <= 0.0 {
@@ -268,7 +268,7 @@ pub fn identify_thesis(
     let mut var = [0.0f64; 8];
     if let Some(s) = sigma {
         let s = s.to_array();
-        if !s.iter().all(|v| v.is_finite()) {
+        if !crate::num::all_finite(&s) {
             return Err(BallBarError::NonFinite);
         }
         if s.iter().any(|v| *v < 0.0) {

@@ -86,7 +86,7 @@ pub fn compensate(
     mode: CompensationMode,
 ) -> Result<NcBlock, CompensationError> {
     let v = [block.x_mm, block.y_mm, block.z_mm, block.b_deg, block.c_deg];
-    if !(v.iter().all(|v| v.is_finite()) && dev.is_finite()) {
+    if !(crate::num::all_finite(&v) && dev.is_finite()) {
         return Err(CompensationError::NonFinite);
     }
     let (phi, theta) = (block.b_deg.to_radians(), block.c_deg.to_radians());

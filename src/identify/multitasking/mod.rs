@@ -217,6 +217,6 @@ impl Deviations {
 
     /// True when every value is finite.
     pub fn is_finite(&self) -> bool {
-        self.to_array().iter().all(|v| v.is_finite())
+        crate::num::all_finite(&self.to_array())
     }
 }

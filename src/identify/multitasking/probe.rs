@@ -52,10 +52,6 @@ pub enum ProbeError {
     Lsq(LsqError),
 }
 
-fn finite3(p: &[f64; 3]) -> bool {
-    p.iter().all(|v| v.is_finite())
-}
-
 /// Sphere centres probed at C = 0°, 90°, 180°, 270° (B = 0), machine coordinates (mm).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CAxisProbe {
@@ -93,8 +89,8 @@ pub struct CAxisResult {
 /// δx = ΔX_c − Z_C β_CZ, δy = ΔY_c + Z_C α_CZ (consistent with (2.11)).
 pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResult, ProbeError> {
     let [p1, p2, p3, p4] = input.centres_mm;
-    if !(input.centres_mm.iter().all(finite3)
-        && input.nominal_axis_xy_mm.iter().all(|v| v.is_finite())
+    if !(crate::num::all_finite(input.centres_mm.as_flattened())
+        && crate::num::all_finite(&input.nominal_axis_xy_mm)
         && input.z_c_mm.is_finite())
     {
         return Err(ProbeError::NonFinite);
@@ -147,6 +143,11 @@ pub struct BAxisProbe {
     pub measured_mm: [[f64; 3]; 4],
     /// Nominal centres in the same order (the thesis does not state them; spec §6.6).
     pub nominal_mm: [[f64; 3]; 4],
+    /// Standard uncertainties of the measured centres (X, Y, Z in µm, same order; e.g. the
+    /// sphere fits'). All > 0: corrected mode weights the equations by them and states
+    /// uncertainties propagated from them, scaled up by the residual where it is larger
+    /// (Birge ratio); otherwise (e.g. all 0, not known) from the residual alone.
+    pub measured_std_uncertainty_um: [[f64; 3]; 4],
     /// R_B: B origin → probe sphere along Z (mm), short stylus.
     pub r_b_mm: f64,
     /// R'_B: same with the long stylus (mm).
@@ -176,14 +177,19 @@ pub struct BAxisResult {
     /// Standard uncertainties of (β_XB ", δx_BT µm, δz_BT µm) from the residual (corrected
     /// mode; 0 in paper mode).
     pub std_uncertainty: [f64; 3],
-    /// RMS residual of the X/Z equations (µm; corrected mode, 0 in paper mode).
+    /// Standard uncertainties of (α_BT + α_XB ", α_BT − γ_XB ") from the Y residual (corrected
+    /// mode; 0 in paper mode).
+    pub std_uncertainty_y: [f64; 2],
+    /// Weighted RMS residual of the X/Z equations, `sqrt(Σ w r² / Σ w)` with the weights of
+    /// the fit (1/u², or 1: the plain RMS) (µm; corrected mode, 0 in paper mode).
     pub residual_rms_um: f64,
 }
 
 /// B-axis deviations (eqs 5.8–5.19; see the module doc for the corrected-mode equations).
 pub fn identify_b_axis(input: &BAxisProbe, mode: ProbeMode) -> Result<BAxisResult, ProbeError> {
-    if !(input.measured_mm.iter().all(finite3)
-        && input.nominal_mm.iter().all(finite3)
+    if !(crate::num::all_finite(input.measured_mm.as_flattened())
+        && crate::num::all_finite(input.nominal_mm.as_flattened())
+        && crate::num::all_finite(input.measured_std_uncertainty_um.as_flattened())
         && input.r_b_mm.is_finite()
         && input.r_b2_mm.is_finite()
         && input.x_t_mm.is_finite())
@@ -232,55 +238,111 @@ pub fn identify_b_axis(input: &BAxisProbe, mode: ProbeMode) -> Result<BAxisResul
                 alpha_bt_plus_alpha_xb_arcsec: None,
                 alpha_bt_minus_gamma_xb_arcsec: None,
                 std_uncertainty: [0.0; 3],
+                std_uncertainty_y: [0.0; 2],
                 residual_rms_um: 0.0,
             })
         }
-        ProbeMode::Corrected => {
-            // Unknowns [δx_BT µm, δz_BT µm, β_XB µrad]; lever R (mm) · 1e-3 µm/µrad.
-            let mut xz = GivensLsq::<3>::new();
-            let mut yy = GivensLsq::<2>::new();
-            for (r, set) in [(rb, 0usize), (rb2, 2usize)] {
-                let l = r * 1e-3;
-                let (Some(b0), Some(b90)) = (d.get(set), d.get(set + 1)) else {
-                    continue;
-                };
-                let [dx0, dy0, dz0] = *b0;
-                let [dx90, dy90, dz90] = *b90;
-                let rows = [
-                    ([-1.0, 0.0, l], dx0),
-                    ([0.0, -1.0, 0.0], dz0),
-                    ([0.0, -1.0, 0.0], dx90),
-                    ([1.0, 0.0, -l], dz90),
-                ];
-                for (a, b) in rows {
-                    xz.add_row(&a, b, 1.0).map_err(ProbeError::Lsq)?;
-                }
-                // Unknowns [α_BT + α_XB, α_BT − γ_XB] (µrad).
-                yy.add_row(&[-l, 0.0], dy0, 1.0).map_err(ProbeError::Lsq)?;
-                yy.add_row(&[0.0, -l], dy90, 1.0).map_err(ProbeError::Lsq)?;
-            }
-            let s = xz
-                .solve_full_rank(DEFAULT_RANK_TOL)
-                .map_err(ProbeError::Lsq)?;
-            let sy = yy
-                .solve_full_rank(DEFAULT_RANK_TOL)
-                .map_err(ProbeError::Lsq)?;
-            let [dx_bt, dz_bt, beta_urad] = s.x;
-            let [a1, a2] = sy.x;
-            let [u_dx, u_dz, u_b] = s.std_uncertainty;
-            let asec = |urad: f64| urad * 1e-6 * ARCSEC_PER_RAD;
-            Ok(BAxisResult {
-                beta_xb_arcsec: asec(beta_urad),
-                dx_bt_um: dx_bt,
-                dz_bt_um: dz_bt,
-                alpha_xb_arcsec: None,
-                gamma_xb_arcsec: None,
-                alpha_bt_plus_alpha_xb_arcsec: Some(asec(a1)),
-                alpha_bt_minus_gamma_xb_arcsec: Some(asec(a2)),
-                std_uncertainty: [asec(u_b), u_dx, u_dz],
-                residual_rms_um: s.residual_rms,
-            })
-        }
+        ProbeMode::Corrected => Ok(corrected_b_axis(
+            &d,
+            &input.measured_std_uncertainty_um,
+            [rb, rb2],
+        )),
+    }
+}
+
+/// Weighted sums of a straight-line fit `y = c0 + c1·l` (with l = 0 throughout, a weighted
+/// mean).
+#[derive(Clone, Copy, Default)]
+struct LineSums {
+    w: f64,
+    wl: f64,
+    wll: f64,
+    wy: f64,
+    wly: f64,
+    wyy: f64,
+}
+
+impl LineSums {
+    fn add(&mut self, l: f64, y: f64, w: f64) {
+        self.w += w;
+        self.wl += w * l;
+        self.wll += w * l * l;
+        self.wy += w * y;
+        self.wly += w * l * y;
+        self.wyy += w * y * y;
+    }
+
+    /// Σ w (y − c0 − c1 l)², expanded (the readings are µm and the residuals ≳ 1e-3 µm: far
+    /// above the cancellation of f64).
+    fn rss(&self, c0: f64, c1: f64) -> f64 {
+        self.wyy - 2.0 * (c0 * self.wy + c1 * self.wly)
+            + c0 * c0 * self.w
+            + 2.0 * c0 * c1 * self.wl
+            + c1 * c1 * self.wll
+    }
+}
+
+/// Corrected-mode B-axis least squares (module doc) in closed form. The eight X/Z equations
+/// separate into δz_BT (ΔZ1 = ΔX2 = −δz_BT: a weighted mean of four readings) and a straight
+/// line in the lever l = R·1e-3 (ΔX1 = −δx_BT + l·β_XB and −ΔZ2 = the same: intercept −δx_BT,
+/// slope β_XB µrad); the four Y equations into α_BT + α_XB (ΔY1 = −l·a) and α_BT − γ_XB
+/// (ΔY2 = −l·a), weighted means of ΔY/(−l) — so no general solver is needed on the pod.
+/// Weights 1/u² of the readings when all are known (> 0), else 1; the residual variance pools
+/// the X/Z (8 − 3) and Y (4 − 2) degrees of freedom separately, as the full least squares does.
+fn corrected_b_axis(d: &[[f64; 3]; 4], sig: &[[f64; 3]; 4], r_mm: [f64; 2]) -> BAxisResult {
+    let known = sig.iter().flatten().all(|u| *u > 0.0);
+    let w = |u: f64| if known { 1.0 / (u * u) } else { 1.0 };
+    let [mut line, mut dz] = [LineSums::default(); 2];
+    let mut ys = [LineSums::default(); 2];
+    for (r, set) in r_mm.iter().zip([0usize, 2]) {
+        let l = r * 1e-3;
+        let (Some(b0), Some(b90), Some(u0), Some(u90)) =
+            (d.get(set), d.get(set + 1), sig.get(set), sig.get(set + 1))
+        else {
+            continue;
+        };
+        let ([x1, y1, z1], [x2, y2, z2]) = (*b0, *b90);
+        let ([ux1, uy1, uz1], [ux2, uy2, uz2]) = (*u0, *u90);
+        line.add(l, x1, w(ux1));
+        line.add(l, -z2, w(uz2));
+        dz.add(0.0, -z1, w(uz1));
+        dz.add(0.0, -x2, w(ux2));
+        // −l·a = ΔY  ⇔  a = ΔY/(−l), weight w·l²
+        let [s1, s2] = &mut ys;
+        s1.add(0.0, -y1 / l, w(uy1) * l * l);
+        s2.add(0.0, -y2 / l, w(uy2) * l * l);
+    }
+    let det = line.w * line.wll - line.wl * line.wl;
+    let beta_urad = (line.w * line.wly - line.wl * line.wy) / det;
+    let c0 = (line.wll * line.wy - line.wl * line.wly) / det;
+    let (dx_bt, dz_bt) = (-c0, dz.wy / dz.w);
+    let [a1, a2] = ys.map(|s| s.wy / s.w);
+    let [y1, y2] = ys;
+    // known σ: the propagated u, times the Birge ratio where the residual says the σ were too
+    // small; σ not known: the residual's alone
+    let scale = |rss: f64, dof: f64| {
+        let s = libm::sqrt(rss.max(0.0) / dof);
+        if known { s.max(1.0) } else { s }
+    };
+    let rss_xz = line.rss(c0, beta_urad) + dz.rss(dz_bt, 0.0);
+    let k_xz = scale(rss_xz, 5.0);
+    let k_y = scale(y1.rss(a1, 0.0) + y2.rss(a2, 0.0), 2.0);
+    let asec = |urad: f64| urad * 1e-6 * ARCSEC_PER_RAD;
+    BAxisResult {
+        beta_xb_arcsec: asec(beta_urad),
+        dx_bt_um: dx_bt,
+        dz_bt_um: dz_bt,
+        alpha_xb_arcsec: None,
+        gamma_xb_arcsec: None,
+        alpha_bt_plus_alpha_xb_arcsec: Some(asec(a1)),
+        alpha_bt_minus_gamma_xb_arcsec: Some(asec(a2)),
+        std_uncertainty: [
+            asec(k_xz * libm::sqrt(line.w / det)),
+            k_xz * libm::sqrt(line.wll / det),
+            k_xz * libm::sqrt(1.0 / dz.w),
+        ],
+        std_uncertainty_y: ys.map(|s| asec(k_y * libm::sqrt(1.0 / s.w))),
+        residual_rms_um: libm::sqrt(rss_xz.max(0.0) / (line.w + dz.w)),
     }
 }
 

@@ -162,10 +162,6 @@ fn scale(k: f64, a: [f64; 3]) -> [f64; 3] {
     [k * a0, k * a1, k * a2]
 }
 
-fn finite3(v: &[f64; 3]) -> bool {
-    v.iter().all(|x| x.is_finite())
-}
-
 /// Wraps an angle difference to (−π, π].
 fn wrap_pi(a: f64) -> f64 {
     let r = libm::remainder(a, 2.0 * PI);
@@ -441,11 +437,11 @@ pub fn identify_rrttt(
 ) -> Result<RrtttResult, TwoStepError> {
     check_lever(cfg.min_lever_arm_mm)?;
     if !(cfg.tool_z_mm.is_finite()
-        && finite3(&m.pivot_mm)
+        && crate::num::all_finite(&m.pivot_mm)
         && m.alpha_deg.is_finite()
         && m.beta_deg.is_finite()
-        && finite3(&m.dv1_um)
-        && finite3(&m.dv2_um)
+        && crate::num::all_finite(&m.dv1_um)
+        && crate::num::all_finite(&m.dv2_um)
         && m.ssm_std_um.is_finite())
     {
         return Err(TwoStepError::NonFinite);
@@ -623,12 +619,12 @@ pub fn identify_tttrr(
 ) -> Result<TttrrResult, TwoStepError> {
     check_lever(cfg.min_lever_arm_mm)?;
     if !(cfg.z_alpha_gamma_mm.is_finite()
-        && finite3(&cfg.reference_point_mm)
-        && finite3(&m.origin_mm)
+        && crate::num::all_finite(&cfg.reference_point_mm)
+        && crate::num::all_finite(&m.origin_mm)
         && m.alpha_deg.is_finite()
         && m.gamma_deg.is_finite()
-        && finite3(&m.dv1_um)
-        && finite3(&m.dv2_um)
+        && crate::num::all_finite(&m.dv1_um)
+        && crate::num::all_finite(&m.dv2_um)
         && m.ssm_std_um.is_finite())
     {
         return Err(TwoStepError::NonFinite);
@@ -791,10 +787,10 @@ pub struct SingleAxisResult {
 }
 
 fn single_inputs_ok(m: &SingleAxisMeasurement) -> bool {
-    finite3(&m.origin_mm)
+    crate::num::all_finite(&m.origin_mm)
         && m.angle_deg.is_finite()
-        && finite3(&m.dv1_um)
-        && finite3(&m.dv2_um)
+        && crate::num::all_finite(&m.dv1_um)
+        && crate::num::all_finite(&m.dv2_um)
         && m.ssm_std_um.is_finite()
 }
 
@@ -881,7 +877,7 @@ pub fn identify_rtttr_table(
     mode: Mode,
 ) -> Result<SingleAxisResult, TwoStepError> {
     check_lever(cfg.min_lever_arm_mm)?;
-    if !(finite3(&cfg.reference_point_mm) && single_inputs_ok(m)) {
+    if !(crate::num::all_finite(&cfg.reference_point_mm) && single_inputs_ok(m)) {
         return Err(TwoStepError::NonFinite);
     }
     check_std(m.ssm_std_um)?;

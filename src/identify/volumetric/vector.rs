@@ -49,8 +49,7 @@ pub fn invert_step(
     diagonal_mm: [f64; 3],
     readings_um: [Option<f64>; 4],
 ) -> Result<StepIncrements, VolumetricError> {
-    if !diagonal_mm.iter().all(|v| v.is_finite())
-        || readings_um.iter().flatten().any(|m| !m.is_finite())
+    if !crate::num::all_finite(&diagonal_mm) || readings_um.iter().flatten().any(|m| !m.is_finite())
     {
         return Err(VolumetricError::NonFinite);
     }

@@ -95,7 +95,7 @@ pub fn solve_normal(g: &Sym3, b: [f64; 3], yy: f64, n: u32) -> Result<SsmSolutio
     if n < 2 {
         return Err(SsmError::TooFewObservations { have: n, need: 3 });
     }
-    if !g.is_finite() || !b.iter().all(|v| v.is_finite()) {
+    if !g.is_finite() || !crate::num::all_finite(&b) {
         return Err(SsmError::InvalidInput);
     }
     let (lam, v) = g.eigen_smallest();
@@ -147,7 +147,7 @@ pub fn solve_normal(g: &Sym3, b: [f64; 3], yy: f64, n: u32) -> Result<SsmSolutio
         observations: n,
         iterations: 0,
     };
-    if e.iter().all(|x| x.is_finite()) && cond.is_finite() && rms.is_finite() {
+    if crate::num::all_finite(&e) && cond.is_finite() && rms.is_finite() {
         Ok(sol)
     } else {
         Err(SsmError::Degenerate)

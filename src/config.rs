@@ -1142,7 +1142,7 @@ impl Config {
 
     /// Sets a numeric field from `v` in its unit: `f32` fields take the nearest `f32`, integer
     /// fields the nearest integer (saturating; a code field an unknown code keeps the old
-    /// value and fails validation through [`Config::set_code`]), `counts_per_unit` the `f64`
+    /// value and fails validation), `counts_per_unit` the `f64`
     /// as is. No range check here: use it inside [`Config::try_update`], which validates the
     /// result (the `f32` limits are compared rounded to `f32`, so every value the table allows
     /// can be set).

@@ -68,7 +68,7 @@ pub const SIN_COS_MAX_RAD: f64 = 823_549.6;
 /// fourth part of π/2 is the error; test host-tests/tests/num_trig.rs); NaN beyond that
 /// and for NaN or infinite `x`.
 ///
-/// Reduction r = x − k·π/2 ([`reduce_pio2`]), then fdlibm's `__kernel_sin`/`__kernel_cos`
+/// Reduction r = x − k·π/2 (`reduce_pio2`), then fdlibm's `__kernel_sin`/`__kernel_cos`
 /// polynomials on |r| ≤ π/4 and the quadrant k mod 4.
 pub fn sin_cos(x: f64) -> (f64, f64) {
     let Some((k, r)) = reduce_pio2(x) else {

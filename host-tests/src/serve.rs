@@ -14,14 +14,21 @@
 //! the virtual CNC moves through the armed pattern with the pod's configured set-up and ends
 //! the run at the end of its motion ([`crate::vmt::motion`]); its sensors produce 12-bit LVDT
 //! ADC blocks, encoder counters and a thermistor code, which go through the pod's own
-//! application at the configured sample rate. Virtual time tracks real time while idle (so
-//! heartbeats come at their period) and runs `speed` times faster while a run is running, so a
-//! full circle takes seconds; `--realtime` paces it 1:1 throughout.
+//! application at the configured sample rate. The machine's virtual time tracks real time
+//! while idle and runs `speed` times faster while a run is running, so a full circle takes
+//! seconds; `--realtime` paces it 1:1 throughout. The protocols run on real time
+//! ([`VirtualPod::set_protocol_time`]): heartbeats, SDO timeouts and event timers keep their
+//! real periods at any speed.
+//!
+//! One client per port (a second one is told so and closed); the loop never waits for a client:
+//! unread bytes wait in a bounded queue, downloads and the stream are produced only as they
+//! are read, and a client that stops reading is cut.
 //!
 //! At start the server prints one JSON line on stdout: the ports and the truth
 //! (`{"can_port":…,"usb_port":…,"stream_port":…,"node_id":…,"truth":{…}}`). It stops after
 //! `max_seconds` of real time.
 
+use std::collections::VecDeque;
 use std::io::{self, ErrorKind, Read, Write};
 use std::net::{TcpListener, TcpStream};
 use std::time::{Duration, Instant};
@@ -29,7 +36,7 @@ use std::time::{Duration, Instant};
 use ballpod::app::SessionState;
 use ballpod::protocol::canopen::CanFrame;
 
-use crate::slcan::{LineSplitter, SlcanCommand, SlcanFrame, format_frame, parse_line};
+use crate::slcan::{LineSplitter, SlcanCommand, SlcanFrame, format_frame};
 use crate::vmt::sensors::Instrument;
 use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
@@ -69,46 +76,145 @@ impl Default for ServeOptions {
     }
 }
 
-/// One client connection (the newest replaces the previous one).
+/// Bytes a client may have waiting to be read before the pod stops producing for it (a log
+/// download or the sample stream waits, as USB flow control makes the firmware wait).
+const HIGH_WATER: usize = 1 << 16;
+/// Bytes a client may leave unread at most: beyond, it is cut (CAN replies and heartbeats keep
+/// coming whether it reads or not).
+const MAX_QUEUED: usize = 1 << 20;
+/// A client that reads nothing of its waiting bytes for this long is cut (seconds).
+const STALL_S: f64 = 10.0;
+
+/// The connection of one port: one client at a time (a second one is told so and closed,
+/// never swapped in silently); writes never block the pod — bytes wait in a bounded queue, and
+/// a client that stops reading is cut and counted.
 struct Client {
+    /// Which port (for the messages).
+    port: &'static str,
     stream: Option<TcpStream>,
+    /// Bytes waiting to be written.
+    queue: VecDeque<u8>,
+    /// When the queue last drained by a byte or more (or was empty).
+    progress: Instant,
+    /// Connections refused because the port was taken.
+    refused: u32,
+    /// Clients cut because they stopped reading.
+    cut: u32,
 }
 
 impl Client {
-    /// Takes a waiting connection; true if one was taken.
-    fn accept(&mut self, listener: &TcpListener) -> bool {
-        if let Ok((s, _)) = listener.accept() {
-            let _ = s.set_nonblocking(true);
-            let _ = s.set_nodelay(true);
-            self.stream = Some(s);
-            return true;
+    fn new(port: &'static str) -> Self {
+        Self {
+            port,
+            stream: None,
+            queue: VecDeque::new(),
+            progress: Instant::now(),
+            refused: 0,
+            cut: 0,
         }
-        false
     }
+
+    /// Takes a waiting connection if the port is free; a connection while it is taken gets
+    /// `busy` and is closed. True if a new client was taken.
+    fn accept(&mut self, listener: &TcpListener, busy: &[u8]) -> bool {
+        let mut taken = false;
+        while let Ok((mut s, _)) = listener.accept() {
+            // a client that has hung up frees the port, even before its close was read
+            let mut probe = [0u8; 1];
+            if let Some(old) = &self.stream
+                && matches!(old.peek(&mut probe), Ok(0))
+            {
+                self.drop_client();
+            }
+            if self.stream.is_none() {
+                let _ = s.set_nonblocking(true);
+                let _ = s.set_nodelay(true);
+                self.stream = Some(s);
+                self.queue.clear();
+                self.progress = Instant::now();
+                taken = true;
+            } else {
+                // a short message into an empty socket buffer does not block
+                let _ = s.write_all(busy);
+                self.refused += 1;
+                eprintln!(
+                    "serve: {} port: a second client refused (one at a time)",
+                    self.port
+                );
+            }
+        }
+        taken
+    }
+
+    fn connected(&self) -> bool {
+        self.stream.is_some()
+    }
+
+    /// Room for more produced bytes (below the high-water mark).
+    fn has_room(&self) -> bool {
+        self.connected() && self.queue.len() < HIGH_WATER
+    }
+
     /// Bytes waiting from the client (empty if none); a closed connection is dropped.
     fn read(&mut self) -> Vec<u8> {
         let mut out = Vec::new();
         let mut buf = [0u8; 4096];
         while let Some(s) = self.stream.as_mut() {
             match s.read(&mut buf) {
-                Ok(0) => self.stream = None,
+                Ok(0) => self.drop_client(),
                 Ok(n) => out.extend_from_slice(&buf[..n]),
                 Err(e) if e.kind() == ErrorKind::WouldBlock => break,
-                Err(_) => self.stream = None,
+                Err(_) => self.drop_client(),
             }
         }
         out
     }
-    fn write(&mut self, bytes: &[u8]) {
-        if let Some(s) = self.stream.as_mut() {
-            // Loopback: a blocking write of a short burst; a failed write drops the client.
-            let _ = s.set_nonblocking(false);
-            if s.write_all(bytes).is_err() {
-                self.stream = None;
+
+    /// Queues bytes for the client (dropped if none is connected).
+    fn send(&mut self, bytes: &[u8]) {
+        if self.connected() {
+            self.queue.extend(bytes);
+        }
+    }
+
+    /// Writes what the socket takes now, without waiting; cuts a client that lets its queue
+    /// overflow or stall.
+    fn flush(&mut self) {
+        while let Some(s) = self.stream.as_mut() {
+            let (head, _) = self.queue.as_slices();
+            if head.is_empty() {
+                self.progress = Instant::now();
                 return;
             }
-            let _ = s.set_nonblocking(true);
+            match s.write(head) {
+                Ok(0) => break,
+                Ok(n) => {
+                    self.queue.drain(..n);
+                    self.progress = Instant::now();
+                }
+                Err(e) if e.kind() == ErrorKind::WouldBlock => break,
+                Err(_) => {
+                    self.drop_client();
+                    return;
+                }
+            }
         }
+        if self.connected()
+            && (self.queue.len() > MAX_QUEUED || self.progress.elapsed().as_secs_f64() > STALL_S)
+        {
+            self.cut += 1;
+            eprintln!(
+                "serve: {} port: client cut ({} bytes unread)",
+                self.port,
+                self.queue.len()
+            );
+            self.drop_client();
+        }
+    }
+
+    fn drop_client(&mut self) {
+        self.stream = None;
+        self.queue.clear();
     }
 }
 
@@ -159,16 +265,21 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
         vp.app.config().can_node_id,
     );
     io::stdout().flush()?;
-    let (mut can, mut usb) = (Client { stream: None }, Client { stream: None });
-    let mut stream = Client { stream: None };
+    let (mut can, mut usb) = (Client::new("CAN"), Client::new("USB"));
+    let mut stream = Client::new("stream");
     let mut slcan_lines = LineSplitter::default();
     let mut can_open = false;
     let start = Instant::now();
     let mut last = Instant::now();
     let mut backlog_us = 0.0f64;
     while start.elapsed().as_secs_f64() < opts.max_seconds {
-        can.accept(&can_l);
-        if usb.accept(&usb_l) {
+        // the protocols run on real time whatever the machine's speed
+        vp.set_protocol_time(start.elapsed().as_micros() as u64);
+        if can.accept(&can_l, b"\x07") {
+            slcan_lines = LineSplitter::default();
+            can_open = false;
+        }
+        if usb.accept(&usb_l, b"port in use by another client\n") {
             // A new technician session: the configuration lock is back on (USB disconnect).
             vp.scpi.connection_closed();
         }
@@ -177,7 +288,7 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
         let bytes = can.read();
         let mut replies = Vec::new();
         for line in slcan_lines.push(&bytes) {
-            match parse_line(&line) {
+            match line.parse() {
                 Ok(SlcanCommand::Open) | Ok(SlcanCommand::ListenOnly) => {
                     can_open = true;
                     replies.extend_from_slice(b"\r");
@@ -200,39 +311,42 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
             }
         }
         // USB side: SCPI
-        let was_open = usb.stream.is_some();
+        let was_open = usb.connected();
         let bytes = usb.read();
-        if was_open && usb.stream.is_none() {
-            vp.scpi.connection_closed();
+        if was_open && !usb.connected() {
+            vp.usb_disconnected();
         }
         if !bytes.is_empty() {
             let response = vp.usb(&bytes);
-            usb.write(&response);
-            // A log download is pulled chunk by chunk, as the firmware sends USB packets; a
-            // client gone mid-download cuts it (counted, reported on the next connection).
-            while vp.scpi.download_pending() {
-                let chunk = vp.pull_download(4096);
-                usb.write(&chunk);
-                if usb.stream.is_none() {
-                    vp.usb_disconnected();
-                }
-            }
+            usb.send(&response);
         }
-        // the sample stream: a new reader gets the runs from now on
-        if stream.accept(&stream_l) {
+        // A log download is pulled chunk by chunk as the client reads, as the firmware sends
+        // USB packets; a client gone mid-download cuts it (counted, reported on the next
+        // connection).
+        while vp.scpi.download_pending() && usb.has_room() {
+            let chunk = vp.pull_download(4096);
+            usb.send(&chunk);
+        }
+        let before_flush = usb.connected();
+        usb.flush();
+        if before_flush && !usb.connected() {
+            // cut for not reading: as a USB disconnect
+            vp.usb_disconnected();
+        }
+        // the sample stream: a new reader gets the runs from now on; what it does not read in
+        // time is dropped by the pod's stream ring (counted), never waited for
+        if stream.accept(&stream_l, b"# port in use by another reader\n") {
             vp.stream_reader(true);
         }
-        if stream.stream.is_some() {
+        if stream.connected() {
             let _ = stream.read();
-            if stream.stream.is_none() {
-                vp.stream_reader(false);
+            if stream.has_room() {
+                let bytes = vp.pull_stream(1 << 16);
+                stream.send(&bytes);
             }
-            let bytes = vp.pull_stream(1 << 16);
-            if !bytes.is_empty() {
-                stream.write(&bytes);
-                if stream.stream.is_none() {
-                    vp.stream_reader(false);
-                }
+            stream.flush();
+            if !stream.connected() {
+                vp.stream_reader(false);
             }
         }
         // virtual time
@@ -256,10 +370,20 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
                 replies.extend_from_slice(format_frame(&to_slcan(f)).as_bytes());
             }
         }
-        if !replies.is_empty() {
-            can.write(&replies);
-        }
+        can.send(&replies);
+        can.flush();
         std::thread::sleep(Duration::from_micros(500));
     }
+    eprintln!(
+        "serve: clients refused (port taken): CAN {}, USB {}, stream {}; cut (not reading): \
+         CAN {}, USB {}, stream {}; stream lines dropped: {}",
+        can.refused,
+        usb.refused,
+        stream.refused,
+        can.cut,
+        usb.cut,
+        stream.cut,
+        vp.stream_dropped()
+    );
     Ok(())
 }

@@ -52,9 +52,9 @@ pub enum SlcanCommand {
 pub enum SlcanError {
     /// Empty line.
     Empty,
-    /// Unknown command letter.
-    UnknownCommand(char),
-    /// Malformed identifier, length or data.
+    /// Unknown command byte.
+    UnknownCommand(u8),
+    /// Malformed identifier, length or data (what, in words).
     Malformed(String),
 }
 
@@ -63,46 +63,57 @@ pub const BITRATES: [u32; 9] = [
     10_000, 20_000, 50_000, 100_000, 125_000, 250_000, 500_000, 800_000, 1_000_000,
 ];
 
-fn hex(s: &str, what: &str) -> Result<u32, SlcanError> {
-    if s.is_empty() || !s.bytes().all(|b| b.is_ascii_hexdigit()) {
-        return Err(SlcanError::Malformed(format!("{what}: {s:?}")));
+/// Longest command line kept: `T` + 8 identifier digits + length + 16 data digits (+ slack);
+/// longer lines are dropped and answered with BEL.
+pub const MAX_LINE: usize = 32;
+
+/// The value of hexadecimal digits (the line is bytes: a non-ASCII byte is simply not a digit).
+fn hex(digits: &[u8], what: &str) -> Result<u32, SlcanError> {
+    if digits.is_empty() || digits.len() > 8 {
+        return Err(SlcanError::Malformed(format!(
+            "{what}: {} digits",
+            digits.len()
+        )));
     }
-    u32::from_str_radix(s, 16).map_err(|_| SlcanError::Malformed(format!("{what}: {s:?}")))
+    digits.iter().try_fold(0u32, |acc, &b| {
+        let d = char::from(b)
+            .to_digit(16)
+            .ok_or_else(|| SlcanError::Malformed(format!("{what}: byte {b:#04x} is not hex")))?;
+        Ok((acc << 4) | d)
+    })
 }
 
 /// Parses one command line (without its CR).
-pub fn parse_line(line: &str) -> Result<SlcanCommand, SlcanError> {
-    let mut chars = line.chars();
-    let c = chars.next().ok_or(SlcanError::Empty)?;
-    let rest = chars.as_str();
+pub fn parse_line(line: &[u8]) -> Result<SlcanCommand, SlcanError> {
+    let (&c, rest) = line.split_first().ok_or(SlcanError::Empty)?;
     match c {
-        'O' => Ok(SlcanCommand::Open),
-        'L' => Ok(SlcanCommand::ListenOnly),
-        'C' => Ok(SlcanCommand::Close),
-        'V' | 'v' => Ok(SlcanCommand::Version),
-        'N' => Ok(SlcanCommand::SerialNumber),
-        'F' => Ok(SlcanCommand::Status),
-        'Z' => Ok(SlcanCommand::Timestamps(rest == "1")),
-        'S' => {
+        b'O' => Ok(SlcanCommand::Open),
+        b'L' => Ok(SlcanCommand::ListenOnly),
+        b'C' => Ok(SlcanCommand::Close),
+        b'V' | b'v' => Ok(SlcanCommand::Version),
+        b'N' => Ok(SlcanCommand::SerialNumber),
+        b'F' => Ok(SlcanCommand::Status),
+        b'Z' => Ok(SlcanCommand::Timestamps(rest == b"1")),
+        b'S' => {
             let n = hex(rest, "bit rate code")? as usize;
             BITRATES
                 .get(n)
                 .map(|b| SlcanCommand::Bitrate(*b))
                 .ok_or(SlcanError::Malformed(format!("bit rate code {n}")))
         }
-        't' | 'T' | 'r' | 'R' => {
+        b't' | b'T' | b'r' | b'R' => {
             let extended = c.is_ascii_uppercase();
-            let remote = c == 'r' || c == 'R';
+            let remote = c == b'r' || c == b'R';
             let id_len = if extended { 8 } else { 3 };
-            let id = hex(rest.get(..id_len).unwrap_or(""), "identifier")?;
+            let id = hex(rest.get(..id_len).unwrap_or(&[]), "identifier")?;
             if (!extended && id > 0x7FF) || id > 0x1FFF_FFFF {
                 return Err(SlcanError::Malformed(format!("identifier {id:#x}")));
             }
-            let dlc = hex(rest.get(id_len..id_len + 1).unwrap_or(""), "length")?;
+            let dlc = hex(rest.get(id_len..id_len + 1).unwrap_or(&[]), "length")?;
             if dlc > 8 {
                 return Err(SlcanError::Malformed(format!("length {dlc}")));
             }
-            let body = rest.get(id_len + 1..).unwrap_or("");
+            let body = rest.get(id_len + 1..).unwrap_or(&[]);
             let mut data = [0u8; 8];
             if remote {
                 if !body.is_empty() {
@@ -115,8 +126,8 @@ pub fn parse_line(line: &str) -> Result<SlcanCommand, SlcanError> {
                         body.len()
                     )));
                 }
-                for (k, d) in data.iter_mut().take(dlc as usize).enumerate() {
-                    *d = hex(&body[2 * k..2 * k + 2], "data")? as u8;
+                for (d, pair) in data.iter_mut().zip(body.chunks_exact(2)) {
+                    *d = hex(pair, "data")? as u8;
                 }
             }
             Ok(SlcanCommand::Transmit(SlcanFrame {
@@ -148,22 +159,53 @@ pub fn format_frame(f: &SlcanFrame) -> String {
     s
 }
 
-/// Splits a byte stream into CR-terminated command lines (LF ignored).
+/// Splits a byte stream into CR-terminated command lines (LF ignored). A line longer than
+/// [`MAX_LINE`] bytes is returned empty-handed as an over-long marker: its bytes are dropped and
+/// it parses as an error (BEL), so garbage never grows the buffer.
 #[derive(Default)]
 pub struct LineSplitter {
-    buf: String,
+    buf: Vec<u8>,
+    overlong: bool,
+}
+
+/// A line of the stream: its bytes, or the marker of a line that was too long.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Line {
+    /// A complete line (without CR).
+    Bytes(Vec<u8>),
+    /// A line longer than [`MAX_LINE`] (dropped).
+    TooLong,
+}
+
+impl Line {
+    /// The command of the line, or why it is none.
+    pub fn parse(&self) -> Result<SlcanCommand, SlcanError> {
+        match self {
+            Line::Bytes(b) => parse_line(b),
+            Line::TooLong => Err(SlcanError::Malformed(format!(
+                "line longer than {MAX_LINE} bytes"
+            ))),
+        }
+    }
 }
 
 impl LineSplitter {
-    /// Feeds bytes; returns the complete lines (without CR).
-    pub fn push(&mut self, bytes: &[u8]) -> Vec<String> {
+    /// Feeds bytes; returns the complete lines.
+    pub fn push(&mut self, bytes: &[u8]) -> Vec<Line> {
         let mut out = Vec::new();
         for &b in bytes {
             match b {
-                b'\r' => out.push(std::mem::take(&mut self.buf)),
+                b'\r' => {
+                    let line = std::mem::take(&mut self.buf);
+                    out.push(if std::mem::take(&mut self.overlong) {
+                        Line::TooLong
+                    } else {
+                        Line::Bytes(line)
+                    });
+                }
                 b'\n' => {}
-                _ if self.buf.len() < 64 => self.buf.push(b as char),
-                _ => {} // over-long garbage: dropped, the line will be answered with BEL
+                _ if self.buf.len() < MAX_LINE => self.buf.push(b),
+                _ => self.overlong = true,
             }
         }
         out

@@ -1,7 +1,7 @@
 //! One LVDT channel of the pod as the ADCs see it: the transformer model of
 //! [`crate::lvdt_model`] sampled into 12-bit blocks over the excitation periods of one sample,
 //! demodulated by the core's `ballpod::acquisition::lvdt::demodulate` — the board's path
-//! from a core displacement to an [`LvdtReading`]. The ball bar uses one ([`super::pod`]),
+//! from a core displacement to an [`LvdtReading`]. The ball bar uses one ([`super::sensors`]),
 //! the R-test head three ([`super::rtest_rig`]).
 
 use ballpod::acquisition::lvdt::{DemodError, ExcitationTable, LvdtReading, demodulate};

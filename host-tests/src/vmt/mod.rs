@@ -1,7 +1,7 @@
 //! The virtual machine tool: machines with deviations (forward models written on the host,
 //! independent of the core) and the pod's peripherals (LVDT secondaries as ADC blocks, encoder
-//! counters, bar thermistor) in virtual time. The pod's own code — `ballpod::acquisition`,
-//! `metrology`, `session`, `identify` — does everything else.
+//! counters, bar thermistor) in virtual time. The pod's own code — its application
+//! `ballpod::app` on `acquisition`, `metrology`, `identify` — does everything else.
 //!
 //! - [`machine`]: the seed 002 multi-tasking machine (literal HTM model of
 //!   [`crate::forward_seed002`]) and an XY machine with linear-axis faults for circular tests;
@@ -12,10 +12,12 @@
 //! - [`probe_rig`]: touch-probe measurement of a sphere (pre-travel, repeatability, bounce)
 //!   through the pod's probe latch and the core's sphere fit;
 //! - [`lvdt_channel`]: one LVDT's ADC blocks through the core's demodulator;
-//! - [`pod`]: sensor-level streams through `ballpod::acquisition` → [`ballpod::acquisition::Sample`],
-//!   with fault injection;
-//! - [`virtual_pod`]: the pod's application on a circle (run monitor, fit, log, CANopen, SCPI),
-//!   behind `sim --serve` and the fault-scenario tests.
+//! - [`sensors`]: the pod's peripherals in virtual time (LVDT ADC blocks, encoder counters,
+//!   thermistor, probe edges), with fault injection;
+//! - [`motion`]: the virtual CNC of `sim --serve` (each pattern's motion, the chapter 5 probe
+//!   sequence);
+//! - [`virtual_pod`]: the pod's application with its log, stream, CANopen slave and SCPI
+//!   server on those sensors, behind `sim --serve`, the simulator and the fault-scenario tests.
 
 pub mod lvdt_channel;
 pub mod machine;

@@ -125,6 +125,10 @@ pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     /// Where the machine is (the encoders' positions), mm / degrees.
     at: [f64; MAX_AXES],
     last: Option<Sample>,
+    /// The protocols' clock, µs (`None`: the sensors' virtual time). `sim --serve` sets real
+    /// time here, so heartbeats, SDO timeouts and event timers keep their real periods while
+    /// the machine runs faster.
+    protocol_us: Option<u64>,
 }
 
 impl<const N: usize> VirtualPod<N> {
@@ -165,6 +169,7 @@ impl<const N: usize> VirtualPod<N> {
             probe_seated: true,
             at: [0.0; MAX_AXES],
             last: None,
+            protocol_us: None,
             setup,
         }
     }
@@ -282,8 +287,8 @@ impl<const N: usize> VirtualPod<N> {
         if self.losing > 0 {
             self.losing -= 1;
             self.sensors.lose_samples(1);
-            self.node
-                .poll(self.sensors.t_us(), &self.app, &mut |f| tx.push(f));
+            let now = self.proto_us();
+            self.node.poll(now, &self.app, &mut |f| tx.push(f));
             return (None, tx);
         }
         let r = self.sensors.read(dl_um, axes);
@@ -301,8 +306,9 @@ impl<const N: usize> VirtualPod<N> {
             .app
             .on_raw_sample(r.t_us, r.lvdt, r.raw, r.lost_total, &mut rec);
         self.last = Some(s);
-        self.node.on_sample(s.flags, r.t_us, &mut |f| tx.push(f));
-        self.node.poll(r.t_us, &self.app, &mut |f| tx.push(f));
+        let now = self.proto_us();
+        self.node.on_sample(s.flags, now, &mut |f| tx.push(f));
+        self.node.poll(now, &self.app, &mut |f| tx.push(f));
         self.after_commands();
         while self.app.run_pending_job() {}
         (Some(s), tx)
@@ -311,6 +317,17 @@ impl<const N: usize> VirtualPod<N> {
     /// A thermistor ADC code from the thermistor task (12-bit; 0 = shorted, 4095 = open).
     pub fn thermistor(&mut self, code: u16) {
         let _ = self.app.on_thermistor(code);
+    }
+
+    /// Runs the protocols (CANopen timers) on this clock from now on, µs, instead of the
+    /// sensors' virtual time; it must not go back.
+    pub fn set_protocol_time(&mut self, t_us: u64) {
+        self.protocol_us = Some(t_us.max(self.protocol_us.unwrap_or(0)));
+    }
+
+    /// The protocols' time now, µs.
+    fn proto_us(&self) -> u64 {
+        self.protocol_us.unwrap_or_else(|| self.sensors.t_us())
     }
 
     // ------------------------------------------------------------------ served
@@ -370,10 +387,9 @@ impl<const N: usize> VirtualPod<N> {
     /// A received CAN frame: the slave's answer frames.
     pub fn can_frame(&mut self, frame: &CanFrame) -> Vec<CanFrame> {
         let mut tx = Vec::new();
+        let now = self.proto_us();
         self.node
-            .on_frame(frame, &mut self.app, self.sensors.t_us(), &mut |f| {
-                tx.push(f)
-            });
+            .on_frame(frame, &mut self.app, now, &mut |f| tx.push(f));
         self.after_commands();
         tx
     }
@@ -381,8 +397,8 @@ impl<const N: usize> VirtualPod<N> {
     /// The CAN controller's error state changed (bus-off, recovery): the slave's frames.
     pub fn bus_state(&mut self, state: BusState) -> Vec<CanFrame> {
         let mut tx = Vec::new();
-        self.node
-            .on_bus_state(state, self.sensors.t_us(), &mut |f| tx.push(f));
+        let now = self.proto_us();
+        self.node.on_bus_state(state, now, &mut |f| tx.push(f));
         tx
     }
 

@@ -50,7 +50,7 @@
 //! operational or stopped is aborted with 0x0800 0022, so the CNC cannot change the pod's
 //! calibration while it is streaming process data. A configuration write goes through
 //! [`crate::config::Config::try_update`] (range and cross-field checks; nothing changes on
-//! error) and hands [`SessionCommand::ConfigChanged`] to the application.
+//! error) through the application ([`crate::app::App::set_field`]).
 //!
 //! # Why a focused stack and not a crate (issue 5, evaluated 2026-11)
 //! - `canopen-rs` 0.6.1 (no_std, heapless): its object dictionary stores copies of values in a

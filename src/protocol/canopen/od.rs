@@ -958,7 +958,7 @@ fn check_limits(e: &Entry, v: f64) -> Result<(), SdoAbort> {
 /// invalid and its sub-index 0 is 0 (the procedure of CiA 301 §7.5.2.38). Everything else —
 /// whether a command fits the session state, a pattern's geometry is set, a value is
 /// acceptable — the application decides ([`App::execute`], [`App::set_field`]), and a refusal
-/// is aborted with the code of [`refusal_abort`].
+/// is aborted with the code of `refusal_abort`.
 pub fn write(
     comm: &mut CommParams,
     app: &mut App,

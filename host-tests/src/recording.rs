@@ -325,8 +325,63 @@ pub fn pattern_names() -> String {
         .join(", ")
 }
 
-/// Reads the runs of a pod CSV text (`# ballpod run v2`: a log download or a recorded stream;
-/// a stream holds any number of runs one after the other).
+/// The CSV of a `DATA:LOG?` answer saved as it came: its IEEE 488.2 block header
+/// `#<n><length>` (definite length; `#0` indefinite) is taken off and its length checked against
+/// the bytes that follow (a trailing response terminator `\n` may follow the block). A text that
+/// does not start with a block header is returned as it is.
+pub fn strip_block_header<'a>(file: &Path, text: &'a str) -> Result<&'a str, LogError> {
+    let err = |what: String| LogError {
+        file: file.to_path_buf(),
+        line: 1,
+        field: None,
+        what,
+    };
+    let b = text.as_bytes();
+    let (Some(b'#'), Some(&d)) = (b.first(), b.get(1)) else {
+        return Ok(text);
+    };
+    if !d.is_ascii_digit() {
+        return Ok(text);
+    }
+    if d == b'0' {
+        return Ok(text.get(2..).unwrap_or(""));
+    }
+    let n = usize::from(d - b'0');
+    let digits = text.get(2..2 + n).unwrap_or("");
+    let len: usize = match digits.parse() {
+        Ok(v) if digits.len() == n && digits.bytes().all(|c| c.is_ascii_digit()) => v,
+        _ => {
+            return Err(err(format!(
+                "block header `#{}{}`: {n} length digits expected",
+                char::from(d),
+                excerpt(digits)
+            )));
+        }
+    };
+    let body = text.get(2 + n..).unwrap_or("");
+    if body.len() < len {
+        return Err(err(format!(
+            "the block header says {len} bytes, the file holds {}: the download was cut",
+            body.len()
+        )));
+    }
+    let (block, rest) = body.split_at_checked(len).ok_or_else(|| {
+        err(format!(
+            "the block header's length {len} ends inside a character"
+        ))
+    })?;
+    if !matches!(rest, "" | "\n" | "\r\n") {
+        return Err(err(format!(
+            "{} bytes after the {len}-byte block: not one download",
+            rest.len()
+        )));
+    }
+    Ok(block)
+}
+
+/// Reads the runs of a pod CSV text (`# ballpod run v2`: a log download — with or without its
+/// `DATA:LOG?` block header ([`strip_block_header`]) — or a recorded stream; a stream holds
+/// any number of runs one after the other).
 pub fn parse_runs(file: &Path, text: &str) -> Result<Vec<RecordedRun>, LogError> {
     let err = |line: usize, field: Option<&str>, what: String| LogError {
         file: file.to_path_buf(),
@@ -334,6 +389,7 @@ pub fn parse_runs(file: &Path, text: &str) -> Result<Vec<RecordedRun>, LogError>
         field: field.map(str::to_string),
         what,
     };
+    let text = strip_block_header(file, text)?;
     let mut runs = Vec::new();
     let mut header: Option<Header> = None;
     let mut cols: Option<Vec<Col>> = None;

@@ -227,6 +227,34 @@ fn a_records_count_that_disagrees_with_the_rows() {
     );
 }
 
+/// A `DATA:LOG?` answer saved as it came, with its IEEE 488.2 block header: read as the CSV it
+/// carries when the length fits; a header that promises more than the file holds (a cut
+/// download) or bytes after the block are errors on line 1.
+#[test]
+fn a_download_saved_with_its_block_header() {
+    let block = |len: usize, tail: &str| {
+        let digits = len.to_string();
+        format!("#{}{digits}{GOOD}{tail}", digits.len())
+    };
+    let runs = parse_runs(Path::new("run.csv"), &block(GOOD.len(), "\n")).expect("reads");
+    let plain = parse_runs(Path::new("run.csv"), GOOD).unwrap();
+    assert_eq!(runs.len(), 1);
+    assert_eq!(runs[0].events, plain[0].events);
+    assert_eq!(read(&block(GOOD.len(), "")), Ok(1));
+    assert_eq!(read(&format!("#0{GOOD}")), Ok(1));
+    rejected(
+        &format!("#9999999999{GOOD}\n"),
+        1,
+        None,
+        &format!(
+            "the block header says 999999999 bytes, the file holds {}: the download was cut",
+            GOOD.len() + 1
+        ),
+    );
+    rejected(&block(GOOD.len() - 40, "\n"), 1, None, "bytes after the");
+    rejected(&format!("#3x{GOOD}"), 1, None, "3 length digits expected");
+}
+
 #[test]
 fn a_run_with_dropped_stream_lines_cannot_be_replayed() {
     let stream = GOOD

@@ -381,7 +381,9 @@ pub fn strip_block_header<'a>(file: &Path, text: &'a str) -> Result<&'a str, Log
 
 /// Reads the runs of a pod CSV text (`# ballpod run v2`: a log download — with or without its
 /// `DATA:LOG?` block header ([`strip_block_header`]) — or a recorded stream; a stream holds
-/// any number of runs one after the other).
+/// any number of runs one after the other). Read line by line by hand, not with the `csv`
+/// crate: its `# key=value` lines interleave with the rows and carry the run's state (the
+/// plain logs and the readings tables are read with `csv`).
 pub fn parse_runs(file: &Path, text: &str) -> Result<Vec<RecordedRun>, LogError> {
     let err = |line: usize, field: Option<&str>, what: String| LogError {
         file: file.to_path_buf(),
@@ -712,65 +714,82 @@ pub fn parse_plain(file: &Path, text: &str, meta: RunMeta) -> Result<RecordedRun
             body.push_str(&String::from_utf8_lossy(&line));
         }
     }
-    let mut header_seen = false;
-    let mut seq = 0u32;
-    let mut map = Vec::new();
-    for (k, raw) in text.lines().enumerate() {
-        let l = raw.trim_end_matches('\r');
-        if l.starts_with('#') || l.trim().is_empty() {
+    let err = |line: u64, field: Option<&str>, what: String| LogError {
+        file: file.to_path_buf(),
+        line: line as usize,
+        field: field.map(str::to_string),
+        what,
+    };
+    let mut reader = ::csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(::csv::Trim::All)
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let header = reader
+        .headers()
+        .map_err(|e| err(e.position().map_or(0, |p| p.line()), None, e.to_string()))?
+        .clone();
+    // the csv crate's position of a header after comment lines is that of the first comment:
+    // the header's line is the first that is neither a comment nor blank
+    let header_line = text
+        .lines()
+        .position(|l| !(l.starts_with('#') || l.trim().is_empty()))
+        .map_or(1, |k| k as u64 + 1);
+    let names: Vec<&str> = header.iter().collect();
+    if names.iter().all(|n| n.is_empty()) {
+        return Err(err(0, None, "no samples".into()));
+    }
+    let plane_cols: &[&str] = match meta.pattern {
+        Pattern::Circle => match meta.config.setup.circle_plane {
+            ballpod::config::CirclePlane::XY => &["x_mm", "y_mm"],
+            ballpod::config::CirclePlane::YZ => &["y_mm", "z_mm"],
+            ballpod::config::CirclePlane::ZX => &["z_mm", "x_mm"],
+        },
+        Pattern::Bx | Pattern::By => &["x_mm", "z_mm"],
+        Pattern::Cr | Pattern::Ca | Pattern::Cr2 => &["x_mm", "y_mm"],
+        Pattern::Ssm | Pattern::Probe => &["x_mm", "y_mm", "z_mm"],
+    };
+    for need in ["t_s", "dl_um"] {
+        if !names.contains(&need) {
+            return Err(err(
+                header_line,
+                Some(need),
+                "required column missing".into(),
+            ));
+        }
+    }
+    for need in plane_cols {
+        if !names.contains(need) {
+            return Err(err(
+                header_line,
+                Some(need),
+                format!("required column missing for a {} run", meta.pattern.name()),
+            ));
+        }
+    }
+    // the synthetic text keeps every row on its input line (blank lines for comments)
+    let has_flags = names.contains(&"flags");
+    let mut at = 1u64;
+    // blank lines up to input line `line`, which the caller then writes
+    let pad_to = |body: &mut String, at: &mut u64, line: u64| {
+        while *at < line {
             body.push('\n');
-            continue;
+            *at += 1;
         }
-        if !header_seen {
-            header_seen = true;
-            let names: Vec<&str> = l.split(',').map(str::trim).collect();
-            for need in ["t_s", "dl_um"] {
-                if !names.contains(&need) {
-                    return Err(LogError {
-                        file: file.to_path_buf(),
-                        line: k + 1,
-                        field: Some(need.into()),
-                        what: "required column missing".into(),
-                    });
-                }
-            }
-            let plane_cols: &[&str] = match meta.pattern {
-                Pattern::Circle => match meta.config.setup.circle_plane {
-                    ballpod::config::CirclePlane::XY => &["x_mm", "y_mm"],
-                    ballpod::config::CirclePlane::YZ => &["y_mm", "z_mm"],
-                    ballpod::config::CirclePlane::ZX => &["z_mm", "x_mm"],
-                },
-                Pattern::Bx | Pattern::By => &["x_mm", "z_mm"],
-                Pattern::Cr | Pattern::Ca | Pattern::Cr2 => &["x_mm", "y_mm"],
-                Pattern::Ssm | Pattern::Probe => &["x_mm", "y_mm", "z_mm"],
-            };
-            for need in plane_cols {
-                if !names.contains(need) {
-                    return Err(LogError {
-                        file: file.to_path_buf(),
-                        line: k + 1,
-                        field: Some((*need).into()),
-                        what: format!("required column missing for a {} run", meta.pattern.name()),
-                    });
-                }
-            }
-            map = names.iter().map(|s| s.to_string()).collect();
-            let has_flags = map.iter().any(|c| c == "flags");
-            body.push_str("seq,");
-            body.push_str(&map.join(","));
-            if !has_flags {
-                body.push_str(",flags");
-            }
-            body.push('\n');
-            continue;
-        }
-        let has_flags = map.iter().any(|c| c == "flags");
-        body.push_str(&format!("{seq},{l}"));
-        if !has_flags {
-            body.push_str(",0");
-        }
-        body.push('\n');
-        seq += 1;
+        *at += 1;
+    };
+    pad_to(&mut body, &mut at, header_line);
+    body.push_str("seq,");
+    body.push_str(&names.join(","));
+    body.push_str(if has_flags { "\n" } else { ",flags\n" });
+    for (seq, record) in reader.records().enumerate() {
+        let record =
+            record.map_err(|e| err(e.position().map_or(0, |p| p.line()), None, e.to_string()))?;
+        let line = record.position().map_or(at, |p| p.line());
+        pad_to(&mut body, &mut at, line);
+        body.push_str(&format!("{seq},"));
+        body.push_str(&record.iter().collect::<Vec<_>>().join(","));
+        body.push_str(if has_flags { "\n" } else { ",0\n" });
     }
     // the synthetic text has one line per input line (+1 for the version line, +config lines
     // ahead): report errors on the input's own line numbers

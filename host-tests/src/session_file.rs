@@ -296,51 +296,64 @@ pub fn read_runs(path: &Path, s: &SessionFile) -> Result<Vec<(String, RecordedRu
 }
 
 /// A readings file of the host-only methods: comma-separated numbers under a header with the
-/// columns `names` (any order, `#` comments).
+/// columns `names` (any order, more columns allowed, `#` comments), read with the `csv` crate.
 fn read_table(file: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, LogError> {
     let text = read_text(file)?;
-    let mut cols: Option<Vec<usize>> = None;
+    let err = |line: u64, field: Option<String>, what: String| LogError {
+        file: file.to_path_buf(),
+        line: line as usize,
+        field,
+        what,
+    };
+    let mut reader = csv::ReaderBuilder::new()
+        .comment(Some(b'#'))
+        .trim(csv::Trim::All)
+        .flexible(true)
+        .from_reader(text.as_bytes());
+    let header = reader
+        .headers()
+        .map_err(|e| err(e.position().map_or(0, |p| p.line()), None, e.to_string()))?
+        .clone();
+    // (the csv crate places a header after comment lines on the first comment's line)
+    let header_line = text
+        .lines()
+        .position(|l| !(l.starts_with('#') || l.trim().is_empty()))
+        .map_or(1, |k| k as u64 + 1);
+    let cols = names
+        .iter()
+        .map(|n| {
+            header.iter().position(|f| f == *n).ok_or_else(|| {
+                err(
+                    header_line,
+                    Some((*n).into()),
+                    "required column missing".into(),
+                )
+            })
+        })
+        .collect::<Result<Vec<_>, _>>()?;
     let mut rows = Vec::new();
-    for (k, l) in text.lines().enumerate() {
-        let l = l.trim_end_matches('\r');
-        if l.starts_with('#') || l.trim().is_empty() {
-            continue;
-        }
-        let fields: Vec<&str> = l.split(',').map(str::trim).collect();
-        let err = |field: Option<String>, what: String| LogError {
-            file: file.to_path_buf(),
-            line: k + 1,
-            field,
-            what,
-        };
-        match &cols {
-            None => {
-                let idx = names
-                    .iter()
-                    .map(|n| {
-                        fields
-                            .iter()
-                            .position(|f| f == n)
-                            .ok_or(err(Some((*n).into()), "required column missing".into()))
+    for record in reader.records() {
+        let record =
+            record.map_err(|e| err(e.position().map_or(0, |p| p.line()), None, e.to_string()))?;
+        let line = record.position().map_or(0, |p| p.line());
+        let row = cols
+            .iter()
+            .zip(names)
+            .map(|(&i, n)| {
+                let v = record.get(i).unwrap_or("");
+                v.parse::<f64>()
+                    .ok()
+                    .filter(|x| x.is_finite())
+                    .ok_or_else(|| {
+                        err(
+                            line,
+                            Some((*n).into()),
+                            format!("bad number {}", excerpt(v)),
+                        )
                     })
-                    .collect::<Result<Vec<_>, _>>()?;
-                cols = Some(idx);
-            }
-            Some(idx) => {
-                let row = idx
-                    .iter()
-                    .zip(names)
-                    .map(|(&i, n)| {
-                        let v = fields.get(i).copied().unwrap_or("");
-                        v.parse::<f64>()
-                            .ok()
-                            .filter(|x| x.is_finite())
-                            .ok_or(err(Some((*n).into()), format!("bad number {}", excerpt(v))))
-                    })
-                    .collect::<Result<Vec<_>, _>>()?;
-                rows.push(row);
-            }
-        }
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        rows.push(row);
     }
     if rows.is_empty() {
         return Err(whole(file, "no readings".into()));

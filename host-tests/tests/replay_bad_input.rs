@@ -681,3 +681,26 @@ fn a_bad_pattern_in_a_session_file_is_on_its_line() {
     .expect_err("unknown pattern");
     assert_eq!(e.line, 3, "{e}");
 }
+
+/// A readings file of a host-only method (read with the `csv` crate): errors on the file's own
+/// lines — after comment lines — with the column named.
+#[test]
+fn a_readings_file_is_checked_on_its_own_lines() {
+    let dir = temp_dir("readings");
+    let session = dir.join("session.toml");
+    std::fs::write(&session, "[rtest]\nreadings = \"rtest.csv\"\n").unwrap();
+    let read = |table: &str| {
+        std::fs::write(dir.join("rtest.csv"), table).unwrap();
+        read_inputs(std::slice::from_ref(&session)).expect_err("rejected")
+    };
+    // 1 comment, 2 header, 3 a row, 4 a bad number in dy_um
+    let e = read("# R-test, path K4\na_deg,c_deg,dx_um,dy_um,dz_um\n0,0,1,2,3\n0,90,1,2.x,3\n");
+    assert_eq!(e.file, dir.join("rtest.csv"));
+    assert_eq!((e.line, e.field.as_deref()), (4, Some("dy_um")), "{e}");
+    assert!(e.what.contains("bad number"), "{e}");
+    let e = read("# R-test\n\n# K4\na_deg,c_deg,dx_um,dz_um\n0,0,1,3\n");
+    assert_eq!((e.line, e.field.as_deref()), (4, Some("dy_um")), "{e}");
+    assert!(e.what.contains("required column missing"), "{e}");
+    let e = read("a_deg,c_deg,dx_um,dy_um,dz_um\n# nothing measured\n");
+    assert!(e.what.contains("no readings"), "{e}");
+}

@@ -26,15 +26,16 @@ const E_UM: [f64; 2] = [3.0, -2.0];
 /// Samples per revolution (0.01°).
 const PER_REV: usize = 36_000;
 
-fn arg(args: &[String], name: &str, default: usize) -> Result<usize, String> {
-    match args.iter().position(|a| a == name) {
-        None => Ok(default),
-        Some(i) => args
-            .get(i + 1)
-            .ok_or(format!("{name} needs a value"))?
-            .parse()
-            .map_err(|_| format!("{name}: not a whole number")),
-    }
+/// Host throughput of the per-sample metrology path replaying a logged run.
+#[derive(clap::Parser, Debug)]
+#[command(name = "cargo replay-bench", version)]
+struct Args {
+    /// Samples in the log.
+    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..))]
+    samples: u64,
+    /// Timed repeats (the best is reported).
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(1..))]
+    repeat: u64,
 }
 
 /// The log: half the samples CCW, half CW.
@@ -70,21 +71,13 @@ fn log(n: usize) -> Vec<(Sample, Direction)> {
 }
 
 fn main() {
-    let args: Vec<String> = std::env::args().collect();
-    let (n, repeat) = match (
-        arg(&args, "--samples", 1_000_000),
-        arg(&args, "--repeat", 5),
-    ) {
-        (Ok(n), Ok(r)) if n > 0 && r > 0 => (n, r),
-        (Err(e), _) | (_, Err(e)) => {
-            eprintln!("replay-bench: {e}");
-            std::process::exit(2);
-        }
-        _ => {
-            eprintln!("replay-bench: --samples and --repeat must be > 0");
-            std::process::exit(2);
-        }
-    };
+    // `cargo replay-bench -- --samples N` hands the binary a leading `--`: both spellings work
+    let mut raw: Vec<String> = std::env::args().collect();
+    if raw.get(1).is_some_and(|a| a == "--") {
+        raw.remove(1);
+    }
+    let args = <Args as clap::Parser>::parse_from(raw);
+    let (n, repeat) = (args.samples as usize, args.repeat as usize);
     let samples = log(n);
     let fit_cfg = CircleFitConfig {
         geometry: PatternGeometry {

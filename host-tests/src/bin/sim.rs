@@ -116,17 +116,23 @@ fn run(args: &Args) -> Result<(), String> {
         repeats: args.repeats as usize,
         ..SimOptions::default()
     };
+    // a progress bar on a terminal (indicatif draws nothing when stderr is not one)
+    let bar = indicatif::ProgressBar::new(0).with_style(
+        indicatif::ProgressStyle::with_template("sim: run {pos:>2}/{len} {msg:<24} {elapsed}")
+            .map_err(|e| e.to_string())?,
+    );
     let mut progress = |done: usize, total: usize, what: &str| {
-        eprint!(
-            "\rsim: run {:>2}/{total} {what:<24} {:>5.1} s",
-            (done + 1).min(total),
-            t0.elapsed().as_secs_f64()
-        );
-        if done == total {
-            eprintln!();
-        }
+        bar.set_length(total as u64);
+        bar.set_position((done as u64 + 1).min(total as u64));
+        bar.set_message(what.to_string());
     };
     let session = simulate(&machine, &opts, &mut progress)?;
+    bar.finish_and_clear();
+    eprintln!(
+        "sim: {} runs in {:.1} s",
+        session.runs.len(),
+        t0.elapsed().as_secs_f64()
+    );
     let report = &session.report;
     print_seed002(&machine, report);
     print_iso(&machine, report);

@@ -700,6 +700,50 @@ pub fn parse_runs(file: &Path, text: &str) -> Result<Vec<RecordedRun>, LogError>
     Ok(runs)
 }
 
+/// A comma-separated table with `#` comment lines (a plain log, a readings file), read with
+/// the `csv` crate: the reader past its header, the header, and the header's line.
+pub struct CsvTable<'a> {
+    /// The records after the header (each knows its line).
+    pub reader: ::csv::Reader<&'a [u8]>,
+    /// The column names.
+    pub header: ::csv::StringRecord,
+    /// The header's line (1-based).
+    pub header_line: u64,
+}
+
+impl<'a> CsvTable<'a> {
+    /// Opens `text` (of `file`, for the errors) and reads its header.
+    pub fn read(file: &Path, text: &'a str) -> Result<Self, LogError> {
+        let mut reader = ::csv::ReaderBuilder::new()
+            .comment(Some(b'#'))
+            .trim(::csv::Trim::All)
+            .flexible(true)
+            .from_reader(text.as_bytes());
+        let header = reader.headers().map_err(|e| Self::error(file, &e))?.clone();
+        // the csv crate places a header after comment lines on the first comment's line: the
+        // header's line is the first that is neither a comment nor blank
+        let header_line = text
+            .lines()
+            .position(|l| !(l.starts_with('#') || l.trim().is_empty()))
+            .map_or(1, |k| k as u64 + 1);
+        Ok(Self {
+            reader,
+            header,
+            header_line,
+        })
+    }
+
+    /// A `csv` error as a file error on its line.
+    pub fn error(file: &Path, e: &::csv::Error) -> LogError {
+        LogError {
+            file: file.to_path_buf(),
+            line: e.position().map_or(0, |p| p.line() as usize),
+            field: None,
+            what: e.to_string(),
+        }
+    }
+}
+
 /// Reads a plain log of one run (no `# ballpod run v2` header; e.g. exported from another
 /// recorder): `#` lines are comments, then a header of columns `t_s` (required), `dl_um`
 /// (required), `x_mm` `y_mm` `z_mm` `a_deg` `b_deg` `c_deg` (those of `meta`'s configured axes;
@@ -720,21 +764,11 @@ pub fn parse_plain(file: &Path, text: &str, meta: RunMeta) -> Result<RecordedRun
         field: field.map(str::to_string),
         what,
     };
-    let mut reader = ::csv::ReaderBuilder::new()
-        .comment(Some(b'#'))
-        .trim(::csv::Trim::All)
-        .flexible(true)
-        .from_reader(text.as_bytes());
-    let header = reader
-        .headers()
-        .map_err(|e| err(e.position().map_or(0, |p| p.line()), None, e.to_string()))?
-        .clone();
-    // the csv crate's position of a header after comment lines is that of the first comment:
-    // the header's line is the first that is neither a comment nor blank
-    let header_line = text
-        .lines()
-        .position(|l| !(l.starts_with('#') || l.trim().is_empty()))
-        .map_or(1, |k| k as u64 + 1);
+    let CsvTable {
+        mut reader,
+        header,
+        header_line,
+    } = CsvTable::read(file, text)?;
     let names: Vec<&str> = header.iter().collect();
     if names.iter().all(|n| n.is_empty()) {
         return Err(err(0, None, "no samples".into()));
@@ -783,8 +817,7 @@ pub fn parse_plain(file: &Path, text: &str, meta: RunMeta) -> Result<RecordedRun
     body.push_str(&names.join(","));
     body.push_str(if has_flags { "\n" } else { ",flags\n" });
     for (seq, record) in reader.records().enumerate() {
-        let record =
-            record.map_err(|e| err(e.position().map_or(0, |p| p.line()), None, e.to_string()))?;
+        let record = record.map_err(|e| CsvTable::error(file, &e))?;
         let line = record.position().map_or(at, |p| p.line());
         pad_to(&mut body, &mut at, line);
         body.push_str(&format!("{seq},"));

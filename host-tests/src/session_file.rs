@@ -305,20 +305,11 @@ fn read_table(file: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, LogError> {
         field,
         what,
     };
-    let mut reader = csv::ReaderBuilder::new()
-        .comment(Some(b'#'))
-        .trim(csv::Trim::All)
-        .flexible(true)
-        .from_reader(text.as_bytes());
-    let header = reader
-        .headers()
-        .map_err(|e| err(e.position().map_or(0, |p| p.line()), None, e.to_string()))?
-        .clone();
-    // (the csv crate places a header after comment lines on the first comment's line)
-    let header_line = text
-        .lines()
-        .position(|l| !(l.starts_with('#') || l.trim().is_empty()))
-        .map_or(1, |k| k as u64 + 1);
+    let crate::recording::CsvTable {
+        mut reader,
+        header,
+        header_line,
+    } = crate::recording::CsvTable::read(file, &text)?;
     let cols = names
         .iter()
         .map(|n| {
@@ -333,8 +324,7 @@ fn read_table(file: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, LogError> {
         .collect::<Result<Vec<_>, _>>()?;
     let mut rows = Vec::new();
     for record in reader.records() {
-        let record =
-            record.map_err(|e| err(e.position().map_or(0, |p| p.line()), None, e.to_string()))?;
+        let record = record.map_err(|e| crate::recording::CsvTable::error(file, &e))?;
         let line = record.position().map_or(0, |p| p.line());
         let row = cols
             .iter()

@@ -1,7 +1,8 @@
 //! ballpod firmware for the NUCLEO-G474RE (STM32G474RE, Cortex-M4F at 170 MHz).
 //!
-//! Clocks: 24 MHz HSE (ST-LINK MCO) → PLL → 170 MHz system clock; 42.5 MHz FDCAN kernel clock
-//! from PLL Q; ADC clocks from the system clock; 48 MHz USB from HSI48 with clock recovery.
+//! Clocks: 24 MHz HSE (ST-LINK MCO) → PLL → 170 MHz system clock; the FDCAN kernel clock is
+//! the 24 MHz HSE itself (every offered CAN bit rate exact); ADC clocks from the system clock;
+//! 48 MHz USB from HSI48 with clock recovery.
 //! The tasks are in `board/`; the pin table is in `board/mod.rs` and README.md.
 #![no_std]
 #![no_main]
@@ -28,7 +29,7 @@ fn clocks() -> embassy_stm32::Config {
         prediv: PllPreDiv::DIV6,
         mul: PllMul::MUL85,
         divp: None,
-        divq: Some(PllQDiv::DIV8), // 42.5 MHz FDCAN kernel clock
+        divq: None,
         divr: Some(PllRDiv::DIV2), // 170 MHz system clock
     });
     config.rcc.sys = Sysclk::PLL1_R;
@@ -37,7 +38,9 @@ fn clocks() -> embassy_stm32::Config {
         sync_from_usb: true,
     });
     config.rcc.mux.clk48sel = mux::Clk48sel::HSI48;
-    config.rcc.mux.fdcansel = mux::Fdcansel::PLL1_Q;
+    // FDCAN from the 24 MHz HSE: every offered bit rate is exact (protocol::canopen::bit_timing;
+    // FDCAN_KERNEL_HZ states this clock)
+    config.rcc.mux.fdcansel = mux::Fdcansel::HSE;
     config.rcc.mux.adc12sel = mux::Adcsel::SYS;
     config.rcc.mux.adc345sel = mux::Adcsel::SYS;
     config
@@ -99,7 +102,7 @@ async fn main(spawner: Spawner) {
         },
         &cfg,
     );
-    let can = board::can::start(p.FDCAN1, p.PB8, p.PB9, cfg.can_bitrate.bits_per_s());
+    let can = board::can::start(p.FDCAN1, p.PB8, p.PB9, cfg.can_bitrate);
     let usb = Driver::new(p.USB, board::Irqs, p.PA12, p.PA11);
 
     let boot = board::compute::BootReport {

@@ -6,6 +6,7 @@
 //!   kernels with a three-part Cody–Waite reduction). Hand-written because `libm::sin`'s
 //!   reduction for any argument (`rem_pio2`, `rem_pio2_large`) is ~6 KB of the 192 KiB flash
 //!   budget, and no angle of the pod is beyond a few turns.
+//! - [`acos`]: f64 arc cosine on `atan2` (one inverse-trigonometric family in flash).
 //! - [`crc32`]: CRC-32/ISO-HDLC (the zlib/Ethernet CRC) from the `crc` crate, for encodings.
 
 // Cortex-M4F hardware square root. `f32::sqrt` is not in `core` on stable, and inline `asm!`
@@ -51,6 +52,16 @@ pub fn sqrtf(x: f32) -> f32 {
 #[inline(never)]
 pub fn all_finite(v: &[f64]) -> bool {
     v.iter().all(|x| x.is_finite())
+}
+
+/// Arc cosine of `x` ∈ [−1, 1], rad (NaN outside): `atan2(√((1 − x)(1 + x)), x)`, the
+/// factored form keeping full precision next to ±1. Hand-written on `atan2` because `libm::acos`
+/// is another ~0.9 KB of flash beside the `atan2` the core already links.
+pub fn acos(x: f64) -> f64 {
+    if !(-1.0..=1.0).contains(&x) {
+        return f64::NAN;
+    }
+    libm::atan2(sqrt((1.0 - x) * (1.0 + x)), x)
 }
 
 /// Square root of an `f64` (software on the M4F: fine at per-test rates, DESIGN §6).

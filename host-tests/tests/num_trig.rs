@@ -59,3 +59,25 @@ fn out_of_range_is_nan() {
     let (s, c) = sin_cos(SIN_COS_MAX_RAD);
     assert!(s.is_finite() && c.is_finite());
 }
+
+/// `num::acos` against std's `f64::acos` over [−1, 1] (denser next to ±1, where the factored
+/// form matters): within 2 ulp of the result or 1e-16 rad absolute; NaN outside.
+#[test]
+fn acos_matches_std() {
+    let mut xs: Vec<f64> = (0..=20_000).map(|k| -1.0 + f64::from(k) * 1e-4).collect();
+    for k in 1..60 {
+        let d = 2f64.powi(-k);
+        xs.extend([1.0 - d, -1.0 + d]);
+    }
+    xs.extend([-1.0, -0.0, 0.0, 1.0]);
+    for x in xs {
+        let (got, want) = (ballpod::num::acos(x), x.acos());
+        assert!(
+            ulps(got, want) <= 2.0 || (got - want).abs() <= 1e-16,
+            "acos({x}) = {got}, std {want}"
+        );
+    }
+    for x in [1.0 + 1e-15, -1.5, f64::NAN, f64::INFINITY] {
+        assert!(ballpod::num::acos(x).is_nan(), "{x}");
+    }
+}

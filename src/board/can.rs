@@ -5,14 +5,17 @@
 //! by itself (embassy-stm32's `automatic_bus_off_recovery`, on by default: the IT0 interrupt
 //! clears `CCCR.INIT` and the FDCAN waits for 128 × 11 recessive bits).
 
+use core::num::{NonZeroU8, NonZeroU16};
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_futures::select::{Either, select};
+use embassy_stm32::can::config::NominalBitTiming;
 use embassy_stm32::can::enums::BusErrorMode;
 use embassy_stm32::can::{Can, CanConfigurator, OperatingMode, frame::Frame};
 use embassy_stm32::{Peri, peripherals};
 use embedded_can::Id;
 
+use ballpod::config::CanBitrate;
 use ballpod::protocol::canopen::{BusState, CanFrame};
 
 use super::{Irqs, state};
@@ -20,15 +23,24 @@ use super::{Irqs, state};
 /// Frames received since boot.
 pub static RX_FRAMES: AtomicU32 = AtomicU32::new(0);
 
-/// Configures FDCAN1 and starts it in normal mode.
+/// Configures FDCAN1 at `bitrate` and starts it in normal mode. The bit timing is the core's
+/// exact one for the 24 MHz HSE kernel clock (`bit_timing`; embassy's `set_bitrate` would
+/// unwrap a failed calculation), so no configuration value can panic here.
 pub fn start(
     fdcan: Peri<'static, peripherals::FDCAN1>,
     rx: Peri<'static, peripherals::PB8>,
     tx: Peri<'static, peripherals::PB9>,
-    bitrate: u32,
+    bitrate: CanBitrate,
 ) -> Can<'static> {
     let mut cc = CanConfigurator::new(fdcan, rx, tx, Irqs);
-    cc.set_bitrate(bitrate);
+    let t = bitrate.timing();
+    let nbt = NominalBitTiming {
+        prescaler: NonZeroU16::new(t.prescaler).unwrap_or(NonZeroU16::MIN),
+        seg1: NonZeroU8::new(t.seg1).unwrap_or(NonZeroU8::MIN),
+        seg2: NonZeroU8::new(t.seg2).unwrap_or(NonZeroU8::MIN),
+        sync_jump_width: NonZeroU8::new(t.sync_jump_width).unwrap_or(NonZeroU8::MIN),
+    };
+    cc.set_config(cc.config().set_nominal_bit_timing(nbt));
     cc.start(OperatingMode::NormalOperationMode)
 }
 

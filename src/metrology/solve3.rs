@@ -148,7 +148,7 @@ impl Sym3 {
                 - self.a01 * (self.a01 * d2 - self.a12 * self.a02)
                 + self.a02 * (self.a01 * self.a12 - d1 * self.a02);
             let r = (det / (p * p * p) / 2.0).clamp(-1.0, 1.0);
-            let phi = libm::acos(r) / 3.0;
+            let phi = crate::num::acos(r) / 3.0;
             let e_max = q + 2.0 * p * crate::num::cos(phi);
             let e_min = q + 2.0 * p * crate::num::cos(phi + 2.0 * core::f64::consts::PI / 3.0);
             let e_mid = 3.0 * q - e_max - e_min;

@@ -656,7 +656,7 @@ pub fn identify_tttrr(
                 });
             }
             let phi = libm::atan2(yr, xr);
-            let ac = libm::acos(ratio);
+            let ac = crate::num::acos(ratio);
             let g_a = wrap_pi(ac - phi - gamma);
             let g_b = wrap_pi(-ac - phi - gamma);
             let d_gamma = if libm::fabs(g_a) <= libm::fabs(g_b) {

@@ -78,6 +78,7 @@
 //! each value comes from.
 
 pub mod abort;
+pub mod bit_timing;
 pub mod eds;
 pub mod emcy;
 pub mod nmt;

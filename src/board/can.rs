@@ -13,12 +13,16 @@ use embassy_stm32::can::config::NominalBitTiming;
 use embassy_stm32::can::enums::BusErrorMode;
 use embassy_stm32::can::{Can, CanConfigurator, OperatingMode, frame::Frame};
 use embassy_stm32::{Peri, peripherals};
+use embassy_time::{Duration, with_timeout};
 use embedded_can::Id;
 
 use ballpod::config::CanBitrate;
 use ballpod::protocol::canopen::{BusState, CanFrame};
 
 use super::{Irqs, state};
+
+/// Longest wait for a free transmit buffer, ms (three 8-byte frames at 125 kbit/s take ~3 ms).
+pub const TX_WAIT_MS: u64 = 5;
 
 /// Frames received since boot.
 pub static RX_FRAMES: AtomicU32 = AtomicU32::new(0);
@@ -83,10 +87,16 @@ pub async fn can_task(mut can: Can<'static>) {
             }
             Either::First(Err(_)) => {}
             Either::Second(f) => {
-                // While bus-off the node sends nothing (it counts what it dropped), so this
-                // does not wait for a mailbox that cannot empty.
+                // Never wait long for a transmit buffer: with no other node on the bus nothing
+                // acknowledges, the FDCAN retries for ever (error passive, not bus-off) and a
+                // plain `write().await` would stop reception too. A frame that cannot be
+                // queued in time is dropped and counted.
                 if let Ok(frame) = Frame::new_standard(f.id, f.payload()) {
-                    let _ = can.write(&frame).await;
+                    match with_timeout(Duration::from_millis(TX_WAIT_MS), can.write(&frame)).await {
+                        Ok(None) => {}
+                        // a queued frame replaced by this one, or no buffer in time
+                        Ok(Some(_)) | Err(_) => state::CAN_TX_DROPPED.count(),
+                    }
                 }
             }
         }

@@ -20,6 +20,10 @@ pub static CAN_RX_OVERRUNS: Overruns = Overruns::new();
 pub static CAN_TX: Channel<CriticalSectionRawMutex, CanFrame, 16> = Channel::new();
 /// Frames the node produced that did not fit the transmit queue.
 pub static CAN_TX_OVERRUNS: Overruns = Overruns::new();
+/// Frames the CAN task gave up on: the controller's transmit buffers stayed full for
+/// [`super::can::TX_WAIT_MS`] (no other node acknowledges: the FDCAN retries for ever), or a
+/// queued frame was replaced by a higher-priority one.
+pub static CAN_TX_DROPPED: Overruns = Overruns::new();
 /// The controller's fault-confinement state when it changes (the CAN task reads FDCAN `PSR`).
 pub static CAN_BUS: Signal<CriticalSectionRawMutex, BusState> = Signal::new();
 

@@ -132,7 +132,7 @@ async fn main(spawner: Spawner) {
         board::thermistor::thermistor_task(p.ADC3, p.PB0),
     );
     spawn(&spawner, "can", board::can::can_task(can));
-    spawn(&spawner, "usb", board::usb::usb_task(usb));
+    spawn(&spawner, "usb", board::usb::usb_task(usb, device_serial()));
     spawn(&spawner, "watchdog", board::safety::watchdog_task(p.IWDG));
 }
 

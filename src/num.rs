@@ -64,6 +64,21 @@ pub fn acos(x: f64) -> f64 {
     libm::atan2(sqrt((1.0 - x) * (1.0 + x)), x)
 }
 
+/// `v` as eight upper-case hexadecimal digits (ASCII): the serial number in `*IDN?` and the USB
+/// descriptor.
+pub fn hex8(v: u32) -> [u8; 8] {
+    let mut out = [b'0'; 8];
+    for (i, o) in (0u32..).zip(out.iter_mut()) {
+        let nibble = ((v >> (28 - 4 * i)) & 0xF) as u8;
+        *o = if nibble < 10 {
+            b'0' + nibble
+        } else {
+            b'A' + nibble - 10
+        };
+    }
+    out
+}
+
 /// Square root of an `f64` (software on the M4F: fine at per-test rates, DESIGN §6).
 #[inline]
 pub fn sqrt(x: f64) -> f64 {

@@ -108,6 +108,8 @@ def test_pyvisa_circle_session(pod, eds):
         # the same numbers over CANopen
         net, node = connect(pod, eds)
         try:
+            # one serial number on both sides: *IDN?'s third field is CANopen 0x1018:4 in hex
+            assert idn[2] == f"{node.sdo[0x1018][4].raw:08X}"
             for name, (v, u, _) in cw.items():
                 assert node.sdo["result_value"][name].raw == pytest.approx(v, abs=1e-4), name
         finally:

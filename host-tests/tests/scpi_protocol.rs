@@ -176,6 +176,16 @@ fn idn_has_the_four_fields_of_ieee488_2_10_14() {
     assert_eq!(fields[3], env!("CARGO_PKG_VERSION"));
     // common command headers are case-insensitive (§7.6.1.3)
     assert_eq!(b.send("*idn?"), idn);
+    // the serial: 0 until the shell sets it, then eight hex digits (as std formats them)
+    assert_eq!(fields[2], "0");
+    for serial in [0x0BA1_1000u32, 0xDEAD_BEEF, 1] {
+        b.scpi.set_serial(serial);
+        let idn = b.send("*IDN?");
+        assert_eq!(
+            idn.split(',').nth(2),
+            Some(format!("{serial:08X}").as_str())
+        );
+    }
 }
 
 #[test]

@@ -102,6 +102,7 @@ pub async fn compute_task(
     }
     let mut scpi = ScpiServer::new();
     scpi.set_pull_download(true);
+    scpi.set_serial(serial);
     if let Some(text) = boot.usb {
         scpi.push_device_error(text);
     }

@@ -23,13 +23,16 @@ fn event(e: UsbEvent) {
     }
 }
 
-/// Runs the USB device and both ports.
+/// Runs the USB device and both ports; `serial` is the pod's serial number (as CANopen
+/// 0x1018:4 and `*IDN?`), the descriptor's iSerialNumber as eight hex digits.
 #[embassy_executor::task]
-pub async fn usb_task(driver: Driver<'static, USB>) {
+pub async fn usb_task(driver: Driver<'static, USB>, serial: u32) {
     let mut config = embassy_usb::Config::new(VID, PID);
     config.manufacturer = Some("ballpod");
     config.product = Some("ballpod measurement pod");
-    config.serial_number = Some("0");
+    static SERIAL: StaticCell<[u8; 8]> = StaticCell::new();
+    // eight ASCII hex digits are UTF-8
+    config.serial_number = core::str::from_utf8(SERIAL.init(ballpod::num::hex8(serial))).ok();
     config.max_packet_size_0 = 64;
 
     static CONFIG_DESC: StaticCell<[u8; 256]> = StaticCell::new();

@@ -31,6 +31,9 @@ use super::sensors::{Instrument, Sensors};
 use crate::flash_model::FlashModel;
 use crate::recording::Recording;
 
+/// The simulated pod's serial number (CANopen 0x1018:4, `*IDN?`).
+pub const SERIAL: u32 = 0x0BA1_1000;
+
 /// Bytes of the sample stream's ring (the host drains it every few samples).
 pub const STREAM_BYTES: usize = 1 << 18;
 
@@ -149,11 +152,12 @@ impl<const N: usize> VirtualPod<N> {
         );
         let app = App::new(config, [16; MAX_AXES]);
         let mut scpi = ScpiServer::new();
+        scpi.set_serial(SERIAL);
         scpi.set_pull_download(true);
         let mut stream = Box::new(SampleStream::new());
         stream.set_enabled(true);
         Self {
-            node: CanOpenNode::new(app.config().can_node_id, 0x0BA1_1000),
+            node: CanOpenNode::new(app.config().can_node_id, SERIAL),
             app,
             sensors,
             scpi,

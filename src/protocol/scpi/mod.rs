@@ -75,9 +75,11 @@ use status::{ScpiError, StatusModel, code, esr};
 /// Input line buffer, bytes (the longest program message accepted, without its `\n`).
 pub const LINE_CAPACITY: usize = 256;
 
-/// `*IDN?` response (IEEE 488.2 §10.14: manufacturer, model, serial number (0: not set),
-/// firmware version).
-pub const IDN: &str = concat!("BALLPOD,BP-1,0,", env!("CARGO_PKG_VERSION"));
+/// `*IDN?` response (IEEE 488.2 §10.14): manufacturer and model, then the serial number (eight
+/// hex digits, [`ScpiServer::set_serial`]; 0 while not set), then the firmware version.
+pub const IDN_MAKER_MODEL: &str = "BALLPOD,BP-1,";
+/// The firmware version of `*IDN?`.
+pub const IDN_VERSION: &str = env!("CARGO_PKG_VERSION");
 
 /// Decimals of values in µm (and µrad, °C…) in responses: 0.1 nm.
 const RESPONSE_DECIMALS: u32 = 4;
@@ -112,6 +114,7 @@ pub struct ScpiServer {
     pull_mode: bool,
     download: Option<Download>,
     config_unlocked: bool,
+    serial: u32,
 }
 
 impl Default for ScpiServer {
@@ -130,6 +133,7 @@ struct Exec<'a, F: FnMut(&[u8]), const N: usize> {
     pull_mode: bool,
     download: &'a mut Option<Download>,
     config_unlocked: &'a mut bool,
+    serial: u32,
     /// A response unit was sent on the current line.
     responded: bool,
 }
@@ -148,7 +152,14 @@ impl ScpiServer {
             pull_mode: false,
             download: None,
             config_unlocked: false,
+            serial: 0,
         }
+    }
+
+    /// The pod's serial number for `*IDN?` (the firmware: CRC-32 of the MCU's unique ID, as
+    /// CANopen 0x1018:4).
+    pub fn set_serial(&mut self, serial: u32) {
+        self.serial = serial;
     }
 
     /// True after `CONFigure:UNLock` until the port locks again (module doc).
@@ -243,6 +254,7 @@ impl ScpiServer {
             pull_mode: self.pull_mode,
             download: &mut self.download,
             config_unlocked: &mut self.config_unlocked,
+            serial: self.serial,
             responded: false,
         };
         for &b in bytes {
@@ -780,7 +792,14 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
         match cmd {
             Command::Idn => {
                 none()?;
-                push_bytes(&mut r, IDN.as_bytes());
+                push_bytes(&mut r, IDN_MAKER_MODEL.as_bytes());
+                if self.serial == 0 {
+                    push_bytes(&mut r, b"0");
+                } else {
+                    push_bytes(&mut r, &crate::num::hex8(self.serial));
+                }
+                push_bytes(&mut r, b",");
+                push_bytes(&mut r, IDN_VERSION.as_bytes());
             }
             Command::Opc => {
                 none()?;

@@ -8,12 +8,12 @@
 use core::num::{NonZeroU8, NonZeroU16};
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use embassy_futures::select::{Either, select};
+use embassy_futures::select::{Either3, select3};
 use embassy_stm32::can::config::NominalBitTiming;
 use embassy_stm32::can::enums::BusErrorMode;
 use embassy_stm32::can::{Can, CanConfigurator, OperatingMode, frame::Frame};
 use embassy_stm32::{Peri, peripherals};
-use embassy_time::{Duration, with_timeout};
+use embassy_time::{Duration, Timer, with_timeout};
 use embedded_can::Id;
 
 use ballpod::config::CanBitrate;
@@ -70,14 +70,17 @@ fn to_core(frame: &Frame) -> Option<CanFrame> {
 pub async fn can_task(mut can: Can<'static>) {
     let mut last_bus = BusState::ErrorActive;
     loop {
+        super::safety::check_in(super::safety::Task::Can);
         let bus = bus_state(can.properties().bus_error_mode());
         if bus != last_bus {
             defmt::warn!("CAN bus state {}", bus as u8);
             last_bus = bus;
             state::CAN_BUS.signal(bus);
         }
-        match select(can.read(), state::CAN_TX.receive()).await {
-            Either::First(Ok(env)) => {
+        // the timer: check in and look at the bus state even while the bus is silent
+        let tick = Timer::after_millis(super::safety::CHECK_IN_MS);
+        match select3(can.read(), state::CAN_TX.receive(), tick).await {
+            Either3::First(Ok(env)) => {
                 RX_FRAMES.fetch_add(1, Ordering::Relaxed);
                 if let Some(frame) = to_core(&env.frame)
                     && state::CAN_RX.try_send(frame).is_err()
@@ -85,8 +88,8 @@ pub async fn can_task(mut can: Can<'static>) {
                     state::CAN_RX_OVERRUNS.count();
                 }
             }
-            Either::First(Err(_)) => {}
-            Either::Second(f) => {
+            Either3::First(Err(_)) | Either3::Third(()) => {}
+            Either3::Second(f) => {
                 // Never wait long for a transmit buffer: with no other node on the bus nothing
                 // acknowledges, the FDCAN retries for ever (error passive, not bus-off) and a
                 // plain `write().await` would stop reception too. A frame that cannot be

@@ -149,7 +149,7 @@ pub async fn compute_task(
                 let (raw, lost) = (encoders::raw_counts(), super::lost_upstream());
                 let s = app.on_raw_sample(block.t_us, block.reading, raw, lost, &mut rec);
                 node.on_sample(s.flags, now, can_out);
-                super::safety::progress();
+                super::safety::check_in(super::safety::Task::Compute);
             }
             Either4::Second(frame) => node.on_frame(&frame, &mut app, now, can_out),
             Either4::Third(UsbEvent::Bytes { data, len }) => {

@@ -153,6 +153,7 @@ pub async fn lvdt_task(
     let mut a = [0u16; BLOCK];
     let mut b = [0u16; BLOCK];
     loop {
+        super::safety::check_in(super::safety::Task::Lvdt);
         let ok_a = ring_a.read(&mut a).await;
         let ok_b = ring_b.read(&mut b).await;
         if ok_a.is_err() || ok_b.is_err() {

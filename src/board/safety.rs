@@ -1,12 +1,14 @@
-//! Firmware safety: the independent watchdog fed only by the compute task's progress, the
+//! Firmware safety: the independent watchdog fed only when every task has checked in, the
 //! panic handler that leaves its reason in retained RAM, and the report of both at the next
 //! boot (defmt log, CANopen EMCY 0x6000, SCPI `SYSTem:ERRor?` -300).
 //!
 //! - **Watchdog**: IWDG (LSI clock, runs even if the main clocks fail) with [`WATCHDOG_TIMEOUT_US`].
-//!   The compute task calls [`progress`] once per sample; [`watchdog_task`] pets the dog every
-//!   [`PET_PERIOD_MS`] only if the counter moved since its last look. A stuck compute task, a
-//!   stopped acquisition (no LVDT blocks) or a starved executor therefore resets the MCU; the
-//!   next boot finds the IWDG reset flag (RCC_CSR.IWDGRSTF, RM0440 §7.4.30) and reports it.
+//!   Every task calls [`check_in`] as it goes round its loop — compute per sample, LVDT per
+//!   block, thermistor per reading, CAN and USB at least every [`CHECK_IN_MS`] even when their
+//!   bus is silent; [`watchdog_task`] pets the dog every [`PET_PERIOD_MS`] only if all of
+//!   [`Task::ALL`] checked in since its last look. A stuck task, a stopped acquisition (no LVDT
+//!   blocks) or a starved executor therefore resets the MCU; the next boot finds the IWDG reset
+//!   flag (RCC_CSR.IWDGRSTF, RM0440 §7.4.30) and reports it.
 //! - **Panic**: [`panic`] writes `file:line: message` (at most [`PANIC_TEXT_BYTES`] bytes) and a
 //!   magic word into a `.uninit` static that the startup code does not zero, logs it over defmt
 //!   and resets. The next boot takes it out ([`take_reset_report`]) and clears the magic.
@@ -24,34 +26,69 @@ use super::Overruns;
 
 /// Watchdog timeout, µs (a save's page erase blocks the executor for ≤ 40 ms).
 pub const WATCHDOG_TIMEOUT_US: u32 = 500_000;
-/// How often the watchdog task looks at the progress counter, ms.
-pub const PET_PERIOD_MS: u64 = 100;
+/// How often the watchdog task looks at the check-ins, ms: twice the thermistor's 100 ms
+/// period, so every look finds its check-in; two looks fit in the timeout.
+pub const PET_PERIOD_MS: u64 = 200;
 /// Bytes of panic text kept in retained RAM.
 pub const PANIC_TEXT_BYTES: usize = 120;
 
-/// Samples computed since boot (the watchdog's evidence of progress).
-static COMPUTE_PROGRESS: AtomicU32 = AtomicU32::new(0);
-/// Looks of the watchdog task that found no progress (the dog was not petted).
-pub static WATCHDOG_MISSES: Overruns = Overruns::new();
+/// Longest a waiting task (CAN, USB) goes without checking in, ms.
+pub const CHECK_IN_MS: u64 = 50;
 
-/// Called by the compute task once per sample.
-pub fn progress() {
-    COMPUTE_PROGRESS.fetch_add(1, Ordering::Relaxed);
+/// The tasks the watchdog waits for (bit k of [`CHECK_INS`] = task k).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Task {
+    /// The application task (per sample).
+    Compute = 0,
+    /// LVDT demodulation (per block).
+    Lvdt = 1,
+    /// Thermistor (per reading).
+    Thermistor = 2,
+    /// CAN (per frame, or every [`CHECK_IN_MS`]).
+    Can = 3,
+    /// USB (every [`CHECK_IN_MS`]).
+    Usb = 4,
 }
 
-/// Starts the watchdog and pets it while the compute task makes progress.
+impl Task {
+    /// Every task the watchdog waits for.
+    pub const ALL: [Task; 5] = [
+        Task::Compute,
+        Task::Lvdt,
+        Task::Thermistor,
+        Task::Can,
+        Task::Usb,
+    ];
+    /// All their bits.
+    const ALL_BITS: u32 = (1 << Task::ALL.len()) - 1;
+}
+
+/// Tasks that checked in since the watchdog's last look (bit per [`Task`]).
+static CHECK_INS: AtomicU32 = AtomicU32::new(0);
+/// Looks of the watchdog task that found a task missing (the dog was not petted).
+pub static WATCHDOG_MISSES: Overruns = Overruns::new();
+
+/// Called by `task` as it goes round its loop.
+pub fn check_in(task: Task) {
+    CHECK_INS.fetch_or(1 << task as u32, Ordering::Relaxed);
+}
+
+/// Starts the watchdog and pets it while every task checks in.
 #[embassy_executor::task]
 pub async fn watchdog_task(iwdg: embassy_stm32::Peri<'static, IWDG>) {
     let mut dog = IndependentWatchdog::new(iwdg, WATCHDOG_TIMEOUT_US);
     dog.unleash();
-    let mut last = COMPUTE_PROGRESS.load(Ordering::Relaxed);
     loop {
         Timer::after_millis(PET_PERIOD_MS).await;
-        let now = COMPUTE_PROGRESS.load(Ordering::Relaxed);
-        if now != last {
+        let seen = CHECK_INS.swap(0, Ordering::Relaxed);
+        if seen & Task::ALL_BITS == Task::ALL_BITS {
             dog.pet();
-            last = now;
         } else {
+            defmt::warn!(
+                "watchdog: tasks not checked in {=u32:b}",
+                !seen & Task::ALL_BITS
+            );
             WATCHDOG_MISSES.count();
         }
     }

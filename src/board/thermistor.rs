@@ -23,6 +23,7 @@ pub async fn thermistor_task(
     let mut adc = Adc::new(adc, AdcConfig::default());
     let mut ticker = Ticker::every(Duration::from_millis(100));
     loop {
+        super::safety::check_in(super::safety::Task::Thermistor);
         let code = adc.blocking_read(&mut pin, SampleTime::CYCLES640_5);
         if CODES.try_send(code).is_err() {
             CODE_QUEUE_OVERRUNS.count();

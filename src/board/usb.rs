@@ -4,7 +4,7 @@
 //! every run as CSV text, from `state::STREAM_TX`; the stream writes while a host holds the
 //! port open, DTR set).
 
-use embassy_futures::join::join4;
+use embassy_futures::join::join5;
 use embassy_stm32::peripherals::USB;
 use embassy_stm32::usb::Driver;
 use embassy_usb::Builder;
@@ -102,5 +102,12 @@ pub async fn usb_task(driver: Driver<'static, USB>, serial: u32) {
             event(UsbEvent::StreamClosed);
         }
     };
-    join4(usb.run(), receive, respond, samples).await;
+    // the task's futures are polled together: while this one checks in, none of them blocks
+    let alive = async {
+        loop {
+            super::safety::check_in(super::safety::Task::Usb);
+            embassy_time::Timer::after_millis(super::safety::CHECK_IN_MS).await;
+        }
+    };
+    join5(usb.run(), receive, respond, samples, alive).await;
 }

@@ -264,6 +264,12 @@ def result(sdo, name):
     return sdo["result_value"][name].raw, sdo["result_uncertainty"][name].raw
 
 
+def assert_refused(sdo, command, reason):
+    """Session command `command` is refused: abort 0x08000022 and 0x3006 says `reason`."""
+    assert abort_code(lambda: setattr(sdo["session_command"], "raw", COMMAND[command])) == ABORT_DEVICE_STATE
+    assert sdo["last_refusal"].raw == reason
+
+
 def assert_invalid(sdo, name):
     """An invalid result is never sent as a number: 0x4000/0x4001 abort "no data available"."""
     assert sdo["result_valid"][name].raw is False, name

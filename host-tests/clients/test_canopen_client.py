@@ -17,7 +17,7 @@ from podlib import (ABORT_DEVICE_STATE, ABORT_INVALID_VALUE, ABORT_LENGTH, ABORT
                     ABORT_NO_SUB_INDEX, ABORT_PARAMETER_INCOMPATIBLE, ABORT_READ_ONLY, ABORT_TOO_HIGH,
                     ABORT_TOO_LOW, ABORT_WRITE_ONLY, BOOLEAN, COMMAND, LIVE, PATTERN, REAL32,
                     STATUS_RUNNING, TYPE_SIZE, UNSIGNED8, UNSIGNED16, UNSIGNED32, StreamCapture,
-                    abort_code, assert_invalid, configure_circle, connect, fit_run, iso230_4,
+                    abort_code, assert_invalid, assert_refused, configure_circle, connect, fit_run, iso230_4,
                     limacon_fit, result, run, tpdo_snapshots)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -163,10 +163,8 @@ def test_refusals_with_the_reason(pod, eds):
     sdo = node.sdo
     try:
         sdo["pattern"].raw = PATTERN["CIRCLE"]
-        assert abort_code(lambda: setattr(sdo["session_command"], "raw", COMMAND["arm"])) == ABORT_DEVICE_STATE
-        assert sdo["last_refusal"].raw == "circle_centre_x not set"
-        assert abort_code(lambda: setattr(sdo["session_command"], "raw", COMMAND["start"])) == ABORT_DEVICE_STATE
-        assert sdo["last_refusal"].raw == "START needs ARMED"
+        assert_refused(sdo, "arm", "circle_centre_x not set")
+        assert_refused(sdo, "start", "START needs ARMED")
         assert sdo["session_state"].raw == 0
         # out of the EDS's range of the command and pattern objects
         assert abort_code(lambda: setattr(sdo["session_command"], "raw", 9)) == ABORT_TOO_HIGH
@@ -178,8 +176,7 @@ def test_refusals_with_the_reason(pod, eds):
         for obj, value in [("bar_length", 151.0), ("pattern", PATTERN["SSM"]), ("direction", 1)]:
             assert abort_code(lambda: setattr(sdo[obj], "raw", value)) == ABORT_DEVICE_STATE, obj
             assert sdo["last_refusal"].raw == "not while a run is armed or running"
-        assert abort_code(lambda: setattr(sdo["session_command"], "raw", COMMAND["arm"])) == ABORT_DEVICE_STATE
-        assert sdo["last_refusal"].raw == "ARM needs IDLE, DONE or ABORTED"
+        assert_refused(sdo, "arm", "ARM needs IDLE, DONE or ABORTED")
         assert (sdo["bar_length"].raw, sdo["pattern"].raw, sdo["direction"].raw) == (150.0, 0, 0)
         # abort by command: ABORTED, reason 1, no results
         sdo["session_command"].raw = COMMAND["abort"]

@@ -7,9 +7,9 @@ import math
 
 import pytest
 
-from podlib import (ABORT_DEVICE_STATE, COMMAND, DIRECTION, PATTERN, SEED002_DEVIATIONS,
-                    STATUS_IDENTIFYING, STATUS_RESULTS_READY, TABLE_4_3, abort_code, assert_invalid,
-                    connect, run, wait_until)
+from podlib import (COMMAND, DIRECTION, PATTERN, SEED002_DEVIATIONS, STATUS_IDENTIFYING,
+                    STATUS_RESULTS_READY, TABLE_4_3, assert_invalid, assert_refused, connect, run,
+                    wait_until)
 
 STEPS = ["BX", "BY", "CR", "CA", "CR2"]
 
@@ -22,8 +22,7 @@ def test_seed002_procedure_identifies_the_truth(pod, eds):
     try:
         # a step without its set-up is refused, naming the first field it lacks
         sdo["pattern"].raw = PATTERN["BX"]
-        assert abort_code(lambda: setattr(sdo["session_command"], "raw", COMMAND["arm"])) == ABORT_DEVICE_STATE
-        assert sdo["last_refusal"].raw == "s002_l_b not set"
+        assert_refused(sdo, "arm", "s002_l_b not set")
         sdo["bar_length"].raw = TABLE_4_3["s002_l_b"]  # the bar of the procedure, L_B
         for name, value in TABLE_4_3.items():
             sdo[name].raw = value

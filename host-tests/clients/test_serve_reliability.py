@@ -9,16 +9,9 @@ import time
 
 import pytest
 
-from podlib import COMMAND, PATTERN, connect, wait_until
+from podlib import COMMAND, PATTERN, configure_circle, connect, wait_until
 
 HEARTBEAT_S = 1.0  # 0x1017 default (README)
-
-
-def circle_setup(sdo, feed):
-    for k in "xyz":
-        sdo[f"circle_centre_{k}"].raw = 0.0
-    sdo["circle_radius"].raw = sdo["bar_length"].raw
-    sdo["circle_feed"].raw = feed
 
 
 def start_circle(sdo):
@@ -35,8 +28,9 @@ def test_heartbeats_keep_real_time_while_a_run_runs_fast(pod, eds):
     beats = []
     net.subscribe(0x700 + pod["node_id"], lambda can_id, data, ts: beats.append(time.monotonic()))
     try:
-        # a 150 mm circle at F300: 188 s of machine time, under 5 s of real time at speed 40
-        circle_setup(sdo, 300.0)
+        # the truth's 150 mm circle at F300: 188 s of machine time, under 5 s of real time at
+        # speed 40
+        configure_circle(sdo, {**pod["truth"]["machine"]["circle"], "feed_mm_per_min": 300.0})
         start_circle(sdo)
         t0 = time.monotonic()
         del beats[:]
@@ -58,7 +52,7 @@ def test_a_usb_client_that_never_reads_holds_up_nothing(pod, eds):
     sdo = node.sdo
     try:
         # a run, so that the log holds something to download
-        circle_setup(sdo, 6000.0)
+        configure_circle(sdo, {**pod["truth"]["machine"]["circle"], "feed_mm_per_min": 6000.0})
         start_circle(sdo)
         wait_until(lambda: sdo["session_state"].raw != 2, 20, "the circle's end")
         # a technician asks for the log and never reads (a small receive window)

@@ -86,6 +86,7 @@ const TIMINGS: [BitTiming; 4] = {
     while i < rates.len() {
         out[rates[i] as usize] = match bit_timing(FDCAN_KERNEL_HZ, rates[i].bits_per_s()) {
             Some(t) => t,
+            // const evaluation: this is a build error, never a run-time panic
             None => panic!("a CanBitrate without an exact timing at FDCAN_KERNEL_HZ"),
         };
         i += 1;

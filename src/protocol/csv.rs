@@ -37,7 +37,7 @@
 //! configured axis in the order X, Y, Z, A, B, C (`x_mm` … `c_deg`), `temp_c` (2 decimals),
 //! `flags` (decimal). ΔL, positions and the configuration's f32 fields are written with 9
 //! significant digits, which read back to the same `f32`; a value that is not valid (or a
-//! set-up field that is not set) is `nan`. Lines end with `\n`.
+//! set-up field that is not set, or a non-finite number) is `nan`. Lines end with `\n`.
 
 use crate::acquisition::MAX_AXES;
 use crate::app::log::{LogRecord, LoggedRecord};

@@ -43,12 +43,15 @@ fn clocks() -> embassy_stm32::Config {
     config.rcc.mux.fdcansel = mux::Fdcansel::HSE;
     config.rcc.mux.adc12sel = mux::Adcsel::SYS;
     config.rcc.mux.adc345sel = mux::Adcsel::SYS;
+    // every DMA channel below the two latches (board::set_priorities)
+    config.bdma_interrupt_priority = embassy_stm32::interrupt::Priority::P2;
     config
 }
 
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
     let p = embassy_stm32::init(clocks());
+    board::diagnostics::start_cycle_counter();
     // Why the previous run ended (panic text from retained RAM, or a watchdog reset).
     let report = board::safety::take_reset_report();
     let (can_report, usb_report) = match report {
@@ -104,10 +107,12 @@ async fn main(spawner: Spawner) {
     );
     let can = board::can::start(p.FDCAN1, p.PB8, p.PB9, cfg.can_bitrate);
     let usb = Driver::new(p.USB, board::Irqs, p.PA12, p.PA11);
+    board::set_priorities();
 
     let boot = board::compute::BootReport {
         can: can_report,
         usb: usb_report,
+        settings_rejected: loaded.rejected(),
     };
     spawn(
         &spawner,
@@ -123,6 +128,7 @@ async fn main(spawner: Spawner) {
             cfg.lvdt_input,
             cfg.lvdt_dc_zero_v,
             cfg.lvdt_dc_span_v,
+            board::lvdt::block_period_us(&cfg),
         ),
     );
     spawn(&spawner, "dac", board::lvdt::dac_task(dac));

@@ -221,6 +221,18 @@ impl Loaded {
     pub fn is_defaults(&self) -> bool {
         self.from.is_none()
     }
+    /// Why a slot's record, intact (CRC good), holds a configuration this firmware rejects — a
+    /// value the hardware cannot realise, a rule added since it was saved — if one does: the
+    /// other slot's settings or the defaults are in use, and the pod says so at boot
+    /// (`protocol::report_rejected_settings`).
+    pub fn rejected(&self) -> Option<ConfigError> {
+        [self.scan.a, self.scan.b]
+            .into_iter()
+            .find_map(|s| match s {
+                Err(SlotError::Config(e)) => Some(e),
+                _ => None,
+            })
+    }
 }
 
 /// Loads the newest valid settings, or the defaults (flagged) if neither slot is valid.

@@ -21,6 +21,8 @@ use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::acquisition::{MAX_AXES, SampleFlags};
 use ballpod::app::{Live, RESULT_COUNT, ResultId, RunCounters, SessionState};
 use ballpod::protocol::canopen::{BusState, CanFrame};
+use ballpod::config::Config;
+use ballpod_host::flash_model::FlashModel;
 use ballpod_host::recording::{Event, parse_runs};
 use ballpod_host::vmt::machine::CircleMachine;
 use ballpod_host::vmt::sensors::Instrument;
@@ -573,6 +575,15 @@ fn a_few_lost_samples_are_counted_flagged_and_sent_as_emcy_6101() {
         .collect();
     assert_eq!(gaps, vec![6]);
     assert_eq!(b.emcy_codes(), vec![0x6101, 0x0000]);
+    // the device counter of lost blocks says the same over both protocols (0x2110:1,
+    // SYST:COUN? first field); the two figures a simulated pod cannot measure read as such
+    assert_eq!(b.read(0x2110, 1), 5);
+    let dev = b.scpi("SYST:COUN?");
+    let dev: Vec<&str> = dev.split(',').collect();
+    assert_eq!(dev.len(), ballpod::app::DEVICE_COUNTERS.len());
+    assert_eq!(dev[0], "5");
+    assert_eq!(dev[14..], ["9.91E+37", "9.91E+37"]);
+    assert_eq!(b.read(0x2110, 15), u32::MAX, "masked_max_ns not measured");
     stop_done(&mut b);
 }
 
@@ -917,6 +928,12 @@ fn usb_disconnect_mid_download_loses_nothing() {
     assert_eq!(b.scpi("SYST:ERR?"), "0,\"No error\"");
 }
 
+/// `settings_store_failures` of `SYST:COUN?` (the 12th device counter).
+fn settings_failures_scpi(b: &mut Bench) -> u32 {
+    let all = b.scpi("SYST:COUN?");
+    all.split(',').nth(11).unwrap().parse().unwrap()
+}
+
 #[test]
 fn power_lost_during_a_settings_save_boots_with_the_previous_settings() {
     // One good save of bar_length 200 mm (slot A, sequence 1); then 250 mm saved with the
@@ -930,11 +947,13 @@ fn power_lost_during_a_settings_save_boots_with_the_previous_settings() {
         let mut b = Bench::idle();
         assert_eq!(b.scpi("CONF:UNL;:CONF:BAR_LENGTH 200"), "");
         assert_eq!(b.scpi("*SAV 0"), "");
-        let failures = b.vp.app.settings_failures();
+        let failures = settings_failures_scpi(&mut b);
         assert_eq!(b.scpi("CONF:BAR_LENGTH 250"), "");
         b.vp.flash.budget = Some(k);
         assert_eq!(b.scpi("*SAV 0"), "");
-        let failed = b.vp.app.settings_failures() == failures + 1;
+        let failed = settings_failures_scpi(&mut b) == failures + 1;
+        // the CNC reads the same count: 0x2110:12 settings_store_failures
+        assert_eq!(b.read(0x2110, 12), settings_failures_scpi(&mut b));
         if failed {
             // the failed save is a fault in the status word (from the next sample on) until a
             // save succeeds
@@ -971,6 +990,48 @@ fn power_lost_during_a_settings_save_boots_with_the_previous_settings() {
     );
 }
 
+/// A stored configuration the firmware rejects (intact record, CRC good, but a bar length out
+/// of range: a value a later firmware no longer accepts) boots into the defaults and says so
+/// once on both protocols: EMCY 0x6300 (data set, byte 3 = 3) right after the boot-up and
+/// -315 in `SYST:ERR?` naming the field. The record is built here with the public encoding.
+#[test]
+fn a_stored_configuration_the_firmware_rejects_boots_into_the_defaults_with_a_report() {
+    let bad = Config {
+        bar_length_mm: 5000.0,
+        ..Config::default()
+    };
+    assert!(bad.validate().is_err(), "the value is out of range");
+    let rec = ballpod::settings::encode_record(&bad, 7).unwrap();
+    let mut flash = FlashModel::erased();
+    flash.pages[0][..rec.len()].copy_from_slice(&rec);
+    let vp = VirtualPod::boot(VirtualSetup::default(), flash);
+    assert!(vp.boot_settings().is_defaults());
+    assert!(matches!(
+        vp.boot_settings().rejected(),
+        Some(ballpod::config::ConfigError::OutOfRange {
+            field: ballpod::config::Field::BarLengthMm,
+            ..
+        })
+    ));
+    let mut b = Bench::on(vp);
+    b.step(1);
+    let frames = b.take();
+    assert_eq!(frames[0], frame(HEARTBEAT, &[0]), "boot-up first");
+    let emcy: Vec<_> = frames.iter().filter(|f| f.id == EMCY).collect();
+    assert_eq!(emcy.len(), 1, "{frames:?}");
+    assert_eq!(
+        (u16::from_le_bytes([emcy[0].data[0], emcy[0].data[1]]), emcy[0].data[3]),
+        (0x6300, 3)
+    );
+    assert_eq!(
+        b.scpi("SYST:ERR?"),
+        "-315,\"Configuration memory lost;bar_length out of range\""
+    );
+    assert_eq!(b.scpi("SYST:ERR?"), "0,\"No error\"", "reported once");
+    // the defaults are what the CNC reads: 0x2000 bar_length 150 mm
+    assert_eq!(f32::from_bits(b.read(0x2000, 0)), Config::default().bar_length_mm);
+}
+
 /// A complete save is reported done: no failure counted, no error bit, and the pod boots with
 /// it.
 #[test]
@@ -978,7 +1039,8 @@ fn a_complete_save_is_reported_done() {
     let mut b = Bench::idle();
     assert_eq!(b.scpi("CONF:UNL;:CONF:BAR_LENGTH 200;*SAV 0"), "");
     assert_eq!(b.scpi("SYST:ERR?"), "0,\"No error\"");
-    assert_eq!(b.vp.app.settings_failures(), 0);
+    assert_eq!(settings_failures_scpi(&mut b), 0);
+    assert_eq!(b.read(0x2110, 12), 0);
     b.step(1);
     let status: u32 = b.scpi("STAT:POD?").parse().unwrap();
     assert_eq!(status & 1 << 15, 0, "no error bit");

@@ -16,5 +16,5 @@ pub mod rtest_head;
 pub mod sample;
 pub mod thermal;
 
-pub use pipeline::{Acquisition, AcquisitionCounters};
+pub use pipeline::{Acquisition, AcquisitionCounters, periods_lost};
 pub use sample::{MAX_AXES, Sample, SampleFlags};

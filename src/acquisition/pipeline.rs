@@ -290,3 +290,17 @@ impl Acquisition {
         s
     }
 }
+
+/// Sample periods lost between two blocks that reached the shell with reference instants
+/// `prev_us` and `t_us` (µs, timestamped by the hardware's block interrupt, so a gap is whole
+/// periods up to the interrupt latency) at the nominal period `period_us`: the gap rounded to
+/// whole periods, less the one expected. A gap under 1.5 periods, a clock that did not advance
+/// or a zero period count nothing; a gap beyond `u32` periods saturates.
+pub fn periods_lost(prev_us: u64, t_us: u64, period_us: u32) -> u32 {
+    if period_us == 0 {
+        return 0;
+    }
+    let gap = t_us.saturating_sub(prev_us);
+    let periods = (gap + u64::from(period_us) / 2) / u64::from(period_us);
+    u32::try_from(periods.saturating_sub(1)).unwrap_or(u32::MAX)
+}

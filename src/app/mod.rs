@@ -31,6 +31,7 @@
 //! [`App::run_pending_job`] where a long computation does no harm.
 
 pub mod circle;
+pub mod device;
 pub mod live;
 pub mod log;
 pub mod pattern;
@@ -41,6 +42,7 @@ pub mod run;
 pub mod seed002;
 pub mod ssm;
 
+pub use device::{DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, DeviceCounter, DeviceCounters};
 pub use live::{LIVE, LIVE_COUNT, Live, LiveValues, StatusWord};
 pub use pattern::{Direction, Pattern};
 pub use record::{Recorder, RunEnd, RunMeta, Touch};
@@ -295,6 +297,7 @@ pub struct App {
     settings_failures: u32,
     settings_failed: bool,
     last_flags: SampleFlags,
+    device: DeviceCounters,
 }
 
 impl App {
@@ -339,6 +342,7 @@ impl App {
             procedure_note: None,
             settings_request: None,
             settings_failures: 0,
+            device: DeviceCounters::START,
             settings_failed: false,
             last_flags: SampleFlags::NONE,
         }
@@ -432,9 +436,16 @@ impl App {
     pub fn seed002(&self) -> Option<&Procedure> {
         self.seed002.as_ref()
     }
-    /// Settings saves that failed (reported by the shell).
-    pub fn settings_failures(&self) -> u32 {
-        self.settings_failures
+    /// The device counters as the shell last set them, with the settings saves that failed
+    /// (which the application counts itself from [`settings_stored`](Self::settings_stored)).
+    pub fn device_counters(&self) -> DeviceCounters {
+        let mut c = self.device;
+        c.set(DeviceCounter::SettingsStoreFailures, self.settings_failures);
+        c
+    }
+    /// The shell's device counters (its queues, watchdog, DMA, masked time, stack).
+    pub fn set_device_counters(&mut self, c: DeviceCounters) {
+        self.device = c;
     }
     /// True while an identification waits for [`run_pending_job`](Self::run_pending_job).
     pub fn job_pending(&self) -> bool {

@@ -12,7 +12,7 @@ use embassy_time::{Duration, Instant, Ticker};
 
 use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
-use ballpod::app::{App, Recorder, SettingsRequest};
+use ballpod::app::{App, DeviceCounter, Recorder, SettingsRequest};
 use ballpod::config::Config;
 use ballpod::protocol::canopen::{CanFrame, CanOpenNode};
 use ballpod::protocol::scpi::ScpiServer;
@@ -21,13 +21,13 @@ use ballpod::settings;
 
 use super::settings::SettingsPages;
 use super::state::{self, UsbEvent};
-use super::{Overruns, encoders, lvdt, probe, thermistor};
+use super::{Overruns, diagnostics, lvdt, probe, thermistor};
 
 /// Bytes of the stream's ring (the USB task drains it through `STREAM_TX`).
 const STREAM_RING: usize = 2048;
+/// How often the device counters are refreshed, ms (the stack scan takes ≈ 0.2 ms).
+const DEVICE_COUNTERS_EVERY_MS: u32 = 100;
 
-/// Saves that failed (driver error or read-back mismatch).
-pub static SETTINGS_STORE_FAILURES: Overruns = Overruns::new();
 /// Samples not logged because a log download was in progress (the log is one snapshot while
 /// it is downloaded; the stream still has them).
 pub static LOG_PAUSED_SAMPLES: Overruns = Overruns::new();
@@ -44,6 +44,8 @@ pub struct BootReport {
     pub can: Option<(u16, u8)>,
     /// The same for `SYSTem:ERRor?`.
     pub usb: Option<&'static str>,
+    /// Why a stored configuration was rejected, if one was (`settings::Loaded::rejected`).
+    pub settings_rejected: Option<ballpod::config::ConfigError>,
 }
 
 /// Where the application records runs: the log (paused while it is downloaded: the samples it
@@ -87,13 +89,13 @@ impl Recorder for Recorders<'_> {
 #[embassy_executor::task]
 pub async fn compute_task(
     cfg: Config,
-    _encoders: encoders::Encoders,
+    _encoders: super::encoders::Encoders,
     probe_in: ExtiInput<'static, Blocking>,
     mut flash: SettingsPages,
     serial: u32,
     boot: BootReport,
 ) {
-    let mut app = App::new(cfg, encoders::COUNTER_BITS);
+    let mut app = App::new(cfg, super::encoders::COUNTER_BITS);
     let mut log = SampleLog::<LOG_CAPACITY>::new();
     let mut stream = SampleStream::<STREAM_RING>::new();
     let mut node = CanOpenNode::new(app.config().can_node_id, serial);
@@ -106,6 +108,7 @@ pub async fn compute_task(
     if let Some(text) = boot.usb {
         scpi.push_device_error(text);
     }
+    ballpod::protocol::report_rejected_settings(boot.settings_rejected, &mut node, &mut scpi);
     let can_out = &mut |f: CanFrame| {
         if state::CAN_TX.try_send(f).is_err() {
             state::CAN_TX_OVERRUNS.count();
@@ -117,6 +120,7 @@ pub async fn compute_task(
         }
     };
     let mut ticker = Ticker::every(Duration::from_millis(1));
+    let mut ticks = 0u32;
     loop {
         let now = Instant::now().as_micros();
         match select4(
@@ -146,8 +150,9 @@ pub async fn compute_task(
                 }
                 // NC contact to ground with pull-up: seated reads low.
                 app.on_probe_level(block.t_us, probe_in.is_low());
-                let (raw, lost) = (encoders::raw_counts(), super::lost_upstream());
-                let s = app.on_raw_sample(block.t_us, block.reading, raw, lost, &mut rec);
+                // the encoder counts latched at the block's centre (lvdt::BlockLatchIsr)
+                let lost = super::lost_upstream();
+                let s = app.on_raw_sample(block.t_us, block.reading, block.raw, lost, &mut rec);
                 node.on_sample(s.flags, now, can_out);
                 super::safety::check_in(super::safety::Task::Compute);
             }
@@ -159,6 +164,12 @@ pub async fn compute_task(
             Either4::Third(UsbEvent::StreamOpened) => stream.set_enabled(true),
             Either4::Third(UsbEvent::StreamClosed) => stream.set_enabled(false),
             Either4::Fourth(()) => {
+                ticks = ticks.wrapping_add(1);
+                if ticks.is_multiple_of(DEVICE_COUNTERS_EVERY_MS) {
+                    let mut c = diagnostics::device_counters();
+                    c.set(DeviceCounter::StreamLinesDropped, stream.dropped_lines());
+                    app.set_device_counters(c);
+                }
                 if let Some(bus) = state::CAN_BUS.try_take() {
                     node.on_bus_state(bus, now, can_out);
                 }
@@ -217,7 +228,6 @@ fn save(flash: &mut SettingsPages, cfg: &Config) -> bool {
             true
         }
         Err(e) => {
-            SETTINGS_STORE_FAILURES.count();
             defmt::error!("settings not stored: {}", super::settings::store_reason(&e));
             false
         }

@@ -1,10 +1,22 @@
 //! LVDT acquisition: DAC1 plays the excitation sine from a DMA table on every TIM6 update;
-//! ADC1 and ADC2 sample the two secondaries on the same TIM6 trigger into DMA ring buffers; the
-//! LVDT task demodulates each block (one pod sample period) with the core and queues it.
+//! ADC1 and ADC2 sample the two secondaries on the same TIM6 trigger into DMA ring buffers of
+//! one block (one pod sample period) each; the LVDT task reads a block as two half-rings,
+//! demodulates it with the core and queues it with the encoder counts and time latched at its
+//! centre.
 //!
 //! DAC update and ADC conversions start on the same edge, so the secondaries are seen a fixed
 //! settling delay after each DAC step: a constant phase, which the core's magnitude
 //! demodulation ignores by construction.
+//!
+//! **Sample timing.** A block's reading is the mean over its [`BLOCK`] conversions, so its
+//! instant is the block's centre. ADC1's DMA raises its half- and full-transfer interrupts at
+//! the two half-ring boundaries, and [`BlockLatchIsr`] (priority 1, under only the probe's
+//! EXTI4) latches the five encoder counters and the time there; the event between a block's two
+//! halves is its centre. The latch follows conversion 49 of 0…99 (10 µs apart, centre at
+//! 49.5): it is 5 µs less the conversion time (≈ 0.9 µs) and the interrupt's entry (≈ 0.2 µs)
+//! before the centre, ≈ 3.9 µs, 0.07 µm of travel at 16.7 mm/s (docs: sample timing).
+//! **Loss** is counted from the gaps between the blocks' latched times
+//! ([`ballpod::acquisition::periods_lost`]), however the blocks were lost.
 
 use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, Exten, RingBufferedAdc, SampleTime};
 use embassy_stm32::dac::{DacChannel, ValueArray};
@@ -16,10 +28,13 @@ use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
 use embassy_sync::channel::Channel;
 use static_cell::StaticCell;
 
+use ballpod::acquisition::MAX_AXES;
 use ballpod::acquisition::lvdt::{
     DcFrontEnd, ExcitationTable, LvdtReading, block_mean, dc_reading, demodulate,
 };
+use ballpod::acquisition::periods_lost;
 use ballpod::config::{Config, LvdtInput};
+use embassy_stm32::interrupt::typelevel::{DMA1_CHANNEL2, Handler};
 
 use super::{Irqs, Overruns};
 
@@ -28,8 +43,10 @@ use super::{Irqs, Overruns};
 pub const P: usize = 20;
 /// Excitation periods per pod sample (5 kHz excitation, 1 kHz samples).
 pub const PERIODS_PER_SAMPLE: usize = 5;
-/// ADC samples per channel per pod sample.
+/// ADC samples per channel per pod sample (the DMA ring's length).
 pub const BLOCK: usize = P * PERIODS_PER_SAMPLE;
+/// ADC samples per half-ring (one DMA half- or full-transfer event).
+const HALF: usize = BLOCK / 2;
 /// DAC excitation amplitude, counts (±1000 about mid-scale: 1.6 V peak-to-peak at 3.3 V).
 pub const EXCITATION_AMPLITUDE: u16 = 1000;
 /// DC-input front end: ±10 V conditioner output divided to 0…3.3 V around 1.65 V.
@@ -41,21 +58,95 @@ pub const DC_FRONT_END: DcFrontEnd = DcFrontEnd {
 /// One demodulated block: the pod's LVDT reading for one sample period.
 #[derive(Clone, Copy)]
 pub struct LvdtBlock {
-    /// Time at the end of the block, µs since boot.
+    /// Time at the block's centre, µs since boot.
     pub t_us: u64,
+    /// The hardware encoder counters at the block's centre.
+    pub raw: [u32; MAX_AXES],
     /// The reading (or why the block could not be demodulated).
     pub reading: Result<LvdtReading, ballpod::acquisition::lvdt::DemodError>,
+}
+
+/// What [`BlockLatchIsr`] latches at a half-ring boundary.
+#[derive(Clone, Copy)]
+struct Latch {
+    /// Event number since boot (from 1).
+    seq: u32,
+    t_us: u64,
+    raw: [u32; MAX_AXES],
+}
+
+/// The last four latches, slot `seq % 4` (the task is at most two events behind without the
+/// ring overrunning).
+static LATCHES: critical_section::Mutex<core::cell::Cell<[Latch; 4]>> =
+    critical_section::Mutex::new(core::cell::Cell::new(
+        [Latch {
+            seq: 0,
+            t_us: 0,
+            raw: [0; MAX_AXES],
+        }; 4],
+    ));
+static LATCH_SEQ: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+
+/// ADC1 DMA (DMA1 channel 2) interrupt, bound before embassy's handler (which clears the flag):
+/// at a half- or full-transfer event, latch the encoder counters and the time.
+pub struct BlockLatchIsr;
+
+impl Handler<DMA1_CHANNEL2> for BlockLatchIsr {
+    unsafe fn on_interrupt() {
+        let raw = super::encoders::raw_counts();
+        let t_us = embassy_time::Instant::now().as_micros();
+        let (isr, cr) = (pac::DMA1.isr().read(), pac::DMA1.ch(1).cr().read());
+        // the same condition as embassy's handler, which acknowledges one event per call
+        if (isr.htif(1) && cr.htie()) || (isr.tcif(1) && cr.tcie()) {
+            let seq = LATCH_SEQ
+                .load(core::sync::atomic::Ordering::Relaxed)
+                .wrapping_add(1);
+            LATCH_SEQ.store(seq, core::sync::atomic::Ordering::Relaxed);
+            critical_section::with(|cs| {
+                let cell = LATCHES.borrow(cs);
+                let mut l = cell.get();
+                if let Some(slot) = l.get_mut(seq as usize % 4) {
+                    *slot = Latch { seq, t_us, raw };
+                }
+                cell.set(l);
+            });
+        }
+    }
+}
+
+/// The latch of a block's centre, and the number of the event that ended the block: event
+/// `centre` if it is given and still held; else (at start, or to resync after an overrun: that
+/// block carries `OVERRUN` anyway) the one before the newest event, taking the newest as the
+/// block's end.
+fn latch(centre: Option<u32>) -> (Latch, u32) {
+    let l = critical_section::with(|cs| LATCHES.borrow(cs).get());
+    let newest = LATCH_SEQ.load(core::sync::atomic::Ordering::Relaxed);
+    let at = |s: u32| {
+        l.get(s as usize % 4)
+            .copied()
+            .filter(|x| x.seq == s && s != 0)
+    };
+    if let Some(x) = centre.and_then(at) {
+        return (x, x.seq.wrapping_add(1));
+    }
+    let x = at(newest.wrapping_sub(1)).or(at(newest)).unwrap_or(Latch {
+        seq: newest,
+        t_us: embassy_time::Instant::now().as_micros(),
+        raw: super::encoders::raw_counts(),
+    });
+    (x, newest)
 }
 
 /// LVDT task → compute task.
 pub static BLOCKS: Channel<CriticalSectionRawMutex, LvdtBlock, 4> = Channel::new();
 /// Blocks dropped because the compute task was behind.
 pub static BLOCK_QUEUE_OVERRUNS: Overruns = Overruns::new();
-/// ADC DMA ring overruns (the LVDT task was behind the DMA).
-pub static ADC_RING_OVERRUNS: Overruns = Overruns::new();
+/// Sample periods lost before demodulation (the LVDT task was behind the ADC DMA), from the
+/// gaps between the blocks' latched times.
+pub static ADC_BLOCKS_LOST: Overruns = Overruns::new();
 
-static RING_A: StaticCell<[u16; 2 * BLOCK]> = StaticCell::new();
-static RING_B: StaticCell<[u16; 2 * BLOCK]> = StaticCell::new();
+static RING_A: StaticCell<[u16; BLOCK]> = StaticCell::new();
+static RING_B: StaticCell<[u16; BLOCK]> = StaticCell::new();
 
 /// The peripherals the LVDT acquisition owns.
 pub struct LvdtPeripherals {
@@ -81,6 +172,14 @@ pub struct LvdtPeripherals {
     ),
 }
 
+/// The block period, µs: [`PERIODS_PER_SAMPLE`] excitation periods (1000 µs at 5 kHz).
+pub fn block_period_us(cfg: &Config) -> u32 {
+    let hz = cfg.excitation_hz as u32;
+    (PERIODS_PER_SAMPLE as u32 * 1_000_000)
+        .checked_div(hz)
+        .unwrap_or(0)
+}
+
 /// Configures DAC, ADCs and TIM6 and starts the sample clock; returns what the two tasks own.
 pub fn start(
     p: LvdtPeripherals,
@@ -99,7 +198,7 @@ pub fn start(
     let adc2 = Adc::new(p.adc_b.0, AdcConfig::default());
     let mut ring_a = adc1.into_ring_buffered(
         p.adc_a.1,
-        RING_A.init([0; 2 * BLOCK]),
+        RING_A.init([0; BLOCK]),
         Irqs,
         [(p.adc_a.2.degrade_adc(), SampleTime::CYCLES24_5)].into_iter(),
         triggers::TIM6_TRGO,
@@ -107,12 +206,16 @@ pub fn start(
     );
     let mut ring_b = adc2.into_ring_buffered(
         p.adc_b.1,
-        RING_B.init([0; 2 * BLOCK]),
+        RING_B.init([0; BLOCK]),
         Irqs,
         [(p.adc_b.2.degrade_adc(), SampleTime::CYCLES24_5)].into_iter(),
         triggers::TIM6_TRGO,
         Exten::RISING_EDGE,
     );
+    // after an overrun the ring skips to the next half-ring boundary, so reads stay aligned
+    // with the DMA events the latch sees
+    ring_a.set_alignment(HALF);
+    ring_b.set_alignment(HALF);
     ring_a.start();
     ring_b.start();
 
@@ -130,17 +233,22 @@ pub fn start(
     (dac, ring_a, ring_b)
 }
 
-/// Plays the excitation table forever (circular DMA) after starting the sample clock.
+/// Plays the excitation table forever (circular DMA), then starts the sample clock.
 #[embassy_executor::task]
 pub async fn dac_task(mut dac: DacChannel<'static, Async>) {
     // The table lives in this task's (static) future for as long as the DMA reads it.
     let table = ExcitationTable::<P>::new().dac_codes(EXCITATION_AMPLITUDE);
-    pac::TIM6.cr1().modify(|w| w.set_cen(true));
-    dac.write(ValueArray::Bit12Right(&table), true).await;
+    // `join` polls the write first, which arms the circular DMA, and only then starts TIM6:
+    // the first trigger finds the DMA ready (no underrun at start).
+    embassy_futures::join::join(dac.write(ValueArray::Bit12Right(&table), true), async {
+        pac::TIM6.cr1().modify(|w| w.set_cen(true));
+    })
+    .await;
 }
 
-/// Reads one block per sample period from both ADC rings, demodulates it (AC) or averages it
-/// (DC) with the core, and queues the reading for the compute task.
+/// Reads one block per sample period from both ADC rings (two half-rings each), demodulates
+/// it (AC) or averages it (DC) with the core, and queues the reading with the latch of its
+/// centre. `period_us` is the nominal block period, for the loss count.
 #[embassy_executor::task]
 pub async fn lvdt_task(
     mut ring_a: RingBufferedAdc<'static, peripherals::ADC1>,
@@ -148,20 +256,37 @@ pub async fn lvdt_task(
     mode: LvdtInput,
     dc_zero_v: f32,
     dc_span_v: f32,
+    period_us: u32,
 ) {
     let table = ExcitationTable::<P>::new();
     let mut a = [0u16; BLOCK];
     let mut b = [0u16; BLOCK];
+    // the latch event that ends the next block's first half (event 1 at ring position HALF;
+    // None: find it from the newest event)
+    let mut centre_seq = Some(1u32);
+    let mut prev_t_us = None;
     loop {
         super::safety::check_in(super::safety::Task::Lvdt);
-        let ok_a = ring_a.read(&mut a).await;
-        let ok_b = ring_b.read(&mut b).await;
-        if ok_a.is_err() || ok_b.is_err() {
-            // The ring restarts itself on the next read; the lost samples are counted and the
-            // next pod sample carries OVERRUN.
-            ADC_RING_OVERRUNS.count();
+        let (a1, a2) = a.split_at_mut(HALF);
+        let (b1, b2) = b.split_at_mut(HALF);
+        // ADC2 runs in step with ADC1: its halves are there when ADC1's are
+        let ok = ring_a.read(a1).await.is_ok()
+            && ring_b.read(b1).await.is_ok()
+            && ring_a.read(a2).await.is_ok()
+            && ring_b.read(b2).await.is_ok();
+        if !ok {
+            // The ring reset itself to the next half-ring boundary; the lost periods show in
+            // the gap of the next block's time.
+            centre_seq = None;
             continue;
         }
+        let (centre, end) = latch(centre_seq);
+        centre_seq = Some(end.wrapping_add(1));
+        if let Some(p) = prev_t_us {
+            let lost = periods_lost(p, centre.t_us, period_us);
+            ADC_BLOCKS_LOST.add(lost);
+        }
+        prev_t_us = Some(centre.t_us);
         let reading = match mode {
             LvdtInput::AcRatiometric => demodulate(&a, &b, &table),
             LvdtInput::DcConditioner => Ok(dc_reading(
@@ -173,7 +298,8 @@ pub async fn lvdt_task(
             )),
         };
         let block = LvdtBlock {
-            t_us: embassy_time::Instant::now().as_micros(),
+            t_us: centre.t_us,
+            raw: centre.raw,
             reading,
         };
         if BLOCKS.try_send(block).is_err() {

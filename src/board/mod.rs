@@ -21,6 +21,7 @@
 
 pub mod can;
 pub mod compute;
+pub mod diagnostics;
 pub mod encoders;
 pub mod lvdt;
 pub mod probe;
@@ -36,13 +37,35 @@ use embassy_stm32::{bind_interrupts, can as stm_can, dma, peripherals, usb as st
 
 bind_interrupts!(pub struct Irqs {
     DMA1_CHANNEL1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
-    DMA1_CHANNEL2 => dma::InterruptHandler<peripherals::DMA1_CH2>;
+    // the block latch first: embassy's handler clears the event flag it reads
+    DMA1_CHANNEL2 => lvdt::BlockLatchIsr, dma::InterruptHandler<peripherals::DMA1_CH2>;
     DMA1_CHANNEL3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
     EXTI4 => probe::ProbeEdgeIsr;
     FDCAN1_IT0 => stm_can::IT0InterruptHandler<peripherals::FDCAN1>;
     FDCAN1_IT1 => stm_can::IT1InterruptHandler<peripherals::FDCAN1>;
     USB_LP => stm_usb::InterruptHandler<peripherals::USB>;
 });
+
+/// Interrupt priorities (NVIC; 0 most urgent, 16 levels on the G474): the probe's EXTI4 at 0 so
+/// a touch is latched within the interrupt entry whatever else runs; ADC1's DMA (the block
+/// latch) at 1; everything else — the other DMA channels, the time driver (TIM15), FDCAN, USB
+/// — at 2. Only a masked section (`diagnostics`: its longest is measured) delays the two
+/// latches beyond their entry.
+pub fn set_priorities() {
+    use embassy_stm32::interrupt::{self, InterruptExt, Priority};
+    interrupt::EXTI4.set_priority(Priority::P0);
+    interrupt::DMA1_CHANNEL2.set_priority(Priority::P1);
+    for irq in [
+        interrupt::DMA1_CHANNEL1,
+        interrupt::DMA1_CHANNEL3,
+        interrupt::TIM1_BRK_TIM15,
+        interrupt::FDCAN1_IT0,
+        interrupt::FDCAN1_IT1,
+        interrupt::USB_LP,
+    ] {
+        irq.set_priority(Priority::P2);
+    }
+}
 
 /// An overrun counter of a bounded queue: incremented when a producer finds the queue full
 /// (the item is dropped and counted, never silently).
@@ -57,6 +80,12 @@ impl Overruns {
     pub fn count(&self) {
         self.0.fetch_add(1, Ordering::Relaxed);
     }
+    /// Counts `n` lost items.
+    pub fn add(&self, n: u32) {
+        if n != 0 {
+            self.0.fetch_add(n, Ordering::Relaxed);
+        }
+    }
     /// Items lost so far.
     pub fn get(&self) -> u32 {
         self.0.load(Ordering::Relaxed)
@@ -67,7 +96,7 @@ impl Overruns {
 /// task hands this total to the core, which flags the next sample `OVERRUN` and numbers it past
 /// the lost ones. (A dropped probe edge is no lost sample: `probe::PROBE_QUEUE_OVERRUNS`.)
 pub fn lost_upstream() -> u32 {
-    lvdt::ADC_RING_OVERRUNS
+    lvdt::ADC_BLOCKS_LOST
         .get()
         .wrapping_add(lvdt::BLOCK_QUEUE_OVERRUNS.get())
 }

@@ -14,7 +14,6 @@
 //!   and resets. The next boot takes it out ([`take_reset_report`]) and clears the magic.
 
 use core::cell::UnsafeCell;
-use core::fmt::Write as _;
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -121,8 +120,8 @@ struct Bounded<'a> {
     len: usize,
 }
 
-impl core::fmt::Write for Bounded<'_> {
-    fn write_str(&mut self, s: &str) -> core::fmt::Result {
+impl Bounded<'_> {
+    fn push(&mut self, s: &str) {
         for &b in s.as_bytes() {
             if let Some(d) = self.buf.get_mut(self.len) {
                 // '"' would end the SCPI string response early.
@@ -130,7 +129,6 @@ impl core::fmt::Write for Bounded<'_> {
                 self.len += 1;
             }
         }
-        Ok(())
     }
 }
 
@@ -143,10 +141,18 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
         buf: &mut text,
         len: 0,
     };
+    // No core::fmt (3 KiB of flash): the location's line by hand, and the message only when it
+    // is a plain string (a formatted message's arguments are not kept).
     if let Some(loc) = info.location() {
-        let _ = write!(w, "panic at {}:{}: ", loc.file(), loc.line());
+        w.push("panic at ");
+        w.push(loc.file());
+        let mut line = ballpod::protocol::scpi::number::Text::<10>::new();
+        ballpod::protocol::scpi::number::push_u64(&mut line, u64::from(loc.line()));
+        w.push(":");
+        w.push(core::str::from_utf8(&line).unwrap_or("?"));
+        w.push(": ");
     }
-    let _ = write!(w, "{}", info.message());
+    w.push(info.message().as_str().unwrap_or("(formatted message)"));
     let len = w.len;
     let shown = core::str::from_utf8(text.get(..len).unwrap_or(&[])).unwrap_or("?");
     defmt::error!("{}", shown);

@@ -18,3 +18,26 @@ pub mod csv;
 pub mod download;
 pub mod scpi;
 pub mod stream;
+
+use crate::app::CommandError;
+use crate::config::ConfigError;
+
+/// Reports a stored configuration rejected at boot (`rejected`, from
+/// [`Loaded::rejected`](crate::settings::Loaded::rejected); the other slot's settings or the
+/// defaults are in use) on both protocols: CANopen EMCY 0x6300 (data set),
+/// byte 3 = 3, after the boot-up; SCPI -315 `"Configuration memory lost;<what> <why>"`.
+/// The firmware and the simulated pod call it once at boot.
+pub fn report_rejected_settings(
+    rejected: Option<ConfigError>,
+    node: &mut canopen::CanOpenNode,
+    scpi: &mut scpi::ScpiServer,
+) {
+    if let Some(e) = rejected {
+        node.report_boot_error(
+            canopen::emcy::DATA_SET,
+            canopen::emcy::REASON_SETTINGS_REJECTED,
+        );
+        let (what, why) = CommandError::Config(e).text();
+        scpi.push_settings_rejected(what, why);
+    }
+}

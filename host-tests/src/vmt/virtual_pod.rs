@@ -17,7 +17,7 @@ use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::acquisition::{MAX_AXES, Sample};
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::{
-    App, Command, CommandError, Pattern, Recorder, RunEnd, RunMeta, SessionState, SettingsRequest,
+    App, Command, CommandError, DeviceCounter, DeviceCounters, Pattern, Recorder, RunEnd, RunMeta, SessionState, SettingsRequest,
     Touch,
 };
 use ballpod::config::Config;
@@ -123,6 +123,10 @@ pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     serving: bool,
     /// Sample periods still to lose upstream (queue overrun), from the next step on.
     losing: u32,
+    /// Sample periods lost upstream so far (device counter `adc_blocks_lost`).
+    lost_upstream: u32,
+    /// Samples not logged because a download was in progress (`log_paused_samples`).
+    log_paused_samples: u32,
     /// The probe level (seated) the application sees each period.
     probe_seated: bool,
     /// Where the machine is (the encoders' positions), mm / degrees.
@@ -141,7 +145,7 @@ impl<const N: usize> VirtualPod<N> {
     }
 
     /// A pod booting with the settings pages `flash`: the newest valid record, else the
-    /// defaults (as the firmware's `main`).
+    /// defaults, and a stored configuration it rejects reported (as the firmware's `main`).
     pub fn boot(setup: VirtualSetup, mut flash: FlashModel) -> Self {
         let boot_settings = settings::load(&mut flash);
         let config = boot_settings.config;
@@ -156,8 +160,14 @@ impl<const N: usize> VirtualPod<N> {
         scpi.set_pull_download(true);
         let mut stream = Box::new(SampleStream::new());
         stream.set_enabled(true);
+        let mut node = CanOpenNode::new(app.config().can_node_id, SERIAL);
+        ballpod::protocol::report_rejected_settings(
+            boot_settings.rejected(),
+            &mut node,
+            &mut scpi,
+        );
         Self {
-            node: CanOpenNode::new(app.config().can_node_id, SERIAL),
+            node,
             app,
             sensors,
             scpi,
@@ -170,6 +180,8 @@ impl<const N: usize> VirtualPod<N> {
             probe_runs: 0,
             serving: false,
             losing: 0,
+            lost_upstream: 0,
+            log_paused_samples: 0,
             probe_seated: true,
             at: [0.0; MAX_AXES],
             last: None,
@@ -290,7 +302,9 @@ impl<const N: usize> VirtualPod<N> {
         self.at = *axes;
         if self.losing > 0 {
             self.losing -= 1;
+            self.lost_upstream = self.lost_upstream.wrapping_add(1);
             self.sensors.lose_samples(1);
+            self.app.set_device_counters(self.device_counters());
             let now = self.proto_us();
             self.node.poll(now, &self.app, &mut |f| tx.push(f));
             return (None, tx);
@@ -300,6 +314,10 @@ impl<const N: usize> VirtualPod<N> {
             let _ = self.app.on_thermistor(code);
         }
         self.app.on_probe_level(r.t_us, self.probe_seated);
+        if self.scpi.download_pending() {
+            self.log_paused_samples = self.log_paused_samples.wrapping_add(1);
+        }
+        self.app.set_device_counters(self.device_counters());
         let mut rec = Recorders {
             log_paused: self.scpi.download_pending(),
             log: &mut self.log,
@@ -316,6 +334,21 @@ impl<const N: usize> VirtualPod<N> {
         self.after_commands();
         while self.app.run_pending_job() {}
         (Some(s), tx)
+    }
+
+    /// The device counters this pod has: the periods lost upstream (as `adc_blocks_lost`),
+    /// the stream's dropped lines, the samples the log missed during downloads; its queues
+    /// drop nothing and its watchdog, DAC, interrupts and stack are not modelled (0, or
+    /// [`NOT_MEASURED`](ballpod::app::device::NOT_MEASURED) for the two figures).
+    pub fn device_counters(&self) -> DeviceCounters {
+        let mut c = DeviceCounters::START;
+        c.set(DeviceCounter::AdcBlocksLost, self.lost_upstream);
+        c.set(
+            DeviceCounter::StreamLinesDropped,
+            self.stream.dropped_lines(),
+        );
+        c.set(DeviceCounter::LogPausedSamples, self.log_paused_samples);
+        c
     }
 
     /// A thermistor ADC code from the thermistor task (12-bit; 0 = shorted, 4095 = open).

@@ -13,6 +13,12 @@ pub const SOFTWARE_ERROR: u16 = 0x6000;
 pub const REASON_PANIC: u8 = 1;
 /// Manufacturer byte 3 of a 0x6000 EMCY: the independent watchdog reset the MCU.
 pub const REASON_WATCHDOG: u8 = 2;
+/// Error code 0x6300: data set (CiA 301 table 21) — a stored configuration was rejected at
+/// boot (byte 3: [`REASON_SETTINGS_REJECTED`]).
+pub const DATA_SET: u16 = 0x6300;
+/// Manufacturer byte 3 of a 0x6300 EMCY: the stored settings were rejected, another slot's or
+/// the defaults are in use.
+pub const REASON_SETTINGS_REJECTED: u8 = 3;
 /// Error code 0x8120: CAN in error passive mode (CiA 301 table 21).
 pub const ERROR_PASSIVE: u16 = 0x8120;
 /// Error code 0x8140: recovered from bus off (CiA 301 table 21).

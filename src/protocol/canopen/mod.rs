@@ -239,8 +239,9 @@ impl CanOpenNode {
     /// application at boot): one EMCY with `code` (e.g. [`emcy::SOFTWARE_ERROR`]) and `reason`
     /// in manufacturer byte 3 is sent right after the boot-up message, and the code enters the
     /// error history 0x1003.
+    /// The first one reported is kept (a panic before a rejected configuration).
     pub fn report_boot_error(&mut self, code: u16, reason: u8) {
-        self.boot_error = Some((code, reason));
+        self.boot_error.get_or_insert((code, reason));
     }
 
     fn send(&self, out: &mut impl FnMut(CanFrame), base: u16, payload: &[u8]) {

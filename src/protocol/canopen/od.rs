@@ -17,7 +17,8 @@
 //!   UNSIGNED8/16/32 for integers and codes; rw, range checked, written only in
 //!   pre-operational); 0x2040–0x2043: the enumerated configuration fields;
 //! - 0x2100–0x2103: live process values (REAL32 µm / °C, NaN while invalid), sample counter,
-//!   status word, live-value validity mask; PDO mappable;
+//!   status word, live-value validity mask; PDO mappable; 0x2110: the device counters
+//!   (`app::device`);
 //! - 0x3000–0x300B: session control and state, the run's counters, the last refusal, the touch
 //!   points of the last PROBE run;
 //! - 0x4000–0x4002: the results table (value, standard uncertainty, validity).
@@ -28,8 +29,8 @@ use super::pdo::{self, COB_ID_EXTENDED, COB_ID_INVALID, MAX_MAPPED, TPDO_COUNT, 
 use crate::acquisition::MAX_AXES;
 use crate::app::probe::MAX_TOUCHES;
 use crate::app::{
-    App, Command, CommandError, Direction, LIVE, LIVE_COUNT, Pattern, RESULT_COUNT, RESULTS,
-    RunCounters,
+    App, Command, CommandError, DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, Direction, LIVE, LIVE_COUNT,
+    Pattern, RESULT_COUNT, RESULTS, RunCounters,
 };
 use crate::config::{AxisName, CanBitrate, ConfigError, FIELDS, Field, FieldType, LvdtInput};
 
@@ -222,6 +223,9 @@ pub enum Var {
     StatusWord,
     /// 0x2103 validity mask of the live values (bit k−1 = 0x2100:k).
     LiveValid,
+    /// 0x2110:k device counter k (1…[`DEVICE_COUNTER_COUNT`], [`DEVICE_COUNTERS`] order;
+    /// 0xFFFF_FFFF: not measured).
+    DeviceCounter(u8),
     /// 0x3000 pattern of the next run.
     Pattern,
     /// 0x3001 direction of the next run.
@@ -349,6 +353,7 @@ pub fn indices() -> impl Iterator<Item = u16> {
         .chain((0..FIELDS.len() as u16).map(|i| CONFIG_BASE + i))
         .chain(CONFIG_ENUMS..CONFIG_ENUMS + 4)
         .chain(0x2100..=0x2103)
+        .chain(core::iter::once(0x2110))
         .chain(0x3000..=0x300B)
         .chain(0x4000..=0x4002)
 }
@@ -408,6 +413,7 @@ pub fn object(index: u16) -> Option<Object> {
         0x2101 => o("sample_counter", V, 0),
         0x2102 => o("status_word", V, 0),
         0x2103 => o("live_valid", V, 0),
+        0x2110 => o("device_counters", Array, DEVICE_COUNTER_COUNT as u8),
         0x3000 => o("pattern", V, 0),
         0x3001 => o("direction", V, 0),
         0x3002 => o("session_command", V, 0),
@@ -432,6 +438,37 @@ pub fn object(index: u16) -> Option<Object> {
         }
         _ => None,
     }
+}
+
+/// A read-only array of U32 counters named `names` (sub 0: their number; sub k: counter k).
+fn counters(
+    index: u16,
+    sub: u8,
+    names: &[&'static str],
+    var: fn(u8) -> Var,
+) -> Result<Entry, SdoAbort> {
+    if sub == 0 {
+        return Ok(e(
+            index,
+            0,
+            "Highest sub-index supported",
+            Unsigned8,
+            Const,
+            Var::ConstU8(names.len() as u8),
+        ));
+    }
+    let name = names
+        .get(usize::from(sub - 1))
+        .ok_or(SdoAbort::NoSubIndex)?;
+    Ok(e(index, sub, name, Unsigned32, Ro, var(sub)))
+}
+
+/// Counter `k` (from 1) of `values`.
+fn counter(values: &[u32], k: u8) -> Result<u32, SdoAbort> {
+    values
+        .get(usize::from(k).wrapping_sub(1))
+        .copied()
+        .ok_or(SdoAbort::NoSubIndex)
 }
 
 /// Describes entry `index`:`sub`: [`SdoAbort::NoObject`] if the index does not exist,
@@ -651,21 +688,13 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
         0x2101 => var(Unsigned32, Ro, Var::SampleCounter).map(Entry::mappable),
         0x2102 => var(Unsigned16, Ro, Var::StatusWord).map(Entry::mappable),
         0x2103 => var(Unsigned16, Ro, Var::LiveValid).map(Entry::mappable),
+        0x2110 => counters(index, sub, &DEVICE_COUNTERS, Var::DeviceCounter),
         0x3000 => var(Unsigned8, Rw, Var::Pattern).map(|e| e.limits(0.0, 7.0)),
         0x3001 => var(Unsigned8, Rw, Var::Direction).map(|e| e.limits(0.0, 1.0)),
         0x3002 => var(Unsigned8, Wo, Var::Command).map(|e| e.limits(1.0, 8.0)),
         0x3003 => var(Unsigned8, Ro, Var::SessionState).map(Entry::mappable),
         0x3004 => var(Unsigned8, Ro, Var::AbortReason),
-        0x3005 => match sub {
-            0 => count(RunCounters::LEN as u8),
-            k => {
-                let name = RunCounters::NAMES
-                    .get(usize::from(k - 1))
-                    .copied()
-                    .unwrap_or("");
-                Ok(e(index, k, name, Unsigned32, Ro, Var::RunCounter(k)))
-            }
-        },
+        0x3005 => counters(index, sub, &RunCounters::NAMES, Var::RunCounter),
         0x3006 => var(VisibleString, Ro, Var::Refusal),
         0x3007 => var(VisibleString, Ro, Var::ProcedureNote),
         0x3008 => var(Unsigned8, Ro, Var::TouchCount),
@@ -903,11 +932,12 @@ pub fn read(
         Var::SessionState => put(buf, &u8v(app.session() as u8)),
         Var::AbortReason => put(buf, &u8v(app.abort_reason().map_or(0, |r| r as u8))),
         Var::RunCounter(k) => {
-            let counters = app.run_counters().as_array();
-            let v = counters
-                .get(usize::from(k).wrapping_sub(1))
-                .ok_or(SdoAbort::NoSubIndex)?;
-            put(buf, &v.to_le_bytes())
+            let v = app.run_counters().as_array();
+            put(buf, &counter(&v, k)?.to_le_bytes())
+        }
+        Var::DeviceCounter(k) => {
+            let v = app.device_counters().0;
+            put(buf, &counter(&v, k)?.to_le_bytes())
         }
         Var::Refusal => put_text(buf, app.last_refusal().map_or(("", ""), |r| r.text())),
         Var::ProcedureNote => put_text(buf, app.procedure_note().map_or(("", ""), |r| r.text())),

@@ -61,6 +61,7 @@ pub mod parse;
 pub mod status;
 
 use crate::acquisition::MAX_AXES;
+use crate::app::device::NOT_MEASURED;
 use crate::app::log::SampleLog;
 use crate::app::{
     App, Command as AppCommand, CommandError, Direction, LIVE, Pattern, RESULT_COUNT, RESULTS,
@@ -192,6 +193,16 @@ impl ScpiServer {
             .push(ScpiError::with(code::DEVICE_SPECIFIC_ERROR, detail));
     }
 
+    /// Queues -315 "Configuration memory lost" for a stored configuration rejected at boot
+    /// (`detail`, `suffix`: what was wrong, e.g. `bar_length`, ` out of range`).
+    pub fn push_settings_rejected(&mut self, detail: &'static str, suffix: &'static str) {
+        self.status.push(ScpiError::with_suffix(
+            code::CONFIGURATION_MEMORY_LOST,
+            detail,
+            suffix,
+        ));
+    }
+
     /// Pull mode for the log download, for transports that cannot take a whole file inside
     /// `feed` (async USB): `DATA:LOG?` then sends only its block header through `out`, and the
     /// CSV and the final `\n` are taken with [`pull_download`](Self::pull_download) until it
@@ -309,6 +320,7 @@ enum Command {
     Sav,
     SystErr,
     SystVersion,
+    SystCount,
     ConfUnlock,
     ConfLock,
     ConfField(Field, &'static FieldInfo),
@@ -340,9 +352,9 @@ enum Command {
 const fn forms(c: Command) -> (bool, bool) {
     use Command::*;
     match c {
-        Idn | Esr | Stb | SystErr | SystVersion | SessState | SessReason | SessCount | SessNote
-        | StatPod | MeasDl | MeasAll | MeasValid | FetchResult | FetchCatalog | FetchTouch
-        | FetchTouchCount | DataLogCount | DataLog => (true, false),
+        Idn | Esr | Stb | SystErr | SystVersion | SystCount | SessState | SessReason
+        | SessCount | SessNote | StatPod | MeasDl | MeasAll | MeasValid | FetchResult
+        | FetchCatalog | FetchTouch | FetchTouchCount | DataLogCount | DataLog => (true, false),
         Rst | Cls | Wai | Sav | ConfUnlock | SessArm | SessStart | SessStop | SessAbort
         | SessClear => (false, true),
         Opc | Ese | Sre | ConfLock | ConfField(..) | ConfAxisName(_) | SessPattern
@@ -411,6 +423,7 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
         [s, e] if s.is("SYSTem") && e.is("ERRor") => Command::SystErr,
         [s, e, n] if s.is("SYSTem") && e.is("ERRor") && n.is("NEXT") => Command::SystErr,
         [s, v] if s.is("SYSTem") && v.is("VERSion") => Command::SystVersion,
+        [s, c] if s.is("SYSTem") && c.is("COUNt") => Command::SystCount,
         [c, a, n] if c.is("CONFigure") && a.is_with_suffix("AXIS") && n.is("NAME") => {
             let k = a.suffix.unwrap_or(1);
             if !(1..=MAX_AXES as u32).contains(&k) {
@@ -491,6 +504,21 @@ fn numeric_or_keyword(p: &[u8], min: f64, max: f64, default: f64) -> Result<f64,
         };
     }
     numeric(p)
+}
+
+/// Appends counters comma-separated; with `device`, a figure not measured ([`NOT_MEASURED`])
+/// as NaN.
+fn push_counters<const C: usize>(r: &mut Text<C>, values: &[u32], device: bool) {
+    for (k, &v) in values.iter().enumerate() {
+        if k > 0 {
+            push_bytes(r, b",");
+        }
+        if device && v == NOT_MEASURED {
+            push_bytes(r, SCPI_NAN);
+        } else {
+            push_u64(r, u64::from(v));
+        }
+    }
 }
 
 /// The SCPI error of a command the application refused: a value out of its field's range → -222
@@ -921,12 +949,11 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             }
             Command::SessCount => {
                 none()?;
-                for (k, v) in self.app.run_counters().as_array().into_iter().enumerate() {
-                    if k > 0 {
-                        push_bytes(&mut r, b",");
-                    }
-                    push_u64(&mut r, u64::from(v));
-                }
+                push_counters(&mut r, &self.app.run_counters().as_array(), false);
+            }
+            Command::SystCount => {
+                none()?;
+                push_counters(&mut r, &self.app.device_counters().0, true);
             }
             Command::StatPod => {
                 none()?;

@@ -103,6 +103,8 @@ pub mod code {
     pub const DATA_CORRUPT_OR_STALE: i16 = -230;
     /// -300: a device-specific error (e.g. the reason of the last reset, reported at boot).
     pub const DEVICE_SPECIFIC_ERROR: i16 = -300;
+    /// Configuration memory lost (a stored configuration rejected at boot).
+    pub const CONFIGURATION_MEMORY_LOST: i16 = -315;
     /// -350: the error queue overflowed (errors were lost).
     pub const QUEUE_OVERFLOW: i16 = -350;
     /// -410: a query whose response was interrupted (here: a log download cut by a disconnect).
@@ -139,6 +141,7 @@ pub const fn message(c: i16) -> &'static str {
         code::ILLEGAL_PARAMETER_VALUE => "Illegal parameter value",
         code::DATA_CORRUPT_OR_STALE => "Data corrupt or stale",
         code::DEVICE_SPECIFIC_ERROR => "Device-specific error",
+        code::CONFIGURATION_MEMORY_LOST => "Configuration memory lost",
         code::QUEUE_OVERFLOW => "Queue overflow",
         code::INPUT_BUFFER_OVERRUN => "Input buffer overrun",
         code::QUERY_INTERRUPTED => "Query INTERRUPTED",

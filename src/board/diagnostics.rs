@@ -1,0 +1,137 @@
+//! What the board measures about itself, for the device counters (`ballpod::app::device`,
+//! SCPI `SYSTem:COUNt?`, CANopen 0x2110):
+//!
+//! - **Longest interrupt-masked section.** This module is the firmware's critical-section
+//!   implementation (the one embassy's queues, the time driver and defmt use; it replaces
+//!   cortex-m's `critical-section-single-core`, which it otherwise equals): the outermost
+//!   section reads the DWT cycle counter (170 MHz) on entry and exit and keeps the maximum.
+//! - **Stack high-water mark.** cortex-m-rt paints the stack with `0xCCCC_CCCC` before `main`
+//!   (feature `paint-stack`); flip-link puts the stack at the bottom of RAM
+//!   (`_stack_end` = 0x2000_0000 … `_stack_start`), so the deepest use is the lowest word that
+//!   no longer holds the paint. An overflow runs into the reserved region below RAM and faults
+//!   (a lock-up, which the watchdog resets) instead of overwriting statics.
+//! - **Excitation DMA underrun.** DAC1 SR.DMAUDR1 (RM0440 §22.4.8): the DMA did not deliver the
+//!   next sine value in time and the DAC stopped requesting: the excitation stalls, the LVDT
+//!   secondaries lose their carrier and the core flags the samples LVDT open. Counted here so
+//!   the reason is known.
+
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use ballpod::app::{DeviceCounter, DeviceCounters};
+use cortex_m::peripheral::DWT;
+use embassy_stm32::pac;
+
+use super::{Overruns, compute, lvdt, probe, safety, state, thermistor};
+
+/// Core clock, Hz (main.rs: 24 MHz HSE / 6 × 85 / 2).
+pub const SYSCLK_HZ: u32 = 170_000_000;
+
+/// DWT cycle count at the entry of the current outermost critical section.
+static MASKED_SINCE: AtomicU32 = AtomicU32::new(0);
+/// Longest outermost critical section so far, cycles.
+static MASKED_MAX_CYCLES: AtomicU32 = AtomicU32::new(0);
+/// Excitation DMA underruns seen.
+pub static DAC_UNDERRUNS: Overruns = Overruns::new();
+
+struct MeasuredCriticalSection;
+critical_section::set_impl!(MeasuredCriticalSection);
+
+// SAFETY: single core: masking interrupts with PRIMASK excludes every other context; the
+// restore state is PRIMASK as it was, so nested sections restore correctly. The statics are
+// touched only with interrupts masked.
+unsafe impl critical_section::Impl for MeasuredCriticalSection {
+    unsafe fn acquire() -> critical_section::RawRestoreState {
+        let was = cortex_m::register::primask::read_raw();
+        cortex_m::interrupt::disable();
+        if was & 1 == 0 {
+            // interrupts were on: an outermost section starts
+            MASKED_SINCE.store(DWT::cycle_count(), Ordering::Relaxed);
+        }
+        was
+    }
+
+    unsafe fn release(was: critical_section::RawRestoreState) {
+        if was & 1 == 0 {
+            let d = DWT::cycle_count().wrapping_sub(MASKED_SINCE.load(Ordering::Relaxed));
+            if d > MASKED_MAX_CYCLES.load(Ordering::Relaxed) {
+                MASKED_MAX_CYCLES.store(d, Ordering::Relaxed);
+            }
+        }
+        // SAFETY: restores the PRIMASK this section found.
+        unsafe { cortex_m::register::primask::write_raw(was) };
+    }
+}
+
+/// Starts the DWT cycle counter the masked-section probe reads. Call once at boot.
+pub fn start_cycle_counter() {
+    // SAFETY: only DCB.DEMCR.TRCENA and DWT.CTRL.CYCCNTENA are written, before any task runs;
+    // nothing else in the firmware uses the DCB or the DWT.
+    let mut cp = unsafe { cortex_m::Peripherals::steal() };
+    cp.DCB.enable_trace();
+    cp.DWT.enable_cycle_counter();
+}
+
+unsafe extern "C" {
+    /// Lowest stack address (flip-link: the start of RAM).
+    static _stack_end: u32;
+    /// Highest stack address (the initial stack pointer).
+    static _stack_start: u32;
+}
+
+/// Deepest stack use since boot, bytes: from the bottom of the stack up to the first word that
+/// lost the paint. Scans the unused part (≈ 4 cycles a word): call it seldom.
+fn stack_high_water_bytes() -> u32 {
+    let lo = core::ptr::addr_of!(_stack_end) as usize;
+    let hi = core::ptr::addr_of!(_stack_start) as usize;
+    let mut a = lo;
+    // SAFETY: reads of the stack region between the linker's two symbols (ordinary RAM, 4-byte
+    // aligned, below the live stack pointer or holding live frames: reads never disturb them).
+    while a < hi && unsafe { core::ptr::read_volatile(a as *const u32) } == 0xCCCC_CCCC {
+        a += 4;
+    }
+    (hi - a) as u32
+}
+
+/// Counts an excitation DMA underrun (and clears the flag so the next one is seen).
+fn check_dac_underrun() {
+    let sr = pac::DAC1.sr();
+    if sr.read().dmaudr(0) {
+        sr.write(|w| w.set_dmaudr(0, true));
+        DAC_UNDERRUNS.count();
+        defmt::error!("excitation DAC DMA underrun");
+    }
+}
+
+/// Every device counter the board keeps, for the application's table.
+pub fn device_counters() -> DeviceCounters {
+    use DeviceCounter as C;
+    check_dac_underrun();
+    let masked_ns =
+        u64::from(MASKED_MAX_CYCLES.load(Ordering::Relaxed)) * 1_000_000_000 / u64::from(SYSCLK_HZ);
+    let mut c = DeviceCounters::START;
+    for (k, v) in [
+        (C::AdcBlocksLost, lvdt::ADC_BLOCKS_LOST.get()),
+        (C::BlockQueueOverruns, lvdt::BLOCK_QUEUE_OVERRUNS.get()),
+        (C::ProbeQueueOverruns, probe::PROBE_QUEUE_OVERRUNS.get()),
+        (
+            C::ThermistorQueueOverruns,
+            thermistor::CODE_QUEUE_OVERRUNS.get(),
+        ),
+        (C::CanRxOverruns, state::CAN_RX_OVERRUNS.get()),
+        (C::CanTxOverruns, state::CAN_TX_OVERRUNS.get()),
+        (C::CanTxDropped, state::CAN_TX_DROPPED.get()),
+        (C::UsbRxOverruns, state::USB_RX_OVERRUNS.get()),
+        (C::UsbTxOverruns, state::USB_TX_OVERRUNS.get()),
+        (C::LogPausedSamples, compute::LOG_PAUSED_SAMPLES.get()),
+        (C::WatchdogMisses, safety::WATCHDOG_MISSES.get()),
+        (C::DacUnderruns, DAC_UNDERRUNS.get()),
+        (
+            C::MaskedMaxNs,
+            u32::try_from(masked_ns).unwrap_or(u32::MAX - 1),
+        ),
+        (C::StackHighWaterBytes, stack_high_water_bytes()),
+    ] {
+        c.set(k, v);
+    }
+    c
+}

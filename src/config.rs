@@ -389,8 +389,9 @@ pub enum Field {
     TsAngleDeg(u8),
     /// [`TestSetup::probe_length_mm`] (added in encoding version 3).
     ProbeLengthMm,
-    /// The LVDT sample rate (excitation × samples per period) exceeds what the ADCs can do.
-    AdcRate,
+    /// A pod sample is not a whole number of excitation periods within the ADC ring
+    /// (`excitation / sample_rate` ∉ 1…[`MAX_PERIODS_PER_SAMPLE`]).
+    PeriodsPerSample,
     /// An axis name is used by two inputs.
     AxisNameDuplicate(u8),
 }
@@ -435,9 +436,20 @@ pub struct FieldInfo {
     pub choices: &'static [&'static str],
 }
 
-/// Largest ADC conversion rate used for the LVDT, samples/s per ADC (the G474 ADC does 4 MS/s;
-/// we keep DMA and CPU load low).
-pub const MAX_ADC_RATE_HZ: f64 = 500_000.0;
+/// Points of the excitation table per period: the pod's DAC table and the demodulation's (the
+/// firmware builds both at compile time), so `samples_per_period` can only be this.
+pub const EXCITATION_POINTS: u16 = 20;
+/// Most excitation periods in one pod sample: the ADC DMA ring holds one block of
+/// [`EXCITATION_POINTS`] × this samples per channel (RAM budget).
+pub const MAX_PERIODS_PER_SAMPLE: u32 = 5;
+/// The fields the pod applies at its next reset (the sample clock, the excitation table and
+/// the ADC rings are set up at boot): written values are kept and read back, saved with
+/// `*SAV` / 0x1010, and reported pending (status word bit 14) until then.
+pub const AT_RESET: [Field; 3] = [
+    Field::ExcitationHz,
+    Field::SamplesPerPeriod,
+    Field::SampleRateHz,
+];
 
 const fn real(
     field: Field,
@@ -517,12 +529,13 @@ pub const FIELDS: &[FieldInfo] = &[
             Field::SamplesPerPeriod,
             "samples_per_period",
             "1",
-            8.0,
-            64.0,
+            EXCITATION_POINTS as f64,
+            EXCITATION_POINTS as f64,
         ),
         FieldType::U16,
     ),
-    real(Field::SampleRateHz, "sample_rate", "Hz", 10.0, 10000.0),
+    // 200 Hz: five periods of the slowest excitation (MAX_PERIODS_PER_SAMPLE)
+    real(Field::SampleRateHz, "sample_rate", "Hz", 200.0, 10000.0),
     indexed(
         typed(
             real(
@@ -1047,6 +1060,12 @@ impl Config {
         })
     }
 
+    /// Excitation periods in one pod sample, `excitation_hz / sample_rate_hz` (a whole number
+    /// 1…[`MAX_PERIODS_PER_SAMPLE`] in a valid configuration).
+    pub fn periods_per_sample(&self) -> f64 {
+        f64::from(self.excitation_hz) / f64::from(self.sample_rate_hz)
+    }
+
     /// Validates every field; the first violation is returned.
     pub fn validate(&self) -> Result<(), ConfigError> {
         for row in FIELDS {
@@ -1054,13 +1073,15 @@ impl Config {
                 check(f, self.field_value(f).unwrap_or(f64::NAN))?;
             }
         }
-        let adc_rate = f64::from(self.excitation_hz) * f64::from(self.samples_per_period);
-        if adc_rate > MAX_ADC_RATE_HZ {
+        // a sample is a whole number of excitation periods that fits the ADC ring
+        let periods = self.periods_per_sample();
+        let max = f64::from(MAX_PERIODS_PER_SAMPLE);
+        if !(periods >= 1.0 && periods <= max && periods == libm::trunc(periods)) {
             return Err(ConfigError::OutOfRange {
-                field: Field::AdcRate,
-                value: adc_rate,
-                min: 0.0,
-                max: MAX_ADC_RATE_HZ,
+                field: Field::PeriodsPerSample,
+                value: periods,
+                min: 1.0,
+                max,
             });
         }
         for (i, a) in (0u8..).zip(self.axes.iter()) {
@@ -1131,7 +1152,7 @@ impl Config {
             Field::TsOriginMm(k) => at(&s.ts_origin_mm, k)?,
             Field::TsAngleDeg(k) => at(&s.ts_angles_deg, k)?,
             Field::ProbeLengthMm => f64::from(s.probe_length_mm),
-            Field::AdcRate | Field::AxisNameDuplicate(_) => return None,
+            Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => return None,
         })
     }
 
@@ -1216,7 +1237,7 @@ impl Config {
             Field::TsOriginMm(k) => put(&mut s.ts_origin_mm, k),
             Field::TsAngleDeg(k) => put(&mut s.ts_angles_deg, k),
             Field::ProbeLengthMm => s.probe_length_mm = x,
-            Field::AdcRate | Field::AxisNameDuplicate(_) => {}
+            Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => {}
         }
     }
 

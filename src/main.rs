@@ -125,9 +125,7 @@ async fn main(spawner: Spawner) {
         board::lvdt::lvdt_task(
             ring_a,
             ring_b,
-            cfg.lvdt_input,
-            cfg.lvdt_dc_zero_v,
-            cfg.lvdt_dc_span_v,
+            board::lvdt::block_len(&cfg),
             board::lvdt::block_period_us(&cfg),
         ),
     );

@@ -121,9 +121,10 @@ def test_configuration_typed_objects(pod, eds):
         sdo.download(od["bar_cte"].index, 0, struct.pack("<f", 0.5), force_segment=True)
         assert sdo["bar_cte"].raw == pytest.approx(0.5, abs=1e-6)
         # integer objects
-        sdo["samples_per_period"].raw = 32
+        sdo["samples_per_period"].raw = 20  # the excitation table's 20 points: its only value
         sdo["probe_debounce"].raw = 2500
-        assert (sdo["samples_per_period"].raw, sdo["probe_debounce"].raw) == (32, 2500)
+        assert (sdo["samples_per_period"].raw, sdo["probe_debounce"].raw) == (20, 2500)
+        assert abort_code(lambda: setattr(sdo["samples_per_period"], "raw", 32)) == ABORT_TOO_HIGH
         assert abort_code(lambda: sdo.download(od["samples_per_period"].index, 0, b"\x20\0\0\0")) == ABORT_LENGTH
         # the EDS's LowLimit / HighLimit: the limits are writable, beyond them 0x06090032 / 31
         lo, hi = od["bar_length"].min, od["bar_length"].max
@@ -141,10 +142,10 @@ def test_configuration_typed_objects(pod, eds):
         x_input = sdo["axis_name"][1].raw
         assert abort_code(lambda: setattr(sdo["axis_name"][2], "raw", x_input)) == ABORT_PARAMETER_INCOMPATIBLE
         assert sdo["axis_name"][2].raw != x_input
-        # excitation × samples per period is the ADC rate, at most 500 kS/s (config.rs)
-        sdo["excitation"].raw = 10000.0  # Hz: 32 × 10 kHz fits, 64 × 10 kHz does not
-        assert abort_code(lambda: setattr(sdo["samples_per_period"], "raw", 64)) == ABORT_PARAMETER_INCOMPATIBLE
-        assert sdo["samples_per_period"].raw == 32
+        # a sample is 1 to 5 whole excitation periods (the ADC ring, config.rs): 5 kHz / 1 kHz
+        # passes, 8 kHz / 1 kHz does not
+        assert abort_code(lambda: setattr(sdo["excitation"], "raw", 8000.0)) == ABORT_PARAMETER_INCOMPATIBLE
+        assert sdo["excitation"].raw == 5000.0
         # configuration only in pre-operational
         node.nmt.state = "OPERATIONAL"
         time.sleep(0.05)

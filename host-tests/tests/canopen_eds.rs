@@ -438,6 +438,25 @@ fn real32_limits(ini: &Ini) -> Vec<(u16, u8, String, f64, f64)> {
         .collect()
 }
 
+/// Excitation and sample rate are tied (a sample is 1 to 5 whole excitation periods): before
+/// one of them is written at its limit, the pair is walked to where that limit is realisable
+/// (20 kHz excitation: 5 kHz samples first; 200 Hz samples: a 1 kHz excitation; 10 kHz
+/// samples: 5 kHz samples, then a 10 kHz excitation), every step itself valid.
+fn partner_for(n: &mut Node, name: &str, v: f64) {
+    let steps: &[(&str, f32)] = match (name, v) {
+        ("excitation", v) if v > 5000.0 => &[("sample_rate", 5000.0)],
+        ("sample_rate", v) if v < 1000.0 => &[("excitation", 1000.0)],
+        ("sample_rate", v) if v > 5000.0 => &[("sample_rate", 5000.0), ("excitation", 10_000.0)],
+        _ => return,
+    };
+    let ini = parse_ini(&generated());
+    let limits = real32_limits(&ini);
+    for (partner, value) in steps {
+        let (index, sub, ..) = limits.iter().find(|e| e.2 == *partner).unwrap();
+        n.download(*index, *sub, &value.to_le_bytes()).unwrap();
+    }
+}
+
 /// A declared limit is writable as the nearest REAL32, and a REAL32 beyond it is refused as too
 /// high / too low (CiA 301 0x0609 0031 / 0032) on a fresh node (each write alone, so that no
 /// cross-field rule trips).
@@ -459,6 +478,7 @@ fn real32_config_entries_take_their_declared_limits_and_refuse_beyond() {
                 continue;
             }
             let mut n = Node::new();
+            partner_for(&mut n, &name, v);
             assert_eq!(
                 n.download(index, sub, &(v as f32).to_le_bytes()),
                 ok,

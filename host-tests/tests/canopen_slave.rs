@@ -541,26 +541,26 @@ fn integer_config_objects_are_unsigned_types_of_their_width() {
     assert_eq!(b.download(spp, 0, &[32]), Err(LENGTH));
     assert_eq!(b.download(spp, 0, &32.0f32.to_le_bytes()), Err(LENGTH));
     assert_eq!(b.download(debounce, 0, &[1, 0]), Err(LENGTH));
-    // Ranges of the table: node-ID 1…127, samples per period 8…64.
+    // Ranges of the table: node-ID 1…127, samples per period 20 (the excitation table).
     assert_eq!(b.download(node, 0, &[0]), Err(TOO_LOW));
     assert_eq!(b.download(node, 0, &[128]), Err(TOO_HIGH));
-    assert_eq!(b.download(spp, 0, &7u16.to_le_bytes()), Err(TOO_LOW));
-    assert_eq!(b.download(spp, 0, &65u16.to_le_bytes()), Err(TOO_HIGH));
+    assert_eq!(b.download(spp, 0, &19u16.to_le_bytes()), Err(TOO_LOW));
+    assert_eq!(b.download(spp, 0, &21u16.to_le_bytes()), Err(TOO_HIGH));
     assert_eq!(
         b.download(debounce, 0, &100_001u32.to_le_bytes()),
         Err(TOO_HIGH)
     );
     assert_eq!(b.download(obj("circle_plane"), 0, &[3]), Err(TOO_HIGH));
     b.download(node, 0, &[127]).unwrap();
-    b.download(spp, 0, &32u16.to_le_bytes()).unwrap();
+    b.download(spp, 0, &20u16.to_le_bytes()).unwrap();
     b.download(debounce, 0, &0u32.to_le_bytes()).unwrap();
     b.download(obj("circle_plane"), 0, &[2]).unwrap();
     let c = b.app.config();
     assert_eq!(c.can_node_id, 127);
-    assert_eq!(c.samples_per_period, 32);
+    assert_eq!(c.samples_per_period, 20);
     assert_eq!(c.probe_debounce_us, 0);
     assert_eq!(c.setup.circle_plane, ballpod::config::CirclePlane::ZX);
-    assert_eq!(b.upload(spp, 0).unwrap(), 32u16.to_le_bytes());
+    assert_eq!(b.upload(spp, 0).unwrap(), 20u16.to_le_bytes());
 }
 
 #[test]
@@ -655,13 +655,18 @@ fn out_of_range_config_values_abort_with_range_codes_and_change_nothing() {
     assert_eq!(b.write_f32(idx, 0, f32::INFINITY), Err(TOO_HIGH));
     assert_eq!(b.write_f32(idx, 0, f32::NEG_INFINITY), Err(TOO_LOW));
     assert_eq!(state(&b.app), before);
-    // Excitation 20 kHz × 64 samples = 1.28 MS/s > 500 kS/s: a cross-field rule.
-    let spp = obj("samples_per_period");
-    b.download(spp, 0, &64u16.to_le_bytes()).unwrap();
-    let after_spp = state(&b.app);
+    // Excitation 20 kHz / 1 kHz = 20 periods a sample, more than the ADC ring's 5: a
+    // cross-field rule; 5 kHz samples, then a 10 kHz excitation (2 periods) pass.
     let exc = obj("excitation");
     assert_eq!(b.write_f32(exc, 0, 20000.0), Err(INCOMPATIBLE));
-    assert_eq!(state(&b.app), after_spp);
+    assert_eq!(state(&b.app), before);
+    b.write_f32(obj("sample_rate"), 0, 5000.0).unwrap();
+    b.write_f32(exc, 0, 10000.0).unwrap();
+    assert_eq!(
+        (b.app.config().excitation_hz, b.app.config().sample_rate_hz),
+        (10000.0, 5000.0)
+    );
+    let after_rate = state(&b.app);
     // Enumerated fields (0x2040 lvdt_input, 0x2041 can_bitrate, 0x2042 axis_name,
     // 0x2043 axis_reversed).
     assert_eq!(b.download(0x2040, 0, &[2]), Err(TOO_HIGH));
@@ -677,7 +682,7 @@ fn out_of_range_config_values_abort_with_range_codes_and_change_nothing() {
         Err(INVALID),
         "BOOLEAN is 0 or 1"
     );
-    assert_eq!(state(&b.app), after_spp);
+    assert_eq!(state(&b.app), after_rate);
     // and the accepted ones land in the configuration
     b.download(0x2040, 0, &[1]).unwrap();
     b.download(0x2041, 0, &[3]).unwrap();

@@ -64,20 +64,42 @@ fn out_of_range_is_rejected_naming_field_and_range_and_changes_nothing() {
             field: Field::AxisNameDuplicate(4)
         }
     );
-    // 20 kHz × 64 samples = 1.28 MS/s is beyond the ADC budget although each field is in range
-    let e = c
-        .try_update(|c| {
-            c.excitation_hz = 20_000.0;
-            c.samples_per_period = 64;
-        })
-        .unwrap_err();
-    assert!(matches!(
-        e,
-        ConfigError::OutOfRange {
-            field: Field::AdcRate,
-            ..
+    // a sample must be a whole number of excitation periods, 1 to 5 (the ADC ring holds
+    // 5 × 20 samples): 5 kHz / 1 kHz = 5 is the default; 5 kHz / 2 kHz = 2.5 and
+    // 6 kHz / 1 kHz = 6 are refused although each field is in range; 5 kHz / 5 kHz = 1 and
+    // 4 kHz / 2 kHz = 2 pass
+    for (excitation, rate, ok) in [
+        (5000.0, 2000.0, false),
+        (6000.0, 1000.0, false),
+        (1000.0, 2000.0, false),
+        (5000.0, 5000.0, true),
+        (4000.0, 2000.0, true),
+    ] {
+        let mut d = c;
+        let r = d.try_update(|c| {
+            c.excitation_hz = excitation;
+            c.sample_rate_hz = rate;
+        });
+        match r {
+            Ok(()) => assert!(ok, "{excitation} / {rate}"),
+            Err(e) => {
+                assert!(!ok, "{excitation} / {rate}");
+                assert!(matches!(
+                    e,
+                    ConfigError::OutOfRange {
+                        field: Field::PeriodsPerSample,
+                        ..
+                    }
+                ));
+                assert!(same(&d, &before));
+            }
         }
-    ));
+    }
+    // the excitation table has 20 points: no other samples_per_period is realised
+    for spp in [8.0, 19.0, 21.0, 64.0] {
+        assert!(Config::check_write(Field::SamplesPerPeriod, spp).is_err());
+    }
+    assert!(Config::check_write(Field::SamplesPerPeriod, 20.0).is_ok());
     assert!(same(&c, &before));
     // a valid change goes through
     c.try_update(|c| c.bar_length_mm = 300.0).unwrap();

@@ -186,7 +186,7 @@ fn unusual_config() -> Config {
         c.lvdt_input = LvdtInput::DcConditioner;
         c.lvdt_poly_um = [-3.5, 2100.25, 1.0e-5, -0.125];
         c.lvdt_dc_zero_v = -0.0312;
-        c.samples_per_period = 32;
+        c.sample_rate_hz = 2500.0;
         c.axes[0].name = AxisName::C;
         c.axes[1].name = AxisName::X;
         c.axes[2].name = AxisName::Unused;
@@ -229,7 +229,7 @@ fn the_header_names_the_run_and_every_configuration_field() {
         ("lvdt_poly1", "2100.25"),
         ("lvdt_poly2", "9.99999975e-6"),   // below 1e-5: d.ddde±x
         ("lvdt_dc_zero", "-0.0311999992"), // the f32 nearest -0.0312
-        ("samples_per_period", "32"),
+        ("sample_rate", "2500"),
         ("axis_counts1", "12345.678901"),
         ("axis_counts3", "0.1"),
         ("axis_max_speed0", "7.30000019"),

@@ -562,7 +562,7 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::TsOriginMm(k) => g(s.ts_origin_mm[k as usize]),
         Field::TsAngleDeg(k) => g(s.ts_angles_deg[k as usize]),
         Field::ProbeLengthMm => g(s.probe_length_mm),
-        Field::AdcRate | Field::AxisNameDuplicate(_) => unreachable!(),
+        Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => unreachable!(),
     }
 }
 
@@ -605,7 +605,12 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
                 continue;
             }
             let mut b = Bench::unlocked();
-            // (each limit alone: with the others at their defaults no cross-field check trips)
+            // (each limit alone: with the others at their defaults no cross-field check trips,
+            // but for excitation and sample rate, whose partner is walked first)
+            let partners = partner_steps(*f, v);
+            for (ph, pv) in &partners {
+                assert_eq!(b.send(&format!("{ph} {pv}")), "", "{ph} {pv}");
+            }
             assert_eq!(b.send(&format!("{h} {text}")), "", "{h} {text}");
             assert!(close(read(b.app.config(), *f), v), "{h} {text}");
             let back = b.send(&format!("{h}?"));
@@ -616,8 +621,8 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
                 assert_eq!(back, i.choices[v as usize], "{h}?");
             }
             // the other fields did not move
-            for (_, g) in &headers {
-                if g != f {
+            for (gh, g) in &headers {
+                if g != f && !partners.iter().any(|(ph, _)| ph.eq_ignore_ascii_case(gh)) {
                     assert!(
                         same(read(b.app.config(), *g), read(&Config::default(), *g)),
                         "{h} moved {g:?}"
@@ -626,6 +631,20 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
             }
             assert_eq!(b.errors(), Vec::<i32>::new());
         }
+    }
+}
+
+/// Excitation and sample rate are tied (a sample is 1 to 5 whole excitation periods): the
+/// writes that make limit `v` of `f` realisable, each valid on its own (20 kHz excitation:
+/// 5 kHz samples first; 200 Hz samples: a 1 kHz excitation; 10 kHz samples: 5 kHz samples,
+/// then a 10 kHz excitation).
+fn partner_steps(f: Field, v: f64) -> Vec<(String, f64)> {
+    let (rate, exc) = ("CONF:SAMPLE_RATE".to_string(), "CONF:EXCITATION".to_string());
+    match f {
+        Field::ExcitationHz if v > 5000.0 => vec![(rate, 5000.0)],
+        Field::SampleRateHz if v < 1000.0 => vec![(exc, 1000.0)],
+        Field::SampleRateHz if v > 5000.0 => vec![(rate, 5000.0), (exc, 10_000.0)],
+        _ => vec![],
     }
 }
 
@@ -796,13 +815,17 @@ fn code_fields_take_their_names() {
 #[test]
 fn cross_field_conflicts_give_minus_221_and_change_nothing() {
     let mut b = Bench::unlocked();
-    b.send("CONF:SAMPLES_PER_PERIOD 64"); // 64 × 5 kHz = 320 kS/s
-    assert_eq!(b.errors(), Vec::<i32>::new());
-    // 64 × 20 kHz = 1.28 MS/s > the ADC limit: config::validate rejects it
+    // 20 kHz / 1 kHz = 20 excitation periods a sample: more than the ADC ring's 5
     b.rejected_with(
         "CONF:EXCITATION 20000",
         -221,
-        "Settings conflict;excitation x samples_per_period out of range",
+        "Settings conflict;excitation / sample_rate (whole periods, 1 to 5) out of range",
+    );
+    // the excitation table has 20 points
+    b.rejected_with(
+        "CONF:SAMPLES_PER_PERIOD 64",
+        -222,
+        "Data out of range;samples_per_period out of range",
     );
     // two inputs cannot read the same axis
     b.rejected_with(
@@ -830,13 +853,13 @@ fn axis_names_are_set_per_input() {
 fn several_config_writes_in_one_line_all_take_effect() {
     let mut b = Bench::unlocked();
     assert_eq!(
-        b.send("CONF:BAR_LENGTH 200;BAR_CTE 12;:CONF:SAMPLE_RATE 500"),
+        b.send("CONF:BAR_LENGTH 200;BAR_CTE 12;:CONF:SAMPLE_RATE 2500"),
         ""
     );
     let c = b.app.config();
     assert_eq!(
         (c.bar_length_mm, c.bar_cte_ppm_per_k, c.sample_rate_hz),
-        (200.0, 12.0, 500.0)
+        (200.0, 12.0, 2500.0)
     );
     assert_eq!(b.errors(), Vec::<i32>::new());
 }

@@ -41,6 +41,19 @@ pub enum DemodError {
     },
     /// The two secondaries' blocks differ in length.
     LengthMismatch,
+    /// The block was acquired in the other input mode (the mode was just changed).
+    ModeChanged,
+}
+
+/// What the shell read from one block, in the input mode it was acquired in: the AC
+/// demodulation, or the DC conditioner's mean voltage (converted with the configured zero and
+/// span by the application, so a change of either takes effect at the next sample).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BlockReading {
+    /// AC ratiometric: the demodulation of the two secondaries.
+    Ac(Result<LvdtReading, DemodError>),
+    /// DC conditioner: the block's mean input, V.
+    DcVolts(f32),
 }
 
 /// One ADC sample of a secondary: its value and whether it sits on a converter rail

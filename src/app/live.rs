@@ -115,6 +115,9 @@ impl StatusWord {
     pub const LIVE_VALID: u16 = 1 << 12;
     /// Bit 13: an identification is pending (seed 002 procedure complete, computing).
     pub const IDENTIFYING: u16 = 1 << 13;
+    /// Bit 14: a field that takes effect at reset ([`crate::config::AT_RESET`]) differs from
+    /// the value the pod runs with.
+    pub const RESET_PENDING: u16 = 1 << 14;
     /// Bit 15: a fault is present: the latest sample is flagged invalid for metrology or its
     /// temperature is faulty, or the last settings save failed.
     pub const ERROR: u16 = 1 << 15;

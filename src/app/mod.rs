@@ -49,10 +49,10 @@ pub use record::{Recorder, RunEnd, RunMeta, Touch};
 pub use results::{RESULT_COUNT, RESULTS, ResultEntry, ResultId, Results};
 pub use run::{AbortReason, RunCounters, RunLimits};
 
-use crate::acquisition::lvdt::{DemodError, LvdtReading};
+use crate::acquisition::lvdt::{BlockReading, DemodError, LvdtReading};
 use crate::acquisition::probe::{ProbeLatch, TriggerOutcome};
 use crate::acquisition::{Acquisition, AcquisitionCounters, MAX_AXES, Sample, SampleFlags};
-use crate::config::{AxisName, Config, ConfigError, Field};
+use crate::config::{AxisName, Config, ConfigError, Field, LvdtInput};
 use crate::identify::multitasking::{Parameter, urad_to_arcsec};
 use crate::metrology::circle_fit::{CircleEstimate, CircleFit};
 use circle::{CircleGeometry, CircleTest};
@@ -168,7 +168,7 @@ impl CommandError {
 /// The user-facing name of a field.
 pub fn field_name(f: Field) -> &'static str {
     match f {
-        Field::AdcRate => "excitation x samples_per_period",
+        Field::PeriodsPerSample => "excitation / sample_rate (whole periods, 1 to 5)",
         Field::AxisNameDuplicate(_) => "axis name",
         f => Config::field_info(f).map_or("field", |i| i.name),
     }
@@ -298,6 +298,9 @@ pub struct App {
     settings_failed: bool,
     last_flags: SampleFlags,
     device: DeviceCounters,
+    /// The [`AT_RESET`](crate::config::AT_RESET) fields as the pod started (excitation Hz,
+    /// samples per period, sample rate Hz): they stay in force until the next reset.
+    boot: (f32, u16, f32),
 }
 
 impl App {
@@ -343,6 +346,11 @@ impl App {
             settings_request: None,
             settings_failures: 0,
             device: DeviceCounters::START,
+            boot: (
+                config.excitation_hz,
+                config.samples_per_period,
+                config.sample_rate_hz,
+            ),
             settings_failed: false,
             last_flags: SampleFlags::NONE,
         }
@@ -511,8 +519,29 @@ impl App {
 
     fn apply_config(&mut self, next: Config) {
         self.config = next;
-        self.acq.reconfigure(&next, self.counter_bits);
+        let running = self.running_config();
+        self.acq.reconfigure(&running, self.counter_bits);
         self.axes = AxisMap::new(&next);
+        self.update_status();
+    }
+
+    /// True when an [`AT_RESET`](crate::config::AT_RESET) field differs from the value the pod
+    /// runs with (status word bit 14).
+    pub fn reset_pending(&self) -> bool {
+        let c = &self.config;
+        (c.excitation_hz, c.samples_per_period, c.sample_rate_hz) != self.boot
+    }
+
+    /// The configuration the pod runs with: [`config`](Self::config) with the
+    /// [`AT_RESET`](crate::config::AT_RESET) fields as they were at start.
+    pub fn running_config(&self) -> Config {
+        let (excitation_hz, samples_per_period, sample_rate_hz) = self.boot;
+        Config {
+            excitation_hz,
+            samples_per_period,
+            sample_rate_hz,
+            ..self.config
+        }
     }
 
     /// Carries out a session command, or refuses it (nothing changes; the reason is kept for
@@ -963,18 +992,20 @@ impl App {
         }
     }
 
-    /// One sample period's readings: the LVDT block's demodulation (or a DC reading), the raw
-    /// encoder counters, the cumulative count of samples lost upstream. Turns them into a
-    /// calibrated [`Sample`] and processes it ([`on_sample`](Self::on_sample)).
+    /// One sample period's readings: the LVDT block (its demodulation, or a DC voltage:
+    /// [`lvdt_reading`](Self::lvdt_reading)), the raw encoder counters, the cumulative count
+    /// of samples lost upstream. Turns them into a calibrated [`Sample`] and processes it
+    /// ([`on_sample`](Self::on_sample)).
     pub fn on_raw_sample<R: Recorder>(
         &mut self,
         t_us: u64,
-        lvdt: Result<LvdtReading, DemodError>,
+        block: BlockReading,
         raw: [u32; MAX_AXES],
         lost_total: u32,
         rec: &mut R,
     ) -> Sample {
         let probe_event = core::mem::take(&mut self.probe_event);
+        let lvdt = self.lvdt_reading(block);
         let s = self.acq.sample(t_us, lvdt, raw, lost_total, probe_event);
         self.on_sample(&s, rec);
         s
@@ -983,6 +1014,17 @@ impl App {
     /// The LVDT reading of a DC conditioner voltage under the configured zero and span.
     pub fn dc_reading(&self, volts: f32) -> LvdtReading {
         self.acq.dc_reading(volts)
+    }
+
+    /// The reading of a block under the configured input mode, zero and span; a block
+    /// acquired in the other mode (the mode changed since) is [`DemodError::ModeChanged`]: that
+    /// sample is flagged LVDT open.
+    pub fn lvdt_reading(&self, block: BlockReading) -> Result<LvdtReading, DemodError> {
+        match (block, self.config.lvdt_input) {
+            (BlockReading::Ac(r), LvdtInput::AcRatiometric) => r,
+            (BlockReading::DcVolts(v), LvdtInput::DcConditioner) => Ok(self.dc_reading(v)),
+            _ => Err(DemodError::ModeChanged),
+        }
     }
 
     /// Hands the run begins and ends pending since the last sample to `rec`. Samples do it
@@ -1099,6 +1141,9 @@ impl App {
         }
         if self.identify_pending {
             extra |= StatusWord::IDENTIFYING;
+        }
+        if self.reset_pending() {
+            extra |= StatusWord::RESET_PENDING;
         }
         if fault {
             extra |= StatusWord::ERROR;

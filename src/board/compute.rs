@@ -5,6 +5,8 @@
 //! the server, whose answers go back out; every millisecond the node is polled. It takes no
 //! decision of its own: every one is the application's.
 
+use core::sync::atomic::Ordering;
+
 use embassy_futures::select::{Either4, select4};
 use embassy_stm32::exti::ExtiInput;
 use embassy_stm32::mode::Blocking;
@@ -165,6 +167,8 @@ pub async fn compute_task(
             Either4::Third(UsbEvent::StreamClosed) => stream.set_enabled(false),
             Either4::Fourth(()) => {
                 ticks = ticks.wrapping_add(1);
+                // the LVDT task acquires in the mode the configuration names now
+                lvdt::MODE.store(app.config().lvdt_input as u8, Ordering::Relaxed);
                 if ticks.is_multiple_of(DEVICE_COUNTERS_EVERY_MS) {
                     let mut c = diagnostics::device_counters();
                     c.set(DeviceCounter::StreamLinesDropped, stream.dropped_lines());

@@ -8,12 +8,12 @@
 //! settling delay after each DAC step: a constant phase, which the core's magnitude
 //! demodulation ignores by construction.
 //!
-//! **Sample timing.** A block's reading is the mean over its [`BLOCK`] conversions, so its
+//! **Sample timing.** A block's reading is the mean over its conversions, so its
 //! instant is the block's centre. ADC1's DMA raises its half- and full-transfer interrupts at
 //! the two half-ring boundaries, and [`BlockLatchIsr`] (priority 1, under only the probe's
 //! EXTI4) latches the five encoder counters and the time there; the event between a block's two
-//! halves is its centre. The latch follows conversion 49 of 0…99 (10 µs apart, centre at
-//! 49.5): it is 5 µs less the conversion time (≈ 0.9 µs) and the interrupt's entry (≈ 0.2 µs)
+//! halves is its centre. At the default 1 kHz (100 conversions 10 µs apart, centre at 49.5)
+//! the latch follows conversion 49: it is 5 µs less the conversion time (≈ 0.9 µs) and the interrupt's entry (≈ 0.2 µs)
 //! before the centre, ≈ 3.9 µs, 0.07 µm of travel at 16.7 mm/s (docs: sample timing).
 //! **Loss** is counted from the gaps between the blocks' latched times
 //! ([`ballpod::acquisition::periods_lost`]), however the blocks were lost.
@@ -30,7 +30,7 @@ use static_cell::StaticCell;
 
 use ballpod::acquisition::MAX_AXES;
 use ballpod::acquisition::lvdt::{
-    DcFrontEnd, ExcitationTable, LvdtReading, block_mean, dc_reading, demodulate,
+    BlockReading, DcFrontEnd, ExcitationTable, block_mean, demodulate,
 };
 use ballpod::acquisition::periods_lost;
 use ballpod::config::{Config, LvdtInput};
@@ -38,15 +38,12 @@ use embassy_stm32::interrupt::typelevel::{DMA1_CHANNEL2, Handler};
 
 use super::{Irqs, Overruns};
 
-/// ADC samples per excitation period (the DAC table length); the configuration's
-/// `samples_per_period` must equal it in this firmware build.
-pub const P: usize = 20;
-/// Excitation periods per pod sample (5 kHz excitation, 1 kHz samples).
-pub const PERIODS_PER_SAMPLE: usize = 5;
-/// ADC samples per channel per pod sample (the DMA ring's length).
-pub const BLOCK: usize = P * PERIODS_PER_SAMPLE;
-/// ADC samples per half-ring (one DMA half- or full-transfer event).
-const HALF: usize = BLOCK / 2;
+/// ADC samples per excitation period (the DAC table length; the configuration's
+/// `samples_per_period` can only be this).
+pub const P: usize = ballpod::config::EXCITATION_POINTS as usize;
+/// ADC samples per channel in the longest block (the DMA rings' storage):
+/// [`MAX_PERIODS_PER_SAMPLE`](ballpod::config::MAX_PERIODS_PER_SAMPLE) periods.
+pub const BLOCK_MAX: usize = P * ballpod::config::MAX_PERIODS_PER_SAMPLE as usize;
 /// DAC excitation amplitude, counts (±1000 about mid-scale: 1.6 V peak-to-peak at 3.3 V).
 pub const EXCITATION_AMPLITUDE: u16 = 1000;
 /// DC-input front end: ±10 V conditioner output divided to 0…3.3 V around 1.65 V.
@@ -62,8 +59,8 @@ pub struct LvdtBlock {
     pub t_us: u64,
     /// The hardware encoder counters at the block's centre.
     pub raw: [u32; MAX_AXES],
-    /// The reading (or why the block could not be demodulated).
-    pub reading: Result<LvdtReading, ballpod::acquisition::lvdt::DemodError>,
+    /// The block's reading in the mode it was acquired in.
+    pub reading: BlockReading,
 }
 
 /// What [`BlockLatchIsr`] latches at a half-ring boundary.
@@ -145,8 +142,20 @@ pub static BLOCK_QUEUE_OVERRUNS: Overruns = Overruns::new();
 /// gaps between the blocks' latched times.
 pub static ADC_BLOCKS_LOST: Overruns = Overruns::new();
 
-static RING_A: StaticCell<[u16; BLOCK]> = StaticCell::new();
-static RING_B: StaticCell<[u16; BLOCK]> = StaticCell::new();
+static RING_A: StaticCell<[u16; BLOCK_MAX]> = StaticCell::new();
+static RING_B: StaticCell<[u16; BLOCK_MAX]> = StaticCell::new();
+
+/// The LVDT input mode the application's configuration names (`LvdtInput as u8`), set by the
+/// application task; the LVDT task reads it per block, so a change takes effect at once.
+pub static MODE: core::sync::atomic::AtomicU8 = core::sync::atomic::AtomicU8::new(0);
+
+/// ADC samples per channel in one block of the running configuration: the excitation table
+/// times the periods in a sample (validated 1…5, so at most [`BLOCK_MAX`]).
+pub fn block_len(cfg: &Config) -> usize {
+    // a whole number in a valid configuration
+    let periods = cfg.periods_per_sample() as usize;
+    (P * periods).clamp(P, BLOCK_MAX)
+}
 
 /// The peripherals the LVDT acquisition owns.
 pub struct LvdtPeripherals {
@@ -172,12 +181,9 @@ pub struct LvdtPeripherals {
     ),
 }
 
-/// The block period, µs: [`PERIODS_PER_SAMPLE`] excitation periods (1000 µs at 5 kHz).
+/// The block period, µs: one sample period (1000 µs at 1 kHz).
 pub fn block_period_us(cfg: &Config) -> u32 {
-    let hz = cfg.excitation_hz as u32;
-    (PERIODS_PER_SAMPLE as u32 * 1_000_000)
-        .checked_div(hz)
-        .unwrap_or(0)
+    (1.0e6 / cfg.sample_rate_hz) as u32
 }
 
 /// Configures DAC, ADCs and TIM6 and starts the sample clock; returns what the two tasks own.
@@ -196,9 +202,12 @@ pub fn start(
 
     let adc1 = Adc::new(p.adc_a.0, AdcConfig::default());
     let adc2 = Adc::new(p.adc_b.0, AdcConfig::default());
+    // one block per ring: the ring's halves end at the block's centre and end
+    let len = block_len(cfg);
+    let ring = |r: &'static mut [u16; BLOCK_MAX]| r.get_mut(..len).unwrap_or(&mut []);
     let mut ring_a = adc1.into_ring_buffered(
         p.adc_a.1,
-        RING_A.init([0; BLOCK]),
+        ring(RING_A.init([0; BLOCK_MAX])),
         Irqs,
         [(p.adc_a.2.degrade_adc(), SampleTime::CYCLES24_5)].into_iter(),
         triggers::TIM6_TRGO,
@@ -206,7 +215,7 @@ pub fn start(
     );
     let mut ring_b = adc2.into_ring_buffered(
         p.adc_b.1,
-        RING_B.init([0; BLOCK]),
+        ring(RING_B.init([0; BLOCK_MAX])),
         Irqs,
         [(p.adc_b.2.degrade_adc(), SampleTime::CYCLES24_5)].into_iter(),
         triggers::TIM6_TRGO,
@@ -214,8 +223,8 @@ pub fn start(
     );
     // after an overrun the ring skips to the next half-ring boundary, so reads stay aligned
     // with the DMA events the latch sees
-    ring_a.set_alignment(HALF);
-    ring_b.set_alignment(HALF);
+    ring_a.set_alignment(len / 2);
+    ring_b.set_alignment(len / 2);
     ring_a.start();
     ring_b.start();
 
@@ -247,28 +256,31 @@ pub async fn dac_task(mut dac: DacChannel<'static, Async>) {
 }
 
 /// Reads one block per sample period from both ADC rings (two half-rings each), demodulates
-/// it (AC) or averages it (DC) with the core, and queues the reading with the latch of its
-/// centre. `period_us` is the nominal block period, for the loss count.
+/// it (AC) or averages it (DC: the application converts the volts with its zero and span) as
+/// [`MODE`] says, and queues the reading with the latch of its centre. `len` is the block
+/// length ([`block_len`]), `period_us` the sample period, for the loss count.
 #[embassy_executor::task]
 pub async fn lvdt_task(
     mut ring_a: RingBufferedAdc<'static, peripherals::ADC1>,
     mut ring_b: RingBufferedAdc<'static, peripherals::ADC2>,
-    mode: LvdtInput,
-    dc_zero_v: f32,
-    dc_span_v: f32,
+    len: usize,
     period_us: u32,
 ) {
     let table = ExcitationTable::<P>::new();
-    let mut a = [0u16; BLOCK];
-    let mut b = [0u16; BLOCK];
-    // the latch event that ends the next block's first half (event 1 at ring position HALF;
+    let mut a = [0u16; BLOCK_MAX];
+    let mut b = [0u16; BLOCK_MAX];
+    // the latch event that ends the next block's first half (event 1 at ring position len/2;
     // None: find it from the newest event)
     let mut centre_seq = Some(1u32);
     let mut prev_t_us = None;
     loop {
         super::safety::check_in(super::safety::Task::Lvdt);
-        let (a1, a2) = a.split_at_mut(HALF);
-        let (b1, b2) = b.split_at_mut(HALF);
+        let (a, b) = (
+            a.get_mut(..len).unwrap_or(&mut []),
+            b.get_mut(..len).unwrap_or(&mut []),
+        );
+        let (a1, a2) = a.split_at_mut_checked(len / 2).unwrap_or_default();
+        let (b1, b2) = b.split_at_mut_checked(len / 2).unwrap_or_default();
         // ADC2 runs in step with ADC1: its halves are there when ADC1's are
         let ok = ring_a.read(a1).await.is_ok()
             && ring_b.read(b1).await.is_ok()
@@ -287,15 +299,11 @@ pub async fn lvdt_task(
             ADC_BLOCKS_LOST.add(lost);
         }
         prev_t_us = Some(centre.t_us);
-        let reading = match mode {
-            LvdtInput::AcRatiometric => demodulate(&a, &b, &table),
-            LvdtInput::DcConditioner => Ok(dc_reading(
-                DC_FRONT_END.volts(block_mean(&a)),
-                dc_zero_v,
-                dc_span_v,
-                -10.5,
-                10.5,
-            )),
+        let dc = MODE.load(core::sync::atomic::Ordering::Relaxed) == LvdtInput::DcConditioner as u8;
+        let reading = if dc {
+            BlockReading::DcVolts(DC_FRONT_END.volts(block_mean(a)))
+        } else {
+            BlockReading::Ac(demodulate(a, b, &table))
         };
         let block = LvdtBlock {
             t_us: centre.t_us,

@@ -28,7 +28,7 @@ use cortex_m_semihosting::{debug, hprintln};
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use ballpod::acquisition::lvdt::{ExcitationTable, LvdtReading, demodulate};
+use ballpod::acquisition::lvdt::{BlockReading, ExcitationTable, LvdtReading, demodulate};
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
 use ballpod::app::seed002::{Procedure, Setup};
 use ballpod::app::{App, Command, Direction as RunDirection, Pattern};
@@ -504,7 +504,7 @@ fn main() -> ! {
             let raw = raw_counts(s);
             let (_, n) = measure(|| {
                 let r = demodulate(black_box(&a[..]), black_box(&b[..]), black_box(&table));
-                app.on_raw_sample(s.t_us, r, raw, 0, &mut ())
+                app.on_raw_sample(s.t_us, BlockReading::Ac(r), raw, 0, &mut ())
             });
             total += n.saturating_sub(empty);
         }

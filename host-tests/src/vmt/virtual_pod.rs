@@ -15,6 +15,7 @@
 
 use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::acquisition::{MAX_AXES, Sample};
+use ballpod::acquisition::lvdt::BlockReading;
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::{
     App, Command, CommandError, DeviceCounter, DeviceCounters, Pattern, Recorder, RunEnd, RunMeta, SessionState, SettingsRequest,
@@ -223,7 +224,7 @@ impl<const N: usize> VirtualPod<N> {
 
     /// Sample period of the configuration, µs.
     pub fn period_us(&self) -> f64 {
-        1e6 / f64::from(self.app.config().sample_rate_hz)
+        1e6 / f64::from(self.app.running_config().sample_rate_hz)
     }
 
     /// The settings the application asked to store, stored (as the firmware's task does).
@@ -326,7 +327,7 @@ impl<const N: usize> VirtualPod<N> {
         };
         let s = self
             .app
-            .on_raw_sample(r.t_us, r.lvdt, r.raw, r.lost_total, &mut rec);
+            .on_raw_sample(r.t_us, BlockReading::Ac(r.lvdt), r.raw, r.lost_total, &mut rec);
         self.last = Some(s);
         let now = self.proto_us();
         self.node.on_sample(s.flags, now, &mut |f| tx.push(f));
@@ -375,7 +376,8 @@ impl<const N: usize> VirtualPod<N> {
     pub fn step(&mut self) -> Vec<CanFrame> {
         let running = self.app.session() == SessionState::Running;
         if running && !self.serving {
-            let cfg = *self.app.config();
+            // the sample rate the pod runs with, not a value pending until reset
+            let cfg = self.app.running_config();
             // the technician mounted the bar the configuration names (as `cargo sim` swaps
             // bars between procedures): its expansion is modelled on that length
             self.sensors.set_bar_length(f64::from(cfg.bar_length_mm));

@@ -786,9 +786,11 @@ impl CommParams {
 
     /// Records `code` as the newest entry of the pre-defined error field (oldest drops off).
     pub fn push_error(&mut self, code: u32) {
-        self.errors.copy_within(0..ERROR_HISTORY_LEN - 1, 1);
-        if let Some(first) = self.errors.first_mut() {
-            *first = code;
+        // newest first: shift the history down one entry (by hand: `copy_within` would link
+        // the 1.5 KiB memmove into the firmware for these 28 bytes)
+        let mut carry = code;
+        for e in self.errors.iter_mut() {
+            carry = core::mem::replace(e, carry);
         }
         self.error_count = (self.error_count + 1).min(ERROR_HISTORY_LEN as u8);
     }
@@ -796,7 +798,7 @@ impl CommParams {
 
 /// Maps a refused command to its abort code: a configuration value out of the written field's
 /// range → 0x0609 0031 / 0x0609 0032, NaN or a value with no meaning → 0x0609 0030 (CiA 301
-/// table 22), a cross-field rule (ADC rate, duplicate axis name) → 0x0604 0043; a command the
+/// table 22), a cross-field rule (periods per sample, duplicate axis name) → 0x0604 0043; a command the
 /// session state does not allow, a pattern without its geometry, a change while a run is armed
 /// or running → 0x0800 0022 (the reason in words: 0x3006).
 fn refusal_abort(err: CommandError, written: Option<Field>) -> SdoAbort {

@@ -528,7 +528,7 @@ fn refusal(e: CommandError) -> ScpiError {
     let (detail, suffix) = e.text();
     let code = match e {
         CommandError::Config(ConfigError::OutOfRange {
-            field: Field::AdcRate,
+            field: Field::PeriodsPerSample,
             ..
         }) => code::SETTINGS_CONFLICT,
         CommandError::Config(ConfigError::OutOfRange { .. }) => code::DATA_OUT_OF_RANGE,

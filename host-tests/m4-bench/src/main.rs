@@ -9,7 +9,8 @@
 //! naive baseline of [`naive`] (nalgebra, a dynamic solve per sample). Beside each figure: the
 //! FLOP count of the path, counted by hand from the code (derivation in the comment at each
 //! row), the instructions per FLOP, the naive figure and the ratio, and the issue-6 target.
-//! Then the stack high-water mark of each path (stack painting, [`stack`]) and the bytes of each
+//! Then the longest interrupt-masked section of each of the firmware's queues ([`masked`]), the
+//! stack high-water mark of each path (stack painting, [`stack`]) and the bytes of each
 //! estimator's state.
 //!
 //! Counts are instructions, not cycles (no wait states; VDIV/VSQRT take 14 cycles on silicon).
@@ -17,6 +18,7 @@
 #![no_main]
 
 mod data;
+mod masked;
 mod naive;
 mod stack;
 
@@ -42,10 +44,10 @@ use ballpod::metrology::ssm::SsmGeometry;
 use ballpod::metrology::ssm::streaming::{StreamingConfig, StreamingSsm};
 
 /// SysTick ticks per 10 instructions (25.6 per instruction).
-const TICKS_PER_10_INSN: u32 = 256;
+pub(crate) const TICKS_PER_10_INSN: u32 = 256;
 
 #[inline(always)]
-fn now() -> u32 {
+pub(crate) fn now() -> u32 {
     // SAFETY: a read of the SysTick current-value register, which has no side effects.
     0x00FF_FFFF - unsafe { (*SYST::PTR).cvr.read() }
 }
@@ -575,6 +577,9 @@ fn main() -> ! {
         max_insns: None,
         min_ratio: None,
     });
+
+    // ---- interrupt-masked sections of the firmware's queues ----------------------------------
+    masked::report();
 
     // ---- stack and state --------------------------------------------------------------------
     hprintln!();

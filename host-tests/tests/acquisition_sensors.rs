@@ -325,7 +325,10 @@ fn lost_periods_follow_from_the_block_times() {
         prev = Some(t);
         k += 1;
     }
-    assert!(dropped_total > 1000, "the test dropped blocks: {dropped_total}");
+    assert!(
+        dropped_total > 1000,
+        "the test dropped blocks: {dropped_total}"
+    );
     assert_eq!(counted_total, dropped_total);
     // edge cases: no time passed, a zero period, a gap beyond u32 periods
     assert_eq!(periods_lost(10, 10, 1000), 0);

@@ -23,7 +23,11 @@ fn ac(r: f32) -> BlockReading {
 fn the_lvdt_mode_zero_and_span_apply_at_the_next_sample_and_keep_the_rest() {
     let mut app = App::new(Config::default(), [16; MAX_AXES]);
     let poly = app.config().lvdt_poly_um;
-    let at = |r: f64| poly.iter().rev().fold(0.0, |acc, &c| acc * r + f64::from(c));
+    let at = |r: f64| {
+        poly.iter()
+            .rev()
+            .fold(0.0, |acc, &c| acc * r + f64::from(c))
+    };
     let raw = [1000; MAX_AXES];
     // AC: the demodulated ratio goes through the polynomial (20 °C bar: no expansion)
     let s = app.on_raw_sample(0, ac(0.1), raw, 0, &mut ());
@@ -73,7 +77,11 @@ fn sampling_fields_take_effect_at_reset_and_are_reported_pending() {
         assert_eq!(pending(&app), changed, "{f:?}");
         let run = app.running_config();
         assert_eq!(
-            (run.excitation_hz, run.samples_per_period, run.sample_rate_hz),
+            (
+                run.excitation_hz,
+                run.samples_per_period,
+                run.sample_rate_hz
+            ),
             (5000.0, 20, 1000.0)
         );
     }

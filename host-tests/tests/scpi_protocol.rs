@@ -639,7 +639,10 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
 /// 5 kHz samples first; 200 Hz samples: a 1 kHz excitation; 10 kHz samples: 5 kHz samples,
 /// then a 10 kHz excitation).
 fn partner_steps(f: Field, v: f64) -> Vec<(String, f64)> {
-    let (rate, exc) = ("CONF:SAMPLE_RATE".to_string(), "CONF:EXCITATION".to_string());
+    let (rate, exc) = (
+        "CONF:SAMPLE_RATE".to_string(),
+        "CONF:EXCITATION".to_string(),
+    );
     match f {
         Field::ExcitationHz if v > 5000.0 => vec![(rate, 5000.0)],
         Field::SampleRateHz if v < 1000.0 => vec![(exc, 1000.0)],

@@ -20,8 +20,8 @@ use std::path::Path;
 use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::acquisition::{MAX_AXES, SampleFlags};
 use ballpod::app::{Live, RESULT_COUNT, ResultId, RunCounters, SessionState};
-use ballpod::protocol::canopen::{BusState, CanFrame};
 use ballpod::config::Config;
+use ballpod::protocol::canopen::{BusState, CanFrame};
 use ballpod_host::flash_model::FlashModel;
 use ballpod_host::recording::{Event, parse_runs};
 use ballpod_host::vmt::machine::CircleMachine;
@@ -1020,7 +1020,10 @@ fn a_stored_configuration_the_firmware_rejects_boots_into_the_defaults_with_a_re
     let emcy: Vec<_> = frames.iter().filter(|f| f.id == EMCY).collect();
     assert_eq!(emcy.len(), 1, "{frames:?}");
     assert_eq!(
-        (u16::from_le_bytes([emcy[0].data[0], emcy[0].data[1]]), emcy[0].data[3]),
+        (
+            u16::from_le_bytes([emcy[0].data[0], emcy[0].data[1]]),
+            emcy[0].data[3]
+        ),
         (0x6300, 3)
     );
     assert_eq!(
@@ -1029,7 +1032,10 @@ fn a_stored_configuration_the_firmware_rejects_boots_into_the_defaults_with_a_re
     );
     assert_eq!(b.scpi("SYST:ERR?"), "0,\"No error\"", "reported once");
     // the defaults are what the CNC reads: 0x2000 bar_length 150 mm
-    assert_eq!(f32::from_bits(b.read(0x2000, 0)), Config::default().bar_length_mm);
+    assert_eq!(
+        f32::from_bits(b.read(0x2000, 0)),
+        Config::default().bar_length_mm
+    );
 }
 
 /// A complete save is reported done: no failure counted, no error bit, and the pod boots with

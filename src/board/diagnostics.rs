@@ -1,7 +1,7 @@
 //! What the board measures about itself, for the device counters (`ballpod::app::device`,
 //! SCPI `SYSTem:COUNt?`, CANopen 0x2110):
 //!
-//! - **Longest interrupt-masked section.** This module is the firmware's critical-section
+//! - **Longest interrupt-masked section.** `masked_cs.rs` is the firmware's critical-section
 //!   implementation (the one embassy's queues, the time driver and defmt use; it replaces
 //!   cortex-m's `critical-section-single-core`, which it otherwise equals): the outermost
 //!   section reads the DWT cycle counter (170 MHz) on entry and exit and keeps the maximum.
@@ -15,8 +15,6 @@
 //!   secondaries lose their carrier and the core flags the samples LVDT open. Counted here so
 //!   the reason is known.
 
-use core::sync::atomic::{AtomicU32, Ordering};
-
 use ballpod::app::{DeviceCounter, DeviceCounters};
 use cortex_m::peripheral::DWT;
 use embassy_stm32::pac;
@@ -26,41 +24,18 @@ use super::{Overruns, compute, lvdt, probe, safety, state, thermistor};
 /// Core clock, Hz (main.rs: 24 MHz HSE / 6 × 85 / 2).
 pub const SYSCLK_HZ: u32 = 170_000_000;
 
-/// DWT cycle count at the entry of the current outermost critical section.
-static MASKED_SINCE: AtomicU32 = AtomicU32::new(0);
-/// Longest outermost critical section so far, cycles.
-static MASKED_MAX_CYCLES: AtomicU32 = AtomicU32::new(0);
 /// Excitation DMA underruns seen.
 pub static DAC_UNDERRUNS: Overruns = Overruns::new();
 
-struct MeasuredCriticalSection;
-critical_section::set_impl!(MeasuredCriticalSection);
+#[path = "masked_cs.rs"]
+mod masked_cs;
 
-// SAFETY: single core: masking interrupts with PRIMASK excludes every other context; the
-// restore state is PRIMASK as it was, so nested sections restore correctly. The statics are
-// touched only with interrupts masked.
-unsafe impl critical_section::Impl for MeasuredCriticalSection {
-    unsafe fn acquire() -> critical_section::RawRestoreState {
-        let was = cortex_m::register::primask::read_raw();
-        cortex_m::interrupt::disable();
-        if was & 1 == 0 {
-            // interrupts were on: an outermost section starts
-            MASKED_SINCE.store(DWT::cycle_count(), Ordering::Relaxed);
-        }
-        was
-    }
-
-    unsafe fn release(was: critical_section::RawRestoreState) {
-        if was & 1 == 0 {
-            let d = DWT::cycle_count().wrapping_sub(MASKED_SINCE.load(Ordering::Relaxed));
-            if d > MASKED_MAX_CYCLES.load(Ordering::Relaxed) {
-                MASKED_MAX_CYCLES.store(d, Ordering::Relaxed);
-            }
-        }
-        // SAFETY: restores the PRIMASK this section found.
-        unsafe { cortex_m::register::primask::write_raw(was) };
-    }
+/// The clock of the masked-section probe: the DWT cycle counter (170 MHz, 32 bits).
+fn masked_clock() -> u32 {
+    DWT::cycle_count()
 }
+/// The probe clock's width.
+const MASKED_CLOCK_MASK: u32 = u32::MAX;
 
 /// Starts the DWT cycle counter the masked-section probe reads. Call once at boot.
 pub fn start_cycle_counter() {
@@ -106,8 +81,7 @@ fn check_dac_underrun() {
 pub fn device_counters() -> DeviceCounters {
     use DeviceCounter as C;
     check_dac_underrun();
-    let masked_ns =
-        u64::from(MASKED_MAX_CYCLES.load(Ordering::Relaxed)) * 1_000_000_000 / u64::from(SYSCLK_HZ);
+    let masked_ns = u64::from(masked_cs::max()) * 1_000_000_000 / u64::from(SYSCLK_HZ);
     let mut c = DeviceCounters::START;
     for (k, v) in [
         (C::AdcBlocksLost, lvdt::ADC_BLOCKS_LOST.get()),

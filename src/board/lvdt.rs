@@ -18,6 +18,9 @@
 //! **Loss** is counted from the gaps between the blocks' latched times
 //! ([`ballpod::acquisition::periods_lost`]), however the blocks were lost.
 
+use core::cell::Cell;
+use core::sync::atomic::{AtomicU8, AtomicU32, Ordering};
+
 use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, Exten, RingBufferedAdc, SampleTime};
 use embassy_stm32::dac::{DacChannel, ValueArray};
 use embassy_stm32::mode::Async;
@@ -66,23 +69,25 @@ pub struct LvdtBlock {
 /// What [`BlockLatchIsr`] latches at a half-ring boundary.
 #[derive(Clone, Copy)]
 struct Latch {
-    /// Event number since boot (from 1).
+    /// Event number since boot (from 1; 0: never written).
     seq: u32,
     t_us: u64,
     raw: [u32; MAX_AXES],
 }
 
 /// The last four latches, slot `seq % 4` (the task is at most two events behind without the
-/// ring overrunning).
-static LATCHES: critical_section::Mutex<core::cell::Cell<[Latch; 4]>> =
-    critical_section::Mutex::new(core::cell::Cell::new(
-        [Latch {
+/// ring overrunning); each access copies one slot under the lock.
+static LATCHES: critical_section::Mutex<[Cell<Latch>; 4]> = critical_section::Mutex::new(
+    [const {
+        Cell::new(Latch {
             seq: 0,
             t_us: 0,
             raw: [0; MAX_AXES],
-        }; 4],
-    ));
-static LATCH_SEQ: core::sync::atomic::AtomicU32 = core::sync::atomic::AtomicU32::new(0);
+        })
+    }; 4],
+);
+/// The newest event's number (written by the interrupt only).
+static LATCH_SEQ: AtomicU32 = AtomicU32::new(0);
 
 /// ADC1 DMA (DMA1 channel 2) interrupt, bound before embassy's handler (which clears the flag):
 /// at a half- or full-transfer event, latch the encoder counters and the time.
@@ -95,20 +100,21 @@ impl Handler<DMA1_CHANNEL2> for BlockLatchIsr {
         let (isr, cr) = (pac::DMA1.isr().read(), pac::DMA1.ch(1).cr().read());
         // the same condition as embassy's handler, which acknowledges one event per call
         if (isr.htif(1) && cr.htie()) || (isr.tcif(1) && cr.tcie()) {
-            let seq = LATCH_SEQ
-                .load(core::sync::atomic::Ordering::Relaxed)
-                .wrapping_add(1);
-            LATCH_SEQ.store(seq, core::sync::atomic::Ordering::Relaxed);
+            let seq = LATCH_SEQ.load(Ordering::Relaxed).wrapping_add(1);
+            LATCH_SEQ.store(seq, Ordering::Relaxed);
             critical_section::with(|cs| {
-                let cell = LATCHES.borrow(cs);
-                let mut l = cell.get();
-                if let Some(slot) = l.get_mut(seq as usize % 4) {
-                    *slot = Latch { seq, t_us, raw };
+                if let Some(slot) = LATCHES.borrow(cs).get(seq as usize % 4) {
+                    slot.set(Latch { seq, t_us, raw });
                 }
-                cell.set(l);
             });
         }
     }
+}
+
+/// The latch of event `seq`, if it is still held.
+fn latch_of(seq: u32) -> Option<Latch> {
+    let l = critical_section::with(|cs| LATCHES.borrow(cs).get(seq as usize % 4).map(Cell::get));
+    l.filter(|x| x.seq == seq && seq != 0)
 }
 
 /// The latch of a block's centre, and the number of the event that ended the block: event
@@ -116,21 +122,17 @@ impl Handler<DMA1_CHANNEL2> for BlockLatchIsr {
 /// block carries `OVERRUN` anyway) the one before the newest event, taking the newest as the
 /// block's end.
 fn latch(centre: Option<u32>) -> (Latch, u32) {
-    let l = critical_section::with(|cs| LATCHES.borrow(cs).get());
-    let newest = LATCH_SEQ.load(core::sync::atomic::Ordering::Relaxed);
-    let at = |s: u32| {
-        l.get(s as usize % 4)
-            .copied()
-            .filter(|x| x.seq == s && s != 0)
-    };
-    if let Some(x) = centre.and_then(at) {
+    if let Some(x) = centre.and_then(latch_of) {
         return (x, x.seq.wrapping_add(1));
     }
-    let x = at(newest.wrapping_sub(1)).or(at(newest)).unwrap_or(Latch {
-        seq: newest,
-        t_us: embassy_time::Instant::now().as_micros(),
-        raw: super::encoders::raw_counts(),
-    });
+    let newest = LATCH_SEQ.load(Ordering::Relaxed);
+    let x = latch_of(newest.wrapping_sub(1))
+        .or_else(|| latch_of(newest))
+        .unwrap_or(Latch {
+            seq: newest,
+            t_us: embassy_time::Instant::now().as_micros(),
+            raw: super::encoders::raw_counts(),
+        });
     (x, newest)
 }
 
@@ -147,7 +149,7 @@ static RING_B: StaticCell<[u16; BLOCK_MAX]> = StaticCell::new();
 
 /// The LVDT input mode the application's configuration names (`LvdtInput as u8`), set by the
 /// application task; the LVDT task reads it per block, so a change takes effect at once.
-pub static MODE: core::sync::atomic::AtomicU8 = core::sync::atomic::AtomicU8::new(0);
+pub static MODE: AtomicU8 = AtomicU8::new(0);
 
 /// ADC samples per channel in one block of the running configuration: the excitation table
 /// times the periods in a sample (validated 1…5, so at most [`BLOCK_MAX`]).
@@ -299,7 +301,7 @@ pub async fn lvdt_task(
             ADC_BLOCKS_LOST.add(lost);
         }
         prev_t_us = Some(centre.t_us);
-        let dc = MODE.load(core::sync::atomic::Ordering::Relaxed) == LvdtInput::DcConditioner as u8;
+        let dc = MODE.load(Ordering::Relaxed) == LvdtInput::DcConditioner as u8;
         let reading = if dc {
             BlockReading::DcVolts(DC_FRONT_END.volts(block_mean(a)))
         } else {

@@ -1,13 +1,13 @@
 //! Interrupt-masked time of the firmware's shared queues, measured: this bench's
-//! critical-section implementation is the firmware's (`src/board/diagnostics.rs`: PRIMASK saved,
-//! interrupts masked, the outermost section timed) with SysTick instruction counts in place of
-//! the DWT cycle counter. Each queue below has the firmware's element type (or one of the same
-//! size) and depth, and goes through the operations the firmware does on it, empty and full;
-//! the table gives the longest outermost masked section of each, in instructions (≈ cycles:
-//! at 170 MHz, 170 per µs). No core function runs masked (the application is owned by one task).
+//! critical-section implementation is the firmware's own file (`src/board/masked_cs.rs`:
+//! PRIMASK saved, interrupts masked, the outermost section timed), with SysTick instruction
+//! counts as its clock in place of the DWT cycle counter. Each queue below has the firmware's
+//! element type (or one of the same size) and depth, and goes through the operations the
+//! firmware does on it, empty and full; the table gives the longest outermost masked section of
+//! each, in instructions (≈ cycles: at 170 MHz, 170 per µs). No core function runs masked (the
+//! application is owned by one task).
 
 use core::cell::Cell;
-use core::sync::atomic::{AtomicU32, Ordering};
 
 use ballpod::acquisition::MAX_AXES;
 use ballpod::acquisition::lvdt::{BlockReading, DemodError};
@@ -18,42 +18,19 @@ use embassy_sync::channel::Channel;
 use embassy_sync::pipe::Pipe;
 use embassy_sync::signal::Signal;
 
-/// SysTick count at the entry of the current outermost section.
-static SINCE: AtomicU32 = AtomicU32::new(0);
-/// Longest outermost section since the last [`take_max`], SysTick ticks.
-static MAX_TICKS: AtomicU32 = AtomicU32::new(0);
+#[path = "../../../src/board/masked_cs.rs"]
+mod masked_cs;
 
-struct MeasuredCriticalSection;
-critical_section::set_impl!(MeasuredCriticalSection);
-
-// SAFETY: as the firmware's: single core, PRIMASK restored as found; the statics are touched
-// only with interrupts masked.
-unsafe impl critical_section::Impl for MeasuredCriticalSection {
-    unsafe fn acquire() -> critical_section::RawRestoreState {
-        let was = cortex_m::register::primask::read_raw();
-        cortex_m::interrupt::disable();
-        if was & 1 == 0 {
-            SINCE.store(crate::now(), Ordering::Relaxed);
-        }
-        was
-    }
-
-    unsafe fn release(was: critical_section::RawRestoreState) {
-        if was & 1 == 0 {
-            // SysTick is 24 bits; a masked section is far shorter than a wrap
-            let d = crate::now().wrapping_sub(SINCE.load(Ordering::Relaxed)) & 0x00FF_FFFF;
-            if d > MAX_TICKS.load(Ordering::Relaxed) {
-                MAX_TICKS.store(d, Ordering::Relaxed);
-            }
-        }
-        // SAFETY: restores the PRIMASK this section found.
-        unsafe { cortex_m::register::primask::write_raw(was) };
-    }
+/// The probe's clock here: SysTick, counting up (25.6 ticks per instruction, 24 bits).
+fn masked_clock() -> u32 {
+    crate::now()
 }
+/// SysTick's width.
+const MASKED_CLOCK_MASK: u32 = 0x00FF_FFFF;
 
 /// The longest section since the last call, instructions; resets it.
 fn take_max() -> u32 {
-    let t = MAX_TICKS.swap(0, Ordering::Relaxed);
+    let t = masked_cs::take_max();
     (t * 10 + crate::TICKS_PER_10_INSN / 2) / crate::TICKS_PER_10_INSN
 }
 
@@ -61,8 +38,8 @@ fn take_max() -> u32 {
 type Block = (u64, [u32; MAX_AXES], BlockReading);
 /// The probe edge queue's element (`board::probe::ProbeEdge`).
 type Edge = (u64, [u32; MAX_AXES]);
-/// The block latch's history (`board::lvdt::LATCHES`: four of event number, time, counts).
-type Latches = [(u32, u64, [u32; MAX_AXES]); 4];
+/// One slot of the block latch's history (`board::lvdt::LATCHES`: event number, time, counts).
+type Latch = (u32, u64, [u32; MAX_AXES]);
 
 static BLOCKS: Channel<CriticalSectionRawMutex, Block, 4> = Channel::new();
 static EDGES: Channel<CriticalSectionRawMutex, Edge, 8> = Channel::new();
@@ -70,8 +47,8 @@ static CODES: Channel<CriticalSectionRawMutex, u16, 2> = Channel::new();
 static CAN_RX: Channel<CriticalSectionRawMutex, CanFrame, 16> = Channel::new();
 static USB_TX: Pipe<CriticalSectionRawMutex, 2048> = Pipe::new();
 static BUS: Signal<CriticalSectionRawMutex, BusState> = Signal::new();
-static LATCHES: critical_section::Mutex<Cell<Latches>> =
-    critical_section::Mutex::new(Cell::new([(0, 0, [0; MAX_AXES]); 4]));
+static LATCHES: critical_section::Mutex<[Cell<Latch>; 4]> =
+    critical_section::Mutex::new([const { Cell::new((0, 0, [0; MAX_AXES])) }; 4]);
 
 /// Runs `ops` and prints the longest masked section they took (the printing itself, which
 /// semihosting does inside a critical section, is not counted).
@@ -133,8 +110,19 @@ pub fn report() {
         BUS.signal(BusState::BusOff);
         let _ = BUS.try_take();
     });
-    row("block latch history: get, set", || {
-        let l = critical_section::with(|cs| LATCHES.borrow(cs).get());
-        critical_section::with(|cs| LATCHES.borrow(cs).set(l));
-    });
+    row(
+        "block latch history: one slot set (interrupt), one got (task)",
+        || {
+            for k in 0..8u32 {
+                critical_section::with(|cs| {
+                    if let Some(c) = LATCHES.borrow(cs).get(k as usize % 4) {
+                        c.set(core::hint::black_box((k, 5, [6; MAX_AXES])));
+                    }
+                });
+                core::hint::black_box(critical_section::with(|cs| {
+                    LATCHES.borrow(cs).get(k as usize % 4).map(Cell::get)
+                }));
+            }
+        },
+    );
 }

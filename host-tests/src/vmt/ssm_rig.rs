@@ -77,7 +77,8 @@ impl SsmRig {
             return Err("SSM: empty path".into());
         };
         let (start, end) = (first.axes, last.axes);
-        let step_mm = FEED_MM_PER_MIN / 60.0 / f64::from(self.pod.app.running_config().sample_rate_hz);
+        let step_mm =
+            FEED_MM_PER_MIN / 60.0 / f64::from(self.pod.app.running_config().sample_rate_hz);
         match self.at {
             None => self.pod.home(&start),
             // the transfer to the new socket with the bar lifted off (the LVDT at rest, ΔL

@@ -13,13 +13,13 @@
 //!   virtual CNC ([`super::motion`]) moves through the armed pattern with the pod's set-up and
 //!   ends the run at the end of its motion.
 
+use ballpod::acquisition::lvdt::BlockReading;
 use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::acquisition::{MAX_AXES, Sample};
-use ballpod::acquisition::lvdt::BlockReading;
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::{
-    App, Command, CommandError, DeviceCounter, DeviceCounters, Pattern, Recorder, RunEnd, RunMeta, SessionState, SettingsRequest,
-    Touch,
+    App, Command, CommandError, DeviceCounter, DeviceCounters, Pattern, Recorder, RunEnd, RunMeta,
+    SessionState, SettingsRequest, Touch,
 };
 use ballpod::config::Config;
 use ballpod::protocol::canopen::{BusState, CanFrame, CanOpenNode};
@@ -162,11 +162,7 @@ impl<const N: usize> VirtualPod<N> {
         let mut stream = Box::new(SampleStream::new());
         stream.set_enabled(true);
         let mut node = CanOpenNode::new(app.config().can_node_id, SERIAL);
-        ballpod::protocol::report_rejected_settings(
-            boot_settings.rejected(),
-            &mut node,
-            &mut scpi,
-        );
+        ballpod::protocol::report_rejected_settings(boot_settings.rejected(), &mut node, &mut scpi);
         Self {
             node,
             app,
@@ -325,9 +321,13 @@ impl<const N: usize> VirtualPod<N> {
             stream: &mut self.stream,
             recording: &mut self.recording,
         };
-        let s = self
-            .app
-            .on_raw_sample(r.t_us, BlockReading::Ac(r.lvdt), r.raw, r.lost_total, &mut rec);
+        let s = self.app.on_raw_sample(
+            r.t_us,
+            BlockReading::Ac(r.lvdt),
+            r.raw,
+            r.lost_total,
+            &mut rec,
+        );
         self.last = Some(s);
         let now = self.proto_us();
         self.node.on_sample(s.flags, now, &mut |f| tx.push(f));

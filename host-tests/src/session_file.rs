@@ -145,7 +145,29 @@ pub fn read_text(file: &Path) -> Result<String, LogError> {
 /// Parses a session file: TOML when `path` ends in `.toml`, JSON otherwise (`path` only names
 /// the file in errors and picks the format; nothing is read).
 pub fn parse_session(path: &Path, text: &str) -> Result<SessionFile, LogError> {
-    let s: SessionFile = if path.extension().is_some_and(|e| e == "toml") {
+    let s = deserialize(path, text)?;
+    if s.runs.is_empty() && s.rtest.is_none() && s.dial.is_none() {
+        return Err(whole(
+            path,
+            "nothing to replay: no runs, no [rtest], no [dial]".into(),
+        ));
+    }
+    check_runs(path, text, &s)?;
+    Ok(s)
+}
+
+/// The configuration a set-up file gives (`ncgen`): the defaults with its `[setup]` applied. A
+/// session file serves as it is; its runs and host-only tables are not read.
+pub fn setup_config(path: &Path, text: &str) -> Result<Config, LogError> {
+    let s = deserialize(path, text)?;
+    let mut c = Config::default();
+    apply_setup(path, &s.setup, &mut c)?;
+    Ok(c)
+}
+
+/// A session file's structure, TOML or JSON by the file's extension.
+fn deserialize(path: &Path, text: &str) -> Result<SessionFile, LogError> {
+    Ok(if path.extension().is_some_and(|e| e == "toml") {
         toml::from_str(text).map_err(|e| LogError {
             line: e
                 .span()
@@ -159,13 +181,11 @@ pub fn parse_session(path: &Path, text: &str) -> Result<SessionFile, LogError> {
             line: e.line(),
             ..whole(path, e.to_string())
         })?
-    };
-    if s.runs.is_empty() && s.rtest.is_none() && s.dial.is_none() {
-        return Err(whole(
-            path,
-            "nothing to replay: no runs, no [rtest], no [dial]".into(),
-        ));
-    }
+    })
+}
+
+/// Each run's pattern and direction name one the pod knows.
+fn check_runs(path: &Path, text: &str, s: &SessionFile) -> Result<(), LogError> {
     for (i, r) in s.runs.iter().enumerate() {
         let bad = |key: &str, value: &str, what: String| LogError {
             field: Some(format!("runs[{i}].{key}")),
@@ -192,7 +212,7 @@ pub fn parse_session(path: &Path, text: &str) -> Result<SessionFile, LogError> {
             ));
         }
     }
-    Ok(s)
+    Ok(())
 }
 
 /// The line (1-based) of the first `key` … `"value"` pair in a session file's text, 0 if none

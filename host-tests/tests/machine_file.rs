@@ -7,14 +7,7 @@ use std::collections::BTreeSet;
 
 /// The ```toml block after README's "### Machine file" heading.
 fn readme_example() -> String {
-    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md"))
-        .expect("README");
-    let section = readme
-        .split_once("### Machine file")
-        .expect("Machine file section")
-        .1;
-    let block = section.split_once("```toml\n").expect("toml block").1;
-    block.split_once("```").expect("block end").0.to_string()
+    ballpod_host::readme::block_after("### Machine file", "toml")
 }
 
 /// `section.key` of every key of a two-level TOML table.

@@ -270,17 +270,6 @@ fn partial_arcs_on_the_pod_and_in_replay_match_an_f64_fit_within_1_nm() {
     assert_eq!(cases, 8);
 }
 
-/// The ```toml block after `heading` in README.md.
-fn readme_toml_after(heading: &str) -> String {
-    let readme = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../README.md"))
-        .expect("README");
-    let at = readme.find(heading).expect("heading in README");
-    let rest = &readme[at..];
-    let start = rest.find("```toml\n").expect("toml block") + "```toml\n".len();
-    let len = rest[start..].find("```").expect("block end");
-    rest[start..start + len].to_string()
-}
-
 #[test]
 fn the_readme_session_file_replays_a_pod_file_and_a_plain_log() {
     // The README's example verbatim, with its two logs made here from the forward model: a
@@ -333,7 +322,11 @@ fn the_readme_session_file_replays_a_pod_file_and_a_plain_log() {
     }
     std::fs::write(dir.join("cw_plain.csv"), plain).expect("cw_plain.csv");
     let session = dir.join("session.toml");
-    std::fs::write(&session, readme_toml_after("**Session file**")).expect("session");
+    std::fs::write(
+        &session,
+        ballpod_host::readme::block_after("**Session file**", "toml"),
+    )
+    .expect("session");
 
     let read = read_inputs(&[session]);
     let _ = std::fs::remove_dir_all(&dir);

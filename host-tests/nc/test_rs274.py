@@ -1,0 +1,179 @@
+"""The generated LinuxCNC part programs through LinuxCNC's own interpreter (`rs274 -g`,
+Debian package linuxcnc-uspace): every program is accepted without an error, and the canonical
+motion it produces matches the test's nominal geometry within 1 um — plane, centre, radius, the
+data arc's start angle, span and direction, the overshoot, the radial feed-in and feed-out, the
+feed. The geometry is rebuilt here from the canonical commands alone (LinuxCNC's ARC_FEED: ends
+and centre in the selected plane's first and second axes, rotation +1 CCW / -1 CW seen from the
+plane normal's positive end).
+
+Run by .ci/run: BALLPOD_NCGEN=<the ncgen binary> python3 -m pytest host-tests/nc
+"""
+import math
+import os
+import re
+import subprocess
+
+import pytest
+
+NCGEN = os.environ.get("BALLPOD_NCGEN")
+TOL_MM = 1e-3  # 1 um
+# canon plane -> (first, second, normal) axis indices (0 X, 1 Y, 2 Z)
+CANON_PLANES = {"CANON_PLANE_XY": (0, 1, 2), "CANON_PLANE_YZ": (1, 2, 0), "CANON_PLANE_XZ": (2, 0, 1)}
+# the pod's circle_plane -> (u, v, normal)
+POD_PLANES = {"XY": (0, 1, 2), "YZ": (1, 2, 0), "ZX": (2, 0, 1)}
+CANON = re.compile(r"^\s*\d+ N\.\.\.\.\. (\w+)\((.*)\)$")
+
+
+def ncgen(tmp_path, setup, *args):
+    """Writes the set-up file, runs ncgen; returns (exit code, stdout, stderr)."""
+    assert NCGEN, "set BALLPOD_NCGEN to the ncgen binary"
+    f = tmp_path / "setup.toml"
+    f.write_text("[setup]\n" + "".join(f"{k} = {v!r}\n" if isinstance(v, str) else f"{k} = {v}\n"
+                                       for k, v in setup.items()))
+    p = subprocess.run([NCGEN, str(f), *args], capture_output=True, text=True, timeout=60)
+    return p.returncode, p.stdout, p.stderr
+
+
+def interpret(tmp_path, program):
+    """rs274 -g on the program; every output line must be a canonical command."""
+    f = tmp_path / "test.ngc"
+    f.write_text(program)
+    p = subprocess.run(["rs274", "-g", str(f)], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stdout + p.stderr
+    cmds = []
+    for line in p.stdout.splitlines():
+        if line.strip() in ("", "executing"):
+            continue
+        m = CANON.match(line)
+        assert m, f"rs274 said: {line}"
+        args = [a.strip() for a in m.group(2).split(",")] if m.group(2) else []
+        cmds.append((m.group(1), args))
+    return cmds
+
+
+def motion(cmds):
+    """The moves: (kind, start, end, centre, rotation, feed) in X Y Z, plane from SELECT_PLANE."""
+    pos, plane, feed, moves = [0.0, 0.0, 0.0], None, None, []
+    for name, a in cmds:
+        if name == "SELECT_PLANE":
+            plane = a[0]
+        elif name == "SET_FEED_RATE":
+            feed = float(a[0])
+        elif name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
+            end = [float(x) for x in a[:3]]
+            moves.append((name, pos, end, None, 0, feed, plane))
+            pos = end
+        elif name == "ARC_FEED":
+            first, second, normal = CANON_PLANES[plane]
+            end, centre = [0.0] * 3, list(pos)
+            end[first], end[second], end[normal] = float(a[0]), float(a[1]), float(a[5])
+            centre[first], centre[second] = float(a[2]), float(a[3])
+            moves.append(("ARC_FEED", pos, end, centre, int(a[4]), feed, plane))
+            pos = end
+    return moves
+
+
+def angle(p, c, plane):
+    """Angle of p about c in the pod's plane (u towards v), degrees."""
+    u, v, _ = POD_PLANES[plane]
+    return math.degrees(math.atan2(p[v] - c[v], p[u] - c[u]))
+
+
+def span(move, plane):
+    """Signed angle an arc sweeps, degrees (a full turn when its ends coincide)."""
+    _, start, end, centre, rot, _, _ = move
+    d = angle(end, centre, plane) - angle(start, centre, plane)
+    if rot > 0:
+        d = d % 360.0 or 360.0
+    else:
+        d = -((-d) % 360.0 or 360.0)
+    return d
+
+
+CASES = [
+    # plane, centre (x, y, z; None: not set), radius, feed, start, arc
+    ("XY", (0.0, 0.0, None), 150.0, 1000.0, 0.0, 360.0),
+    ("XY", (12.5, -40.0, -20.0), 100.0, 2000.0, 30.0, 220.0),
+    ("YZ", (5.0, 0.0, 300.0), 150.0, 1000.0, 0.0, 360.0),
+    ("YZ", (None, 10.0, 250.0), 150.0, 500.0, -45.0, 90.0),
+    ("ZX", (0.0, 0.0, 200.0), 150.0, 1000.0, 0.0, 360.0),
+    ("ZX", (-30.0, 7.0, 180.0), 300.0, 1500.0, 90.0, 220.0),
+]
+
+
+@pytest.mark.parametrize("plane,centre,radius,feed,start,arc", CASES)
+def test_programs_are_accepted_and_trace_the_nominal_circle(tmp_path, plane, centre, radius, feed,
+                                                            start, arc):
+    setup = {"circle_plane": plane, "circle_radius": radius, "circle_feed": feed}
+    for k, c in zip("xyz", centre):
+        if c is not None:
+            setup[f"circle_centre_{k}"] = c
+    rc, program, err = ncgen(tmp_path, setup, "--start-deg", str(start), "--arc-deg", str(arc))
+    assert rc == 0, err
+    moves = motion(interpret(tmp_path, program))
+    u, v, w = POD_PLANES[plane]
+    canon_plane = {"XY": "CANON_PLANE_XY", "YZ": "CANON_PLANE_YZ", "ZX": "CANON_PLANE_XZ"}[plane]
+    def r_of(m):
+        return math.hypot(m[1][u] - m[3][u], m[1][v] - m[3][v])
+    arcs = [m for m in moves if m[0] == "ARC_FEED" and abs(r_of(m) - radius) < 0.01]
+    assert len(arcs) == 4, "data arc and overshoot, CCW then CW"
+    # between the runs: back to the feed-in point along the path just run, at the feed-in
+    # radius (never a straight move across the circle, which would crush the bar)
+    back = [m for m in moves if m[0] == "ARC_FEED" and abs(r_of(m) - radius) >= 0.01]
+    assert len(back) == 1
+    assert r_of(back[0]) == pytest.approx(radius + 1.0, abs=TOL_MM)
+    assert back[0][4] == -1, "CW: retracing the CCW run"
+    assert span(back[0], plane) == pytest.approx(-((arc + 45.0) % 360.0), abs=1e-4)
+    assert moves[moves.index(back[0]) - 1][0] == "STRAIGHT_FEED", "after the CCW feed-out"
+    assert not any(m[0] == "STRAIGHT_TRAVERSE" for m in moves[moves.index(arcs[0]):]), \
+        "no rapid once the bar is on"
+    for k, (direction, rot) in enumerate([("CCW", 1), ("CW", -1)]):
+        data, over = arcs[2 * k], arcs[2 * k + 1]
+        for m in (data, over):
+            assert m[6] == canon_plane
+            assert m[4] == rot, f"{direction}: rotation"
+            assert m[5] == pytest.approx(feed), "feed"
+            for axis in (u, v):
+                assert m[3][axis] == pytest.approx(centre[axis], abs=TOL_MM), "centre"
+            for p in (m[1], m[2]):
+                r = math.hypot(p[u] - m[3][u], p[v] - m[3][v])
+                assert r == pytest.approx(radius, abs=TOL_MM), "radius"
+                if centre[w] is not None:
+                    assert p[w] == pytest.approx(centre[w], abs=TOL_MM), "out of plane"
+        a0 = angle(data[1], data[3], plane)
+        assert (a0 - start + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=1e-4), "start"
+        assert span(data, plane) == pytest.approx(rot * arc, abs=1e-4), "data arc"
+        assert span(over, plane) == pytest.approx(rot * 45.0, abs=1e-4), "overshoot"
+        # the radial feed-in before the data arc and the feed-out after the overshoot
+        i = moves.index(data)
+        feed_in, feed_out = moves[i - 1], moves[i + 2]
+        assert feed_in[0] == feed_out[0] == "STRAIGHT_FEED"
+        for m, on_circle, outside in ((feed_in, feed_in[2], feed_in[1]), (feed_out, feed_out[1], feed_out[2])):
+            c = data[3]
+            assert math.hypot(outside[u] - c[u], outside[v] - c[v]) == pytest.approx(radius + 1.0, abs=TOL_MM)
+            assert math.hypot(on_circle[u] - c[u], on_circle[v] - c[v]) == pytest.approx(radius, abs=TOL_MM)
+            assert angle(outside, c, plane) == pytest.approx(angle(on_circle, c, plane), abs=1e-4), "radial"
+
+
+@pytest.mark.parametrize("setup,field", [
+    ({"circle_plane": "XY", "circle_centre_x": 0.0, "circle_centre_y": 0.0, "circle_feed": 1000.0}, "circle_radius"),
+    ({"circle_plane": "XY", "circle_centre_x": 0.0, "circle_radius": 150.0, "circle_feed": 1000.0}, "circle_centre_y"),
+    ({"circle_plane": "ZX", "circle_centre_x": 0.0, "circle_centre_y": 0.0, "circle_radius": 150.0,
+      "circle_feed": 1000.0}, "circle_centre_z"),
+    ({"circle_plane": "XY", "circle_centre_x": 0.0, "circle_centre_y": 0.0, "circle_radius": 150.0}, "circle_feed"),
+])
+def test_a_set_up_the_machine_cannot_run_is_refused_naming_the_field(tmp_path, setup, field):
+    out = tmp_path / "never.ngc"
+    rc, program, err = ncgen(tmp_path, setup, "--out", str(out))
+    assert rc == 1 and program == ""
+    assert field in err, err
+    assert not out.exists(), "nothing written"
+
+
+def test_options_out_of_range_are_refused(tmp_path):
+    setup = {"circle_plane": "XY", "circle_centre_x": 0.0, "circle_centre_y": 0.0,
+             "circle_radius": 150.0, "circle_feed": 1000.0}
+    for opt, value in [("--arc-deg", "0"), ("--arc-deg", "361"), ("--overshoot-deg", "-1"),
+                       ("--feed-in-mm", "0")]:
+        rc, program, err = ncgen(tmp_path, setup, opt, value)
+        assert rc == 1 and program == "" and opt in err, (opt, err)

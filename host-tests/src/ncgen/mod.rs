@@ -1,0 +1,311 @@
+//! Part programs for the pod's tests (`cargo ncgen`): the machine moves through the test the
+//! pod measures. Today: the ISO 230-4 circle (full or partial arc) in XY, YZ or ZX, CCW and CW,
+//! from the pod's own set-up (`circle_*` fields), in two dialects ([`Dialect`]: LinuxCNC and
+//! ISO/Fanuc), every dialect difference in `dialect.rs`.
+//!
+//! A circle test per direction, as ball-bar users know it: rapid to the **feed-in** point (the
+//! start angle, `feed_in_mm` outside the radius: the bar extended), a radial feed move onto the
+//! circle, the **data arc** (`arc_deg` from `start_deg`, measured from the plane's first axis
+//! towards its second, the pod's convention), the **overshoot** arc (`overshoot_deg` further,
+//! so that the data arc is not cut by the reversal of the start and stop), and a radial
+//! **feed-out**; the next run returns to its feed-in point along the path just run, at the
+//! feed-in radius (a straight move would cut the circle and crush the bar). The machine is at
+//! the first feed-in point when the bar is mounted. The pod's run covers the data arc (armed before, started on it or by the CNC,
+//! stopped at its end); comments mark where it begins and ends.
+
+mod dialect;
+
+pub use dialect::Dialect;
+
+use std::fmt::Write as _;
+
+use ballpod::app::Direction;
+use ballpod::config::{CirclePlane, Config};
+
+/// Why a test cannot be programmed (the set-up field or option named).
+#[derive(Clone, Debug, PartialEq)]
+pub struct NcError {
+    /// The configuration field or command-line option.
+    pub field: &'static str,
+    /// What is wrong with it.
+    pub what: String,
+}
+
+impl std::fmt::Display for NcError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}: {}", self.field, self.what)
+    }
+}
+
+/// How the circle is run (the command line's options; the geometry is the set-up's).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CircleOptions {
+    /// Start of the data arc, degrees from the plane's first axis towards its second.
+    pub start_deg: f64,
+    /// Span of the data arc, degrees (0 < span ≤ 360).
+    pub arc_deg: f64,
+    /// Arc run past the data arc's end before feeding out, degrees (0 … 180).
+    pub overshoot_deg: f64,
+    /// Radial feed-in and feed-out distance, mm (0.1 … 10; the bar's stroke is ±1.1 mm at
+    /// the LVDT, so a feed-in beyond it moves a magnetic-socket bar, not the LVDT).
+    pub feed_in_mm: f64,
+    /// The runs, in order.
+    pub directions: Vec<Direction>,
+}
+
+impl Default for CircleOptions {
+    /// A full circle from 0°, 45° overshoot, 1 mm feed-in, CCW then CW.
+    fn default() -> Self {
+        Self {
+            start_deg: 0.0,
+            arc_deg: 360.0,
+            overshoot_deg: 45.0,
+            feed_in_mm: 1.0,
+            directions: vec![Direction::Ccw, Direction::Cw],
+        }
+    }
+}
+
+/// A circle test ready to be written: the set-up's geometry checked, the options checked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CircleTest {
+    /// Plane of the circle.
+    pub plane: CirclePlane,
+    /// Centre (the socket), mm; the out-of-plane coordinate may be unknown (not moved).
+    pub centre_mm: [Option<f64>; 3],
+    /// Radius (the bar length), mm.
+    pub radius_mm: f64,
+    /// Feed, mm/min.
+    pub feed_mm_per_min: f64,
+    /// The options.
+    pub options: CircleOptions,
+}
+
+/// Axis indices (0 X, 1 Y, 2 Z) of a plane's first and second axis and its normal.
+pub fn plane_axes(plane: CirclePlane) -> (usize, usize, usize) {
+    match plane {
+        CirclePlane::XY => (0, 1, 2),
+        CirclePlane::YZ => (1, 2, 0),
+        CirclePlane::ZX => (2, 0, 1),
+    }
+}
+
+impl CircleTest {
+    /// The test of the set-up in `cfg` with `options`: the circle's radius, feed and in-plane
+    /// centre must be set and positive (finite); the options in their ranges.
+    pub fn from_config(cfg: &Config, options: CircleOptions) -> Result<Self, NcError> {
+        let t = &cfg.setup;
+        let (u, v, _) = plane_axes(t.circle_plane);
+        let set = |x: f32| Some(f64::from(x)).filter(|x| x.is_finite());
+        let mut centre_mm = [None; 3];
+        for (k, name) in [(u, "circle_centre"), (v, "circle_centre")] {
+            let c = t.circle_centre_mm.get(k).copied().and_then(set);
+            centre_mm[k] = Some(c.ok_or(NcError {
+                field: name,
+                what: format!("circle_centre_{} not set", ["x", "y", "z"][k]),
+            })?);
+        }
+        let (_, _, w) = plane_axes(t.circle_plane);
+        centre_mm[w] = t.circle_centre_mm.get(w).copied().and_then(set);
+        let positive = |x: f32, field: &'static str| match set(x) {
+            Some(x) if x > 0.0 => Ok(x),
+            _ => Err(NcError {
+                field,
+                what: format!("{x} mm: must be set and > 0"),
+            }),
+        };
+        let radius_mm = positive(t.circle_radius_mm, "circle_radius")?;
+        let feed_mm_per_min = positive(t.circle_feed_mm_per_min, "circle_feed")?;
+        let range = |x: f64, lo: f64, hi: f64, open_lo: bool, field: &'static str| {
+            let ok = x.is_finite() && (if open_lo { x > lo } else { x >= lo }) && x <= hi;
+            if ok {
+                Ok(())
+            } else {
+                let l = if open_lo { "(" } else { "[" };
+                Err(NcError {
+                    field,
+                    what: format!("{x} outside {l}{lo}, {hi}]"),
+                })
+            }
+        };
+        let o = &options;
+        range(o.start_deg, -360.0, 360.0, false, "--start-deg")?;
+        range(o.arc_deg, 0.0, 360.0, true, "--arc-deg")?;
+        range(o.overshoot_deg, 0.0, 180.0, false, "--overshoot-deg")?;
+        range(o.feed_in_mm, 0.1, 10.0, false, "--feed-in-mm")?;
+        if o.directions.is_empty() {
+            return Err(NcError {
+                field: "--direction",
+                what: "no direction".into(),
+            });
+        }
+        Ok(Self {
+            plane: t.circle_plane,
+            centre_mm,
+            radius_mm,
+            feed_mm_per_min,
+            options,
+        })
+    }
+
+    /// The point at angle `deg` and distance `r_mm` from the centre, in the plane, mm (the
+    /// out-of-plane coordinate is the centre's, if known).
+    pub fn point(&self, deg: f64, r_mm: f64) -> [Option<f64>; 3] {
+        let (u, v, _) = plane_axes(self.plane);
+        let mut p = self.centre_mm;
+        let (s, c) = deg.to_radians().sin_cos();
+        p[u] = p[u].map(|x| x + r_mm * c);
+        p[v] = p[v].map(|x| x + r_mm * s);
+        p
+    }
+
+    /// The part program in `dialect`.
+    pub fn program(&self, dialect: Dialect) -> String {
+        let o = &self.options;
+        let mut out = String::new();
+        let names: Vec<&str> = o.directions.iter().map(|d| d.name()).collect();
+        let axis = ["X", "Y", "Z"];
+        let centre: Vec<String> = self
+            .centre_mm
+            .iter()
+            .zip(axis)
+            .map(|(c, a)| match c {
+                Some(c) => format!("{a} {}", num(*c)),
+                None => format!("{a} as set"),
+            })
+            .collect();
+        let header = [
+            format!(
+                "ballpod ISO 230-4 circle test, plane {}, {}",
+                CirclePlane::NAMES[self.plane as usize],
+                names.join(" then ")
+            ),
+            format!(
+                "radius {} mm, centre {}, feed {} mm/min",
+                num(self.radius_mm),
+                centre.join(" "),
+                num(self.feed_mm_per_min)
+            ),
+            format!(
+                "data arc {} deg from {} deg, overshoot {} deg, feed-in {} mm",
+                num(o.arc_deg),
+                num(o.start_deg),
+                num(o.overshoot_deg),
+                num(o.feed_in_mm)
+            ),
+            format!(
+                "pod set-up: pattern CIRCLE, circle_plane {}, circle_radius {}, circle_feed {}",
+                CirclePlane::NAMES[self.plane as usize],
+                num(self.radius_mm),
+                num(self.feed_mm_per_min)
+            ),
+            "the pod runs one test per direction: arm it before each data arc".into(),
+        ];
+        dialect.begin(&mut out, &header);
+        let _ = writeln!(out, "{}", dialect.modal(self.plane));
+        let (_, _, w) = plane_axes(self.plane);
+        if let Some(z) = self.centre_mm[w] {
+            let _ = writeln!(out, "G0 {}{}", axis[w], num(z));
+        }
+        let r = self.radius_mm;
+        let out_r = r + o.feed_in_mm;
+        // where the previous run fed out: its direction and angle
+        let mut previous: Option<(Direction, f64)> = None;
+        for d in &o.directions {
+            let sign = match d {
+                Direction::Ccw => 1.0,
+                Direction::Cw => -1.0,
+            };
+            let data_end = o.start_deg + sign * o.arc_deg;
+            let over_end = data_end + sign * o.overshoot_deg;
+            match previous {
+                None => {
+                    dialect.comment(
+                        &mut out,
+                        &format!(
+                            "{} run: feed-in; mount the bar at this point before the start",
+                            d.name()
+                        ),
+                    );
+                    let _ = writeln!(out, "G0 {}", self.words(o.start_deg, out_r));
+                }
+                Some((back, at)) => {
+                    // back to the start along the path just run, at the feed-in radius: the
+                    // bar stays within its stroke (a straight move would cut the circle)
+                    dialect.comment(&mut out, &format!("{} run: back to the feed-in", d.name()));
+                    let back = match back {
+                        Direction::Ccw => Direction::Cw,
+                        Direction::Cw => Direction::Ccw,
+                    };
+                    if (o.arc_deg + o.overshoot_deg) % 360.0 != 0.0 {
+                        self.arc_at(&mut out, back, at, o.start_deg, out_r);
+                    }
+                }
+            }
+            let _ = writeln!(
+                out,
+                "G1 {} F{}",
+                self.words(o.start_deg, r),
+                num(self.feed_mm_per_min)
+            );
+            dialect.comment(&mut out, &format!("{} data arc start", d.name()));
+            self.arc(&mut out, *d, o.start_deg, data_end);
+            dialect.comment(&mut out, &format!("{} data arc end, overshoot", d.name()));
+            if o.overshoot_deg > 0.0 {
+                self.arc(&mut out, *d, data_end, over_end);
+            }
+            dialect.comment(&mut out, &format!("{} feed-out", d.name()));
+            let _ = writeln!(out, "G1 {}", self.words(over_end, out_r));
+            previous = Some((*d, over_end));
+        }
+        dialect.end(&mut out);
+        out
+    }
+
+    /// The address words of the in-plane axes at angle `deg`, radius `r_mm`.
+    fn words(&self, deg: f64, r_mm: f64) -> String {
+        let (u, v, _) = plane_axes(self.plane);
+        let p = self.point(deg, r_mm);
+        let axis = ["X", "Y", "Z"];
+        // XY and YZ in axis order, ZX as X then Z (the usual order of words)
+        let mut ks = [u, v];
+        ks.sort_unstable();
+        ks.iter()
+            .map(|&k| format!("{}{}", axis[k], num(p[k].unwrap_or(0.0))))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+
+    /// One arc block on the circle from `from_deg` to `to_deg` (|span| ≤ 360°: equal ends is
+    /// a full circle) with the centre as incremental offsets from the start point.
+    fn arc(&self, out: &mut String, d: Direction, from_deg: f64, to_deg: f64) {
+        self.arc_at(out, d, from_deg, to_deg, self.radius_mm);
+    }
+
+    /// The same at radius `r_mm`.
+    fn arc_at(&self, out: &mut String, d: Direction, from_deg: f64, to_deg: f64, r_mm: f64) {
+        let (u, v, _) = plane_axes(self.plane);
+        let g = match d {
+            Direction::Ccw => "G3",
+            Direction::Cw => "G2",
+        };
+        let start = self.point(from_deg, r_mm);
+        let offset = ["I", "J", "K"];
+        let mut ks = [u, v];
+        ks.sort_unstable();
+        let centre: Vec<String> = ks
+            .iter()
+            .map(|&k| {
+                let o = self.centre_mm[k].unwrap_or(0.0) - start[k].unwrap_or(0.0);
+                format!("{}{}", offset[k], num(o))
+            })
+            .collect();
+        let _ = writeln!(out, "{g} {} {}", self.words(to_deg, r_mm), centre.join(" "));
+    }
+}
+
+/// A coordinate as the programs write it: 4 decimals (0.1 µm), `-0` as `0`.
+pub fn num(x: f64) -> String {
+    let s = format!("{x:.4}");
+    if s == "-0.0000" { "0.0000".into() } else { s }
+}

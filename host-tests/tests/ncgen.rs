@@ -1,0 +1,175 @@
+//! The part-program generator: the ISO/Fanuc circle programs against reviewed golden files
+//! (`tests/data/nc/`), the LinuxCNC programs differing from them only where the dialect does,
+//! and a set-up the machine cannot run refused with the field named. (LinuxCNC's interpreter
+//! checks the programs' geometry: `host-tests/nc/test_rs274.py`.)
+use std::path::Path;
+
+use ballpod::app::Direction;
+use ballpod::config::{CirclePlane, Config};
+use ballpod_host::ncgen::{CircleOptions, CircleTest, Dialect};
+
+fn setup(plane: CirclePlane, centre: [f32; 3], radius: f32, feed: f32) -> Config {
+    let mut c = Config::default();
+    c.setup.circle_plane = plane;
+    c.setup.circle_centre_mm = centre;
+    c.setup.circle_radius_mm = radius;
+    c.setup.circle_feed_mm_per_min = feed;
+    c
+}
+
+/// The golden cases: (file stem, set-up, options).
+fn cases() -> Vec<(&'static str, Config, CircleOptions)> {
+    vec![
+        (
+            "circle_xy_full",
+            setup(CirclePlane::XY, [0.0, 0.0, f32::NAN], 150.0, 1000.0),
+            CircleOptions::default(),
+        ),
+        (
+            "circle_zx_220",
+            setup(CirclePlane::ZX, [-30.0, 7.0, 180.0], 300.0, 1500.0),
+            CircleOptions {
+                start_deg: 90.0,
+                arc_deg: 220.0,
+                directions: vec![Direction::Cw],
+                ..CircleOptions::default()
+            },
+        ),
+    ]
+}
+
+#[test]
+fn fanuc_programs_match_their_reviewed_golden_files() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nc");
+    for (stem, cfg, options) in cases() {
+        let program = CircleTest::from_config(&cfg, options)
+            .unwrap()
+            .program(Dialect::Fanuc);
+        let path = dir.join(format!("{stem}.{}", Dialect::Fanuc.extension()));
+        let golden = std::fs::read_to_string(&path).unwrap_or_default();
+        assert_eq!(program, golden, "{} differs", path.display());
+    }
+}
+
+#[test]
+fn linuxcnc_programs_differ_only_in_the_dialect() {
+    // the framing (%, the O number, M2 / M30) and the comments' letter case
+    let body = |p: &str| -> Vec<String> {
+        p.lines()
+            .filter(|l| !matches!(*l, "%" | "O1000" | "M2" | "M30"))
+            .map(str::to_ascii_uppercase)
+            .collect()
+    };
+    for (stem, cfg, options) in cases() {
+        let t = CircleTest::from_config(&cfg, options).unwrap();
+        let (l, f) = (t.program(Dialect::LinuxCnc), t.program(Dialect::Fanuc));
+        assert_eq!(body(&l), body(&f), "{stem}");
+        assert!(l.ends_with("M2\n") && f.ends_with("M30\n%\n"), "{stem}");
+        assert!(f.starts_with("%\nO1000\n"), "{stem}");
+    }
+}
+
+#[test]
+fn a_set_up_the_machine_cannot_run_is_refused_with_the_field() {
+    let ok = setup(CirclePlane::XY, [0.0, 0.0, 0.0], 150.0, 1000.0);
+    let field = |cfg: &Config, o: CircleOptions| CircleTest::from_config(cfg, o).unwrap_err().field;
+    let d = CircleOptions::default;
+    let mut c = ok;
+    c.setup.circle_radius_mm = 0.0;
+    assert_eq!(field(&c, d()), "circle_radius");
+    c = ok;
+    c.setup.circle_radius_mm = f32::NAN;
+    assert_eq!(field(&c, d()), "circle_radius");
+    c = ok;
+    c.setup.circle_feed_mm_per_min = -5.0;
+    assert_eq!(field(&c, d()), "circle_feed");
+    c = ok;
+    c.setup.circle_centre_mm[1] = f32::NAN;
+    let e = CircleTest::from_config(&c, d()).unwrap_err();
+    assert_eq!(
+        (e.field, e.what.as_str()),
+        ("circle_centre", "circle_centre_y not set")
+    );
+    // the out-of-plane coordinate may be unknown: that axis is not moved
+    c = ok;
+    c.setup.circle_centre_mm[2] = f32::NAN;
+    let p = CircleTest::from_config(&c, d())
+        .unwrap()
+        .program(Dialect::LinuxCnc);
+    assert!(!p.lines().any(|l| l.starts_with("G0 Z")), "{p}");
+    for (o, name) in [
+        (
+            CircleOptions {
+                arc_deg: 0.0,
+                ..d()
+            },
+            "--arc-deg",
+        ),
+        (
+            CircleOptions {
+                arc_deg: 400.0,
+                ..d()
+            },
+            "--arc-deg",
+        ),
+        (
+            CircleOptions {
+                overshoot_deg: 181.0,
+                ..d()
+            },
+            "--overshoot-deg",
+        ),
+        (
+            CircleOptions {
+                feed_in_mm: f64::NAN,
+                ..d()
+            },
+            "--feed-in-mm",
+        ),
+        (
+            CircleOptions {
+                directions: vec![],
+                ..d()
+            },
+            "--direction",
+        ),
+    ] {
+        assert_eq!(field(&ok, o), name);
+    }
+}
+
+/// README's example: its set-up file and command, as a user runs them.
+#[test]
+fn the_readme_example_writes_its_program() {
+    let section = ballpod_host::readme::from("## Part programs");
+    let toml = ballpod_host::readme::block_after("## Part programs", "toml");
+    // the example command (the first `cargo ncgen -- …` of the section is its synopsis)
+    let command = section
+        .split_once("`cargo ncgen -- circle.toml")
+        .expect("the command")
+        .1
+        .split_once('`')
+        .expect("its end")
+        .0;
+    let command = format!("circle.toml{command}");
+    let dir = std::env::temp_dir().join(format!("ballpod-ncgen-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("circle.toml"), &toml).unwrap();
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_ncgen"))
+        .args(command.split_whitespace())
+        .current_dir(&dir)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let program = std::fs::read_to_string(dir.join("circle.ngc")).unwrap();
+    // the set-up read from the file: the centre's Z moved to, the radius and the arc in the
+    // header, one data arc of 220° per direction
+    assert!(program.contains("\nG0 Z-20.0000\n"), "{program}");
+    assert!(program.contains("radius 150.0000 mm"), "{program}");
+    assert!(
+        program.contains("data arc 220.0000 deg from 30.0000 deg"),
+        "{program}"
+    );
+    assert_eq!(program.matches("data arc start").count(), 2);
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -1390,16 +1390,31 @@ fn pulled_download_is_byte_for_byte_the_streamed_one() {
         let mut b = bench_with_log();
         b.scpi.set_pull_download(true);
         let mut got = b.raw(b"*OPC?;DATA:LOG?\n");
-        assert!(got.starts_with(b"1;#"), "only the header in feed");
+        assert_eq!(
+            got, b"1",
+            "feed sends what came before; the pulls count, then send"
+        );
         assert!(b.scpi.download_pending());
         let mut buf = vec![0u8; size];
-        loop {
+        // the block's length is counted a few lines a pull (0 bytes), then the header goes out
+        // alone, then the CSV
+        let mut counting_pulls = 0;
+        while b.scpi.download_pending() {
             let n = b.scpi.pull_download(&b.log, &mut buf);
             if n == 0 {
-                break;
+                assert!(b.scpi.download_header_pending());
+                counting_pulls += 1;
             }
             got.extend_from_slice(&buf[..n]);
         }
+        // the CSV's lines (the block's terminator is the last `\n`)
+        let lines = whole.iter().filter(|&&c| c == b'\n').count() - 1;
+        assert_eq!(
+            counting_pulls,
+            lines / ballpod::protocol::scpi::COUNT_LINES_PER_PULL,
+            "lines counted {} a pull",
+            ballpod::protocol::scpi::COUNT_LINES_PER_PULL
+        );
         assert!(!b.scpi.download_pending());
         assert_eq!(got, whole, "buffer of {size} bytes");
     }

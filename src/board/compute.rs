@@ -189,8 +189,13 @@ pub async fn compute_task(
         });
         // A pulled log download goes out as the command port takes it.
         let mut packet = [0u8; state::PACKET];
+        // (0 bytes: the block's length is being counted, a few lines a pull: the task goes round
+        // its loop, samples first, and counts on at the next turn)
         while scpi.download_pending() && state::USB_TX.free_capacity() >= state::PACKET {
             let n = scpi.pull_download(&log, &mut packet);
+            if n == 0 {
+                break;
+            }
             usb_out(packet.get(..n).unwrap_or(&[]));
         }
         // The stream's text goes out as the stream port takes it.

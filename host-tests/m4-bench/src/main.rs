@@ -32,8 +32,9 @@ use core::sync::atomic::{AtomicU32, Ordering};
 
 use ballpod::acquisition::lvdt::{BlockReading, ExcitationTable, LvdtReading, demodulate};
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
+use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::seed002::{Procedure, Setup};
-use ballpod::app::{App, Command, Direction as RunDirection, Pattern};
+use ballpod::app::{App, Command, Direction as RunDirection, Pattern, Recorder};
 use ballpod::config::Config;
 use ballpod::identify::lsq::GivensLsq;
 use ballpod::metrology::circle_fit::CircleEstimate;
@@ -42,6 +43,7 @@ use ballpod::metrology::iso230_4::{CircularTest, Direction};
 use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
 use ballpod::metrology::ssm::SsmGeometry;
 use ballpod::metrology::ssm::streaming::{StreamingConfig, StreamingSsm};
+use ballpod::protocol::scpi::ScpiServer;
 
 /// SysTick ticks per 10 instructions (25.6 per instruction).
 pub(crate) const TICKS_PER_10_INSN: u32 = 256;
@@ -577,6 +579,50 @@ fn main() -> ! {
         max_insns: None,
         min_ratio: None,
     });
+
+    // ---- a log download: the application task's longest pull ---------------------------------
+    // The firmware's log (600 records) filled with the circle's samples, decimated as on the
+    // pod; `DATA:LOG?` in pull mode; every pull as the application task makes it (64-byte USB
+    // packets): the counting pulls, the header, the CSV. The longest one is how long a
+    // download can hold up the task (and so the samples behind it).
+    {
+        let mut log: SampleLog<LOG_CAPACITY> = SampleLog::new();
+        let app = started_app(Pattern::Circle, &samples[0]);
+        log.begin_run(app.run_meta());
+        for k in 0..6 {
+            for s in samples.iter() {
+                let mut s = *s;
+                s.seq += (k * data::N) as u32;
+                log.sample(&s);
+            }
+        }
+        let mut app = app;
+        let mut scpi = ScpiServer::new();
+        scpi.set_pull_download(true);
+        scpi.feed(b"DATA:LOG?\n", &mut app, &log, &mut |_: &[u8]| {});
+        let (mut pulls, mut longest, mut total) = (0u32, 0u32, 0u64);
+        let mut packet = [0u8; 64];
+        while scpi.download_pending() {
+            let (_, n) = measure(|| scpi.pull_download(&log, &mut packet));
+            let n = n.saturating_sub(empty);
+            pulls += 1;
+            longest = longest.max(n);
+            total += u64::from(n);
+        }
+        hprintln!();
+        hprintln!(
+            "| log download (DATA:LOG? of {} records, 64-byte pulls) | pulls | longest pull, insns | all pulls, insns |",
+            log.len()
+        );
+        hprintln!("|---|---|---|---|");
+        hprintln!(
+            "| counting {} lines a pull, then the header, then the CSV | {} | {} | {} |",
+            ballpod::protocol::scpi::COUNT_LINES_PER_PULL,
+            pulls,
+            longest,
+            total
+        );
+    }
 
     // ---- interrupt-masked sections of the firmware's queues ----------------------------------
     masked::report();

@@ -442,13 +442,19 @@ impl<const N: usize> VirtualPod<N> {
     }
 
     /// Bytes from the USB host on the command port: the response bytes (of a `DATA:LOG?` only
-    /// its block header; pull the rest with [`pull_download`](Self::pull_download)).
+    /// its block header, once counted as the firmware counts it, pull by pull; pull the rest
+    /// with [`pull_download`](Self::pull_download)).
     pub fn usb(&mut self, bytes: &[u8]) -> Vec<u8> {
         let mut response = Vec::new();
         self.scpi
             .feed(bytes, &mut self.app, &*self.log, &mut |b: &[u8]| {
                 response.extend_from_slice(b)
             });
+        let mut header = [0u8; 64];
+        while self.scpi.download_header_pending() {
+            let n = self.scpi.pull_download(&*self.log, &mut header);
+            response.extend_from_slice(&header[..n]);
+        }
         self.after_commands();
         response
     }

@@ -97,11 +97,24 @@ pub struct ScpiCounters {
 }
 
 /// A log download in pull mode: where it stands, and the metadata it started with.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct Download {
     cursor: CsvCursor,
     meta: RunMeta,
+    /// While the block's length is counted (pull mode: a few lines per pull, so the
+    /// application task never formats the whole log at once): the counting pass's cursor and
+    /// the bytes so far. The header `#<n><len>` goes out when it is done (after a `;` if the
+    /// line had responses before it).
+    counting: Option<(CsvCursor, usize, bool)>,
+    /// The header once counted, and how much of it has gone out.
+    header: Text<32>,
+    header_sent: usize,
 }
+
+/// Lines the counting pass of a pulled download formats per pull: a record line is ≈ 10 k
+/// instructions on the M4 (`cargo bench-m4`), so a pull holds the application task ≈ 0.5 ms,
+/// within the 4-block queue ahead of it.
+pub const COUNT_LINES_PER_PULL: usize = 8;
 
 /// One SCPI session (one USB CDC-ACM port or TCP connection): line buffer, status model and
 /// error queue. RAM: [`LINE_CAPACITY`] + the error queue (16 × 24 B on the host, 16 × 12 B on
@@ -218,13 +231,52 @@ impl ScpiServer {
         self.download.is_some()
     }
 
+    /// True while a pulled download has not yet sent its whole block header: its length is
+    /// being counted ([`pull_download`](Self::pull_download) returns 0 meanwhile) or the header
+    /// is going out.
+    pub fn download_header_pending(&self) -> bool {
+        self.download
+            .as_ref()
+            .is_some_and(|d| d.counting.is_some() || d.header_sent < d.header.len())
+    }
+
     /// The next bytes of a pending log download (pull mode), at most `buf.len()` (give at least
-    /// 1 byte); 0 when nothing is pending. The log must not change until it returns 0 (the
+    /// 1 byte): first its block header, once a few pulls have counted the block's length
+    /// (0 bytes meanwhile: [`download_header_pending`](Self::download_header_pending)), then the
+    /// CSV and the final `\n`; 0 when nothing is pending. The log must not change until it returns 0 (the
     /// block length was announced): pause logging while [`download_pending`](Self::download_pending).
     pub fn pull_download<const N: usize>(&mut self, log: &SampleLog<N>, buf: &mut [u8]) -> usize {
         let Some(d) = self.download.as_mut() else {
             return 0;
         };
+        if let Some((cursor, bytes, separate)) = d.counting.as_mut() {
+            // the block's length first, [`COUNT_LINES_PER_PULL`] lines at a time
+            let mut done = false;
+            for _ in 0..COUNT_LINES_PER_PULL {
+                if !cursor.next_line(log, &d.meta, &mut |l| *bytes += l.len()) {
+                    done = true;
+                    break;
+                }
+            }
+            if !done {
+                return 0;
+            }
+            d.header.clear();
+            if *separate {
+                push_bytes(&mut d.header, b";");
+            }
+            push_block_header(&mut d.header, *bytes);
+            d.counting = None;
+        }
+        if let Some(rest) = d.header.get(d.header_sent..).filter(|r| !r.is_empty()) {
+            // the header alone (a pull that ends it sends nothing else)
+            let n = rest.len().min(buf.len());
+            if let (Some(dst), Some(src)) = (buf.get_mut(..n), rest.get(..n)) {
+                dst.copy_from_slice(src);
+            }
+            d.header_sent += n;
+            return n;
+        }
         let mut n = d.cursor.fill(log, &d.meta, buf);
         if d.cursor.is_done(log)
             && let Some(b) = buf.get_mut(n)
@@ -506,6 +558,16 @@ fn numeric_or_keyword(p: &[u8], min: f64, max: f64, default: f64) -> Result<f64,
     numeric(p)
 }
 
+/// Appends the header of an IEEE 488.2 §8.7.9 definite length arbitrary block of `len` bytes:
+/// `#`, the number of length digits, the length.
+fn push_block_header<const C: usize>(r: &mut Text<C>, len: usize) {
+    let mut digits: Text<24> = Text::new();
+    push_u64(&mut digits, len as u64);
+    push_bytes(r, b"#");
+    push_u64(r, digits.len() as u64);
+    push_bytes(r, &digits);
+}
+
 /// Appends counters comma-separated; with `device`, a figure not measured ([`NOT_MEASURED`])
 /// as NaN.
 fn push_counters<const C: usize>(r: &mut Text<C>, values: &[u32], device: bool) {
@@ -541,6 +603,15 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
     /// Sends the rest of a pulled download through `out` (more input arrived first).
     fn finish_download(&mut self) {
         if let Some(mut d) = self.download.take() {
+            if let Some((_, _, separate)) = d.counting {
+                // input arrived while the length was still being counted: the whole block now
+                d.header.clear();
+                if separate {
+                    push_bytes(&mut d.header, b";");
+                }
+                push_block_header(&mut d.header, csv_len(self.log, &d.meta));
+            }
+            (self.out)(d.header.get(d.header_sent..).unwrap_or(&[]));
             let out = &mut *self.out;
             while d.cursor.next_line(self.log, &d.meta, &mut |l| out(l)) {}
             out(b"\n");
@@ -1095,23 +1166,21 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             }
             Command::DataLog => {
                 none()?;
-                // IEEE 488.2 §8.7.9 definite length arbitrary block: `#`, the number of length
-                // digits, the length, the bytes. The length comes from a counting pass.
                 // The run's metadata if the application recorded it at arm, else the pod's now.
                 let meta = self.log.meta().copied().unwrap_or(*self.app.run_meta());
-                let len = csv_len(self.log, &meta);
-                let mut digits: Text<24> = Text::new();
-                push_u64(&mut digits, len as u64);
-                push_bytes(&mut r, b"#");
-                push_u64(&mut r, digits.len() as u64);
-                push_bytes(&mut r, &digits);
-                self.respond(&r);
                 if self.pull_mode {
+                    // the length is counted by the pulls, which send the header when it is known
                     *self.download = Some(Download {
                         cursor: CsvCursor::new(),
                         meta,
+                        counting: Some((CsvCursor::new(), 0, self.responded)),
+                        header: Text::new(),
+                        header_sent: 0,
                     });
+                    self.responded = true;
                 } else {
+                    push_block_header(&mut r, csv_len(self.log, &meta));
+                    self.respond(&r);
                     let out = &mut *self.out;
                     write_csv(self.log, &meta, &mut |chunk| out(chunk));
                 }

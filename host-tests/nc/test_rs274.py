@@ -30,7 +30,7 @@ def ncgen(tmp_path, setup, *args):
     f = tmp_path / "setup.toml"
     f.write_text("[setup]\n" + "".join(f"{k} = {v!r}\n" if isinstance(v, str) else f"{k} = {v}\n"
                                        for k, v in setup.items()))
-    p = subprocess.run([NCGEN, str(f), *args], capture_output=True, text=True, timeout=60)
+    p = subprocess.run([NCGEN, "circle", str(f), *args], capture_output=True, text=True, timeout=60)
     return p.returncode, p.stdout, p.stderr
 
 
@@ -177,3 +177,68 @@ def test_options_out_of_range_are_refused(tmp_path):
                        ("--feed-in-mm", "0")]:
         rc, program, err = ncgen(tmp_path, setup, opt, value)
         assert rc == 1 and program == "" and opt in err, (opt, err)
+
+
+SPHERES = [
+    # centre (stylus-ball centre on the sphere), contact radius, B, C
+    ((10.0, -20.0, 35.0), 14.2, 0.0, 0.0),
+    ((-150.0, 42.5, 310.0), 14.2, 90.0, 0.0),
+    ((0.0, 0.0, 0.0), 8.0, 0.0, 270.0),
+]
+
+
+@pytest.mark.parametrize("centre,contact,b,c", SPHERES)
+def test_sphere_programs_probe_along_the_normals_and_nothing_else_nears_the_sphere(
+        tmp_path, centre, contact, b, c):
+    assert NCGEN, "set BALLPOD_NCGEN to the ncgen binary"
+    p = subprocess.run([NCGEN, "sphere", "--centre", *map(str, centre), "--contact-radius",
+                        str(contact), "--b-deg", str(b), "--c-deg", str(c)],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+    cmds = interpret(tmp_path, p.stdout)
+    # every canonical move with its start and end (A B C are arguments 4-6)
+    pos, moves = [0.0] * 6, []
+    for name, a in cmds:
+        if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED", "STRAIGHT_PROBE"):
+            end = [float(x) for x in a[:6]]
+            moves.append((name, pos, end))
+            pos = end
+    probes = [m for m in moves if m[0] == "STRAIGHT_PROBE"]
+    assert len(probes) == 9, "nine touches"
+    normals = set()
+    for _, start, end in probes:
+        assert (start[4], start[5]) == (pytest.approx(b), pytest.approx(c)), "B, C held"
+        ds = math.dist(start[:3], centre)
+        de = math.dist(end[:3], centre)
+        assert ds == pytest.approx(contact + 0.5, abs=TOL_MM), "from 0.5 mm outside"
+        assert de == pytest.approx(contact - 0.5, abs=TOL_MM), "to 0.5 mm inside"
+        n = [(s - k) / ds for s, k in zip(start[:3], centre)]
+        m = [(e - k) / de for e, k in zip(end[:3], centre)]
+        assert all(abs(x - y) < 1e-5 for x, y in zip(n, m)), "along the normal"
+        assert n[2] > -1e-9, "upper hemisphere (the stem blocks the lower)"
+        normals.add(tuple(round(x, 4) for x in n))
+    assert len(normals) == 9, "nine different normals"
+    # no move but a probing one and its retract comes inside the contact sphere plus the
+    # clearance (after the first two: the rotary axes turning and the rapid over the sphere,
+    # from wherever the program starts)
+    assert [m[0] for m in moves[:2]] == ["STRAIGHT_TRAVERSE"] * 2
+    assert moves[0][2][:3] == moves[0][1][:3], "the rotary axes turn alone first"
+    for k, (name, start, end) in enumerate(moves):
+        if k < 2 or name == "STRAIGHT_PROBE":
+            continue
+        if moves[k - 1][0] == "STRAIGHT_PROBE":
+            # the retract from wherever the probe stopped (the interpreter assumes the end
+            # point; the stylus stops at the contact): back to that touch's approach point
+            assert end[:3] == pytest.approx(moves[k - 1][1][:3], abs=TOL_MM), "retract"
+            continue
+        d = [e - s for s, e in zip(start[:3], end[:3])]
+        dd = sum(x * x for x in d)
+        t = 0.0 if dd == 0 else max(0.0, min(1.0, sum((k - s) * x for s, k, x in zip(start[:3], centre, d)) / dd))
+        closest = [s + t * x for s, x in zip(start[:3], d)]
+        assert math.dist(closest, centre) >= contact + 0.5 - TOL_MM, (name, start, end)
+
+
+def test_a_sphere_with_no_size_is_refused(tmp_path):
+    p = subprocess.run([NCGEN, "sphere", "--centre", "0", "0", "0", "--contact-radius", "0"],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 1 and p.stdout == "" and "--contact-radius" in p.stderr

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use ballpod::app::Direction;
 use ballpod::config::{CirclePlane, Config};
-use ballpod_host::ncgen::{CircleOptions, CircleTest, Dialect};
+use ballpod_host::ncgen::{CircleOptions, CircleTest, Dialect, SphereTest};
 
 fn setup(plane: CirclePlane, centre: [f32; 3], radius: f32, feed: f32) -> Config {
     let mut c = Config::default();
@@ -51,6 +51,23 @@ fn fanuc_programs_match_their_reviewed_golden_files() {
     }
 }
 
+/// The sphere measurement's golden case.
+fn sphere() -> SphereTest {
+    SphereTest::new([10.0, -20.0, 35.0], 14.2, [90.0, 0.0]).unwrap()
+}
+
+#[test]
+fn the_fanuc_sphere_program_matches_its_reviewed_golden_file() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nc/sphere_b90.nc");
+    let golden = std::fs::read_to_string(&path).unwrap_or_default();
+    assert_eq!(
+        sphere().program(Dialect::Fanuc),
+        golden,
+        "{}",
+        path.display()
+    );
+}
+
 #[test]
 fn linuxcnc_programs_differ_only_in_the_dialect() {
     // the framing (%, the O number, M2 / M30) and the comments' letter case
@@ -60,6 +77,17 @@ fn linuxcnc_programs_differ_only_in_the_dialect() {
             .map(str::to_ascii_uppercase)
             .collect()
     };
+    // and the probing word (G38.2 / G31)
+    let sphere_body = |p: &str| -> Vec<String> { body(&p.replace("G38.2 ", "G31 ")) };
+    let (l, f) = (
+        sphere().program(Dialect::LinuxCnc),
+        sphere().program(Dialect::Fanuc),
+    );
+    assert_eq!(sphere_body(&l), sphere_body(&f));
+    assert_eq!(
+        (l.matches("G38.2 ").count(), f.matches("G31 ").count()),
+        (9, 9)
+    );
     for (stem, cfg, options) in cases() {
         let t = CircleTest::from_config(&cfg, options).unwrap();
         let (l, f) = (t.program(Dialect::LinuxCnc), t.program(Dialect::Fanuc));
@@ -145,13 +173,13 @@ fn the_readme_example_writes_its_program() {
     let toml = ballpod_host::readme::block_after("## Part programs", "toml");
     // the example command (the first `cargo ncgen -- …` of the section is its synopsis)
     let command = section
-        .split_once("`cargo ncgen -- circle.toml")
+        .split_once("`cargo ncgen -- circle circle.toml")
         .expect("the command")
         .1
         .split_once('`')
         .expect("its end")
         .0;
-    let command = format!("circle.toml{command}");
+    let command = format!("circle circle.toml{command}");
     let dir = std::env::temp_dir().join(format!("ballpod-ncgen-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();
     std::fs::write(dir.join("circle.toml"), &toml).unwrap();

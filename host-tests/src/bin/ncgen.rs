@@ -1,15 +1,16 @@
-//! `cargo ncgen -- SETUP [options]`: the part program of a test, from the pod's set-up (a
-//! TOML / JSON file with a `[setup]` table of configuration fields, as replay's session files):
-//! today the ISO 230-4 circle (`circle_plane`, `circle_centre_*`, `circle_radius`,
-//! `circle_feed`), for LinuxCNC or an ISO/Fanuc control. Prints the program, or writes it with
-//! `--out`. A set-up the machine cannot run is refused with the field named; nothing is written.
+//! `cargo ncgen -- circle SETUP [options]` / `cargo ncgen -- sphere --centre X Y Z [options]`:
+//! the part program of a test, for LinuxCNC or an ISO/Fanuc control: the ISO 230-4 circle from
+//! the pod's set-up (a TOML / JSON file with a `[setup]` table of configuration fields, as
+//! replay's session files: `circle_plane`, `circle_centre_*`, `circle_radius`, `circle_feed`),
+//! or a touch-probe sphere measurement. Prints the program, or writes it with `--out`. A set-up
+//! the machine cannot run is refused with the field named; nothing is written.
 
 use std::path::PathBuf;
 
-use clap::{Parser, ValueEnum};
+use clap::{Parser, Subcommand, ValueEnum};
 
 use ballpod::app::Direction;
-use ballpod_host::ncgen::{CircleOptions, CircleTest, Dialect};
+use ballpod_host::ncgen::{CircleOptions, CircleTest, Dialect, SphereTest};
 use ballpod_host::session_file::{read_text, setup_config};
 
 /// The control the program is for.
@@ -32,15 +33,34 @@ enum Directions {
     Cw,
 }
 
-/// The part program of an ISO 230-4 circle test from the pod's set-up.
+/// Part programs for the pod's tests.
 #[derive(Parser, Debug)]
 #[command(name = "cargo ncgen", version)]
 struct Args {
+    /// Control dialect.
+    #[arg(long, value_enum, default_value = "linuxcnc", global = true)]
+    dialect: DialectArg,
+    /// Output file (default: standard output).
+    #[arg(long, global = true)]
+    out: Option<PathBuf>,
+    #[command(subcommand)]
+    test: Test,
+}
+
+/// The test to program.
+#[derive(Subcommand, Debug)]
+enum Test {
+    /// An ISO 230-4 circle from the pod's set-up file.
+    Circle(CircleArgs),
+    /// A touch-probe sphere measurement (pattern PROBE): nine touches along the normals.
+    Sphere(SphereArgs),
+}
+
+/// The circle's options (the geometry is the set-up's).
+#[derive(clap::Args, Debug)]
+struct CircleArgs {
     /// Set-up file (.toml or .json) with a `[setup]` table of configuration fields.
     setup: PathBuf,
-    /// Control dialect.
-    #[arg(long, value_enum, default_value = "linuxcnc")]
-    dialect: DialectArg,
     /// Runs, in order.
     #[arg(long, value_enum, default_value = "both")]
     direction: Directions,
@@ -56,9 +76,23 @@ struct Args {
     /// Radial feed-in / feed-out distance, mm (0.1 … 10).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     feed_in_mm: f64,
-    /// Output file (default: standard output).
-    #[arg(long)]
-    out: Option<PathBuf>,
+}
+
+/// The sphere's place (as the stylus ball's centre) and size.
+#[derive(clap::Args, Debug)]
+struct SphereArgs {
+    /// Sphere centre X, Y, Z (the stylus ball's centre on it), mm.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true, required = true)]
+    centre: Vec<f64>,
+    /// Sphere radius plus stylus ball radius, mm.
+    #[arg(long, default_value_t = 14.2, allow_negative_numbers = true)]
+    contact_radius: f64,
+    /// B during the measurement, degrees.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    b_deg: f64,
+    /// C during the measurement, degrees.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    c_deg: f64,
 }
 
 fn main() {
@@ -85,25 +119,35 @@ fn main() {
 }
 
 fn run(args: &Args) -> Result<String, String> {
-    let text = read_text(&args.setup).map_err(|e| e.to_string())?;
-    let cfg = setup_config(&args.setup, &text).map_err(|e| e.to_string())?;
-    let directions = match args.direction {
-        Directions::Both => vec![Direction::Ccw, Direction::Cw],
-        Directions::Ccw => vec![Direction::Ccw],
-        Directions::Cw => vec![Direction::Cw],
-    };
-    let options = CircleOptions {
-        start_deg: args.start_deg,
-        arc_deg: args.arc_deg,
-        overshoot_deg: args.overshoot_deg,
-        feed_in_mm: args.feed_in_mm,
-        directions,
-    };
-    let test = CircleTest::from_config(&cfg, options)
-        .map_err(|e| format!("{}: {e}", args.setup.display()))?;
     let dialect = match args.dialect {
         DialectArg::Linuxcnc => Dialect::LinuxCnc,
         DialectArg::Fanuc => Dialect::Fanuc,
     };
-    Ok(test.program(dialect))
+    match &args.test {
+        Test::Circle(c) => {
+            let text = read_text(&c.setup).map_err(|e| e.to_string())?;
+            let cfg = setup_config(&c.setup, &text).map_err(|e| e.to_string())?;
+            let directions = match c.direction {
+                Directions::Both => vec![Direction::Ccw, Direction::Cw],
+                Directions::Ccw => vec![Direction::Ccw],
+                Directions::Cw => vec![Direction::Cw],
+            };
+            let options = CircleOptions {
+                start_deg: c.start_deg,
+                arc_deg: c.arc_deg,
+                overshoot_deg: c.overshoot_deg,
+                feed_in_mm: c.feed_in_mm,
+                directions,
+            };
+            let test = CircleTest::from_config(&cfg, options)
+                .map_err(|e| format!("{}: {e}", c.setup.display()))?;
+            Ok(test.program(dialect))
+        }
+        Test::Sphere(s) => {
+            let centre = [0, 1, 2].map(|k| s.centre.get(k).copied().unwrap_or(f64::NAN));
+            let test = SphereTest::new(centre, s.contact_radius, [s.b_deg, s.c_deg])
+                .map_err(|e| e.to_string())?;
+            Ok(test.program(dialect))
+        }
+    }
 }

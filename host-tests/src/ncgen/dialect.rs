@@ -59,6 +59,15 @@ impl Dialect {
         format!("G21 G90 G94 {g}")
     }
 
+    /// The probing move's G-code: LinuxCNC's straight probe (`G38.2`: an error if the probe
+    /// does not trip), an ISO/Fanuc control's skip (`G31`).
+    pub fn probe_word(self) -> &'static str {
+        match self {
+            Self::LinuxCnc => "G38.2",
+            Self::Fanuc => "G31",
+        }
+    }
+
     /// The program's end.
     pub fn end(self, out: &mut String) {
         match self {

@@ -1,7 +1,8 @@
 //! Part programs for the pod's tests (`cargo ncgen`): the machine moves through the test the
 //! pod measures. Today: the ISO 230-4 circle (full or partial arc) in XY, YZ or ZX, CCW and CW,
-//! from the pod's own set-up (`circle_*` fields), in two dialects ([`Dialect`]: LinuxCNC and
-//! ISO/Fanuc), every dialect difference in `dialect.rs`.
+//! from the pod's own set-up (`circle_*` fields), and the touch-probe sphere measurement
+//! ([`SphereTest`]), in two dialects ([`Dialect`]: LinuxCNC and ISO/Fanuc), every dialect
+//! difference in `dialect.rs`.
 //!
 //! A circle test per direction, as ball-bar users know it: rapid to the **feed-in** point (the
 //! start angle, `feed_in_mm` outside the radius: the bar extended), a radial feed move onto the
@@ -14,8 +15,10 @@
 //! stopped at its end); comments mark where it begins and ends.
 
 mod dialect;
+mod sphere;
 
 pub use dialect::Dialect;
+pub use sphere::SphereTest;
 
 use std::fmt::Write as _;
 

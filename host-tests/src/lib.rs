@@ -1,6 +1,7 @@
 //! Host side of ballpod: independent f64 oracles, the virtual machine tool and the simulator.
 
 pub mod app_state;
+pub mod cli;
 pub mod flash_model;
 pub mod forward_seed000;
 pub mod forward_seed001;

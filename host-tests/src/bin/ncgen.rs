@@ -96,11 +96,7 @@ struct SphereArgs {
 }
 
 fn main() {
-    let mut raw: Vec<String> = std::env::args().collect();
-    if raw.get(1).is_some_and(|a| a == "--") {
-        raw.remove(1);
-    }
-    let args = Args::parse_from(raw);
+    let args: Args = ballpod_host::cli::parse();
     match run(&args) {
         Ok(program) => match &args.out {
             Some(p) => {

@@ -71,12 +71,7 @@ fn log(n: usize) -> Vec<(Sample, Direction)> {
 }
 
 fn main() {
-    // `cargo replay-bench -- --samples N` hands the binary a leading `--`: both spellings work
-    let mut raw: Vec<String> = std::env::args().collect();
-    if raw.get(1).is_some_and(|a| a == "--") {
-        raw.remove(1);
-    }
-    let args = <Args as clap::Parser>::parse_from(raw);
+    let args: Args = ballpod_host::cli::parse();
     let (n, repeat) = (args.samples as usize, args.repeat as usize);
     let samples = log(n);
     let fit_cfg = CircleFitConfig {

@@ -27,11 +27,7 @@ struct Args {
 }
 
 fn main() {
-    let mut raw: Vec<String> = std::env::args().collect();
-    if raw.get(1).is_some_and(|a| a == "--") {
-        raw.remove(1);
-    }
-    let args = Args::parse_from(raw);
+    let args: Args = ballpod_host::cli::parse();
     if let Err(e) = run(&args) {
         eprintln!("replay: {e}");
         std::process::exit(1);

@@ -73,13 +73,7 @@ fn non_negative(s: &str) -> Result<f64, String> {
 }
 
 fn main() {
-    // `cargo sim -- --seed 3` hands the binary a leading `--` (the alias already ends in one):
-    // drop it, so both spellings work.
-    let mut raw: Vec<String> = std::env::args().collect();
-    if raw.get(1).is_some_and(|a| a == "--") {
-        raw.remove(1);
-    }
-    let args = Args::parse_from(raw);
+    let args: Args = ballpod_host::cli::parse();
     let result = if args.serve { serve(&args) } else { run(&args) };
     if let Err(e) = result {
         eprintln!("sim: {e}");

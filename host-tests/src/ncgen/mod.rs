@@ -100,16 +100,16 @@ impl CircleTest {
         let t = &cfg.setup;
         let (u, v, _) = plane_axes(t.circle_plane);
         let set = |x: f32| Some(f64::from(x)).filter(|x| x.is_finite());
-        let mut centre_mm = [None; 3];
-        for (k, name) in [(u, "circle_centre"), (v, "circle_centre")] {
-            let c = t.circle_centre_mm.get(k).copied().and_then(set);
-            centre_mm[k] = Some(c.ok_or(NcError {
-                field: name,
-                what: format!("circle_centre_{} not set", ["x", "y", "z"][k]),
-            })?);
+        // the normal's coordinate may stay unknown (that axis is not moved); u and v may not
+        let centre_mm = t.circle_centre_mm.map(set);
+        for k in [u, v] {
+            if centre_mm[k].is_none() {
+                return Err(NcError {
+                    field: "circle_centre",
+                    what: format!("circle_centre_{} not set", ["x", "y", "z"][k]),
+                });
+            }
         }
-        let (_, _, w) = plane_axes(t.circle_plane);
-        centre_mm[w] = t.circle_centre_mm.get(w).copied().and_then(set);
         let positive = |x: f32, field: &'static str| match set(x) {
             Some(x) if x > 0.0 => Ok(x),
             _ => Err(NcError {
@@ -265,15 +265,19 @@ impl CircleTest {
         out
     }
 
+    /// The in-plane axes in the order words are written: XY and YZ in axis order, ZX as X
+    /// then Z (the usual order).
+    fn word_axes(&self) -> [usize; 2] {
+        let (u, v, _) = plane_axes(self.plane);
+        [u.min(v), u.max(v)]
+    }
+
     /// The address words of the in-plane axes at angle `deg`, radius `r_mm`.
     fn words(&self, deg: f64, r_mm: f64) -> String {
-        let (u, v, _) = plane_axes(self.plane);
         let p = self.point(deg, r_mm);
         let axis = ["X", "Y", "Z"];
-        // XY and YZ in axis order, ZX as X then Z (the usual order of words)
-        let mut ks = [u, v];
-        ks.sort_unstable();
-        ks.iter()
+        self.word_axes()
+            .iter()
             .map(|&k| format!("{}{}", axis[k], num(p[k].unwrap_or(0.0))))
             .collect::<Vec<_>>()
             .join(" ")
@@ -287,16 +291,14 @@ impl CircleTest {
 
     /// The same at radius `r_mm`.
     fn arc_at(&self, out: &mut String, d: Direction, from_deg: f64, to_deg: f64, r_mm: f64) {
-        let (u, v, _) = plane_axes(self.plane);
         let g = match d {
             Direction::Ccw => "G3",
             Direction::Cw => "G2",
         };
         let start = self.point(from_deg, r_mm);
         let offset = ["I", "J", "K"];
-        let mut ks = [u, v];
-        ks.sort_unstable();
-        let centre: Vec<String> = ks
+        let centre: Vec<String> = self
+            .word_axes()
             .iter()
             .map(|&k| {
                 let o = self.centre_mm[k].unwrap_or(0.0) - start[k].unwrap_or(0.0);

@@ -256,6 +256,11 @@ impl Sensors {
         self.t_us += self.period_us() * u64::from(n);
     }
 
+    /// Sample periods lost upstream so far (the cumulative count the pod is handed).
+    pub fn lost_total(&self) -> u32 {
+        self.lost_total
+    }
+
     /// A probe edge now with the counters latched at `axes` (mm / degrees): (time µs, raw
     /// counters), for `App::on_probe_edge`.
     pub fn probe_edge(&self, axes: &[f64; MAX_AXES]) -> (u64, [u32; MAX_AXES]) {

@@ -124,8 +124,6 @@ pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     serving: bool,
     /// Sample periods still to lose upstream (queue overrun), from the next step on.
     losing: u32,
-    /// Sample periods lost upstream so far (device counter `adc_blocks_lost`).
-    lost_upstream: u32,
     /// Samples not logged because a download was in progress (`log_paused_samples`).
     log_paused_samples: u32,
     /// The probe level (seated) the application sees each period.
@@ -177,7 +175,6 @@ impl<const N: usize> VirtualPod<N> {
             probe_runs: 0,
             serving: false,
             losing: 0,
-            lost_upstream: 0,
             log_paused_samples: 0,
             probe_seated: true,
             at: [0.0; MAX_AXES],
@@ -299,7 +296,6 @@ impl<const N: usize> VirtualPod<N> {
         self.at = *axes;
         if self.losing > 0 {
             self.losing -= 1;
-            self.lost_upstream = self.lost_upstream.wrapping_add(1);
             self.sensors.lose_samples(1);
             self.app.set_device_counters(self.device_counters());
             let now = self.proto_us();
@@ -343,7 +339,7 @@ impl<const N: usize> VirtualPod<N> {
     /// [`NOT_MEASURED`](ballpod::app::device::NOT_MEASURED) for the two figures).
     pub fn device_counters(&self) -> DeviceCounters {
         let mut c = DeviceCounters::START;
-        c.set(DeviceCounter::AdcBlocksLost, self.lost_upstream);
+        c.set(DeviceCounter::AdcBlocksLost, self.sensors.lost_total());
         c.set(
             DeviceCounter::StreamLinesDropped,
             self.stream.dropped_lines(),

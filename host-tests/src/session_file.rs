@@ -427,9 +427,12 @@ pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
         ("BOC", "arcsec"),
     ];
     let (v, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
+    // a parameter the path does not determine (fixed, or only in a combination with fixed
+    // ones) is NaN: not reported, like an invalid result
     Ok(NAMES
         .iter()
         .zip(v.iter().zip(u.iter()))
+        .filter(|(_, (v, _))| v.is_finite())
         .map(|((n, unit), (v, u))| Figure {
             name: format!("rtest_{n}"),
             value: *v as f32,

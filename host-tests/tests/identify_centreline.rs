@@ -78,7 +78,7 @@ fn c12_table_axis_direction_from_a0_a180_dial_points() {
         1e-9,
         "n2",
     );
-    let d = axis_direction_half_turn(n1.normal, n2.normal, Z).unwrap();
+    let d = axis_direction_half_turn(n1.normal, n2.normal, Z, 0.0).unwrap();
     // Table 1's A vector (seed 004) as the spec reproduces it.
     assert_close(
         &d.direction,
@@ -105,7 +105,7 @@ fn c11_published_vectors_are_unit_to_rounding_and_tilt_matches_paper() {
     // Table 1 of seed 004 fed as if it were n1 = n2 (a normal along the axis): the half-turn
     // method returns it normalised; its XZ tilt reproduces the paper's 0.094458°.
     let a = [-0.0016486, -0.0000389, 0.9999986];
-    let d = axis_direction_half_turn(a, a, Z).unwrap();
+    let d = axis_direction_half_turn(a, a, Z, 0.0).unwrap();
     let norm_a = (a[0] * a[0] + a[1] * a[1] + a[2] * a[2]).sqrt();
     assert!((norm_a - 0.99999996).abs() < 1e-7);
     let tilt_deg = (-d.direction[0] / d.direction[2]).atan().to_degrees();
@@ -119,7 +119,7 @@ fn c13_tilt_axis_perpendicular_face_quarter_turn() {
     let n4 = [-0.999999997, -7.779999976e-5, 0.0];
     let want = [-7.779999916e-5, 0.9999999892, 1.249999986e-4];
     // Commanded B+90 on a primed table axis = physical −90° about +Y.
-    let two = axis_direction_two_positions(n3, n4, 90.0, RotationSense::Primed, Y).unwrap();
+    let two = axis_direction_two_positions(n3, n4, 90.0, RotationSense::Primed, Y, 0.0).unwrap();
     assert_close(&two.perpendicular_assumption, &want, 1e-9, "k = 0 member");
     assert!(
         two.axial_cos_abs < 1e-6,
@@ -147,7 +147,7 @@ fn c14_two_positions_are_ambiguous_three_positions_are_not() {
     let n4 = [-0.99999999889, 4.7199998134e-5, 1.5624999627e-8];
     let d = [-7.78e-5, 0.99999998916, 1.25e-4];
     let d_alt = [1.722e-4, 0.99999997736, -1.25e-4];
-    let two = axis_direction_two_positions(n3, n4, 90.0, RotationSense::Primed, Y).unwrap();
+    let two = axis_direction_two_positions(n3, n4, 90.0, RotationSense::Primed, Y, 0.0).unwrap();
     let [c0, c1] = two.candidates;
     let (hit_d, hit_alt) = if max_diff(c0, d) < max_diff(c1, d) {
         (c0, c1)
@@ -424,6 +424,7 @@ fn round_trip_tilt_axis_from_dial_points_at_several_angles() {
             90.0,
             RotationSense::Primed,
             Y,
+            0.0,
         )
         .unwrap();
         let best = two
@@ -446,7 +447,7 @@ fn round_trip_table_axis_half_turn_and_centre_with_noise() {
         let g = GaugeFrame::FROM_PLUS_Z;
         let p1 = plane_normal(&dial_on_face(n0, &g, &grid, &mut || 0.0), &g).unwrap();
         let p2 = plane_normal(&dial_on_face(n180, &g, &grid, &mut || 0.0), &g).unwrap();
-        let est = axis_direction_half_turn(p1.normal, p2.normal, Z).unwrap();
+        let est = axis_direction_half_turn(p1.normal, p2.normal, Z, 0.0).unwrap();
         assert!(max_diff(est.direction, d) < 1e-12);
         // centre: vertex rotated about the (tilted) axis through c, at 4 table angles
         let c = [rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), 0.0];
@@ -612,15 +613,15 @@ fn bad_input_gets_typed_errors() {
     );
     // half turn with the face normal ⟂ axis: n1 + n2 = 0
     assert_eq!(
-        axis_direction_half_turn([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], Z),
+        axis_direction_half_turn([1.0, 0.0, 0.0], [-1.0, 0.0, 0.0], Z, 0.0),
         Err(CentrelineError::NormalPerpendicularToAxis)
     );
     assert_eq!(
-        axis_direction_half_turn([0.0; 3], Z, Z),
+        axis_direction_half_turn([0.0; 3], Z, Z, 0.0),
         Err(CentrelineError::ZeroVector)
     );
     assert_eq!(
-        axis_direction_half_turn(Z, Z, [1.0, 0.0, 0.0]),
+        axis_direction_half_turn(Z, Z, [1.0, 0.0, 0.0], 0.0),
         Err(CentrelineError::FarFromNominal)
     );
     // LSQ direction: the same normal three times does not fix an axis
@@ -641,13 +642,23 @@ fn bad_input_gets_typed_errors() {
     );
     // two positions: zero angle, and an angle too small for the change of the normal
     assert_eq!(
-        axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 0.0, RotationSense::Primed, Y),
+        axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 0.0, RotationSense::Primed, Y, 0.0),
         Err(CentrelineError::NoRotation)
     );
-    assert_eq!(
-        axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 10.0, RotationSense::Primed, Y),
-        Err(CentrelineError::InconsistentAngle)
-    );
+    assert!(matches!(
+        axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 10.0, RotationSense::Primed, Y, 0.0),
+        Err(CentrelineError::InconsistentAngle { .. })
+    ));
+    // a stated noise that is negative or not finite is refused by name
+    for bad in [-1.0, f64::NAN, f64::INFINITY] {
+        let field = CentrelineError::BadUncertainty {
+            field: "normal_std_urad",
+        };
+        assert_eq!(axis_direction_half_turn(Z, Z, Z, bad), Err(field));
+        let two =
+            axis_direction_two_positions(Z, [1.0, 0.0, 0.0], 90.0, RotationSense::Primed, Y, bad);
+        assert_eq!(two, Err(field));
+    }
     // centre: both positions at the same angle
     let pts = [
         PointAtAngle {
@@ -694,5 +705,112 @@ fn bad_input_gets_typed_errors() {
     assert_eq!(
         nc_correction(&nominal, &nominal, [f64::NAN; 3], 10.0, 0.0),
         Err(CentrelineError::NonFinite)
+    );
+}
+
+/// The tilt of `d` along the pair the centreline module reports for nominal +Y: (X, −Z).
+fn tilt_y(d: [f64; 3]) -> [f64; 2] {
+    [d[0], -d[2]]
+}
+
+/// Issue 14: seed 004's two-position method on noisy gauges (0.2–0.5 µm, 4 points ±50 mm, so
+/// each normal's tilt components have σ = noise·√2/100 mm). With a hard-coded k² limit it
+/// refused 4 of 9 machines and called a result 726 µrad off "ambiguity 0". Now, over 300
+/// machines (faces up to 2 mrad off perpendicular to the axis, the nearly perpendicular ones
+/// included): it refuses rarely and then states k² and its noise; when it answers, the truth
+/// is within 2u of a candidate in both tilt components in ≥ 95 % of the cases, and within the
+/// stated ambiguity of the k = 0 member.
+#[test]
+fn two_positions_with_gauge_noise_answer_within_u_or_refuse_with_the_noise() {
+    let mut rng = fw::SplitMix(404);
+    let grid = [(-50.0, 0.0), (50.0, 0.0), (0.0, -50.0), (0.0, 50.0)];
+    let (mut answered, mut covered, mut within_ambiguity, mut refused) = (0, 0, 0, 0);
+    for _ in 0..300 {
+        let noise_um = rng.range(0.2, 0.5);
+        let sigma_urad = noise_um * 2f64.sqrt() / 100.0 * 1e3;
+        let d = fw::normalize([rng.range(-2e-3, 2e-3), 1.0, rng.range(-2e-3, 2e-3)]);
+        let n0 = fw::normalize([rng.range(-2e-3, 2e-3), rng.range(-2e-3, 2e-3), 1.0]);
+        let mut normal_at = |b: f64| {
+            let n = fw::mul(fw::rodrigues(d, -b.to_radians()), n0);
+            let w = fw::mul(fw::rodrigues(Y, -b.to_radians()), Z);
+            let g = gauge_towards(w, Y);
+            let pts = dial_on_face(n, &g, &grid, &mut || noise_um * rng.normal());
+            plane_normal(&pts, &g).unwrap().normal
+        };
+        let (n3, n4) = (normal_at(0.0), normal_at(90.0));
+        match axis_direction_two_positions(n3, n4, 90.0, RotationSense::Primed, Y, sigma_urad) {
+            Ok(two) => {
+                answered += 1;
+                let t = tilt_y(d);
+                let hit = (0..2).any(|i| {
+                    let (c, u) = (tilt_y(two.candidates[i]), two.tilt_uncertainty_urad[i]);
+                    (0..2).all(|k| ((c[k] - t[k]) * 1e6).abs() <= 2.0 * u[k])
+                });
+                covered += usize::from(hit);
+                let m = two.perpendicular_assumption;
+                let off_urad = (m[0] - d[0]).hypot(m[2] - d[2]) * 1e6;
+                let u_mid = two.tilt_uncertainty_urad[0][0].hypot(two.tilt_uncertainty_urad[0][1]);
+                within_ambiguity += usize::from(off_urad <= two.ambiguity_urad / 2.0 + 2.0 * u_mid);
+            }
+            Err(CentrelineError::InconsistentAngle { k2, u_k2 }) => {
+                assert!(k2 < -3.0 * u_k2 && u_k2 > 0.0, "{k2} ± {u_k2}");
+                refused += 1;
+            }
+            Err(e) => panic!("{e:?}"),
+        }
+    }
+    println!(
+        "answered {answered}, covered {covered}, within ambiguity {within_ambiguity}, refused {refused}"
+    );
+    assert!(refused <= 3, "refused {refused} of 300");
+    assert!(
+        covered as f64 >= 0.95 * answered as f64,
+        "{covered} of {answered} within 2u"
+    );
+    assert!(
+        within_ambiguity as f64 >= 0.95 * answered as f64,
+        "{within_ambiguity} of {answered}"
+    );
+}
+
+/// The half turn's propagated u against the scatter of 300 noisy measurements (within 20 %),
+/// and U = 2u covering the truth in 95 % ± 3 %.
+#[test]
+fn half_turn_with_gauge_noise_states_an_honest_u() {
+    let mut rng = fw::SplitMix(180);
+    let grid = [(-50.0, 0.0), (50.0, 0.0), (0.0, -50.0), (0.0, 50.0)];
+    let noise_um = 0.3;
+    let sigma_urad = noise_um * 2f64.sqrt() / 100.0 * 1e3;
+    let (mut covered, mut e2, mut u2) = (0, 0.0, 0.0);
+    const RUNS: usize = 300;
+    for _ in 0..RUNS {
+        let d = fw::normalize([rng.range(-2e-3, 2e-3), rng.range(-2e-3, 2e-3), 1.0]);
+        let n0 = fw::normalize([rng.range(-1e-3, 1e-3), rng.range(-1e-3, 1e-3), 1.0]);
+        let n180 = fw::mul(fw::rodrigues(d, std::f64::consts::PI), n0);
+        let g = GaugeFrame::FROM_PLUS_Z;
+        let mut normal = |n| {
+            plane_normal(
+                &dial_on_face(n, &g, &grid, &mut || noise_um * rng.normal()),
+                &g,
+            )
+            .unwrap()
+            .normal
+        };
+        let (a, b) = (normal(n0), normal(n180));
+        let est = axis_direction_half_turn(a, b, Z, sigma_urad).unwrap();
+        // nominal Z: tilt components along (X, Y)
+        for k in 0..2 {
+            let e = (est.direction[k] - d[k]) * 1e6;
+            let u = est.tilt_uncertainty_urad[k];
+            covered += usize::from(e.abs() <= 2.0 * u);
+            e2 += e * e;
+            u2 += u * u;
+        }
+    }
+    let coverage = covered as f64 / (2 * RUNS) as f64;
+    let ratio = (u2 / e2).sqrt();
+    assert!(
+        (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
+        "coverage {coverage:.3}, rms u / rms error {ratio:.3}"
     );
 }

@@ -67,9 +67,20 @@ pub enum CentrelineError {
     /// line, or two distinct positions given to the ≥ 3-angle method), or the rotation angle is
     /// 0 (mod 360°) where a rotation is needed.
     NoRotation,
-    /// The two normals are farther apart than a rotation by the stated angle can make them
-    /// (`k² < 0` in the two-position closed form, beyond 1e-6 of noise): wrong angle.
-    InconsistentAngle,
+    /// The two normals are farther apart than a rotation by the stated angle can make them:
+    /// `k² < 0` in the two-position closed form by more than 3 standard uncertainties of the
+    /// normals' noise (wrong angle, wrong sense, or noise larger than stated).
+    InconsistentAngle {
+        /// The k² the normals gave.
+        k2: f64,
+        /// Its standard uncertainty from the stated normal noise.
+        u_k2: f64,
+    },
+    /// A stated input uncertainty (named) is negative or not finite.
+    BadUncertainty {
+        /// The parameter's name.
+        field: &'static str,
+    },
     /// The identified direction is more than 60° from the nominal axis (`d · nominal < 0.5`):
     /// wrong nominal axis or wrong normal orientation.
     FarFromNominal,
@@ -182,8 +193,11 @@ pub struct AxisDirection {
     pub direction: [f64; 3],
     /// `d · n` of the (first) face normal: the cosine of the normal-to-axis angle (k in B4).
     pub axial_cos: f64,
-    /// Standard uncertainty of the direction's two tilt components (about the two directions
-    /// perpendicular to the nominal axis), µrad; 0 when the method has no redundancy.
+    /// Standard uncertainty of the direction's two tilt components, µrad: its components
+    /// along the pair (p, q) perpendicular to the nominal axis e with (p, q, e) right-handed —
+    /// nominal Z: (X, Y); nominal Y: (X, −Z); nominal X: (Y, Z). The ≥ 3-position method states
+    /// it from its residual (0 without redundancy); the half turn propagates the stated normal
+    /// noise.
     pub tilt_uncertainty_urad: [f64; 2],
     /// RMS of the plane residuals `d · n_i − k` over the positions, µrad (0 without
     /// redundancy).
@@ -202,13 +216,21 @@ pub struct TwoPositionAxis {
     /// The two exact solutions of `n4 = R(d, θ)·n3` (the closed form with k = +|k|, then with
     /// k = −|k|), unit, each oriented with the nominal; identical when k = 0.
     pub candidates: [[f64; 3]; 2],
+    /// Standard uncertainty of each candidate's two tilt components (about the two directions
+    /// perpendicular to the nominal axis), µrad, from the stated normal noise.
+    pub tilt_uncertainty_urad: [[f64; 2]; 2],
     /// The k = 0 member (the face normal assumed perpendicular to the axis): what the corrected
     /// printed eqs 5–7 compute at θ = −90°; it is the normalised mid-point of the candidates.
     pub perpendicular_assumption: [f64; 3],
-    /// |k| = |d · n3|, the cosine of the normal-to-axis angle.
+    /// |k| = |d · n3|, the cosine of the normal-to-axis angle (0 when k² is at or below 0).
     pub axial_cos_abs: f64,
-    /// Angle between the two candidates, µrad: what two positions cannot decide (≈ 2√2·|k|
-    /// rad at 90°). Measure ≥ 3 positions ([`axis_direction_lsq`]) to remove it.
+    /// k² as the normals gave it (may be slightly negative from noise).
+    pub axial_cos_sq: f64,
+    /// Standard uncertainty of k² from the stated normal noise.
+    pub axial_cos_sq_uncertainty: f64,
+    /// Angle between the two candidates at the largest |k| the noise allows
+    /// (√(k² + 2u(k²))), µrad: what two positions cannot decide (≈ 2√2·|k| rad at 90°).
+    /// Measure ≥ 3 positions ([`axis_direction_lsq`]) to remove it.
     pub ambiguity_urad: f64,
 }
 
@@ -406,12 +428,15 @@ pub fn plane_normal(
 
 /// Axis direction from face normals at 0° and 180° (seed 004 eqs 1–3, corrected, B4):
 /// a half turn maps n1 to `n2 = 2(d·n1)d − n1`, hence `d = normalize(n1 + n2)`, oriented with
-/// the nominal axis. Needs `|d·n1| ≥` [`MIN_AXIAL_COS`] (a face not parallel to the axis);
-/// no redundancy, so no uncertainty.
+/// the nominal axis. Needs `|d·n1| ≥` [`MIN_AXIAL_COS`] (a face not parallel to the axis).
+/// No redundancy: the uncertainty is propagated from `normal_std_urad`, the standard
+/// uncertainty of each normal's two tilt components (µrad; e.g. the gauge's noise × √2 / the
+/// point spacing, or [`PlaneNormal::slope_uncertainty_urad`] with more than 3 points).
 pub fn axis_direction_half_turn(
     n1: [f64; 3],
     n2: [f64; 3],
     nominal: [f64; 3],
+    normal_std_urad: f64,
 ) -> Result<AxisDirection, CentrelineError> {
     if !(crate::num::all_finite(&n1)
         && crate::num::all_finite(&n2)
@@ -419,6 +444,7 @@ pub fn axis_direction_half_turn(
     {
         return Err(CentrelineError::NonFinite);
     }
+    let sigma = normal_sigma(normal_std_urad)?;
     let (n1, n2) = (unit(v3(n1))?, unit(v3(n2))?);
     let e = unit(v3(nominal))?;
     let s = n1.into_inner() + n2.into_inner();
@@ -426,10 +452,11 @@ pub fn axis_direction_half_turn(
         return Err(CentrelineError::NormalPerpendicularToAxis);
     }
     let d = orient(s / s.norm(), &e)?;
+    let half_turn = |a: &Vector3<f64>, b: &Vector3<f64>| orient((a + b).normalize(), &e);
     Ok(AxisDirection {
         direction: arr(&d),
         axial_cos: d.dot(&n1),
-        tilt_uncertainty_urad: [0.0; 2],
+        tilt_uncertainty_urad: propagate(&n1.into_inner(), &n2.into_inner(), sigma, &e, half_turn)?,
         residual_rms_urad: 0.0,
         angle_rms_deg: 0.0,
         positions: 2,
@@ -443,12 +470,21 @@ pub fn axis_direction_half_turn(
 /// Two positions leave the sign of k open: both solutions fit exactly. The k = 0 member is the
 /// corrected printed eqs 5–7 (θ = −90°, a face exactly perpendicular to the axis).
 /// `commanded_deg` is the angle of the second position minus the first, mapped by `sense`.
+///
+/// Noise: `normal_std_urad` is the standard uncertainty of each normal's two tilt components
+/// (µrad, as for [`axis_direction_half_turn`]). It gives u(k²) = σ·√(2(1 − (n3·n4)²))/(1 − cos θ);
+/// a k² below −3·u(k²) is refused (`InconsistentAngle` with both numbers), a k² within the noise
+/// of 0 is taken as 0, and the ambiguity is that of the largest |k| the noise allows
+/// (√(k² + 2u(k²))), so a face nearly perpendicular to the axis does not read "no ambiguity".
+/// Each candidate's tilt uncertainty combines σ propagated by perturbing the normals (k fixed)
+/// with the spread of the candidate over k² ± 2u(k²).
 pub fn axis_direction_two_positions(
     n3: [f64; 3],
     n4: [f64; 3],
     commanded_deg: f64,
     sense: RotationSense,
     nominal: [f64; 3],
+    normal_std_urad: f64,
 ) -> Result<TwoPositionAxis, CentrelineError> {
     if !(crate::num::all_finite(&n3)
         && crate::num::all_finite(&n4)
@@ -457,6 +493,7 @@ pub fn axis_direction_two_positions(
     {
         return Err(CentrelineError::NonFinite);
     }
+    let sigma = normal_sigma(normal_std_urad)?;
     let (n3, n4) = (unit(v3(n3))?, unit(v3(n4))?);
     let e = unit(v3(nominal))?;
     let theta = sense.physical_deg(commanded_deg).to_radians();
@@ -464,30 +501,113 @@ pub fn axis_direction_two_positions(
     if 1.0 - cos_t < 1e-12 {
         return Err(CentrelineError::NoRotation);
     }
-    let k2 = (n3.dot(&n4) - cos_t) / (1.0 - cos_t);
+    let c = n3.dot(&n4);
+    let k2 = (c - cos_t) / (1.0 - cos_t);
+    let u_k2 = sigma * crate::num::sqrt(2.0 * (1.0 - c * c).max(0.0)) / (1.0 - cos_t);
     // n3·n4 = k² + (1 − k²)·cos θ ≥ cos θ: a more negative k² means the normals moved more
     // than a rotation by θ can move them (small negative values are measurement noise).
-    if k2 < -1e-6 {
-        return Err(CentrelineError::InconsistentAngle);
+    if k2 < -3.0 * u_k2 - 1e-12 {
+        return Err(CentrelineError::InconsistentAngle { k2, u_k2 });
     }
-    let k = crate::num::sqrt(k2.clamp(0.0, 1.0));
     let (ch, sh) = (crate::num::cos(theta / 2.0), crate::num::sin(theta / 2.0));
-    let cross = n3.cross(&n4) * ch;
-    let sum = (n3.into_inner() + n4.into_inner()) * sh;
-    let plus = orient(unit(cross + sum * k)?.into_inner(), &e)?;
-    let minus = orient(unit(cross - sum * k)?.into_inner(), &e)?;
+    let solve = |a: &Vector3<f64>, b: &Vector3<f64>, sign: f64, k: Option<f64>| {
+        let k = k.unwrap_or_else(|| {
+            let k2 = (a.dot(b) - cos_t) / (1.0 - cos_t);
+            crate::num::sqrt(k2.clamp(0.0, 1.0))
+        });
+        let v = a.cross(b) * ch + (a + b) * (sh * k * sign);
+        orient(unit(v)?.into_inner(), &e)
+    };
+    let (n3v, n4v) = (n3.into_inner(), n4.into_inner());
+    let plus = solve(&n3v, &n4v, 1.0, None)?;
+    let minus = solve(&n3v, &n4v, -1.0, None)?;
     // At θ = ±180° the cross term vanishes and both candidates are ∥ n3 + n4.
-    let mid = match unit(cross) {
+    let mid = match unit(n3.cross(&n4) * ch) {
         Ok(m) => orient(m.into_inner(), &e)?,
         Err(_) => plus,
     };
-    let ambiguity = libm::atan2(plus.cross(&minus).norm(), plus.dot(&minus));
+    // k within the noise: k² ± 2u(k²), at least 0
+    let k = crate::num::sqrt(k2.clamp(0.0, 1.0));
+    let k_lo = crate::num::sqrt((k2 - 2.0 * u_k2).clamp(0.0, 1.0));
+    let k_wide = crate::num::sqrt((k2.max(0.0) + 2.0 * u_k2).min(1.0));
+    let wide = [1.0, -1.0].map(|sign| solve(&n3v, &n4v, sign, Some(k_wide)));
+    let ambiguity = match wide {
+        [Ok(p), Ok(m)] => libm::atan2(p.cross(&m).norm(), p.dot(&m)),
+        _ => libm::atan2(plus.cross(&minus).norm(), plus.dot(&minus)),
+    };
+    // each candidate's u: the normals' noise at fixed k, and k's own range (half the way to
+    // the farther end of k² ± 2u(k²)): near k = 0 the square root makes k far less certain
+    // than a linearisation says
+    let (p, q) = perpendicular_pair(&e);
+    let tilt = |d: &Vector3<f64>| [p.dot(d), q.dot(d)];
+    let candidate_u = |sign: f64| -> Result<[f64; 2], CentrelineError> {
+        let at_k = propagate(&n3v, &n4v, sigma, &e, |a, b| solve(a, b, sign, Some(k)))?;
+        let t = tilt(&solve(&n3v, &n4v, sign, Some(k))?);
+        let lo = tilt(&solve(&n3v, &n4v, sign, Some(k_lo))?);
+        let hi = tilt(&solve(&n3v, &n4v, sign, Some(k_wide))?);
+        let mut u = [0.0; 2];
+        for (((u, a), t), (l, h)) in u.iter_mut().zip(at_k).zip(t).zip(lo.into_iter().zip(hi)) {
+            let from_k = libm::fabs(h - t).max(libm::fabs(t - l)) / 2.0 * 1e6;
+            *u = crate::num::sqrt(a * a + from_k * from_k);
+        }
+        Ok(u)
+    };
     Ok(TwoPositionAxis {
         candidates: [arr(&plus), arr(&minus)],
+        tilt_uncertainty_urad: [candidate_u(1.0)?, candidate_u(-1.0)?],
         perpendicular_assumption: arr(&mid),
         axial_cos_abs: k,
+        axial_cos_sq: k2,
+        axial_cos_sq_uncertainty: u_k2,
         ambiguity_urad: ambiguity * 1e6,
     })
+}
+
+/// The normals' stated standard uncertainty, µrad → rad; refused if negative or not finite.
+fn normal_sigma(normal_std_urad: f64) -> Result<f64, CentrelineError> {
+    if normal_std_urad.is_finite() && normal_std_urad >= 0.0 {
+        Ok(normal_std_urad * 1e-6)
+    } else {
+        Err(CentrelineError::BadUncertainty {
+            field: "normal_std_urad",
+        })
+    }
+}
+
+/// Standard uncertainty (µrad) of the two tilt components (about the pair perpendicular to the
+/// nominal `e`) of a direction `f(a, b)` computed from two unit normals, each with two
+/// independent tilt components of standard uncertainty `sigma` (rad): central differences
+/// with a step of σ itself, so a non-linear method (the square root of a k² near 0) is
+/// followed over the noise's range rather than at a point.
+fn propagate(
+    a: &Vector3<f64>,
+    b: &Vector3<f64>,
+    sigma: f64,
+    e: &Unit<Vector3<f64>>,
+    f: impl Fn(&Vector3<f64>, &Vector3<f64>) -> Result<Vector3<f64>, CentrelineError>,
+) -> Result<[f64; 2], CentrelineError> {
+    if sigma == 0.0 {
+        return Ok([0.0; 2]);
+    }
+    let (p, q) = perpendicular_pair(e);
+    let tilt = |d: Vector3<f64>| [p.dot(&d), q.dot(&d)];
+    let mut var = [0.0f64; 2];
+    for which in 0..2 {
+        let n = if which == 0 { a } else { b };
+        let (t1, t2) = perpendicular_pair(&Unit::new_normalize(*n));
+        for t in [t1, t2] {
+            let step = |s: f64| {
+                let m = (n + t * (s * sigma)).normalize();
+                if which == 0 { f(&m, b) } else { f(a, &m) }
+            };
+            let (hi, lo) = (tilt(step(1.0)?), tilt(step(-1.0)?));
+            for (v, (h, l)) in var.iter_mut().zip(hi.iter().zip(lo.iter())) {
+                let dv = (h - l) / 2.0;
+                *v += dv * dv;
+            }
+        }
+    }
+    Ok(var.map(|v| crate::num::sqrt(v) * 1e6))
 }
 
 /// Signed angle (rad) from `a` to `b` about unit `d`, after projecting both onto the plane
@@ -652,7 +772,7 @@ pub fn axis_centre(
     Ok(AxisCentre {
         centre_mm: [sol.x[0] + origin[0], sol.x[1] + origin[1]],
         centre_uncertainty_um: [sol.std_uncertainty[0] * 1e3, sol.std_uncertainty[1] * 1e3],
-        radius_mm: libm::hypot(sol.x[2], sol.x[3]),
+        radius_mm: crate::num::hypot(sol.x[2], sol.x[3]),
         residual_rms_um: if redundant {
             sol.residual_rms * 1e3
         } else {

@@ -601,8 +601,12 @@ pub enum ReadingZero {
     /// nest zero and known ball position). A constant sensor-zero error is indistinguishable
     /// from the constant columns XOC, YOA, ZOA (−X, −Y, −Z): it ends up in them.
     Absolute,
-    /// Readings zeroed at the first sample (usual R-test practice): the model uses
-    /// `q_j − q_0 = (H_j − H_0)·a`; the constant columns XOC, YOA, ZOA vanish and are fixed.
+    /// Readings zeroed at the first sample (usual R-test practice), or with any unknown sensor
+    /// zero: the zero is a nuisance offset per axis, fitted rather than differenced — the rows
+    /// are centred on the path's mean, `q_j − q̄ = (H_j − H̄)·a`, which is the least-squares
+    /// estimate with the offsets as unknowns and a covariance-correct u (differencing against
+    /// the first pose made every row share that reading's noise, and u came out 3–10× too
+    /// small). The constant columns XOC, YOA, ZOA vanish and are fixed.
     FirstPose,
 }
 
@@ -710,13 +714,22 @@ impl From<LsqError> for RtestError {
 /// Result of an R-test identification.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RtestIdentification {
-    /// Estimated location and ball errors (µm / arc-seconds); fixed ones hold their fixed value.
+    /// Estimated location and ball errors (µm / arc-seconds); NaN where the path does not
+    /// determine the parameter: the fixed ones and those in [`Self::combined`].
     pub errors: LocationErrors,
     /// Standard uncertainty of each estimate (µm / arc-seconds) from the residual variance;
-    /// 0 for fixed parameters.
+    /// NaN where `errors` is NaN.
     pub std_uncertainty: LocationErrors,
     /// Parameters fixed because the path cannot separate them (empty when rank = 11).
     pub fixed: ParamSet,
+    /// Free parameters whose estimate moves with the fixed values: the path sees them only in
+    /// a combination with fixed ones (on K1, BOA − BOC = Z_c·XOC), so their own value is not
+    /// determined (K1 with XOC fixed at 0 read BOA as 262″ for a true −9.4″).
+    pub combined: ParamSet,
+    /// The solution the path's readings determine: fixed parameters at their fixed values and
+    /// the combined ones absorbing them. It predicts this path's readings (for [`verify`] on
+    /// the same kind of path), not the machine's parameters.
+    pub path_model: LocationErrors,
     /// Numerical rank of the 11-column problem before fixing (= 11 − number fixed).
     pub rank: usize,
     /// Condition number of the 11-column problem (columns in µm / arc-seconds); infinite when
@@ -740,18 +753,18 @@ pub struct Residuals {
 }
 
 /// Rows of one sample in the chosen zero convention: (gains 3×11 in µm per unit, readings µm).
-/// `first` = gains and reading of the first sample (used by `FirstPose`).
+/// `mean` = mean gains and reading of the path (subtracted for `FirstPose`).
 fn sample_rows(
     g: &RtestGeometry,
     s: &RtestSample,
-    first: &([[f64; 11]; 3], [f64; 3]),
+    mean: &([[f64; 11]; 3], [f64; 3]),
     zero: ReadingZero,
 ) -> ([[f64; 11]; 3], [f64; 3]) {
     let h = reduced_gains(g, s.a_deg, s.c_deg);
     match zero {
         ReadingZero::Absolute => (h, s.reading_um),
         ReadingZero::FirstPose => {
-            let (h0, q0) = first;
+            let (h0, q0) = mean;
             let mut d = h;
             for (r, r0) in d.iter_mut().zip(h0.iter()) {
                 for (x, x0) in r.iter_mut().zip(r0.iter()) {
@@ -764,11 +777,28 @@ fn sample_rows(
     }
 }
 
-/// Gains and reading of the first sample (the `FirstPose` reference).
-fn first_rows(g: &RtestGeometry, samples: &[RtestSample]) -> Option<([[f64; 11]; 3], [f64; 3])> {
-    samples
-        .first()
-        .map(|s| (reduced_gains(g, s.a_deg, s.c_deg), s.reading_um))
+/// Mean gains and reading over the path (the `FirstPose` centre); `None` without samples.
+fn mean_rows(g: &RtestGeometry, samples: &[RtestSample]) -> Option<([[f64; 11]; 3], [f64; 3])> {
+    if samples.is_empty() {
+        return None;
+    }
+    let k = 1.0 / samples.len() as f64;
+    let mut h = [[0.0f64; 11]; 3];
+    let mut q = [0.0f64; 3];
+    for s in samples {
+        let hs = reduced_gains(g, s.a_deg, s.c_deg);
+        for ((row, rs), (qm, qs)) in h
+            .iter_mut()
+            .zip(hs.iter())
+            .zip(q.iter_mut().zip(s.reading_um))
+        {
+            for (x, xs) in row.iter_mut().zip(rs.iter()) {
+                *x += xs * k;
+            }
+            *qm += qs * k;
+        }
+    }
+    Some((h, q))
 }
 
 fn check_inputs(g: &RtestGeometry, samples: &[RtestSample]) -> Result<(), RtestError> {
@@ -793,12 +823,11 @@ fn build(
     fixed_values: &[f64; 11],
 ) -> Result<GivensLsq<11>, RtestError> {
     let mut lsq = GivensLsq::<11>::new();
-    let Some(first) = first_rows(g, samples) else {
+    let Some(mean) = mean_rows(g, samples) else {
         return Ok(lsq);
     };
-    let skip = usize::from(zero == ReadingZero::FirstPose);
-    for s in samples.iter().skip(skip) {
-        let (h, q) = sample_rows(g, s, &first, zero);
+    for s in samples {
+        let (h, q) = sample_rows(g, s, &mean, zero);
         for (row, &b) in h.iter().zip(q.iter()) {
             lsq.add_row(row, b, 1.0)?;
         }
@@ -818,6 +847,10 @@ fn build(
     }
     Ok(lsq)
 }
+
+/// How far (µm or arc-seconds per unit of a fixed value) a free estimate may move with a fixed
+/// value and still count as determined: rounding of the 11-column solve is ~1e-9.
+const COMBINED_TOL: f64 = 1e-6;
 
 /// Identifies the 11 reduced-model parameters from R-test readings by least squares
 /// (seed 003 §3, `q = H·a + e`, A8), with a rank check (C6) that fixes — or, with
@@ -906,20 +939,53 @@ pub fn identify(
     };
     let mut x = sol.x;
     let mut u = sol.std_uncertainty;
+    if cfg.zero == ReadingZero::FirstPose {
+        // the centred rows also spent one degree of freedom per axis on the offsets, which the
+        // solver's s² = RSS/(m − 11) does not know of
+        let dof = f64::from(sol.rows) - 11.0;
+        let scale = crate::num::sqrt(dof / (dof - 3.0));
+        u.iter_mut().for_each(|v| *v *= scale);
+    }
     for p in RtestParam::ALL {
         if fixed.contains(p)
-            && let (Some(xi), Some(ui)) = (x.get_mut(p.index()), u.get_mut(p.index()))
+            && let Some(xi) = x.get_mut(p.index())
         {
             *xi = fixed_values.get(p.index()).copied().unwrap_or(0.0);
-            *ui = 0.0;
         }
     }
-    let errors = LocationErrors::from_array(x);
-    let residuals = residuals(g, &errors, samples, cfg.zero)?;
+    let path_model = LocationErrors::from_array(x);
+    let residuals = residuals(g, &path_model, samples, cfg.zero)?;
+    // a free parameter is determined when its estimate does not move with any fixed value
+    let mut combined = ParamSet::default();
+    for q in RtestParam::ALL.into_iter().filter(|q| fixed.contains(*q)) {
+        let mut moved = fixed_values;
+        if let Some(v) = moved.get_mut(q.index()) {
+            *v += 1.0;
+        }
+        let other = build(g, samples, cfg.zero, &fixed, &moved)?.solve_full_rank(cfg.rank_tol)?;
+        for p in RtestParam::ALL.into_iter().filter(|p| !fixed.contains(*p)) {
+            let (a, b) = (x.get(p.index()), other.x.get(p.index()));
+            if let (Some(a), Some(b)) = (a, b)
+                && libm::fabs(b - a) > COMBINED_TOL
+            {
+                combined.set(p, true);
+            }
+        }
+    }
+    for p in RtestParam::ALL {
+        if (fixed.contains(p) || combined.contains(p))
+            && let (Some(xi), Some(ui)) = (x.get_mut(p.index()), u.get_mut(p.index()))
+        {
+            *xi = f64::NAN;
+            *ui = f64::NAN;
+        }
+    }
     Ok(RtestIdentification {
-        errors,
+        errors: LocationErrors::from_array(x),
         std_uncertainty: LocationErrors::from_array(u),
         fixed,
+        combined,
+        path_model,
         rank,
         condition,
         residuals,
@@ -932,7 +998,7 @@ fn residuals(
     samples: &[RtestSample],
     zero: ReadingZero,
 ) -> Result<Residuals, RtestError> {
-    let Some(first) = first_rows(g, samples) else {
+    let Some(mean) = mean_rows(g, samples) else {
         return Err(RtestError::TooFewSamples {
             given: 0,
             needed: 1,
@@ -945,7 +1011,7 @@ fn residuals(
     };
     let mut ss = [0.0f64; 3];
     for s in samples {
-        let (h, q) = sample_rows(g, s, &first, zero);
+        let (h, q) = sample_rows(g, s, &mean, zero);
         for (k, (row, &b)) in h.iter().zip(q.iter()).enumerate() {
             let pred: f64 = row.iter().zip(a.iter()).map(|(x, y)| x * y).sum();
             let r = b - pred;

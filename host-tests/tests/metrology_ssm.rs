@@ -3,7 +3,7 @@
 
 use ballpod::acquisition::{Sample, SampleFlags};
 use ballpod::metrology::ssm::station::{
-    DwellConfig, DwellEvent, Station, StationCollector, refine, solve_stations,
+    DwellConfig, DwellEvent, Station, StationCollector, refine, solve_stations, station_covariance,
 };
 use ballpod::metrology::ssm::streaming::{StreamUse, StreamingConfig, StreamingSsm};
 use ballpod::metrology::ssm::{SsmError, SsmGeometry};
@@ -593,4 +593,90 @@ fn streaming_on_a_tilted_planar_arc_keeps_the_in_plane_component_observable_ever
         flicker, 0,
         "E_y unobservable at {flicker} of {checked} samples"
     );
+}
+
+/// Issue 14: the stations' E states its covariance. 400 simulated SSM tests (6 stations on a
+/// cone about the socket, true E of up to ±30 µm, each dwell 50 samples of 0.4 µm noise plus a
+/// fixed 0.1 µm error that dwelling does not average away): U = 2u of each component covers the
+/// truth in 95 % ± 3 %, and u matches the scatter within 20 %. With exactly three stations (no
+/// redundancy) u comes from the stated σ_i alone.
+#[test]
+fn station_covariance_covers_the_truth() {
+    let p0 = [100.0, 50.0, -20.0];
+    let l = 150.0;
+    let geom = SsmGeometry {
+        socket_mm: p0,
+        bar_length_mm: l,
+    };
+    for count in [6usize, 3] {
+        let mut rng = Rng::new(14 + count as u64);
+        let (mut covered, mut e2, mut u2) = ([0usize; 3], [0.0f64; 3], [0.0f64; 3]);
+        const RUNS: usize = 400;
+        for _ in 0..RUNS {
+            let e_mm = [0; 3].map(|_| rng.range(-0.03, 0.03));
+            // stations on a cone of half-angle 50° about +Z, random start
+            let phi0 = rng.range(0.0, std::f64::consts::TAU);
+            let pts: Vec<[f64; 3]> = (0..count)
+                .map(|i| {
+                    let phi = phi0 + std::f64::consts::TAU * i as f64 / count as f64;
+                    let (s, c) = (50f64.to_radians().sin(), 50f64.to_radians().cos());
+                    let nominal = l + rng.range(-0.2, 0.2); // not exactly on the sphere
+                    [
+                        p0[0] + nominal * s * phi.cos(),
+                        p0[1] + nominal * s * phi.sin(),
+                        p0[2] + nominal * c,
+                    ]
+                })
+                .collect();
+            let mut st = exact_stations(p0, l, &pts, e_mm);
+            for s in st.iter_mut() {
+                let n = 50;
+                let noise: Vec<f64> = (0..n).map(|_| 0.4 * rng.normal()).collect();
+                let mean = noise.iter().sum::<f64>() / n as f64;
+                let var = noise.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+                s.delta_l_um += mean + 0.1 * rng.normal();
+                s.std_um = var.sqrt() as f32;
+                s.samples = n as u32;
+            }
+            let sol = solve_stations(&st, &geom).unwrap();
+            let sol = refine(&st, &geom, &sol, 10).unwrap();
+            let cov = station_covariance(&st, &geom, &sol, 0.1).unwrap();
+            let u = [cov.a00, cov.a11, cov.a22].map(f64::sqrt);
+            for k in 0..3 {
+                let err = sol.e_um[k].unwrap() - e_mm[k] * 1e3;
+                covered[k] += usize::from(err.abs() <= 2.0 * u[k]);
+                e2[k] += err * err;
+                u2[k] += u[k] * u[k];
+            }
+        }
+        for k in 0..3 {
+            let coverage = covered[k] as f64 / RUNS as f64;
+            let ratio = (u2[k] / e2[k]).sqrt();
+            println!(
+                "{count} stations, E[{k}]: coverage {coverage:.3}, rms u / rms error {ratio:.3}"
+            );
+            assert!(
+                (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
+                "{count} stations, E[{k}]: coverage {coverage:.3}, rms u / rms error {ratio:.3}"
+            );
+        }
+    }
+    // a stated floor that is negative or not finite is refused
+    let st = exact_stations(
+        p0,
+        l,
+        &[
+            [250.0, 50.0, -20.0],
+            [100.0, 200.0, -20.0],
+            [100.0, 50.0, 130.0],
+        ],
+        [0.0; 3],
+    );
+    let sol = solve_stations(&st, &geom).unwrap();
+    for bad in [-0.1, f64::NAN] {
+        assert_eq!(
+            station_covariance(&st, &geom, &sol, bad),
+            Err(SsmError::InvalidInput)
+        );
+    }
 }

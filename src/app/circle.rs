@@ -198,18 +198,20 @@ impl CircleTest {
             (ResultId::ReversalU, m.reversal_step_u_um),
             (ResultId::ReversalV, m.reversal_step_v_um),
             (ResultId::CyclicAmplitude, m.cyclic_amplitude_um),
-            (ResultId::CyclicOrder, m.cyclic_order as f32),
         ] {
-            results.set(id, f64::from(v), NOT_EVALUATED);
+            results.set(id, f64::from(v.value), f64::from(v.std_uncertainty));
         }
+        // 0: no harmonic of order 3–16 is significant (none named)
+        let order = m.named_cyclic_order().unwrap_or(0);
+        results.set(ResultId::CyclicOrder, f64::from(order), 0.0);
         let tau = servo_mismatch_ms(
             &ccw,
             &cw,
             f64::from(self.geometry.radius_mm),
             f64::from(self.geometry.feed_mm_per_min),
         );
-        if let Some(t) = tau {
-            results.set(ResultId::ServoMismatch, t, NOT_EVALUATED);
+        if let Some((t, u)) = tau {
+            results.set(ResultId::ServoMismatch, t, u);
         }
     }
 
@@ -219,9 +221,9 @@ impl CircleTest {
     }
 }
 
-/// Servo mismatch τ_u − τ_v (ms) from the per-direction squareness of a circular test at
-/// `feed_mm_per_min` on radius `radius_mm`; `None` if the feed or radius is not a positive
-/// number.
+/// Servo mismatch τ_u − τ_v and its standard uncertainty (ms) from the per-direction
+/// squareness of a circular test at `feed_mm_per_min` on radius `radius_mm`; `None` if the feed
+/// or radius is not a positive number.
 ///
 /// An axis that follows its command τ late on a circle at angular speed ω errs by
 /// E_u = ω·τ_u·v (CCW; the sign flips CW), which is an out-of-squareness of ω·(τ_u − τ_v)
@@ -232,11 +234,16 @@ pub fn servo_mismatch_ms(
     cw: &iso230_4::Diagnostics,
     radius_mm: f64,
     feed_mm_per_min: f64,
-) -> Option<f64> {
+) -> Option<(f64, f64)> {
     if !(radius_mm > 0.0 && feed_mm_per_min > 0.0) {
         return None;
     }
     let omega_rad_per_s = feed_mm_per_min / 60.0 / radius_mm;
-    let ds_urad = f64::from(ccw.squareness_urad) - f64::from(cw.squareness_urad);
-    Some(ds_urad * 0.5 * 1e-6 / omega_rad_per_s * 1e3)
+    let (a, b) = (ccw.squareness_urad, cw.squareness_urad);
+    let ds_urad = f64::from(a.value) - f64::from(b.value);
+    let u_ds_urad = f64::from(crate::num::sqrtf(
+        a.std_uncertainty * a.std_uncertainty + b.std_uncertainty * b.std_uncertainty,
+    ));
+    let ms_per_urad = 0.5 * 1e-6 / omega_rad_per_s * 1e3;
+    Some((ds_urad * ms_per_urad, u_ds_urad * ms_per_urad))
 }

@@ -15,7 +15,10 @@ use crate::identify::two_step::{
     RrtttMeasurement, RtttrSpindleConfig, RtttrTableConfig, SingleAxisMeasurement, TttrrConfig,
     TttrrMeasurement, TwoStepError,
 };
-use crate::metrology::ssm::station::{DwellConfig, StationCollector, refine, solve_stations};
+use crate::metrology::solve3::Sym3;
+use crate::metrology::ssm::station::{
+    DwellConfig, StationCollector, refine, solve_stations, station_covariance,
+};
 use crate::metrology::ssm::streaming::{StreamingConfig, StreamingSsm};
 use crate::metrology::ssm::{SsmError, SsmGeometry, SsmSolution};
 
@@ -48,10 +51,26 @@ pub struct SsmRun {
 pub struct SsmMeasurement {
     /// The refined solution (E µm per component, `None` where not observable; cond; residual).
     pub solution: SsmSolution,
-    /// Standard uncertainty of each component of E, µm: the stations' ΔL uncertainty (the
-    /// largest standard error of a dwell mean, combined with [`FIXED_POSITION_U_UM`]) times the
-    /// RMS gain cond/3 of the unit-direction inverse (‖U⁺‖_F = cond/√3 for three unit rows).
-    pub std_um: f64,
+    /// Covariance of E, µm²: each station's ΔL with its dwell mean's standard error and
+    /// [`FIXED_POSITION_U_UM`], propagated through the least squares
+    /// ([`station_covariance`]).
+    pub covariance_um2: Sym3,
+}
+
+impl SsmMeasurement {
+    /// Standard uncertainty of each component of E, µm (NaN where not observable).
+    pub fn u_e_um(&self) -> [f64; 3] {
+        let c = &self.covariance_um2;
+        let mut u = [c.a00, c.a11, c.a22];
+        for (u, e) in u.iter_mut().zip(self.solution.e_um) {
+            *u = if e.is_some() {
+                crate::num::sqrt(*u)
+            } else {
+                f64::NAN
+            };
+        }
+        u
+    }
 }
 
 impl SsmRun {
@@ -100,14 +119,11 @@ impl SsmRun {
         let st = self.stations.stations();
         let s0 = solve_stations(st, &self.geometry)?;
         let solution = refine(st, &self.geometry, &s0, REFINE_ITERATIONS)?;
-        let sem = st
-            .iter()
-            .map(|s| f64::from(s.std_um) / crate::num::sqrt(f64::from(s.samples.max(1))))
-            .fold(0.0, f64::max);
-        let u_station = crate::num::sqrt(sem * sem + FIXED_POSITION_U_UM * FIXED_POSITION_U_UM);
+        let covariance_um2 =
+            station_covariance(st, &self.geometry, &solution, FIXED_POSITION_U_UM)?;
         Ok(SsmMeasurement {
             solution,
-            std_um: u_station * solution.cond / 3.0,
+            covariance_um2,
         })
     }
 }
@@ -115,12 +131,13 @@ impl SsmRun {
 /// Writes an SSM measurement into the results.
 pub fn publish(m: &SsmMeasurement, results: &mut Results) {
     let [ex, ey, ez] = m.solution.e_um;
-    for (id, e) in [
-        (ResultId::SsmEx, ex),
-        (ResultId::SsmEy, ey),
-        (ResultId::SsmEz, ez),
+    let [ux, uy, uz] = m.u_e_um();
+    for (id, e, u) in [
+        (ResultId::SsmEx, ex, ux),
+        (ResultId::SsmEy, ey, uy),
+        (ResultId::SsmEz, ez, uz),
     ] {
-        results.set(id, e.unwrap_or(f64::NAN), m.std_um);
+        results.set(id, e.unwrap_or(f64::NAN), u);
     }
     results.set(ResultId::SsmCond, m.solution.cond, f64::NAN);
     results.set(
@@ -177,7 +194,11 @@ impl TwoStep {
         if t.ts_machine == TwoStepMachine::None {
             return Ok(false);
         }
-        let e = ([x, y, z], m.std_um);
+        // the two-step takes one u for every component (issue 14: propagate the covariances)
+        let e = (
+            [x, y, z],
+            m.u_e_um().iter().fold(0.0, |a: f64, &b| a.max(b)),
+        );
         let Some((dv1, u1)) = self.dv1.take() else {
             self.dv1 = Some(e);
             results.clear(ResultId::TsDeltaAlpha, ResultId::TsDeltaGamma);

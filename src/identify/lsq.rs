@@ -118,7 +118,7 @@ impl<const N: usize> GivensLsq<N> {
             if xk == 0.0 {
                 continue;
             }
-            let h = libm::hypot(rkk, xk);
+            let h = crate::num::hypot(rkk, xk);
             let (c, s) = (rkk / h, xk / h);
             for (rj, xj) in r_row.iter_mut().zip(x.iter_mut()).skip(k) {
                 let t = c * *rj + s * *xj;
@@ -277,8 +277,9 @@ impl<const N: usize> JacobiSvd<N> {
                     }
                     off = off.max(libm::fabs(gamma) / libm::sqrt(alpha * beta));
                     let zeta = (beta - alpha) / (2.0 * gamma);
-                    let t = libm::copysign(1.0, zeta) / (libm::fabs(zeta) + libm::hypot(1.0, zeta));
-                    let c = 1.0 / libm::hypot(1.0, t);
+                    let t = libm::copysign(1.0, zeta)
+                        / (libm::fabs(zeta) + crate::num::hypot(1.0, zeta));
+                    let c = 1.0 / crate::num::hypot(1.0, t);
                     let s = c * t;
                     rotate_pair(&mut cols, p, q, c, s);
                     rotate_pair(&mut v, p, q, c, s);

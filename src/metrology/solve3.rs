@@ -71,6 +71,17 @@ impl Sym3 {
         ]
     }
 
+    /// self += s·v vᵀ.
+    pub fn add_outer(&mut self, v: [f64; 3], s: f64) {
+        let [v0, v1, v2] = v;
+        self.a00 += s * v0 * v0;
+        self.a01 += s * v0 * v1;
+        self.a02 += s * v0 * v2;
+        self.a11 += s * v1 * v1;
+        self.a12 += s * v1 * v2;
+        self.a22 += s * v2 * v2;
+    }
+
     /// True if every entry is finite.
     pub fn is_finite(&self) -> bool {
         [self.a00, self.a01, self.a02, self.a11, self.a12, self.a22]
@@ -240,54 +251,107 @@ pub fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
-/// Solves the symmetric positive definite system `a x = b` (N ≤ 16) by Cholesky, f64; `None`
-/// if `a` is not positive definite to working precision (a pivot below
-/// [`PIVOT_REL_TOL`] × the largest diagonal) or not finite. Hand-written for the same reason as
-/// [`Sym3`]: a fixed-size solve in a few hundred bytes of code, where nalgebra's generic one
-/// costs kilobytes of flash per size.
-pub fn cholesky_solve<const N: usize>(a: [[f64; N]; N], b: [f64; N]) -> Option<[f64; N]> {
+/// A float the generic [`cholesky_solve`] runs in: f64 for the host's fits, f32 for the pod's
+/// once-per-run diagnostics on the M4F's FPU (a quarter of the f64 soft-float code).
+pub trait SolveFloat:
+    Copy
+    + PartialOrd
+    + core::ops::Add<Output = Self>
+    + core::ops::Sub<Output = Self>
+    + core::ops::Mul<Output = Self>
+    + core::ops::Div<Output = Self>
+    + core::ops::SubAssign
+{
+    /// 0.
+    const ZERO: Self;
+    /// The relative pivot tolerance (a pivot below it × the largest diagonal: singular).
+    const PIVOT_TOL: Self;
+    /// √x (the M4F's VSQRT for f32).
+    fn sqrt(self) -> Self;
+    /// |x|.
+    fn abs(self) -> Self;
+    /// Neither NaN nor infinite.
+    fn is_finite(self) -> bool;
+}
+
+impl SolveFloat for f64 {
+    const ZERO: Self = 0.0;
+    const PIVOT_TOL: Self = PIVOT_REL_TOL;
+    fn sqrt(self) -> Self {
+        crate::num::sqrt(self)
+    }
+    fn abs(self) -> Self {
+        libm::fabs(self)
+    }
+    fn is_finite(self) -> bool {
+        f64::is_finite(self)
+    }
+}
+
+impl SolveFloat for f32 {
+    const ZERO: Self = 0.0;
+    /// f32 sums carry ~1e-7: a pivot below 1e-6 of the largest diagonal is singular.
+    const PIVOT_TOL: Self = 1e-6;
+    fn sqrt(self) -> Self {
+        crate::num::sqrtf(self)
+    }
+    fn abs(self) -> Self {
+        libm::fabsf(self)
+    }
+    fn is_finite(self) -> bool {
+        f32::is_finite(self)
+    }
+}
+
+/// Solves the symmetric positive definite system `a x = b` (N ≤ 16) by Cholesky, reading only
+/// the lower triangle of `a` (the upper may be left unfilled); `None` if `a`
+/// is not positive definite to working precision (a pivot below [`SolveFloat::PIVOT_TOL`] × the
+/// largest diagonal) or not finite. Hand-written for the same reason as [`Sym3`]: a fixed-size
+/// solve in a few hundred bytes of code, where nalgebra's generic one costs kilobytes of flash
+/// per size.
+pub fn cholesky_solve<T: SolveFloat, const N: usize>(a: [[T; N]; N], b: [T; N]) -> Option<[T; N]> {
     let scale = (0..N)
         .filter_map(|i| a.get(i).and_then(|r| r.get(i)))
-        .fold(0.0f64, |m, v| m.max(v.abs()));
-    if !(scale > 0.0 && scale.is_finite()) {
+        .fold(T::ZERO, |m, v| if v.abs() > m { v.abs() } else { m });
+    if !(scale > T::ZERO && scale.is_finite()) {
         return None;
     }
     // lower factor L, row by row: a = L Lᵀ
-    let mut l = [[0.0f64; N]; N];
+    let mut l = [[T::ZERO; N]; N];
     for i in 0..N {
         for j in 0..=i {
             let mut s = a.get(i).and_then(|r| r.get(j)).copied()?;
             for k in 0..j {
-                let (lik, ljk) = (l.get(i)?.get(k)?, l.get(j)?.get(k)?);
+                let (lik, ljk) = (*l.get(i)?.get(k)?, *l.get(j)?.get(k)?);
                 s -= lik * ljk;
             }
             let v = if i == j {
-                if !(s > PIVOT_REL_TOL * scale) {
+                if !(s > T::PIVOT_TOL * scale) {
                     return None;
                 }
-                crate::num::sqrt(s)
+                s.sqrt()
             } else {
-                s / l.get(j)?.get(j)?
+                s / *l.get(j)?.get(j)?
             };
             *l.get_mut(i)?.get_mut(j)? = v;
         }
     }
     // L y = b, then Lᵀ x = y
-    let mut y = [0.0f64; N];
+    let mut y = [T::ZERO; N];
     for i in 0..N {
         let mut s = *b.get(i)?;
         for k in 0..i {
-            s -= l.get(i)?.get(k)? * y.get(k)?;
+            s -= *l.get(i)?.get(k)? * *y.get(k)?;
         }
-        *y.get_mut(i)? = s / l.get(i)?.get(i)?;
+        *y.get_mut(i)? = s / *l.get(i)?.get(i)?;
     }
-    let mut x = [0.0f64; N];
+    let mut x = [T::ZERO; N];
     for i in (0..N).rev() {
         let mut s = *y.get(i)?;
         for k in (i + 1)..N {
-            s -= l.get(k)?.get(i)? * x.get(k)?;
+            s -= *l.get(k)?.get(i)? * *x.get(k)?;
         }
-        *x.get_mut(i)? = s / l.get(i)?.get(i)?;
+        *x.get_mut(i)? = s / *l.get(i)?.get(i)?;
     }
-    crate::num::all_finite(&x).then_some(x)
+    x.iter().all(|v| v.is_finite()).then_some(x)
 }

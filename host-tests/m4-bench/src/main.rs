@@ -422,6 +422,18 @@ fn main() -> ! {
         min_ratio: None,
     });
 
+    // The ball-bar diagnoses of one direction at the end of its run (the joint fit for each
+    // cyclic order 3..=16 on the bin profile, with u): once per run, in the application task.
+    let lo = stack::paint(top);
+    let (dg, n) = measure_long(|| iso.diagnostics(Direction::Ccw));
+    record_stack("ISO 230-4 diagnostics (CircularTest::diagnostics)", lo);
+    hprintln!(
+        "| ISO 230-4 diagnoses of one direction (joint fit per cyclic order + u, f32) | run | {} | — | — | — | — | {:.1} ms at 170 MHz (1 insn/cycle), ok = {} |",
+        n,
+        n as f64 / 170e3,
+        dg.is_ok()
+    );
+
     // Streaming SSM update. FLOP per sample (float): d = P − P0 (3), r² (5), √ (1),
     // y = ΔL + (L − r)·1e3 (3), U_SCALE/r (1), u = d·inv (3), y·Y_SCALE (1), d·P_SCALE (3),
     // rotary test (2), neighbourhood distance of the oldest entry (3 mul + 2 add = 5) → 27;

@@ -152,10 +152,13 @@ pub struct CircleMachine {
     pub backlash_x_um: f64,
     /// Y reversal step (backlash), µm.
     pub backlash_y_um: f64,
-    /// Cyclic radial error amplitude, µm (radial error A·cos(order·θ)).
+    /// Cyclic radial error amplitude, µm (radial error A·cos(order·θ + φ)).
     pub cyclic_amplitude_um: f64,
     /// Cyclic error order (cycles per revolution, 3..=16).
     pub cyclic_order: u32,
+    /// Cyclic error phase φ, degrees (not 0 by default: at φ = 0 an even order is the one
+    /// phase the reversal-step shapes do not see, which hid a leak, issue 14).
+    pub cyclic_phase_deg: f64,
     /// X servo lag, ms (x follows its command τ_x late).
     pub servo_lag_x_ms: f64,
     /// Y servo lag, ms.
@@ -186,6 +189,7 @@ impl Default for CircleMachine {
             backlash_y_um: 2.0,
             cyclic_amplitude_um: 1.0,
             cyclic_order: 8,
+            cyclic_phase_deg: 30.0,
             servo_lag_x_ms: 1.0,
             servo_lag_y_ms: 0.0,
             straightness_x_along_y_um: 0.0,
@@ -229,7 +233,8 @@ impl CircleMachine {
         let th_y = theta - omega * self.servo_lag_y_ms * 1e-3;
         let (xa, ya) = (r * th_x.cos(), r * th_y.sin());
         let (vx, vy) = (-dir * theta.sin(), dir * theta.cos());
-        let radial = self.cyclic_amplitude_um * (f64::from(self.cyclic_order) * theta).cos();
+        let radial = self.cyclic_amplitude_um
+            * (f64::from(self.cyclic_order) * theta + self.cyclic_phase_deg.to_radians()).cos();
         let ex_um = self.squareness_urad * 1e-3 * ya + self.scale_x_um_per_m * 1e-3 * xa
             - vx.signum() * self.backlash_x_um / 2.0
             + radial * theta.cos();

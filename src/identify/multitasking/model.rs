@@ -148,6 +148,7 @@ pub fn t_ball_mm(
 /// 2.14/2.15); the W-ball is docked at B = 0, C = 0, Y = 0, Z = Z_C + R_B onto the actual
 /// (deviated) T-ball without its mounting offset; `w_offset_um` is the clamping shift in the
 /// C frame (µm, eq 2.21); `theta_rad` is the C angle.
+#[inline(never)] // flash: one body for the model's callers
 pub fn w_ball_mm(
     d: &Deviations,
     theta_rad: f64,
@@ -176,6 +177,7 @@ pub fn w_ball_mm(
 }
 
 /// Ball-bar reading ΔL (µm) between the two ball centres (mm), eq 2.17: `|T − W| − L_B`.
+#[inline(never)] // flash: one body for the model's callers
 pub fn bar_deviation_um(t_mm: &Vector3<f64>, w_mm: &Vector3<f64>, l_b_mm: f64) -> f64 {
     let d = t_mm - w_mm;
     (crate::num::sqrt(d.dot(&d)) - l_b_mm) * 1e3

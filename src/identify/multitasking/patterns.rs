@@ -115,6 +115,7 @@ impl PatternGeometry {
 /// Tables 2.2 and 2.3 (mm from O_M). Raw equations: inputs are not validated here (see
 /// [`PatternGeometry::validate`]; [`nc_block`], [`PatternProgram`] and
 /// [`simulate_eccentricity`] validate).
+#[inline(never)] // flash: one body for the model's callers
 pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCommand {
     let (s, c) = (crate::num::sin(angle_rad), crate::num::cos(angle_rad));
     let (lb, rb, rc, zc) = (g.l_b_mm, g.r_b_mm, g.r_c_mm, g.z_c_mm);
@@ -161,6 +162,7 @@ pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCom
 }
 
 /// Sensitive direction (n1, n2) of `pattern` at `angle_rad` (§3.5; see the module doc).
+#[inline(never)] // flash: one body for the model's callers
 pub fn sensitive_direction(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> (f64, f64) {
     let (s, c) = (crate::num::sin(angle_rad), crate::num::cos(angle_rad));
     if pattern.is_b() {
@@ -208,6 +210,7 @@ pub struct Eccentricity {
 /// Simulated eccentricity of `pattern` on the literal model (eqs 2.10–2.17) for deviations
 /// `dev`, over `samples` equally spaced angles ([`sample_angle_rad`]), fitted with the §3.5
 /// convention. This is the forward map the model-based identification inverts.
+#[inline(never)] // flash: one body for the model's callers
 pub fn simulate_eccentricity(
     pattern: Pattern,
     g: &PatternGeometry,

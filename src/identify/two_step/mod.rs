@@ -164,7 +164,9 @@ fn scale(k: f64, a: [f64; 3]) -> [f64; 3] {
 
 /// Wraps an angle difference to (−π, π].
 fn wrap_pi(a: f64) -> f64 {
-    let r = libm::remainder(a, 2.0 * PI);
+    // a − 2π·round(a/2π): exact to rounding for the few turns an angle difference spans, and
+    // a tenth of libm::remainder's flash
+    let r = a - 2.0 * PI * libm::round(a / (2.0 * PI));
     if r <= -PI { r + 2.0 * PI } else { r }
 }
 
@@ -463,13 +465,13 @@ pub fn identify_rrttt(
             let (a1, b1, lever) = match cfg.rotation_order {
                 RotationOrder::AlphaThenBeta => (
                     libm::atan2(-wy, wz),
-                    libm::atan2(wx, libm::hypot(wy, wz)),
-                    libm::hypot(wy, wz),
+                    libm::atan2(wx, crate::num::hypot(wy, wz)),
+                    crate::num::hypot(wy, wz),
                 ),
                 RotationOrder::BetaThenAlpha => (
-                    libm::atan2(-wy, libm::hypot(wx, wz)),
+                    libm::atan2(-wy, crate::num::hypot(wx, wz)),
                     libm::atan2(wx, wz),
-                    libm::hypot(wx, wz),
+                    crate::num::hypot(wx, wz),
                 ),
             };
             if !(lever * libm::fabs(cfg.tool_z_mm) >= cfg.min_lever_arm_mm) {
@@ -631,7 +633,7 @@ pub fn identify_tttrr(
     }
     check_std(m.ssm_std_um)?;
     let [xr, yr, zr] = cfg.reference_point_mm;
-    let rho = libm::hypot(xr, yr);
+    let rho = crate::num::hypot(xr, yr);
     if rho == 0.0 {
         return Err(TwoStepError::ZeroLength);
     }
@@ -666,7 +668,7 @@ pub fn identify_tttrr(
             };
             let g1 = gamma + d_gamma;
             let q1 = xr * crate::num::sin(g1) + yr * crate::num::cos(g1);
-            if !(libm::hypot(h, q1) >= cfg.min_lever_arm_mm) {
+            if !(crate::num::hypot(h, q1) >= cfg.min_lever_arm_mm) {
                 return Err(TwoStepError::Singular(Singularity::AlphaLever));
             }
             let a1 = libm::atan2(vz, vy) - libm::atan2(h, q1);
@@ -890,7 +892,7 @@ pub fn identify_rtttr_table(
     let v = add(r_nom, scale(1e-3, add(dv2, scale(-1.0, dv1))));
     let d_alpha = match mode {
         Mode::Exact => {
-            if !(libm::hypot(ytr, ztr) >= cfg.min_lever_arm_mm) {
+            if !(crate::num::hypot(ytr, ztr) >= cfg.min_lever_arm_mm) {
                 return Err(TwoStepError::Singular(Singularity::TableAlphaLever));
             }
             let [_, vy, vz] = v;
@@ -915,7 +917,7 @@ pub fn identify_rtttr_table(
     let model = rot_x(alpha + d_alpha, cfg.reference_point_mm);
     single_result(SingleAxisResult {
         delta_urad: d_alpha * 1e6,
-        std_uncertainty_urad: angle_std_urad(m.ssm_std_um, libm::hypot(ytr, ztr)),
+        std_uncertainty_urad: angle_std_urad(m.ssm_std_um, crate::num::hypot(ytr, ztr)),
         residual_um: residual_um(v, model),
         mode,
     })

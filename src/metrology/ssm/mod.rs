@@ -62,6 +62,10 @@ pub struct SsmSolution {
     pub cond: f64,
     /// Residual RMS of u·E − y over the observations, µm (0 for an exact 3-station solve).
     pub residual_rms_um: f64,
+    /// G⁺, the (pseudo-)inverse of the normal matrix G = Σ u uᵀ of the solve (on the observable
+    /// subspace when one direction is unobservable): E's covariance is G⁺ (Σ σ_i² u_i u_iᵀ) G⁺
+    /// ([`station::station_covariance`]), σ² G⁺ for equal σ.
+    pub g_pinv: Sym3,
     /// Observations used.
     pub observations: u32,
     /// Gauss–Newton iterations applied (0 for the linear solution).
@@ -107,28 +111,27 @@ pub fn solve_normal(g: &Sym3, b: [f64; 3], yy: f64, n: u32) -> Result<SsmSolutio
     if !deficient && n < 3 {
         return Err(SsmError::TooFewObservations { have: n, need: 3 });
     }
-    let (e, cond) = if deficient {
+    let (e, cond, g_pinv) = if deficient {
         // G + λ_max v vᵀ is regular and gives the solution with no component along v
         let [v0, v1, v2] = v;
-        let gr = Sym3 {
-            a00: g.a00 + l_max * v0 * v0,
-            a01: g.a01 + l_max * v0 * v1,
-            a02: g.a02 + l_max * v0 * v2,
-            a11: g.a11 + l_max * v1 * v1,
-            a12: g.a12 + l_max * v1 * v2,
-            a22: g.a22 + l_max * v2 * v2,
-        };
+        let mut gr = *g;
+        gr.add_outer(v, l_max);
         // project b onto the observable subspace (b·v ≈ 0 for consistent data)
         let bv = dot(b, v);
         let bp = [b[0] - bv * v0, b[1] - bv * v1, b[2] - bv * v2];
-        let e = gr.solve(bp).map_err(|_| SsmError::Degenerate)?;
+        let chol = gr.cholesky().map_err(|_| SsmError::Degenerate)?;
+        let e = chol.solve(bp);
         let cond = crate::num::sqrt((l_mid + l_max) * (1.0 / l_mid + 1.0 / l_max));
-        (e, cond)
+        // (G + λ v vᵀ)⁻¹ = G⁺ + v vᵀ/λ (v ⟂ the range of G)
+        let mut g_pinv = chol.inverse();
+        g_pinv.add_outer(v, -1.0 / l_max);
+        (e, cond, g_pinv)
     } else {
         let chol = g.cholesky().map_err(|_| SsmError::Degenerate)?;
         let e = chol.solve(b);
-        let cond = crate::num::sqrt(g.trace() * chol.inverse().trace());
-        (e, cond)
+        let g_pinv = chol.inverse();
+        let cond = crate::num::sqrt(g.trace() * g_pinv.trace());
+        (e, cond, g_pinv)
     };
     let ssr = (yy - dot(e, b)).max(0.0);
     let rms = crate::num::sqrt(ssr / f64::from(n));
@@ -144,6 +147,7 @@ pub fn solve_normal(g: &Sym3, b: [f64; 3], yy: f64, n: u32) -> Result<SsmSolutio
         unobservable_direction: if deficient { Some(v) } else { None },
         cond,
         residual_rms_um: rms,
+        g_pinv,
         observations: n,
         iterations: 0,
     };

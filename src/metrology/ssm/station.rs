@@ -70,19 +70,7 @@ pub fn refine(
         let mut yy = 0.0;
         let mut n = 0u32;
         for st in stations {
-            let d = sub(st.p_mm, geom.socket_mm);
-            let a = [
-                d[0] + e_um[0] * 1e-3,
-                d[1] + e_um[1] * 1e-3,
-                d[2] + e_um[2] * 1e-3,
-            ];
-            let rho = crate::num::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
-            if !(rho > 1e-6) || !rho.is_finite() {
-                return Err(SsmError::InvalidInput);
-            }
-            let j = [a[0] / rho, a[1] / rho, a[2] / rho];
-            // residual of the exact equation, µm
-            let r = (geom.bar_length_mm - rho) * 1e3 + st.delta_l_um;
+            let (j, r) = exact_row(st, geom, e_um)?;
             accumulate(&mut g, &mut b, &mut yy, j, r);
             n = n.saturating_add(1);
         }
@@ -114,14 +102,96 @@ pub fn refine(
     }
 }
 
+/// Covariance of E, µm² (GUM propagation through the least squares, at the solution `sol`):
+/// E = G⁺ Σ j_i y_i ([`SsmSolution::g_pinv`]; j_i the unit direction of the exact sphere
+/// equation at E), each station's y_i with variance σ_i² = std_um²/samples (Type A of the
+/// dwell mean) + `fixed_u_um`² (what dwelling does not average away), so
+/// cov = G⁺ (Σ σ_i² j_i j_iᵀ) G⁺ — times the Birge ratio χ²/(n − observable components) when
+/// the stations scatter about the solution significantly more than their σ_i say (χ² above
+/// its 95 % point). An unobservable direction has no variance.
+#[inline(never)]
+pub fn station_covariance(
+    stations: &[Station],
+    geom: &SsmGeometry,
+    sol: &SsmSolution,
+    fixed_u_um: f64,
+) -> Result<Sym3, SsmError> {
+    if !(fixed_u_um.is_finite() && fixed_u_um >= 0.0) {
+        return Err(SsmError::InvalidInput);
+    }
+    let e = sol.e_um.map(|c| c.unwrap_or(0.0));
+    let mut w = Sym3::default();
+    let (mut chi2, mut n) = (0.0f64, 0u32);
+    for st in stations {
+        let (j, r) = exact_row(st, geom, e)?;
+        let sd = f64::from(st.std_um);
+        let var = sd * sd / f64::from(st.samples.max(1)) + fixed_u_um * fixed_u_um;
+        w.add_outer(j, var);
+        if var > 0.0 {
+            chi2 += r * r / var;
+        }
+        n = n.saturating_add(1);
+    }
+    // inflate only when the scatter is significant (χ² above its 95 % point, Wilson–Hilferty):
+    // χ²/dof of a few stations scatters widely, and max(1, χ²/dof) overstated u by 25 %
+    let observable = 3 - u32::from(sol.unobservable_direction.is_some());
+    let dof = n.saturating_sub(observable);
+    let birge = if dof > 0 {
+        let k = f64::from(dof);
+        let h = 2.0 / (9.0 * k);
+        let c = 1.0 - h + 1.645 * crate::num::sqrt(h);
+        if chi2 > k * c * c * c { chi2 / k } else { 1.0 }
+    } else {
+        1.0
+    };
+    // columns of G⁺ W G⁺ (symmetric): G⁺ (W (G⁺ e_j))
+    let gp = &sol.g_pinv;
+    let col = |j: [f64; 3]| gp.mul(w.mul(gp.mul(j))).map(|x| x * birge);
+    let [c00, c01, c02] = col([1.0, 0.0, 0.0]);
+    let [_, c11, c12] = col([0.0, 1.0, 0.0]);
+    let [.., c22] = col([0.0, 0.0, 1.0]);
+    let cov = Sym3 {
+        a00: c00,
+        a01: c01,
+        a02: c02,
+        a11: c11,
+        a12: c12,
+        a22: c22,
+    };
+    if cov.is_finite() {
+        Ok(cov)
+    } else {
+        Err(SsmError::Degenerate)
+    }
+}
+
+/// One station's row of the exact sphere equation |P − P0 + E| = L + ΔL at `e_um`: the unit
+/// direction j of P − P0 + E and the residual L + ΔL − |P − P0 + E|, µm.
+#[inline(never)] // flash: one body for the refinement and the covariance
+fn exact_row(
+    st: &Station,
+    geom: &SsmGeometry,
+    e_um: [f64; 3],
+) -> Result<([f64; 3], f64), SsmError> {
+    let d = sub(st.p_mm, geom.socket_mm);
+    let a = [
+        d[0] + e_um[0] * 1e-3,
+        d[1] + e_um[1] * 1e-3,
+        d[2] + e_um[2] * 1e-3,
+    ];
+    let rho = crate::num::sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2]);
+    if !(rho > 1e-6) || !rho.is_finite() {
+        return Err(SsmError::InvalidInput);
+    }
+    Ok((
+        [a[0] / rho, a[1] / rho, a[2] / rho],
+        (geom.bar_length_mm - rho) * 1e3 + st.delta_l_um,
+    ))
+}
+
 fn accumulate(g: &mut Sym3, b: &mut [f64; 3], yy: &mut f64, u: [f64; 3], y: f64) {
+    g.add_outer(u, 1.0);
     let [u0, u1, u2] = u;
-    g.a00 += u0 * u0;
-    g.a01 += u0 * u1;
-    g.a02 += u0 * u2;
-    g.a11 += u1 * u1;
-    g.a12 += u1 * u2;
-    g.a22 += u2 * u2;
     b[0] += u0 * y;
     b[1] += u1 * y;
     b[2] += u2 * y;

@@ -538,14 +538,14 @@ fn normal_equations(
         ];
         // the lower triangle only (all the Cholesky solve reads); by reference: an array's
         // by-value iterator is a call per element at opt-level "z"
-        for (i, ((row, bj), gi)) in
+        for (r, ((row, bj), gi)) in
             ne.a.iter_mut()
                 .zip(ne.b.iter_mut())
                 .zip(g.iter())
                 .enumerate()
         {
             let wg = w * gi;
-            for (x, gj) in row.iter_mut().zip(g.iter()).take(i + 1) {
+            for (x, gj) in row.iter_mut().zip(g.iter()).take(r + 1) {
                 *x += wg * gj;
             }
             *bj += wg * y;

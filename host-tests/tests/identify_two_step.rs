@@ -97,7 +97,7 @@ fn table1_all_40_numbers_paper_mode() {
             beta_deg: b,
             dv1_um: [0.0; 3],
             dv2_um: dv2,
-            ssm_std_um: 0.0,
+            dv_std_um: [0.0, 0.0],
         };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
         close(
@@ -175,7 +175,7 @@ fn table1_full_precision_vectors() {
             beta_deg: b,
             dv1_um: [0.0; 3],
             dv2_um: dv2,
-            ssm_std_um: 0.0,
+            dv_std_um: [0.0, 0.0],
         };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
         let e = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
@@ -258,7 +258,7 @@ fn table1_plus_zr_convention() {
             beta_deg: b,
             dv1_um: [0.0; 3],
             dv2_um: dv2,
-            ssm_std_um: 0.0,
+            dv_std_um: [0.0, 0.0],
         };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
         close(
@@ -299,7 +299,7 @@ fn tv_rrttt_6() {
         beta_deg: -35.0,
         dv1_um: dv1,
         dv2_um: dv2,
-        ssm_std_um: 0.0,
+        dv_std_um: [0.0, 0.0],
     };
     let p = two_step::identify_rrttt(&cfg, &m, Mode::Paper).unwrap();
     close(p.delta_alpha_urad / URAD_PER_DEG, 0.050000013, 1e-9, "eq 7");
@@ -354,7 +354,7 @@ fn tv_tttrr_1() {
         gamma_deg: g,
         dv1_um: [10.0, -5.0, 8.0],
         dv2_um: dv2,
-        ssm_std_um: 0.0,
+        dv_std_um: [0.0, 0.0],
     };
     let p = two_step::identify_tttrr(&cfg, &m, Mode::Paper).unwrap();
     close(
@@ -439,7 +439,7 @@ fn tv_rtttr_a_b() {
         angle_deg: 30.0,
         dv1_um: [4.0, 2.0, -6.0],
         dv2_um: dv2,
-        ssm_std_um: 0.0,
+        dv_std_um: [0.0, 0.0],
     };
     let p = two_step::identify_rtttr_spindle(&scfg, &m, Mode::Paper).unwrap();
     close(p.delta_urad / URAD_PER_DEG, 0.059981851, 1e-9, "eq 17");
@@ -470,7 +470,7 @@ fn tv_rtttr_a_b() {
         angle_deg: 40.0,
         dv1_um: [3.0, -9.0, 5.0],
         dv2_um: dv2,
-        ssm_std_um: 0.0,
+        dv_std_um: [0.0, 0.0],
     };
     let p = two_step::identify_rtttr_table(&tcfg, &m, Mode::Paper).unwrap();
     close(p.delta_urad / URAD_PER_DEG, -0.069986693, 1e-9, "eq 18");
@@ -495,7 +495,7 @@ fn reference_end_flips_sign() {
         beta_deg: -35.0,
         dv1_um: [0.0; 3],
         dv2_um: dv2.map(|v| -v),
-        ssm_std_um: 0.0,
+        dv_std_um: [0.0, 0.0],
     };
     let e = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
     close(e.delta_alpha_urad / URAD_PER_DEG, 0.05, 1e-9, "flipped Δα");
@@ -512,7 +512,7 @@ fn singularities_and_bad_input() {
         beta_deg: 90.0,
         dv1_um: [0.0; 3],
         dv2_um: [1.0, 2.0, 3.0],
-        ssm_std_um: 0.0,
+        dv_std_um: [0.0, 0.0],
     };
     for mode in [Mode::Exact, Mode::Paper] {
         assert_eq!(
@@ -582,7 +582,7 @@ fn singularities_and_bad_input() {
         gamma_deg: g0,
         dv1_um: [0.0; 3],
         dv2_um: [0.0; 3],
-        ssm_std_um: 0.0,
+        dv_std_um: [0.0, 0.0],
     };
     for mode in [Mode::Exact, Mode::Paper] {
         assert_eq!(
@@ -647,7 +647,7 @@ fn singularities_and_bad_input() {
         angle_deg: 90.0,
         dv1_um: [0.0; 3],
         dv2_um: [0.0, 0.0, -10.0],
-        ssm_std_um: 0.0,
+        dv_std_um: [0.0, 0.0],
     };
     assert_eq!(
         two_step::identify_rtttr_spindle(&sc, &sm, Mode::Paper),
@@ -717,7 +717,7 @@ fn round_trip_random() {
             beta_deg: b / D2R,
             dv1_um: e1_um,
             dv2_um: fwd::diff_um(act, nom),
-            ssm_std_um: 0.0,
+            dv_std_um: [0.0, 0.0],
         };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         close(r.delta_alpha_urad * 1e-6, d1, 1e-12, "RRTTT exact Δα");
@@ -756,7 +756,7 @@ fn round_trip_random() {
             gamma_deg: g / D2R,
             dv1_um: e1_um,
             dv2_um: fwd::diff_um(act, nom),
-            ssm_std_um: 0.0,
+            dv_std_um: [0.0, 0.0],
         };
         let r = two_step::identify_tttrr(&tc, &m, Mode::Exact).unwrap();
         close(r.delta_alpha_urad * 1e-6, d1, 1e-11, "TTTRR exact Δα");
@@ -793,7 +793,7 @@ fn round_trip_random() {
             angle_deg: b / D2R,
             dv1_um: e1_um,
             dv2_um: fwd::diff_um(act, nom),
-            ssm_std_um: 0.0,
+            dv_std_um: [0.0, 0.0],
         };
         close(
             two_step::identify_rtttr_spindle(&sc, &m, Mode::Exact)
@@ -835,7 +835,7 @@ fn round_trip_random() {
             angle_deg: a / D2R,
             dv1_um: e1_um,
             dv2_um: fwd::diff_um(act, nom),
-            ssm_std_um: 0.0,
+            dv_std_um: [0.0, 0.0],
         };
         close(
             two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact)
@@ -893,7 +893,7 @@ fn propagated_uncertainty_matches_monte_carlo() {
             beta_deg: 50.0,
             dv1_um: noisy(&mut rng, [0.0; 3]),
             dv2_um: noisy(&mut rng, dv2),
-            ssm_std_um: sigma,
+            dv_std_um: [sigma, sigma],
         };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         da.push(r.delta_alpha_urad);
@@ -926,7 +926,7 @@ fn propagated_uncertainty_matches_monte_carlo() {
             gamma_deg: 35.0,
             dv1_um: noisy(&mut rng, [0.0; 3]),
             dv2_um: noisy(&mut rng, dv2),
-            ssm_std_um: sigma,
+            dv_std_um: [sigma, sigma],
         };
         let r = two_step::identify_tttrr(&tc, &m, Mode::Exact).unwrap();
         da.push(r.delta_alpha_urad);
@@ -949,19 +949,39 @@ fn propagated_uncertainty_matches_monte_carlo() {
             angle_deg: 40.0,
             dv1_um: noisy(&mut rng, [0.0; 3]),
             dv2_um: noisy(&mut rng, [0.0; 3]),
-            ssm_std_um: sigma,
+            dv_std_um: [sigma, sigma],
         };
         let r = two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact).unwrap();
         d.push(r.delta_urad);
         rep = r.std_uncertainty_urad;
     }
     close(spread(&d) / rep, 1.0, 0.1, "RTTTR σ(Δα)");
+    // ΔV1 and ΔV2 with their own u (issue 14: one scalar for both before)
+    let (mut d, mut rep) = (vec![], 0.0);
+    for _ in 0..trials {
+        let m = SingleAxisMeasurement {
+            origin_mm: [0.0; 3],
+            angle_deg: 40.0,
+            dv1_um: [0.0; 3].map(|x: f64| x + noise(&mut rng, sigma)),
+            dv2_um: [0.0; 3].map(|x: f64| x + noise(&mut rng, 3.0 * sigma)),
+            dv_std_um: [sigma, 3.0 * sigma],
+        };
+        let r = two_step::identify_rtttr_table(&tcfg, &m, Mode::Exact).unwrap();
+        d.push(r.delta_urad);
+        rep = r.std_uncertainty_urad;
+    }
+    close(
+        spread(&d) / rep,
+        1.0,
+        0.1,
+        "RTTTR σ(Δα), ΔV2 three times as noisy",
+    );
     let bad = SingleAxisMeasurement {
         origin_mm: [0.0; 3],
         angle_deg: 40.0,
         dv1_um: [0.0; 3],
         dv2_um: [0.0; 3],
-        ssm_std_um: -1.0,
+        dv_std_um: [0.1, -1.0],
     };
     assert_eq!(
         two_step::identify_rtttr_table(&tcfg, &bad, Mode::Exact),
@@ -1018,7 +1038,7 @@ fn beta_then_alpha_round_trip() {
             beta_deg: b / D2R,
             dv1_um: e1.map(|v| v * 1e3),
             dv2_um: fwd::diff_um(tip(p1, e1, a + d1, b + d2, z), nom),
-            ssm_std_um: 0.0,
+            dv_std_um: [0.0, 0.0],
         };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         close(r.delta_alpha_urad * 1e-6, d1, 1e-12, "Ry·Rx Δα");
@@ -1036,7 +1056,7 @@ fn beta_then_alpha_round_trip() {
             beta_deg: 20.0,
             dv1_um: [0.0; 3].map(|_| noise(&mut rng, 1.0)),
             dv2_um: [0.0; 3].map(|_| noise(&mut rng, 1.0)),
-            ssm_std_um: 1.0,
+            dv_std_um: [1.0, 1.0],
         };
         let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).unwrap();
         da.push(r.delta_alpha_urad);

@@ -194,7 +194,7 @@ impl TwoStep {
         if t.ts_machine == TwoStepMachine::None {
             return Ok(false);
         }
-        // the two-step takes one u for every component (issue 14: propagate the covariances)
+        // each run's u: its largest component's (the two-step takes one per run)
         let e = (
             [x, y, z],
             m.u_e_um().iter().fold(0.0, |a: f64, &b| a.max(b)),
@@ -205,7 +205,7 @@ impl TwoStep {
             return Ok(false);
         };
         let (dv2, u2) = e;
-        identify(t, dv1, dv2, u1.max(u2), results)?;
+        identify(t, dv1, dv2, [u1, u2], results)?;
         Ok(true)
     }
 }
@@ -222,7 +222,7 @@ fn identify(
     t: &TestSetup,
     dv1_um: [f64; 3],
     dv2_um: [f64; 3],
-    ssm_std_um: f64,
+    dv_std_um: [f64; 2],
     results: &mut Results,
 ) -> Result<(), TwoStepFailure> {
     let [a1, a2] = t.ts_angles_deg;
@@ -233,7 +233,7 @@ fn identify(
         angle_deg,
         dv1_um,
         dv2_um,
-        ssm_std_um,
+        dv_std_um,
     };
     match t.ts_machine {
         TwoStepMachine::None => {}
@@ -250,7 +250,7 @@ fn identify(
                 beta_deg: required(a2, Field::TsAngleDeg(1))?,
                 dv1_um,
                 dv2_um,
-                ssm_std_um,
+                dv_std_um,
             };
             let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).map_err(fail)?;
             let [ua, ub] = r.std_uncertainty_urad;
@@ -270,7 +270,7 @@ fn identify(
                 gamma_deg: required(a2, Field::TsAngleDeg(1))?,
                 dv1_um,
                 dv2_um,
-                ssm_std_um,
+                dv_std_um,
             };
             let r = two_step::identify_tttrr(&cfg, &m, Mode::Exact).map_err(fail)?;
             let [ua, ug] = r.std_uncertainty_urad;

@@ -32,7 +32,8 @@
 //! Quality figures: both modes report the residual of the full three-row model evaluated with
 //! the identified angles against the measured position (the "unused equation": three rows, two
 //! unknowns for RRTTT/TTTRR, three rows and one unknown for RTTTR), and the first-order standard
-//! uncertainty of each angle propagated from the SSM component uncertainty `ssm_std_um`.
+//! uncertainty of each angle propagated from the SSM component uncertainties of ΔV1 and ΔV2,
+//! `dv_std_um` (each run its own: the pod states each SSM run's u).
 
 use core::f64::consts::PI;
 
@@ -113,7 +114,7 @@ pub enum TwoStepError {
     ZeroLength,
     /// `min_lever_arm_mm` is not a positive finite number.
     BadMinLeverArm,
-    /// `ssm_std_um` is negative.
+    /// An entry of `dv_std_um` is negative.
     NegativeUncertainty,
     /// The geometry makes an error unobservable (see [`Singularity`]).
     Singular(Singularity),
@@ -189,8 +190,8 @@ fn single_result(r: SingleAxisResult) -> Result<SingleAxisResult, TwoStepError> 
     Ok(r)
 }
 
-fn check_std(ssm_std_um: f64) -> Result<(), TwoStepError> {
-    if ssm_std_um < 0.0 {
+fn check_std(dv_std_um: [f64; 2]) -> Result<(), TwoStepError> {
+    if dv_std_um.iter().any(|u| *u < 0.0) {
         Err(TwoStepError::NegativeUncertainty)
     } else {
         Ok(())
@@ -198,10 +199,11 @@ fn check_std(ssm_std_um: f64) -> Result<(), TwoStepError> {
 }
 
 /// First-order standard uncertainty (µrad) of an angle read on a lever arm (mm) from the
-/// difference of two SSM vectors with component uncertainty σ (µm): √2·σ/lever
-/// (µm/mm = mrad, hence ×1e3).
-fn angle_std_urad(ssm_std_um: f64, lever_mm: f64) -> f64 {
-    core::f64::consts::SQRT_2 * ssm_std_um / libm::fabs(lever_mm) * 1e3
+/// difference of two independent SSM vectors with component uncertainties σ₁, σ₂ (µm):
+/// √(σ₁² + σ₂²)/lever (µm/mm = mrad, hence ×1e3).
+fn angle_std_urad(dv_std_um: [f64; 2], lever_mm: f64) -> f64 {
+    let [a, b] = dv_std_um;
+    crate::num::hypot(a, b) / libm::fabs(lever_mm) * 1e3
 }
 
 fn check_lever(min_lever_arm_mm: f64) -> Result<(), TwoStepError> {
@@ -381,9 +383,9 @@ pub struct RrtttMeasurement {
     pub dv1_um: [f64; 3],
     /// SSM total position error after the rotation (ΔV2), µm.
     pub dv2_um: [f64; 3],
-    /// Standard uncertainty of each SSM component (ΔV1 and ΔV2 alike, independent), µm; 0 if
-    /// unknown. Propagated to the angles' `std_uncertainty_urad`.
-    pub ssm_std_um: f64,
+    /// Standard uncertainty of each SSM component of ΔV1 and of ΔV2 (independent runs), µm;
+    /// 0 if unknown. Propagated to the angles' `std_uncertainty_urad`.
+    pub dv_std_um: [f64; 2],
 }
 
 /// Identified RRTTT orientation errors.
@@ -393,7 +395,7 @@ pub struct RrtttResult {
     pub delta_alpha_urad: f64,
     /// Δβ = β_actual − β_nominal, µrad.
     pub delta_beta_urad: f64,
-    /// Standard uncertainties of (Δα, Δβ) from `ssm_std_um`, µrad: √2·σ / lever arm, the lever
+    /// Standard uncertainties of (Δα, Δβ) from `dv_std_um`, µrad: √(σ₁² + σ₂²) / lever arm, the lever
     /// being |z_r| for the inner rotation (β for Rx·Ry) and |z_r|·cos(inner angle) for the
     /// outer one (first order).
     pub std_uncertainty_urad: [f64; 2],
@@ -444,11 +446,11 @@ pub fn identify_rrttt(
         && m.beta_deg.is_finite()
         && crate::num::all_finite(&m.dv1_um)
         && crate::num::all_finite(&m.dv2_um)
-        && m.ssm_std_um.is_finite())
+        && m.dv_std_um.iter().all(|u| u.is_finite()))
     {
         return Err(TwoStepError::NonFinite);
     }
-    check_std(m.ssm_std_um)?;
+    check_std(m.dv_std_um)?;
     if cfg.tool_z_mm == 0.0 {
         return Err(TwoStepError::ZeroLength);
     }
@@ -505,16 +507,16 @@ pub fn identify_rrttt(
     };
     let model = rrttt_tool(cfg, alpha + d_alpha, beta + d_beta);
     // ∂v/∂(inner angle) has length |z_r|; ∂v/∂(outer angle) has length |z_r|·cos(inner angle)
-    let sd_z = angle_std_urad(m.ssm_std_um, cfg.tool_z_mm);
+    let sd_z = angle_std_urad(m.dv_std_um, cfg.tool_z_mm);
     let std_uncertainty_urad = match cfg.rotation_order {
         RotationOrder::AlphaThenBeta => [
-            angle_std_urad(m.ssm_std_um, cfg.tool_z_mm * crate::num::cos(beta + d_beta)),
+            angle_std_urad(m.dv_std_um, cfg.tool_z_mm * crate::num::cos(beta + d_beta)),
             sd_z,
         ],
         RotationOrder::BetaThenAlpha => [
             sd_z,
             angle_std_urad(
-                m.ssm_std_um,
+                m.dv_std_um,
                 cfg.tool_z_mm * crate::num::cos(alpha + d_alpha),
             ),
         ],
@@ -565,9 +567,9 @@ pub struct TttrrMeasurement {
     pub dv1_um: [f64; 3],
     /// SSM error after the rotation (ΔV2), µm.
     pub dv2_um: [f64; 3],
-    /// Standard uncertainty of each SSM component (ΔV1 and ΔV2 alike, independent), µm; 0 if
-    /// unknown. Propagated to the angles' `std_uncertainty_urad`.
-    pub ssm_std_um: f64,
+    /// Standard uncertainty of each SSM component of ΔV1 and of ΔV2 (independent runs), µm;
+    /// 0 if unknown. Propagated to the angles' `std_uncertainty_urad`.
+    pub dv_std_um: [f64; 2],
 }
 
 /// Identified TTTRR orientation errors.
@@ -577,7 +579,7 @@ pub struct TttrrResult {
     pub delta_alpha_urad: f64,
     /// Δγ = γ_actual − γ_nominal, µrad.
     pub delta_gamma_urad: f64,
-    /// Standard uncertainties of (Δα, Δγ) from `ssm_std_um`, µrad (first order: Δγ lever
+    /// Standard uncertainties of (Δα, Δγ) from `dv_std_um`, µrad (first order: Δγ lever
     /// |Q′|; Δα lever hypot(H, Q′) plus the Δγ coupling through Q′).
     pub std_uncertainty_urad: [f64; 2],
     /// Measured minus modelled reference-point position with the identified angles, µm.
@@ -627,11 +629,11 @@ pub fn identify_tttrr(
         && m.gamma_deg.is_finite()
         && crate::num::all_finite(&m.dv1_um)
         && crate::num::all_finite(&m.dv2_um)
-        && m.ssm_std_um.is_finite())
+        && m.dv_std_um.iter().all(|u| u.is_finite()))
     {
         return Err(TwoStepError::NonFinite);
     }
-    check_std(m.ssm_std_um)?;
+    check_std(m.dv_std_um)?;
     let [xr, yr, zr] = cfg.reference_point_mm;
     let rho = crate::num::hypot(xr, yr);
     if rho == 0.0 {
@@ -712,10 +714,10 @@ pub fn identify_tttrr(
     if !(libm::fabs(q1) >= cfg.min_lever_arm_mm) {
         return Err(TwoStepError::Singular(Singularity::GammaLever));
     }
-    let sd_gamma = angle_std_urad(m.ssm_std_um, q1);
+    let sd_gamma = angle_std_urad(m.dv_std_um, q1);
     // α′ = atan2(v_z, v_y) − atan2(H, Q′): direct term on hypot(H, Q′), plus Q′ = Q′(γ′)
     let h2q2 = h * h + q1 * q1;
-    let sd_direct = angle_std_urad(m.ssm_std_um, crate::num::sqrt(h2q2));
+    let sd_direct = angle_std_urad(m.dv_std_um, crate::num::sqrt(h2q2));
     let coupling = h * c1 / h2q2 * sd_gamma;
     let sd_alpha = crate::num::sqrt(sd_direct * sd_direct + coupling * coupling);
     let out = TttrrResult {
@@ -768,9 +770,9 @@ pub struct SingleAxisMeasurement {
     pub dv1_um: [f64; 3],
     /// SSM error after the rotation (ΔV2 or ΔtV2), µm.
     pub dv2_um: [f64; 3],
-    /// Standard uncertainty of each SSM component (ΔV1 and ΔV2 alike, independent), µm; 0 if
-    /// unknown. Propagated to the angles' `std_uncertainty_urad`.
-    pub ssm_std_um: f64,
+    /// Standard uncertainty of each SSM component of ΔV1 and of ΔV2 (independent runs), µm;
+    /// 0 if unknown. Propagated to the angles' `std_uncertainty_urad`.
+    pub dv_std_um: [f64; 2],
 }
 
 /// Identified orientation error of one rotary axis.
@@ -778,7 +780,7 @@ pub struct SingleAxisMeasurement {
 pub struct SingleAxisResult {
     /// Δθ = θ_actual − θ_nominal, µrad.
     pub delta_urad: f64,
-    /// Standard uncertainty of Δθ from `ssm_std_um`, µrad: √2·σ / lever arm (|z_r| for the
+    /// Standard uncertainty of Δθ from `dv_std_um`, µrad: √(σ₁² + σ₂²) / lever arm (|z_r| for the
     /// spindle, hypot(y_tr, z_tr) for the table).
     pub std_uncertainty_urad: f64,
     /// Measured minus modelled position with the identified angle, µm (three rows, one
@@ -793,7 +795,7 @@ fn single_inputs_ok(m: &SingleAxisMeasurement) -> bool {
         && m.angle_deg.is_finite()
         && crate::num::all_finite(&m.dv1_um)
         && crate::num::all_finite(&m.dv2_um)
-        && m.ssm_std_um.is_finite()
+        && m.dv_std_um.iter().all(|u| u.is_finite())
 }
 
 /// Nominal RTTTR tool-tip position, mm (eq 13).
@@ -831,7 +833,7 @@ pub fn identify_rtttr_spindle(
     if !(cfg.tool_z_mm.is_finite() && single_inputs_ok(m)) {
         return Err(TwoStepError::NonFinite);
     }
-    check_std(m.ssm_std_um)?;
+    check_std(m.dv_std_um)?;
     if !(libm::fabs(cfg.tool_z_mm) >= cfg.min_lever_arm_mm) {
         return Err(TwoStepError::ZeroLength);
     }
@@ -865,7 +867,7 @@ pub fn identify_rtttr_spindle(
     let model = rot_y(beta + d_beta, [0.0, 0.0, cfg.tool_z_mm]);
     single_result(SingleAxisResult {
         delta_urad: d_beta * 1e6,
-        std_uncertainty_urad: angle_std_urad(m.ssm_std_um, cfg.tool_z_mm),
+        std_uncertainty_urad: angle_std_urad(m.dv_std_um, cfg.tool_z_mm),
         residual_um: residual_um(v, model),
         mode,
     })
@@ -882,7 +884,7 @@ pub fn identify_rtttr_table(
     if !(crate::num::all_finite(&cfg.reference_point_mm) && single_inputs_ok(m)) {
         return Err(TwoStepError::NonFinite);
     }
-    check_std(m.ssm_std_um)?;
+    check_std(m.dv_std_um)?;
     let [_, ytr, ztr] = cfg.reference_point_mm;
     let sgn = cfg.reference_end.sign();
     let dv1 = scale(sgn, m.dv1_um);
@@ -917,7 +919,7 @@ pub fn identify_rtttr_table(
     let model = rot_x(alpha + d_alpha, cfg.reference_point_mm);
     single_result(SingleAxisResult {
         delta_urad: d_alpha * 1e6,
-        std_uncertainty_urad: angle_std_urad(m.ssm_std_um, crate::num::hypot(ytr, ztr)),
+        std_uncertainty_urad: angle_std_urad(m.dv_std_um, crate::num::hypot(ytr, ztr)),
         residual_um: residual_um(v, model),
         mode,
     })

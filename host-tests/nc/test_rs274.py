@@ -242,3 +242,73 @@ def test_a_sphere_with_no_size_is_refused(tmp_path):
     p = subprocess.run([NCGEN, "sphere", "--centre", "0", "0", "0", "--contact-radius", "0"],
                        capture_output=True, text=True, timeout=60)
     assert p.returncode == 1 and p.stdout == "" and "--contact-radius" in p.stderr
+
+
+# The seed 002 set-up of the thesis (Table 4.3), with the model frame moved in the machine.
+S002 = {"s002_l_b": 100.0, "s002_r_b": 356.3945, "s002_r_b2": 406.4608, "s002_r_c": 50.0,
+        "s002_z_c": 65.5348, "s002_origin_x": -490.0, "s002_origin_y": 12.5, "s002_origin_z": -112.2605}
+
+
+def pattern_program(tmp_path, pattern, setup, *args):
+    assert NCGEN, "set BALLPOD_NCGEN to the ncgen binary"
+    f = tmp_path / "setup.toml"
+    f.write_text("[setup]\n" + "".join(f"{k} = {v}\n" for k, v in setup.items()))
+    return subprocess.run([NCGEN, "pattern", pattern, str(f), *args], capture_output=True,
+                          text=True, timeout=60)
+
+
+def balls(p, pattern):
+    """The nominal machine's T-ball and W-ball centres (model frame, mm) at axis position
+    p = (X, Y, Z, A, B, C): the spindle head turns about B (its pivot at X Y Z, the T-ball R_B
+    below it along the tool at B = 0, R'_B for CR2); the W-ball sits on the C table, at its centre
+    for the B patterns and R_C out for the C patterns, and turns with C."""
+    x, y, z = (p[0] - S002["s002_origin_x"], p[1] - S002["s002_origin_y"], p[2] - S002["s002_origin_z"])
+    b, c = math.radians(p[4]), math.radians(p[5])
+    rb = S002["s002_r_b2"] if pattern == "CR2" else S002["s002_r_b"]
+    t = (x - rb * math.sin(b), y, z - rb * math.cos(b))
+    rc = 0.0 if pattern in ("BX", "BY") else S002["s002_r_c"]
+    w = (rc * math.cos(c), rc * math.sin(c), S002["s002_z_c"])
+    return t, w
+
+
+@pytest.mark.parametrize("pattern", ["BX", "BY", "CR", "CA", "CR2"])
+def test_pattern_programs_keep_the_bar_at_its_length_through_the_whole_turn(tmp_path, pattern):
+    p = pattern_program(tmp_path, pattern, S002)
+    assert p.returncode == 0, p.stderr
+    cmds = interpret(tmp_path, p.stdout)
+    moves = [(n, [float(x) for x in a[:6]]) for n, a in cmds
+             if n in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED")]
+    assert moves[0][0] == "STRAIGHT_TRAVERSE" and all(n == "STRAIGHT_FEED" for n, _ in moves[1:]), \
+        "one rapid to the mounting point, then feed moves only"
+    quarter = pattern in ("BX", "BY")
+    rotary = 4 if quarter else 5
+    steps = 324 if quarter else 1296
+    # the rapid to the start, then CCW and CW, each run's steps (a run starts where the machine is)
+    assert len(moves) == 1 + 2 * steps
+    for _, p6 in moves:
+        t, w = balls(p6, pattern)
+        assert math.dist(t, w) == pytest.approx(S002["s002_l_b"], abs=TOL_MM), p6
+        if quarter:
+            # the T-ball stays put while the head turns about it
+            t0, _ = balls(moves[0][1], pattern)
+            assert math.dist(t, t0) < TOL_MM
+    angles = [p6[rotary] for _, p6 in moves]
+    span = 90.0 if quarter else 360.0
+    # B: 90 -> 0 is CCW in the pod's XZ plane; C: 0 -> 360 is CCW; then back
+    first, last = (span, 0.0) if quarter else (0.0, span)
+    assert (angles[0], angles[steps], angles[2 * steps]) == (
+        pytest.approx(first), pytest.approx(last), pytest.approx(first))
+    for a, b in zip(angles, angles[1:]):
+        assert abs(b - a) == pytest.approx(span / steps, abs=1e-3), "even steps"
+    # the other rotary axis does not move
+    other = 5 if quarter else 4
+    assert all(p6[other] == pytest.approx(0.0) for _, p6 in moves)
+
+
+def test_a_pattern_set_up_without_a_length_is_refused_naming_the_field(tmp_path):
+    setup = dict(S002)
+    del setup["s002_r_c"]
+    p = pattern_program(tmp_path, "CR", setup)
+    assert p.returncode == 1 and p.stdout == "" and "s002_r_c" in p.stderr, p.stderr
+    p = pattern_program(tmp_path, "CIRCLE", S002)
+    assert p.returncode == 1 and p.stdout == "" and "PATTERN" in p.stderr, p.stderr

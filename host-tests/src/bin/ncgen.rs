@@ -1,8 +1,9 @@
-//! `cargo ncgen -- circle SETUP [options]` / `cargo ncgen -- sphere --centre X Y Z [options]`:
-//! the part program of a test, for LinuxCNC or an ISO/Fanuc control: the ISO 230-4 circle from
-//! the pod's set-up (a TOML / JSON file with a `[setup]` table of configuration fields, as
-//! replay's session files: `circle_plane`, `circle_centre_*`, `circle_radius`, `circle_feed`),
-//! or a touch-probe sphere measurement. Prints the program, or writes it with `--out`. A set-up
+//! `cargo ncgen -- circle SETUP [options]` / `cargo ncgen -- pattern PATTERN SETUP [options]` /
+//! `cargo ncgen -- sphere --centre X Y Z [options]`: the part program of a test, for LinuxCNC or
+//! an ISO/Fanuc control: the ISO 230-4 circle from the pod's set-up (a TOML / JSON file with a
+//! `[setup]` table of configuration fields, as replay's session files: `circle_plane`,
+//! `circle_centre_*`, `circle_radius`, `circle_feed`), a seed 002 procedure pattern from its
+//! `s002_*` fields, or a touch-probe sphere measurement. Prints the program, or writes it with `--out`. A set-up
 //! the machine cannot run is refused with the field named; nothing is written.
 
 use std::path::PathBuf;
@@ -10,7 +11,7 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand, ValueEnum};
 
 use ballpod::app::Direction;
-use ballpod_host::ncgen::{CircleOptions, CircleTest, Dialect, SphereTest};
+use ballpod_host::ncgen::{CircleOptions, CircleTest, Dialect, PatternTest, SphereTest};
 use ballpod_host::session_file::{read_text, setup_config};
 
 /// The control the program is for.
@@ -52,6 +53,8 @@ struct Args {
 enum Test {
     /// An ISO 230-4 circle from the pod's set-up file.
     Circle(CircleArgs),
+    /// A seed 002 procedure pattern (BX, BY, CR, CA, CR2) from the pod's set-up file.
+    Pattern(PatternArgs),
     /// A touch-probe sphere measurement (pattern PROBE): nine touches along the normals.
     Sphere(SphereArgs),
 }
@@ -76,6 +79,25 @@ struct CircleArgs {
     /// Radial feed-in / feed-out distance, mm (0.1 … 10).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     feed_in_mm: f64,
+}
+
+/// The pattern and its options (the geometry is the set-up's `s002_*` fields).
+#[derive(clap::Args, Debug)]
+struct PatternArgs {
+    /// The procedure's step: BX, BY, CR, CA or CR2.
+    pattern: String,
+    /// Set-up file (.toml or .json) with a `[setup]` table of configuration fields.
+    setup: PathBuf,
+    /// Runs, in order.
+    #[arg(long, value_enum, default_value = "both")]
+    direction: Directions,
+    /// Blocks per run (a B quarter turn or a C revolution; 324 per quarter: the thesis's
+    /// 0.2778° steps).
+    #[arg(long)]
+    steps: Option<usize>,
+    /// Feed of the linear axes, mm/min.
+    #[arg(long, default_value_t = 1000.0, allow_negative_numbers = true)]
+    feed: f64,
 }
 
 /// The sphere's place (as the stylus ball's centre) and size.
@@ -123,20 +145,26 @@ fn run(args: &Args) -> Result<String, String> {
         Test::Circle(c) => {
             let text = read_text(&c.setup).map_err(|e| e.to_string())?;
             let cfg = setup_config(&c.setup, &text).map_err(|e| e.to_string())?;
-            let directions = match c.direction {
-                Directions::Both => vec![Direction::Ccw, Direction::Cw],
-                Directions::Ccw => vec![Direction::Ccw],
-                Directions::Cw => vec![Direction::Cw],
-            };
             let options = CircleOptions {
                 start_deg: c.start_deg,
                 arc_deg: c.arc_deg,
                 overshoot_deg: c.overshoot_deg,
                 feed_in_mm: c.feed_in_mm,
-                directions,
+                directions: directions(c.direction),
             };
             let test = CircleTest::from_config(&cfg, options)
                 .map_err(|e| format!("{}: {e}", c.setup.display()))?;
+            Ok(test.program(dialect))
+        }
+        Test::Pattern(p) => {
+            let step = ballpod::app::Pattern::from_name(p.pattern.as_bytes())
+                .ok_or_else(|| format!("PATTERN: {:?} is not BX, BY, CR, CA or CR2", p.pattern))?;
+            let text = read_text(&p.setup).map_err(|e| e.to_string())?;
+            let cfg = setup_config(&p.setup, &text).map_err(|e| e.to_string())?;
+            let quarter = matches!(step, ballpod::app::Pattern::Bx | ballpod::app::Pattern::By);
+            let steps = p.steps.unwrap_or(if quarter { 324 } else { 1296 });
+            let test = PatternTest::from_config(&cfg, step, steps, p.feed, directions(p.direction))
+                .map_err(|e| format!("{}: {e}", p.setup.display()))?;
             Ok(test.program(dialect))
         }
         Test::Sphere(s) => {
@@ -145,5 +173,14 @@ fn run(args: &Args) -> Result<String, String> {
                 .map_err(|e| e.to_string())?;
             Ok(test.program(dialect))
         }
+    }
+}
+
+/// The runs of a `--direction`, in order.
+fn directions(d: Directions) -> Vec<Direction> {
+    match d {
+        Directions::Both => vec![Direction::Ccw, Direction::Cw],
+        Directions::Ccw => vec![Direction::Ccw],
+        Directions::Cw => vec![Direction::Cw],
     }
 }

@@ -1,6 +1,7 @@
 //! Part programs for the pod's tests (`cargo ncgen`): the machine moves through the test the
 //! pod measures. Today: the ISO 230-4 circle (full or partial arc) in XY, YZ or ZX, CCW and CW,
-//! from the pod's own set-up (`circle_*` fields), and the touch-probe sphere measurement
+//! from the pod's own set-up (`circle_*` fields), the seed 002 procedure's patterns BX, BY, CR,
+//! CA, CR2 ([`PatternTest`], `s002_*` fields) and the touch-probe sphere measurement
 //! ([`SphereTest`]), in two dialects ([`Dialect`]: LinuxCNC and ISO/Fanuc), every dialect
 //! difference in `dialect.rs`.
 //!
@@ -15,9 +16,11 @@
 //! stopped at its end); comments mark where it begins and ends.
 
 mod dialect;
+mod pattern;
 mod sphere;
 
 pub use dialect::Dialect;
+pub use pattern::PatternTest;
 pub use sphere::SphereTest;
 
 use std::fmt::Write as _;

@@ -1,0 +1,197 @@
+//! The seed 002 procedure's pattern programs (steps BX, BY, CR, CA, CR2) from the pod's own
+//! set-up (`s002_*` fields): the core's Table 2.2 / 2.3 commands
+//! ([`ballpod::identify::multitasking::patterns::PatternProgram`], the model frame moved by
+//! `s002_origin`) as simultaneous G1 blocks of X Y Z B C.
+//!
+//! A B pattern turns B over a quarter (0° → 90° is CW in the pod's XZ plane, 90° → 0° CCW: the
+//! pod's convention, θ from +X towards +Z), a C pattern turns C a full revolution
+//! (0° → 360° CCW, back CW). The second run starts where the first ended, so the bar stays
+//! mounted between runs with no move of its own; the machine is at the first block when the bar
+//! is mounted. Feed: G94 mm/min, which the controls apply to the linear axes' path (the rotary
+//! axis follows in the same block).
+
+use std::fmt::Write as _;
+
+use ballpod::app::seed002::{Setup, model_pattern};
+use ballpod::app::{Direction, Pattern};
+use ballpod::config::{Config, TestSetup};
+use ballpod::identify::multitasking::patterns::PatternProgram;
+
+use super::{Dialect, NcError, num};
+
+/// A pattern program ready to be written: the set-up's geometry and the options checked.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PatternTest {
+    /// The procedure's step.
+    pub step: Pattern,
+    /// The set-up (lengths and the model frame's origin in machine coordinates).
+    pub setup: Setup,
+    /// Blocks per run (a B quarter or a C revolution).
+    pub steps: usize,
+    /// Feed, mm/min.
+    pub feed_mm_per_min: f64,
+    /// The runs, in order.
+    pub directions: Vec<Direction>,
+}
+
+impl PatternTest {
+    /// The program of `step` (BX, BY, CR, CA or CR2) for the set-up in `cfg`: every length the
+    /// step needs set and positive, the origin set; `steps` in 4 … 100 000, the feed positive.
+    pub fn from_config(
+        cfg: &Config,
+        step: Pattern,
+        steps: usize,
+        feed_mm_per_min: f64,
+        directions: Vec<Direction>,
+    ) -> Result<Self, NcError> {
+        if step.seed002_step().is_none() {
+            return Err(NcError {
+                field: "PATTERN",
+                what: format!("{}: not a seed 002 step (BX, BY, CR, CA, CR2)", step.name()),
+            });
+        }
+        let setup = setup_of(&cfg.setup)?;
+        if !(4..=100_000).contains(&steps) {
+            return Err(NcError {
+                field: "--steps",
+                what: format!("{steps} outside [4, 100000]"),
+            });
+        }
+        if !(feed_mm_per_min.is_finite() && feed_mm_per_min > 0.0) {
+            return Err(NcError {
+                field: "--feed",
+                what: format!("{feed_mm_per_min} mm/min: must be > 0"),
+            });
+        }
+        if directions.is_empty() {
+            return Err(NcError {
+                field: "--direction",
+                what: "no direction".into(),
+            });
+        }
+        let test = Self {
+            step,
+            setup,
+            steps,
+            feed_mm_per_min,
+            directions,
+        };
+        // the core validates the geometry (e.g. CR with R_C = L_B puts the T-ball on the axis)
+        test.run(Direction::Ccw).map_err(|e| NcError {
+            field: "s002_*",
+            what: format!("{e:?}"),
+        })?;
+        Ok(test)
+    }
+
+    /// The blocks of one run.
+    fn run(
+        &self,
+        d: Direction,
+    ) -> Result<PatternProgram, ballpod::identify::multitasking::patterns::PatternError> {
+        let span = if model_pattern(self.step).is_b() {
+            90.0
+        } else {
+            360.0
+        };
+        // B: 0 → 90° turns CW in the pod's XZ plane; C: 0 → 360° turns CCW
+        let increasing = model_pattern(self.step).is_b() == (d == Direction::Cw);
+        let (from, to) = if increasing { (0.0, span) } else { (span, 0.0) };
+        PatternProgram::new(
+            model_pattern(self.step),
+            self.setup.geometry(self.step),
+            self.setup.offset,
+            from,
+            to,
+            self.steps,
+        )
+    }
+
+    /// The part program in `dialect`.
+    pub fn program(&self, dialect: Dialect) -> String {
+        let s = &self.setup;
+        let g = s.geometry(self.step);
+        let names: Vec<&str> = self.directions.iter().map(|d| d.name()).collect();
+        let mut out = String::new();
+        let header = [
+            format!(
+                "ballpod seed 002 pattern {}, {}",
+                self.step.name(),
+                names.join(" then ")
+            ),
+            format!(
+                "L_B {} R_B {} R_C {} Z_C {} mm, model origin at X {} Y {} Z {}",
+                num(g.l_b_mm),
+                num(g.r_b_mm),
+                num(g.r_c_mm),
+                num(g.z_c_mm),
+                num(s.offset.x_mm),
+                num(s.offset.y_mm),
+                num(s.offset.z_mm)
+            ),
+            format!(
+                "{} blocks per run, feed {} mm/min on the linear axes",
+                self.steps,
+                num(self.feed_mm_per_min)
+            ),
+            format!(
+                "pod set-up: pattern {}; the pod runs one test per direction: arm it before each run",
+                self.step.name()
+            ),
+        ];
+        dialect.begin(&mut out, &header);
+        let _ = writeln!(out, "G21 G90 G94");
+        let mut first = true;
+        for d in &self.directions {
+            // from_config checked the geometry: a run always builds
+            let Ok(mut blocks) = self.run(*d) else {
+                continue;
+            };
+            let Some(start) = blocks.next() else {
+                continue;
+            };
+            let words = |b: &ballpod::identify::multitasking::patterns::NcBlock| {
+                format!(
+                    "X{} Y{} Z{} B{} C{}",
+                    num(b.x_mm),
+                    num(b.y_mm),
+                    num(b.z_mm),
+                    num(b.b_deg),
+                    num(b.c_deg)
+                )
+            };
+            if first {
+                dialect.comment(
+                    &mut out,
+                    &format!(
+                        "{} run: mount the bar at this point before the start",
+                        d.name()
+                    ),
+                );
+                let _ = writeln!(out, "G0 {}", words(&start));
+                first = false;
+            }
+            // the run starts where the machine is (the mounting point, or the previous run's
+            // end): its first block is the next one
+            dialect.comment(&mut out, &format!("{} run start", d.name()));
+            for (i, b) in blocks.enumerate() {
+                if i == 0 {
+                    let _ = writeln!(out, "G1 {} F{}", words(&b), num(self.feed_mm_per_min));
+                } else {
+                    let _ = writeln!(out, "G1 {}", words(&b));
+                }
+            }
+            dialect.comment(&mut out, &format!("{} run end", d.name()));
+        }
+        dialect.end(&mut out);
+        out
+    }
+}
+
+/// The seed 002 set-up of a configuration, or the first field it lacks, by name.
+fn setup_of(t: &TestSetup) -> Result<Setup, NcError> {
+    Setup::from_config(t).map_err(|f| NcError {
+        field: Config::field_info(f).map_or("s002_*", |i| i.name),
+        what: "not set".into(),
+    })
+}

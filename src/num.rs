@@ -1,7 +1,8 @@
 //! Numeric helpers shared across the core.
 //!
 //! - [`sqrtf`]: the Cortex-M4F `VSQRT.F32` instruction on the target (DESIGN §6: `libm::sqrtf` is
-//!   ~80 soft instructions on ARMv7E-M, `micromath`'s is ~6 % off), `libm` on the host.
+//!   ~80 soft instructions on ARMv7E-M, `micromath`'s is ~6 % off), `libm` on the host;
+//!   [`fmaf`] likewise `VFMA.F32` (`libm::fmaf` is soft-float through f64).
 //! - [`sin_cos`], [`sin`], [`cos`]: f64 sine and cosine for angles up to ±8·10⁵ rad (fdlibm's
 //!   kernels with a three-part Cody–Waite reduction). Hand-written because `libm::sin`'s
 //!   reduction for any argument (`rem_pio2`, `rem_pio2_large`) is ~6 KB of the 192 KiB flash
@@ -26,9 +27,41 @@ core::arch::global_asm!(
     "bx lr",
 );
 
+// Cortex-M4F fused multiply-add (FPv4-SP `VFMA.F32`), as `ballpod_vsqrtf`: a, b, c in s0–s2.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+core::arch::global_asm!(
+    ".section .text.ballpod_vfmaf,\"ax\",%progbits",
+    ".global ballpod_vfmaf",
+    ".type ballpod_vfmaf,%function",
+    ".thumb_func",
+    ".fpu fpv4-sp-d16",
+    "ballpod_vfmaf:",
+    "vfma.f32 s2, s0, s1",
+    "vmov.f32 s0, s2",
+    "bx lr",
+);
+
 #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
 unsafe extern "C" {
     fn ballpod_vsqrtf(x: f32) -> f32;
+    fn ballpod_vfmaf(a: f32, b: f32, c: f32) -> f32;
+}
+
+/// a·b + c with one rounding (the M4F's `VFMA.F32`; `libm::fmaf` on the host): the exact error
+/// of a product is `fmaf(a, b, −a·b)`.
+#[inline(always)]
+pub fn fmaf(a: f32, b: f32, c: f32) -> f32 {
+    #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+    {
+        // SAFETY: `ballpod_vfmaf` is the three-instruction function above; it reads s0–s2 and
+        // writes s0 (clobbering s2, a caller-saved register), as the eabihf ABI allows for
+        // `extern "C" fn(f32, f32, f32) -> f32`.
+        unsafe { ballpod_vfmaf(a, b, c) }
+    }
+    #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
+    {
+        libm::fmaf(a, b, c)
+    }
 }
 
 /// Square root of an `f32` (IEEE-754 correctly rounded on both paths; NaN for x < 0).

@@ -72,9 +72,9 @@ fn phase_shift_of_30_degrees_changes_nothing() {
         let (a, b) = m.block_f32(0.0, P, PERIODS);
         let r = demodulate(&a, &b, &table).unwrap();
         assert!(
-            (f64::from(r.phase_deg) - ph).abs() < 1e-3,
+            (f64::from(r.phase_deg()) - ph).abs() < 1e-3,
             "phase {}",
-            r.phase_deg
+            r.phase_deg()
         );
     }
 }
@@ -188,4 +188,131 @@ fn dac_table_is_a_mid_scale_sine() {
             "k {k}: {c} vs {want}"
         );
     }
+}
+
+/// The ratio of the f64 projection of the same codes on exact sin/cos (the textbook equations
+/// of the module doc, independent of the core's Q14 table and integer sums).
+fn f64_ratio(a: &[u16], b: &[u16]) -> f64 {
+    let amp = |v: &[u16]| {
+        let (mut i, mut q) = (0.0f64, 0.0f64);
+        for (k, &x) in v.iter().enumerate() {
+            let ph = 2.0 * std::f64::consts::PI * (k % P) as f64 / P as f64;
+            i += f64::from(x) * ph.sin();
+            q += f64::from(x) * ph.cos();
+        }
+        (i * i + q * q).sqrt()
+    };
+    let (aa, ab) = (amp(a), amp(b));
+    (aa - ab) / (aa + ab)
+}
+
+#[test]
+fn integer_projection_matches_an_f64_projection_of_the_same_codes() {
+    // Issue 17: the Q14 integer projection (the M4's DSP kernel's twin) against f64 sums on
+    // exact sin/cos, over the unclipped stroke, every phase, secondaries 0–8° apart, noisy 12-bit codes:
+    // within 2 nm of position (the quantised reference's gain error cancels in the ratio).
+    let table = ExcitationTable::<P>::new();
+    let mut rng = Rng::new(17);
+    let mut worst = 0.0f64;
+    for trial in 0..400 {
+        let x = rng.range(-600.0, 600.0); // the ADC clips beyond ±680 µm at this amplitude
+        let phase = rng.range(-180.0, 180.0).to_radians();
+        let skew = rng.range(0.0, 8.0).to_radians();
+        let m = LvdtModel::default();
+        let (amp_a, amp_b) = m.amplitudes(x);
+        let code = |v: f64| v.round().clamp(0.0, 4095.0) as u16;
+        let n = P * PERIODS;
+        let (mut a, mut b) = (vec![0u16; n], vec![0u16; n]);
+        for k in 0..n {
+            let ph = 2.0 * std::f64::consts::PI * (k % P) as f64 / P as f64 + phase;
+            a[k] = code(m.offset + amp_a * ph.sin() + 2.0 * rng.normal());
+            b[k] = code(m.offset + amp_b * (ph + skew).sin() + 2.0 * rng.normal());
+        }
+        let r = demodulate(&a, &b, &table).unwrap();
+        assert!(!r.clipped, "trial {trial}");
+        let d_um = (f64::from(r.ratio) - f64_ratio(&a, &b)).abs() * m.gain_um;
+        worst = worst.max(d_um);
+    }
+    assert!(worst < 0.002, "worst position difference {worst} µm");
+}
+
+#[test]
+fn integer_projection_sums_are_the_exact_products_and_rails_are_found_anywhere() {
+    use ballpod::acquisition::projection::{Q14Sums, add_periods};
+    let table = ExcitationTable::<P>::new();
+    // the reference: antisymmetric Q14 sine and cosine within ½ LSB of the exact values
+    let lane = |w: u32, hi: bool| i64::from((if hi { w >> 16 } else { w }) as u16 as i16);
+    let refs: Vec<(i64, i64)> = (0..P)
+        .map(|k| {
+            let (ws, wc) = (table.q14[k / 2 * 2], table.q14[k / 2 * 2 + 1]);
+            (lane(ws, k % 2 == 1), lane(wc, k % 2 == 1))
+        })
+        .collect();
+    for (k, &(s, c)) in refs.iter().enumerate() {
+        let ph = 2.0 * std::f64::consts::PI * k as f64 / P as f64;
+        assert!((s as f64 - 16384.0 * ph.sin()).abs() <= 0.5 + 1e-9, "s_{k}");
+        assert!((c as f64 - 16384.0 * ph.cos()).abs() <= 0.5 + 1e-9, "c_{k}");
+    }
+    assert_eq!(refs.iter().map(|r| r.0).sum::<i64>(), 0);
+    assert_eq!(refs.iter().map(|r| r.1).sum::<i64>(), 0);
+    // the sums are Σ v·s exactly (i64 oracle), for random full-range codes
+    let mut rng = Rng::new(5);
+    for _ in 0..200 {
+        let a: Vec<u16> = (0..P)
+            .map(|_| (rng.uniform() * 4094.0) as u16 + 1)
+            .collect();
+        let b: Vec<u16> = (0..P)
+            .map(|_| (rng.uniform() * 4094.0) as u16 + 1)
+            .collect();
+        let mut acc = Q14Sums::default();
+        assert!(add_periods(&mut acc, &a, &b, &table.q14));
+        let dot = |v: &[u16], c: bool| -> i64 {
+            v.iter()
+                .zip(&refs)
+                .map(|(&x, r)| i64::from(x) * if c { r.1 } else { r.0 })
+                .sum()
+        };
+        assert_eq!(i64::from(acc.ia), dot(&a, false));
+        assert_eq!(i64::from(acc.qa), dot(&a, true));
+        assert_eq!(i64::from(acc.ib), dot(&b, false));
+        assert_eq!(i64::from(acc.qb), dot(&b, true));
+        assert!(!acc.clipped(), "codes 1…4094 are not rails");
+    }
+    // a rail code (0 or 4095, or anything above: not a 12-bit code) at any position of either
+    // channel flags the block; 1 and 4094 do not
+    for rail in [0u16, 4095, 4096, 65535] {
+        for k in 0..2 * P {
+            let (mut a, mut b) = (vec![2048u16; P], vec![2048u16; P]);
+            if k < P {
+                a[k] = rail
+            } else {
+                b[k - P] = rail
+            }
+            let mut acc = Q14Sums::default();
+            add_periods(&mut acc, &a, &b, &table.q14);
+            assert!(acc.clipped(), "rail {rail} at {k}");
+        }
+    }
+    for edge in [1u16, 4094] {
+        let mut acc = Q14Sums::default();
+        add_periods(&mut acc, &[edge; P], &[edge; P], &table.q14);
+        assert!(!acc.clipped());
+    }
+    // five periods at once are the five periods one by one
+    let a: Vec<u16> = (0..5 * P).map(|k| (k * 37 % 4000 + 10) as u16).collect();
+    let b: Vec<u16> = (0..5 * P).map(|k| (k * 53 % 4000 + 10) as u16).collect();
+    let (mut whole, mut parts) = (Q14Sums::default(), Q14Sums::default());
+    assert!(add_periods(&mut whole, &a, &b, &table.q14));
+    for (pa, pb) in a.chunks(P).zip(b.chunks(P)) {
+        add_periods(&mut parts, pa, pb, &table.q14);
+    }
+    assert_eq!(
+        (whole.ia, whole.qa, whole.ib, whole.qb, whole.rail_max),
+        (parts.ia, parts.qa, parts.ib, parts.qb, parts.rail_max)
+    );
+    // lengths the kernel cannot take add nothing
+    let mut acc = Q14Sums::default();
+    assert!(!add_periods(&mut acc, &[1; 6], &[1; 6], &table.q14[..6]));
+    assert!(!add_periods(&mut acc, &[1; P], &[1; P - 4], &table.q14));
+    assert_eq!(acc, Q14Sums::default());
 }

@@ -97,7 +97,7 @@ fn one_bad_channel_invalidates_the_whole_reading() {
         Some(LvdtReading {
             ratio,
             signal_level: 3000.0,
-            phase_deg: 0.0,
+            iq_a: [0.0; 2],
             clipped: false,
         })
     };

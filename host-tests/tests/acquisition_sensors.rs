@@ -74,18 +74,50 @@ fn implausible_step_is_a_glitch() {
 
 #[test]
 fn axis_scaling_and_sign() {
-    let s = AxisScale {
-        counts_per_unit: 10_000.0,
-        reversed: false,
-        offset: 0.0,
-    };
+    let s = AxisScale::new(10_000.0, false);
     assert_eq!(s.position(1_234_567), 123.4567);
-    let r = AxisScale {
-        counts_per_unit: 10_000.0,
-        reversed: true,
-        offset: 5.0,
-    };
-    assert!((r.position(20_000) - 3.0).abs() < 1e-6);
+    let r = AxisScale::new(10_000.0, true);
+    assert!((r.position(20_000) + 2.0).abs() < 1e-6);
+}
+
+#[test]
+fn axis_position_is_within_one_f32_ulp_of_the_f64_quotient() {
+    // Issue 17: the per-sample position in f32 (split count, hi + lo reciprocal, FMA) against
+    // the f64 quotient count / counts_per_unit: the same f32 but in rare near-ties, never more
+    // than one ulp apart, over linear and rotary scales (integer and not), counts up to 2^40.
+    let mut rng = Rng::new(40);
+    let scales = [
+        1_000.0,
+        10_000.0,
+        20_000.0,
+        2f64.powi(23) / 360.0,
+        3_600_000.0 / 360.0,
+        1.0,
+    ];
+    let mut worst_ulp = 0.0f64;
+    let (mut differ, mut total) = (0u32, 0u32);
+    for &cpu in &scales {
+        for reversed in [false, true] {
+            let s = AxisScale::new(cpu, reversed);
+            for k in 0..20_000 {
+                let mag = 2f64.powf(rng.range(0.0, 40.0));
+                let c = (mag * if k % 2 == 0 { 1.0 } else { -1.0 }) as i64;
+                let exact = c as f64 / cpu * if reversed { -1.0 } else { 1.0 };
+                let got = f64::from(s.position(c));
+                let ulp =
+                    f64::from(f32::EPSILON) * (exact as f32).abs().max(f32::MIN_POSITIVE) as f64;
+                let d = (got - exact).abs() / ulp;
+                worst_ulp = worst_ulp.max(d);
+                total += 1;
+                differ += u32::from(s.position(c) != exact as f32);
+            }
+        }
+    }
+    assert!(worst_ulp <= 1.0, "worst {worst_ulp} ulp");
+    assert!(
+        differ * 10_000 < total,
+        "{differ} of {total} not the nearest f32"
+    );
 }
 
 #[test]
@@ -178,7 +210,7 @@ fn good_reading(ratio: f32) -> Result<LvdtReading, DemodError> {
     Ok(LvdtReading {
         ratio,
         signal_level: 3000.0,
-        phase_deg: 0.0,
+        iq_a: [0.0; 2],
         clipped: false,
     })
 }
@@ -257,7 +289,7 @@ fn every_bad_input_sets_its_flag() {
         Ok(LvdtReading {
             ratio: 0.1,
             signal_level: 10.0,
-            phase_deg: 0.0,
+            iq_a: [0.0; 2],
             clipped: false,
         }),
         raw,

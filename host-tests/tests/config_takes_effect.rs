@@ -14,7 +14,7 @@ fn ac(r: f32) -> BlockReading {
     BlockReading::Ac(Ok(ballpod::acquisition::lvdt::LvdtReading {
         ratio: r,
         signal_level: 1000.0,
-        phase_deg: 0.0,
+        iq_a: [0.0; 2],
         clipped: false,
     }))
 }

@@ -11,7 +11,7 @@ fn lvdt_displacement_with_a_degenerate_limit_does_not_panic() {
     let reading = LvdtReading {
         ratio: 0.3,
         signal_level: 1.0,
-        phase_deg: 0.0,
+        iq_a: [0.0; 2],
         clipped: false,
     };
     for limit in [f32::NAN, -0.5, 0.0] {

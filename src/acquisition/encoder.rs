@@ -119,16 +119,54 @@ pub struct AxisScale {
     pub counts_per_unit: f64,
     /// Counting direction: `false` = counts up in the axis' positive direction.
     pub reversed: bool,
-    /// Position at count 0, mm or degrees.
-    pub offset: f64,
+    /// ±1/`counts_per_unit` (the sign of the direction) as an unevaluated f32 sum hi + lo: the
+    /// per-sample path multiplies, never divides.
+    per_count: [f32; 2],
 }
 
 impl AxisScale {
-    /// Position in mm or degrees of an extended count (computed in f64, returned as f32: exact
-    /// to the f32 ulp for any count of a realistic axis).
+    /// The scale of an axis with `counts_per_unit` counts per mm or degree, counting down in
+    /// the positive direction if `reversed`.
+    pub fn new(counts_per_unit: f64, reversed: bool) -> Self {
+        let k = if reversed { -1.0 } else { 1.0 } / counts_per_unit;
+        let hi = k as f32;
+        Self {
+            counts_per_unit,
+            reversed,
+            per_count: [hi, (k - f64::from(hi)) as f32],
+        }
+    }
+
+    /// Position in mm or degrees of an extended count: the f32 nearest to the exact
+    /// count / `counts_per_unit` but in rare near-ties, and within one ulp always, for
+    /// |count| < 2⁴⁰ (the host tests check it against f64).
+    ///
+    /// In f32 on the FPU (no soft-float f64 division per axis and sample): |count| = h·2¹⁶ + l
+    /// with h and l exact in f32 and of one sign (no cancellation), the factors as hi + lo
+    /// pairs, the two leading products' rounding errors recovered exactly with fused
+    /// multiply-adds and the sum's with Fast2Sum, so only the final addition rounds.
     pub fn position(&self, count: i64) -> f32 {
-        let c = count as f64;
-        let p = if self.reversed { -c } else { c } / self.counts_per_unit + self.offset;
-        if p.is_finite() { p as f32 } else { 0.0 }
+        use crate::num::fmaf;
+        let m = count.unsigned_abs();
+        let h = (m >> 16) as u32 as f32;
+        let l = (m & 0xFFFF) as u32 as f32;
+        let [kh, kl] = self.per_count;
+        // 2¹⁶·k, exactly (a power of two)
+        let (k16h, k16l) = (kh * 65_536.0, kl * 65_536.0);
+        let a = h * k16h;
+        let ea = fmaf(h, k16h, -a);
+        let b = l * kh;
+        let eb = fmaf(l, kh, -b);
+        // Fast2Sum: a and b of one sign
+        let (big, small) = if libm::fabsf(a) >= libm::fabsf(b) {
+            (a, b)
+        } else {
+            (b, a)
+        };
+        let s = big + small;
+        let es = small - (s - big);
+        let p = s + (es + ea + eb + h * k16l + l * kl);
+        let p = if count < 0 { -p } else { p };
+        if p.is_finite() { p } else { 0.0 }
     }
 }

@@ -56,63 +56,113 @@ pub enum BlockReading {
     DcVolts(f32),
 }
 
-/// One ADC sample of a secondary: its value and whether it sits on a converter rail
-/// (clipping makes the amplitude wrong, so the block is flagged over-range).
+/// One ADC sample of a secondary: how a block of them is projected on the excitation.
 pub trait AdcSample: Copy {
-    /// The sample as `f32` (ADC counts or volts; only ratios are used).
-    fn value(self) -> f32;
-    /// True if the converter clipped (at 0 or full scale).
-    fn at_rail(self) -> bool;
+    /// The projections of two blocks `a`, `b` of one length, a whole number of periods, on
+    /// `table` (see [`Projection`]).
+    fn project<const P: usize>(a: &[Self], b: &[Self], table: &ExcitationTable<P>) -> Projection;
 }
 
 /// Full-scale code of the STM32G4's 12-bit ADCs.
 pub const ADC12_FULL_SCALE: u16 = 4095;
 
+/// What a block's per-sample work yields: I = Σ v·sin and Q = Σ v·cos of each secondary (input
+/// units × samples) and whether an input sat on a converter rail (clipping makes the amplitude
+/// wrong, so the block is flagged over-range).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Projection {
+    /// (I, Q) of secondary a.
+    pub a: [f32; 2],
+    /// (I, Q) of secondary b.
+    pub b: [f32; 2],
+    /// A code sat on a rail.
+    pub clipped: bool,
+}
+
+/// 12-bit converter codes: the Q14 integer projection ([`super::projection`], the M4's DSP
+/// kernel on the pod), in chunks of at most [`MAX_CHUNK_SAMPLES`](super::projection::MAX_CHUNK_SAMPLES)
+/// samples; a code of 0 or ≥ 4095 is a rail.
 impl AdcSample for u16 {
-    #[inline(always)]
-    fn value(self) -> f32 {
-        f32::from(self)
-    }
-    #[inline(always)]
-    fn at_rail(self) -> bool {
-        self == 0 || self >= ADC12_FULL_SCALE
+    fn project<const P: usize>(a: &[u16], b: &[u16], table: &ExcitationTable<P>) -> Projection {
+        use super::projection::{MAX_CHUNK_SAMPLES, Q14_ONE, Q14Sums, add_periods};
+        let per_chunk = (MAX_CHUNK_SAMPLES / P).max(1) * P;
+        let mut out = Projection::default();
+        for (ca, cb) in a.chunks(per_chunk).zip(b.chunks(per_chunk)) {
+            let mut acc = Q14Sums::default();
+            add_periods(&mut acc, ca, cb, &table.q14);
+            let f = |v: i32| v as f32 * (1.0 / Q14_ONE);
+            out.a[0] += f(acc.ia);
+            out.a[1] += f(acc.qa);
+            out.b[0] += f(acc.ib);
+            out.b[1] += f(acc.qb);
+            out.clipped |= acc.clipped();
+        }
+        out
     }
 }
 
+/// Volts or model values (host tests, the DC path): the f32 projection; never at a rail.
 impl AdcSample for f32 {
-    #[inline(always)]
-    fn value(self) -> f32 {
-        self
-    }
-    #[inline(always)]
-    fn at_rail(self) -> bool {
-        false
+    fn project<const P: usize>(a: &[f32], b: &[f32], table: &ExcitationTable<P>) -> Projection {
+        let mut out = Projection::default();
+        for (ca, cb) in a.chunks_exact(P).zip(b.chunks_exact(P)) {
+            // Per-period partial sums keep f32 rounding small on long blocks.
+            let mut p = [0.0f32; 4];
+            for (((&va, &vb), &s), &c) in ca
+                .iter()
+                .zip(cb.iter())
+                .zip(table.sin.iter())
+                .zip(table.cos.iter())
+            {
+                p[0] += va * s;
+                p[1] += va * c;
+                p[2] += vb * s;
+                p[3] += vb * c;
+            }
+            out.a[0] += p[0];
+            out.a[1] += p[1];
+            out.b[0] += p[2];
+            out.b[1] += p[3];
+        }
+        out
     }
 }
 
 /// Sine/cosine reference of the excitation, `P` samples per period (the same table the DAC
-/// plays, so demodulation is phase-locked by construction).
+/// plays, so demodulation is phase-locked by construction). `P` is a multiple of 4 (the
+/// integer projection takes two sample pairs at a time).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ExcitationTable<const P: usize> {
     /// sin(2πk/P).
     pub sin: [f32; P],
     /// cos(2πk/P).
     pub cos: [f32; P],
+    /// The Q14 reference words of the integer projection
+    /// ([`reference_words`](super::projection::reference_words)).
+    pub q14: [u32; P],
 }
 
 impl<const P: usize> ExcitationTable<P> {
-    /// Builds the table (libm at start-up; never on the hot path).
+    const CHECK: () = assert!(P >= 4 && P.is_multiple_of(4), "P must be a multiple of 4");
+
+    /// Builds the table (at start-up; never on the hot path).
     pub fn new() -> Self {
+        #[allow(clippy::let_unit_value)]
+        let () = Self::CHECK;
         let mut t = Self {
             sin: [0.0; P],
             cos: [0.0; P],
+            q14: [0; P],
         };
         let step = 2.0 * core::f64::consts::PI / P as f64;
-        for (k, (s, c)) in t.sin.iter_mut().zip(t.cos.iter_mut()).enumerate() {
-            let ph = step * k as f64;
-            *s = crate::num::sin(ph) as f32;
-            *c = crate::num::cos(ph) as f32;
+        for (k, s) in t.sin.iter_mut().enumerate() {
+            *s = crate::num::sin(step * k as f64) as f32;
         }
+        // cos(2πk/P) = sin(2π(k + P/4)/P): the same values, a quarter period on
+        for (k, c) in t.cos.iter_mut().enumerate() {
+            *c = t.sin.get((k + P / 4) % P).copied().unwrap_or(0.0);
+        }
+        t.q14 = super::projection::reference_words(&t.sin, &t.cos);
         t
     }
 
@@ -149,17 +199,32 @@ pub struct LvdtReading {
     pub ratio: f32,
     /// Signal level `A_a + A_b` in input units (ADC counts or volts), for the open check.
     pub signal_level: f32,
-    /// Phase of secondary A relative to the excitation sine, degrees (−180 … 180): a quality
-    /// figure (a jump means a wiring fault or a core outside the coil).
-    pub phase_deg: f32,
+    /// Secondary A's projections (I, Q) on the excitation's sine and cosine, input units
+    /// (`[0, 0]` in DC mode): its phase, [`phase_deg`](Self::phase_deg).
+    pub iq_a: [f32; 2],
     /// An input sample sat on a converter rail (clipping).
     pub clipped: bool,
+}
+
+impl LvdtReading {
+    /// Phase of secondary A relative to the excitation sine, degrees (−180 … 180; 0 without a
+    /// signal): a quality figure (a jump means a wiring fault or a core outside the coil),
+    /// computed when asked, not per block.
+    pub fn phase_deg(&self) -> f32 {
+        let [i, q] = self.iq_a;
+        if i == 0.0 && q == 0.0 {
+            0.0
+        } else {
+            libm::atan2f(q, i).to_degrees()
+        }
+    }
 }
 
 /// Demodulates one block of both secondaries (see the module doc for the equations).
 ///
 /// `a` and `b` hold the same whole number of excitation periods, sample `k` taken at phase
-/// `2πk/P`. The per-sample work is two multiply-accumulates per channel.
+/// `2πk/P`. The per-sample work is two multiply-accumulates per channel
+/// ([`AdcSample::project`]).
 pub fn demodulate<S: AdcSample, const P: usize>(
     a: &[S],
     b: &[S],
@@ -174,48 +239,21 @@ pub fn demodulate<S: AdcSample, const P: usize>(
             period: P,
         });
     }
-    let (mut ia, mut qa, mut ib, mut qb) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
-    let mut clipped = false;
-    for (ca, cb) in a.chunks_exact(P).zip(b.chunks_exact(P)) {
-        // Per-period partial sums keep f32 rounding small on long blocks.
-        let (mut pia, mut pqa, mut pib, mut pqb) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
-        for (((&va, &vb), &s), &c) in ca
-            .iter()
-            .zip(cb.iter())
-            .zip(table.sin.iter())
-            .zip(table.cos.iter())
-        {
-            let (xa, xb) = (va.value(), vb.value());
-            pia += xa * s;
-            pqa += xa * c;
-            pib += xb * s;
-            pqb += xb * c;
-            clipped |= va.at_rail() | vb.at_rail();
-        }
-        ia += pia;
-        qa += pqa;
-        ib += pib;
-        qb += pqb;
-    }
+    let p = S::project(a, b, table);
     let scale = 2.0 / a.len() as f32;
-    let amp_a = scale * crate::num::sqrtf(ia * ia + qa * qa);
-    let amp_b = scale * crate::num::sqrtf(ib * ib + qb * qb);
+    let amplitude = |[i, q]: [f32; 2]| scale * crate::num::sqrtf(i * i + q * q);
+    let (amp_a, amp_b) = (amplitude(p.a), amplitude(p.b));
     let level = amp_a + amp_b;
     let ratio = if level > 0.0 {
         (amp_a - amp_b) / level
     } else {
         0.0
     };
-    let phase_deg = if amp_a > 0.0 {
-        libm::atan2f(qa, ia).to_degrees()
-    } else {
-        0.0
-    };
     Ok(LvdtReading {
         ratio,
         signal_level: level,
-        phase_deg,
-        clipped,
+        iq_a: p.a,
+        clipped: p.clipped,
     })
 }
 
@@ -230,18 +268,22 @@ pub fn dc_reading(v: f32, zero_v: f32, span_v: f32, min_v: f32, max_v: f32) -> L
     LvdtReading {
         ratio: if ratio.is_finite() { ratio } else { 0.0 },
         signal_level: if ok { libm::fabsf(span_v) } else { 0.0 },
-        phase_deg: 0.0,
+        iq_a: [0.0; 2],
         clipped: !ok || !(min_v..=max_v).contains(&v),
     }
 }
 
-/// Mean of a block of ADC samples (DC mode: the conditioner's output averaged over one sample
-/// period), in input units; 0 for an empty block.
-pub fn block_mean<S: AdcSample>(block: &[S]) -> f32 {
+/// Mean of a block of ADC codes (DC mode: the conditioner's output averaged over one sample
+/// period), counts; 0 for an empty block. The sum is exact (integer) for blocks of up to
+/// 65 537 codes.
+pub fn block_mean(block: &[u16]) -> f32 {
     if block.is_empty() {
         return 0.0;
     }
-    block.iter().map(|v| v.value()).sum::<f32>() / block.len() as f32
+    let sum = block
+        .iter()
+        .fold(0u32, |s, &v| s.wrapping_add(u32::from(v)));
+    sum as f32 / block.len() as f32
 }
 
 /// The analogue front end of the DC input: conditioner volts from ADC counts,

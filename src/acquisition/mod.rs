@@ -1,6 +1,7 @@
 //! Acquisition: raw sensor readings → calibrated, validated [`Sample`]s (DESIGN §5).
 //!
 //! - [`lvdt`]: ratiometric synchronous demodulation, DC-input mode, calibration polynomial;
+//! - [`projection`]: the demodulation's per-sample projection (M4 DSP kernel, portable twin);
 //! - [`encoder`]: hardware counter → exact 64-bit count → mm / degrees, glitch detection;
 //! - [`probe`]: touch-trigger latch, debounce, re-seat lock-out;
 //! - [`thermal`]: thermistor → °C, bar expansion correction;
@@ -12,6 +13,7 @@ pub mod encoder;
 pub mod lvdt;
 pub mod pipeline;
 pub mod probe;
+pub mod projection;
 pub mod rtest_head;
 pub mod sample;
 pub mod thermal;

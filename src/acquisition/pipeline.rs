@@ -54,11 +54,7 @@ impl Acquisition {
     /// Builds the pipeline from a (validated) configuration; `counter_bits[i]` is the width of
     /// the hardware counter of encoder input i (16 or 32).
     pub fn new(cfg: &Config, counter_bits: [u32; MAX_AXES]) -> Self {
-        let mut scales = [AxisScale {
-            counts_per_unit: 1.0,
-            reversed: false,
-            offset: 0.0,
-        }; MAX_AXES];
+        let mut scales = [AxisScale::new(1.0, false); MAX_AXES];
         let mut counters_hw = [CountExtender::new(16, 0); MAX_AXES];
         let rate = f64::from(cfg.sample_rate_hz).max(1.0);
         for (((s, c), a), bits) in scales
@@ -67,11 +63,7 @@ impl Acquisition {
             .zip(cfg.axes.iter())
             .zip(counter_bits)
         {
-            *s = AxisScale {
-                counts_per_unit: a.counts_per_unit,
-                reversed: a.reversed,
-                offset: 0.0,
-            };
+            *s = AxisScale::new(a.counts_per_unit, a.reversed);
             let step = f64::from(a.max_speed_per_s) * a.counts_per_unit / rate * GLITCH_MARGIN;
             let max_step = if step >= f64::from(u32::MAX) {
                 0
@@ -120,12 +112,7 @@ impl Acquisition {
         for (ext, new) in self.counters_hw.iter_mut().zip(fresh.counters_hw.iter()) {
             *ext = ext.with_max_step(new.max_step());
         }
-        for (old, new) in self.scales.iter_mut().zip(fresh.scales.iter()) {
-            *old = AxisScale {
-                offset: old.offset,
-                ..*new
-            };
-        }
+        self.scales = fresh.scales;
         self.lvdt = fresh.lvdt;
         self.dc = fresh.dc;
         self.thermistor = fresh.thermistor;

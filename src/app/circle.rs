@@ -131,9 +131,11 @@ impl CircleTest {
         self.test.fit(d).arc_deg()
     }
 
-    /// The running fit of direction `d` (the live eccentricity and r0).
-    pub fn live(&self, d: Direction) -> Result<CircleEstimate, CircleFitError> {
-        self.test.fit(d).estimate()
+    /// The live (r0, e_u, e_v) of direction `d`, µm ([`CircleFit::live`]).
+    ///
+    /// [`CircleFit::live`]: crate::metrology::circle_fit::CircleFit::live
+    pub fn live(&self, d: Direction) -> Result<[f32; 3], CircleFitError> {
+        self.test.fit(d).live()
     }
 
     /// Ends the run of direction `d`: its results, and the bi-directional ones when both
@@ -151,7 +153,7 @@ impl CircleTest {
         for id in [g, fmax, fmin] {
             results.clear(id, id);
         }
-        let est = self.live(d)?;
+        let est = self.test.fit(d).estimate()?;
         if let Some(c) = self.complete.get_mut(dir_index(d)) {
             *c = true;
         }

@@ -1105,7 +1105,7 @@ impl App {
                 .circle
                 .as_ref()
                 .and_then(|c| c.live(self.direction).ok()),
-            (RunEstimator::Step(_, f), true) => f.estimate().ok(),
+            (RunEstimator::Step(_, f), true) => f.live().ok(),
             _ => None,
         };
         let e = match (&self.estimator, running) {
@@ -1113,9 +1113,9 @@ impl App {
             _ => [None; 3],
         };
         let live = &mut self.live;
-        live.set(Live::EccU, fit.map(|f| f.e_um[0]));
-        live.set(Live::EccV, fit.map(|f| f.e_um[1]));
-        live.set(Live::R0, fit.map(|f| f.r0_um));
+        live.set(Live::EccU, fit.map(|[_, eu, _]| eu));
+        live.set(Live::EccV, fit.map(|[_, _, ev]| ev));
+        live.set(Live::R0, fit.map(|[r0, _, _]| r0));
         let [ex, ey, ez] = e;
         live.set(Live::SsmEx, ex);
         live.set(Live::SsmEy, ey);

@@ -269,8 +269,11 @@ pub async fn lvdt_task(
     period_us: u32,
 ) {
     let table = ExcitationTable::<P>::new();
-    let mut a = [0u16; BLOCK_MAX];
-    let mut b = [0u16; BLOCK_MAX];
+    // word-aligned: the core's DSP projection reads two codes per load (unaligned blocks take
+    // its portable path, which is slower)
+    #[repr(align(4))]
+    struct Codes([u16; BLOCK_MAX]);
+    let (mut a, mut b) = (Codes([0; BLOCK_MAX]), Codes([0; BLOCK_MAX]));
     // the latch event that ends the next block's first half (event 1 at ring position len/2;
     // None: find it from the newest event)
     let mut centre_seq = Some(1u32);
@@ -278,8 +281,8 @@ pub async fn lvdt_task(
     loop {
         super::safety::check_in(super::safety::Task::Lvdt);
         let (a, b) = (
-            a.get_mut(..len).unwrap_or(&mut []),
-            b.get_mut(..len).unwrap_or(&mut []),
+            a.0.get_mut(..len).unwrap_or(&mut []),
+            b.0.get_mut(..len).unwrap_or(&mut []),
         );
         let (a1, a2) = a.split_at_mut_checked(len / 2).unwrap_or_default();
         let (b1, b2) = b.split_at_mut_checked(len / 2).unwrap_or_default();

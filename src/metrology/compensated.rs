@@ -36,4 +36,10 @@ impl KahanF32 {
     pub fn value(&self) -> f64 {
         f64::from(self.sum) - f64::from(self.comp)
     }
+
+    /// The sum, with its compensation folded in, rounded to f32 (the live solves).
+    #[inline(always)]
+    pub fn value_f32(&self) -> f32 {
+        self.sum - self.comp
+    }
 }

@@ -31,6 +31,7 @@ use cortex_m_semihosting::{debug, hprintln};
 use core::sync::atomic::{AtomicU32, Ordering};
 
 use ballpod::acquisition::lvdt::{BlockReading, ExcitationTable, LvdtReading, demodulate};
+use ballpod::acquisition::projection::{Q14Sums, add_periods, add_periods_portable};
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::seed002::{Procedure, Setup};
@@ -284,6 +285,27 @@ fn main() -> ! {
     let (r, n) = measure(|| demodulate(black_box(&a[..]), black_box(&b[..]), black_box(&table)));
     record_stack("LVDT demodulate (block of 100 × 2)", lo);
     let core_ratio = r.map(|r| r.ratio).unwrap_or(f32::NAN);
+    // The DSP kernel and its portable twin on this block and on the block
+    // with rail codes (0, 4095, 65535) put in: the same sums bit for bit, or the bench fails.
+    let kernel_identical = {
+        let mut same = true;
+        let mut ra = a;
+        let mut rb = b;
+        ra[7] = 0;
+        rb[58] = 4095;
+        ra[91] = 65535;
+        for (x, y) in [(&a, &b), (&ra, &rb)] {
+            let (mut k, mut q) = (Q14Sums::default(), Q14Sums::default());
+            add_periods(&mut k, &x[..], &y[..], &table.q14);
+            add_periods_portable(&mut q, &x[..], &y[..], &table.q14);
+            same &= k == q;
+        }
+        same
+    };
+    if !kernel_identical {
+        hprintln!("check FAILED: the Q14 DSP kernel and the portable projection differ");
+        debug::exit(debug::EXIT_FAILURE);
+    }
     let (naive_ratio, nn) = measure(|| naive::lvdt_demodulate(black_box(&a), black_box(&b), P));
     // FLOP per ADC sample per channel: I += v·sin, Q += v·cos → 2 multiplies + 2 adds = 4 (the
     // textbook synchronous demodulation; the end-of-block magnitude and ratio are amortised
@@ -304,7 +326,7 @@ fn main() -> ! {
     let reading = LvdtReading {
         ratio: 0.125,
         signal_level: 3000.0,
-        phase_deg: 0.0,
+        iq_a: [0.0; 2],
         clipped: false,
     };
     let mut raw = [1000u32; MAX_AXES];
@@ -678,9 +700,10 @@ fn main() -> ! {
     let e = est.map(|e| e.e_um).unwrap_or([f32::NAN; 2]);
     let se = ssm_est.map(|e| e.solution.e_um).ok();
     hprintln!(
-        "check: LVDT ratio core {} naive {} (expect 0.125)",
+        "check: LVDT ratio core {} naive {} (expect 0.125); Q14 DSP kernel = portable sums bit for bit (clean and railed block): {}",
         core_ratio,
-        naive_ratio
+        naive_ratio,
+        kernel_identical
     );
     hprintln!(
         "check: circle fit e = ({}, {}) um core, ({}, {}) naive (expect {:?})",

@@ -404,12 +404,14 @@ fn streaming_on_cone_recovers_smooth_field() {
         rotary_tol_deg: 0.001,
     });
     let mut worst: f64 = 0.0;
+    let mut live_worst: f64 = 0.0;
     let mut checked = 0;
     for (i, s) in path.samples.iter().enumerate() {
         assert_eq!(ssm.update(s), StreamUse::Used);
         if i >= 1800 && i % 7 == 0 {
             let est = ssm.estimate().unwrap();
             assert_eq!(est.solution.observable(), [true, true, true]);
+            live_worst = live_worst.max(live_minus_estimate(&ssm));
             let want = field(est.centroid_mm, p0, 0.1);
             // and E at the sample itself (the window trails it by ~half its length)
             let at = path.truth[i];
@@ -425,6 +427,7 @@ fn streaming_on_cone_recovers_smooth_field() {
         ssm.window_len()
     );
     assert!(worst < 0.1, "worst {worst}");
+    assert!(live_worst < 0.005, "live vs f64: {live_worst} µm");
     assert_eq!(ssm.evicted_full(), 0);
 
     // a constant field is recovered to the f32 input resolution
@@ -467,6 +470,13 @@ fn streaming_planar_path_marks_out_of_plane_unobservable() {
     let est = ssm.estimate().unwrap();
     assert_eq!(est.solution.observable(), [true, true, false]);
     assert!(est.solution.e_um[2].is_none());
+    let live = ssm.live().unwrap();
+    assert_eq!(
+        live.map(|c| c.is_some()),
+        [true, true, false],
+        "live {live:?}"
+    );
+    assert!(live_minus_estimate(&ssm) < 0.005);
     assert!((est.solution.e_um[0].unwrap() - 5.0).abs() < 0.02);
     assert!((est.solution.e_um[1].unwrap() + 8.0).abs() < 0.02);
 
@@ -477,6 +487,10 @@ fn streaming_planar_path_marks_out_of_plane_unobservable() {
     assert_eq!(ssm.window_len(), 1);
     assert!(matches!(
         ssm.estimate(),
+        Err(SsmError::TooFewObservations { .. })
+    ));
+    assert!(matches!(
+        ssm.live(),
         Err(SsmError::TooFewObservations { .. })
     ));
     let mut f = s;
@@ -494,6 +508,24 @@ fn streaming_planar_path_marks_out_of_plane_unobservable() {
         ssm.update(&s);
     }
     assert_eq!(ssm.estimate().unwrap_err(), SsmError::Degenerate);
+    assert_eq!(ssm.live().unwrap_err(), SsmError::Degenerate);
+}
+
+/// Issue 17: the largest difference between the live (f32, mean and scatter) and the f64
+/// estimate of the same window, µm, over the components both call observable (and they must
+/// agree on which those are).
+fn live_minus_estimate<const W: usize>(ssm: &StreamingSsm<W>) -> f64 {
+    let est = ssm.estimate().unwrap().solution.e_um;
+    let live = ssm.live().unwrap();
+    let mut worst: f64 = 0.0;
+    for (e, l) in est.iter().zip(live) {
+        match (e, l) {
+            (Some(e), Some(l)) => worst = worst.max((f64::from(l) - e).abs()),
+            (None, None) => {}
+            _ => panic!("observability differs: f64 {est:?}, live {live:?}"),
+        }
+    }
+    worst
 }
 
 #[test]
@@ -533,6 +565,8 @@ fn streaming_refinement_removes_linearisation_error() {
         });
     }
     let lin = ssm.estimate().unwrap().solution;
+    // the live solve carries the same linearisation (|E| = 0.41 mm: a few nm of f32)
+    assert!(live_minus_estimate(&ssm) < 0.01);
     let lin_err = (0..3)
         .map(|k| (lin.e_um[k].unwrap() - e[k]).abs())
         .fold(0.0, f64::max);
@@ -577,6 +611,18 @@ fn streaming_on_a_tilted_planar_arc_keeps_the_in_plane_component_observable_ever
             continue;
         }
         let est = ssm.estimate().expect("estimate");
+        let live = ssm.live().expect("live");
+        assert!(
+            live[0].is_none() && live[2].is_none(),
+            "sample {i}: live out-of-plane {live:?}"
+        );
+        match live[1] {
+            Some(ey) => assert!(
+                (f64::from(ey) - e_um[1]).abs() < 0.2,
+                "sample {i}: live E_y {ey}"
+            ),
+            None => flicker += 1,
+        }
         let obs = est.solution.observable();
         assert!(
             !obs[0] && !obs[2],

@@ -107,10 +107,7 @@ impl SsmRun {
     /// E at the current point from its neighbourhood: each component, or `None` where it is not
     /// observable (yet).
     pub fn live(&self) -> [Option<f32>; 3] {
-        match self.stream.estimate() {
-            Ok(e) => e.solution.e_um.map(|c| c.map(|v| v as f32)),
-            Err(_) => [None; 3],
-        }
+        self.stream.live().unwrap_or([None; 3])
     }
 
     /// Ends the run: the stations' E, refined.

@@ -422,6 +422,22 @@ fn main() -> ! {
         min_ratio: None,
     });
 
+    // Circle fit live (per sample, f32 on the FPU: CircleFit::live). FLOP: 1 division, 10 sums
+    // read (10), means (3), centred 2×2 and right side (5 × 2 = 10), determinant (3), solve
+    // (1 division + 6), r0 (4) → ≈ 38.
+    let lo = stack::paint(top);
+    let (_, n) = measure(|| fit.live());
+    record_stack("CircleFit::live", lo);
+    print(&Row {
+        name: "circle fit live (f32, every sample)",
+        unit: "query",
+        insns_per_unit: n.saturating_sub(empty) as f32,
+        flops_per_unit: 38,
+        naive_per_unit: None,
+        max_insns: None,
+        min_ratio: None,
+    });
+
     // ISO 230-4 trackers (CircularTest::update: the circle fit + F extremes + the angle bin).
     // FLOP per sample: circle fit 63; quadrant angle: one division (1), atan polynomial
     // (z² 1, Horner 5 × 2 = 10, ·z 1 = 12), π/2 − (1); bin index scale (1); bin sums
@@ -490,6 +506,23 @@ fn main() -> ! {
         unit: "query",
         insns_per_unit: n.saturating_sub(empty) as f32,
         flops_per_unit: 141,
+        naive_per_unit: None,
+        max_insns: None,
+        min_ratio: None,
+    });
+
+    // Streaming SSM live (per sample, f32 on the FPU: StreamingSsm::live). FLOP: 13 sums read
+    // (13), means (4), covariances (9 × 2 + 3 × 2 = 24), mean direction and its length (3 + 6),
+    // basis (≈ 12), three 3×3 products (27 × 2 = 54), nine dots (9 × 5 = 45), Schur complement
+    // and right side (≈ 16), 2×2 eigenvalues (≈ 10), solve (≈ 8), back to x, y, z (15) → ≈ 215.
+    let lo = stack::paint(top);
+    let (_, n) = measure(|| ssm.live());
+    record_stack("StreamingSsm::live", lo);
+    print(&Row {
+        name: "streaming SSM live (f32, every sample)",
+        unit: "query",
+        insns_per_unit: n.saturating_sub(empty) as f32,
+        flops_per_unit: 215,
         naive_per_unit: None,
         max_insns: None,
         min_ratio: None,

@@ -2,19 +2,38 @@
 //!
 //! The neighbourhood is a trailing window of at most `W` samples whose nominal points lie
 //! within `radius_mm` of the current one and whose rotary axes did not move (a rotary move
-//! empties the window). The normal equations G = Σ u uᵀ, b = Σ u y are kept as **exact integer
-//! sums**: u quantised to Q24 (6e-8, the f32 resolution), y to Q16 µm (1.5e-5 µm), products
-//! accumulated in i64 (one SMLAL each on the M4). Entering *and leaving* samples are then added
-//! and subtracted without any drift, which a sliding window of compensated float sums cannot
-//! guarantee. Per sample: one square root, one division, three float→int conversions, ~20
-//! integer multiply-accumulates (plus the same for each sample leaving), no solve. The solve
-//! (f64, with observability analysis) happens in [`StreamingSsm::estimate`].
+//! empties the window). The normal equations are kept as **exact integer sums**: u quantised
+//! to Q24 (6e-8, the f32 resolution), y to Q16 µm (1.5e-5 µm), products accumulated in i64
+//! (one SMLAL each on the M4). Entering *and leaving* samples are then added and subtracted
+//! without any drift, which a sliding window of compensated float sums cannot guarantee. The
+//! sums are taken of v = u − u_ref, u_ref a reference direction moved to the window's mean
+//! direction whenever the mean drifts 1/256 rad from it (an exact O(1) shift of the sums): so
+//! the window's *scatter* of directions, which decides what E the path can see, is exact too.
+//! G = Σ u uᵀ and b = Σ u y follow exactly (wrapping i64 arithmetic; their true values are in
+//! range, so the modular results are exact).
+//!
+//! Two solves of the same sums:
+//! - [`StreamingSsm::live`], every sample (≈ 930 instructions, f32 on the FPU): the live E,
+//!   solved on the window's mean and scatter (below), with the observability rule of
+//!   [`super::solve_normal`];
+//! - [`StreamingSsm::estimate`] (f64, soft-float on the M4, with the full observability
+//!   analysis of G) and [`StreamingSsm::estimate_refined`] on the exact sphere equation.
+//!
+//! The live solve: with m the mean direction, C the covariance of the directions and c their
+//! covariance with y (both exact from the centred sums), G/n = C + m mᵀ and b/n = c + m ȳ. In an
+//! orthonormal basis (t₁, t₂, m̂) the m̂ row gives E_m = (|m| ȳ + c_m − C_mt E_t)/(|m|² + C_mm),
+//! and the tangent rows the 2×2 Schur complement S E_t = c_t − C_tm α: only C and c, of the
+//! size of the window's spread (≈ 10⁻⁴ for a 5 mm window at 150 mm), enter the small
+//! eigenvalues, so f32 resolves them far below the 10⁻⁹ observability threshold; forming G
+//! in f32 would lose them.
 //!
 //! Precision: positions arrive as f32 mm (61 nm ulp at 1000 mm) and y uses |P − P0| in f32
 //! (~15 nm at 150 mm); E is therefore good to a few tens of nm times the condition number,
 //! which is what a 0.1 µm streaming target needs. Use stations for nm work.
 
-use super::{SsmError, SsmGeometry, SsmSolution, solve_normal};
+use super::{
+    OBSERVABLE_AXIS_TOL, SsmError, SsmGeometry, SsmSolution, UNOBSERVABLE_EIG_RATIO, solve_normal,
+};
 use crate::acquisition::Sample;
 use crate::metrology::solve3::Sym3;
 
@@ -57,54 +76,109 @@ struct Entry {
     d: [i32; 3],
 }
 
+/// The window's exact sums, mod 2⁶⁴ (see the module doc): of v = u − u_ref (Q24), y (Q16 µm)
+/// and the positions d (Q16 mm).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
 struct Sums {
-    g: [i64; 6],
-    b: [i64; 3],
+    /// Σ v.
+    v: [i64; 3],
+    /// Σ v vᵀ (00, 01, 02, 11, 12, 22).
+    vv: [i64; 6],
+    /// Σ v y.
+    vy: [i64; 3],
+    /// Σ y.
+    y: i64,
+    /// Σ (y/16)².
     yy: i64,
+    /// Σ d.
     d: [i64; 3],
 }
 
 impl Sums {
-    /// Adds (`ADD`) or removes an entry: i32×i32→i64 products and 64-bit adds, exact. Written
-    /// on the i32 values directly so that each product compiles to one SMLAL (add) or SMULL +
-    /// SUBS/SBC (remove) on the M4, not a 64×64 multiply.
+    /// Adds (`ADD`) or removes an entry, relative to `r` = u_ref: i32×i32→i64 products and
+    /// 64-bit adds, exact. Written on the i32 values directly so that each product compiles to
+    /// one SMLAL (add) or SMULL + SUBS/SBC (remove) on the M4, not a 64×64 multiply.
     #[inline(always)]
-    fn apply<const ADD: bool>(&mut self, e: &Entry) {
+    fn apply<const ADD: bool>(&mut self, e: &Entry, r: &[i32; 3]) {
         #[inline(always)]
-        fn mac<const ADD: bool>(s: &mut i64, a: i32, b: i32) {
-            let p = i64::from(a) * i64::from(b);
+        fn acc<const ADD: bool>(s: &mut i64, p: i64) {
             *s = if ADD {
                 s.wrapping_add(p)
             } else {
                 s.wrapping_sub(p)
             };
         }
-        let [u0, u1, u2] = e.u;
+        #[inline(always)]
+        fn mac<const ADD: bool>(s: &mut i64, a: i32, b: i32) {
+            acc::<ADD>(s, i64::from(a) * i64::from(b));
+        }
+        // |u − u_ref| ≤ 2²⁵: an i32
+        let [v0, v1, v2] = [
+            e.u[0].wrapping_sub(r[0]),
+            e.u[1].wrapping_sub(r[1]),
+            e.u[2].wrapping_sub(r[2]),
+        ];
         let y = e.y;
-        let [g0, g1, g2, g3, g4, g5] = &mut self.g;
-        mac::<ADD>(g0, u0, u0);
-        mac::<ADD>(g1, u0, u1);
-        mac::<ADD>(g2, u0, u2);
-        mac::<ADD>(g3, u1, u1);
-        mac::<ADD>(g4, u1, u2);
-        mac::<ADD>(g5, u2, u2);
-        let [b0, b1, b2] = &mut self.b;
-        mac::<ADD>(b0, u0, y);
-        mac::<ADD>(b1, u1, y);
-        mac::<ADD>(b2, u2, y);
+        let [g0, g1, g2, g3, g4, g5] = &mut self.vv;
+        mac::<ADD>(g0, v0, v0);
+        mac::<ADD>(g1, v0, v1);
+        mac::<ADD>(g2, v0, v2);
+        mac::<ADD>(g3, v1, v1);
+        mac::<ADD>(g4, v1, v2);
+        mac::<ADD>(g5, v2, v2);
+        let [b0, b1, b2] = &mut self.vy;
+        mac::<ADD>(b0, v0, y);
+        mac::<ADD>(b1, v1, y);
+        mac::<ADD>(b2, v2, y);
         let y8 = y >> 4; // Q12: y² < 2^48 per term
         mac::<ADD>(&mut self.yy, y8, y8);
+        acc::<ADD>(&mut self.y, i64::from(y));
+        let [s0, s1, s2] = &mut self.v;
+        for (s, v) in [(s0, v0), (s1, v1), (s2, v2)] {
+            acc::<ADD>(s, i64::from(v));
+        }
         let [d0, d1, d2] = e.d;
         let [s0, s1, s2] = &mut self.d;
         for (s, d) in [(s0, d0), (s1, d1), (s2, d2)] {
-            *s = if ADD {
-                s.wrapping_add(i64::from(d))
-            } else {
-                s.wrapping_sub(i64::from(d))
-            };
+            acc::<ADD>(s, i64::from(d));
         }
     }
+
+    /// The same sums relative to u_ref + `delta` (v' = v − Δ), exactly (mod 2⁶⁴): with
+    /// w = Σv' = Σv − nΔ, Σv'v'ᵀ = Σvvᵀ − Δ wᵀ − Σv Δᵀ and Σv'y = Σvy − Δ Σy. Straight-line
+    /// (15 wrapping 64-bit products), not loops: it runs whenever the window has turned.
+    fn shift(&mut self, delta: [i64; 3], n: i64) {
+        let [v0, v1, v2] = self.v;
+        let [d0, d1, d2] = delta;
+        let w0 = v0.wrapping_sub(n.wrapping_mul(d0));
+        let w1 = v1.wrapping_sub(n.wrapping_mul(d1));
+        let w2 = v2.wrapping_sub(n.wrapping_mul(d2));
+        let t = |di: i64, wj: i64, vi: i64, dj: i64| {
+            di.wrapping_mul(wj).wrapping_add(vi.wrapping_mul(dj))
+        };
+        let [g0, g1, g2, g3, g4, g5] = &mut self.vv;
+        *g0 = g0.wrapping_sub(t(d0, w0, v0, d0));
+        *g1 = g1.wrapping_sub(t(d0, w1, v0, d1));
+        *g2 = g2.wrapping_sub(t(d0, w2, v0, d2));
+        *g3 = g3.wrapping_sub(t(d1, w1, v1, d1));
+        *g4 = g4.wrapping_sub(t(d1, w2, v1, d2));
+        *g5 = g5.wrapping_sub(t(d2, w2, v2, d2));
+        let y = self.y;
+        let [b0, b1, b2] = &mut self.vy;
+        *b0 = b0.wrapping_sub(d0.wrapping_mul(y));
+        *b1 = b1.wrapping_sub(d1.wrapping_mul(y));
+        *b2 = b2.wrapping_sub(d2.wrapping_mul(y));
+        self.v = [w0, w1, w2];
+    }
+}
+
+/// Index pairs of the six sums of a symmetric 3×3, in [`Sums::vv`] order.
+const PAIRS: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+
+/// An i64 as f32 from its two words (two roundings, ≤ 1 ulp: the live solve's inputs).
+#[inline(always)]
+fn f32_of(x: i64) -> f32 {
+    ((x >> 32) as i32 as f32) * 4_294_967_296.0 + (x as u32) as f32
 }
 
 /// A streaming SSM estimate: E for the current neighbourhood.
@@ -129,6 +203,8 @@ pub struct StreamingSsm<const W: usize> {
     tail: usize,
     len: usize,
     sums: Sums,
+    /// The reference direction of the sums, Q24.
+    u_ref: [i32; 3],
     rotary_ref_deg: [f32; 2],
     skipped_flagged: u32,
     skipped_invalid: u32,
@@ -152,6 +228,7 @@ impl<const W: usize> StreamingSsm<W> {
             tail: 0,
             len: 0,
             sums: Sums::default(),
+            u_ref: [0; 3],
             rotary_ref_deg: [0.0; 2],
             skipped_flagged: 0,
             skipped_invalid: 0,
@@ -192,7 +269,7 @@ impl<const W: usize> StreamingSsm<W> {
             return;
         }
         if let Some(e) = self.ring.get(self.tail).copied() {
-            self.sums.apply::<false>(&e);
+            self.sums.apply::<false>(&e, &self.u_ref);
         }
         self.tail = (self.tail + 1) % W;
         self.len -= 1;
@@ -265,13 +342,38 @@ impl<const W: usize> StreamingSsm<W> {
             self.pop_oldest();
             self.evicted_full = self.evicted_full.saturating_add(1);
         }
+        if self.len == 0 {
+            // a new window: its first direction is the reference
+            self.sums = Sums::default();
+            self.u_ref = entry.u;
+        }
         let head = (self.tail + self.len) % W;
         if let Some(slot) = self.ring.get_mut(head) {
             *slot = entry;
-            self.sums.apply::<true>(&entry);
+            self.sums.apply::<true>(&entry, &self.u_ref);
             self.len += 1;
         }
+        self.recentre();
         used
+    }
+
+    /// Moves u_ref to (about) the window's mean direction once the mean is 1/256 rad (2¹⁶ in
+    /// Q24) or more from it. Any integer shift keeps the sums exact, so the mean is taken in f32
+    /// (no i64 division).
+    #[inline(never)]
+    fn recentre(&mut self) {
+        let n = self.len as i64;
+        let limit = (n << 16).unsigned_abs();
+        if self.sums.v.iter().all(|s| s.unsigned_abs() <= limit) {
+            return;
+        }
+        let inv_n = 1.0 / self.len as f32;
+        // |mean| ≤ 2²⁵ in Q24: the f32 → i32 conversion cannot saturate
+        let delta = self.sums.v.map(|s| i64::from((f32_of(s) * inv_n) as i32));
+        self.sums.shift(delta, n);
+        for (r, d) in self.u_ref.iter_mut().zip(delta) {
+            *r = r.wrapping_add(d as i32);
+        }
     }
 
     /// E for the current neighbourhood refined on the exact sphere equation
@@ -317,7 +419,20 @@ impl<const W: usize> StreamingSsm<W> {
         let gs = 1.0 / (f64::from(U_SCALE) * f64::from(U_SCALE));
         let bs = 1.0 / (f64::from(U_SCALE) * f64::from(Y_SCALE));
         let ys = 16.0 / f64::from(Y_SCALE);
-        let [g0, g1, g2, g3, g4, g5] = self.sums.g.map(|v| v as f64 * gs);
+        // G = Σvvᵀ + r Σvᵀ + Σv rᵀ + n r rᵀ, b = Σvy + r Σy (exact mod 2⁶⁴, true values in range)
+        let s = &self.sums;
+        let n = self.len as i64;
+        let r = self.u_ref.map(i64::from);
+        let at = |a: &[i64; 3], i: usize| a.get(i).copied().unwrap_or(0);
+        let mut g = [0f64; 6];
+        for ((gk, &vv), (i, j)) in g.iter_mut().zip(s.vv.iter()).zip(PAIRS) {
+            let exact = vv
+                .wrapping_add(at(&r, i).wrapping_mul(at(&s.v, j)))
+                .wrapping_add(at(&s.v, i).wrapping_mul(at(&r, j)))
+                .wrapping_add(n.wrapping_mul(at(&r, i)).wrapping_mul(at(&r, j)));
+            *gk = exact as f64 * gs;
+        }
+        let [g0, g1, g2, g3, g4, g5] = g;
         let g = Sym3 {
             a00: g0,
             a01: g1,
@@ -326,9 +441,116 @@ impl<const W: usize> StreamingSsm<W> {
             a12: g4,
             a22: g5,
         };
-        let b = self.sums.b.map(|v| v as f64 * bs);
-        let yy = self.sums.yy as f64 * ys * ys;
+        let mut b = [0f64; 3];
+        for ((bk, &vy), rk) in b.iter_mut().zip(s.vy.iter()).zip(r) {
+            *bk = vy.wrapping_add(rk.wrapping_mul(s.y)) as f64 * bs;
+        }
+        let yy = s.yy as f64 * ys * ys;
         (g, b, yy)
+    }
+
+    /// The live E of the current neighbourhood, µm: each component, or `None` where the path
+    /// cannot see it; f32 on the FPU (see the module doc). The same errors and observability
+    /// rule ([`UNOBSERVABLE_EIG_RATIO`], [`OBSERVABLE_AXIS_TOL`]) as [`estimate`](Self::estimate),
+    /// whose f64 values it matches to a few nm on the host tests' paths.
+    #[inline(never)] // one copy in flash (the application task's poll would inline it)
+    pub fn live(&self) -> Result<[Option<f32>; 3], SsmError> {
+        let n = self.len as u32;
+        if n < 3 {
+            return Err(SsmError::TooFewObservations { have: n, need: 3 });
+        }
+        const U: f32 = 1.0 / U_SCALE;
+        const Y: f32 = 1.0 / Y_SCALE;
+        let s = &self.sums;
+        let inv_n = 1.0 / n as f32;
+        // Σ v y is read only while it is certainly in range: Σv_k²·Σy² < 2¹²⁴ (Cauchy–Schwarz)
+        let yy = f32_of(s.yy) * 256.0;
+        let [vv0, vv1, vv2, vv3, vv4, vv5] = s.vv.map(f32_of);
+        if !(vv0.max(vv3).max(vv5) * yy < 2.126_765e37) {
+            return Err(SsmError::InvalidInput);
+        }
+        let vbar = s.v.map(|x| f32_of(x) * inv_n * U);
+        let ybar = f32_of(s.y) * inv_n * Y;
+        let [a, b, c] = vbar;
+        let q = inv_n * U * U;
+        // covariance of the directions and of directions with y
+        let cov = [
+            [vv0 * q - a * a, vv1 * q - a * b, vv2 * q - a * c],
+            [vv1 * q - a * b, vv3 * q - b * b, vv4 * q - b * c],
+            [vv2 * q - a * c, vv4 * q - b * c, vv5 * q - c * c],
+        ];
+        let cy: [f32; 3] = {
+            let [w0, w1, w2] = s.vy.map(f32_of);
+            let k = inv_n * U * Y;
+            [w0 * k - a * ybar, w1 * k - b * ybar, w2 * k - c * ybar]
+        };
+        let [u0, u1, u2] = self.u_ref;
+        let m = [u0 as f32 * U + a, u1 as f32 * U + b, u2 as f32 * U + c];
+        let dot = |p: [f32; 3], q: [f32; 3]| p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
+        let mm = crate::num::sqrtf(dot(m, m));
+        let mh = m.map(|x| x / mm);
+        // an orthonormal basis (t1, t2, m̂) (Duff et al. 2017, branch on the sign only)
+        let [x, y, z] = mh;
+        let sg = if z >= 0.0 { 1.0 } else { -1.0 };
+        let ka = -1.0 / (sg + z);
+        let kb = x * y * ka;
+        let t1 = [1.0 + sg * x * x * ka, sg * kb, -sg * x];
+        let t2 = [kb, sg + y * y * ka, -y];
+        let times = |v: [f32; 3]| {
+            let [r0, r1, r2] = cov;
+            [dot(r0, v), dot(r1, v), dot(r2, v)]
+        };
+        let (w1, w2, w3) = (times(t1), times(t2), times(mh));
+        let (s00, s01, s11) = (dot(t1, w1), dot(t1, w2), dot(t2, w2));
+        let (c1m, c2m, cmm) = (dot(t1, w3), dot(t2, w3), dot(mh, w3));
+        let den = mm * mm + cmm;
+        let alpha = (mm * ybar + dot(mh, cy)) / den;
+        let (b1, b2) = (c1m / den, c2m / den);
+        // the tangent plane's Schur complement and right-hand side
+        let (s00, s01, s11) = (s00 - c1m * b1, s01 - c1m * b2, s11 - c2m * b2);
+        let r1 = dot(t1, cy) - c1m * alpha;
+        let r2 = dot(t2, cy) - c2m * alpha;
+        let h = 0.5 * (s00 - s11);
+        let l_max = 0.5 * (s00 + s11) + crate::num::sqrtf(h * h + s01 * s01);
+        let l_min = (s00 * s11 - s01 * s01) / l_max;
+        let ratio = UNOBSERVABLE_EIG_RATIO as f32 * den;
+        if !(l_max > ratio) {
+            return Err(SsmError::Degenerate);
+        }
+        let (e1, e2, null) = if l_min > ratio {
+            let det = s00 * s11 - s01 * s01;
+            (
+                (s11 * r1 - s01 * r2) / det,
+                (s00 * r2 - s01 * r1) / det,
+                None,
+            )
+        } else {
+            // the eigenvector of l_max (the better conditioned of its two forms); E has no
+            // component along the other, which the path cannot see
+            let (p, q) = if s00 >= s11 {
+                (l_max - s11, s01)
+            } else {
+                (s01, l_max - s00)
+            };
+            let norm = crate::num::sqrtf(p * p + q * q);
+            let (p, q) = (p / norm, q / norm);
+            let k = (p * r1 + q * r2) / l_max;
+            (k * p, k * q, Some([-q, p]))
+        };
+        let em = alpha - b1 * e1 - b2 * e2;
+        let e: [f32; 3] = core::array::from_fn(|k| {
+            let at = |v: &[f32; 3]| v.get(k).copied().unwrap_or(0.0);
+            e1 * at(&t1) + e2 * at(&t2) + em * at(&mh)
+        });
+        let mut out = e.map(Some);
+        if let Some([n1, n2]) = null {
+            for ((o, a), b) in out.iter_mut().zip(t1).zip(t2) {
+                if !(libm::fabsf(n1 * a + n2 * b) < OBSERVABLE_AXIS_TOL as f32) {
+                    *o = None;
+                }
+            }
+        }
+        Ok(out.map(|v| v.filter(|x| x.is_finite())))
     }
 
     /// E for the current neighbourhood, with condition number and observability.

@@ -336,12 +336,17 @@ impl LvdtCalibration {
             return (0.0, LvdtStatus::Open);
         }
         let over = reading.clipped || libm::fabsf(reading.ratio) > self.max_abs_ratio;
-        // Not `f32::clamp`: it asserts min <= max with a formatted panic message, which put
-        // the panic path and core's float formatting into the firmware (.ci/panic-paths).
-        let r = reading
-            .ratio
-            .max(-self.max_abs_ratio)
-            .min(self.max_abs_ratio);
+        // Comparisons, not `f32::clamp` (it asserts min <= max with a formatted panic message,
+        // which put the panic path and core's float formatting into the firmware) nor
+        // `f32::max`/`min` (`fmaxf`/`fminf` library calls on the M4F, every sample).
+        let m = self.max_abs_ratio;
+        let r = if reading.ratio > m {
+            m
+        } else if reading.ratio < -m {
+            -m
+        } else {
+            reading.ratio
+        };
         // Horner, in f32: coefficients in µm, r dimensionless.
         let x = self
             .poly_um

@@ -166,7 +166,13 @@ impl Acquisition {
     pub fn update_counts(&mut self, raw: [u32; MAX_AXES]) -> ([i64; MAX_AXES], bool) {
         let mut counts = [0i64; MAX_AXES];
         let mut glitch = false;
-        for ((c, ext), r) in counts.iter_mut().zip(self.counters_hw.iter_mut()).zip(raw) {
+        // by reference: an array iterated by value is an out-of-line `IntoIter::next` call per
+        // axis at opt-level "z"
+        for ((c, ext), &r) in counts
+            .iter_mut()
+            .zip(self.counters_hw.iter_mut())
+            .zip(raw.iter())
+        {
             let u = ext.update(r);
             *c = u.count;
             glitch |= u.glitch;

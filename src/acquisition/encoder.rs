@@ -157,14 +157,9 @@ impl AxisScale {
         let ea = fmaf(h, k16h, -a);
         let b = l * kh;
         let eb = fmaf(l, kh, -b);
-        // Fast2Sum: a and b of one sign
-        let (big, small) = if libm::fabsf(a) >= libm::fabsf(b) {
-            (a, b)
-        } else {
-            (b, a)
-        };
-        let s = big + small;
-        let es = small - (s - big);
+        // Fast2Sum, exact because |a| ≥ |b| (h ≥ 1 makes a ≥ 2¹⁶·|k| > l·|k|) or a = 0
+        let s = a + b;
+        let es = b - (s - a);
         let p = s + (es + ea + eb + h * k16l + l * kl);
         let p = if count < 0 { -p } else { p };
         if p.is_finite() { p } else { 0.0 }

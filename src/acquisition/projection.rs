@@ -167,7 +167,7 @@ unsafe extern "C" {
 
 // Per pair of samples of both channels: two word loads, one LDRD of the (sin, cos) reference
 // pair, four SMLAD and the rail maximum (USUB16 v − 1, UQSUB16 + UADD16 = lane max) of each
-// channel word; unrolled twice, so 28 instructions per 8 ADC sample·channels plus 2 for the
+// channel word; unrolled twice (`.rept 2`), so 28 instructions per 8 ADC sample·channels plus 2 for the
 // loop, and 7 per period to rewind the reference.
 // Registers: r4–r7 the sums, r8 the rail maximum, r9 the quad count, r1–r3 the pointers,
 // r10/r11 the a/b words, r0/lr the reference pair, r12 the constant 0x0001_0001; on the stack
@@ -188,6 +188,7 @@ core::arch::global_asm!(
     "movw r12, #1",
     "movt r12, #1",
     "2:",
+    ".rept 2",
     "ldr r10, [r1], #4",
     "ldr r11, [r2], #4",
     "ldrd r0, lr, [r3], #8",
@@ -201,19 +202,7 @@ core::arch::global_asm!(
     "usub16 r11, r11, r12",
     "uqsub16 r0, r11, r8",
     "uadd16 r8, r8, r0",
-    "ldr r10, [r1], #4",
-    "ldr r11, [r2], #4",
-    "ldrd r0, lr, [r3], #8",
-    "smlad r4, r10, r0, r4",
-    "smlad r6, r11, r0, r6",
-    "smlad r5, r10, lr, r5",
-    "smlad r7, r11, lr, r7",
-    "usub16 r10, r10, r12",
-    "uqsub16 r0, r10, r8",
-    "uadd16 r8, r8, r0",
-    "usub16 r11, r11, r12",
-    "uqsub16 r0, r11, r8",
-    "uadd16 r8, r8, r0",
+    ".endr",
     "subs r9, r9, #1",
     "bne 2b",
     "ldr r3, [sp, #12]",

@@ -248,6 +248,38 @@ fn pipeline_builds_a_calibrated_sample() {
 }
 
 #[test]
+fn standing_axes_keep_their_position_and_follow_a_new_scale() {
+    // samples whose counters do not move reuse the last position; a reconfiguration with a new
+    // counts-per-unit must not reuse a position of the old scale
+    let mut cfg = Config::default(); // 10 000 counts/mm
+    let mut acq = Acquisition::new(&cfg, [16; 5]);
+    let raw = [10_000, 65_536 - 20_000, 5, 0, 1];
+    acq.sample(0, good_reading(0.0), [0; 5], 0, false); // the first read is count 0
+    let first = acq.sample(500, good_reading(0.0), raw, 0, false);
+    for k in 1..4 {
+        let s = acq.sample(k * 1000, good_reading(0.0), raw, 0, false);
+        assert_eq!(s.axes, first.axes);
+    }
+    assert_eq!(first.axes, [1.0, -2.0, 0.0005, 0.0, 0.0001]);
+    for a in cfg.axes.iter_mut() {
+        a.counts_per_unit = 4_000.0;
+    }
+    acq.reconfigure(&cfg, [16; 5]);
+    let s = acq.sample(9_000, good_reading(0.0), raw, 0, false);
+    let want = [10_000.0, -20_000.0, 5.0, 0.0, 1.0].map(|c: f64| (c / 4_000.0) as f32);
+    assert_eq!(s.axes, want);
+    // and an axis that moves again is scaled again
+    let s = acq.sample(
+        10_000,
+        good_reading(0.0),
+        [10_004, 65_536 - 20_000, 5, 0, 1],
+        0,
+        false,
+    );
+    assert_eq!(s.axes[0], (10_004.0f64 / 4_000.0) as f32);
+}
+
+#[test]
 fn homing_references_the_axes() {
     let mut acq = Acquisition::new(&Config::default(), [16; 5]);
     // X homed at 150 mm where its 16-bit counter reads 1 500 000 mod 65 536

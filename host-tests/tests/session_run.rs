@@ -61,6 +61,45 @@ fn the_documented_defaults() {
 }
 
 #[test]
+fn the_division_free_loss_test_is_the_allowance() {
+    // the monitor's per-sample test against the definition, max(n, ⌊produced · ‰ / 1000⌋)
+    for per_mille in [0, 1, 10, 37, 999, 1000, u32::MAX] {
+        for max_lost_samples in [0, 10, u32::MAX - 1] {
+            let l = RunLimits {
+                max_lost_per_mille: per_mille,
+                max_lost_samples,
+                ..RunLimits::DEFAULT
+            };
+            for produced in [0, 1, 999, 1000, 1001, 1099, 1100, 123_457, u32::MAX] {
+                let allowed = l.lost_allowed(produced);
+                for lost in [
+                    0,
+                    1,
+                    9,
+                    10,
+                    11,
+                    12,
+                    1234,
+                    allowed.saturating_sub(1),
+                    allowed,
+                ]
+                .into_iter()
+                .chain([allowed.saturating_add(1), u32::MAX])
+                {
+                    assert_eq!(
+                        l.too_many_lost(lost, produced),
+                        u64::from(lost)
+                            > (u64::from(produced) * u64::from(per_mille) / 1000)
+                                .max(u64::from(max_lost_samples)),
+                        "{per_mille} ‰, {max_lost_samples}, produced {produced}, lost {lost}"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
 fn a_monitor_that_was_not_started_counts_nothing() {
     let mut m = RunMonitor::new(RunLimits::DEFAULT);
     assert!(!m.is_running());

@@ -80,6 +80,13 @@ impl CountExtender {
                 glitch: false,
             };
         }
+        if raw == self.last_raw {
+            // the axis stands still (most axes, most samples)
+            return CountUpdate {
+                count: self.count,
+                glitch: false,
+            };
+        }
         // Signed difference modulo 2^bits: shift the value into the top bits of an i32 so the
         // wrap-around of the subtraction is the hardware's.
         let shift = 32 - self.bits;

@@ -40,6 +40,9 @@ pub struct Acquisition {
     cte_ppm_per_k: f32,
     scales: [AxisScale; MAX_AXES],
     counters_hw: [CountExtender; MAX_AXES],
+    /// The last (count, position) of each axis: an axis that did not move is not scaled again
+    /// (most axes stand still in most tests). (0, 0.0) holds for any scale.
+    last_position: [(i64, f32); MAX_AXES],
     /// Touch-probe debounce and lock-out.
     pub probe: ProbeDebouncer,
     temp_c: Option<f32>,
@@ -91,6 +94,7 @@ impl Acquisition {
             cte_ppm_per_k: cfg.bar_cte_ppm_per_k,
             scales,
             counters_hw,
+            last_position: [(0, 0.0); MAX_AXES],
             probe: ProbeDebouncer::new(
                 u64::from(cfg.probe_debounce_us),
                 u64::from(cfg.probe_reseat_us),
@@ -113,6 +117,7 @@ impl Acquisition {
             *ext = ext.with_max_step(new.max_step());
         }
         self.scales = fresh.scales;
+        self.last_position = fresh.last_position;
         self.lvdt = fresh.lvdt;
         self.dc = fresh.dc;
         self.thermistor = fresh.thermistor;
@@ -210,6 +215,23 @@ impl Acquisition {
         p
     }
 
+    /// [`Self::positions`], scaling only the axes whose count changed since the last call.
+    fn positions_moved(&mut self, counts: &[i64; MAX_AXES]) -> [f32; MAX_AXES] {
+        let mut p = [0.0f32; MAX_AXES];
+        for (((p, s), &c), last) in p
+            .iter_mut()
+            .zip(self.scales.iter())
+            .zip(counts.iter())
+            .zip(self.last_position.iter_mut())
+        {
+            if c != last.0 {
+                *last = (c, s.position(c));
+            }
+            *p = last.1;
+        }
+        p
+    }
+
     /// Handles a probe trigger edge whose raw counters were latched in the interrupt.
     pub fn probe_trigger(&mut self, t_us: u64, raw: [u32; MAX_AXES]) -> TriggerOutcome {
         let (counts, _) = self.update_counts(raw);
@@ -274,7 +296,7 @@ impl Acquisition {
             seq: self.seq,
             t_us,
             delta_l_um,
-            axes: self.positions(&counts),
+            axes: self.positions_moved(&counts),
             temp_c,
             flags,
         };

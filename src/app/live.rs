@@ -69,6 +69,22 @@ impl Default for LiveValues {
 }
 
 impl LiveValues {
+    /// The validity bits of the values `ks` (for [`Self::all_valid`]).
+    pub const fn mask(ks: &[Live]) -> u16 {
+        let mut m = 0;
+        let mut rest = ks;
+        while let [k, tail @ ..] = rest {
+            m |= 1 << (*k as u16);
+            rest = tail;
+        }
+        m
+    }
+
+    /// Whether every value of `mask` ([`Self::mask`]) is valid.
+    pub const fn all_valid(&self, mask: u16) -> bool {
+        self.valid & mask == mask
+    }
+
     /// The value `k`, or `None` while it is invalid.
     pub fn get(&self, k: Live) -> Option<f32> {
         let i = k as usize;
@@ -82,15 +98,17 @@ impl LiveValues {
     /// Sets value `k` (`None` or a non-finite value marks it invalid).
     pub fn set(&mut self, k: Live, v: Option<f32>) {
         let i = k as usize;
-        let v = v.filter(|x| x.is_finite());
+        let x = v.unwrap_or(f32::NAN);
+        let ok = x.is_finite();
         if let Some(slot) = self.values.get_mut(i) {
-            *slot = v.unwrap_or(f32::NAN);
+            *slot = if ok { x } else { f32::NAN };
         }
-        if v.is_some() {
-            self.valid |= 1 << i;
+        let bit = 1 << i;
+        self.valid = if ok {
+            self.valid | bit
         } else {
-            self.valid &= !(1 << i);
-        }
+            self.valid & !bit
+        };
     }
 }
 

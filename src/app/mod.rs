@@ -1123,13 +1123,13 @@ impl App {
     }
 
     fn update_status(&mut self) {
-        let l = &self.live;
-        let all = |ks: &[Live]| ks.iter().all(|k| l.get(*k).is_some());
+        const SSM_E: u16 = LiveValues::mask(&[Live::SsmEx, Live::SsmEy, Live::SsmEz]);
+        const FIT: u16 = LiveValues::mask(&[Live::EccU, Live::EccV, Live::R0]);
         let live_valid = match self.pattern {
             _ if self.session != SessionState::Running => false,
-            Pattern::Ssm => all(&[Live::SsmEx, Live::SsmEy, Live::SsmEz]),
+            Pattern::Ssm => self.live.all_valid(SSM_E),
             Pattern::Probe => false,
-            _ => all(&[Live::EccU, Live::EccV, Live::R0]),
+            _ => self.live.all_valid(FIT),
         };
         let fault = self
             .last_flags

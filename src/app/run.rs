@@ -106,12 +106,22 @@ impl RunLimits {
     /// Lost samples allowed after `produced` samples (seen + lost):
     /// max(`max_lost_samples`, `produced` · `max_lost_per_mille` / 1000).
     pub const fn lost_allowed(&self, produced: u32) -> u32 {
+        // [`Self::too_many_lost`] decides the same without the division
         let share = (produced as u64 * self.max_lost_per_mille as u64 / 1000) as u32;
         if share > self.max_lost_samples {
             share
         } else {
             self.max_lost_samples
         }
+    }
+}
+
+impl RunLimits {
+    /// `lost` > [`Self::lost_allowed`]`(produced)`, decided without a 64-bit division (per
+    /// sample): ⌊x/1000⌋ < L ⇔ x < 1000·L for an integer L.
+    pub const fn too_many_lost(&self, lost: u32, produced: u32) -> bool {
+        lost > self.max_lost_samples
+            && (produced as u64 * self.max_lost_per_mille as u64) < lost as u64 * 1000
     }
 }
 
@@ -367,7 +377,7 @@ impl RunMonitor {
             || self.lvdt_fault_streak >= self.limits.max_lvdt_fault_samples
         {
             Some(AbortReason::LvdtFault)
-        } else if c.lost > self.limits.lost_allowed(produced) {
+        } else if self.limits.too_many_lost(c.lost, produced) {
             Some(AbortReason::Overrun)
         } else {
             None

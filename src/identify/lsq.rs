@@ -107,28 +107,8 @@ impl<const N: usize> GivensLsq<N> {
         if !(b.is_finite() && w.is_finite() && w >= 0.0 && crate::num::all_finite(a)) {
             return Err(LsqError::NonFinite { row: self.rows });
         }
-        let sw = libm::sqrt(w);
         let mut x = *a;
-        x.iter_mut().for_each(|v| *v *= sw);
-        let mut y = b * sw;
-        for (k, (r_row, qtb_k)) in self.r.iter_mut().zip(self.qtb.iter_mut()).enumerate() {
-            let (Some(&rkk), Some(&xk)) = (r_row.get(k), x.get(k)) else {
-                break;
-            };
-            if xk == 0.0 {
-                continue;
-            }
-            let h = crate::num::hypot(rkk, xk);
-            let (c, s) = (rkk / h, xk / h);
-            for (rj, xj) in r_row.iter_mut().zip(x.iter_mut()).skip(k) {
-                let t = c * *rj + s * *xj;
-                *xj = c * *xj - s * *rj;
-                *rj = t;
-            }
-            let t = c * *qtb_k + s * y;
-            y = c * y - s * *qtb_k;
-            *qtb_k = t;
-        }
+        let y = rotate_in(self.r.as_flattened_mut(), &mut self.qtb, &mut x, b, w);
         self.rss += y * y;
         self.rows = self.rows.saturating_add(1);
         Ok(())
@@ -144,52 +124,51 @@ impl<const N: usize> GivensLsq<N> {
                 unknowns: N,
             });
         }
-        let svd = JacobiSvd::of(&self.r).ok_or(LsqError::NoConvergence)?;
-        let s_max = svd.sigma.first().copied().unwrap_or(0.0);
-        let m_minus_n = (self.rows as usize).saturating_sub(N);
+        let mut out = LsqSolution {
+            x: [0.0; N],
+            std_uncertainty: [0.0; N],
+            singular_values: [0.0; N],
+            rank: 0,
+            condition: f64::INFINITY,
+            residual_rms: libm::sqrt(self.rss / f64::from(self.rows.max(1))),
+            rows: self.rows,
+            right_singular_vectors: [[0.0; N]; N],
+        };
+        let mut cols = [[0.0f64; N]; N];
+        let mut v = [[0.0f64; N]; N];
+        let mut u_cols = [[0.0f64; N]; N];
+        let mut norms = [0.0f64; N];
+        let mut order = [0usize; N];
+        let svd = Svd {
+            cols: cols.as_flattened_mut(),
+            v: v.as_flattened_mut(),
+            norms: &mut norms,
+            order: &mut order,
+            sigma: &mut out.singular_values,
+            u_cols: u_cols.as_flattened_mut(),
+            v_rows: out.right_singular_vectors.as_flattened_mut(),
+        };
+        if !svd.of(self.r.as_flattened()) {
+            return Err(LsqError::NoConvergence);
+        }
         // Residual variance from the rotations' RSS; a minimum-norm solution of a
         // rank-deficient system leaves the same residual.
+        let m_minus_n = (self.rows as usize).saturating_sub(N);
         let s2 = if m_minus_n > 0 {
             self.rss / m_minus_n as f64
         } else {
             0.0
         };
-        let mut out = LsqSolution {
-            x: [0.0; N],
-            std_uncertainty: [0.0; N],
-            singular_values: svd.sigma,
-            rank: 0,
-            condition: f64::INFINITY,
-            residual_rms: libm::sqrt(self.rss / f64::from(self.rows.max(1))),
-            rows: self.rows,
-            right_singular_vectors: svd.v_rows,
-        };
-        let mut var = [0.0f64; N];
-        for ((&s, u), v) in svd
-            .sigma
-            .iter()
-            .zip(svd.u_cols.iter())
-            .zip(svd.v_rows.iter())
-        {
-            if s <= rel_tol * s_max || s == 0.0 {
-                continue;
-            }
-            out.rank += 1;
-            // x += v (uᵀ Qᵀb) / s ;  var_j += v_j² / s²   (pseudo-inverse through the SVD of R)
-            let coef = dot(u, &self.qtb) / s;
-            for ((xj, vj), &v_j) in out.x.iter_mut().zip(var.iter_mut()).zip(v.iter()) {
-                *xj += v_j * coef;
-                *vj += v_j * v_j / (s * s);
-            }
-        }
-        let s_min = svd.sigma.last().copied().unwrap_or(0.0);
-        if out.rank == N && s_min > 0.0 {
-            out.condition = s_max / s_min;
-        }
-        out.std_uncertainty
-            .iter_mut()
-            .zip(var.iter())
-            .for_each(|(u, v)| *u = libm::sqrt(s2 * v));
+        (out.rank, out.condition) = pseudo_inverse(
+            &out.singular_values,
+            u_cols.as_flattened(),
+            out.right_singular_vectors.as_flattened(),
+            &self.qtb,
+            s2,
+            rel_tol,
+            &mut out.x,
+            &mut out.std_uncertainty,
+        );
         Ok(out)
     }
 
@@ -217,54 +196,160 @@ impl<const N: usize> GivensLsq<N> {
     }
 }
 
-fn dot<const N: usize>(a: &[f64; N], b: &[f64; N]) -> f64 {
+// The arithmetic below works on slices with a run-time size, not on `[f64; N]`: one copy in
+// flash serves every N the pod uses (3, 4, 13, …), where a const-generic copy per N cost ~5 KB.
+
+fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b.iter()).map(|(x, y)| x * y).sum()
 }
 
-/// SVD of a square `N × N` matrix by one-sided (Hestenes) Jacobi rotations.
+/// Rotates the weighted row `√w·(x, b)` into R (`n × n` row-major, n = `x.len()`) and Qᵀb by
+/// Givens rotations; returns what is left of `√w·b`, the row's contribution to the RSS.
+#[inline(never)] // one copy for every N
+fn rotate_in(r: &mut [f64], qtb: &mut [f64], x: &mut [f64], b: f64, w: f64) -> f64 {
+    let n = x.len();
+    let sw = libm::sqrt(w);
+    x.iter_mut().for_each(|v| *v *= sw);
+    let mut y = b * sw;
+    if n == 0 {
+        return y;
+    }
+    for (k, (r_row, qtb_k)) in r.chunks_exact_mut(n).zip(qtb.iter_mut()).enumerate() {
+        let (Some(&rkk), Some(&xk)) = (r_row.get(k), x.get(k)) else {
+            break;
+        };
+        if xk == 0.0 {
+            continue;
+        }
+        let h = crate::num::hypot(rkk, xk);
+        let (c, s) = (rkk / h, xk / h);
+        for (rj, xj) in r_row.iter_mut().zip(x.iter_mut()).skip(k) {
+            let t = c * *rj + s * *xj;
+            *xj = c * *xj - s * *rj;
+            *rj = t;
+        }
+        let t = c * *qtb_k + s * y;
+        y = c * y - s * *qtb_k;
+        *qtb_k = t;
+    }
+    y
+}
+
+/// The solution through the SVD of R = U Σ Vᵀ (the pseudo-inverse): x = Σ v (uᵀQᵀb)/σ and
+/// var_j = s²·Σ v_j²/σ² over the singular values above `rel_tol·σ_max`. Returns the rank and
+/// the condition number (infinite when rank-deficient).
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn pseudo_inverse(
+    sigma: &[f64],
+    u_cols: &[f64],
+    v_rows: &[f64],
+    qtb: &[f64],
+    s2: f64,
+    rel_tol: f64,
+    x: &mut [f64],
+    std_u: &mut [f64],
+) -> (usize, f64) {
+    let n = sigma.len();
+    if n == 0 {
+        return (0, f64::INFINITY);
+    }
+    let s_max = sigma.first().copied().unwrap_or(0.0);
+    let mut rank = 0;
+    // std_u holds the variance factors until the end
+    for ((&s, u), v) in sigma
+        .iter()
+        .zip(u_cols.chunks_exact(n))
+        .zip(v_rows.chunks_exact(n))
+    {
+        if s <= rel_tol * s_max || s == 0.0 {
+            continue;
+        }
+        rank += 1;
+        let coef = dot(u, qtb) / s;
+        for ((xj, vj), &v_j) in x.iter_mut().zip(std_u.iter_mut()).zip(v.iter()) {
+            *xj += v_j * coef;
+            *vj += v_j * v_j / (s * s);
+        }
+    }
+    std_u.iter_mut().for_each(|u| *u = libm::sqrt(s2 * *u));
+    let s_min = sigma.last().copied().unwrap_or(0.0);
+    let condition = if rank == n && s_min > 0.0 {
+        s_max / s_min
+    } else {
+        f64::INFINITY
+    };
+    (rank, condition)
+}
+
+/// SVD of a square `n × n` matrix by one-sided (Hestenes) Jacobi rotations, in the caller's
+/// storage (all `n × n` row-major, n = `sigma.len()`).
 ///
 /// Hand-written because nalgebra's SVD cannot be called generically over a const `N` without
 /// allocator/typenum bounds leaking into every caller; one-sided Jacobi is short, needs no
 /// allocation, and is accurate to working precision for the small `N` (≤ 16) used here.
-struct JacobiSvd<const N: usize> {
+struct Svd<'a> {
+    /// Work: the columns of A, one per row (`cols[j][i] = A[i][j]`), rotated.
+    cols: &'a mut [f64],
+    /// Work: the accumulated rotations (`v[j]` = column j of V).
+    v: &'a mut [f64],
+    /// Work: the columns' norms.
+    norms: &'a mut [f64],
+    /// Work: the columns in order of decreasing norm.
+    order: &'a mut [usize],
     /// Singular values, decreasing.
-    sigma: [f64; N],
-    /// Left singular vectors (as columns, stored one per array), same order.
-    u_cols: [[f64; N]; N],
+    sigma: &'a mut [f64],
+    /// Left singular vectors (as columns, stored one per row), same order.
+    u_cols: &'a mut [f64],
     /// Right singular vectors (rows of Vᵀ), same order.
-    v_rows: [[f64; N]; N],
+    v_rows: &'a mut [f64],
 }
 
-impl<const N: usize> JacobiSvd<N> {
+impl Svd<'_> {
     /// Max sweeps; one-sided Jacobi converges quadratically, 30 sweeps is far beyond need.
     const MAX_SWEEPS: usize = 30;
 
-    fn of(a: &[[f64; N]; N]) -> Option<Self> {
-        // Work on the columns of A: cols[j][i] = A[i][j].
-        let mut cols = [[0.0f64; N]; N];
-        for (i, row) in a.iter().enumerate() {
-            for (j, &v) in row.iter().enumerate() {
-                if let Some(c) = cols.get_mut(j).and_then(|c| c.get_mut(i)) {
-                    *c = v;
+    /// Decomposes `a` (`n × n` row-major); `false` if the sweeps did not converge.
+    #[inline(never)]
+    fn of(self, a: &[f64]) -> bool {
+        let n = self.sigma.len();
+        if n == 0 {
+            return true;
+        }
+        let Self {
+            cols,
+            v,
+            norms,
+            order,
+            sigma,
+            u_cols,
+            v_rows,
+        } = self;
+        for (i, row) in a.chunks_exact(n).enumerate() {
+            for (j, &x) in row.iter().enumerate() {
+                if let Some(c) = cols.get_mut(j * n + i) {
+                    *c = x;
                 }
             }
         }
-        let mut v = [[0.0f64; N]; N]; // v[j] = column j of V
-        v.iter_mut().enumerate().for_each(|(j, c)| {
-            if let Some(d) = c.get_mut(j) {
+        v.iter_mut().for_each(|x| *x = 0.0);
+        for j in 0..n {
+            if let Some(d) = v.get_mut(j * n + j) {
                 *d = 1.0;
             }
-        });
+        }
         // Columns whose squared norm is below (ε·‖A‖_F)² are rounding noise: rotating them
         // against each other never settles, and they are zero singular values anyway.
-        let frob2: f64 = cols.iter().map(|c| dot(c, c)).sum();
+        let frob2: f64 = cols.chunks_exact(n).map(|c| dot(c, c)).sum();
         let negligible = f64::EPSILON * f64::EPSILON * frob2;
         let mut converged = false;
         for _ in 0..Self::MAX_SWEEPS {
             let mut off = 0.0f64;
-            for p in 0..N {
-                for q in (p + 1)..N {
-                    let (Some(cp), Some(cq)) = (cols.get(p), cols.get(q)) else {
+            for p in 0..n {
+                for q in (p + 1)..n {
+                    let (Some(cp), Some(cq)) =
+                        (cols.get(p * n..(p + 1) * n), cols.get(q * n..(q + 1) * n))
+                    else {
                         continue;
                     };
                     let (alpha, beta, gamma) = (dot(cp, cp), dot(cq, cq), dot(cp, cq));
@@ -281,8 +366,8 @@ impl<const N: usize> JacobiSvd<N> {
                         / (libm::fabs(zeta) + crate::num::hypot(1.0, zeta));
                     let c = 1.0 / crate::num::hypot(1.0, t);
                     let s = c * t;
-                    rotate_pair(&mut cols, p, q, c, s);
-                    rotate_pair(&mut v, p, q, c, s);
+                    rotate_pair(cols, n, p, q, c, s);
+                    rotate_pair(v, n, p, q, c, s);
                 }
             }
             if off <= 4.0 * f64::EPSILON {
@@ -291,62 +376,61 @@ impl<const N: usize> JacobiSvd<N> {
             }
         }
         if !converged {
-            return None;
+            return false;
         }
-        let mut norms = [0.0f64; N];
-        norms
-            .iter_mut()
-            .zip(cols.iter())
-            .for_each(|(n, c)| *n = libm::sqrt(dot(c, c)));
-        let mut order = [0usize; N];
-        order.iter_mut().enumerate().for_each(|(i, o)| *o = i);
-        order.sort_unstable_by(|&x, &y| {
-            let (nx, ny) = (
-                norms.get(x).copied().unwrap_or(0.0),
-                norms.get(y).copied().unwrap_or(0.0),
-            );
-            ny.total_cmp(&nx)
-        });
-        let mut out = Self {
-            sigma: [0.0; N],
-            u_cols: [[0.0; N]; N],
-            v_rows: [[0.0; N]; N],
-        };
-        for (k, &j) in order.iter().enumerate() {
-            let sigma = norms.get(j).copied().unwrap_or(0.0);
-            if let Some(s) = out.sigma.get_mut(k) {
-                *s = sigma;
+        for (s, c) in norms.iter_mut().zip(cols.chunks_exact(n)) {
+            *s = libm::sqrt(dot(c, c));
+        }
+        // decreasing norm, by insertion (n ≤ 16; core's slice sort would be 2 KB of flash)
+        let norm = |j: usize| norms.get(j).copied().unwrap_or(0.0);
+        for i in 0..n {
+            let mut k = i;
+            while let Some(&prev) = k.checked_sub(1).and_then(|p| order.get(p)) {
+                if norm(prev).total_cmp(&norm(i)).is_ge() {
+                    break;
+                }
+                if let Some(o) = order.get_mut(k) {
+                    *o = prev;
+                }
+                k -= 1;
             }
-            if let (Some(u), Some(c), true) = (out.u_cols.get_mut(k), cols.get(j), sigma > 0.0) {
-                u.iter_mut().zip(c.iter()).for_each(|(u, c)| *u = c / sigma);
-            }
-            if let (Some(dst), Some(src)) = (out.v_rows.get_mut(k), v.get(j)) {
-                *dst = *src;
+            if let Some(o) = order.get_mut(k) {
+                *o = i;
             }
         }
-        Some(out)
+        for ((k, &j), s) in order.iter().enumerate().zip(sigma.iter_mut()) {
+            let norm = norms.get(j).copied().unwrap_or(0.0);
+            *s = norm;
+            if let (Some(u), Some(c), true) = (
+                u_cols.get_mut(k * n..(k + 1) * n),
+                cols.get(j * n..(j + 1) * n),
+                norm > 0.0,
+            ) {
+                u.iter_mut().zip(c.iter()).for_each(|(u, c)| *u = c / norm);
+            }
+            if let (Some(dst), Some(src)) = (
+                v_rows.get_mut(k * n..(k + 1) * n),
+                v.get(j * n..(j + 1) * n),
+            ) {
+                dst.copy_from_slice(src);
+            }
+        }
+        true
     }
 }
 
-/// Applies the plane rotation (c, s) to vectors p and q of `m`: p' = c p − s q, q' = s p + c q.
-fn rotate_pair<const N: usize>(m: &mut [[f64; N]; N], p: usize, q: usize, c: f64, s: f64) {
-    let (Some(&vp), Some(&vq)) = (m.get(p), m.get(q)) else {
-        return;
-    };
-    let mut np = vp;
-    let mut nq = vq;
-    for ((a, b), (&x, &y)) in np
-        .iter_mut()
-        .zip(nq.iter_mut())
-        .zip(vp.iter().zip(vq.iter()))
-    {
-        *a = c * x - s * y;
-        *b = s * x + c * y;
-    }
-    if let Some(d) = m.get_mut(p) {
-        *d = np;
-    }
-    if let Some(d) = m.get_mut(q) {
-        *d = nq;
+/// Applies the plane rotation (c, s) to rows p and q of the `n`-column matrix `m`:
+/// p' = c p − s q, q' = s p + c q.
+fn rotate_pair(m: &mut [f64], n: usize, p: usize, q: usize, c: f64, s: f64) {
+    for i in 0..n {
+        let (Some(&x), Some(&y)) = (m.get(p * n + i), m.get(q * n + i)) else {
+            return;
+        };
+        if let Some(a) = m.get_mut(p * n + i) {
+            *a = c * x - s * y;
+        }
+        if let Some(b) = m.get_mut(q * n + i) {
+            *b = s * x + c * y;
+        }
     }
 }

@@ -351,7 +351,7 @@ fn main() -> ! {
     // expansion L·CTE·(T − 20)·1e-3 (1 sub + 3 mul = 4) + ΔL add (1), 5 axes × (int→float,
     // negate-or-not, divide, add offset = 2 FLOP) = 10 → 24.
     print(&Row {
-        name: "acquisition sample (calibration, 5 axes, thermal, flags)",
+        name: "acquisition sample (calibration, 5 axes all moving, thermal, flags)",
         unit: "sample",
         insns_per_unit: total as f32 / ACQ_SAMPLES as f32,
         flops_per_unit: 24,

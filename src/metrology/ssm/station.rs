@@ -298,10 +298,14 @@ impl<const S: usize> StationCollector<S> {
 
     /// Feeds one sample.
     pub fn update(&mut self, s: &Sample) -> DwellEvent {
-        if !s.flags.is_valid_for_metrology()
-            || !s.delta_l_um.is_finite()
-            || !s.axes.iter().all(|a| a.is_finite())
-        {
+        let [x, y, z, a, b] = s.axes;
+        let finite = s.delta_l_um.is_finite()
+            & x.is_finite()
+            & y.is_finite()
+            & z.is_finite()
+            & a.is_finite()
+            & b.is_finite();
+        if !s.flags.is_valid_for_metrology() || !finite {
             self.skipped = self.skipped.saturating_add(1);
             return DwellEvent::Skipped;
         }
@@ -362,10 +366,10 @@ impl<const S: usize> StationCollector<S> {
 
     fn close(&mut self) {
         self.still_since_us = None;
-        let acc = core::mem::take(&mut self.acc);
-        if acc.n == 0 {
-            return;
+        if self.acc.n == 0 {
+            return; // nothing to take (every moving sample comes here)
         }
+        let acc = core::mem::take(&mut self.acc);
         if acc.n < self.config.min_samples {
             self.dropped_short = self.dropped_short.saturating_add(1);
             return;

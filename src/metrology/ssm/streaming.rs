@@ -97,20 +97,17 @@ struct Sums {
 impl Sums {
     /// Adds (`ADD`) or removes an entry, relative to `r` = u_ref: i32×i32→i64 products and
     /// 64-bit adds, exact. Written on the i32 values directly so that each product compiles to
-    /// one SMLAL (add) or SMULL + SUBS/SBC (remove) on the M4, not a 64×64 multiply.
+    /// one SMLAL on the M4, not a 64×64 multiply; a removal multiplies by the negated first
+    /// factor (exact: every factor is below 2³⁰ in magnitude), so it is SMLALs too.
     #[inline(always)]
     fn apply<const ADD: bool>(&mut self, e: &Entry, r: &[i32; 3]) {
         #[inline(always)]
-        fn acc<const ADD: bool>(s: &mut i64, p: i64) {
-            *s = if ADD {
-                s.wrapping_add(p)
-            } else {
-                s.wrapping_sub(p)
-            };
+        fn mac(s: &mut i64, a: i32, b: i32) {
+            *s = s.wrapping_add(i64::from(a) * i64::from(b));
         }
         #[inline(always)]
-        fn mac<const ADD: bool>(s: &mut i64, a: i32, b: i32) {
-            acc::<ADD>(s, i64::from(a) * i64::from(b));
+        fn add(s: &mut i64, a: i32) {
+            *s = s.wrapping_add(i64::from(a));
         }
         // |u − u_ref| ≤ 2²⁵: an i32
         let [v0, v1, v2] = [
@@ -119,61 +116,79 @@ impl Sums {
             e.u[2].wrapping_sub(r[2]),
         ];
         let y = e.y;
-        let [g0, g1, g2, g3, g4, g5] = &mut self.vv;
-        mac::<ADD>(g0, v0, v0);
-        mac::<ADD>(g1, v0, v1);
-        mac::<ADD>(g2, v0, v2);
-        mac::<ADD>(g3, v1, v1);
-        mac::<ADD>(g4, v1, v2);
-        mac::<ADD>(g5, v2, v2);
-        let [b0, b1, b2] = &mut self.vy;
-        mac::<ADD>(b0, v0, y);
-        mac::<ADD>(b1, v1, y);
-        mac::<ADD>(b2, v2, y);
         let y8 = y >> 4; // Q12: y² < 2^48 per term
-        mac::<ADD>(&mut self.yy, y8, y8);
-        acc::<ADD>(&mut self.y, i64::from(y));
-        let [s0, s1, s2] = &mut self.v;
-        for (s, v) in [(s0, v0), (s1, v1), (s2, v2)] {
-            acc::<ADD>(s, i64::from(v));
-        }
         let [d0, d1, d2] = e.d;
-        let [s0, s1, s2] = &mut self.d;
-        for (s, d) in [(s0, d0), (s1, d1), (s2, d2)] {
-            acc::<ADD>(s, i64::from(d));
-        }
+        // the signed first factors
+        let sg = |x: i32| if ADD { x } else { x.wrapping_neg() };
+        let [s0, s1, s2, sy, sy8] = [sg(v0), sg(v1), sg(v2), sg(y), sg(y8)];
+        let [g0, g1, g2, g3, g4, g5] = &mut self.vv;
+        mac(g0, s0, v0);
+        mac(g1, s0, v1);
+        mac(g2, s0, v2);
+        mac(g3, s1, v1);
+        mac(g4, s1, v2);
+        mac(g5, s2, v2);
+        let [b0, b1, b2] = &mut self.vy;
+        mac(b0, s0, y);
+        mac(b1, s1, y);
+        mac(b2, s2, y);
+        mac(&mut self.yy, sy8, y8);
+        add(&mut self.y, sy);
+        // written out: an array loop here is an out-of-line iterator call at opt-level "z"
+        let [t0, t1, t2] = &mut self.v;
+        add(t0, s0);
+        add(t1, s1);
+        add(t2, s2);
+        let [p0, p1, p2] = &mut self.d;
+        add(p0, sg(d0));
+        add(p1, sg(d1));
+        add(p2, sg(d2));
     }
 
     /// The same sums relative to u_ref + `delta` (v' = v − Δ), exactly (mod 2⁶⁴): with
-    /// w = Σv' = Σv − nΔ, Σv'v'ᵀ = Σvvᵀ − Δ wᵀ − Σv Δᵀ and Σv'y = Σvy − Δ Σy. Straight-line
-    /// (15 wrapping 64-bit products), not loops: it runs whenever the window has turned.
-    fn shift(&mut self, delta: [i64; 3], n: i64) {
+    /// w = Σv' = Σv − nΔ, Σv'v'ᵀ = Σvvᵀ − Δ wᵀ − Σv Δᵀ (on the diagonal Δᵢ(wᵢ + Σvᵢ)) and
+    /// Σv'y = Σvy − Δ Σy. Straight-line: it runs whenever the window has turned.
+    #[inline(always)]
+    fn shift(&mut self, delta: [i32; 3], n: i32) {
+        // an i32 times a 64-bit sum, mod 2⁶⁴
+        let m = |d: i32, x: i64| i64::from(d).wrapping_mul(x);
         let [v0, v1, v2] = self.v;
         let [d0, d1, d2] = delta;
-        let w0 = v0.wrapping_sub(n.wrapping_mul(d0));
-        let w1 = v1.wrapping_sub(n.wrapping_mul(d1));
-        let w2 = v2.wrapping_sub(n.wrapping_mul(d2));
-        let t = |di: i64, wj: i64, vi: i64, dj: i64| {
-            di.wrapping_mul(wj).wrapping_add(vi.wrapping_mul(dj))
-        };
+        let w0 = v0.wrapping_sub(i64::from(n) * i64::from(d0));
+        let w1 = v1.wrapping_sub(i64::from(n) * i64::from(d1));
+        let w2 = v2.wrapping_sub(i64::from(n) * i64::from(d2));
         let [g0, g1, g2, g3, g4, g5] = &mut self.vv;
-        *g0 = g0.wrapping_sub(t(d0, w0, v0, d0));
-        *g1 = g1.wrapping_sub(t(d0, w1, v0, d1));
-        *g2 = g2.wrapping_sub(t(d0, w2, v0, d2));
-        *g3 = g3.wrapping_sub(t(d1, w1, v1, d1));
-        *g4 = g4.wrapping_sub(t(d1, w2, v1, d2));
-        *g5 = g5.wrapping_sub(t(d2, w2, v2, d2));
+        *g0 = g0.wrapping_sub(m(d0, w0.wrapping_add(v0)));
+        *g1 = g1.wrapping_sub(m(d0, w1).wrapping_add(m(d1, v0)));
+        *g2 = g2.wrapping_sub(m(d0, w2).wrapping_add(m(d2, v0)));
+        *g3 = g3.wrapping_sub(m(d1, w1.wrapping_add(v1)));
+        *g4 = g4.wrapping_sub(m(d1, w2).wrapping_add(m(d2, v1)));
+        *g5 = g5.wrapping_sub(m(d2, w2.wrapping_add(v2)));
         let y = self.y;
         let [b0, b1, b2] = &mut self.vy;
-        *b0 = b0.wrapping_sub(d0.wrapping_mul(y));
-        *b1 = b1.wrapping_sub(d1.wrapping_mul(y));
-        *b2 = b2.wrapping_sub(d2.wrapping_mul(y));
+        *b0 = b0.wrapping_sub(m(d0, y));
+        *b1 = b1.wrapping_sub(m(d1, y));
+        *b2 = b2.wrapping_sub(m(d2, y));
         self.v = [w0, w1, w2];
     }
 }
 
 /// Index pairs of the six sums of a symmetric 3×3, in [`Sums::vv`] order.
 const PAIRS: [(usize, usize); 6] = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)];
+
+/// p · q.
+#[inline(always)]
+fn dot(p: [f32; 3], q: [f32; 3]) -> f32 {
+    let ([p0, p1, p2], [q0, q1, q2]) = (p, q);
+    p0 * q0 + p1 * q1 + p2 * q2
+}
+
+/// m v.
+#[inline(always)]
+fn times(m: &[[f32; 3]; 3], v: [f32; 3]) -> [f32; 3] {
+    let [r0, r1, r2] = *m;
+    [dot(r0, v), dot(r1, v), dot(r2, v)]
+}
 
 /// An i64 as f32 from its two words (two roundings, ≤ 1 ulp: the live solve's inputs).
 #[inline(always)]
@@ -323,15 +338,11 @@ impl<const W: usize> StreamingSsm<W> {
                 break;
             };
             // Q16 differences fit in i32 (|d| < 3162 mm); f32 squares, no soft double
-            let dist2: f32 = old
-                .d
-                .iter()
-                .zip(entry.d)
-                .map(|(o, n)| {
-                    let q = n.wrapping_sub(*o) as f32;
-                    q * q
-                })
-                .sum();
+            let [o0, o1, o2] = old.d;
+            let [n0, n1, n2] = entry.d;
+            let q = |n: i32, o: i32| n.wrapping_sub(o) as f32;
+            let (q0, q1, q2) = (q(n0, o0), q(n1, o1), q(n2, o2));
+            let dist2 = q0 * q0 + q1 * q1 + q2 * q2;
             if dist2 > self.radius2_q {
                 self.pop_oldest();
             } else {
@@ -360,20 +371,29 @@ impl<const W: usize> StreamingSsm<W> {
     /// Moves u_ref to (about) the window's mean direction once the mean is 1/256 rad (2¹⁶ in
     /// Q24) or more from it. Any integer shift keeps the sums exact, so the mean is taken in f32
     /// (no i64 division).
-    #[inline(never)]
+    #[inline(always)] // the test is a few instructions; the shift is rare at measuring feeds
     fn recentre(&mut self) {
-        let n = self.len as i64;
-        let limit = (n << 16).unsigned_abs();
-        if self.sums.v.iter().all(|s| s.unsigned_abs() <= limit) {
-            return;
+        let limit = ((self.len as i64) << 16).unsigned_abs();
+        let [v0, v1, v2] = self.sums.v;
+        if v0.unsigned_abs() > limit || v1.unsigned_abs() > limit || v2.unsigned_abs() > limit {
+            self.shift_to_mean();
         }
+    }
+
+    /// Moves u_ref to the window's mean direction (rounded to Q24), shifting the sums.
+    #[inline(never)] // out of line: inlined, its register pressure costs `update` every sample
+    fn shift_to_mean(&mut self) {
+        let [v0, v1, v2] = self.sums.v;
         let inv_n = 1.0 / self.len as f32;
-        // |mean| ≤ 2²⁵ in Q24: the f32 → i32 conversion cannot saturate
-        let delta = self.sums.v.map(|s| i64::from((f32_of(s) * inv_n) as i32));
-        self.sums.shift(delta, n);
-        for (r, d) in self.u_ref.iter_mut().zip(delta) {
-            *r = r.wrapping_add(d as i32);
-        }
+        // |mean| ≤ 2²⁵ in Q24: the f32 → i32 conversions cannot saturate
+        let mean = |s: i64| (f32_of(s) * inv_n) as i32;
+        let delta = [mean(v0), mean(v1), mean(v2)];
+        self.sums.shift(delta, self.len as i32);
+        let [r0, r1, r2] = &mut self.u_ref;
+        let [d0, d1, d2] = delta;
+        *r0 = r0.wrapping_add(d0);
+        *r1 = r1.wrapping_add(d1);
+        *r2 = r2.wrapping_add(d2);
     }
 
     /// E for the current neighbourhood refined on the exact sphere equation
@@ -464,14 +484,27 @@ impl<const W: usize> StreamingSsm<W> {
         let s = &self.sums;
         let inv_n = 1.0 / n as f32;
         // Σ v y is read only while it is certainly in range: Σv_k²·Σy² < 2¹²⁴ (Cauchy–Schwarz)
+        // (no array `map`s in this function: at opt-level "z" each is an out-of-line loop)
         let yy = f32_of(s.yy) * 256.0;
-        let [vv0, vv1, vv2, vv3, vv4, vv5] = s.vv.map(f32_of);
-        if !(vv0.max(vv3).max(vv5) * yy < 2.126_765e37) {
+        let [vv0, vv1, vv2, vv3, vv4, vv5] = s.vv;
+        let [vv0, vv1, vv2, vv3, vv4, vv5] = [
+            f32_of(vv0),
+            f32_of(vv1),
+            f32_of(vv2),
+            f32_of(vv3),
+            f32_of(vv4),
+            f32_of(vv5),
+        ];
+        // (comparisons, not `f32::max`: that is a call to `fmaxf` here)
+        let big = if vv3 > vv0 { vv3 } else { vv0 };
+        let big = if vv5 > big { vv5 } else { big };
+        if !(big * yy < 2.126_765e37) {
             return Err(SsmError::InvalidInput);
         }
-        let vbar = s.v.map(|x| f32_of(x) * inv_n * U);
+        let [v0, v1, v2] = s.v;
+        let k = inv_n * U;
+        let [a, b, c] = [f32_of(v0) * k, f32_of(v1) * k, f32_of(v2) * k];
         let ybar = f32_of(s.y) * inv_n * Y;
-        let [a, b, c] = vbar;
         let q = inv_n * U * U;
         // covariance of the directions and of directions with y
         let cov = [
@@ -480,15 +513,16 @@ impl<const W: usize> StreamingSsm<W> {
             [vv2 * q - a * c, vv4 * q - b * c, vv5 * q - c * c],
         ];
         let cy: [f32; 3] = {
-            let [w0, w1, w2] = s.vy.map(f32_of);
+            let [w0, w1, w2] = s.vy;
+            let [w0, w1, w2] = [f32_of(w0), f32_of(w1), f32_of(w2)];
             let k = inv_n * U * Y;
             [w0 * k - a * ybar, w1 * k - b * ybar, w2 * k - c * ybar]
         };
         let [u0, u1, u2] = self.u_ref;
         let m = [u0 as f32 * U + a, u1 as f32 * U + b, u2 as f32 * U + c];
-        let dot = |p: [f32; 3], q: [f32; 3]| p[0] * q[0] + p[1] * q[1] + p[2] * q[2];
         let mm = crate::num::sqrtf(dot(m, m));
-        let mh = m.map(|x| x / mm);
+        let [m0, m1, m2] = m;
+        let mh = [m0 / mm, m1 / mm, m2 / mm];
         // an orthonormal basis (t1, t2, m̂) (Duff et al. 2017, branch on the sign only)
         let [x, y, z] = mh;
         let sg = if z >= 0.0 { 1.0 } else { -1.0 };
@@ -496,11 +530,7 @@ impl<const W: usize> StreamingSsm<W> {
         let kb = x * y * ka;
         let t1 = [1.0 + sg * x * x * ka, sg * kb, -sg * x];
         let t2 = [kb, sg + y * y * ka, -y];
-        let times = |v: [f32; 3]| {
-            let [r0, r1, r2] = cov;
-            [dot(r0, v), dot(r1, v), dot(r2, v)]
-        };
-        let (w1, w2, w3) = (times(t1), times(t2), times(mh));
+        let (w1, w2, w3) = (times(&cov, t1), times(&cov, t2), times(&cov, mh));
         let (s00, s01, s11) = (dot(t1, w1), dot(t1, w2), dot(t2, w2));
         let (c1m, c2m, cmm) = (dot(t1, w3), dot(t2, w3), dot(mh, w3));
         let den = mm * mm + cmm;
@@ -538,19 +568,25 @@ impl<const W: usize> StreamingSsm<W> {
             (k * p, k * q, Some([-q, p]))
         };
         let em = alpha - b1 * e1 - b2 * e2;
-        let e: [f32; 3] = core::array::from_fn(|k| {
-            let at = |v: &[f32; 3]| v.get(k).copied().unwrap_or(0.0);
-            e1 * at(&t1) + e2 * at(&t2) + em * at(&mh)
-        });
-        let mut out = e.map(Some);
-        if let Some([n1, n2]) = null {
-            for ((o, a), b) in out.iter_mut().zip(t1).zip(t2) {
-                if !(libm::fabsf(n1 * a + n2 * b) < OBSERVABLE_AXIS_TOL as f32) {
-                    *o = None;
-                }
-            }
-        }
-        Ok(out.map(|v| v.filter(|x| x.is_finite())))
+        // E in the axes; a component with a share of the unseen direction is not observable
+        let [t10, t11, t12] = t1;
+        let [t20, t21, t22] = t2;
+        let [m0, m1, m2] = mh;
+        let [c0, c1, c2] = [
+            e1 * t10 + e2 * t20 + em * m0,
+            e1 * t11 + e2 * t21 + em * m1,
+            e1 * t12 + e2 * t22 + em * m2,
+        ];
+        let seen = |t1k: f32, t2k: f32| match null {
+            Some([n1, n2]) => libm::fabsf(n1 * t1k + n2 * t2k) < OBSERVABLE_AXIS_TOL as f32,
+            None => true,
+        };
+        let [s0, s1, s2] = [seen(t10, t20), seen(t11, t21), seen(t12, t22)];
+        Ok([
+            (s0 && c0.is_finite()).then_some(c0),
+            (s1 && c1.is_finite()).then_some(c1),
+            (s2 && c2.is_finite()).then_some(c2),
+        ])
     }
 
     /// E for the current neighbourhood, with condition number and observability.

@@ -42,12 +42,31 @@ impl Rng {
     }
 }
 
-/// The CCW circle's samples.
+/// Feed of a measuring run (the simulator's), mm/min, and the sample rate, Hz.
+pub const MEASURING_FEED_MM_PER_MIN: f64 = 1000.0;
+const SAMPLE_RATE_HZ: f64 = 1000.0;
+
+/// The CCW circle's samples, 0.5° apart (a whole turn in 720 samples: 78 m/min at 1 kHz, far
+/// faster than a measuring feed; every path sees the whole circle).
 pub fn circle_samples() -> [Sample; N] {
-    let mut rng = Rng(0x00BA_11B0_D000_0006);
+    circle_arc(2.0 * core::f64::consts::PI / N as f64, 0)
+}
+
+/// Samples `first .. first + N` of the same circle at the measuring feed (F1000 at 1 kHz:
+/// 0.0064° per sample), for the steady state of the paths whose cost depends on how far the
+/// machine moves per sample.
+pub fn circle_samples_at_feed(first: usize) -> [Sample; N] {
+    let step = MEASURING_FEED_MM_PER_MIN / 60.0 / SAMPLE_RATE_HZ / f64::from(BAR_MM);
+    circle_arc(step, first)
+}
+
+/// Samples `first ..` of the circle, `step_rad` apart.
+fn circle_arc(step_rad: f64, first: usize) -> [Sample; N] {
+    let mut rng = Rng(0x00BA_11B0_D000_0006 ^ first as u64);
     let mut out = [Sample::default(); N];
-    for (i, s) in out.iter_mut().enumerate() {
-        let th = 2.0 * core::f64::consts::PI * i as f64 / N as f64;
+    for (k, s) in out.iter_mut().enumerate() {
+        let i = first + k;
+        let th = step_rad * i as f64;
         let (sn, cs) = libm::sincos(th);
         let dl = R0_UM
             + f64::from(E_UM[0]) * cs

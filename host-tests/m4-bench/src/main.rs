@@ -108,6 +108,35 @@ fn raw_counts(s: &Sample) -> [u32; MAX_AXES] {
         .map(|p| (libm::round(f64::from(p) * 10_000.0) as i64).rem_euclid(1 << 16) as u32)
 }
 
+/// The SSM pipeline again in its steady state at the measuring feed (F1000, 0.0064° per
+/// sample: the window's reference direction moves every ~35 samples, not every sample as on
+/// the fast circle): the first 2 N samples fill the window, the next N are measured.
+/// Instructions per sample. Out of line, so that its arrays do not change `main`'s frame (the
+/// stack rows are measured below it).
+#[inline(never)]
+fn ssm_pipeline_at_feed(
+    a: &[u16; BLOCK],
+    b: &[u16; BLOCK],
+    table: &ExcitationTable<P>,
+    empty: u32,
+) -> f32 {
+    let mut app = started_app(Pattern::Ssm, &data::circle_samples_at_feed(0)[0]);
+    let mut total = 0u32;
+    for batch in 0..3 {
+        for s in data::circle_samples_at_feed(batch * data::N).iter() {
+            let raw = raw_counts(s);
+            let (_, n) = measure(|| {
+                let r = demodulate(black_box(&a[..]), black_box(&b[..]), black_box(table));
+                app.on_raw_sample(s.t_us, BlockReading::Ac(r), raw, 0, &mut ())
+            });
+            if batch == 2 {
+                total += n.saturating_sub(empty);
+            }
+        }
+    }
+    total as f32 / data::N as f32
+}
+
 /// Runs `f` and returns its result and the instructions it took (harness overhead included;
 /// subtract the empty measurement).
 #[inline(always)]
@@ -590,6 +619,16 @@ fn main() -> ! {
             min_ratio: None,
         });
     }
+
+    print(&Row {
+        name: "**whole live pipeline, SSM at F1000** (steady state)",
+        unit: "sample",
+        insns_per_unit: ssm_pipeline_at_feed(&a, &b, &table, empty),
+        flops_per_unit: 0,
+        naive_per_unit: None,
+        max_insns: Some(2500.0),
+        min_ratio: None,
+    });
 
     // ---- identification (per test) ----------------------------------------------------------
     // The seed 002 identification on the pod (model mode with its uncertainty propagation,

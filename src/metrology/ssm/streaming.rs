@@ -13,7 +13,7 @@
 //! range, so the modular results are exact).
 //!
 //! Two solves of the same sums:
-//! - [`StreamingSsm::live`], every sample (≈ 930 instructions, f32 on the FPU): the live E,
+//! - [`StreamingSsm::live`], every sample (≈ 420 instructions, f32 on the FPU): the live E,
 //!   solved on the window's mean and scatter (below), with the observability rule of
 //!   [`super::solve_normal`];
 //! - [`StreamingSsm::estimate`] (f64, soft-float on the M4, with the full observability

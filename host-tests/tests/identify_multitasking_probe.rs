@@ -25,6 +25,7 @@ fn tv12_c_axis_formula_outputs() {
         centres_mm: C_AVG,
         nominal_axis_xy_mm: [-490.0, 0.0],
         z_c_mm: 64.838,
+        centres_std_uncertainty_um: [[0.0; 3]; 4],
     };
     let p = identify_c_axis(&input, ProbeMode::Paper).unwrap();
     let n = p.normal_mm2;
@@ -281,46 +282,21 @@ fn b_axis_uncertainties_match_the_scatter() {
 fn c_axis_corrected_round_trip() {
     let mut r = fwd::Rng(0xc_a515);
     for _ in 0..20 {
-        let mut d = [0.0; 13];
-        d[9] = 50.0 * r.uniform(); // δx_CZ
-        d[10] = 50.0 * r.uniform(); // δy_CZ
-        d[11] = 150.0 * r.uniform(); // α_CZ
-        d[12] = 150.0 * r.uniform(); // β_CZ
-        let (_, _, _, _, mcz, _) = fwd::mats(&d);
-        let (rc, zc) = (100.0, 64.838);
-        let origin = [-490.0, 0.0, -536.838]; // machine coordinates of O_M
-        let mut centres = [[0.0; 3]; 4];
-        for (k, c) in centres.iter_mut().enumerate() {
-            let th = k as f64 * std::f64::consts::FRAC_PI_2;
-            let p = fwd::apply(&fwd::mul(&mcz, &fwd::ec(th)), [rc, 0.0, zc]);
-            for i in 0..3 {
-                c[i] = origin[i] + p[i];
-            }
-        }
+        let (centres, truth) = c_axis_machine(&mut r);
         let input = CAxisProbe {
             centres_mm: centres,
-            nominal_axis_xy_mm: [origin[0], origin[1]],
-            z_c_mm: zc,
+            nominal_axis_xy_mm: [-490.0, 0.0],
+            z_c_mm: 64.838,
+            centres_std_uncertainty_um: [[0.0; 3]; 4],
         };
         let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
-        let asec = |urad: f64| urad * 1e-6 * AS;
-        assert!(
-            (c.alpha_cz_arcsec - asec(d[11])).abs() < 0.01,
-            "{} vs {}",
-            c.alpha_cz_arcsec,
-            asec(d[11])
-        );
-        assert!((c.beta_cz_arcsec - asec(d[12])).abs() < 0.01);
-        assert!(
-            (c.dx_cz_um - d[9]).abs() < 0.01,
-            "{} vs {}",
-            c.dx_cz_um,
-            d[9]
-        );
-        assert!((c.dy_cz_um - d[10]).abs() < 0.01);
+        let got = [c.alpha_cz_arcsec, c.beta_cz_arcsec, c.dx_cz_um, c.dy_cz_um];
+        for (g, t) in got.iter().zip(truth) {
+            assert!((g - t).abs() < 0.01, "{got:?} vs {truth:?}");
+        }
         assert!(c.diagonal_mismatch_um < 1e-3);
         let p = identify_c_axis(&input, ProbeMode::Paper).unwrap();
-        assert!((p.alpha_cz_arcsec + asec(d[11])).abs() < 0.01);
+        assert!((p.alpha_cz_arcsec + truth[0]).abs() < 0.01);
         // Points listed in the clockwise order (0, 270, 180, 90°): same angles.
         let cw = CAxisProbe {
             centres_mm: [centres[0], centres[3], centres[2], centres[1]],
@@ -334,12 +310,98 @@ fn c_axis_corrected_round_trip() {
     }
 }
 
+/// The four C-axis centres (C = 0, 90, 180, 270°; nominal centreline (−490, 0) mm, Z_C
+/// 64.838 mm) of a random machine through the literal HTM chain, without noise, and its truth
+/// (α_CZ ", β_CZ ", δx_CZ µm, δy_CZ µm).
+fn c_axis_machine(r: &mut fwd::Rng) -> ([[f64; 3]; 4], [f64; 4]) {
+    let mut d = [0.0; 13];
+    d[9] = 50.0 * r.uniform(); // δx_CZ
+    d[10] = 50.0 * r.uniform(); // δy_CZ
+    d[11] = 150.0 * r.uniform(); // α_CZ
+    d[12] = 150.0 * r.uniform(); // β_CZ
+    let (_, _, _, _, mcz, _) = fwd::mats(&d);
+    let (rc, zc) = (100.0, 64.838);
+    let origin = [-490.0, 0.0, -536.838]; // machine coordinates of O_M
+    let mut centres = [[0.0; 3]; 4];
+    for (k, c) in centres.iter_mut().enumerate() {
+        let th = k as f64 * std::f64::consts::FRAC_PI_2;
+        let p = fwd::apply(&fwd::mul(&mcz, &fwd::ec(th)), [rc, 0.0, zc]);
+        for i in 0..3 {
+            c[i] = origin[i] + p[i];
+        }
+    }
+    let asec = |urad: f64| urad * 1e-6 * AS;
+    (centres, [asec(d[11]), asec(d[12]), d[9], d[10]])
+}
+
+/// Monte Carlo of the C-axis uncertainty: centres from the literal HTM chain plus Gaussian
+/// noise of a different σ per centre and coordinate (0.2–1.5 µm). With the σ stated, U = 2u
+/// covers the truth in 95–99 % (u is the propagated σ, raised by the Birge ratio of the
+/// diagonals' mismatch when that is larger); with nothing stated, u comes from the mismatch
+/// alone (3 degrees of freedom: 2u covers as Student's t₃, 86 %) and its mean square matches
+/// the scatter's within 10 %.
+#[test]
+fn c_axis_uncertainty_covers_the_truth() {
+    let mut r = fwd::Rng(0xc0_5e7);
+    let mut noise = ballpod_host::rng::Rng::new(0xc_0a_u64);
+    const TRIALS: usize = 4000;
+    for stated in [true, false] {
+        let mut covered = [0usize; 4];
+        let mut err2 = [0.0f64; 4];
+        let mut u2 = [0.0f64; 4];
+        for _ in 0..TRIALS {
+            let (mut centres, truth) = c_axis_machine(&mut r);
+            let mut sigma = [[0.0; 3]; 4];
+            for (c, s) in centres.iter_mut().zip(sigma.iter_mut()) {
+                for (x, si) in c.iter_mut().zip(s.iter_mut()) {
+                    *si = noise.range(0.2, 1.5);
+                    *x += *si * 1e-3 * noise.normal();
+                }
+            }
+            let input = CAxisProbe {
+                centres_mm: centres,
+                nominal_axis_xy_mm: [-490.0, 0.0],
+                z_c_mm: 64.838,
+                centres_std_uncertainty_um: if stated { sigma } else { [[0.0; 3]; 4] },
+            };
+            let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
+            let got = [c.alpha_cz_arcsec, c.beta_cz_arcsec, c.dx_cz_um, c.dy_cz_um];
+            for k in 0..4 {
+                let e = got[k] - truth[k];
+                let u = c.std_uncertainty[k];
+                assert!(u.is_finite() && u > 0.0, "{u}");
+                covered[k] += usize::from(e.abs() <= 2.0 * u);
+                err2[k] += e * e;
+                u2[k] += u * u;
+            }
+        }
+        for k in 0..4 {
+            let coverage = covered[k] as f64 / TRIALS as f64;
+            let ratio = (u2[k] / err2[k]).sqrt();
+            if stated {
+                // the Birge factor only ever raises u (by E[max(1, χ²₃/3)] ≈ 1.3 in u²)
+                assert!(
+                    (0.95..0.99).contains(&coverage) && (1.0..1.25).contains(&ratio),
+                    "stated, output {k}: coverage {coverage}, rms u / rms error {ratio}"
+                );
+            } else {
+                // u² from 3 degrees of freedom: unbiased; 2u covers as Student's t₃ (0.861)
+                assert!(
+                    (coverage - 0.861).abs() < 0.03 && (ratio - 1.0).abs() < 0.1,
+                    "from the mismatch, output {k}: coverage {coverage}, rms u / rms error {ratio}"
+                );
+            }
+        }
+    }
+}
+
 #[test]
 fn bad_input_is_typed() {
     let same = CAxisProbe {
         centres_mm: [[1.0, 2.0, 3.0]; 4],
         nominal_axis_xy_mm: [0.0, 0.0],
         z_c_mm: 60.0,
+        centres_std_uncertainty_um: [[0.0; 3]; 4],
     };
     assert_eq!(
         identify_c_axis(&same, ProbeMode::Corrected),
@@ -359,15 +421,22 @@ fn bad_input_is_typed() {
         identify_c_axis(&line, ProbeMode::Paper),
         Err(ProbeError::DegenerateCircle)
     );
-    let mut nan = CAxisProbe {
-        centres_mm: C_AVG,
-        ..same
-    };
-    nan.centres_mm[2][1] = f64::NAN;
-    assert_eq!(
-        identify_c_axis(&nan, ProbeMode::Corrected),
-        Err(ProbeError::NonFinite)
-    );
+    // a non-finite centre or centre uncertainty
+    let poisons: [fn(&mut CAxisProbe); 2] = [
+        |p| p.centres_mm[2][1] = f64::NAN,
+        |p| p.centres_std_uncertainty_um[1][2] = f64::INFINITY,
+    ];
+    for poison in poisons {
+        let mut bad = CAxisProbe {
+            centres_mm: C_AVG,
+            ..same
+        };
+        poison(&mut bad);
+        assert_eq!(
+            identify_c_axis(&bad, ProbeMode::Corrected),
+            Err(ProbeError::NonFinite)
+        );
+    }
     let b = BAxisProbe {
         measured_mm: [[0.0; 3]; 4],
         nominal_mm: [[0.0; 3]; 4],

@@ -153,8 +153,8 @@ struct BSet {
 /// The spheres of the chapter 5 probe methods.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Spheres {
-    /// C-axis centres at C = 0, 90, 180, 270°, mm.
-    c_mm: [Option<[f64; 3]>; 4],
+    /// C-axis centres at C = 0, 90, 180, 270° (mm) with their standard uncertainties (µm).
+    c_mm: [Option<([f64; 3], [f64; 3])>; 4],
     /// B-axis centres for two tool lengths.
     b: [BSet; 2],
     /// The B set filed last.
@@ -194,19 +194,20 @@ impl Spheres {
         } else {
             None
         };
+        let [ux, uy, uz, _] = fit.std_uncertainty_um;
+        let centre = (fit.centre_mm, [ux, uy, uz]);
         if let Some(slot) = b_slot {
             if run.length_mm.is_nan() {
                 return Err(ProbeFailure::Missing(Field::ProbeLengthMm));
             }
-            let [ux, uy, uz, _] = fit.std_uncertainty_um;
-            self.file_b(run.length_mm, slot, (fit.centre_mm, [ux, uy, uz]));
+            self.file_b(run.length_mm, slot, centre);
             return self.identify_b(t, results);
         }
         let Some(slot) = c_slot(b, c) else {
             return Ok(false);
         };
         if let Some(s) = self.c_mm.get_mut(slot) {
-            *s = Some(fit.centre_mm);
+            *s = Some(centre);
         }
         self.identify_c(t, results)
     }
@@ -236,8 +237,11 @@ impl Spheres {
         let [Some(p1), Some(p2), Some(p3), Some(p4)] = self.c_mm else {
             return Ok(false);
         };
+        // a fit of exactly four touches states no uncertainty (0): the C method then takes
+        // its uncertainties from the diagonals' mismatch alone
         let input = CAxisProbe {
-            centres_mm: [p1, p2, p3, p4],
+            centres_mm: [p1.0, p2.0, p3.0, p4.0],
+            centres_std_uncertainty_um: [p1.1, p2.1, p3.1, p4.1],
             nominal_axis_xy_mm: [
                 required(t.s002_origin_mm[0], Field::S002OriginMm(0))?,
                 required(t.s002_origin_mm[1], Field::S002OriginMm(1))?,
@@ -245,11 +249,11 @@ impl Spheres {
             z_c_mm: required(t.s002_z_c_mm, Field::S002ZcMm)?,
         };
         let r = identify_c_axis(&input, ProbeMode::Corrected).map_err(ProbeFailure::CAxis)?;
-        // the C method states no uncertainty yet: NaN = not evaluated
-        results.set(ResultId::ProbeAlphaCz, r.alpha_cz_arcsec, f64::NAN);
-        results.set(ResultId::ProbeBetaCz, r.beta_cz_arcsec, f64::NAN);
-        results.set(ResultId::ProbeDxCz, r.dx_cz_um, f64::NAN);
-        results.set(ResultId::ProbeDyCz, r.dy_cz_um, f64::NAN);
+        let [u_alpha, u_beta, u_dx, u_dy] = r.std_uncertainty;
+        results.set(ResultId::ProbeAlphaCz, r.alpha_cz_arcsec, u_alpha);
+        results.set(ResultId::ProbeBetaCz, r.beta_cz_arcsec, u_beta);
+        results.set(ResultId::ProbeDxCz, r.dx_cz_um, u_dx);
+        results.set(ResultId::ProbeDyCz, r.dy_cz_um, u_dy);
         Ok(true)
     }
 

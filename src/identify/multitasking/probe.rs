@@ -61,6 +61,11 @@ pub struct CAxisProbe {
     pub nominal_axis_xy_mm: [f64; 2],
     /// Z_C: sphere centre height above the C table (mm), the lever of (5.7).
     pub z_c_mm: f64,
+    /// Standard uncertainties of P1…P4 (X, Y, Z in µm; e.g. the sphere fits'). All > 0: the
+    /// result's uncertainties are propagated from them, scaled up by the diagonals' mismatch
+    /// where it is larger (Birge ratio); otherwise (e.g. all 0, not known) from the mismatch
+    /// alone (the one redundancy of four points on a circle: 3 degrees of freedom).
+    pub centres_std_uncertainty_um: [[f64; 3]; 4],
 }
 
 /// C-axis result.
@@ -81,6 +86,13 @@ pub struct CAxisResult {
     /// Quality figure: distance between the midpoints of the two diagonals (µm); zero for a
     /// perfect circle probed at 90° steps (four points over-determine the circle centre).
     pub diagonal_mismatch_um: f64,
+    /// Standard uncertainties of (α_CZ ", β_CZ ", δx_CZ µm, δy_CZ µm), first order, from
+    /// the centres' (see [`CAxisProbe::centres_std_uncertainty_um`]): the tilts are the slopes
+    /// of Z along the two diagonals, `u² = (u_Z1² + u_Z3²)/|P1P3|²` and `(u_Z2² + u_Z4²)/|P2P4|²`
+    /// turned into X and Y; δx = ΔX_c − Z_C β and δy = ΔY_c + Z_C α with ΔX_c, ΔY_c the mean of
+    /// four X and Y (`u² = Σu²/16`), independent of the Z. The centres' X and Y enter the tilts
+    /// in second order only (tilt × their relative error).
+    pub std_uncertainty: [f64; 4],
 }
 
 /// C-axis deviations from four sphere centres (eqs 5.1–5.7). The trajectory centre is the mean
@@ -90,6 +102,7 @@ pub struct CAxisResult {
 pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResult, ProbeError> {
     let [p1, p2, p3, p4] = input.centres_mm;
     if !(crate::num::all_finite(input.centres_mm.as_flattened())
+        && crate::num::all_finite(input.centres_std_uncertainty_um.as_flattened())
         && crate::num::all_finite(&input.nominal_axis_xy_mm)
         && input.z_c_mm.is_finite())
     {
@@ -112,7 +125,15 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
         ProbeMode::Corrected => -n.y / n.z, // axis direction (β, −α, 1) under (2.11)
     };
     let centre = (p1 + p2 + p3 + p4) / 4.0;
-    let mismatch = ((p1 + p3) / 2.0 - (p2 + p4) / 2.0).norm() * 1e3;
+    let diff = (p1 + p3) / 2.0 - (p2 + p4) / 2.0;
+    let mismatch = diff.norm() * 1e3;
+    let u = c_axis_uncertainty(
+        &input.centres_std_uncertainty_um,
+        [diff.x, diff.y, diff.z],
+        [d13.x, d13.y, d13.z],
+        [d24.x, d24.y, d24.z],
+        input.z_c_mm,
+    );
     let [nx, ny] = input.nominal_axis_xy_mm;
     let (dxc, dyc) = (centre.x - nx, centre.y - ny);
     // (5.7), mm
@@ -132,7 +153,65 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
         normal_mm2: [n.x, n.y, n.z],
         centre_error_um: [dxc * 1e3, dyc * 1e3],
         diagonal_mismatch_um: mismatch,
+        std_uncertainty: u,
     })
+}
+
+/// [`CAxisResult::std_uncertainty`] from the centres' stated uncertainties `u_um`, the
+/// diagonals' midpoint difference `diff_mm`, the diagonals `d13_mm`, `d24_mm` and Z_C. In f32
+/// (three significant digits are all an uncertainty needs; f64 here is soft-float on the pod
+/// and cost 1.6 KB of flash).
+///
+/// The centres' variances: stated (× Birge² of the mismatch) or from the mismatch. The
+/// midpoints' difference has per-component variance Σ u_k²/4 over the four centres (σ² for
+/// equal u), so |diff|²/3 estimates σ² from its three components.
+#[inline(never)] // inlined into the application's `execute`, its code doubles
+fn c_axis_uncertainty(
+    u_um: &[[f64; 3]; 4],
+    diff_mm: [f64; 3],
+    d13_mm: [f64; 3],
+    d24_mm: [f64; 3],
+    z_c_mm: f64,
+) -> [f64; 4] {
+    let f = |x: f64| x as f32;
+    let [[x1, y1, z1], [x2, y2, z2], [x3, y3, z3], [x4, y4, z4]] = u_um.map(|p| p.map(f));
+    let sq = |a: f32, b: f32, c: f32, d: f32| a * a + b * b + c * c + d * d;
+    let (sx, sy) = (sq(x1, x2, x3, x4), sq(y1, y2, y3, y4));
+    let (z13, z24) = (z1 * z1 + z3 * z3, z2 * z2 + z4 * z4);
+    let [dx, dy, dz] = diff_mm.map(|v| f(v * 1e3));
+    let stated = u_um.iter().flatten().all(|u| *u > 0.0);
+    let (sum_x, sum_y, z13, z24) = if stated {
+        let chi2 = 4.0 * (dx * dx / sx + dy * dy / sy + dz * dz / (z13 + z24));
+        let b2 = if chi2 > 3.0 { chi2 / 3.0 } else { 1.0 };
+        (sx * b2, sy * b2, z13 * b2, z24 * b2)
+    } else {
+        let v = (dx * dx + dy * dy + dz * dz) / 3.0;
+        (4.0 * v, 4.0 * v, 2.0 * v, 2.0 * v)
+    };
+    // slopes of Z along the diagonals (rad²), then along X and Y (cos² φ, sin² φ of P1P3)
+    let len2 = |d: [f64; 3]| {
+        let [a, b, c] = d.map(|v| f(v * 1e3));
+        a * a + b * b + c * c
+    };
+    let (l13, l24) = (len2(d13_mm), len2(d24_mm));
+    let (s13, s24) = (z13 / l13, z24 / l24);
+    let c2 = {
+        let x = f(d13_mm[0] * 1e3);
+        x * x / l13
+    };
+    let var_beta = c2 * s13 + (1.0 - c2) * s24;
+    let var_alpha = (1.0 - c2) * s13 + c2 * s24;
+    let zc = f(z_c_mm * 1e3); // µm per rad
+    let var_dx = sum_x / 16.0 + zc * zc * var_beta;
+    let var_dy = sum_y / 16.0 + zc * zc * var_alpha;
+    let arcsec = ARCSEC_PER_RAD as f32;
+    [
+        crate::num::sqrtf(var_alpha) * arcsec,
+        crate::num::sqrtf(var_beta) * arcsec,
+        crate::num::sqrtf(var_dx),
+        crate::num::sqrtf(var_dy),
+    ]
+    .map(f64::from)
 }
 
 /// Sphere centres probed at B = 0° and 90° with two styli (tool lengths R_B, R'_B), and their

@@ -114,9 +114,7 @@ impl RunLimits {
             self.max_lost_samples
         }
     }
-}
 
-impl RunLimits {
     /// `lost` > [`Self::lost_allowed`]`(produced)`, decided without a 64-bit division (per
     /// sample): ⌊x/1000⌋ < L ⇔ x < 1000·L for an integer L.
     pub const fn too_many_lost(&self, lost: u32, produced: u32) -> bool {

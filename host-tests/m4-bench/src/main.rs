@@ -121,20 +121,34 @@ fn ssm_pipeline_at_feed(
     empty: u32,
 ) -> f32 {
     let mut app = started_app(Pattern::Ssm, &data::circle_samples_at_feed(0)[0]);
-    let mut total = 0u32;
-    for batch in 0..3 {
-        for s in data::circle_samples_at_feed(batch * data::N).iter() {
-            let raw = raw_counts(s);
-            let (_, n) = measure(|| {
-                let r = demodulate(black_box(&a[..]), black_box(&b[..]), black_box(table));
-                app.on_raw_sample(s.t_us, BlockReading::Ac(r), raw, 0, &mut ())
-            });
-            if batch == 2 {
-                total += n.saturating_sub(empty);
-            }
-        }
+    for batch in 0..2 {
+        let warm_up = data::circle_samples_at_feed(batch * data::N);
+        pipeline_per_sample(&mut app, &warm_up, a, b, table, empty);
     }
-    total as f32 / data::N as f32
+    let measured = data::circle_samples_at_feed(2 * data::N);
+    pipeline_per_sample(&mut app, &measured, a, b, table, empty)
+}
+
+/// Instructions per sample of the whole live pipeline over `samples`: one LVDT block's
+/// demodulation and `App::on_raw_sample` with the sample's encoder counters.
+fn pipeline_per_sample(
+    app: &mut App,
+    samples: &[Sample],
+    a: &[u16; BLOCK],
+    b: &[u16; BLOCK],
+    table: &ExcitationTable<P>,
+    empty: u32,
+) -> f32 {
+    let mut total = 0u32;
+    for s in samples {
+        let raw = raw_counts(s);
+        let (_, n) = measure(|| {
+            let r = demodulate(black_box(&a[..]), black_box(&b[..]), black_box(table));
+            app.on_raw_sample(s.t_us, BlockReading::Ac(r), raw, 0, &mut ())
+        });
+        total += n.saturating_sub(empty);
+    }
+    total as f32 / samples.len() as f32
 }
 
 /// Runs `f` and returns its result and the instructions it took (harness overhead included;
@@ -168,6 +182,34 @@ struct Row {
     max_insns: Option<f32>,
     /// … and at least this ratio naive / core.
     min_ratio: Option<f32>,
+}
+
+impl Row {
+    /// A row with no naive baseline and no target.
+    fn plain(
+        name: &'static str,
+        unit: &'static str,
+        insns_per_unit: f32,
+        flops_per_unit: u32,
+    ) -> Self {
+        Self {
+            name,
+            unit,
+            insns_per_unit,
+            flops_per_unit,
+            naive_per_unit: None,
+            max_insns: None,
+            min_ratio: None,
+        }
+    }
+
+    /// A whole-live-pipeline row: instructions per sample against the 2 500 target.
+    fn pipeline(name: &'static str, insns_per_sample: f32) -> Self {
+        Self {
+            max_insns: Some(2500.0),
+            ..Self::plain(name, "sample", insns_per_sample, 0)
+        }
+    }
 }
 
 fn print(r: &Row) {
@@ -379,15 +421,12 @@ fn main() -> ! {
     // FLOP per sample: calibration polynomial (Horner, 3 mul + 3 add = 6), clamp and |r| (3),
     // expansion L·CTE·(T − 20)·1e-3 (1 sub + 3 mul = 4) + ΔL add (1), 5 axes × (int→float,
     // negate-or-not, divide, add offset = 2 FLOP) = 10 → 24.
-    print(&Row {
-        name: "acquisition sample (calibration, 5 axes all moving, thermal, flags)",
-        unit: "sample",
-        insns_per_unit: total as f32 / ACQ_SAMPLES as f32,
-        flops_per_unit: 24,
-        naive_per_unit: None,
-        max_insns: None,
-        min_ratio: None,
-    });
+    print(&Row::plain(
+        "acquisition sample (calibration, 5 axes all moving, thermal, flags)",
+        "sample",
+        total as f32 / ACQ_SAMPLES as f32,
+        24,
+    ));
 
     // ---- metrology --------------------------------------------------------------------------
     let samples = data::circle_samples();
@@ -441,15 +480,12 @@ fn main() -> ! {
     let lo = stack::paint(top);
     let (est, n) = measure(|| fit.estimate());
     record_stack("CircleFit::estimate", lo);
-    print(&Row {
-        name: "circle fit estimate (f64 Cholesky, per query)",
-        unit: "query",
-        insns_per_unit: n.saturating_sub(empty) as f32,
-        flops_per_unit: 101,
-        naive_per_unit: None,
-        max_insns: None,
-        min_ratio: None,
-    });
+    print(&Row::plain(
+        "circle fit estimate (f64 Cholesky, per query)",
+        "query",
+        n.saturating_sub(empty) as f32,
+        101,
+    ));
 
     // Circle fit live (per sample, f32 on the FPU: CircleFit::live). FLOP: 1 division, 10 sums
     // read (10), means (3), centred 2×2 and right side (5 × 2 = 10), determinant (3), solve
@@ -457,15 +493,12 @@ fn main() -> ! {
     let lo = stack::paint(top);
     let (_, n) = measure(|| fit.live());
     record_stack("CircleFit::live", lo);
-    print(&Row {
-        name: "circle fit live (f32, every sample)",
-        unit: "query",
-        insns_per_unit: n.saturating_sub(empty) as f32,
-        flops_per_unit: 38,
-        naive_per_unit: None,
-        max_insns: None,
-        min_ratio: None,
-    });
+    print(&Row::plain(
+        "circle fit live (f32, every sample)",
+        "query",
+        n.saturating_sub(empty) as f32,
+        38,
+    ));
 
     // ISO 230-4 trackers (CircularTest::update: the circle fit + F extremes + the angle bin).
     // FLOP per sample: circle fit 63; quadrant angle: one division (1), atan polynomial
@@ -530,15 +563,12 @@ fn main() -> ! {
     let lo = stack::paint(top);
     let (ssm_est, n) = measure(|| ssm.estimate());
     record_stack("StreamingSsm::estimate", lo);
-    print(&Row {
-        name: "streaming SSM estimate (f64, per query)",
-        unit: "query",
-        insns_per_unit: n.saturating_sub(empty) as f32,
-        flops_per_unit: 141,
-        naive_per_unit: None,
-        max_insns: None,
-        min_ratio: None,
-    });
+    print(&Row::plain(
+        "streaming SSM estimate (f64, per query)",
+        "query",
+        n.saturating_sub(empty) as f32,
+        141,
+    ));
 
     // Streaming SSM live (per sample, f32 on the FPU: StreamingSsm::live). FLOP: 13 sums read
     // (13), means (4), covariances (9 × 2 + 3 × 2 = 24), mean direction and its length (3 + 6),
@@ -547,15 +577,12 @@ fn main() -> ! {
     let lo = stack::paint(top);
     let (_, n) = measure(|| ssm.live());
     record_stack("StreamingSsm::live", lo);
-    print(&Row {
-        name: "streaming SSM live (f32, every sample)",
-        unit: "query",
-        insns_per_unit: n.saturating_sub(empty) as f32,
-        flops_per_unit: 215,
-        naive_per_unit: None,
-        max_insns: None,
-        min_ratio: None,
-    });
+    print(&Row::plain(
+        "streaming SSM live (f32, every sample)",
+        "query",
+        n.saturating_sub(empty) as f32,
+        215,
+    ));
 
     // The whole per-sample metrology path: ISO 230-4 trackers (with the circle fit) + streaming
     // SSM, on fresh estimators. FLOP: 81 + 73 = 154. Naive: the naive tracker (its circle fit
@@ -599,36 +626,14 @@ fn main() -> ! {
     ] {
         let mut app = started_app(pattern, &samples[0]);
         let lo = stack::paint(top);
-        let mut total = 0u32;
-        for s in samples.iter() {
-            let raw = raw_counts(s);
-            let (_, n) = measure(|| {
-                let r = demodulate(black_box(&a[..]), black_box(&b[..]), black_box(&table));
-                app.on_raw_sample(s.t_us, BlockReading::Ac(r), raw, 0, &mut ())
-            });
-            total += n.saturating_sub(empty);
-        }
+        let per_sample = pipeline_per_sample(&mut app, &samples, &a, &b, &table, empty);
         record_stack(name, lo);
-        print(&Row {
-            name,
-            unit: "sample",
-            insns_per_unit: total as f32 / samples.len() as f32,
-            flops_per_unit: 0,
-            naive_per_unit: None,
-            max_insns: Some(2500.0),
-            min_ratio: None,
-        });
+        print(&Row::pipeline(name, per_sample));
     }
-
-    print(&Row {
-        name: "**whole live pipeline, SSM at F1000** (steady state)",
-        unit: "sample",
-        insns_per_unit: ssm_pipeline_at_feed(&a, &b, &table, empty),
-        flops_per_unit: 0,
-        naive_per_unit: None,
-        max_insns: Some(2500.0),
-        min_ratio: None,
-    });
+    print(&Row::pipeline(
+        "**whole live pipeline, SSM at F1000** (steady state)",
+        ssm_pipeline_at_feed(&a, &b, &table, empty),
+    ));
 
     // ---- identification (per test) ----------------------------------------------------------
     // The seed 002 identification on the pod (model mode with its uncertainty propagation,
@@ -676,15 +681,12 @@ fn main() -> ! {
     record_stack("GivensLsq::<11>::add_row", lo);
     // FLOP: 11 rotations of a 12-wide row, each √ + 2 div + 4 mul/add per remaining element
     // (≈ 6 × 66 = 396 for the triangle).
-    print(&Row {
-        name: "identification Givens row, 11 unknowns (f64 soft-float, per test)",
-        unit: "row",
-        insns_per_unit: n.saturating_sub(empty) as f32,
-        flops_per_unit: 396,
-        naive_per_unit: None,
-        max_insns: None,
-        min_ratio: None,
-    });
+    print(&Row::plain(
+        "identification Givens row, 11 unknowns (f64 soft-float, per test)",
+        "row",
+        n.saturating_sub(empty) as f32,
+        396,
+    ));
 
     // ---- a log download: the application task's longest pull ---------------------------------
     // The firmware's log (600 records) filled with the circle's samples, decimated as on the

@@ -238,7 +238,10 @@ fn integer_projection_matches_an_f64_projection_of_the_same_codes() {
 
 #[test]
 fn integer_projection_sums_are_the_exact_products_and_rails_are_found_anywhere() {
-    use ballpod::acquisition::projection::{Q14Sums, add_periods};
+    use ballpod::acquisition::projection::{Q14Sums, RailTest, add_periods};
+    let add_periods = |acc: &mut Q14Sums, a: &[u16], b: &[u16], words: &[u32]| {
+        add_periods(acc, a, b, words, RailTest::PerCode)
+    };
     let table = ExcitationTable::<P>::new();
     // the reference: antisymmetric Q14 sine and cosine within ½ LSB of the exact values
     let lane = |w: u32, hi: bool| i64::from((if hi { w >> 16 } else { w }) as u16 as i16);
@@ -277,6 +280,21 @@ fn integer_projection_sums_are_the_exact_products_and_rails_are_found_anywhere()
         assert_eq!(i64::from(acc.ib), dot(&b, false));
         assert_eq!(i64::from(acc.qb), dot(&b, true));
         assert!(!acc.clipped(), "codes 1…4094 are not rails");
+        // without the rail test (the ADC watchdogs did it): the same sums, the rail maximum
+        // left as it was
+        let mut quiet = Q14Sums::default();
+        quiet.rail_max = 0x0FFE_0FFE;
+        assert!(ballpod::acquisition::projection::add_periods(
+            &mut quiet,
+            &a,
+            &b,
+            &table.q14,
+            RailTest::WatchdogQuiet
+        ));
+        assert_eq!(
+            (quiet.ia, quiet.qa, quiet.ib, quiet.qb, quiet.rail_max),
+            (acc.ia, acc.qa, acc.ib, acc.qb, 0x0FFE_0FFE)
+        );
     }
     // a rail code (0 or 4095, or anything above: not a 12-bit code) at any position of either
     // channel flags the block; 1 and 4094 do not
@@ -315,4 +333,40 @@ fn integer_projection_sums_are_the_exact_products_and_rails_are_found_anywhere()
     assert!(!add_periods(&mut acc, &[1; 6], &[1; 6], &table.q14[..6]));
     assert!(!add_periods(&mut acc, &[1; P], &[1; P - 4], &table.q14));
     assert_eq!(acc, Q14Sums::default());
+}
+
+#[test]
+fn a_block_the_adc_watchdogs_watched_reads_as_the_per_code_test_says() {
+    // The pod's usual block: the ADCs' analog watchdogs (window 1…4094) watched every
+    // conversion. Quiet: the reading is the per-code demodulation's, bit for bit. Tripped: the
+    // per-code test runs and finds the rail wherever it is.
+    use ballpod::acquisition::lvdt::demodulate_watched;
+    let table = ExcitationTable::<P>::new();
+    let m = LvdtModel::default();
+    let mut rng = Rng::new(41);
+    for _ in 0..100 {
+        let (fa, fb) = m.block_f32(rng.range(-600.0, 600.0), P, PERIODS);
+        let mut code = |v: &f32| {
+            (f64::from(*v) + 2.0 * rng.normal())
+                .round()
+                .clamp(1.0, 4094.0) as u16
+        };
+        let a: Vec<u16> = fa.iter().map(&mut code).collect();
+        let b: Vec<u16> = fb.iter().map(&mut code).collect();
+        let reference = demodulate(&a, &b, &table).unwrap();
+        assert!(!reference.clipped);
+        assert_eq!(
+            demodulate_watched(&a, &b, &table, false).unwrap(),
+            reference
+        );
+        assert_eq!(demodulate_watched(&a, &b, &table, true).unwrap(), reference);
+        let mut railed = a.clone();
+        let k = (rng.uniform() * railed.len() as f64) as usize % railed.len();
+        railed[k] = if k.is_multiple_of(2) { 0 } else { 4095 };
+        let r = demodulate_watched(&railed, &b, &table, true).unwrap();
+        assert!(r.clipped, "rail at {k}");
+        assert_eq!(r, demodulate(&railed, &b, &table).unwrap());
+    }
+    // bad lengths are refused on this path too
+    assert!(demodulate_watched(&[2048; P + 1], &[2048; P + 1], &table, false).is_err());
 }

@@ -29,6 +29,8 @@
 //! An external LVDT conditioner delivers a voltage proportional to position; the ratio is
 //! `r = (v − v_zero)/v_span` and the same calibration polynomial applies.
 
+use super::projection::RailTest;
+
 /// Why a block could not be demodulated (the caller flags the sample; nothing is guessed).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum DemodError {
@@ -59,8 +61,13 @@ pub enum BlockReading {
 /// One ADC sample of a secondary: how a block of them is projected on the excitation.
 pub trait AdcSample: Copy {
     /// The projections of two blocks `a`, `b` of one length, a whole number of periods, on
-    /// `table` (see [`Projection`]).
-    fn project<const P: usize>(a: &[Self], b: &[Self], table: &ExcitationTable<P>) -> Projection;
+    /// `table` (see [`Projection`]), with the rail test `rails` says (converter codes only).
+    fn project<const P: usize>(
+        a: &[Self],
+        b: &[Self],
+        table: &ExcitationTable<P>,
+        rails: RailTest,
+    ) -> Projection;
 }
 
 /// Full-scale code of the STM32G4's 12-bit ADCs.
@@ -83,13 +90,18 @@ pub struct Projection {
 /// kernel on the pod), in chunks of at most [`MAX_CHUNK_SAMPLES`](super::projection::MAX_CHUNK_SAMPLES)
 /// samples; a code of 0 or ≥ 4095 is a rail.
 impl AdcSample for u16 {
-    fn project<const P: usize>(a: &[u16], b: &[u16], table: &ExcitationTable<P>) -> Projection {
+    fn project<const P: usize>(
+        a: &[u16],
+        b: &[u16],
+        table: &ExcitationTable<P>,
+        rails: RailTest,
+    ) -> Projection {
         use super::projection::{MAX_CHUNK_SAMPLES, Q14_ONE, Q14Sums, add_periods};
         let per_chunk = (MAX_CHUNK_SAMPLES / P).max(1) * P;
         let mut out = Projection::default();
         for (ca, cb) in a.chunks(per_chunk).zip(b.chunks(per_chunk)) {
             let mut acc = Q14Sums::default();
-            add_periods(&mut acc, ca, cb, &table.q14);
+            add_periods(&mut acc, ca, cb, &table.q14, rails);
             let f = |v: i32| v as f32 * (1.0 / Q14_ONE);
             out.a[0] += f(acc.ia);
             out.a[1] += f(acc.qa);
@@ -103,7 +115,12 @@ impl AdcSample for u16 {
 
 /// Volts or model values (host tests, the DC path): the f32 projection; never at a rail.
 impl AdcSample for f32 {
-    fn project<const P: usize>(a: &[f32], b: &[f32], table: &ExcitationTable<P>) -> Projection {
+    fn project<const P: usize>(
+        a: &[f32],
+        b: &[f32],
+        table: &ExcitationTable<P>,
+        _rails: RailTest,
+    ) -> Projection {
         let mut out = Projection::default();
         for (ca, cb) in a.chunks_exact(P).zip(b.chunks_exact(P)) {
             // Per-period partial sums keep f32 rounding small on long blocks.
@@ -224,11 +241,39 @@ impl LvdtReading {
 ///
 /// `a` and `b` hold the same whole number of excitation periods, sample `k` taken at phase
 /// `2πk/P`. The per-sample work is two multiply-accumulates per channel
-/// ([`AdcSample::project`]).
+/// ([`AdcSample::project`]) and, for converter codes, the rail test of each code.
 pub fn demodulate<S: AdcSample, const P: usize>(
     a: &[S],
     b: &[S],
     table: &ExcitationTable<P>,
+) -> Result<LvdtReading, DemodError> {
+    demodulate_with(a, b, table, RailTest::PerCode)
+}
+
+/// [`demodulate`] of a block of converter codes whose conversions the ADCs' analog watchdogs
+/// watched (window 1…4094 codes; see the board's LVDT acquisition): the per-code rail test
+/// runs only if a watchdog `tripped` during the block, otherwise no code can be at a rail and
+/// the leaner projection does the block (about half the instructions per code). The same
+/// reading as [`demodulate`] whenever the watchdog's report is true.
+pub fn demodulate_watched<const P: usize>(
+    a: &[u16],
+    b: &[u16],
+    table: &ExcitationTable<P>,
+    tripped: bool,
+) -> Result<LvdtReading, DemodError> {
+    let rails = if tripped {
+        RailTest::PerCode
+    } else {
+        RailTest::WatchdogQuiet
+    };
+    demodulate_with(a, b, table, rails)
+}
+
+fn demodulate_with<S: AdcSample, const P: usize>(
+    a: &[S],
+    b: &[S],
+    table: &ExcitationTable<P>,
+    rails: RailTest,
 ) -> Result<LvdtReading, DemodError> {
     if a.len() != b.len() {
         return Err(DemodError::LengthMismatch);
@@ -239,7 +284,7 @@ pub fn demodulate<S: AdcSample, const P: usize>(
             period: P,
         });
     }
-    let p = S::project(a, b, table);
+    let p = S::project(a, b, table, rails);
     let scale = 2.0 / a.len() as f32;
     let amplitude = |[i, q]: [f32; 2]| scale * crate::num::sqrtf(i * i + q * q);
     let (amp_a, amp_b) = (amplitude(p.a), amplitude(p.b));
@@ -347,12 +392,10 @@ impl LvdtCalibration {
         } else {
             reading.ratio
         };
-        // Horner, in f32: coefficients in µm, r dimensionless.
-        let x = self
-            .poly_um
-            .iter()
-            .rev()
-            .fold(0.0f32, |acc, &c| acc * r + c);
+        // Horner, in f32: coefficients in µm, r dimensionless (written out: an iterator fold
+        // is a loop at opt-level "z")
+        let [c0, c1, c2, c3] = self.poly_um;
+        let x = ((c3 * r + c2) * r + c1) * r + c0;
         if !x.is_finite() {
             return (0.0, LvdtStatus::OverRange);
         }

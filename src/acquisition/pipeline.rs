@@ -169,20 +169,19 @@ impl Acquisition {
     /// latch and for reading faster than the sample rate). Returns the extended counts and
     /// whether any axis glitched.
     pub fn update_counts(&mut self, raw: [u32; MAX_AXES]) -> ([i64; MAX_AXES], bool) {
-        let mut counts = [0i64; MAX_AXES];
-        let mut glitch = false;
-        // by reference: an array iterated by value is an out-of-line `IntoIter::next` call per
-        // axis at opt-level "z"
-        for ((c, ext), &r) in counts
-            .iter_mut()
-            .zip(self.counters_hw.iter_mut())
-            .zip(raw.iter())
-        {
-            let u = ext.update(r);
-            *c = u.count;
-            glitch |= u.glitch;
-        }
-        (counts, glitch)
+        // the five axes written out: a loop over a zeroed array costs a memset call per sample
+        let [e0, e1, e2, e3, e4] = &mut self.counters_hw;
+        let [r0, r1, r2, r3, r4] = raw;
+        let u = [
+            e0.update(r0),
+            e1.update(r1),
+            e2.update(r2),
+            e3.update(r3),
+            e4.update(r4),
+        ];
+        let [u0, u1, u2, u3, u4] = u;
+        let glitch = u0.glitch | u1.glitch | u2.glitch | u3.glitch | u4.glitch;
+        ([u0.count, u1.count, u2.count, u3.count, u4.count], glitch)
     }
 
     /// References the axes (homing): the hardware counters reading `raw` are at `positions`
@@ -217,19 +216,24 @@ impl Acquisition {
 
     /// [`Self::positions`], scaling only the axes whose count changed since the last call.
     fn positions_moved(&mut self, counts: &[i64; MAX_AXES]) -> [f32; MAX_AXES] {
-        let mut p = [0.0f32; MAX_AXES];
-        for (((p, s), &c), last) in p
-            .iter_mut()
-            .zip(self.scales.iter())
-            .zip(counts.iter())
-            .zip(self.last_position.iter_mut())
-        {
-            if c != last.0 {
-                *last = (c, s.position(c));
+        #[inline(always)]
+        fn moved(last: &mut (i64, f32), scale: &AxisScale, count: i64) -> f32 {
+            if count != last.0 {
+                *last = (count, scale.position(count));
             }
-            *p = last.1;
+            last.1
         }
-        p
+        // the five axes written out, as in `update_counts`
+        let [l0, l1, l2, l3, l4] = &mut self.last_position;
+        let [s0, s1, s2, s3, s4] = &self.scales;
+        let [c0, c1, c2, c3, c4] = *counts;
+        [
+            moved(l0, s0, c0),
+            moved(l1, s1, c1),
+            moved(l2, s2, c2),
+            moved(l3, s3, c3),
+            moved(l4, s4, c4),
+        ]
     }
 
     /// Handles a probe trigger edge whose raw counters were latched in the interrupt.

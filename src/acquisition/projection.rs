@@ -6,6 +6,12 @@
 //! runs both on the M4 and compares). Assembly because the DSP intrinsics of `core::arch::arm`
 //! are not stable and the loop needs all 14 free registers.
 //!
+//! **Rail test.** Per code in the kernel ([`RailTest::PerCode`], 6 of its 13 instructions per
+//! two sample pairs), or not at all when the converters' analog watchdogs watched every
+//! conversion of the block and stayed quiet ([`RailTest::WatchdogQuiet`]: the pod's ADCs flag a
+//! code outside 1…4094 in hardware, at no CPU cost); then a leaner kernel loads four codes and
+//! four reference words per instruction (`LDM`, word-aligned blocks).
+//!
 //! **Reference.** Q14: s_k = round(2¹⁴·sin(2πk/P)), c_k likewise, antisymmetric
 //! (s_{k+P/2} = −s_k) so that Σ s_k = Σ c_k = 0 exactly: the ADC's mid-scale offset cancels
 //! without rounding residue. The table's rounding (≤ 3·10⁻⁵ of full scale) is a gain error that
@@ -76,6 +82,17 @@ pub fn reference_words<const P: usize>(sin: &[f32; P], cos: &[f32; P]) -> [u32; 
     w
 }
 
+/// Who tests a block's codes for the converter rails (0 or ≥ 4095).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RailTest {
+    /// The kernel, per code (into [`Q14Sums::rail_max`]): the exact test, wherever no hardware
+    /// watched the conversions.
+    PerCode,
+    /// Nobody: the converters' analog watchdogs (window 1…4094 codes) watched every conversion
+    /// of the block and did not trip, so no code is at a rail; `rail_max` is left as it was.
+    WatchdogQuiet,
+}
+
 /// The periods of `a` and `b` (whole periods of `words`), or `None` for lengths the kernel
 /// cannot take (unequal blocks, not whole periods, a period not a multiple of 4 samples).
 fn periods(a: &[u16], b: &[u16], words: &[u32]) -> Option<u32> {
@@ -88,12 +105,20 @@ fn periods(a: &[u16], b: &[u16], words: &[u32]) -> Option<u32> {
 
 /// Adds whole periods to `acc`: `a`, `b` the two secondaries' codes, `words` the reference of
 /// one period ([`reference_words`]); at most [`MAX_CHUNK_SAMPLES`] codes per channel between
-/// conversions of the sums (the `i32` range). Unequal blocks, blocks not of whole periods or a
-/// period not a multiple of 4 samples add nothing and
-/// return `false`. On the M4 the DSP kernel, which reads the codes with `LDR` (unaligned
-/// addresses work, at a cycle's cost, while `CCR.UNALIGN_TRP` keeps its reset value 0; the
-/// pod's buffers are aligned), elsewhere [`add_periods_portable`]: the same sums.
-pub fn add_periods(acc: &mut Q14Sums, a: &[u16], b: &[u16], words: &[u32]) -> bool {
+/// conversions of the sums (the `i32` range); the rail maximum as `rails` says. Unequal
+/// blocks, blocks not of whole periods or a period not a multiple of 4 samples add nothing and
+/// return `false`. On the M4 the DSP kernels: with the per-code rail test one that reads the
+/// codes with `LDR` (unaligned addresses work, at a cycle's cost, while `CCR.UNALIGN_TRP` keeps
+/// its reset value 0), without it one that reads them with `LDM` (word-aligned blocks only:
+/// an unaligned block takes the first kernel, whose sums are the same); elsewhere
+/// [`add_periods_portable`]: the same sums.
+pub fn add_periods(
+    acc: &mut Q14Sums,
+    a: &[u16],
+    b: &[u16],
+    words: &[u32],
+    rails: RailTest,
+) -> bool {
     let Some(periods) = periods(a, b, words) else {
         return false;
     };
@@ -101,27 +126,42 @@ pub fn add_periods(acc: &mut Q14Sums, a: &[u16], b: &[u16], words: &[u32]) -> bo
     {
         acc.quads = (words.len() / 4) as u32;
         acc.periods = periods;
-        // SAFETY: `ballpod_q14_periods` reads `4·quads·periods` = a.len() codes from `a` and
-        // from `b` (LDR, any alignment), `words.len()` words from `words` per period (LDRD; a
-        // `u32` slice is word-aligned) and reads/writes the seven words of `acc` (`repr(C)`);
-        // it saves and restores every callee-saved register it uses (AAPCS) and calls nothing.
-        unsafe { ballpod_q14_periods(acc, a.as_ptr(), b.as_ptr(), words.as_ptr()) };
+        let aligned =
+            a.as_ptr().cast::<u32>().is_aligned() && b.as_ptr().cast::<u32>().is_aligned();
+        // SAFETY: both kernels read `4·quads·periods` = a.len() codes from `a` and from `b`
+        // (`ballpod_q14_periods`: LDR, any alignment; `ballpod_q14_periods_sums`: LDM, called
+        // only on word-aligned blocks), `words.len()` words from `words` per period (LDRD/LDM;
+        // a `u32` slice is word-aligned) and read/write the seven words of `acc` (`repr(C)`);
+        // they save and restore every callee-saved register they use (AAPCS) and call nothing.
+        unsafe {
+            if rails == RailTest::WatchdogQuiet && aligned {
+                ballpod_q14_periods_sums(acc, a.as_ptr(), b.as_ptr(), words.as_ptr());
+            } else {
+                ballpod_q14_periods(acc, a.as_ptr(), b.as_ptr(), words.as_ptr());
+            }
+        }
         true
     }
     #[cfg(not(all(target_arch = "arm", target_abi = "eabihf")))]
     {
         let _ = periods;
-        add_periods_portable(acc, a, b, words)
+        add_periods_portable(acc, a, b, words, rails)
     }
 }
 
-/// [`add_periods`] in portable Rust, exactly as the M4 kernel computes it (signed 16-bit
-/// operands, wrapping 32-bit sums, the lane-wise rail maximum).
-pub fn add_periods_portable(acc: &mut Q14Sums, a: &[u16], b: &[u16], words: &[u32]) -> bool {
+/// [`add_periods`] in portable Rust, exactly as the M4 kernels compute it (signed 16-bit
+/// operands, wrapping 32-bit sums, the lane-wise rail maximum when `rails` asks for it).
+pub fn add_periods_portable(
+    acc: &mut Q14Sums,
+    a: &[u16],
+    b: &[u16],
+    words: &[u32],
+    rails: RailTest,
+) -> bool {
     let Some(periods) = periods(a, b, words) else {
         return false;
     };
-    // as the kernel leaves them
+    // as the kernels leave them
     acc.quads = (words.len() / 4) as u32;
     acc.periods = periods;
     // SMLAD: acc + lo(x)·lo(y) + hi(x)·hi(y), 16-bit signed operands, wrapping
@@ -152,8 +192,10 @@ pub fn add_periods_portable(acc: &mut Q14Sums, a: &[u16], b: &[u16], words: &[u3
         acc.ib = smlad(acc.ib, xb, s);
         acc.qa = smlad(acc.qa, xa, c);
         acc.qb = smlad(acc.qb, xb, c);
-        acc.rail_max = lane_max(acc.rail_max, xa);
-        acc.rail_max = lane_max(acc.rail_max, xb);
+        if rails == RailTest::PerCode {
+            acc.rail_max = lane_max(acc.rail_max, xa);
+            acc.rail_max = lane_max(acc.rail_max, xb);
+        }
     }
     true
 }
@@ -163,6 +205,46 @@ unsafe extern "C" {
     /// r0 = &mut Q14Sums (ia, qa, ib, qb, rail_max, quads, periods), r1 = a, r2 = b,
     /// r3 = words (one period).
     fn ballpod_q14_periods(acc: *mut Q14Sums, a: *const u16, b: *const u16, words: *const u32);
+    /// As `ballpod_q14_periods`, the sums only (`rail_max` untouched); `a`, `b` word-aligned.
+    fn ballpod_q14_periods_sums(acc: *mut Q14Sums, a: *const u16, b: *const u16, words: *const u32);
+}
+
+// One kernel: the prologue loads the sums, the quad count and the period count from `acc`
+// (the period count and the quad count then live on the stack with `acc` and the reference's
+// start), `$setup` runs once, `$quad` once per quad of four samples per channel, then the
+// reference rewinds per period (7 instructions) and `$store` writes the sums back.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+macro_rules! q14_kernel {
+    ($name:literal, [$($setup:literal),*], [$($quad:literal),+], $store:literal) => {
+        core::arch::global_asm!(
+            concat!(".section .text.", $name, ",\"ax\",%progbits"),
+            concat!(".global ", $name),
+            concat!(".type ", $name, ",%function"),
+            ".syntax unified",
+            ".thumb",
+            ".thumb_func",
+            concat!($name, ":"),
+            "push {{r0, r3, r4-r11, lr}}",
+            "ldm r0, {{r4-r9}}",
+            "ldr r0, [r0, #24]",
+            "push {{r0, r9}}",
+            $($setup,)*
+            "2:",
+            $($quad,)+
+            "subs r9, r9, #1",
+            "bne 2b",
+            "ldr r3, [sp, #12]",
+            "ldr r9, [sp, #4]",
+            "ldr r0, [sp]",
+            "subs r0, r0, #1",
+            "str r0, [sp]",
+            "bne 2b",
+            "add sp, sp, #8",
+            "pop {{r0, r3}}",
+            $store,
+            "pop {{r4-r11, pc}}",
+        );
+    };
 }
 
 // Per pair of samples of both channels: two word loads, one LDRD of the (sin, cos) reference
@@ -173,46 +255,51 @@ unsafe extern "C" {
 // r10/r11 the a/b words, r0/lr the reference pair, r12 the constant 0x0001_0001; on the stack
 // the period count, the quads per period, `acc` and the reference's start.
 #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
-core::arch::global_asm!(
-    ".section .text.ballpod_q14_periods,\"ax\",%progbits",
-    ".global ballpod_q14_periods",
-    ".type ballpod_q14_periods,%function",
-    ".syntax unified",
-    ".thumb",
-    ".thumb_func",
-    "ballpod_q14_periods:",
-    "push {{r0, r3, r4-r11, lr}}",
-    "ldm r0, {{r4-r9}}",
-    "ldr r0, [r0, #24]",
-    "push {{r0, r9}}",
-    "movw r12, #1",
-    "movt r12, #1",
-    "2:",
-    ".rept 2",
-    "ldr r10, [r1], #4",
-    "ldr r11, [r2], #4",
-    "ldrd r0, lr, [r3], #8",
-    "smlad r4, r10, r0, r4",
-    "smlad r6, r11, r0, r6",
-    "smlad r5, r10, lr, r5",
-    "smlad r7, r11, lr, r7",
-    "usub16 r10, r10, r12",
-    "uqsub16 r0, r10, r8",
-    "uadd16 r8, r8, r0",
-    "usub16 r11, r11, r12",
-    "uqsub16 r0, r11, r8",
-    "uadd16 r8, r8, r0",
-    ".endr",
-    "subs r9, r9, #1",
-    "bne 2b",
-    "ldr r3, [sp, #12]",
-    "ldr r9, [sp, #4]",
-    "ldr r0, [sp]",
-    "subs r0, r0, #1",
-    "str r0, [sp]",
-    "bne 2b",
-    "add sp, sp, #8",
-    "pop {{r0, r3}}",
-    "stm r0, {{r4-r8}}",
-    "pop {{r4-r11, pc}}",
+q14_kernel!(
+    "ballpod_q14_periods",
+    ["movw r12, #1", "movt r12, #1"],
+    [
+        ".rept 2",
+        "ldr r10, [r1], #4",
+        "ldr r11, [r2], #4",
+        "ldrd r0, lr, [r3], #8",
+        "smlad r4, r10, r0, r4",
+        "smlad r6, r11, r0, r6",
+        "smlad r5, r10, lr, r5",
+        "smlad r7, r11, lr, r7",
+        "usub16 r10, r10, r12",
+        "uqsub16 r0, r10, r8",
+        "uadd16 r8, r8, r0",
+        "usub16 r11, r11, r12",
+        "uqsub16 r0, r11, r8",
+        "uadd16 r8, r8, r0",
+        ".endr"
+    ],
+    "stm r0, {{r4-r8}}"
+);
+
+// The sums alone, per quad (four samples of each channel): one LDM of the quad's four
+// reference words (s01, c01, s23, c23), one LDM of two code words per channel, eight SMLAD:
+// 11 instructions per 8 ADC sample·channels plus 2 for the loop, and 7 per period to rewind
+// the reference. Registers: r4–r7 the sums, r9 the quad count, r1–r3 the pointers, r0/r8/r12/lr
+// the reference words (the rail maximum the prologue loads into r8 is not stored back), r10/r11
+// the code words.
+#[cfg(all(target_arch = "arm", target_abi = "eabihf"))]
+q14_kernel!(
+    "ballpod_q14_periods_sums",
+    [],
+    [
+        "ldm r3!, {{r0, r8, r12, lr}}",
+        "ldm r1!, {{r10, r11}}",
+        "smlad r4, r10, r0, r4",
+        "smlad r5, r10, r8, r5",
+        "smlad r4, r11, r12, r4",
+        "smlad r5, r11, lr, r5",
+        "ldm r2!, {{r10, r11}}",
+        "smlad r6, r10, r0, r6",
+        "smlad r7, r10, r8, r7",
+        "smlad r6, r11, r12, r6",
+        "smlad r7, r11, lr, r7"
+    ],
+    "stm r0, {{r4-r7}}"
 );

@@ -15,6 +15,13 @@
 //! halves is its centre. At the default 1 kHz (100 conversions 10 µs apart, centre at 49.5)
 //! the latch follows conversion 49: it is 5 µs less the conversion time (≈ 0.9 µs) and the interrupt's entry (≈ 0.2 µs)
 //! before the centre, ≈ 3.9 µs, 0.07 µm of travel at 16.7 mm/s (docs: sample timing).
+//!
+//! **Rail test.** The ADCs' analog watchdogs 1 (window 1…4094 codes) watch every conversion;
+//! [`BlockLatchIsr`] reads and clears their flags at each half-ring event and the core's
+//! [`demodulate_watched`] tests a block's codes in software only if a watchdog tripped at one
+//! of the block's two events or at the event before (whose interrupt may have run after the
+//! block's first conversions), or if one of those latches is no longer held.
+//!
 //! **Loss** is counted from the gaps between the blocks' latched times
 //! ([`ballpod::acquisition::periods_lost`]), however the blocks were lost.
 
@@ -33,7 +40,7 @@ use static_cell::StaticCell;
 
 use ballpod::acquisition::MAX_AXES;
 use ballpod::acquisition::lvdt::{
-    BlockReading, DcFrontEnd, ExcitationTable, block_mean, demodulate,
+    ADC12_FULL_SCALE, BlockReading, DcFrontEnd, ExcitationTable, block_mean, demodulate_watched,
 };
 use ballpod::acquisition::periods_lost;
 use ballpod::config::{Config, LvdtInput};
@@ -73,6 +80,8 @@ struct Latch {
     seq: u32,
     t_us: u64,
     raw: [u32; MAX_AXES],
+    /// An ADC's analog watchdog had tripped since the event before.
+    watchdog: bool,
 }
 
 /// The last four latches, slot `seq % 4` (the task is at most two events behind without the
@@ -83,6 +92,7 @@ static LATCHES: critical_section::Mutex<[Cell<Latch>; 4]> = critical_section::Mu
             seq: 0,
             t_us: 0,
             raw: [0; MAX_AXES],
+            watchdog: true,
         })
     }; 4],
 );
@@ -102,13 +112,41 @@ impl Handler<DMA1_CHANNEL2> for BlockLatchIsr {
         if (isr.htif(1) && cr.htie()) || (isr.tcif(1) && cr.tcie()) {
             let seq = LATCH_SEQ.load(Ordering::Relaxed).wrapping_add(1);
             LATCH_SEQ.store(seq, Ordering::Relaxed);
+            let watchdog = watchdog_tripped();
             critical_section::with(|cs| {
                 if let Some(slot) = LATCHES.borrow(cs).get(seq as usize % 4) {
-                    slot.set(Latch { seq, t_us, raw });
+                    slot.set(Latch {
+                        seq,
+                        t_us,
+                        raw,
+                        watchdog,
+                    });
                 }
             });
         }
     }
+}
+
+/// Reads and clears the analog watchdog 1 flags of ADC1 and ADC2 (write-1-to-clear: writing
+/// only the one bit leaves the other flags alone): true if either had tripped.
+fn watchdog_tripped() -> bool {
+    let mut tripped = false;
+    for adc in [pac::ADC1, pac::ADC2] {
+        if adc.isr().read().awd1() {
+            adc.isr().write(|w| w.set_awd1(true));
+            tripped = true;
+        }
+    }
+    tripped
+}
+
+/// Whether the block whose events are `centre` and `end` needs the per-code rail test: a
+/// watchdog tripped at either event or at the one before, or one of the three latches is
+/// not held any more.
+fn block_watchdog_tripped(centre: u32, end: u32) -> bool {
+    [centre.wrapping_sub(1), centre, end]
+        .into_iter()
+        .any(|seq| latch_of(seq).is_none_or(|l| l.watchdog))
 }
 
 /// The latch of event `seq`, if it is still held.
@@ -132,6 +170,7 @@ fn latch(centre: Option<u32>) -> (Latch, u32) {
             seq: newest,
             t_us: embassy_time::Instant::now().as_micros(),
             raw: super::encoders::raw_counts(),
+            watchdog: true,
         });
     (x, newest)
 }
@@ -227,6 +266,20 @@ pub fn start(
     // with the DMA events the latch sees
     ring_a.set_alignment(len / 2);
     ring_b.set_alignment(len / 2);
+    // analog watchdog 1 on each ADC's one regular channel: a code outside 1…4094 (a rail)
+    // sets AWD1 (RM0440, "analog window watchdog"); written while the ADCs are not converting
+    for adc in [pac::ADC1, pac::ADC2] {
+        adc.tr1().modify(|w| {
+            w.set_lt1(1);
+            w.set_ht1(ADC12_FULL_SCALE - 1);
+            w.set_awdfilt(0);
+        });
+        adc.cfgr().modify(|w| {
+            w.set_awd1sgl(pac::adc::vals::Awd1sgl::ALL);
+            w.set_awd1en(true);
+        });
+        adc.isr().write(|w| w.set_awd1(true));
+    }
     ring_a.start();
     ring_b.start();
 
@@ -308,7 +361,8 @@ pub async fn lvdt_task(
         let reading = if dc {
             BlockReading::DcVolts(DC_FRONT_END.volts(block_mean(a)))
         } else {
-            BlockReading::Ac(demodulate(a, b, &table))
+            let tripped = block_watchdog_tripped(centre.seq, end);
+            BlockReading::Ac(demodulate_watched(a, b, &table, tripped))
         };
         let block = LvdtBlock {
             t_us: centre.t_us,

@@ -7,8 +7,8 @@
 //! | pin | function | peripheral |
 //! |---|---|---|
 //! | PA4 | LVDT primary excitation (sine) | DAC1 CH1, DMA1 CH1, triggered by TIM6 TRGO |
-//! | PA0 | LVDT secondary A (or DC conditioner input) | ADC1 IN1, DMA1 CH2, TIM6 TRGO |
-//! | PA1 | LVDT secondary B | ADC2 IN2, DMA1 CH3, TIM6 TRGO |
+//! | PA0 | LVDT secondary A (or DC conditioner input) | ADC1 IN1, DMA1 CH2, TIM6 TRGO, AWD1 |
+//! | PA1 | LVDT secondary B | ADC2 IN2, DMA1 CH3, TIM6 TRGO, AWD1 |
 //! | PB0 | bar thermistor (divider to 3.3 V) | ADC3 IN12 |
 //! | PA8 / PA9 | encoder 1 A / B | TIM1 CH1 / CH2 |
 //! | PA6 / PA7 | encoder 2 A / B | TIM3 CH1 / CH2 |

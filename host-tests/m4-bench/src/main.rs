@@ -30,8 +30,10 @@ use cortex_m_semihosting::{debug, hprintln};
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use ballpod::acquisition::lvdt::{BlockReading, ExcitationTable, LvdtReading, demodulate};
-use ballpod::acquisition::projection::{Q14Sums, add_periods, add_periods_portable};
+use ballpod::acquisition::lvdt::{
+    BlockReading, ExcitationTable, LvdtReading, demodulate, demodulate_watched,
+};
+use ballpod::acquisition::projection::{Q14Sums, RailTest, add_periods, add_periods_portable};
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::seed002::{Procedure, Setup};
@@ -143,7 +145,12 @@ fn pipeline_per_sample(
     for s in samples {
         let raw = raw_counts(s);
         let (_, n) = measure(|| {
-            let r = demodulate(black_box(&a[..]), black_box(&b[..]), black_box(table));
+            let r = demodulate_watched(
+                black_box(&a[..]),
+                black_box(&b[..]),
+                black_box(table),
+                false,
+            );
             app.on_raw_sample(s.t_us, BlockReading::Ac(r), raw, 0, &mut ())
         });
         total += n.saturating_sub(empty);
@@ -168,6 +175,10 @@ const W: usize = 256;
 /// Excitation period and block length of the LVDT path (20 samples per period, 5 periods).
 const P: usize = 20;
 const BLOCK: usize = 100;
+
+/// One channel's block of ADC codes, word-aligned like the pod's DMA buffers.
+#[repr(C, align(4))]
+struct Codes([u16; BLOCK]);
 
 /// Instructions per unit of a path and what it is compared with.
 struct Row {
@@ -351,45 +362,76 @@ fn main() -> ! {
 
     // ---- LVDT demodulation ------------------------------------------------------------------
     let table = ExcitationTable::<P>::new();
-    let (a, b) = data::lvdt_block::<P, BLOCK>(&table);
+    // word-aligned, as the pod's DMA buffers are (the lean kernel loads codes with LDM)
+    let (a, b) = {
+        let (a, b) = data::lvdt_block::<P, BLOCK>(&table);
+        (Codes(a), Codes(b))
+    };
+    let (a, b) = (&a.0, &b.0);
     let lo = stack::paint(top);
     let (r, n) = measure(|| demodulate(black_box(&a[..]), black_box(&b[..]), black_box(&table)));
     record_stack("LVDT demodulate (block of 100 × 2)", lo);
     let core_ratio = r.map(|r| r.ratio).unwrap_or(f32::NAN);
-    // The DSP kernel and its portable twin on this block and on the block
-    // with rail codes (0, 4095, 65535) put in: the same sums bit for bit, or the bench fails.
+    // The DSP kernels and their portable twin on this block and on the block with rail codes
+    // (0, 4095, 65535) put in, with and without the rail test: the same sums bit for bit, or
+    // the bench fails.
     let kernel_identical = {
         let mut same = true;
-        let mut ra = a;
-        let mut rb = b;
-        ra[7] = 0;
-        rb[58] = 4095;
-        ra[91] = 65535;
-        for (x, y) in [(&a, &b), (&ra, &rb)] {
-            let (mut k, mut q) = (Q14Sums::default(), Q14Sums::default());
-            add_periods(&mut k, &x[..], &y[..], &table.q14);
-            add_periods_portable(&mut q, &x[..], &y[..], &table.q14);
-            same &= k == q;
+        let mut ra = Codes(*a);
+        let mut rb = Codes(*b);
+        ra.0[7] = 0;
+        rb.0[58] = 4095;
+        ra.0[91] = 65535;
+        for (x, y) in [(a, b), (&ra.0, &rb.0)] {
+            for rails in [RailTest::PerCode, RailTest::WatchdogQuiet] {
+                let (mut k, mut q) = (Q14Sums::default(), Q14Sums::default());
+                add_periods(&mut k, &x[..], &y[..], &table.q14, rails);
+                add_periods_portable(&mut q, &x[..], &y[..], &table.q14, rails);
+                same &= k == q;
+            }
         }
         same
     };
     if !kernel_identical {
-        hprintln!("check FAILED: the Q14 DSP kernel and the portable projection differ");
+        hprintln!("check FAILED: a Q14 DSP kernel and the portable projection differ");
         debug::exit(debug::EXIT_FAILURE);
     }
-    let (naive_ratio, nn) = measure(|| naive::lvdt_demodulate(black_box(&a), black_box(&b), P));
+    let (naive_ratio, nn) = measure(|| naive::lvdt_demodulate(black_box(a), black_box(b), P));
     // FLOP per ADC sample per channel: I += v·sin, Q += v·cos → 2 multiplies + 2 adds = 4 (the
     // textbook synchronous demodulation; the end-of-block magnitude and ratio are amortised
     // over the block and counted in the instructions but not here).
-    print(&Row {
-        name: "LVDT demodulation (block 100 × 2 ch)",
+    let per_code = |insns: u32| insns.saturating_sub(empty) as f32 / (BLOCK * 2) as f32;
+    let demod_row = |name, insns| Row {
+        name,
         unit: "ADC sample·channel",
-        insns_per_unit: n.saturating_sub(empty) as f32 / (BLOCK * 2) as f32,
+        insns_per_unit: per_code(insns),
         flops_per_unit: 4,
-        naive_per_unit: Some(nn.saturating_sub(empty) as f32 / (BLOCK * 2) as f32),
+        naive_per_unit: Some(per_code(nn)),
         max_insns: Some(5.0),
         min_ratio: None,
+    };
+    print(&demod_row(
+        "LVDT demodulation, rail test per code (block 100 × 2 ch)",
+        n,
+    ));
+    // The pod's path when the ADCs' analog watchdogs stayed quiet over the block: the same
+    // reading without the per-code rail test, or the bench fails.
+    let (rw, nw) = measure(|| {
+        demodulate_watched(
+            black_box(&a[..]),
+            black_box(&b[..]),
+            black_box(&table),
+            false,
+        )
     });
+    if rw != r {
+        hprintln!("check FAILED: the watched demodulation differs from the per-code one");
+        debug::exit(debug::EXIT_FAILURE);
+    }
+    print(&demod_row(
+        "LVDT demodulation, ADC watchdogs quiet (the pod's usual block)",
+        nw,
+    ));
 
     // ---- acquisition ------------------------------------------------------------------------
     let cfg = Config::default();
@@ -626,13 +668,13 @@ fn main() -> ! {
     ] {
         let mut app = started_app(pattern, &samples[0]);
         let lo = stack::paint(top);
-        let per_sample = pipeline_per_sample(&mut app, &samples, &a, &b, &table, empty);
+        let per_sample = pipeline_per_sample(&mut app, &samples, a, b, &table, empty);
         record_stack(name, lo);
         print(&Row::pipeline(name, per_sample));
     }
     print(&Row::pipeline(
         "**whole live pipeline, SSM at F1000** (steady state)",
-        ssm_pipeline_at_feed(&a, &b, &table, empty),
+        ssm_pipeline_at_feed(a, b, &table, empty),
     ));
 
     // ---- identification (per test) ----------------------------------------------------------
@@ -774,7 +816,7 @@ fn main() -> ! {
     let e = est.map(|e| e.e_um).unwrap_or([f32::NAN; 2]);
     let se = ssm_est.map(|e| e.solution.e_um).ok();
     hprintln!(
-        "check: LVDT ratio core {} naive {} (expect 0.125); Q14 DSP kernel = portable sums bit for bit (clean and railed block): {}",
+        "check: LVDT ratio core {} naive {} (expect 0.125); Q14 DSP kernels (with and without the rail test) = portable sums bit for bit (clean and railed block): {}",
         core_ratio,
         naive_ratio,
         kernel_identical

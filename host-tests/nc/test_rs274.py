@@ -282,7 +282,11 @@ def test_pattern_programs_keep_the_bar_at_its_length_through_the_whole_turn(tmp_
         "one rapid to the mounting point, then feed moves only"
     quarter = pattern in ("BX", "BY")
     rotary = 4 if quarter else 5
-    steps = 324 if quarter else 1296
+    # the blocks per run the header states: the thesis's 324 per quarter / 1296 per revolution,
+    # or a doubling of it that keeps the joint-space interpolation error within 0.05 um
+    steps = int(re.search(r"\((\d+) blocks per run", p.stdout).group(1))
+    thesis = 324 if quarter else 1296
+    assert steps % thesis == 0 and (steps // thesis) & (steps // thesis - 1) == 0, steps
     # the rapid to the start, then CCW and CW, each run's steps (a run starts where the machine is)
     assert len(moves) == 1 + 2 * steps
     for _, p6 in moves:

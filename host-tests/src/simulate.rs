@@ -14,10 +14,11 @@ use crate::recording::RecordedRun;
 use crate::replay::Report;
 use crate::vmt::machine::MachineFile;
 use crate::vmt::motion::ServeTruth;
+use crate::vmt::nc_motion::{self, NcRun};
 use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
 /// Options of a simulated session.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct SimOptions {
     /// Noise seed.
     pub seed: u64,
@@ -29,6 +30,10 @@ pub struct SimOptions {
     pub seed002: bool,
     /// Run the ISO 230-4 circle.
     pub circle: bool,
+    /// The seed 002 steps from part programs: `BX.ngc`, `BY.ngc`, `CR.ngc`, `CA.ngc`,
+    /// `CR2.ngc` in this directory (`cargo ncgen -- pattern`), through LinuxCNC's interpreter
+    /// ([`crate::vmt::nc_motion`]), instead of the built-in motion.
+    pub nc_dir: Option<std::path::PathBuf>,
 }
 
 impl Default for SimOptions {
@@ -39,6 +44,7 @@ impl Default for SimOptions {
             feed_mm_per_min: 1000.0,
             seed002: true,
             circle: true,
+            nc_dir: None,
         }
     }
 }
@@ -110,6 +116,28 @@ pub fn run_poses(
     Ok(())
 }
 
+/// The data runs of each seed 002 step's program in `dir` (`<STEP>.ngc`, in
+/// [`Pattern::SEED002`] order) through LinuxCNC's interpreter: each a CW and a CCW run.
+fn nc_programs(dir: &std::path::Path) -> Result<Vec<Vec<NcRun>>, String> {
+    Pattern::SEED002
+        .into_iter()
+        .map(|step| {
+            let file = dir.join(format!("{}.ngc", step.name()));
+            let runs = nc_motion::runs(&nc_motion::interpret(&file)?)
+                .map_err(|e| format!("{}: {e}", file.display()))?;
+            let has = |d| runs.iter().filter(|r| r.direction == d).count() == 1;
+            if runs.len() != 2 || !has(Direction::Cw) || !has(Direction::Ccw) {
+                return Err(format!(
+                    "{}: {} data runs; a step needs one CW and one CCW run (cargo ncgen -- pattern)",
+                    file.display(),
+                    runs.len()
+                ));
+            }
+            Ok(runs)
+        })
+        .collect()
+}
+
 /// Runs the session; `progress(done, total, what)` is called before each run.
 pub fn simulate(
     m: &MachineFile,
@@ -145,8 +173,27 @@ pub fn simulate(
         // was told
         let pod_setup = Setup::from_config(&vp.app.config().setup)
             .map_err(|f| format!("set-up: {} not set", ballpod::app::field_name(f)))?;
+        // the programs' runs, interpreted once (each repeat runs them again)
+        let programs = match &o.nc_dir {
+            Some(dir) => Some(nc_programs(dir)?),
+            None => None,
+        };
         for rep in 0..o.repeats {
-            for step in Pattern::SEED002 {
+            for (k, step) in Pattern::SEED002.into_iter().enumerate() {
+                if let Some(runs) = programs.as_ref().and_then(|p| p.get(k)) {
+                    for run in runs {
+                        let dir = run.direction;
+                        let name = format!("r{}_{}_{}.csv", rep + 1, step.name(), dir.name());
+                        progress(names.len(), total, &name);
+                        let poses = run
+                            .samples(rate)
+                            .into_iter()
+                            .map(|axes| (m.seed002.delta_l_um(&pod_setup, step, &axes), axes));
+                        run_poses(&mut vp, &mut report, &name, step, dir, poses)?;
+                        names.push(name);
+                    }
+                    continue;
+                }
                 for dir in [Direction::Cw, Direction::Ccw] {
                     let name = format!("r{}_{}_{}.csv", rep + 1, step.name(), dir.name());
                     progress(names.len(), total, &name);

@@ -73,6 +73,7 @@ fn replay_of_the_simulators_recorded_runs_reproduces_its_report_byte_for_byte() 
         feed_mm_per_min: 8000.0,
         seed002: true,
         circle: true,
+        nc_dir: None,
     };
     let s = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");
     let sim = &s.report;

@@ -91,8 +91,9 @@ struct PatternArgs {
     /// Runs, in order.
     #[arg(long, value_enum, default_value = "both")]
     direction: Directions,
-    /// Blocks per run (a B quarter turn or a C revolution; 324 per quarter: the thesis's
-    /// 0.2778° steps).
+    /// Blocks per run (a B quarter turn or a C revolution). Default: the thesis's 0.2778° steps
+    /// (324 per quarter, 1296 per revolution) doubled until the bar leaves the pattern by at
+    /// most 0.05 µm between blocks (the controls interpolate in joint space).
     #[arg(long)]
     steps: Option<usize>,
     /// Feed of the linear axes, mm/min.
@@ -161,8 +162,11 @@ fn run(args: &Args) -> Result<String, String> {
                 .ok_or_else(|| format!("PATTERN: {:?} is not BX, BY, CR, CA or CR2", p.pattern))?;
             let text = read_text(&p.setup).map_err(|e| e.to_string())?;
             let cfg = setup_config(&p.setup, &text).map_err(|e| e.to_string())?;
-            let quarter = matches!(step, ballpod::app::Pattern::Bx | ballpod::app::Pattern::By);
-            let steps = p.steps.unwrap_or(if quarter { 324 } else { 1296 });
+            let steps = match p.steps {
+                Some(n) => n,
+                None => PatternTest::default_steps(&cfg, step, p.feed)
+                    .map_err(|e| format!("{}: {e}", p.setup.display()))?,
+            };
             let test = PatternTest::from_config(&cfg, step, steps, p.feed, directions(p.direction))
                 .map_err(|e| format!("{}: {e}", p.setup.display()))?;
             Ok(test.program(dialect))

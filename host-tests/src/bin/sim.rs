@@ -39,6 +39,11 @@ struct Args {
     /// Write the recorded runs (the pod's stream text, one file per run) and `session.toml` here.
     #[arg(long)]
     write_logs: Option<PathBuf>,
+    /// The seed 002 steps from part programs in this directory (`BX.ngc` … `CR2.ngc`, as `cargo
+    /// ncgen -- pattern` writes them) through LinuxCNC's interpreter (`rs274`, Debian package
+    /// linuxcnc-uspace) instead of the built-in motion.
+    #[arg(long, value_name = "DIR")]
+    nc: Option<PathBuf>,
     /// Repeats of the seed 002 procedure.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=ballpod::app::seed002::MAX_REPEATS as u64))]
     repeats: u64,
@@ -108,6 +113,7 @@ fn run(args: &Args) -> Result<(), String> {
     let opts = SimOptions {
         seed: args.seed,
         repeats: args.repeats as usize,
+        nc_dir: args.nc.clone(),
         ..SimOptions::default()
     };
     // a progress bar on a terminal (indicatif draws nothing when stderr is not one)

@@ -19,6 +19,10 @@ use ballpod::identify::multitasking::patterns::PatternProgram;
 
 use super::{Dialect, NcError, num};
 
+/// The largest bar-length change between blocks the default block count allows, µm (a tenth
+/// of a good ball bar's uncertainty: the thesis's 0.2778° blocks leave 1 µm on the B patterns).
+pub const MAX_INTERPOLATION_ERROR_UM: f64 = 0.05;
+
 /// A pattern program ready to be written: the set-up's geometry and the options checked.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PatternTest {
@@ -107,6 +111,51 @@ impl PatternTest {
         )
     }
 
+    /// The largest change of the bar's length between two consecutive blocks, µm, on a perfect
+    /// machine. The controls interpolate a block in joint space (every axis linear, no
+    /// tool-centre-point control), so between blocks the balls leave the pattern: by the
+    /// sagitta R·Δ²/8 of a pivot circle of radius R turned Δ per block, the bar's share of it
+    /// (its mean over a block, ⅔ of the peak, acts on the fit like a ball offset).
+    pub fn interpolation_error_um(&self) -> f64 {
+        let machine = crate::vmt::machine::Machine002::perfect();
+        let Ok(blocks) = self.run(Direction::Ccw) else {
+            return f64::NAN;
+        };
+        let axes = |b: &ballpod::identify::multitasking::patterns::NcBlock| {
+            [b.x_mm, b.y_mm, b.z_mm, b.b_deg, b.c_deg]
+        };
+        let blocks: Vec<[f64; 5]> = blocks.map(|b| axes(&b)).collect();
+        blocks
+            .windows(2)
+            .map(|w| {
+                let mid: [f64; 5] = std::array::from_fn(|k| 0.5 * (w[0][k] + w[1][k]));
+                machine.delta_l_um(&self.setup, self.step, &mid).abs()
+            })
+            .fold(0.0, f64::max)
+    }
+
+    /// The default blocks per run: the thesis's step (0.2778°: 324 per B quarter, 1296 per C
+    /// revolution), doubled until the interpolation error between blocks is at most
+    /// [`MAX_INTERPOLATION_ERROR_UM`] (or 100 000 blocks).
+    pub fn default_steps(
+        cfg: &Config,
+        step: Pattern,
+        feed_mm_per_min: f64,
+    ) -> Result<usize, NcError> {
+        let mut steps = if model_pattern(step).is_b() {
+            324
+        } else {
+            1296
+        };
+        loop {
+            let t = Self::from_config(cfg, step, steps, feed_mm_per_min, vec![Direction::Ccw])?;
+            if steps * 2 > 100_000 || t.interpolation_error_um() <= MAX_INTERPOLATION_ERROR_UM {
+                return Ok(steps);
+            }
+            steps *= 2;
+        }
+    }
+
     /// The part program in `dialect`.
     pub fn program(&self, dialect: Dialect) -> String {
         let s = &self.setup;
@@ -133,6 +182,10 @@ impl PatternTest {
                 "{} blocks per run, feed {} mm/min on the linear axes",
                 self.steps,
                 num(self.feed_mm_per_min)
+            ),
+            format!(
+                "joint-space interpolation: the bar leaves the pattern by up to {} um between blocks",
+                num(self.interpolation_error_um())
             ),
             format!(
                 "pod set-up: pattern {}; the pod runs one test per direction: arm it before each run",

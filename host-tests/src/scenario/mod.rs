@@ -268,6 +268,7 @@ fn seed002_ballbar(s: &Scenario) -> Result<Vec<Check>, String> {
         feed_mm_per_min: s.feed_mm_per_min.unwrap_or(1000.0),
         seed002: true,
         circle: false,
+        nc_dir: None,
     };
     let sim = simulate(&m, &o, &mut |_, _, _| {})?;
     let truth = m.seed002.deviations();
@@ -305,6 +306,7 @@ fn iso230_4(s: &Scenario) -> Result<Vec<Check>, String> {
         feed_mm_per_min: 1000.0,
         seed002: false,
         circle: true,
+        nc_dir: None,
     };
     let sim = simulate(&m, &o, &mut |_, _, _| {})?;
     let r = &sim.report;

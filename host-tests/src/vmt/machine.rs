@@ -77,6 +77,21 @@ impl Default for Machine002 {
 }
 
 impl Machine002 {
+    /// A machine without deviations or ball offsets.
+    pub fn perfect() -> Self {
+        Self {
+            alpha_bt_arcsec: 0.0,
+            alpha_xb_arcsec: 0.0,
+            beta_xb_arcsec: 0.0,
+            gamma_xb_arcsec: 0.0,
+            dx_cz_um: 0.0,
+            dy_cz_um: 0.0,
+            alpha_cz_arcsec: 0.0,
+            beta_cz_arcsec: 0.0,
+            ..Self::default()
+        }
+    }
+
     /// The 13 deviations in the core's units (µm / µrad).
     pub fn deviations(&self) -> Deviations {
         let a = arcsec_to_urad;
@@ -100,28 +115,10 @@ impl Machine002 {
     /// At pattern angle `angle_rad` of `step`: the true bar-length deviation (µm, ball
     /// distance − L_B) and the axis positions the encoders read (X, Y, Z mm; B, C degrees).
     pub fn pose(&self, setup: &Setup, step: Pattern, angle_rad: f64) -> (f64, [f64; 5]) {
-        let g = setup.geometry(step);
-        let c = command(model_pattern(step), &g, angle_rad);
-        let d = self.deviations().to_array();
-        let t = fwd::t_ball(
-            &d,
-            c.x_mm,
-            c.y_mm,
-            c.z_mm,
-            c.b_rad,
-            g.r_b_mm,
-            self.t_offset_um,
-        );
-        let xw = if model_pattern(step).is_b() {
-            0.0
-        } else {
-            g.r_c_mm
-        };
-        let w = fwd::w_ball(&d, c.c_rad, g.z_c_mm, g.r_b_mm, xw, self.w_offset_um);
-        let dist = ((t[0] - w[0]).powi(2) + (t[1] - w[1]).powi(2) + (t[2] - w[2]).powi(2)).sqrt();
+        let c = command(model_pattern(step), &setup.geometry(step), angle_rad);
         let o = &setup.offset;
         (
-            (dist - g.l_b_mm) * 1e3,
+            self.model_delta_l_um(setup, step, [c.x_mm, c.y_mm, c.z_mm], c.b_rad, c.c_rad),
             [
                 c.x_mm + o.x_mm,
                 c.y_mm + o.y_mm,
@@ -130,6 +127,38 @@ impl Machine002 {
                 c.c_rad.to_degrees(),
             ],
         )
+    }
+
+    /// The true bar-length deviation (µm, ball distance − L_B) of `step`'s bar with the axes
+    /// commanded to `axes` (machine coordinates: X, Y, Z mm; B, C degrees), wherever they are
+    /// (on the pattern or between two of an NC program's blocks).
+    pub fn delta_l_um(&self, setup: &Setup, step: Pattern, axes: &[f64; 5]) -> f64 {
+        let o = &setup.offset;
+        let [x, y, z, b_deg, c_deg] = *axes;
+        let xyz = [x - o.x_mm, y - o.y_mm, z - o.z_mm];
+        self.model_delta_l_um(setup, step, xyz, b_deg.to_radians(), c_deg.to_radians())
+    }
+
+    /// The same from model-frame X, Y, Z (mm) and B, C (rad).
+    fn model_delta_l_um(
+        &self,
+        setup: &Setup,
+        step: Pattern,
+        [x, y, z]: [f64; 3],
+        b_rad: f64,
+        c_rad: f64,
+    ) -> f64 {
+        let g = setup.geometry(step);
+        let d = self.deviations().to_array();
+        let t = fwd::t_ball(&d, x, y, z, b_rad, g.r_b_mm, self.t_offset_um);
+        let xw = if model_pattern(step).is_b() {
+            0.0
+        } else {
+            g.r_c_mm
+        };
+        let w = fwd::w_ball(&d, c_rad, g.z_c_mm, g.r_b_mm, xw, self.w_offset_um);
+        let dist = ((t[0] - w[0]).powi(2) + (t[1] - w[1]).powi(2) + (t[2] - w[2]).powi(2)).sqrt();
+        (dist - g.l_b_mm) * 1e3
     }
 }
 

@@ -16,12 +16,15 @@
 //!   thermistor, probe edges), with fault injection;
 //! - [`motion`]: the virtual CNC of `sim --serve` (each pattern's motion, the chapter 5 probe
 //!   sequence);
+//! - [`nc_motion`]: a part program's path through LinuxCNC's interpreter (`rs274 -g`), run by
+//!   run, sampled at the pod's rate (`sim --nc`);
 //! - [`virtual_pod`]: the pod's application with its log, stream, CANopen slave and SCPI
 //!   server on those sensors, behind `sim --serve`, the simulator and the fault-scenario tests.
 
 pub mod lvdt_channel;
 pub mod machine;
 pub mod motion;
+pub mod nc_motion;
 pub mod probe_rig;
 pub mod rtest_rig;
 pub mod sensors;

@@ -103,3 +103,43 @@ def test_a_program_without_runs_is_refused_with_its_name(tmp_path):
                        capture_output=True, text=True, timeout=600)
     assert p.returncode != 0
     assert "CA.ngc" in p.stderr and "0 data runs" in p.stderr, p.stderr
+
+
+def canon_points(path):
+    """The end points (X Y Z B C) of the feed and traverse moves rs274 makes of a program."""
+    p = subprocess.run(["rs274", "-g", str(path)], capture_output=True, text=True, timeout=120)
+    assert p.returncode == 0, p.stdout + p.stderr
+    pts = []
+    for line in p.stdout.splitlines():
+        for name in ("STRAIGHT_FEED(", "STRAIGHT_TRAVERSE("):
+            if name in line:
+                a = [float(x) for x in line.split(name)[1].rstrip(")").split(",")]
+                pts.append((a[0], a[1], a[2], a[4], a[5]))
+    return pts
+
+
+def test_corrected_programs_are_interpreted_as_their_comments_say(tmp_path):
+    # ncgen correct with the simulated pod's identification: every corrected program is
+    # accepted by LinuxCNC's interpreter, moves through as many points, B and C as programmed,
+    # X Y Z moved by what each block's comment states (um, to the words' 0.1 um)
+    d = programs(tmp_path)
+    out = tmp_path / "nc_session"
+    p = subprocess.run([SIM, "--repeats", "1", "--out", str(out), "--nc", str(d)],
+                       capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    setup = tmp_path / "setup.toml"
+    for s in STEPS:
+        corrected = tmp_path / f"{s}_corrected.ngc"
+        p = subprocess.run([NCGEN, "correct", str(d / f"{s}.ngc"), str(setup),
+                            str(out / "results.json"), "--out", str(corrected)],
+                           capture_output=True, text=True, timeout=60)
+        assert p.returncode == 0, p.stderr
+        moved = [[float(v) for v in line.split("(moved X ")[1].split(" um")[0]
+                  .replace("Y ", "").replace("Z ", "").split()]
+                 for line in corrected.read_text().splitlines() if "(moved X " in line]
+        before, after = canon_points(d / f"{s}.ngc"), canon_points(corrected)
+        assert len(before) == len(after) == len(moved), (s, len(before), len(after), len(moved))
+        for b, a, m in zip(before, after, moved):
+            assert (a[3], a[4]) == (b[3], b[4]), "B and C as programmed"
+            for k in range(3):
+                assert abs((a[k] - b[k]) * 1e3 - m[k]) <= 0.06, (s, b, a, m)

@@ -3,15 +3,20 @@
 //! an ISO/Fanuc control: the ISO 230-4 circle from the pod's set-up (a TOML / JSON file with a
 //! `[setup]` table of configuration fields, as replay's session files: `circle_plane`,
 //! `circle_centre_*`, `circle_radius`, `circle_feed`), a seed 002 procedure pattern from its
-//! `s002_*` fields, or a touch-probe sphere measurement. Prints the program, or writes it with `--out`. A set-up
-//! the machine cannot run is refused with the field named; nothing is written.
+//! `s002_*` fields, or a touch-probe sphere measurement; `cargo ncgen -- correct PROGRAM SETUP
+//! RESULTS` rewrites a program for the identified deviations (seed 002 chapter 3). Prints the
+//! program, or writes it with `--out`. A set-up the machine cannot run is refused with the field
+//! named; nothing is written.
 
 use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
 
 use ballpod::app::Direction;
-use ballpod_host::ncgen::{CircleOptions, CircleTest, Dialect, PatternTest, SphereTest};
+use ballpod_host::ncgen::{
+    CircleOptions, CircleTest, Dialect, PatternTest, SphereTest, correct_program,
+    deviations_from_results,
+};
 use ballpod_host::session_file::{read_text, setup_config};
 
 /// The control the program is for.
@@ -57,6 +62,20 @@ enum Test {
     Pattern(PatternArgs),
     /// A touch-probe sphere measurement (pattern PROBE): nine touches along the normals.
     Sphere(SphereArgs),
+    /// A program's G0/G1 points corrected for the identified deviations (seed 002 ch. 3; the
+    /// program keeps its dialect).
+    Correct(CorrectArgs),
+}
+
+/// The program to correct and where the deviations come from.
+#[derive(clap::Args, Debug)]
+struct CorrectArgs {
+    /// The NC program (G0/G1 points of X Y Z B C, machine coordinates).
+    program: PathBuf,
+    /// Set-up file with the model frame's origin (`s002_origin_x/y/z`).
+    setup: PathBuf,
+    /// Results file with the identified deviations (`results.json` of sim or replay).
+    results: PathBuf,
 }
 
 /// The circle's options (the geometry is the set-up's).
@@ -170,6 +189,26 @@ fn run(args: &Args) -> Result<String, String> {
             let test = PatternTest::from_config(&cfg, step, steps, p.feed, directions(p.direction))
                 .map_err(|e| format!("{}: {e}", p.setup.display()))?;
             Ok(test.program(dialect))
+        }
+        Test::Correct(c) => {
+            let read = |p: &PathBuf| {
+                std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))
+            };
+            let program = read(&c.program)?;
+            let text = read_text(&c.setup).map_err(|e| e.to_string())?;
+            let cfg = setup_config(&c.setup, &text).map_err(|e| e.to_string())?;
+            let origin = cfg.setup.s002_origin_mm.map(f64::from);
+            if origin.iter().any(|v| v.is_nan()) {
+                return Err(format!("{}: s002_origin_x/y/z: not set", c.setup.display()));
+            }
+            let dev = deviations_from_results(&read(&c.results)?)
+                .map_err(|e| format!("{}: {e}", c.results.display()))?;
+            let name = c.results.file_name().map_or_else(
+                || c.results.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            correct_program(&program, origin, &dev, &name)
+                .map_err(|e| format!("{}: {e}", c.program.display()))
         }
         Test::Sphere(s) => {
             let centre = [0, 1, 2].map(|k| s.centre.get(k).copied().unwrap_or(f64::NAN));

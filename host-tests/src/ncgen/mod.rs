@@ -3,7 +3,8 @@
 //! from the pod's own set-up (`circle_*` fields), the seed 002 procedure's patterns BX, BY, CR,
 //! CA, CR2 ([`PatternTest`], `s002_*` fields) and the touch-probe sphere measurement
 //! ([`SphereTest`]), in two dialects ([`Dialect`]: LinuxCNC and ISO/Fanuc), every dialect
-//! difference in `dialect.rs`.
+//! difference in `dialect.rs`; and a program corrected for the identified deviations
+//! ([`correct_program`], seed 002 chapter 3).
 //!
 //! A circle test per direction, as ball-bar users know it: rapid to the **feed-in** point (the
 //! start angle, `feed_in_mm` outside the radius: the bar extended), a radial feed move onto the
@@ -15,10 +16,12 @@
 //! the first feed-in point when the bar is mounted. The pod's run covers the data arc (armed before, started on it or by the CNC,
 //! stopped at its end); comments mark where it begins and ends.
 
+mod correct;
 mod dialect;
 mod pattern;
 mod sphere;
 
+pub use correct::{correct_program, deviations_from_results};
 pub use dialect::Dialect;
 pub use pattern::PatternTest;
 pub use sphere::SphereTest;

@@ -1,0 +1,122 @@
+//! `cargo ncgen -- correct` (seed 002 chapter 3 compensation out as a part program): the five
+//! pattern programs corrected with the deviations the simulated pod identified, each block's
+//! point checked with the independent forward model (`forward_seed002::actual_and_ideal`, the
+//! literal HTM chain): on a machine with the identified deviations the corrected commands land
+//! on the ideal workpiece points (to the program's 0.1 µm resolution); on the true machine
+//! within the identification's accuracy, where the uncorrected program misses by tens of µm.
+//! Bad programs are refused with the line named.
+use ballpod::app::Pattern;
+use ballpod::identify::multitasking::Deviations;
+use ballpod_host::forward_seed002 as fwd;
+use ballpod_host::ncgen::{Dialect, PatternTest, correct_program, deviations_from_results};
+use ballpod_host::simulate::{SimOptions, simulate};
+use ballpod_host::vmt::machine::MachineFile;
+
+/// The X Y Z B C of every G0/G1 block (the programs write all five words).
+fn points(program: &str) -> Vec<[f64; 5]> {
+    program
+        .lines()
+        .filter(|l| l.starts_with("G0 ") || l.starts_with("G1 "))
+        .map(|l| {
+            let code = l.split('(').next().unwrap_or("");
+            let mut p = [f64::NAN; 5];
+            for w in code.split_whitespace() {
+                if let Some(k) = "XYZBC".find(&w[..1]) {
+                    p[k] = w[1..].parse().unwrap();
+                }
+            }
+            assert!(p.iter().all(|v| v.is_finite()), "{l}");
+            p
+        })
+        .collect()
+}
+
+/// |actual − ideal| of commanding `cmd` for the ideal point of `nominal`, µm.
+fn miss_um(d: &Deviations, nominal: &[f64; 5], cmd: &[f64; 5]) -> f64 {
+    let (b, c) = (nominal[3].to_radians(), nominal[4].to_radians());
+    let (_, ideal) =
+        fwd::actual_and_ideal(&d.to_array(), [nominal[0], nominal[1], nominal[2]], b, c);
+    let (act, _) = fwd::actual_and_ideal(&d.to_array(), [cmd[0], cmd[1], cmd[2]], b, c);
+    (0..3)
+        .map(|k| (act[k] - ideal[k]).powi(2))
+        .sum::<f64>()
+        .sqrt()
+        * 1e3
+}
+
+#[test]
+fn corrected_programs_reach_the_ideal_points() {
+    let m = MachineFile::default();
+    let o = SimOptions {
+        repeats: 1,
+        circle: false,
+        ..SimOptions::default()
+    };
+    let sim = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");
+    let identified = deviations_from_results(&sim.report.to_json().unwrap()).unwrap();
+    let truth = m.seed002.deviations();
+    let cfg = {
+        let mut c = ballpod::config::Config::default();
+        ballpod::app::seed002::Setup::thesis_table_4_3().to_config(&mut c.setup);
+        c
+    };
+    for step in Pattern::SEED002 {
+        let steps = PatternTest::default_steps(&cfg, step, 1000.0).unwrap();
+        let test = PatternTest::from_config(
+            &cfg,
+            step,
+            steps,
+            1000.0,
+            vec![ballpod::app::Direction::Ccw],
+        )
+        .unwrap();
+        let program = test.program(Dialect::LinuxCnc);
+        let corrected = correct_program(&program, [0.0; 3], &identified, "results.json").unwrap();
+        let (nominal, cmd) = (points(&program), points(&corrected));
+        assert_eq!(nominal.len(), cmd.len());
+        let (mut on_model, mut on_truth, mut uncorrected) = (0.0f64, 0.0f64, f64::INFINITY);
+        for (n, c) in nominal.iter().zip(&cmd) {
+            assert_eq!((n[3], n[4]), (c[3], c[4]), "B and C as programmed");
+            on_model = on_model.max(miss_um(&identified, n, c));
+            on_truth = on_truth.max(miss_um(&truth, n, c));
+            uncorrected = uncorrected.min(miss_um(&truth, n, n));
+        }
+        let name = step.name();
+        // 4 decimals per word: ≤ 0.05 µm per axis
+        assert!(
+            on_model < 0.09,
+            "{name}: {on_model} µm on the identified machine"
+        );
+        assert!(on_truth < 0.5, "{name}: {on_truth} µm on the true machine");
+        assert!(
+            uncorrected > 50.0 * on_truth,
+            "{name}: uncorrected {uncorrected} µm"
+        );
+        println!(
+            "{name}: corrected miss {on_truth:.3} µm (identified machine {on_model:.3}), uncorrected ≥ {uncorrected:.1} µm"
+        );
+    }
+}
+
+#[test]
+fn bad_programs_and_results_are_refused_naming_what() {
+    let dev = Deviations::default();
+    let arc = "G21 G90\nG1 X1 Y0 Z0 B0 C0 F100\nG2 X0 Y1 I-1 J0\n";
+    let e = correct_program(arc, [0.0; 3], &dev, "r").unwrap_err();
+    assert!(e.what.contains("line 3"), "{e}");
+    let early = "X1 Y2 Z3\n";
+    assert!(
+        correct_program(early, [0.0; 3], &dev, "r")
+            .unwrap_err()
+            .what
+            .contains("before any G0/G1")
+    );
+    let missing = r#"{"results": [{"name": "dx_BT", "value": 0.1}]}"#;
+    assert!(
+        deviations_from_results(missing)
+            .unwrap_err()
+            .what
+            .contains("dz_BT not identified")
+    );
+    assert!(deviations_from_results("not json").is_err());
+}

@@ -316,3 +316,55 @@ def test_a_pattern_set_up_without_a_length_is_refused_naming_the_field(tmp_path)
     assert p.returncode == 1 and p.stdout == "" and "s002_r_c" in p.stderr, p.stderr
     p = pattern_program(tmp_path, "CIRCLE", S002)
     assert p.returncode == 1 and p.stdout == "" and "PATTERN" in p.stderr, p.stderr
+
+
+SSM_CASES = [
+    # socket, target, separation, stations
+    ((0.0, 0.0, -150.0), (0.0, 0.0, 0.0), 10.0, 4),
+    ((100.0, -50.0, 20.0), (180.0, -50.0, 147.0), 5.0, 3),
+    ((-20.0, 30.0, 0.0), (-20.0, 200.0, 30.0), 20.0, 8),
+]
+
+
+@pytest.mark.parametrize("socket,target,separation,stations", SSM_CASES)
+def test_ssm_station_sets_dwell_on_the_sphere_and_move_on_it(tmp_path, socket, target, separation,
+                                                             stations):
+    bar = 150.0
+    f = tmp_path / "ssm.toml"
+    f.write_text("[setup]\n" + f"bar_length = {bar}\n" + "".join(
+        f"ssm_socket_{k} = {v}\n" for k, v in zip("xyz", socket)))
+    p = subprocess.run([NCGEN, "ssm", str(f), "--target", *map(str, target),
+                        "--separation-deg", str(separation), "--stations", str(stations)],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+    cmds = interpret(tmp_path, p.stdout)
+    pos, dwells, feeds = None, [], []
+    for name, a in cmds:
+        if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
+            nxt = [float(x) for x in a[:6]]
+            assert nxt[3:] == [0.0, 0.0, 0.0], "the rotary axes are not moved"
+            if name == "STRAIGHT_FEED":
+                feeds.append((pos, nxt[:3]))
+            pos = nxt[:3]
+        elif name == "DWELL":
+            dwells.append((pos, float(a[0])))
+    r = lambda q: math.dist(q, socket)
+    # the pod's defaults: settle 100 ms + 2 x 100 samples at 1 kHz = 0.3 s
+    assert len(dwells) == stations and all(t >= 0.3 for _, t in dwells), dwells
+    for q, _ in dwells:
+        assert abs(r(q) - bar) < TOL_MM, q
+    u = [[(q[k] - socket[k]) / bar for k in range(3)] for q, _ in dwells]
+    # the first station towards the target, the others `separation` from it
+    def angle(a, b):
+        """The angle between two vectors, degrees (atan2: well conditioned near 0)."""
+        c = [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+        return math.degrees(math.atan2(math.hypot(*c), sum(x * y for x, y in zip(a, b))))
+    to = [target[k] - socket[k] for k in range(3)]
+    assert angle(u[0], to) < 1e-4
+    for d in u[1:]:
+        assert abs(angle(u[0], d) - separation) < 1e-4
+    # every move on the sphere: its ends within 1 um, its chord's middle within 1 um inside
+    for a, b in feeds:
+        mid = [(x + y) / 2 for x, y in zip(a, b)]
+        assert abs(r(a) - bar) < TOL_MM and abs(r(b) - bar) < TOL_MM
+        assert bar - r(mid) < TOL_MM + 1e-4, (a, b)

@@ -201,3 +201,92 @@ fn the_readme_example_writes_its_program() {
     assert_eq!(program.matches("data arc start").count(), 2);
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The SSM station set's golden case: socket 150 mm below the target, bar 150 mm, four
+/// stations 10° apart.
+fn ssm(stations: usize) -> ballpod_host::ncgen::SsmTest {
+    let mut cfg = Config {
+        bar_length_mm: 150.0,
+        ..Config::default()
+    };
+    cfg.setup.ssm_socket_mm = [20.0, -10.0, -150.0];
+    ballpod_host::ncgen::SsmTest::from_config(&cfg, [20.0, -10.0, 0.0], 10.0, stations, 1000.0)
+        .unwrap()
+}
+
+#[test]
+fn the_ssm_station_set_matches_its_golden_file_and_differs_from_linuxcnc_only_in_the_dialect() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nc/ssm_4.nc");
+    let golden = std::fs::read_to_string(&path).unwrap_or_default();
+    let (l, f) = (
+        ssm(4).program(Dialect::LinuxCnc),
+        ssm(4).program(Dialect::Fanuc),
+    );
+    assert_eq!(f, golden, "{}", path.display());
+    // the framing, the comments' case and the dwell word (G4 P seconds / G4 X seconds)
+    let body = |p: &str| -> Vec<String> {
+        p.lines()
+            .filter(|l| !matches!(*l, "%" | "O1000" | "M2" | "M30"))
+            .map(|l| l.replace("G4 P", "G4 X").to_ascii_uppercase())
+            .collect()
+    };
+    assert_eq!(body(&l), body(&f));
+    assert_eq!(
+        (l.matches("G4 P0.3").count(), f.matches("G4 X0.3").count()),
+        (4, 4)
+    );
+}
+
+#[test]
+fn ssm_stations_lie_on_the_bar_sphere_with_the_conditioning_the_spec_tabulates() {
+    // spec seed-000 TV-SSM-cond: three stations, θ = 10°, L = 150: Frobenius cond(U) = 19.9
+    let t = ssm(3);
+    let u: Vec<[f64; 3]> = t
+        .stations_mm()
+        .iter()
+        .map(|p| std::array::from_fn(|k| (p[k] - t.socket_mm[k]) / 150.0))
+        .collect();
+    for d in &u {
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        assert!((n - 1.0).abs() < 1e-12, "on the sphere");
+    }
+    let m = nalgebra::Matrix3::from_fn(|i, j| u[i][j]);
+    let inv = m.try_inverse().expect("not coplanar with the socket");
+    let cond = m.norm() * inv.norm();
+    assert!((cond - 19.9).abs() < 0.05, "cond {cond}");
+    // first station towards the target, the others 10° from it
+    assert!((u[0][2] - 1.0).abs() < 1e-12);
+    for d in &u[1..] {
+        assert!((d[2] - 10f64.to_radians().cos()).abs() < 1e-12);
+    }
+}
+
+#[test]
+fn an_ssm_set_up_the_machine_cannot_run_is_refused_with_the_field() {
+    use ballpod_host::ncgen::SsmTest;
+    let mut cfg = Config::default();
+    let e = SsmTest::from_config(&cfg, [0.0; 3], 10.0, 4, 1000.0).unwrap_err();
+    assert_eq!(e.field, "ssm_socket_x");
+    cfg.setup.ssm_socket_mm = [0.0; 3];
+    assert_eq!(
+        SsmTest::from_config(&cfg, [0.0; 3], 10.0, 4, 1000.0)
+            .unwrap_err()
+            .field,
+        "--target"
+    );
+    let at = [0.0, 0.0, 150.0];
+    for (sep, n, feed, field) in [
+        (0.0, 4, 1000.0, "--separation-deg"),
+        (50.0, 4, 1000.0, "--separation-deg"),
+        (10.0, 2, 1000.0, "--stations"),
+        (10.0, 9, 1000.0, "--stations"),
+        (10.0, 4, 0.0, "--feed"),
+    ] {
+        assert_eq!(
+            SsmTest::from_config(&cfg, at, sep, n, feed)
+                .unwrap_err()
+                .field,
+            field
+        );
+    }
+}

@@ -3,7 +3,8 @@
 //! an ISO/Fanuc control: the ISO 230-4 circle from the pod's set-up (a TOML / JSON file with a
 //! `[setup]` table of configuration fields, as replay's session files: `circle_plane`,
 //! `circle_centre_*`, `circle_radius`, `circle_feed`), a seed 002 procedure pattern from its
-//! `s002_*` fields, or a touch-probe sphere measurement; `cargo ncgen -- correct PROGRAM SETUP
+//! `s002_*` fields, a touch-probe sphere measurement, or an SSM station set from its `ssm_*`
+//! fields (`cargo ncgen -- ssm SETUP --target X Y Z`); `cargo ncgen -- correct PROGRAM SETUP
 //! RESULTS` rewrites a program for the identified deviations (seed 002 chapter 3). Prints the
 //! program, or writes it with `--out`. A set-up the machine cannot run is refused with the field
 //! named; nothing is written.
@@ -14,7 +15,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use ballpod::app::Direction;
 use ballpod_host::ncgen::{
-    CircleOptions, CircleTest, Dialect, PatternTest, SphereTest, correct_program,
+    CircleOptions, CircleTest, Dialect, PatternTest, SphereTest, SsmTest, correct_program,
     deviations_from_results,
 };
 use ballpod_host::session_file::{read_text, setup_config};
@@ -62,9 +63,30 @@ enum Test {
     Pattern(PatternArgs),
     /// A touch-probe sphere measurement (pattern PROBE): nine touches along the normals.
     Sphere(SphereArgs),
+    /// A single-socket-method station set (pattern SSM) from the pod's set-up file.
+    Ssm(SsmArgs),
     /// A program's G0/G1 points corrected for the identified deviations (seed 002 ch. 3; the
     /// program keeps its dialect).
     Correct(CorrectArgs),
+}
+
+/// The station set's place and layout (the socket, bar and dwell detection are the set-up's).
+#[derive(clap::Args, Debug)]
+struct SsmArgs {
+    /// Set-up file (.toml or .json) with a `[setup]` table of configuration fields.
+    setup: PathBuf,
+    /// The point whose error is wanted: the first station is on the bar's sphere towards it.
+    #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true, required = true)]
+    target: Vec<f64>,
+    /// Angle between the first station and its neighbours, degrees.
+    #[arg(long, default_value_t = 10.0, allow_negative_numbers = true)]
+    separation_deg: f64,
+    /// Stations, the first included (3 … 8).
+    #[arg(long, default_value_t = 4)]
+    stations: usize,
+    /// Feed between stations, mm/min.
+    #[arg(long, default_value_t = 1000.0, allow_negative_numbers = true)]
+    feed: f64,
 }
 
 /// The program to correct and where the deviations come from.
@@ -188,6 +210,14 @@ fn run(args: &Args) -> Result<String, String> {
             };
             let test = PatternTest::from_config(&cfg, step, steps, p.feed, directions(p.direction))
                 .map_err(|e| format!("{}: {e}", p.setup.display()))?;
+            Ok(test.program(dialect))
+        }
+        Test::Ssm(a) => {
+            let text = read_text(&a.setup).map_err(|e| e.to_string())?;
+            let cfg = setup_config(&a.setup, &text).map_err(|e| e.to_string())?;
+            let target = [0, 1, 2].map(|k| a.target.get(k).copied().unwrap_or(f64::NAN));
+            let test = SsmTest::from_config(&cfg, target, a.separation_deg, a.stations, a.feed)
+                .map_err(|e| format!("{}: {e}", a.setup.display()))?;
             Ok(test.program(dialect))
         }
         Test::Correct(c) => {

@@ -8,10 +8,10 @@ use ballpod::config::CirclePlane;
 /// The control a program is written for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dialect {
-    /// LinuxCNC (RS274/NGC): ends with `M2`; probing `G38.2`.
+    /// LinuxCNC (RS274/NGC): ends with `M2`; probing `G38.2`; dwell `G4 P` seconds.
     LinuxCnc,
     /// ISO / Fanuc style: `%`, an `O` program number, upper-case comments, `M30`, `%`;
-    /// probing `G31` (skip).
+    /// probing `G31` (skip); dwell `G4 X` seconds.
     Fanuc,
 }
 
@@ -65,6 +65,15 @@ impl Dialect {
         match self {
             Self::LinuxCnc => "G38.2",
             Self::Fanuc => "G31",
+        }
+    }
+
+    /// A dwell of `seconds`: LinuxCNC's `G4 P` takes seconds, an ISO/Fanuc control's `G4 P`
+    /// milliseconds, so there the seconds go in `X` (with the decimal point).
+    pub fn dwell(self, seconds: f64) -> String {
+        match self {
+            Self::LinuxCnc => format!("G4 P{}", super::num(seconds)),
+            Self::Fanuc => format!("G4 X{}", super::num(seconds)),
         }
     }
 

@@ -1,8 +1,8 @@
 //! Part programs for the pod's tests (`cargo ncgen`): the machine moves through the test the
 //! pod measures. Today: the ISO 230-4 circle (full or partial arc) in XY, YZ or ZX, CCW and CW,
 //! from the pod's own set-up (`circle_*` fields), the seed 002 procedure's patterns BX, BY, CR,
-//! CA, CR2 ([`PatternTest`], `s002_*` fields) and the touch-probe sphere measurement
-//! ([`SphereTest`]), in two dialects ([`Dialect`]: LinuxCNC and ISO/Fanuc), every dialect
+//! CA, CR2 ([`PatternTest`], `s002_*` fields), the touch-probe sphere measurement
+//! ([`SphereTest`]) and the single-socket-method station set ([`SsmTest`], `ssm_*` fields), in two dialects ([`Dialect`]: LinuxCNC and ISO/Fanuc), every dialect
 //! difference in `dialect.rs`; and a program corrected for the identified deviations
 //! ([`correct_program`], seed 002 chapter 3).
 //!
@@ -20,11 +20,13 @@ mod correct;
 mod dialect;
 mod pattern;
 mod sphere;
+mod ssm;
 
 pub use correct::{correct_program, deviations_from_results};
 pub use dialect::Dialect;
 pub use pattern::PatternTest;
 pub use sphere::SphereTest;
+pub use ssm::SsmTest;
 
 use std::fmt::Write as _;
 

@@ -1,9 +1,10 @@
 """NC program -> LinuxCNC's interpreter -> virtual machine -> pod -> results: the seed 002
-procedure's five pattern programs (`ncgen pattern`, the thesis's Table 4.3 set-up) run through
-`rs274 -g` by `sim --nc DIR`, which samples the interpreted path (joint-space interpolation
-between the blocks, as the controls move) into the virtual machine and the simulated pod. The
-identified deviations are compared with the machine's truth (truth.json) and with the same
-session on the simulator's built-in motion (the exact pattern at every sample).
+procedure's five pattern programs (`ncgen pattern`, the thesis's Table 4.3 set-up) and the
+ISO 230-4 circle (`ncgen circle`) run through `rs274 -g` by `sim --nc DIR`, which samples the
+interpreted path (joint-space interpolation between the blocks, as the controls move) into the
+virtual machine and the simulated pod. The results are compared with the machine's truth
+(truth.json) and with the same session on the simulator's built-in motion (the exact pattern at
+every sample).
 
 Run by .ci/run: BALLPOD_NCGEN=<ncgen> BALLPOD_SIM=<sim> python3 -m pytest host-tests/nc
 """
@@ -143,3 +144,31 @@ def test_corrected_programs_are_interpreted_as_their_comments_say(tmp_path):
             assert (a[3], a[4]) == (b[3], b[4]), "B and C as programmed"
             for k in range(3):
                 assert abs((a[k] - b[k]) * 1e3 - m[k]) <= 0.06, (s, b, a, m)
+
+
+def test_the_interpreted_circle_diagnoses_the_machine_as_the_built_in_motion_does(tmp_path):
+    # the simulator's circle (XY about the origin, R 150, F1000) from `ncgen circle`: its data
+    # arcs, interpreted, give the ISO 230-4 figures and diagnoses of the built-in motion
+    d = programs(tmp_path)
+    setup = tmp_path / "circle.toml"
+    setup.write_text('[setup]\ncircle_plane = "XY"\ncircle_centre_x = 0.0\n'
+                     'circle_centre_y = 0.0\ncircle_radius = 150.0\ncircle_feed = 1000.0\n')
+    p = subprocess.run([NCGEN, "circle", str(setup), "--out", str(d / "CIRCLE.ngc")],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+    def iso(name, *args):
+        out = tmp_path / name
+        p = subprocess.run([SIM, "--repeats", "1", "--out", str(out), *args],
+                           capture_output=True, text=True, timeout=600)
+        assert p.returncode == 0, p.stdout + p.stderr
+        r = {x["name"]: x["value"] for x in json.loads((out / "results.json").read_text())["results"]}
+        return r, json.loads((out / "truth.json").read_text())["circle"]
+    nc, truth = iso("nc", "--nc", str(d))
+    built_in, _ = iso("built_in")
+    for k in ("G_ccw", "G_cw", "G_bidir", "H"):
+        assert abs(nc[k] - built_in[k]) < 0.01 * built_in[k], (k, nc[k], built_in[k])
+    for k, t in (("squareness", truth["squareness_urad"]), ("cyclic_amplitude",
+                                                             truth["cyclic_amplitude_um"])):
+        assert abs(nc[k] - t) < 0.1 * abs(t), (k, nc[k], t)
+        assert abs(nc[k] - built_in[k]) < 0.01 * abs(t), (k, nc[k], built_in[k])
+    assert nc["cyclic_order"] == truth["cyclic_order"]

@@ -31,7 +31,8 @@ pub struct SimOptions {
     /// Run the ISO 230-4 circle.
     pub circle: bool,
     /// The seed 002 steps from part programs: `BX.ngc`, `BY.ngc`, `CR.ngc`, `CA.ngc`,
-    /// `CR2.ngc` in this directory (`cargo ncgen -- pattern`), through LinuxCNC's interpreter
+    /// `CR2.ngc` in this directory (`cargo ncgen -- pattern`), and the ISO 230-4 circle from
+    /// `CIRCLE.ngc` if it is there (`cargo ncgen -- circle`), through LinuxCNC's interpreter
     /// ([`crate::vmt::nc_motion`]), instead of the built-in motion.
     pub nc_dir: Option<std::path::PathBuf>,
 }
@@ -116,25 +117,28 @@ pub fn run_poses(
     Ok(())
 }
 
+/// The data runs of the program `file` through LinuxCNC's interpreter: one CCW and one CW run,
+/// or why not (`generator`: the `cargo ncgen` command that writes such a program).
+fn nc_runs(file: &std::path::Path, generator: &str) -> Result<Vec<NcRun>, String> {
+    let runs = nc_motion::runs(&nc_motion::interpret(file)?)
+        .map_err(|e| format!("{}: {e}", file.display()))?;
+    let has = |d| runs.iter().filter(|r| r.direction == d).count() == 1;
+    if runs.len() != 2 || !has(Direction::Cw) || !has(Direction::Ccw) {
+        return Err(format!(
+            "{}: {} data runs; it needs one CCW and one CW run (cargo ncgen -- {generator})",
+            file.display(),
+            runs.len()
+        ));
+    }
+    Ok(runs)
+}
+
 /// The data runs of each seed 002 step's program in `dir` (`<STEP>.ngc`, in
-/// [`Pattern::SEED002`] order) through LinuxCNC's interpreter: each a CW and a CCW run.
+/// [`Pattern::SEED002`] order).
 fn nc_programs(dir: &std::path::Path) -> Result<Vec<Vec<NcRun>>, String> {
     Pattern::SEED002
         .into_iter()
-        .map(|step| {
-            let file = dir.join(format!("{}.ngc", step.name()));
-            let runs = nc_motion::runs(&nc_motion::interpret(&file)?)
-                .map_err(|e| format!("{}: {e}", file.display()))?;
-            let has = |d| runs.iter().filter(|r| r.direction == d).count() == 1;
-            if runs.len() != 2 || !has(Direction::Cw) || !has(Direction::Ccw) {
-                return Err(format!(
-                    "{}: {} data runs; a step needs one CW and one CCW run (cargo ncgen -- pattern)",
-                    file.display(),
-                    runs.len()
-                ));
-            }
-            Ok(runs)
-        })
+        .map(|step| nc_runs(&dir.join(format!("{}.ngc", step.name())), "pattern"))
         .collect()
 }
 
@@ -232,12 +236,42 @@ pub fn simulate(
             })
             .map_err(bad)?;
         let n = c.samples_per_rev(rate);
+        // the data arcs of the circle's program, if the directory has one (`CIRCLE.ngc`,
+        // `ncgen circle` of this circle: XY about the origin)
+        let program = match &o.nc_dir {
+            Some(dir) if dir.join("CIRCLE.ngc").exists() => {
+                Some(nc_runs(&dir.join("CIRCLE.ngc"), "circle")?)
+            }
+            _ => None,
+        };
         for dir in [Direction::Ccw, Direction::Cw] {
             let name = format!("iso230_4_{}.csv", dir.name());
             progress(names.len(), total, &name);
             let s = dir.sign();
-            let poses =
-                (0..n).map(|i| c.pose(s * 2.0 * std::f64::consts::PI * i as f64 / n as f64, s));
+            let arc = program
+                .as_ref()
+                .and_then(|p| p.iter().find(|r| r.direction == dir));
+            let angles: Vec<f64> = match arc {
+                // the commanded angle of each interpreted sample about the centre, unwrapped
+                // from the data arc's start (the machine's faults are a function of it)
+                Some(run) => {
+                    let mut last = 0.0f64;
+                    run.samples(rate)
+                        .iter()
+                        .map(|p| {
+                            let a = p[1].atan2(p[0]);
+                            let tau = std::f64::consts::TAU;
+                            last += (a - last + std::f64::consts::PI).rem_euclid(tau)
+                                - std::f64::consts::PI;
+                            last
+                        })
+                        .collect()
+                }
+                None => (0..n)
+                    .map(|i| s * 2.0 * std::f64::consts::PI * i as f64 / n as f64)
+                    .collect(),
+            };
+            let poses = angles.into_iter().map(|theta| c.pose(theta, s));
             run_poses(&mut vp, &mut report, &name, Pattern::Circle, dir, poses)?;
             names.push(name);
         }

@@ -16,7 +16,7 @@ const CIRCLE: &str = r#"    7 N..... COMMENT("ballpod ISO 230-4 circle test, pla
    20 N..... STRAIGHT_FEED(150.0000, 0.0000, 0.0000, 0.0000, 0.0000, 0.0000)
    21 N..... COMMENT("CCW data arc start")
    22 N..... ARC_FEED(150.0000, 0.0000, 0.0000, 0.0000, 1, 0.0000, 0.0000, 0.0000, 0.0000)
-   23 N..... COMMENT("CCW data arc end")
+   23 N..... COMMENT("CCW data arc end, overshoot")
    24 N..... ARC_FEED(106.0660, 106.0660, 0.0000, 0.0000, 1, 0.0000, 0.0000, 0.0000, 0.0000)
 "#;
 

@@ -6,7 +6,8 @@
 //!
 //! **Runs.** The generated programs (`cargo ncgen`) mark each data run with comments:
 //! `(CCW run start)` … `(CCW run end)` for the seed 002 patterns, `(CCW data arc start)` …
-//! `(CCW data arc end)` for the circles; the moves between a start and its end are the run.
+//! `(CCW data arc end, overshoot)` for the circles; the moves between a start and its end are
+//! the run.
 //!
 //! **Time.** As LinuxCNC plans a block in units-per-minute mode (`G94`, feed reference XYZ): a
 //! move that changes X, Y or Z lasts its X Y Z path length over the feed (the rotary axes keep
@@ -177,10 +178,13 @@ fn marker(comment: &str) -> Option<(Direction, bool)> {
         "CW" => Direction::Cw,
         _ => return None,
     };
-    match rest {
-        "run start" | "data arc start" => Some((direction, true)),
-        "run end" | "data arc end" => Some((direction, false)),
-        _ => None,
+    if rest == "run start" || rest == "data arc start" {
+        Some((direction, true))
+    } else if rest.starts_with("run end") || rest.starts_with("data arc end") {
+        // the circles' end comment goes on: `(CCW data arc end, overshoot)`
+        Some((direction, false))
+    } else {
+        None
     }
 }
 

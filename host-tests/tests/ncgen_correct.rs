@@ -104,6 +104,27 @@ fn bad_programs_and_results_are_refused_naming_what() {
     let arc = "G21 G90\nG1 X1 Y0 Z0 B0 C0 F100\nG2 X0 Y1 I-1 J0\n";
     let e = correct_program(arc, [0.0; 3], &dev, "r").unwrap_err();
     assert!(e.what.contains("line 3"), "{e}");
+    // a dwell's X (its time on an ISO/Fanuc control) is not a point: passed unchanged
+    let dwell = "G21 G90\nG1 X1 Y0 Z0 B0 C0 F100\nG4 X0.3\nG1 X2\n";
+    let c = correct_program(dwell, [0.0; 3], &dev, "r").unwrap();
+    assert!(
+        c.contains("\nG4 X0.3\n") && c.contains("G1 X2.0000 Y0.0000 Z0.0000"),
+        "{c}"
+    );
+    let partial = "G1 X1 F100\n";
+    assert!(
+        correct_program(partial, [0.0; 3], &dev, "r")
+            .unwrap_err()
+            .what
+            .contains("Y not programmed yet")
+    );
+    let offset = "G1 X1 Y0 Z0 B0 C0 F100\nG92 X0\n";
+    assert!(
+        correct_program(offset, [0.0; 3], &dev, "r")
+            .unwrap_err()
+            .what
+            .contains("G92")
+    );
     let early = "X1 Y2 Z3\n";
     assert!(
         correct_program(early, [0.0; 3], &dev, "r")

@@ -91,7 +91,10 @@ fn words(code: &str) -> Result<Vec<(char, String)>, String> {
 }
 
 /// `program` with every linear block corrected for `dev`, the model frame's origin at
-/// `origin_mm` (machine coordinates); `source` names the results in the header comment.
+/// `origin_mm` (machine coordinates); `source` names the results in the header comment. Every
+/// move must know all five axes (the first one programs X Y Z B C); dwells (`G4`) pass
+/// unchanged; reference returns, machine-coordinate moves and offset settings (`G10`, `G28`,
+/// `G30`, `G52`, `G53`, `G92`) are refused.
 pub fn correct_program(
     program: &str,
     origin_mm: [f64; 3],
@@ -102,8 +105,9 @@ pub fn correct_program(
         field: "PROGRAM",
         what: format!("line {}: {what}", line + 1),
     };
-    // modal state: motion mode and the position (machine coordinates: X Y Z mm, B C deg)
-    let (mut motion, mut pos) = (None::<u32>, [0.0f64; 5]);
+    // modal state: motion mode and the position (machine coordinates: X Y Z mm, B C deg) with
+    // the axes programmed so far (the others' positions are not known)
+    let (mut motion, mut pos, mut known) = (None::<u32>, [0.0f64; 5], [false; 5]);
     // an ISO/Fanuc program (ncgen's `%` dialect) takes upper-case comments
     let fanuc = program.trim_start().starts_with('%');
     let note = |s: String| if fanuc { s.to_uppercase() } else { s };
@@ -131,6 +135,29 @@ pub fn correct_program(
             header_done = true;
         }
         let w = words(code).map_err(|e| bad(i, e))?;
+        let g_codes: Vec<u32> = w
+            .iter()
+            .filter(|(c, _)| *c == 'G')
+            .filter_map(|(_, n)| n.parse::<f64>().ok())
+            .map(|g| g as u32)
+            .collect();
+        // a dwell's X is its time on an ISO/Fanuc control: the block is not a move
+        if g_codes.contains(&4) {
+            out.push_str(line);
+            out.push('\n');
+            continue;
+        }
+        // reference returns, machine coordinates and offset settings take axis words that are
+        // not a point of the path
+        if let Some(g) = g_codes
+            .iter()
+            .find(|g| matches!(g, 10 | 28 | 30 | 52 | 53 | 92))
+        {
+            return Err(bad(
+                i,
+                format!("G{g}: not a point of the path; not corrected"),
+            ));
+        }
         let mut axis_word = false;
         for (c, n) in &w {
             let v = || {
@@ -147,6 +174,7 @@ pub fn correct_program(
                 'X' | 'Y' | 'Z' | 'B' | 'C' => {
                     let k = "XYZBC".find(*c).unwrap_or(0);
                     pos[k] = v()?;
+                    known[k] = true;
                     axis_word = true;
                 }
                 'I' | 'J' | 'K' | 'R' => {
@@ -169,6 +197,13 @@ pub fn correct_program(
                 ));
             }
             None => return Err(bad(i, "a move before any G0/G1".into())),
+        }
+        if let Some(k) = known.iter().position(|k| !k) {
+            let axis = "XYZBC".get(k..=k).unwrap_or("?");
+            return Err(bad(
+                i,
+                format!("{axis} not programmed yet: its position is not known"),
+            ));
         }
         let [x, y, z, b_deg, c_deg] = pos;
         let block = NcBlock {

@@ -101,9 +101,6 @@ fn corrected_programs_reach_the_ideal_points() {
 #[test]
 fn bad_programs_and_results_are_refused_naming_what() {
     let dev = Deviations::default();
-    let arc = "G21 G90\nG1 X1 Y0 Z0 B0 C0 F100\nG2 X0 Y1 I-1 J0\n";
-    let e = correct_program(arc, [0.0; 3], &dev, "r").unwrap_err();
-    assert!(e.what.contains("line 3"), "{e}");
     // a dwell's X (its time on an ISO/Fanuc control) is not a point: passed unchanged
     let dwell = "G21 G90\nG1 X1 Y0 Z0 B0 C0 F100\nG4 X0.3\nG1 X2\n";
     let c = correct_program(dwell, [0.0; 3], &dev, "r").unwrap();
@@ -111,27 +108,18 @@ fn bad_programs_and_results_are_refused_naming_what() {
         c.contains("\nG4 X0.3\n") && c.contains("G1 X2.0000 Y0.0000 Z0.0000"),
         "{c}"
     );
-    let partial = "G1 X1 F100\n";
-    assert!(
-        correct_program(partial, [0.0; 3], &dev, "r")
-            .unwrap_err()
-            .what
-            .contains("Y not programmed yet")
-    );
-    let offset = "G1 X1 Y0 Z0 B0 C0 F100\nG92 X0\n";
-    assert!(
-        correct_program(offset, [0.0; 3], &dev, "r")
-            .unwrap_err()
-            .what
-            .contains("G92")
-    );
-    let early = "X1 Y2 Z3\n";
-    assert!(
-        correct_program(early, [0.0; 3], &dev, "r")
-            .unwrap_err()
-            .what
-            .contains("before any G0/G1")
-    );
+    for (program, says) in [
+        (
+            "G21 G90\nG1 X1 Y0 Z0 B0 C0 F100\nG2 X0 Y1 I-1 J0\n",
+            "line 3",
+        ),
+        ("G1 X1 F100\n", "Y not programmed yet"),
+        ("G1 X1 Y0 Z0 B0 C0 F100\nG92 X0\n", "G92"),
+        ("X1 Y2 Z3\n", "before any G0/G1"),
+    ] {
+        let e = correct_program(program, [0.0; 3], &dev, "r").unwrap_err();
+        assert!(e.what.contains(says), "{program:?}: {e}");
+    }
     let missing = r#"{"results": [{"name": "dx_BT", "value": 0.1}]}"#;
     assert!(
         deviations_from_results(missing)

@@ -135,12 +135,19 @@ pub fn correct_program(
             header_done = true;
         }
         let w = words(code).map_err(|e| bad(i, e))?;
-        let g_codes: Vec<u32> = w
+        let g_codes = w
             .iter()
             .filter(|(c, _)| *c == 'G')
-            .filter_map(|(_, n)| n.parse::<f64>().ok())
-            .map(|g| g as u32)
-            .collect();
+            .map(|(_, n)| {
+                n.parse::<f64>()
+                    .map(|g| g as u32)
+                    .map_err(|_| bad(i, format!("G{n}: not a number")))
+            })
+            .collect::<Result<Vec<u32>, NcError>>()?;
+        // the motion group: G0 G1 (corrected), G2 G3 arcs, G31 / G38 probing
+        if let Some(g) = g_codes.iter().rev().find(|g| matches!(g, 0..=3 | 31 | 38)) {
+            motion = Some(*g);
+        }
         // a dwell's X is its time on an ISO/Fanuc control: the block is not a move
         if g_codes.contains(&4) {
             out.push_str(line);
@@ -165,12 +172,6 @@ pub fn correct_program(
                     .map_err(|_| bad(i, format!("{c}{n}: not a number")))
             };
             match c {
-                // the motion group: G0 G1 (corrected), G2 G3 arcs, G31 / G38 probing
-                'G' => {
-                    if let g @ (0..=3 | 31 | 38) = v()? as u32 {
-                        motion = Some(g);
-                    }
-                }
                 'X' | 'Y' | 'Z' | 'B' | 'C' => {
                     let k = "XYZBC".find(*c).unwrap_or(0);
                     pos[k] = v()?;

@@ -2,6 +2,7 @@
 
 pub mod app_state;
 pub mod cli;
+pub mod diagonals;
 pub mod flash_model;
 pub mod forward_seed000;
 pub mod forward_seed001;

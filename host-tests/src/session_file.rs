@@ -23,6 +23,14 @@
 //!
 //! [dial]                   # seed 004 dial gauge (host only): rows b_deg,u_mm,v_mm,reading_um
 //! readings = "dial.csv"
+//!
+//! [vector]                 # seed 001 vector diagonal method (host only, crate::diagonals)
+//! readings = "vector.csv"  # rows diagonal,axis,deviation_um: each diagonal's stops in order
+//! step_mm = [40.0, 30.0, 20.0]
+//! tables = ["siemens_840d", "grid"]
+//!
+//! [body_diagonals]         # seed 001 body diagonals (host only): rows diagonal,position_mm,deviation_um
+//! readings = "body.csv"
 //! ```
 //!
 //! Only the keys a method needs are required. A fault names the file, line and field.
@@ -110,6 +118,23 @@ pub struct SessionFile {
     /// The seed 004 dial gauge.
     #[serde(default)]
     pub dial: Option<DialEntry>,
+    /// The seed 001 vector (sequential-step) diagonal method.
+    #[serde(default)]
+    pub vector: Option<crate::diagonals::VectorEntry>,
+    /// The seed 001 body-diagonal measurement.
+    #[serde(default)]
+    pub body_diagonals: Option<crate::diagonals::BodyDiagonalsEntry>,
+}
+
+impl SessionFile {
+    /// True when the file names nothing to replay.
+    fn is_empty(&self) -> bool {
+        self.runs.is_empty()
+            && self.rtest.is_none()
+            && self.dial.is_none()
+            && self.vector.is_none()
+            && self.body_diagonals.is_none()
+    }
 }
 
 fn whole(file: &Path, what: String) -> LogError {
@@ -146,10 +171,10 @@ pub fn read_text(file: &Path) -> Result<String, LogError> {
 /// the file in errors and picks the format; nothing is read).
 pub fn parse_session(path: &Path, text: &str) -> Result<SessionFile, LogError> {
     let s = deserialize(path, text)?;
-    if s.runs.is_empty() && s.rtest.is_none() && s.dial.is_none() {
+    if s.is_empty() {
         return Err(whole(
             path,
-            "nothing to replay: no runs, no [rtest], no [dial]".into(),
+            "nothing to replay: no runs, no [rtest], [dial], [vector] or [body_diagonals]".into(),
         ));
     }
     check_runs(path, text, &s)?;
@@ -507,13 +532,25 @@ pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
     ])
 }
 
-/// The runs replay reads, each with the name of its source, and the host-only figures.
-pub type Inputs = (Vec<(String, RecordedRun)>, Vec<Figure>);
+/// What replay reads.
+#[derive(Clone, Debug, Default)]
+pub struct Inputs {
+    /// The runs, each with the name of its source.
+    pub runs: Vec<(String, RecordedRun)>,
+    /// The host-only methods' figures.
+    pub host: Vec<Figure>,
+    /// Files the host-only methods write (name, text): seed 001 curves and tables.
+    pub files: Vec<(String, String)>,
+}
 
 /// What replay reads: the files it was given (pod files, or one session file).
 pub fn read_inputs(files: &[PathBuf]) -> Result<Inputs, LogError> {
-    let mut runs = Vec::new();
-    let mut host = Vec::new();
+    let mut inputs = Inputs::default();
+    let Inputs {
+        runs,
+        host,
+        files: out,
+    } = &mut inputs;
     for f in files {
         let is_session = f.extension().is_some_and(|e| e == "toml" || e == "json");
         if is_session {
@@ -524,6 +561,19 @@ pub fn read_inputs(files: &[PathBuf]) -> Result<Inputs, LogError> {
             }
             if let Some(d) = &s.dial {
                 host.extend(dial(f, d)?);
+            }
+            for o in [
+                s.vector.as_ref().map(|v| crate::diagonals::vector(f, v)),
+                s.body_diagonals
+                    .as_ref()
+                    .map(|b| crate::diagonals::body_diagonals(f, b)),
+            ]
+            .into_iter()
+            .flatten()
+            {
+                let o = o?;
+                host.extend(o.figures);
+                out.extend(o.files);
             }
         } else {
             let text = read_text(f)?;
@@ -544,5 +594,5 @@ pub fn read_inputs(files: &[PathBuf]) -> Result<Inputs, LogError> {
             }
         }
     }
-    Ok((runs, host))
+    Ok(inputs)
 }

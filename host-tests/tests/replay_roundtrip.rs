@@ -102,7 +102,8 @@ fn replay_of_the_simulators_recorded_runs_reproduces_its_report_byte_for_byte() 
     std::fs::write(dir.join("session.toml"), &session_toml).expect("write session");
 
     // `cargo replay DIR/session.toml`
-    let (runs, host) = read_inputs(&[dir.join("session.toml")]).expect("read the session");
+    let inputs = read_inputs(&[dir.join("session.toml")]).expect("read the session");
+    let (runs, host) = (inputs.runs, inputs.host);
     assert!(host.is_empty());
     assert_eq!(runs.len(), s.runs.len());
     for ((na, a), (nb, b)) in runs.iter().zip(&s.runs) {
@@ -125,7 +126,7 @@ fn replay_of_the_simulators_recorded_runs_reproduces_its_report_byte_for_byte() 
 
     // the run files given directly (`cargo replay DIR/*.csv`) replay the same
     let files: Vec<PathBuf> = s.runs.iter().map(|(n, _)| dir.join(n)).collect();
-    let (direct, _) = read_inputs(&files).expect("read the run files");
+    let direct = read_inputs(&files).expect("read the run files").runs;
     assert_eq!(
         replay(&direct).expect("replay").to_json().expect("json"),
         json_sim
@@ -331,7 +332,8 @@ fn the_readme_session_file_replays_a_pod_file_and_a_plain_log() {
 
     let read = read_inputs(&[session]);
     let _ = std::fs::remove_dir_all(&dir);
-    let (runs, host) = read.expect("the README's session file reads");
+    let inputs = read.expect("the README's session file reads");
+    let (runs, host) = (inputs.runs, inputs.host);
     assert!(host.is_empty());
     let names: Vec<_> = runs
         .iter()

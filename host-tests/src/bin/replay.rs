@@ -35,7 +35,8 @@ fn main() {
 }
 
 fn run(args: &Args) -> Result<(), String> {
-    let (runs, host) = read_inputs(&args.files).map_err(|e| e.to_string())?;
+    let inputs = read_inputs(&args.files).map_err(|e| e.to_string())?;
+    let (runs, host) = (inputs.runs, inputs.host);
     let mut report = if runs.is_empty() {
         Report::default()
     } else {
@@ -51,8 +52,11 @@ fn run(args: &Args) -> Result<(), String> {
     for (name, svg) in report::plots(&runs, &report) {
         write(&name, &svg)?;
     }
+    for (name, text) in &inputs.files {
+        write(name, text)?;
+    }
     println!(
-        "replayed {} runs ({} done), {} results{}; written to {}",
+        "replayed {} runs ({} done), {} results{}{}; written to {}",
         report.runs.len(),
         report.runs.iter().filter(|r| r.outcome == "DONE").count(),
         report.results.len(),
@@ -60,6 +64,12 @@ fn run(args: &Args) -> Result<(), String> {
             String::new()
         } else {
             format!(", {} host-method figures", report.host.len())
+        },
+        if inputs.files.is_empty() {
+            String::new()
+        } else {
+            let names: Vec<&str> = inputs.files.iter().map(|f| f.0.as_str()).collect();
+            format!(" ({})", names.join(", "))
         },
         args.out.display()
     );

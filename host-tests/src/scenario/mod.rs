@@ -827,11 +827,11 @@ fn replay_session(name: &str, section: &str, table: &str) -> Result<Vec<Figure>,
         .map_err(|e| e.to_string())
         .and_then(|_| read_inputs(&[session]).map_err(|e| e.to_string()));
     let _ = std::fs::remove_dir_all(&dir);
-    let (runs, host) = out?;
-    if !runs.is_empty() {
+    let inputs = out?;
+    if !inputs.runs.is_empty() {
         return Err("the session file replayed pod runs it does not list".into());
     }
-    Ok(host)
+    Ok(inputs.host)
 }
 
 /// The figure `name` of a replay.

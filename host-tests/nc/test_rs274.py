@@ -10,6 +10,7 @@ Run by .ci/run: BALLPOD_NCGEN=<the ncgen binary> python3 -m pytest host-tests/nc
 """
 import math
 import os
+import pathlib
 import re
 import subprocess
 
@@ -368,3 +369,46 @@ def test_ssm_station_sets_dwell_on_the_sphere_and_move_on_it(tmp_path, socket, t
         mid = [(x + y) / 2 for x, y in zip(a, b)]
         assert abs(r(a) - bar) < TOL_MM and abs(r(b) - bar) < TOL_MM
         assert bar - r(mid) < TOL_MM + 1e-4, (a, b)
+
+
+def readme_block(heading, lang):
+    """The first fenced `lang` block after `heading` in README.md (the docs' examples run)."""
+    text = (pathlib.Path(__file__).resolve().parents[2] / "README.md").read_text()
+    rest = text[text.index(heading):]
+    start = rest.index("```" + lang + "\n") + len(lang) + 4
+    return rest[start:rest.index("```", start)]
+
+
+def test_a_program_corrected_for_centrelines_moves_as_its_comments_say(tmp_path):
+    # seed 004 4.3: a program of X Y Z A B points corrected with the README's centrelines file
+    # is accepted by rs274, moves through as many points, A and B as programmed, X Y Z moved by
+    # what each block's comment states (um, to the words' 0.1 um)
+    assert NCGEN, "set BALLPOD_NCGEN to the ncgen binary"
+    lines = tmp_path / "centrelines.toml"
+    lines.write_text(readme_block("**Centrelines file**", "toml"))
+    program = tmp_path / "groove.ngc"
+    program.write_text("G21 G90 G94\n" + "".join(
+        f"G0 X-58.72 Y{-60.71 + 8 * k} Z258.75 A{60 * k} B{25 * k}\n"
+        f"G1 X-18.72 F500\n" for k in range(4)) + "M2\n")
+    corrected = tmp_path / "groove_corrected.ngc"
+    p = subprocess.run([NCGEN, "correct-centrelines", str(program), str(lines), "--out",
+                        str(corrected)], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+
+    def points(path):
+        out = []
+        for name, a in interpret(tmp_path, path.read_text()):
+            if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
+                out.append([float(x) for x in a[:5]])
+        return out
+
+    moved = [[float(v) for v in line.split("(moved X ")[1].split(" um")[0]
+              .replace("Y ", "").replace("Z ", "").split()]
+             for line in corrected.read_text().splitlines() if "(moved X " in line]
+    before, after = points(program), points(corrected)
+    assert len(before) == len(after) == len(moved) == 8
+    assert max(abs(m) for ms in moved for m in ms) > 100, "the lines move the points"
+    for b, a, m in zip(before, after, moved):
+        assert a[3:] == b[3:], "A and B as programmed"
+        for k in range(3):
+            assert abs((a[k] - b[k]) * 1e3 - m[k]) <= 0.06, (b, a, m)

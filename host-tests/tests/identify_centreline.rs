@@ -6,7 +6,7 @@
 use ballpod::identify::centreline::{
     AxisLine, CentrelineError, DialPoint, GaugeFrame, NominalAxis, NormalAtAngle, PointAtAngle,
     RotationSense, TableAxes, axis_centre, axis_direction_half_turn, axis_direction_lsq,
-    axis_direction_two_positions, nc_correction, paper, plane_normal,
+    axis_direction_two_positions, nc_command_correction, nc_correction, paper, plane_normal,
 };
 use ballpod_host::forward_seed004 as fw;
 
@@ -564,6 +564,23 @@ fn round_trip_eq9_matches_forward_model() {
         assert!(max_diff(rr_t, r.error_machine_um) < 1e-9);
         // corrected command puts the tool on the actual work point; compensation = −error
         assert!(max_diff(fw::add(r.error_machine_um, r.correction_um), [0.0; 3]) < 1e-12);
+        // from the program's side: the NC point V2 (nominal centrelines) gives back the same
+        // correction, also for NC-set centres off the origin
+        let nominal_off = TableAxes {
+            table: AxisLine {
+                direction: Z,
+                point_mm: [1.5, -2.0, 0.0],
+            },
+            tilt: AxisLine {
+                direction: Y,
+                point_mm: [0.0, 0.0, 40.0],
+            },
+        };
+        let (e, f) = (eps.to_radians(), phi.to_radians());
+        let v2_off = fw::eq9(p, Z, [1.5, -2.0, 0.0], Y, [0.0, 0.0, 40.0], e, f);
+        let c = nc_command_correction(&actual, &nominal_off, v2_off, eps, phi).unwrap();
+        assert!(max_diff(c.corrected_command_mm, v1) < 1e-10, "{c:?}");
+        assert!(max_diff(c.nominal_mm, v2_off) < 1e-10);
     }
 }
 

@@ -8,12 +8,21 @@
 use ballpod::app::Pattern;
 use ballpod::identify::multitasking::Deviations;
 use ballpod_host::forward_seed002 as fwd;
-use ballpod_host::ncgen::{Dialect, PatternTest, correct_program, deviations_from_results};
+use ballpod_host::forward_seed004 as fw4;
+use ballpod_host::ncgen::{
+    Dialect, PatternTest, centrelines_from_toml, correct_program, correct_program_centrelines,
+    deviations_from_results,
+};
 use ballpod_host::simulate::{SimOptions, simulate};
 use ballpod_host::vmt::machine::MachineFile;
 
 /// The X Y Z B C of every G0/G1 block (the programs write all five words).
 fn points(program: &str) -> Vec<[f64; 5]> {
+    points_of(program, "XYZBC")
+}
+
+/// The five `axes` words of every G0/G1 block, in that order.
+fn points_of(program: &str, axes: &str) -> Vec<[f64; 5]> {
     program
         .lines()
         .filter(|l| l.starts_with("G0 ") || l.starts_with("G1 "))
@@ -21,7 +30,7 @@ fn points(program: &str) -> Vec<[f64; 5]> {
             let code = l.split('(').next().unwrap_or("");
             let mut p = [f64::NAN; 5];
             for w in code.split_whitespace() {
-                if let Some(k) = "XYZBC".find(&w[..1]) {
+                if let Some(k) = axes.find(&w[..1]) {
                     p[k] = w[1..].parse().unwrap();
                 }
             }
@@ -128,4 +137,81 @@ fn bad_programs_and_results_are_refused_naming_what() {
             .contains("dz_BT not identified")
     );
     assert!(deviations_from_results("not json").is_err());
+}
+
+/// Seed 004 §4.3 on its groove test (work block at (−63.72, −70.71, 258.75) mm, grooves at the
+/// postures A0B0 … A180B75): the program a post-processor writes with the NC-set centrelines
+/// (eq 9's V2, from the independent forward model `forward_seed004::eq9`, table axes primed),
+/// corrected with the README's example centrelines, commands each point where the machine
+/// with those centrelines actually carries the work point (V1) — within the words' 0.1 µm —
+/// where the uncorrected program misses by up to hundreds of µm. A and B stay as programmed.
+#[test]
+fn a_program_corrected_for_the_centrelines_reaches_the_work_points() {
+    let toml = ballpod_host::readme::block_after("**Centrelines file**", "toml");
+    let lines = centrelines_from_toml(&toml).expect("the README's centrelines file");
+    let a = &lines.actual;
+    let block = [-63.72, -70.71, 258.75];
+    let mut program = String::from("G21 G90 G94\n");
+    let mut work = Vec::new();
+    for (k, (a_cmd, b_cmd)) in [(0.0f64, 0.0f64), (60.0, 25.0), (120.0, 50.0), (180.0, 75.0)]
+        .into_iter()
+        .enumerate()
+    {
+        let (eps, phi) = ((-a_cmd).to_radians(), (-b_cmd).to_radians());
+        for (g, dx) in [("G0", 5.0), ("G1", 45.0)] {
+            let p = [block[0] + dx, block[1] + 10.0 + 8.0 * k as f64, block[2]];
+            let v2 = fw4::eq9(
+                p,
+                [0.0, 0.0, 1.0],
+                [0.0; 3],
+                [0.0, 1.0, 0.0],
+                [0.0; 3],
+                eps,
+                phi,
+            );
+            program += &format!(
+                "{g} X{:.4} Y{:.4} Z{:.4} A{a_cmd} B{b_cmd} F500\n",
+                v2[0], v2[1], v2[2]
+            );
+            work.push((p, eps, phi, v2));
+        }
+    }
+    program += "M2\n";
+    let corrected = correct_program_centrelines(&program, &lines, "centrelines.toml").unwrap();
+    let pts = points_of(&corrected, "XYZAB");
+    assert_eq!(pts.len(), work.len());
+    let mut worst_uncorrected = 0.0f64;
+    for (c, (p, eps, phi, v2)) in pts.iter().zip(&work) {
+        let v1 = fw4::eq9(
+            *p,
+            a.a_direction,
+            a.a_point_mm,
+            a.b_direction,
+            a.b_point_mm,
+            *eps,
+            *phi,
+        );
+        let miss = (0..3).map(|i| (c[i] - v1[i]).powi(2)).sum::<f64>().sqrt() * 1e3;
+        // V2 written to 0.1 µm, V1 written to 0.1 µm: ≤ √3·0.1 µm
+        assert!(miss <= 0.18, "{c:?} vs {v1:?}: {miss} um");
+        let before = (0..3).map(|i| (v2[i] - v1[i]).powi(2)).sum::<f64>().sqrt() * 1e3;
+        worst_uncorrected = worst_uncorrected.max(before);
+        assert_eq!(
+            (c[3], c[4]),
+            (-eps.to_degrees().round(), -phi.to_degrees().round())
+        );
+    }
+    assert!(worst_uncorrected > 100.0, "{worst_uncorrected}");
+    assert!(
+        corrected.contains("(corrected by ballpod ncgen for the centrelines of centrelines.toml")
+    );
+    // a C word is not an axis of this machine; a zero direction is refused
+    let e = correct_program_centrelines("G1 X1 Y2 Z3 A0 B0 C5\n", &lines, "c").unwrap_err();
+    assert!(e.what.contains("C5") && e.what.contains("XYZAB"), "{e}");
+    let zero = toml.replacen("a_direction = [", "a_direction = [0.0, 0.0, 0.0] #", 1);
+    assert!(centrelines_from_toml(&zero).is_err());
+    let sense = toml.replacen("a = \"primed\"", "a = \"left\"", 1);
+    let e = correct_program_centrelines(&program, &centrelines_from_toml(&sense).unwrap(), "c")
+        .unwrap_err();
+    assert_eq!(e.field, "sense.a");
 }

@@ -24,7 +24,8 @@
 //!    and eq 8 (quarter turn about Y) are the two-position special cases, kept literally in
 //!    [`paper`].
 //! 4. [`nc_correction`]: seed 004 eq 9 — the work point rotated about the actual and about the
-//!    NC-set centrelines; the difference is the error and its negative the correction.
+//!    NC-set centrelines; the difference is the error and its negative the correction;
+//!    [`nc_command_correction`] the same for a program's NC point (V2) instead of the work point.
 //!
 //! # Conventions (B4, D.2, D.11, D.12)
 //! - Directions are unit vectors in machine coordinates, oriented towards the nominal axis
@@ -844,6 +845,27 @@ pub fn nc_correction(
         correction_um: arr(&(-err)),
         corrected_command_mm: arr(&v1),
     })
+}
+
+/// Seed 004 §4.3 applied to a program: `command_mm` is an NC point the post-processor
+/// computed with the NC-set centrelines (V2 of eq 9, machine coordinates, no TCPM) at the
+/// physical angles `eps_deg` (table) and `phi_deg` (tilt). The work point is recovered by
+/// undoing the nominal rotations (`P = R(D_NA, −ε)((R(D_NB, −φ)(V2 − P_NB) + P_NB) − P_NA) +
+/// P_NA`) and rotated about the actual centrelines: [`nc_correction`] of that point, whose
+/// `corrected_command_mm` (V1) is the point to command instead.
+pub fn nc_command_correction(
+    actual: &TableAxes,
+    nominal: &TableAxes,
+    command_mm: [f64; 3],
+    eps_deg: f64,
+    phi_deg: f64,
+) -> Result<NcPointCorrection, CentrelineError> {
+    if !(crate::num::all_finite(&command_mm) && eps_deg.is_finite() && phi_deg.is_finite()) {
+        return Err(CentrelineError::NonFinite);
+    }
+    let untilted = rotate_about_line(&nominal.tilt, &v3(command_mm), -phi_deg.to_radians())?;
+    let work = rotate_about_line(&nominal.table, &untilted, -eps_deg.to_radians())?;
+    nc_correction(actual, nominal, arr(&work), eps_deg, phi_deg)
 }
 
 /// Seed 004's printed two-position formulas in their corrected literal form (paper mode).

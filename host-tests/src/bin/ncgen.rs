@@ -5,7 +5,9 @@
 //! `circle_centre_*`, `circle_radius`, `circle_feed`), a seed 002 procedure pattern from its
 //! `s002_*` fields, a touch-probe sphere measurement, or an SSM station set from its `ssm_*`
 //! fields (`cargo ncgen -- ssm SETUP --target X Y Z`); `cargo ncgen -- correct PROGRAM SETUP
-//! RESULTS` rewrites a program for the identified deviations (seed 002 chapter 3). Prints the
+//! RESULTS` rewrites a program for the identified deviations (seed 002 chapter 3), and
+//! `cargo ncgen -- correct-centrelines PROGRAM CENTRELINES` for estimated rotary-axis
+//! centrelines (seed 004 eq 9). Prints the
 //! program, or writes it with `--out`. A set-up the machine cannot run is refused with the field
 //! named; nothing is written.
 
@@ -15,8 +17,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use ballpod::app::Direction;
 use ballpod_host::ncgen::{
-    CircleOptions, CircleTest, Dialect, PatternTest, SphereTest, SsmTest, correct_program,
-    deviations_from_results,
+    CircleOptions, CircleTest, Dialect, PatternTest, SphereTest, SsmTest, centrelines_from_toml,
+    correct_program, correct_program_centrelines, deviations_from_results,
 };
 use ballpod_host::session_file::{read_text, setup_config};
 
@@ -68,6 +70,20 @@ enum Test {
     /// A program's G0/G1 points corrected for the identified deviations (seed 002 ch. 3; the
     /// program keeps its dialect).
     Correct(CorrectArgs),
+    /// A program's G0/G1 points (X Y Z A B, no TCPM) corrected for estimated rotary-axis
+    /// centrelines (seed 004 eq 9 and 4.3; the program keeps its dialect).
+    CorrectCentrelines(CentrelinesArgs),
+}
+
+/// The program to correct and the centrelines file.
+#[derive(clap::Args, Debug)]
+struct CentrelinesArgs {
+    /// The NC program (G0/G1 points of X Y Z A B, machine coordinates, computed with the
+    /// NC-set centrelines).
+    program: PathBuf,
+    /// Centrelines file (TOML): `[actual]`, optional `[nominal]` and `[sense]` (README "Part
+    /// programs").
+    centrelines: PathBuf,
 }
 
 /// The station set's place and layout (the socket, bar and dwell detection are the set-up's).
@@ -238,6 +254,20 @@ fn run(args: &Args) -> Result<String, String> {
                 |n| n.to_string_lossy().into_owned(),
             );
             correct_program(&program, origin, &dev, &name)
+                .map_err(|e| format!("{}: {e}", c.program.display()))
+        }
+        Test::CorrectCentrelines(c) => {
+            let read = |p: &PathBuf| {
+                std::fs::read_to_string(p).map_err(|e| format!("{}: {e}", p.display()))
+            };
+            let program = read(&c.program)?;
+            let lines = centrelines_from_toml(&read(&c.centrelines)?)
+                .map_err(|e| format!("{}: {e}", c.centrelines.display()))?;
+            let name = c.centrelines.file_name().map_or_else(
+                || c.centrelines.display().to_string(),
+                |n| n.to_string_lossy().into_owned(),
+            );
+            correct_program_centrelines(&program, &lines, &name)
                 .map_err(|e| format!("{}: {e}", c.program.display()))
         }
         Test::Sphere(s) => {

@@ -4,7 +4,8 @@
 //! CA, CR2 ([`PatternTest`], `s002_*` fields), the touch-probe sphere measurement
 //! ([`SphereTest`]) and the single-socket-method station set ([`SsmTest`], `ssm_*` fields), in two dialects ([`Dialect`]: LinuxCNC and ISO/Fanuc), every dialect
 //! difference in `dialect.rs`; and a program corrected for the identified deviations
-//! ([`correct_program`], seed 002 chapter 3).
+//! ([`correct_program`], seed 002 chapter 3) or for estimated rotary-axis centrelines
+//! ([`correct_program_centrelines`], seed 004 eq 9 and §4.3).
 //!
 //! A circle test per direction, as ball-bar users know it: rapid to the **feed-in** point (the
 //! start angle, `feed_in_mm` outside the radius: the bar extended), a radial feed move onto the
@@ -22,7 +23,10 @@ mod pattern;
 mod sphere;
 mod ssm;
 
-pub use correct::{correct_program, deviations_from_results};
+pub use correct::{
+    CentrelinePair, CentrelinesFile, Senses, centrelines_from_toml, correct_program,
+    correct_program_centrelines, deviations_from_results, rewrite_points,
+};
 pub use dialect::Dialect;
 pub use pattern::PatternTest;
 pub use sphere::SphereTest;

@@ -157,6 +157,30 @@ pub enum TwoStepMachine {
     RtttrTable = 4,
 }
 
+/// What starts and stops a run (the `run_trigger` field).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum RunTrigger {
+    /// The client's START and STOP (CANopen 0x3002, `SESS:STAR` / `SESS:STOP`) only.
+    Command = 0,
+    /// A CIRCLE run also starts at the end of the part program's feed-in and stops at the end
+    /// of the data arc (`circle_arc`) or at the feed-out (`app::trigger`).
+    FeedIn = 1,
+}
+
+impl RunTrigger {
+    /// Names in code order (the choices of the `run_trigger` field).
+    pub const NAMES: [&'static str; 2] = ["COMMAND", "FEED_IN"];
+    /// From its code.
+    pub const fn from_u8(v: u8) -> Option<Self> {
+        match v {
+            0 => Some(Self::Command),
+            1 => Some(Self::FeedIn),
+            _ => None,
+        }
+    }
+}
+
 impl TwoStepMachine {
     /// Names in code order (the choices of the `ts_machine` field).
     pub const NAMES: [&'static str; 5] = ["NONE", "RRTTT", "TTTRR", "RTTTR_SPINDLE", "RTTTR_TABLE"];
@@ -250,6 +274,11 @@ pub struct TestSetup {
     /// touch point is the nominal stylus-ball centre `axes − R·(sin B, 0, cos B)`; not set
     /// (default), it is the X, Y, Z positions as latched. The B-axis probe method needs it.
     pub probe_length_mm: f32,
+    /// What starts and stops a run (added in encoding version 4).
+    pub run_trigger: RunTrigger,
+    /// CIRCLE: span of the data arc a self-triggered run measures, degrees (not set: until the
+    /// feed-out; added in encoding version 4).
+    pub circle_arc_deg: f32,
 }
 
 /// The pod's configuration (see the module doc; fields listed with unit, default and range in
@@ -389,6 +418,10 @@ pub enum Field {
     TsAngleDeg(u8),
     /// [`TestSetup::probe_length_mm`] (added in encoding version 3).
     ProbeLengthMm,
+    /// [`TestSetup::run_trigger`] (added in encoding version 4).
+    RunTrigger,
+    /// [`TestSetup::circle_arc_deg`] (added in encoding version 4).
+    CircleArcDeg,
     /// A pod sample is not a whole number of excitation periods within the ADC ring
     /// (`excitation / sample_rate` ∉ 1…[`MAX_PERIODS_PER_SAMPLE`]).
     PeriodsPerSample,
@@ -766,6 +799,8 @@ pub const FIELDS: &[FieldInfo] = &[
         1.0,
         POS_MM,
     )),
+    code(Field::RunTrigger, "run_trigger", &RunTrigger::NAMES),
+    unset(real(Field::CircleArcDeg, "circle_arc", "deg", 10.0, 360.0)),
 ];
 
 /// Why a configuration was rejected.
@@ -842,6 +877,8 @@ impl Default for TestSetup {
             ts_origin_mm: [NOT_SET; 3],
             ts_angles_deg: [NOT_SET; 2],
             probe_length_mm: NOT_SET,
+            run_trigger: RunTrigger::Command,
+            circle_arc_deg: NOT_SET,
         }
     }
 }
@@ -949,6 +986,8 @@ impl Config {
                 ts_origin_mm: [0.0; 3],
                 ts_angles_deg: [0.0; 2],
                 probe_length_mm: 0.0,
+                run_trigger: RunTrigger::Command,
+                circle_arc_deg: 0.0,
             },
         }
     };
@@ -1152,6 +1191,8 @@ impl Config {
             Field::TsOriginMm(k) => at(&s.ts_origin_mm, k)?,
             Field::TsAngleDeg(k) => at(&s.ts_angles_deg, k)?,
             Field::ProbeLengthMm => f64::from(s.probe_length_mm),
+            Field::RunTrigger => f64::from(s.run_trigger as u8),
+            Field::CircleArcDeg => f64::from(s.circle_arc_deg),
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => return None,
         })
     }
@@ -1237,6 +1278,12 @@ impl Config {
             Field::TsOriginMm(k) => put(&mut s.ts_origin_mm, k),
             Field::TsAngleDeg(k) => put(&mut s.ts_angles_deg, k),
             Field::ProbeLengthMm => s.probe_length_mm = x,
+            Field::RunTrigger => {
+                if let Some(t) = RunTrigger::from_u8(int as u8).filter(|_| int >= 0.0) {
+                    s.run_trigger = t;
+                }
+            }
+            Field::CircleArcDeg => s.circle_arc_deg = x,
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => {}
         }
     }
@@ -1282,12 +1329,23 @@ impl Config {
 
 /// Magic at the start of an encoded configuration.
 pub const MAGIC: [u8; 4] = *b"BPOD";
-/// Current encoding version (3: version 2 plus `probe_length`). Version 2 encodings are read
-/// and migrated (the fields added since keep their defaults); version 1 records are not read:
-/// the pod boots on the defaults and says so.
-pub const ENCODING_VERSION: u16 = 3;
-/// The one field version 3 added (the last [`FIELDS`] row, so version 2 is the prefix).
-const ADDED_IN_V3: Field = Field::ProbeLengthMm;
+/// Current encoding version (4: version 3 plus `run_trigger` and `circle_arc`; 3: version 2
+/// plus `probe_length`). Version 2 and 3 encodings are read and migrated (the fields added
+/// since keep their defaults); version 1 records are not read: the pod boots on the defaults
+/// and says so.
+pub const ENCODING_VERSION: u16 = 4;
+/// Oldest encoding version read.
+pub const OLDEST_ENCODING_VERSION: u16 = 2;
+
+/// The encoding version that added a field (new fields are the last [`FIELDS`] rows, so each
+/// older encoding is a prefix of the table).
+const fn added_in(f: Field) -> u16 {
+    match f {
+        Field::ProbeLengthMm => 3,
+        Field::RunTrigger | Field::CircleArcDeg => 4,
+        _ => 2,
+    }
+}
 
 /// Bytes of one stored value of `ty`.
 const fn type_bytes(ty: FieldType) -> usize {
@@ -1299,11 +1357,11 @@ const fn type_bytes(ty: FieldType) -> usize {
     }
 }
 
-/// Payload bytes: every [`FIELDS`] element by its type, then the enumerated fields (LVDT
-/// input, CAN bit rate, per axis name and reversed flag).
-// Evaluated at compile time: an index out of bounds is a build error, not a panic.
+/// Payload bytes of encoding `version`: every [`FIELDS`] element that version has, by its
+/// type, then the enumerated fields (LVDT input, CAN bit rate, per axis name and reversed flag).
+// Evaluated at compile time for each version: an index out of bounds is a build error.
 #[allow(clippy::indexing_slicing)]
-const PAYLOAD: usize = {
+const fn payload_len(version: u16) -> usize {
     let mut n = 0;
     let mut i = 0;
     while i < FIELDS.len() {
@@ -1313,15 +1371,23 @@ const PAYLOAD: usize = {
         } else {
             r.elements as usize
         };
-        n += k * type_bytes(r.ty);
+        if added_in(r.field) <= version {
+            n += k * type_bytes(r.ty);
+        }
         i += 1;
     }
     n + 2 + 2 * MAX_AXES
-};
+}
+/// Payload bytes of the current encoding.
+const PAYLOAD: usize = payload_len(ENCODING_VERSION);
 /// Total encoded size: magic, version u16, payload length u16, payload, CRC-32.
 pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD + 4;
-/// Total size of a version 2 encoding (read and migrated, never written): no `probe_length`.
-pub const ENCODED_LEN_V2: usize = ENCODED_LEN - 4;
+/// Total size of each encoding read, oldest first (read and migrated; only the last written).
+pub const ENCODED_LENS: [usize; 3] = [
+    12 + payload_len(2),
+    12 + payload_len(3),
+    12 + payload_len(ENCODING_VERSION),
+];
 
 /// Little-endian writer over a fixed buffer (never writes past its end).
 struct Writer<'a> {
@@ -1404,23 +1470,19 @@ impl Config {
 
     /// Decodes and validates an encoding. Every check (length, magic, version, CRC, enum
     /// bytes, ranges) must pass; otherwise the error says which failed and nothing is returned.
-    /// A version 2 encoding ([`ENCODED_LEN_V2`] bytes) is read too: the fields added since
-    /// keep their defaults.
+    /// An older encoding (versions 2 and 3, [`ENCODED_LENS`]) is read too: the fields added
+    /// since keep their defaults.
     pub fn decode(bytes: &[u8]) -> Result<Config, ConfigError> {
         let mut r = Reader { buf: bytes, pos: 0 };
         if r.take::<4>() != MAGIC {
             return Err(ConfigError::BadMagic);
         }
         let version = u16::from_le_bytes(r.take());
-        let v2 = version == 2;
-        if !(v2 || version == ENCODING_VERSION) {
+        if !(OLDEST_ENCODING_VERSION..=ENCODING_VERSION).contains(&version) {
             return Err(ConfigError::UnsupportedVersion(version));
         }
-        let (len, payload_len) = if v2 {
-            (ENCODED_LEN_V2, PAYLOAD - 4)
-        } else {
-            (ENCODED_LEN, PAYLOAD)
-        };
+        let payload_len = payload_len(version);
+        let len = 12 + payload_len;
         if bytes.len() != len {
             return Err(ConfigError::BadLength {
                 len: bytes.len(),
@@ -1446,7 +1508,7 @@ impl Config {
         let mut c = Config::default();
         for row in FIELDS {
             for f in row.fields() {
-                if v2 && f == ADDED_IN_V3 {
+                if added_in(f) > version {
                     continue;
                 }
                 let at = r.pos;

@@ -133,7 +133,7 @@ pub fn decode_record(bytes: &[u8]) -> Result<Record, SlotError> {
     }
     let len = u16_at(6);
     // a record of the previous configuration encoding is read and migrated (config::decode)
-    if ![config::ENCODED_LEN, config::ENCODED_LEN_V2].contains(&usize::from(len)) {
+    if !config::ENCODED_LENS.contains(&usize::from(len)) {
         return Err(SlotError::BadLength(len));
     }
     let crc_at = HEADER_LEN + usize::from(len);

@@ -216,8 +216,12 @@ fn every_f32_limit_can_itself_be_written() {
 
 /// The bytes of `data/settings_record_v2.hex` (a record the version 2 firmware wrote).
 fn v2_record() -> Vec<u8> {
-    include_str!("data/settings_record_v2.hex")
-        .lines()
+    hex_record(include_str!("data/settings_record_v2.hex"))
+}
+
+/// The bytes of a hex record file (32 bytes a line, `#` comments).
+fn hex_record(text: &str) -> Vec<u8> {
+    text.lines()
         .filter(|l| !l.starts_with('#'))
         .flat_map(|l| {
             (0..l.len())
@@ -262,4 +266,41 @@ fn a_settings_record_of_encoding_version_2_is_read_and_migrated() {
         ballpod::config::ENCODING_VERSION
     );
     assert!(same(&decode_record(&now).unwrap().config, &want));
+}
+
+#[test]
+fn a_settings_record_of_encoding_version_3_is_read_and_migrated() {
+    use ballpod::config::{CirclePlane, RunTrigger};
+    use ballpod::settings::{RECORD_LEN, decode_record, encode_record};
+    let mut slot = hex_record(include_str!("data/settings_record_v3.hex"));
+    slot.resize(slot.len().max(RECORD_LEN), 0xFF);
+    let rec = decode_record(&slot).expect("a version 3 record is read");
+    assert_eq!(rec.sequence, 11);
+    // what the file's header says it holds; the fields version 4 added keep their defaults
+    let mut want = Config {
+        bar_length_mm: 100.0042,
+        can_node_id: 17,
+        ..Config::default()
+    };
+    want.setup.circle_plane = CirclePlane::YZ;
+    want.setup.circle_centre_mm = [0.0, 12.5, -300.0];
+    want.setup.circle_radius_mm = 100.0;
+    want.setup.circle_feed_mm_per_min = 2000.0;
+    want.setup.probe_length_mm = 152.25;
+    assert!(same(&rec.config, &want), "{:?}", rec.config);
+    assert_eq!(rec.config.setup.run_trigger, RunTrigger::Command);
+    assert!(rec.config.setup.circle_arc_deg.is_nan());
+    let mut bad = slot.clone();
+    bad[60] ^= 1;
+    assert!(decode_record(&bad).is_err());
+    // the next save writes version 4 with the new fields, and reads back
+    let mut now_cfg = rec.config;
+    now_cfg.setup.run_trigger = RunTrigger::FeedIn;
+    now_cfg.setup.circle_arc_deg = 360.0;
+    let now = encode_record(&now_cfg, 12).unwrap();
+    assert_eq!(
+        u16::from_le_bytes([now[12 + 4], now[12 + 5]]),
+        ballpod::config::ENCODING_VERSION
+    );
+    assert!(same(&decode_record(&now).unwrap().config, &now_cfg));
 }

@@ -556,6 +556,8 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::SsmSettleMs => g(s.ssm_settle_ms),
         Field::SsmMinDwellSamples => f64::from(s.ssm_min_dwell_samples),
         Field::TsMachine => f64::from(s.ts_machine as u8),
+        Field::RunTrigger => f64::from(s.run_trigger as u8),
+        Field::CircleArcDeg => g(s.circle_arc_deg),
         Field::TsToolZMm => g(s.ts_tool_z_mm),
         Field::TsZAlphaGammaMm => g(s.ts_z_alpha_gamma_mm),
         Field::TsReferenceMm(k) => g(s.ts_reference_mm[k as usize]),

@@ -41,6 +41,7 @@ pub mod results;
 pub mod run;
 pub mod seed002;
 pub mod ssm;
+pub mod trigger;
 
 pub use device::{DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, DeviceCounter, DeviceCounters};
 pub use live::{LIVE, LIVE_COUNT, Live, LiveValues, StatusWord};
@@ -52,7 +53,7 @@ pub use run::{AbortReason, RunCounters, RunLimits};
 use crate::acquisition::lvdt::{BlockReading, DemodError, LvdtReading};
 use crate::acquisition::probe::{ProbeLatch, TriggerOutcome};
 use crate::acquisition::{Acquisition, AcquisitionCounters, MAX_AXES, Sample, SampleFlags};
-use crate::config::{AxisName, Config, ConfigError, Field, LvdtInput};
+use crate::config::{AxisName, Config, ConfigError, Field, LvdtInput, RunTrigger};
 use crate::identify::multitasking::{Parameter, urad_to_arcsec};
 use crate::metrology::circle_fit::{CircleEstimate, CircleFit};
 use circle::{CircleGeometry, CircleTest};
@@ -60,6 +61,7 @@ use probe::{ProbeRun, Spheres};
 use run::{RunMonitor, Verdict};
 use seed002::{Procedure, Setup};
 use ssm::{SsmRun, TwoStep};
+use trigger::{ArcTrigger, TriggerEvent};
 
 /// Session state (DESIGN §7a: configure → arm → run → results).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -164,6 +166,13 @@ impl CommandError {
         }
     }
 }
+
+/// The procedure note of an armed self-triggered run that has not seen the feed-in.
+const WAITING_FOR_FEED_IN: CommandError =
+    CommandError::WrongState("FEED_IN: waiting for the feed-in");
+/// The procedure note of an armed self-triggered run fed in, before the data arc.
+const WAITING_FOR_DATA_ARC: CommandError =
+    CommandError::WrongState("FEED_IN: fed in, waiting for the data arc");
 
 /// The user-facing name of a field.
 pub fn field_name(f: Field) -> &'static str {
@@ -293,6 +302,8 @@ pub struct App {
     pending: heapless::Deque<Pending, 4>,
     refusal: Option<CommandError>,
     procedure_note: Option<CommandError>,
+    /// The armed CIRCLE run's own start and stop (`run_trigger = FEED_IN`).
+    trigger: Option<ArcTrigger>,
     settings_request: Option<SettingsRequest>,
     settings_failures: u32,
     settings_failed: bool,
@@ -343,6 +354,7 @@ impl App {
             pending: heapless::Deque::new(),
             refusal: None,
             procedure_note: None,
+            trigger: None,
             settings_request: None,
             settings_failures: 0,
             device: DeviceCounters::START,
@@ -566,8 +578,7 @@ impl App {
                 if self.session != S::Armed {
                     return self.refuse(CommandError::WrongState("START needs ARMED"));
                 }
-                self.session = S::Running;
-                self.monitor.start();
+                self.begin_running();
                 Ok(())
             }
             Command::Stop => {
@@ -637,14 +648,28 @@ impl App {
         self.procedure_note = None;
     }
 
+    /// The armed run starts (a client's START or the trigger).
+    fn begin_running(&mut self) {
+        self.session = SessionState::Running;
+        self.monitor.start();
+        if let Some(t) = self.trigger.as_mut() {
+            t.started();
+            self.procedure_note = None;
+        }
+    }
+
     fn arm(&mut self) -> Result<(), CommandError> {
         let setup = self.config.setup;
+        let mut trigger = None;
         let est = match self.pattern {
             Pattern::Circle => {
                 let g = match CircleGeometry::from_config(&setup) {
                     Ok(g) => g,
                     Err(f) => return self.refuse(CommandError::Missing(f)),
                 };
+                if setup.run_trigger == RunTrigger::FeedIn {
+                    trigger = Some(ArcTrigger::new(&g, self.direction, setup.circle_arc_deg));
+                }
                 match self.circle.as_mut() {
                     Some(c) => c.begin_run(g, self.direction),
                     None => self.circle = Some(CircleTest::new(g)),
@@ -675,6 +700,10 @@ impl App {
             }
         };
         self.estimator = est;
+        self.trigger = trigger;
+        if trigger.is_some() {
+            self.procedure_note = Some(WAITING_FOR_FEED_IN);
+        }
         self.session = SessionState::Armed;
         self.abort_reason = None;
         self.monitor = RunMonitor::new(self.limits);
@@ -1058,6 +1087,9 @@ impl App {
             Live::Temp,
             (!s.flags.contains(SampleFlags::TEMPERATURE_FAULT)).then_some(s.temp_c),
         );
+        if self.trigger.is_some() {
+            self.on_trigger(s);
+        }
         if self.session == SessionState::Running {
             let verdict = self.monitor.on_sample(s);
             if verdict != Verdict::NotRunning {
@@ -1080,6 +1112,28 @@ impl App {
         }
         self.refresh_live();
         self.update_status();
+    }
+
+    /// The self-triggered run's decision at a sample, carried out before the sample is used:
+    /// the run starts with it or ends before it.
+    #[inline(never)]
+    fn on_trigger(&mut self, s: &Sample) {
+        let axes = self.axes.canonical(&s.axes);
+        let armed_or_running = !self.idle();
+        let event = match self.trigger.as_mut() {
+            Some(t) if armed_or_running => t.on_sample(&axes),
+            _ => TriggerEvent::None,
+        };
+        match (event, self.session) {
+            (TriggerEvent::Start, SessionState::Armed) => self.begin_running(),
+            (TriggerEvent::Stop, SessionState::Running) => self.stop(),
+            (TriggerEvent::None, SessionState::Armed)
+                if self.trigger.is_some_and(|t| t.fed_in()) =>
+            {
+                self.procedure_note = Some(WAITING_FOR_DATA_ARC);
+            }
+            _ => {}
+        }
     }
 
     fn feed(&mut self, s: &Sample) {

@@ -130,7 +130,7 @@ impl<const N: usize> GivensLsq<N> {
             singular_values: [0.0; N],
             rank: 0,
             condition: f64::INFINITY,
-            residual_rms: libm::sqrt(self.rss / f64::from(self.rows.max(1))),
+            residual_rms: crate::num::sqrt(self.rss / f64::from(self.rows.max(1))),
             rows: self.rows,
             right_singular_vectors: [[0.0; N]; N],
         };
@@ -208,7 +208,7 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 #[inline(never)] // one copy for every N
 fn rotate_in(r: &mut [f64], qtb: &mut [f64], x: &mut [f64], b: f64, w: f64) -> f64 {
     let n = x.len();
-    let sw = libm::sqrt(w);
+    let sw = crate::num::sqrt(w);
     x.iter_mut().for_each(|v| *v *= sw);
     let mut y = b * sw;
     if n == 0 {
@@ -272,7 +272,9 @@ fn pseudo_inverse(
             *vj += v_j * v_j / (s * s);
         }
     }
-    std_u.iter_mut().for_each(|u| *u = libm::sqrt(s2 * *u));
+    std_u
+        .iter_mut()
+        .for_each(|u| *u = crate::num::sqrt(s2 * *u));
     let s_min = sigma.last().copied().unwrap_or(0.0);
     let condition = if rank == n && s_min > 0.0 {
         s_max / s_min
@@ -356,11 +358,11 @@ impl Svd<'_> {
                     if alpha <= negligible
                         || beta <= negligible
                         || gamma == 0.0
-                        || libm::fabs(gamma) <= f64::EPSILON * libm::sqrt(alpha * beta)
+                        || libm::fabs(gamma) <= f64::EPSILON * crate::num::sqrt(alpha * beta)
                     {
                         continue;
                     }
-                    off = off.max(libm::fabs(gamma) / libm::sqrt(alpha * beta));
+                    off = off.max(libm::fabs(gamma) / crate::num::sqrt(alpha * beta));
                     let zeta = (beta - alpha) / (2.0 * gamma);
                     let t = libm::copysign(1.0, zeta)
                         / (libm::fabs(zeta) + crate::num::hypot(1.0, zeta));
@@ -379,7 +381,7 @@ impl Svd<'_> {
             return false;
         }
         for (s, c) in norms.iter_mut().zip(cols.chunks_exact(n)) {
-            *s = libm::sqrt(dot(c, c));
+            *s = crate::num::sqrt(dot(c, c));
         }
         // decreasing norm, by insertion (n ≤ 16; core's slice sort would be 2 KB of flash)
         let norm = |j: usize| norms.get(j).copied().unwrap_or(0.0);

@@ -212,7 +212,7 @@ fn fit<const D: usize, const K: usize>(
     let w = SVector::<f64, K>::from_fn(|r, _| vectors.get((r, i0)).copied().unwrap_or(0.0));
     let a = 0.5 * w.get(0).copied().unwrap_or(0.0);
     let b = SVector::<f64, D>::from_fn(|r, _| w.get(r + 1).copied().unwrap_or(0.0));
-    if !(a.abs() > 1e-9 * b.norm()) {
+    if !(a.abs() > 1e-9 * crate::num::sqrt(b.norm_squared())) {
         return Err(PointFitError::Degenerate); // a line/plane fits better than any circle/sphere
     }
     let c0 = -b / (2.0 * a);
@@ -227,7 +227,7 @@ fn fit<const D: usize, const K: usize>(
         let mut jtr = [0.0f64; K];
         for p in pts {
             let d = SVector::<f64, D>::from(*p) - m - c;
-            let dn = d.norm();
+            let dn = crate::num::sqrt(d.norm_squared());
             if !(dn > 0.0) {
                 return Err(PointFitError::Degenerate);
             }
@@ -262,7 +262,7 @@ fn fit<const D: usize, const K: usize>(
     }
     let mut ss = 0.0;
     for p in pts {
-        let e = (SVector::<f64, D>::from(*p) - m - c).norm() - r;
+        let e = crate::num::sqrt((SVector::<f64, D>::from(*p) - m - c).norm_squared()) - r;
         ss += e * e;
     }
     let centre = c + m;

@@ -209,12 +209,14 @@ impl CircleTest {
                 num(o.feed_in_mm)
             ),
             format!(
-                "pod set-up: pattern CIRCLE, circle_plane {}, circle_radius {}, circle_feed {}",
+                "pod set-up: pattern CIRCLE, circle_plane {}, circle_radius {}, circle_feed {}, circle_arc {}",
                 CirclePlane::NAMES[self.plane as usize],
                 num(self.radius_mm),
-                num(self.feed_mm_per_min)
+                num(self.feed_mm_per_min),
+                num(o.arc_deg)
             ),
-            "the pod runs one test per direction: arm it before each data arc".into(),
+            "the pod runs one test per direction: arm it before each feed-in; with run_trigger FEED_IN the feed-in starts it, the data arc's end stops it"
+                .into(),
         ];
         dialect.begin(&mut out, &header);
         let _ = writeln!(out, "{}", dialect.modal(self.plane));

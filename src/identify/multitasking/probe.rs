@@ -115,7 +115,10 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
     let n = d13.cross(&d24); // (5.1)–(5.4)
     // The ratios of (5.5)/(5.6) do not depend on the sense of rotation (N flips as a whole),
     // so only |Z_N| ≈ 0 is degenerate.
-    if !(libm::fabs(n.z) > 1e-9 * d13.norm() * d24.norm()) || d13.norm() == 0.0 || d24.norm() == 0.0
+    if !(libm::fabs(n.z)
+        > 1e-9 * crate::num::sqrt(d13.norm_squared()) * crate::num::sqrt(d24.norm_squared()))
+        || crate::num::sqrt(d13.norm_squared()) == 0.0
+        || crate::num::sqrt(d24.norm_squared()) == 0.0
     {
         return Err(ProbeError::DegenerateCircle);
     }
@@ -126,7 +129,7 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
     };
     let centre = (p1 + p2 + p3 + p4) / 4.0;
     let diff = (p1 + p3) / 2.0 - (p2 + p4) / 2.0;
-    let mismatch = diff.norm() * 1e3;
+    let mismatch = crate::num::sqrt(diff.norm_squared()) * 1e3;
     let u = c_axis_uncertainty(
         &input.centres_std_uncertainty_um,
         [diff.x, diff.y, diff.z],
@@ -400,7 +403,7 @@ fn corrected_b_axis(d: &[[f64; 3]; 4], sig: &[[f64; 3]; 4], r_mm: [f64; 2]) -> B
     // known σ: the propagated u, times the Birge ratio where the residual says the σ were too
     // small; σ not known: the residual's alone
     let scale = |rss: f64, dof: f64| {
-        let s = libm::sqrt(rss.max(0.0) / dof);
+        let s = crate::num::sqrt(rss.max(0.0) / dof);
         if known { s.max(1.0) } else { s }
     };
     let rss_xz = line.rss(c0, beta_urad) + dz.rss(dz_bt, 0.0);
@@ -416,12 +419,12 @@ fn corrected_b_axis(d: &[[f64; 3]; 4], sig: &[[f64; 3]; 4], r_mm: [f64; 2]) -> B
         alpha_bt_plus_alpha_xb_arcsec: Some(asec(a1)),
         alpha_bt_minus_gamma_xb_arcsec: Some(asec(a2)),
         std_uncertainty: [
-            asec(k_xz * libm::sqrt(line.w / det)),
-            k_xz * libm::sqrt(line.wll / det),
-            k_xz * libm::sqrt(1.0 / dz.w),
+            asec(k_xz * crate::num::sqrt(line.w / det)),
+            k_xz * crate::num::sqrt(line.wll / det),
+            k_xz * crate::num::sqrt(1.0 / dz.w),
         ],
-        std_uncertainty_y: ys.map(|s| asec(k_y * libm::sqrt(1.0 / s.w))),
-        residual_rms_um: libm::sqrt(rss_xz.max(0.0) / (line.w + dz.w)),
+        std_uncertainty_y: ys.map(|s| asec(k_y * crate::num::sqrt(1.0 / s.w))),
+        residual_rms_um: crate::num::sqrt(rss_xz.max(0.0) / (line.w + dz.w)),
     }
 }
 
@@ -470,7 +473,7 @@ pub fn fit_sphere(points_mm: &[[f64; 3]]) -> Result<SphereFit, SphereFitError> {
     let mut j = GivensLsq::<4>::new();
     for p in points_mm {
         let d = Vector3::from(*p) - c;
-        let n = d.norm();
+        let n = crate::num::sqrt(d.norm_squared());
         if !(n > 0.0) {
             return Err(SphereFitError::Degenerate);
         }

@@ -290,3 +290,40 @@ fn an_ssm_set_up_the_machine_cannot_run_is_refused_with_the_field() {
         );
     }
 }
+
+/// The seed 002 pattern programs' golden cases: BX (a B quarter turn) and CR2 (a C revolution
+/// with the simultaneous X Y Z path) of the thesis's Table 4.3 set-up, 8 blocks a run, CCW then
+/// CW, F1000 — small enough to review line by line.
+fn pattern(step: ballpod::app::Pattern) -> ballpod_host::ncgen::PatternTest {
+    let mut cfg = Config::default();
+    ballpod::app::seed002::Setup::thesis_table_4_3().to_config(&mut cfg.setup);
+    ballpod_host::ncgen::PatternTest::from_config(
+        &cfg,
+        step,
+        8,
+        1000.0,
+        vec![ballpod::app::Direction::Ccw, ballpod::app::Direction::Cw],
+    )
+    .unwrap()
+}
+
+#[test]
+fn the_pattern_programs_match_their_golden_files_and_differ_from_linuxcnc_only_in_the_dialect() {
+    use ballpod::app::Pattern;
+    for (step, stem) in [(Pattern::Bx, "pattern_bx_8"), (Pattern::Cr2, "pattern_cr2_8")] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/nc/{stem}.nc"));
+        let golden = std::fs::read_to_string(&path).unwrap_or_default();
+        let (l, f) = (
+            pattern(step).program(Dialect::LinuxCnc),
+            pattern(step).program(Dialect::Fanuc),
+        );
+        assert_eq!(f, golden, "{}", path.display());
+        let body = |p: &str| -> Vec<String> {
+            p.lines()
+                .filter(|l| !matches!(*l, "%" | "O1000" | "M2" | "M30"))
+                .map(|l| l.to_ascii_uppercase())
+                .collect()
+        };
+        assert_eq!(body(&l), body(&f), "{stem}");
+    }
+}

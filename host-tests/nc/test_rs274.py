@@ -412,3 +412,45 @@ def test_a_program_corrected_for_centrelines_moves_as_its_comments_say(tmp_path)
         assert a[3:] == b[3:], "A and B as programmed"
         for k in range(3):
             assert abs((a[k] - b[k]) * 1e3 - m[k]) <= 0.06, (b, a, m)
+
+
+@pytest.mark.parametrize("machine,angles", [("RRTTT", (20.0, 30.0)), ("RTTTR_SPINDLE", (20.0, 0.0))])
+def test_two_step_programs_stay_on_the_bar_sphere_through_the_interpreter(tmp_path, machine, angles):
+    # seed 000's two-step through rs274: accepted; the operator stops (mount, bar off, mount);
+    # every interpreted point of both runs puts the tool ball (the pivot turned by the rotary
+    # axes, eqs 2/4 and 13/15) at the bar's length from the header's socket within 1 um;
+    # 2 x 4 dwells; the rotary axes move once, between the runs
+    assert NCGEN, "set BALLPOD_NCGEN to the ncgen binary"
+    z_r, bar = -250.0, 150.0
+    setup = tmp_path / "ts.toml"
+    setup.write_text("[setup]\n" f'ts_machine = "{machine}"\n'
+                     "ts_origin_x = -50\nts_origin_y = -15\nts_origin_z = 500\n"
+                     f"ts_tool_z = {z_r}\nts_angle_1 = {angles[0]}\n"
+                     f"ts_angle_2 = {angles[1]}\nbar_length = {bar}\n")
+    p = subprocess.run([NCGEN, "two-step", str(setup)], capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+    program = p.stdout
+    head = program.splitlines()[2]
+    socket = [float(w[1:].rstrip(",)")) for w in head.split("socket ")[1].split()[:3]]
+    cmds = interpret(tmp_path, program)
+    assert sum(1 for n, _ in cmds if n == "PROGRAM_STOP") == 3
+    assert sum(1 for n, _ in cmds if n == "DWELL") == 8
+
+    def tip(x, y, z, a_deg, b_deg):
+        # Rx(a) Ry(b) (0, 0, z_r) from the pivot; the programmed point is the pivot + (0, 0, z_r)
+        a, b = math.radians(a_deg), math.radians(b_deg)
+        v = (math.sin(b) * z_r, 0.0, math.cos(b) * z_r)
+        v = (v[0], math.cos(a) * v[1] - math.sin(a) * v[2], math.sin(a) * v[1] + math.cos(a) * v[2])
+        return (x + v[0], y + v[1], z - z_r + v[2])
+
+    rotations, last_rot = 0, None
+    for name, a in cmds:
+        if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
+            x, y, z, aa, bb = (float(v) for v in a[:5])
+            if last_rot is not None and (aa, bb) != last_rot:
+                rotations += 1
+            last_rot = (aa, bb)
+            assert abs(math.dist(tip(x, y, z, aa, bb), socket) - bar) < TOL_MM, (name, a)
+    assert rotations == 1
+    want = (angles[0], angles[1]) if machine == "RRTTT" else (0.0, angles[0])
+    assert last_rot == want

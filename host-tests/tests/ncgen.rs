@@ -202,6 +202,15 @@ fn the_readme_example_writes_its_program() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A program without what the dialects do differently: the framing (`%`, `O1000`, `M2` /
+/// `M30`), the comments' case and the dwell word (`G4 P` seconds / `G4 X` seconds).
+fn dialect_free(p: &str) -> Vec<String> {
+    p.lines()
+        .filter(|l| !matches!(*l, "%" | "O1000" | "M2" | "M30"))
+        .map(|l| l.replace("G4 P", "G4 X").to_ascii_uppercase())
+        .collect()
+}
+
 /// The SSM station set's golden case: socket 150 mm below the target, bar 150 mm, four
 /// stations 10° apart.
 fn ssm(stations: usize) -> ballpod_host::ncgen::SsmTest {
@@ -223,14 +232,7 @@ fn the_ssm_station_set_matches_its_golden_file_and_differs_from_linuxcnc_only_in
         ssm(4).program(Dialect::Fanuc),
     );
     assert_eq!(f, golden, "{}", path.display());
-    // the framing, the comments' case and the dwell word (G4 P seconds / G4 X seconds)
-    let body = |p: &str| -> Vec<String> {
-        p.lines()
-            .filter(|l| !matches!(*l, "%" | "O1000" | "M2" | "M30"))
-            .map(|l| l.replace("G4 P", "G4 X").to_ascii_uppercase())
-            .collect()
-    };
-    assert_eq!(body(&l), body(&f));
+    assert_eq!(dialect_free(&l), dialect_free(&f));
     assert_eq!(
         (l.matches("G4 P0.3").count(), f.matches("G4 X0.3").count()),
         (4, 4)
@@ -310,7 +312,10 @@ fn pattern(step: ballpod::app::Pattern) -> ballpod_host::ncgen::PatternTest {
 #[test]
 fn the_pattern_programs_match_their_golden_files_and_differ_from_linuxcnc_only_in_the_dialect() {
     use ballpod::app::Pattern;
-    for (step, stem) in [(Pattern::Bx, "pattern_bx_8"), (Pattern::Cr2, "pattern_cr2_8")] {
+    for (step, stem) in [
+        (Pattern::Bx, "pattern_bx_8"),
+        (Pattern::Cr2, "pattern_cr2_8"),
+    ] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("tests/data/nc/{stem}.nc"));
         let golden = std::fs::read_to_string(&path).unwrap_or_default();
         let (l, f) = (
@@ -318,12 +323,161 @@ fn the_pattern_programs_match_their_golden_files_and_differ_from_linuxcnc_only_i
             pattern(step).program(Dialect::Fanuc),
         );
         assert_eq!(f, golden, "{}", path.display());
-        let body = |p: &str| -> Vec<String> {
-            p.lines()
-                .filter(|l| !matches!(*l, "%" | "O1000" | "M2" | "M30"))
-                .map(|l| l.to_ascii_uppercase())
-                .collect()
-        };
-        assert_eq!(body(&l), body(&f), "{stem}");
+        assert_eq!(dialect_free(&l), dialect_free(&f), "{stem}");
     }
+}
+
+/// The two-step set-up of the README's example (`ts_*`: RRTTT, pivot after the translation,
+/// tool z_r −250 mm, rotation A20 B30; bar 150 mm).
+fn two_step_cfg(machine: ballpod::config::TwoStepMachine) -> Config {
+    let mut cfg = Config {
+        bar_length_mm: 150.0,
+        ..Config::default()
+    };
+    let s = &mut cfg.setup;
+    s.ts_machine = machine;
+    s.ts_origin_mm = [-50.0, -15.0, 500.0];
+    s.ts_tool_z_mm = -250.0;
+    s.ts_angles_deg = [20.0, 30.0];
+    cfg
+}
+
+/// The numbers after `key` in a header line (`socket X… Y… Z…`).
+fn xyz_after(line: &str, key: &str) -> [f64; 3] {
+    let rest = &line[line.find(key).unwrap() + key.len()..];
+    let w: Vec<&str> = rest.split_whitespace().take(3).collect();
+    std::array::from_fn(|i| w[i][1..].trim_end_matches([',', ')']).parse().unwrap())
+}
+
+/// Seed 000's two-step program, checked with the independent forward model of eqs 2/4 and
+/// 13/15 (`forward_seed000::rrttt_tip`, `rtttr_tip`: the ball at the pivot turned by the
+/// rotary words): the first station of each run is the tool ball at the pivot after the
+/// translation, at A0 B0 and at the angles; every station and every move of both runs keeps
+/// the ball on the bar's sphere about the one socket within 1 µm; the pod's ssm_socket of each
+/// run (the header) sees the programmed points at the bar's length; the rotation happens only
+/// with the bar off (M0); refusals name their field.
+#[test]
+fn the_two_step_program_keeps_the_tool_ball_on_the_bar_sphere_at_both_locations() {
+    use ballpod::config::TwoStepMachine;
+    use ballpod_host::forward_seed000 as fwd;
+    for machine in [TwoStepMachine::Rrttt, TwoStepMachine::RtttrSpindle] {
+        let cfg = two_step_cfg(machine);
+        let test = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 4, 1000.0).unwrap();
+        let program = test.program(Dialect::LinuxCnc);
+        let header: Vec<&str> = program.lines().take(4).collect();
+        let socket = xyz_after(header[2], "socket ");
+        let pod_sockets = [
+            xyz_after(header[3], "run 1 ssm_socket "),
+            xyz_after(header[3], "run 2 ssm_socket "),
+        ];
+        let (origin, z_r) = ([-50.0, -15.0, 500.0], -250.0);
+        let (a_rad, b_rad) = match machine {
+            TwoStepMachine::Rrttt => (20f64.to_radians(), 30f64.to_radians()),
+            _ => (0.0, 20f64.to_radians()),
+        };
+        let tip = |xyz: [f64; 3], a: f64, b: f64| {
+            // tool length compensation: the programmed point is the pivot + (0, 0, z_r)
+            let pivot = [xyz[0], xyz[1], xyz[2] - z_r];
+            match machine {
+                TwoStepMachine::Rrttt => fwd::rrttt_tip(pivot, [0.0; 3], a, b, z_r),
+                _ => fwd::rtttr_tip(pivot, [0.0; 3], b, z_r),
+            }
+        };
+        let dist = |p: [f64; 3], q: [f64; 3]| {
+            ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
+        };
+        let (mut pos, mut rot) = ([f64::NAN; 3], [0.0f64; 2]);
+        let (mut run, mut stops, mut dwells) = (0usize, 0, vec![Vec::new(), Vec::new()]);
+        for line in program.lines() {
+            let code = line.split('(').next().unwrap().trim();
+            if code == "M0" {
+                stops += 1;
+                continue;
+            }
+            if code.starts_with("G4") {
+                dwells[run].push((pos, rot));
+                continue;
+            }
+            if !(code.starts_with("G0") || code.starts_with("G1")) {
+                continue;
+            }
+            let before = rot;
+            for w in code.split_whitespace() {
+                let v = || w[1..].parse::<f64>().unwrap();
+                match &w[..1] {
+                    "X" => pos[0] = v(),
+                    "Y" => pos[1] = v(),
+                    "Z" => pos[2] = v(),
+                    "A" => rot[0] = v().to_radians(),
+                    "B" => rot[1] = v().to_radians(),
+                    _ => {}
+                }
+            }
+            if rot != before {
+                // the rotation: only after the first run, the bar off
+                assert_eq!((run, stops), (0, 2), "{machine:?}: {line}");
+                run = 1;
+            }
+            // every point of a run: the ball on the bar's sphere (the G0 to run 2's first
+            // station is the rotation itself, with the bar off)
+            let t = tip(pos, rot[0], rot[1]);
+            assert!(
+                (dist(t, socket) - 150.0).abs() < 1e-3,
+                "{machine:?}: {line}"
+            );
+            // the pod's view: the programmed point from the run's ssm_socket
+            assert!(
+                (dist(pos, pod_sockets[run]) - 150.0).abs() < 1e-3,
+                "{machine:?}: {line}"
+            );
+        }
+        assert_eq!(stops, 3, "mount, off, mount again");
+        assert_eq!((dwells[0].len(), dwells[1].len()), (4, 4));
+        let first = [dwells[0][0], dwells[1][0]];
+        let want = match machine {
+            TwoStepMachine::Rrttt => [
+                fwd::rrttt_tip(origin, [0.0; 3], 0.0, 0.0, z_r),
+                fwd::rrttt_tip(origin, [0.0; 3], a_rad, b_rad, z_r),
+            ],
+            _ => [
+                fwd::rtttr_tip(origin, [0.0; 3], 0.0, z_r),
+                fwd::rtttr_tip(origin, [0.0; 3], b_rad, z_r),
+            ],
+        };
+        for ((p, r), w) in first.iter().zip(want) {
+            assert!(
+                dist(tip(*p, r[0], r[1]), w) < 1e-4,
+                "{machine:?}: {p:?} {w:?}"
+            );
+        }
+        // both runs' first stations are the same programmed point: the linear axes stand
+        // still through the rotation
+        assert!(dist(first[0].0, first[1].0) < 1e-4);
+    }
+    // refusals name their field
+    let mut cfg = two_step_cfg(TwoStepMachine::Tttrr);
+    let e = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 4, 1000.0).unwrap_err();
+    assert_eq!(e.field, "ts_machine");
+    cfg.setup.ts_machine = TwoStepMachine::Rrttt;
+    cfg.setup.ts_tool_z_mm = f32::NAN;
+    let e = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 4, 1000.0).unwrap_err();
+    assert_eq!(e.field, "ts_tool_z");
+    cfg.setup.ts_tool_z_mm = -450.0;
+    cfg.setup.ts_angles_deg = [60.0, 40.0];
+    let e = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 4, 1000.0).unwrap_err();
+    assert_eq!(e.field, "bar_length", "{e}");
+}
+
+#[test]
+fn the_two_step_program_matches_its_golden_file_and_differs_from_linuxcnc_only_in_the_dialect() {
+    let cfg = two_step_cfg(ballpod::config::TwoStepMachine::Rrttt);
+    let test = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 3, 1000.0).unwrap();
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nc/two_step_rrttt.nc");
+    let golden = std::fs::read_to_string(&path).unwrap_or_default();
+    let (l, f) = (
+        test.program(Dialect::LinuxCnc),
+        test.program(Dialect::Fanuc),
+    );
+    assert_eq!(f, golden, "{}", path.display());
+    assert_eq!(dialect_free(&l), dialect_free(&f));
 }

@@ -4,7 +4,8 @@
 //! `[setup]` table of configuration fields, as replay's session files: `circle_plane`,
 //! `circle_centre_*`, `circle_radius`, `circle_feed`), a seed 002 procedure pattern from its
 //! `s002_*` fields, a touch-probe sphere measurement, or an SSM station set from its `ssm_*`
-//! fields (`cargo ncgen -- ssm SETUP --target X Y Z`); `cargo ncgen -- correct PROGRAM SETUP
+//! fields (`cargo ncgen -- ssm SETUP --target X Y Z`), seed 000's two-step procedure from its
+//! `ts_*` fields (`cargo ncgen -- two-step SETUP`); `cargo ncgen -- correct PROGRAM SETUP
 //! RESULTS` rewrites a program for the identified deviations (seed 002 chapter 3), and
 //! `cargo ncgen -- correct-centrelines PROGRAM CENTRELINES` for estimated rotary-axis
 //! centrelines (seed 004 eq 9). Prints the
@@ -17,8 +18,8 @@ use clap::{Parser, Subcommand, ValueEnum};
 
 use ballpod::app::Direction;
 use ballpod_host::ncgen::{
-    CircleOptions, CircleTest, Dialect, PatternTest, SphereTest, SsmTest, centrelines_from_toml,
-    correct_program, correct_program_centrelines, deviations_from_results,
+    CircleOptions, CircleTest, Dialect, PatternTest, SphereTest, SsmTest, TwoStepTest,
+    centrelines_from_toml, correct_program, correct_program_centrelines, deviations_from_results,
 };
 use ballpod_host::session_file::{read_text, setup_config};
 
@@ -67,6 +68,9 @@ enum Test {
     Sphere(SphereArgs),
     /// A single-socket-method station set (pattern SSM) from the pod's set-up file.
     Ssm(SsmArgs),
+    /// Seed 000's two-step procedure (pattern SSM twice: after the translation and after the
+    /// rotation) from the pod's set-up file (`ts_*` fields, RRTTT or RTTTR_SPINDLE).
+    TwoStep(TwoStepArgs),
     /// A program's G0/G1 points corrected for the identified deviations (seed 002 ch. 3; the
     /// program keeps its dialect).
     Correct(CorrectArgs),
@@ -94,15 +98,31 @@ struct SsmArgs {
     /// The point whose error is wanted: the first station is on the bar's sphere towards it.
     #[arg(long, num_args = 3, value_names = ["X", "Y", "Z"], allow_negative_numbers = true, required = true)]
     target: Vec<f64>,
+    #[command(flatten)]
+    layout: StationArgs,
+}
+
+/// A station set's layout.
+#[derive(clap::Args, Debug)]
+struct StationArgs {
     /// Angle between the first station and its neighbours, degrees.
     #[arg(long, default_value_t = 10.0, allow_negative_numbers = true)]
     separation_deg: f64,
-    /// Stations, the first included (3 … 8).
+    /// Stations per set, the first included (3 … 8).
     #[arg(long, default_value_t = 4)]
     stations: usize,
     /// Feed between stations, mm/min.
     #[arg(long, default_value_t = 1000.0, allow_negative_numbers = true)]
     feed: f64,
+}
+
+/// The two-step's station sets (the geometry is the set-up's `ts_*` fields).
+#[derive(clap::Args, Debug)]
+struct TwoStepArgs {
+    /// Set-up file (.toml or .json) with a `[setup]` table of configuration fields.
+    setup: PathBuf,
+    #[command(flatten)]
+    layout: StationArgs,
 }
 
 /// The program to correct and where the deviations come from.
@@ -232,7 +252,8 @@ fn run(args: &Args) -> Result<String, String> {
             let text = read_text(&a.setup).map_err(|e| e.to_string())?;
             let cfg = setup_config(&a.setup, &text).map_err(|e| e.to_string())?;
             let target = [0, 1, 2].map(|k| a.target.get(k).copied().unwrap_or(f64::NAN));
-            let test = SsmTest::from_config(&cfg, target, a.separation_deg, a.stations, a.feed)
+            let l = &a.layout;
+            let test = SsmTest::from_config(&cfg, target, l.separation_deg, l.stations, l.feed)
                 .map_err(|e| format!("{}: {e}", a.setup.display()))?;
             Ok(test.program(dialect))
         }
@@ -255,6 +276,14 @@ fn run(args: &Args) -> Result<String, String> {
             );
             correct_program(&program, origin, &dev, &name)
                 .map_err(|e| format!("{}: {e}", c.program.display()))
+        }
+        Test::TwoStep(t) => {
+            let text = read_text(&t.setup).map_err(|e| e.to_string())?;
+            let cfg = setup_config(&t.setup, &text).map_err(|e| e.to_string())?;
+            let l = &t.layout;
+            let test = TwoStepTest::from_config(&cfg, l.separation_deg, l.stations, l.feed)
+                .map_err(|e| e.to_string())?;
+            Ok(test.program(dialect))
         }
         Test::CorrectCentrelines(c) => {
             let read = |p: &PathBuf| {

@@ -2,7 +2,8 @@
 //! pod measures. Today: the ISO 230-4 circle (full or partial arc) in XY, YZ or ZX, CCW and CW,
 //! from the pod's own set-up (`circle_*` fields), the seed 002 procedure's patterns BX, BY, CR,
 //! CA, CR2 ([`PatternTest`], `s002_*` fields), the touch-probe sphere measurement
-//! ([`SphereTest`]) and the single-socket-method station set ([`SsmTest`], `ssm_*` fields), in two dialects ([`Dialect`]: LinuxCNC and ISO/Fanuc), every dialect
+//! ([`SphereTest`]), the single-socket-method station set ([`SsmTest`], `ssm_*` fields) and
+//! seed 000's two-step procedure ([`TwoStepTest`], `ts_*` fields), in two dialects ([`Dialect`]: LinuxCNC and ISO/Fanuc), every dialect
 //! difference in `dialect.rs`; and a program corrected for the identified deviations
 //! ([`correct_program`], seed 002 chapter 3) or for estimated rotary-axis centrelines
 //! ([`correct_program_centrelines`], seed 004 eq 9 and §4.3).
@@ -22,6 +23,7 @@ mod dialect;
 mod pattern;
 mod sphere;
 mod ssm;
+mod two_step;
 
 pub use correct::{
     CentrelinePair, CentrelinesFile, Senses, centrelines_from_toml, correct_program,
@@ -31,6 +33,7 @@ pub use dialect::Dialect;
 pub use pattern::PatternTest;
 pub use sphere::SphereTest;
 pub use ssm::SsmTest;
+pub use two_step::TwoStepTest;
 
 use std::fmt::Write as _;
 

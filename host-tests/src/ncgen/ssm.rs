@@ -42,7 +42,17 @@ pub struct SsmTest {
     pub feed_mm_per_min: f64,
 }
 
-fn unit(v: [f64; 3]) -> [f64; 3] {
+/// The dwell the pod's dwell detection needs, s: its settling time plus twice its fewest
+/// averaged samples at its sample rate, rounded up to 0.1 s (less a rounding residue: 0.1 + 0.2
+/// is not 0.3 in binary).
+pub(super) fn dwell_s(cfg: &Config) -> f64 {
+    let t = &cfg.setup;
+    let needed = f64::from(t.ssm_settle_ms) * 1e-3
+        + 2.0 * f64::from(t.ssm_min_dwell_samples) / f64::from(cfg.sample_rate_hz);
+    (needed * 10.0 - 1e-9).ceil() / 10.0
+}
+
+pub(super) fn unit(v: [f64; 3]) -> [f64; 3] {
     let n = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt();
     v.map(|x| x / n)
 }
@@ -107,16 +117,13 @@ impl SsmTest {
                 what: format!("{feed_mm_per_min} mm/min: must be > 0"),
             });
         }
-        let needed = f64::from(t.ssm_settle_ms) * 1e-3
-            + 2.0 * f64::from(t.ssm_min_dwell_samples) / f64::from(cfg.sample_rate_hz);
         Ok(Self {
             socket_mm,
             bar_mm: f64::from(cfg.bar_length_mm),
             towards: unit(d),
             separation_deg,
             stations,
-            // rounded up to 0.1 s (less a rounding residue: 0.1 + 0.2 is not 0.3 in binary)
-            dwell_s: (needed * 10.0 - 1e-9).ceil() / 10.0,
+            dwell_s: dwell_s(cfg),
             feed_mm_per_min,
         })
     }
@@ -184,7 +191,6 @@ impl SsmTest {
     /// The part program in `dialect`.
     pub fn program(&self, dialect: Dialect) -> String {
         let xyz = |p: [f64; 3]| format!("X{} Y{} Z{}", num(p[0]), num(p[1]), num(p[2]));
-        let dirs = self.directions();
         let stations = self.stations_mm();
         let [sx, sy, sz] = self.socket_mm;
         let header = [
@@ -212,6 +218,21 @@ impl SsmTest {
         let _ = writeln!(out, "{}", dialect.modal(CirclePlane::XY));
         dialect.comment(&mut out, "mount the bar at the first station");
         let _ = writeln!(out, "G0 {}", xyz(stations[0]));
+        self.write_stations(&mut out, dialect, [0.0; 3]);
+        dialect.end(&mut out);
+        out
+    }
+
+    /// The station set from its first station (where the machine is): the moves on the sphere
+    /// and a dwell at each station, every programmed point `offset_mm` from the station or path
+    /// point it makes the tool ball reach.
+    pub(super) fn write_stations(&self, out: &mut String, dialect: Dialect, offset_mm: [f64; 3]) {
+        let xyz = |p: [f64; 3]| {
+            let q: [f64; 3] = std::array::from_fn(|i| p[i] + offset_mm[i]);
+            format!("X{} Y{} Z{}", num(q[0]), num(q[1]), num(q[2]))
+        };
+        let dirs = self.directions();
+        let stations = self.stations_mm();
         let mut first_move = true;
         for (k, p) in stations.iter().enumerate() {
             if k > 0 {
@@ -224,10 +245,8 @@ impl SsmTest {
                     }
                 }
             }
-            dialect.comment(&mut out, &format!("station {} {}", k + 1, xyz(*p)));
+            dialect.comment(out, &format!("station {} {}", k + 1, xyz(*p)));
             let _ = writeln!(out, "{}", dialect.dwell(self.dwell_s));
         }
-        dialect.end(&mut out);
-        out
     }
 }

@@ -454,3 +454,24 @@ def test_two_step_programs_stay_on_the_bar_sphere_through_the_interpreter(tmp_pa
     assert rotations == 1
     want = (angles[0], angles[1]) if machine == "RRTTT" else (0.0, angles[0])
     assert last_rot == want
+
+
+def test_a_program_beyond_the_set_up_travel_is_refused_and_nothing_written(tmp_path):
+    # the set-up file's [travel]: the R 150 circle needs X to reach ±151 (the feed-in); a
+    # travel of ±120 is refused naming travel.x_mm, and no file is written; with room it passes
+    assert NCGEN, "set BALLPOD_NCGEN to the ncgen binary"
+    base = ('[setup]\ncircle_plane = "XY"\ncircle_centre_x = 0.0\ncircle_centre_y = 0.0\n'
+            "circle_radius = 150.0\ncircle_feed = 1000.0\n")
+    for travel, ok in (("x_mm = [-120.0, 120.0]", False), ("x_mm = [-152.0, 152.0]\ny_mm = [-152.0, 152.0]", True)):
+        f = tmp_path / "setup.toml"
+        f.write_text(base + "\n[travel]\n" + travel + "\n")
+        out = tmp_path / "circle.ngc"
+        p = subprocess.run([NCGEN, "circle", str(f), "--out", str(out)], capture_output=True, text=True,
+                           timeout=60)
+        if ok:
+            assert p.returncode == 0, p.stderr
+            assert out.exists()
+            out.unlink()
+        else:
+            assert p.returncode == 1 and "travel.x_mm" in p.stderr, p.stderr
+            assert not out.exists(), "nothing written"

@@ -124,6 +124,9 @@ pub struct SessionFile {
     /// The seed 001 body-diagonal measurement.
     #[serde(default)]
     pub body_diagonals: Option<crate::diagonals::BodyDiagonalsEntry>,
+    /// The machine's travel (read by `ncgen`, which refuses a program beyond it).
+    #[serde(default)]
+    pub travel: Option<crate::ncgen::Travel>,
 }
 
 impl SessionFile {
@@ -188,6 +191,11 @@ pub fn setup_config(path: &Path, text: &str) -> Result<Config, LogError> {
     let mut c = Config::default();
     apply_setup(path, &s.setup, &mut c)?;
     Ok(c)
+}
+
+/// The machine's travel a set-up file gives (`[travel]`, for `ncgen`), if any.
+pub fn setup_travel(path: &Path, text: &str) -> Result<Option<crate::ncgen::Travel>, LogError> {
+    Ok(deserialize(path, text)?.travel)
 }
 
 /// A session file's structure, TOML or JSON by the file's extension.

@@ -481,3 +481,69 @@ fn the_two_step_program_matches_its_golden_file_and_differs_from_linuxcnc_only_i
     assert_eq!(f, golden, "{}", path.display());
     assert_eq!(dialect_free(&l), dialect_free(&f));
 }
+
+/// The extents the travel check reads from a program, against hand-computed arcs: a CCW half
+/// turn passes 90° (not 270°), the same CW passes 270°, a G18 arc works in Z, X, a full turn
+/// (start = end) reaches all four extremes, a G4's X is a time, not a position.
+#[test]
+fn program_extents_follow_the_arcs() {
+    use ballpod_host::ncgen::extents;
+    let near = |got: Option<(f64, f64)>, want: (f64, f64)| {
+        let (a, b) = got.unwrap();
+        assert!(
+            (a - want.0).abs() < 1e-9 && (b - want.1).abs() < 1e-9,
+            "{got:?} {want:?}"
+        );
+    };
+    let e = extents("G17 G90\nG0 X10 Y0 Z5\nG3 X-10 Y0 I-10 J0\nG4 X99\n").unwrap();
+    near(e[0], (-10.0, 10.0));
+    near(e[1], (0.0, 10.0));
+    near(e[2], (5.0, 5.0));
+    assert_eq!(e[3], None);
+    let e = extents("G17\nG0 X10 Y0\nG2 X-10 Y0 I-10 J0\n").unwrap();
+    near(e[1], (-10.0, 0.0));
+    // G18: the plane (Z, X) with offsets K, I; (Z 10, X 0) is at 0°, (Z 0, X 10) at 90°: a CCW
+    // quarter turn passes no other extreme
+    let e = extents("G18\nG0 X0 Z10\nG3 X10 Z0 I0 K-10\n").unwrap();
+    near(e[0], (0.0, 10.0));
+    near(e[2], (0.0, 10.0));
+    let e = extents("G17\nG0 X5 Y0\nG3 X5 Y0 I-5 J0\n").unwrap();
+    near(e[0], (-5.0, 5.0));
+    near(e[1], (-5.0, 5.0));
+}
+
+/// A program beyond the set-up file's travel is refused naming the axis; within it passes.
+#[test]
+fn programs_beyond_the_travel_are_refused_naming_the_axis() {
+    use ballpod_host::ncgen::{Travel, check_travel};
+    let (_, cfg, options) = cases().into_iter().next().unwrap(); // the XY circle, R 150 about 0
+    let circle = CircleTest::from_config(&cfg, options)
+        .unwrap()
+        .program(Dialect::LinuxCnc);
+    let tight = Travel {
+        x_mm: Some([-100.0, 100.0]),
+        ..Travel::default()
+    };
+    let e = check_travel(&circle, &tight).unwrap_err();
+    assert_eq!(e.field, "travel.x_mm", "{e}");
+    let roomy = Travel {
+        x_mm: Some([-200.0, 200.0]),
+        y_mm: Some([-200.0, 200.0]),
+        ..Travel::default()
+    };
+    check_travel(&circle, &roomy).unwrap();
+    let bx = pattern(ballpod::app::Pattern::Bx).program(Dialect::Fanuc);
+    let b60 = Travel {
+        b_deg: Some([0.0, 60.0]),
+        ..Travel::default()
+    };
+    assert_eq!(check_travel(&bx, &b60).unwrap_err().field, "travel.b_deg");
+    let upside_down = Travel {
+        z_mm: Some([10.0, -10.0]),
+        ..Travel::default()
+    };
+    assert_eq!(
+        check_travel(&bx, &upside_down).unwrap_err().field,
+        "travel.z_mm"
+    );
+}

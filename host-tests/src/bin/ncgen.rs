@@ -10,7 +10,7 @@
 //! `cargo ncgen -- correct-centrelines PROGRAM CENTRELINES` for estimated rotary-axis
 //! centrelines (seed 004 eq 9). Prints the
 //! program, or writes it with `--out`. A set-up the machine cannot run is refused with the field
-//! named; nothing is written.
+//! named — a program beyond the set-up file's `[travel]` too —; nothing is written.
 
 use std::path::PathBuf;
 
@@ -19,9 +19,10 @@ use clap::{Parser, Subcommand, ValueEnum};
 use ballpod::app::Direction;
 use ballpod_host::ncgen::{
     CircleOptions, CircleTest, Dialect, PatternTest, SphereTest, SsmTest, TwoStepTest,
-    centrelines_from_toml, correct_program, correct_program_centrelines, deviations_from_results,
+    centrelines_from_toml, check_travel, correct_program, correct_program_centrelines,
+    deviations_from_results,
 };
-use ballpod_host::session_file::{read_text, setup_config};
+use ballpod_host::session_file::{read_text, setup_config, setup_travel};
 
 /// The control the program is for.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -232,7 +233,7 @@ fn run(args: &Args) -> Result<String, String> {
             };
             let test = CircleTest::from_config(&cfg, options)
                 .map_err(|e| format!("{}: {e}", c.setup.display()))?;
-            Ok(test.program(dialect))
+            within_travel(&c.setup, test.program(dialect))
         }
         Test::Pattern(p) => {
             let step = ballpod::app::Pattern::from_name(p.pattern.as_bytes())
@@ -246,7 +247,7 @@ fn run(args: &Args) -> Result<String, String> {
             };
             let test = PatternTest::from_config(&cfg, step, steps, p.feed, directions(p.direction))
                 .map_err(|e| format!("{}: {e}", p.setup.display()))?;
-            Ok(test.program(dialect))
+            within_travel(&p.setup, test.program(dialect))
         }
         Test::Ssm(a) => {
             let text = read_text(&a.setup).map_err(|e| e.to_string())?;
@@ -255,7 +256,7 @@ fn run(args: &Args) -> Result<String, String> {
             let l = &a.layout;
             let test = SsmTest::from_config(&cfg, target, l.separation_deg, l.stations, l.feed)
                 .map_err(|e| format!("{}: {e}", a.setup.display()))?;
-            Ok(test.program(dialect))
+            within_travel(&a.setup, test.program(dialect))
         }
         Test::Correct(c) => {
             let read = |p: &PathBuf| {
@@ -274,8 +275,9 @@ fn run(args: &Args) -> Result<String, String> {
                 || c.results.display().to_string(),
                 |n| n.to_string_lossy().into_owned(),
             );
-            correct_program(&program, origin, &dev, &name)
-                .map_err(|e| format!("{}: {e}", c.program.display()))
+            let corrected = correct_program(&program, origin, &dev, &name)
+                .map_err(|e| format!("{}: {e}", c.program.display()))?;
+            within_travel(&c.setup, corrected)
         }
         Test::TwoStep(t) => {
             let text = read_text(&t.setup).map_err(|e| e.to_string())?;
@@ -283,7 +285,7 @@ fn run(args: &Args) -> Result<String, String> {
             let l = &t.layout;
             let test = TwoStepTest::from_config(&cfg, l.separation_deg, l.stations, l.feed)
                 .map_err(|e| e.to_string())?;
-            Ok(test.program(dialect))
+            within_travel(&t.setup, test.program(dialect))
         }
         Test::CorrectCentrelines(c) => {
             let read = |p: &PathBuf| {
@@ -306,6 +308,16 @@ fn run(args: &Args) -> Result<String, String> {
             Ok(test.program(dialect))
         }
     }
+}
+
+/// `program` if it stays within the travel the set-up file gives (`[travel]`), else the
+/// refusal naming the axis: nothing is written.
+fn within_travel(setup: &std::path::Path, program: String) -> Result<String, String> {
+    let text = read_text(setup).map_err(|e| e.to_string())?;
+    if let Some(t) = setup_travel(setup, &text).map_err(|e| e.to_string())? {
+        check_travel(&program, &t).map_err(|e| format!("{}: {e}", setup.display()))?;
+    }
+    Ok(program)
 }
 
 /// The runs of a `--direction`, in order.

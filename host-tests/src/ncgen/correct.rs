@@ -71,7 +71,7 @@ pub fn deviations_from_results(json: &str) -> Result<Deviations, NcError> {
 }
 
 /// The words of a block: letter and number, in order; a parenthesised comment kept aside.
-fn words(code: &str) -> Result<Vec<(char, String)>, String> {
+pub(super) fn words(code: &str) -> Result<Vec<(char, String)>, String> {
     let mut out = Vec::new();
     let mut chars = code.chars().peekable();
     while let Some(c) = chars.next() {

@@ -23,6 +23,7 @@ mod dialect;
 mod pattern;
 mod sphere;
 mod ssm;
+mod travel;
 mod two_step;
 
 pub use correct::{
@@ -33,6 +34,7 @@ pub use dialect::Dialect;
 pub use pattern::PatternTest;
 pub use sphere::SphereTest;
 pub use ssm::SsmTest;
+pub use travel::{Extents, Travel, check as check_travel, extents};
 pub use two_step::TwoStepTest;
 
 use std::fmt::Write as _;

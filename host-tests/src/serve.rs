@@ -59,6 +59,8 @@ pub struct ServeOptions {
     pub bar_noise_um: f64,
     /// Stop after this many seconds of real time.
     pub max_seconds: f64,
+    /// The served machine (`--machine`), instead of the default truth's.
+    pub machine: Option<crate::vmt::machine::MachineFile>,
 }
 
 impl Default for ServeOptions {
@@ -72,6 +74,7 @@ impl Default for ServeOptions {
             seed: 1,
             bar_noise_um: 0.2,
             max_seconds: 600.0,
+            machine: None,
         }
     }
 }
@@ -246,7 +249,7 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
     can_l.set_nonblocking(true)?;
     usb_l.set_nonblocking(true)?;
     stream_l.set_nonblocking(true)?;
-    let setup = VirtualSetup {
+    let mut setup = VirtualSetup {
         seed: opts.seed,
         instrument: Instrument {
             bar_noise_um: opts.bar_noise_um,
@@ -254,6 +257,9 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
         },
         ..VirtualSetup::default()
     };
+    if let Some(m) = opts.machine {
+        setup.truth.machine = m;
+    }
     let mut vp: VirtualPod = VirtualPod::new(setup);
     vp.stream_reader(false);
     let truth = serde_json::to_string(vp.truth()).map_err(io::Error::other)?;
@@ -353,7 +359,8 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
         let now = Instant::now();
         let dt_us = now.duration_since(last).as_secs_f64() * 1e6;
         last = now;
-        let running = vp.app.session() == SessionState::Running;
+        // a run running, or the CNC's program of an armed self-triggered run
+        let running = vp.app.session() == SessionState::Running || vp.moving();
         let speed = if running && !opts.realtime {
             opts.speed
         } else {

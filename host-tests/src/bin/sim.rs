@@ -30,7 +30,8 @@ struct Args {
     /// Bar noise σ, µm (default: the machine file's instrument, 0.2).
     #[arg(long, value_parser = non_negative)]
     noise: Option<f64>,
-    /// Machine description (TOML or JSON; every key optional).
+    /// Machine description (TOML or JSON; every key optional); with `--serve`, the served
+    /// machine (its instrument section aside: `--noise`).
     #[arg(long)]
     machine: Option<PathBuf>,
     /// Output directory.
@@ -97,6 +98,11 @@ fn serve(a: &Args) -> Result<(), String> {
         seed: a.seed,
         bar_noise_um: a.noise.unwrap_or(d.bar_noise_um),
         max_seconds: a.max_seconds,
+        machine: a
+            .machine
+            .as_ref()
+            .map(|p| MachineFile::read(p))
+            .transpose()?,
     })
     .map_err(|e| format!("--serve: {e}"))
 }

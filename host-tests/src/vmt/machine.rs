@@ -203,6 +203,9 @@ pub struct CircleMachine {
     pub thermal_growth_x_um_per_min: f64,
     /// Thermal growth of Y, µm per minute at y = R: E_y = g_y·t·y/R.
     pub thermal_growth_y_um_per_min: f64,
+    /// The served CNC's radial feed-in (and feed-out) of a self-triggered circle run
+    /// (`run_trigger = FEED_IN`), mm; 0: a program without a feed-in.
+    pub feed_in_mm: f64,
 }
 
 impl Default for CircleMachine {
@@ -226,6 +229,7 @@ impl Default for CircleMachine {
             socket_offset_um: [0.0; 2],
             thermal_growth_x_um_per_min: 0.0,
             thermal_growth_y_um_per_min: 0.0,
+            feed_in_mm: 1.0,
         }
     }
 }

@@ -105,35 +105,17 @@ impl Motion {
         let rate = f64::from(cfg.sample_rate_hz);
         let t = &cfg.setup;
         let sign = direction.sign();
-        let bar = f64::from(cfg.bar_length_mm);
         let steps = match pattern {
             Pattern::Circle => {
-                let c = |k: usize| f64::from(t.circle_centre_mm[k]);
-                let r = f64::from(t.circle_radius_mm);
-                if r.is_nan()
-                    || r <= 0.0
-                    || (0..3).any(|k| c(k).is_nan() && !in_plane_unused(t.circle_plane, k))
-                {
-                    return Err("circle set-up not complete".into());
-                }
-                let mut m = truth.machine.circle;
-                m.radius_mm = r;
-                if t.circle_feed_mm_per_min > 0.0 {
-                    m.feed_mm_per_min = f64::from(t.circle_feed_mm_per_min);
-                }
-                let n = m.samples_per_rev(rate);
+                let c = CircleProgram::new(truth, cfg)?;
+                let n = c.machine.samples_per_rev(rate);
                 (0..n)
                     .map(|i| {
-                        let th = sign * 2.0 * std::f64::consts::PI * i as f64 / n as f64;
-                        let (dl, a) = m.pose(th, sign);
-                        let (u, v) = (a[0], a[1]);
-                        let cz = |k: usize| if c(k).is_nan() { 0.0 } else { c(k) };
-                        let xyz = match t.circle_plane {
-                            CirclePlane::XY => [cz(0) + u, cz(1) + v, cz(2)],
-                            CirclePlane::YZ => [cz(0), cz(1) + u, cz(2) + v],
-                            CirclePlane::ZX => [cz(0) + v, cz(1), cz(2) + u],
-                        };
-                        MachineStep::at(dl + (r - bar) * 1e3, [xyz[0], xyz[1], xyz[2], 0.0, 0.0])
+                        c.step(
+                            sign * 2.0 * std::f64::consts::PI * i as f64 / n as f64,
+                            sign,
+                            0.0,
+                        )
                     })
                     .collect()
             }
@@ -171,6 +153,51 @@ impl Motion {
         Ok(Self { steps, next: 0 })
     }
 
+    /// The served CNC's part program of a self-triggered circle run (`run_trigger = FEED_IN`),
+    /// started when the pod is armed for it: at rest on the feed-in point (the machine file's
+    /// `feed_in_mm` outside the circle at 0°), the radial feed-in, the data arc (`circle_arc`,
+    /// else a full turn), 45° of overshoot, the radial feed-out, at rest. The pod starts and
+    /// ends the run itself; with `feed_in_mm = 0` the program starts on the circle and the run
+    /// never starts.
+    pub fn plan_feed_in(
+        truth: &ServeTruth,
+        cfg: &Config,
+        direction: ballpod::app::Direction,
+    ) -> Result<Self, String> {
+        let c = CircleProgram::new(truth, cfg)?;
+        let rate = f64::from(cfg.sample_rate_hz);
+        let sign = direction.sign();
+        let arc = f64::from(cfg.setup.circle_arc_deg);
+        let span = if arc.is_finite() { arc } else { 360.0 } + 45.0;
+        let step_mm = c.machine.feed_mm_per_min / 60.0 / rate;
+        let feed_in = c.machine.feed_in_mm.max(0.0);
+        let radial = ((feed_in / step_mm).round() as usize).max(1);
+        let end = sign * span.to_radians();
+        let mut steps = Vec::new();
+        let rest = |steps: &mut Vec<MachineStep>, th: f64| {
+            for _ in 0..50 {
+                steps.push(c.step(th, sign, feed_in));
+            }
+        };
+        rest(&mut steps, 0.0);
+        if feed_in > 0.0 {
+            for k in 1..radial {
+                steps.push(c.step(0.0, sign, feed_in * (1.0 - k as f64 / radial as f64)));
+            }
+        }
+        let n = (c.machine.samples_per_rev(rate) as f64 * span / 360.0).round() as usize;
+        for i in 0..=n {
+            steps.push(c.step(end * i as f64 / n as f64, sign, 0.0));
+        }
+        if feed_in > 0.0 {
+            for k in 1..=radial {
+                steps.push(c.step(end, sign, feed_in * k as f64 / radial as f64));
+            }
+        }
+        rest(&mut steps, end);
+        Ok(Self { steps, next: 0 })
+    }
+
     /// Where the motion starts (the encoders are homed there), if it moves at all.
     pub fn start(&self) -> Option<[f64; MAX_AXES]> {
         self.steps.first().map(|s| s.axes)
@@ -186,6 +213,59 @@ impl Motion {
     /// Sample periods left.
     pub fn remaining(&self) -> usize {
         self.steps.len().saturating_sub(self.next)
+    }
+}
+
+/// The circle the served CNC runs: the pod's set-up (centre, radius, plane, feed) on the
+/// circular-test machine's faults.
+struct CircleProgram {
+    machine: super::machine::CircleMachine,
+    centre_mm: [f64; 3],
+    plane: CirclePlane,
+    /// (radius − bar length), µm: the bar's reading on the nominal circle.
+    radius_less_bar_um: f64,
+}
+
+impl CircleProgram {
+    fn new(truth: &ServeTruth, cfg: &Config) -> Result<Self, String> {
+        let t = &cfg.setup;
+        let c = |k: usize| f64::from(t.circle_centre_mm[k]);
+        let r = f64::from(t.circle_radius_mm);
+        if r.is_nan()
+            || r <= 0.0
+            || (0..3).any(|k| c(k).is_nan() && !in_plane_unused(t.circle_plane, k))
+        {
+            return Err("circle set-up not complete".into());
+        }
+        let mut machine = truth.machine.circle;
+        machine.radius_mm = r;
+        if t.circle_feed_mm_per_min > 0.0 {
+            machine.feed_mm_per_min = f64::from(t.circle_feed_mm_per_min);
+        }
+        Ok(Self {
+            machine,
+            centre_mm: [0, 1, 2].map(|k| if c(k).is_nan() { 0.0 } else { c(k) }),
+            plane: t.circle_plane,
+            radius_less_bar_um: (r - f64::from(cfg.bar_length_mm)) * 1e3,
+        })
+    }
+
+    /// The machine at commanded angle `theta` (rad) moving in `sign`, `out_mm` radially
+    /// outside the circle (the bar extends by as much).
+    fn step(&self, theta: f64, sign: f64, out_mm: f64) -> MachineStep {
+        let (dl, a) = self.machine.pose(theta, sign);
+        let scale = 1.0 + out_mm / self.machine.radius_mm;
+        let (u, v) = (a[0] * scale, a[1] * scale);
+        let c = self.centre_mm;
+        let xyz = match self.plane {
+            CirclePlane::XY => [c[0] + u, c[1] + v, c[2]],
+            CirclePlane::YZ => [c[0], c[1] + u, c[2] + v],
+            CirclePlane::ZX => [c[0] + v, c[1], c[2] + u],
+        };
+        MachineStep::at(
+            dl + self.radius_less_bar_um + out_mm * 1e3,
+            [xyz[0], xyz[1], xyz[2], 0.0, 0.0],
+        )
     }
 }
 

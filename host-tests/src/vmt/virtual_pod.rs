@@ -21,7 +21,7 @@ use ballpod::app::{
     App, Command, CommandError, DeviceCounter, DeviceCounters, Pattern, Recorder, RunEnd, RunMeta,
     SessionState, SettingsRequest, Touch,
 };
-use ballpod::config::Config;
+use ballpod::config::{Config, RunTrigger};
 use ballpod::protocol::canopen::{BusState, CanFrame, CanOpenNode};
 use ballpod::protocol::scpi::ScpiServer;
 use ballpod::protocol::stream::SampleStream;
@@ -120,8 +120,10 @@ pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     motion: Motion,
     /// PROBE runs served so far (the C position of the next one).
     probe_runs: u32,
-    /// Whether the last served step had a run running.
+    /// The served machine has its motion for the armed or running run.
     serving: bool,
+    /// The served program is a self-triggered circle's (the pod ends the run, not the motion).
+    self_triggered: bool,
     /// Sample periods still to lose upstream (queue overrun), from the next step on.
     losing: u32,
     /// Samples not logged because a download was in progress (`log_paused_samples`).
@@ -174,6 +176,7 @@ impl<const N: usize> VirtualPod<N> {
             motion: Motion::none(),
             probe_runs: 0,
             serving: false,
+            self_triggered: false,
             losing: 0,
             log_paused_samples: 0,
             probe_seated: true,
@@ -367,23 +370,38 @@ impl<const N: usize> VirtualPod<N> {
     // ------------------------------------------------------------------ served
 
     /// One sample period of the served machine: a run that started gets the virtual CNC's
-    /// motion of its pattern, which ends the run when it is over; otherwise the machine stands
-    /// still. Returns the frames the node sent.
+    /// motion of its pattern, which ends the run when it is over; a CIRCLE run armed with
+    /// `run_trigger = FEED_IN` gets the CNC's part program at once (feed-in, data arc,
+    /// overshoot, feed-out: [`Motion::plan_feed_in`]) and the pod starts and ends the run
+    /// itself; otherwise the machine stands still. Returns the frames the node sent.
     pub fn step(&mut self) -> Vec<CanFrame> {
-        let running = self.app.session() == SessionState::Running;
-        if running && !self.serving {
-            // the sample rate the pod runs with, not a value pending until reset
-            let cfg = self.app.running_config();
+        let session = self.app.session();
+        let running = session == SessionState::Running;
+        // the sample rate the pod runs with, not a value pending until reset
+        let cfg = self.app.running_config();
+        let self_triggered = session == SessionState::Armed
+            && self.app.pattern() == Pattern::Circle
+            && cfg.setup.run_trigger == RunTrigger::FeedIn;
+        if !(running || session == SessionState::Armed) {
+            self.serving = false;
+        }
+        if (running || self_triggered) && !self.serving {
             // the technician mounted the bar the configuration names (as `cargo sim` swaps
             // bars between procedures): its expansion is modelled on that length
             self.sensors.set_bar_length(f64::from(cfg.bar_length_mm));
-            match Motion::plan(
-                &self.setup.truth,
-                &cfg,
-                self.app.pattern(),
-                self.app.direction(),
-                self.probe_runs,
-            ) {
+            let direction = self.app.direction();
+            let planned = if self_triggered {
+                Motion::plan_feed_in(&self.setup.truth, &cfg, direction)
+            } else {
+                Motion::plan(
+                    &self.setup.truth,
+                    &cfg,
+                    self.app.pattern(),
+                    direction,
+                    self.probe_runs,
+                )
+            };
+            match planned {
                 Ok(m) => {
                     if self.app.pattern() == Pattern::Probe {
                         self.probe_runs += 1;
@@ -395,9 +413,10 @@ impl<const N: usize> VirtualPod<N> {
                 }
                 Err(_) => self.motion = Motion::none(),
             }
+            self.serving = true;
+            self.self_triggered = self_triggered;
         }
-        self.serving = running;
-        let (dl, axes) = match running.then(|| self.motion.next_step()).flatten() {
+        let (dl, axes) = match self.serving.then(|| self.motion.next_step()).flatten() {
             Some(m) => {
                 if let Some(edge) = m.edge {
                     self.probe_edge_at(&edge);
@@ -406,7 +425,7 @@ impl<const N: usize> VirtualPod<N> {
                 (m.dl_um, m.axes)
             }
             None => {
-                if running {
+                if running && !self.self_triggered {
                     // the part program's last block: the run ends with the motion
                     let _ = self.execute(Command::Stop);
                     self.serving = false;
@@ -415,6 +434,12 @@ impl<const N: usize> VirtualPod<N> {
             }
         };
         self.sample_at(dl, &axes).1
+    }
+
+    /// True while the served machine runs a part program (a run's motion, or the program of
+    /// an armed self-triggered circle).
+    pub fn moving(&self) -> bool {
+        self.serving && self.motion.remaining() > 0
     }
 
     // ------------------------------------------------------------------ protocols

@@ -414,19 +414,51 @@ def test_a_program_corrected_for_centrelines_moves_as_its_comments_say(tmp_path)
             assert abs((a[k] - b[k]) * 1e3 - m[k]) <= 0.06, (b, a, m)
 
 
-@pytest.mark.parametrize("machine,angles", [("RRTTT", (20.0, 30.0)), ("RTTTR_SPINDLE", (20.0, 0.0))])
-def test_two_step_programs_stay_on_the_bar_sphere_through_the_interpreter(tmp_path, machine, angles):
+TWO_STEP = {
+    # machine: its set-up lines
+    "RRTTT": ("ts_origin_x = -50\nts_origin_y = -15\nts_origin_z = 500\nts_tool_z = -250\n"
+              "ts_angle_1 = 20\nts_angle_2 = 30\n"),
+    "RTTTR_SPINDLE": ("ts_origin_x = -50\nts_origin_y = -15\nts_origin_z = 500\nts_tool_z = -250\n"
+                      "ts_angle_1 = 20\n"),
+    "TTTRR": ("ts_origin_x = -30\nts_origin_y = 15\nts_origin_z = 120\nts_z_alpha_gamma = 80\n"
+              "ts_reference_x = 60\nts_reference_y = -20\nts_reference_z = 30\n"
+              "ts_angle_1 = 15\nts_angle_2 = 40\n"),
+    "RTTTR_TABLE": ("ts_origin_x = -30\nts_origin_y = 15\nts_origin_z = 120\n"
+                    "ts_reference_x = 60\nts_reference_y = -20\nts_reference_z = 30\nts_angle_1 = 15\n"),
+}
+
+
+def rot(axis, deg, v):
+    """Right-handed rotation of v about X, Y or Z by deg."""
+    c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+    x, y, z = v
+    return {"X": (x, c * y - s * z, s * y + c * z), "Y": (c * x + s * z, y, -s * x + c * z),
+            "Z": (c * x - s * y, s * x + c * y, z)}[axis]
+
+
+def chain(machine, a, b, c):
+    """The ball from the origin (seed 000 eqs 2/4, 13/15, 8, 14/16) at the words A, B, C."""
+    if machine == "RRTTT":
+        return rot("X", a, rot("Y", b, (0.0, 0.0, -250.0)))
+    if machine == "RTTTR_SPINDLE":
+        return rot("Y", b, (0.0, 0.0, -250.0))
+    r = (60.0, -20.0, 30.0)
+    if machine == "TTTRR":
+        q = rot("Z", c, r)
+        return rot("X", a, (q[0], q[1], q[2] + 80.0))
+    return rot("X", a, r)
+
+
+@pytest.mark.parametrize("machine", list(TWO_STEP))
+def test_two_step_programs_stay_on_the_bar_sphere_through_the_interpreter(tmp_path, machine):
     # seed 000's two-step through rs274: accepted; the operator stops (mount, bar off, mount);
-    # every interpreted point of both runs puts the tool ball (the pivot turned by the rotary
-    # axes, eqs 2/4 and 13/15) at the bar's length from the header's socket within 1 um;
-    # 2 x 4 dwells; the rotary axes move once, between the runs
+    # every interpreted point of both runs puts the ball (the chain at the rotary words, the
+    # programmed point being the ball at zero angles) at the bar's length from the header's
+    # socket within 1 um; 2 x 4 dwells; the rotary axes move once, between the runs
     assert NCGEN, "set BALLPOD_NCGEN to the ncgen binary"
-    z_r, bar = -250.0, 150.0
+    bar = 150.0
     setup = tmp_path / "ts.toml"
-    setup.write_text("[setup]\n" f'ts_machine = "{machine}"\n'
-                     "ts_origin_x = -50\nts_origin_y = -15\nts_origin_z = 500\n"
-                     f"ts_tool_z = {z_r}\nts_angle_1 = {angles[0]}\n"
-                     f"ts_angle_2 = {angles[1]}\nbar_length = {bar}\n")
+    setup.write_text(f'[setup]\nts_machine = "{machine}"\nbar_length = {bar}\n' + TWO_STEP[machine])
     p = subprocess.run([NCGEN, "two-step", str(setup)], capture_output=True, text=True, timeout=60)
     assert p.returncode == 0, p.stderr
     program = p.stdout
@@ -435,25 +467,18 @@ def test_two_step_programs_stay_on_the_bar_sphere_through_the_interpreter(tmp_pa
     cmds = interpret(tmp_path, program)
     assert sum(1 for n, _ in cmds if n == "PROGRAM_STOP") == 3
     assert sum(1 for n, _ in cmds if n == "DWELL") == 8
-
-    def tip(x, y, z, a_deg, b_deg):
-        # Rx(a) Ry(b) (0, 0, z_r) from the pivot; the programmed point is the pivot + (0, 0, z_r)
-        a, b = math.radians(a_deg), math.radians(b_deg)
-        v = (math.sin(b) * z_r, 0.0, math.cos(b) * z_r)
-        v = (v[0], math.cos(a) * v[1] - math.sin(a) * v[2], math.sin(a) * v[1] + math.cos(a) * v[2])
-        return (x + v[0], y + v[1], z - z_r + v[2])
-
+    c0 = chain(machine, 0.0, 0.0, 0.0)
     rotations, last_rot = 0, None
     for name, a in cmds:
         if name in ("STRAIGHT_TRAVERSE", "STRAIGHT_FEED"):
-            x, y, z, aa, bb = (float(v) for v in a[:5])
-            if last_rot is not None and (aa, bb) != last_rot:
+            x, y, z, aa, bb, cc = (float(v) for v in a[:6])
+            if last_rot is not None and (aa, bb, cc) != last_rot:
                 rotations += 1
-            last_rot = (aa, bb)
-            assert abs(math.dist(tip(x, y, z, aa, bb), socket) - bar) < TOL_MM, (name, a)
+            last_rot = (aa, bb, cc)
+            ch = chain(machine, aa, bb, cc)
+            ball = (x - c0[0] + ch[0], y - c0[1] + ch[1], z - c0[2] + ch[2])
+            assert abs(math.dist(ball, socket) - bar) < TOL_MM, (name, a)
     assert rotations == 1
-    want = (angles[0], angles[1]) if machine == "RRTTT" else (0.0, angles[0])
-    assert last_rot == want
 
 
 def test_a_program_beyond_the_set_up_travel_is_refused_and_nothing_written(tmp_path):

@@ -327,18 +327,38 @@ fn the_pattern_programs_match_their_golden_files_and_differ_from_linuxcnc_only_i
     }
 }
 
-/// The two-step set-up of the README's example (`ts_*`: RRTTT, pivot after the translation,
-/// tool z_r −250 mm, rotation A20 B30; bar 150 mm).
+/// The two-step set-ups of the README's examples: RRTTT / RTTTR spindle (pivot after the
+/// translation, tool z_r −250 mm, rotation A20 B30 / B20) and TTTRR / RTTTR table (table
+/// origin, z_αγ 80 mm, reference ball (60, −20, 30) mm, A15 C40 / A15); bar 150 mm.
 fn two_step_cfg(machine: ballpod::config::TwoStepMachine) -> Config {
+    use ballpod::config::TwoStepMachine as M;
     let mut cfg = Config {
         bar_length_mm: 150.0,
         ..Config::default()
     };
     let s = &mut cfg.setup;
     s.ts_machine = machine;
-    s.ts_origin_mm = [-50.0, -15.0, 500.0];
-    s.ts_tool_z_mm = -250.0;
-    s.ts_angles_deg = [20.0, 30.0];
+    match machine {
+        M::Rrttt | M::RtttrSpindle => {
+            s.ts_origin_mm = [-50.0, -15.0, 500.0];
+            s.ts_tool_z_mm = -250.0;
+            s.ts_angles_deg = if machine == M::Rrttt {
+                [20.0, 30.0]
+            } else {
+                [20.0, f32::NAN]
+            };
+        }
+        _ => {
+            s.ts_origin_mm = [-30.0, 15.0, 120.0];
+            s.ts_z_alpha_gamma_mm = 80.0;
+            s.ts_reference_mm = [60.0, -20.0, 30.0];
+            s.ts_angles_deg = if machine == M::Tttrr {
+                [15.0, 40.0]
+            } else {
+                [15.0, f32::NAN]
+            };
+        }
+    }
     cfg
 }
 
@@ -349,18 +369,19 @@ fn xyz_after(line: &str, key: &str) -> [f64; 3] {
     std::array::from_fn(|i| w[i][1..].trim_end_matches([',', ')']).parse().unwrap())
 }
 
-/// Seed 000's two-step program, checked with the independent forward model of eqs 2/4 and
-/// 13/15 (`forward_seed000::rrttt_tip`, `rtttr_tip`: the ball at the pivot turned by the
-/// rotary words): the first station of each run is the tool ball at the pivot after the
-/// translation, at A0 B0 and at the angles; every station and every move of both runs keeps
-/// the ball on the bar's sphere about the one socket within 1 µm; the pod's ssm_socket of each
-/// run (the header) sees the programmed points at the bar's length; the rotation happens only
-/// with the bar off (M0); refusals name their field.
+/// Seed 000's two-step program for each machine type, checked with the independent forward
+/// model of eqs 2/4, 8, 13/15 and 14/16 (`forward_seed000`: the ball of the chain at the
+/// rotary words, the programmed point being the ball at zero angles): the first station of
+/// each run is the ball at the origin after the translation, at zero angles and at the angles;
+/// every station and every move of both runs keeps the ball on the bar's sphere about the one
+/// socket within 1 µm; the pod's ssm_socket of each run (the header) sees the programmed points
+/// at the bar's length; the rotation happens only with the bar off (M0); refusals name their
+/// field.
 #[test]
-fn the_two_step_program_keeps_the_tool_ball_on_the_bar_sphere_at_both_locations() {
-    use ballpod::config::TwoStepMachine;
+fn the_two_step_program_keeps_the_ball_on_the_bar_sphere_at_both_locations() {
+    use ballpod::config::TwoStepMachine as M;
     use ballpod_host::forward_seed000 as fwd;
-    for machine in [TwoStepMachine::Rrttt, TwoStepMachine::RtttrSpindle] {
+    for machine in [M::Rrttt, M::RtttrSpindle, M::Tttrr, M::RtttrTable] {
         let cfg = two_step_cfg(machine);
         let test = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 4, 1000.0).unwrap();
         let program = test.program(Dialect::LinuxCnc);
@@ -370,23 +391,24 @@ fn the_two_step_program_keeps_the_tool_ball_on_the_bar_sphere_at_both_locations(
             xyz_after(header[3], "run 1 ssm_socket "),
             xyz_after(header[3], "run 2 ssm_socket "),
         ];
-        let (origin, z_r) = ([-50.0, -15.0, 500.0], -250.0);
-        let (a_rad, b_rad) = match machine {
-            TwoStepMachine::Rrttt => (20f64.to_radians(), 30f64.to_radians()),
-            _ => (0.0, 20f64.to_radians()),
+        let t = &cfg.setup;
+        let origin = t.ts_origin_mm.map(f64::from);
+        let (z_r, z_ag) = (f64::from(t.ts_tool_z_mm), f64::from(t.ts_z_alpha_gamma_mm));
+        let r = t.ts_reference_mm.map(f64::from);
+        // the ball of the chain from the origin p at the words (A, B, C) in radians
+        let ball = |p: [f64; 3], w: [f64; 3]| match machine {
+            M::Rrttt => fwd::rrttt_tip(p, [0.0; 3], w[0], w[1], z_r),
+            M::RtttrSpindle => fwd::rtttr_tip(p, [0.0; 3], w[1], z_r),
+            M::Tttrr => fwd::tttrr_point(p, [0.0; 3], w[0], w[2], z_ag, r),
+            _ => fwd::rtttr_table_point(p, [0.0; 3], w[0], r),
         };
-        let tip = |xyz: [f64; 3], a: f64, b: f64| {
-            // tool length compensation: the programmed point is the pivot + (0, 0, z_r)
-            let pivot = [xyz[0], xyz[1], xyz[2] - z_r];
-            match machine {
-                TwoStepMachine::Rrttt => fwd::rrttt_tip(pivot, [0.0; 3], a, b, z_r),
-                _ => fwd::rtttr_tip(pivot, [0.0; 3], b, z_r),
-            }
-        };
+        // the programmed point is the ball at zero angles: the origin is that less c(0)
+        let c0 = ball([0.0; 3], [0.0; 3]);
+        let at = |xyz: [f64; 3], w: [f64; 3]| ball(std::array::from_fn(|i| xyz[i] - c0[i]), w);
         let dist = |p: [f64; 3], q: [f64; 3]| {
             ((p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) + (p[2] - q[2]).powi(2)).sqrt()
         };
-        let (mut pos, mut rot) = ([f64::NAN; 3], [0.0f64; 2]);
+        let (mut pos, mut rot) = ([f64::NAN; 3], [0.0f64; 3]);
         let (mut run, mut stops, mut dwells) = (0usize, 0, vec![Vec::new(), Vec::new()]);
         for line in program.lines() {
             let code = line.split('(').next().unwrap().trim();
@@ -410,6 +432,7 @@ fn the_two_step_program_keeps_the_tool_ball_on_the_bar_sphere_at_both_locations(
                     "Z" => pos[2] = v(),
                     "A" => rot[0] = v().to_radians(),
                     "B" => rot[1] = v().to_radians(),
+                    "C" => rot[2] = v().to_radians(),
                     _ => {}
                 }
             }
@@ -420,9 +443,8 @@ fn the_two_step_program_keeps_the_tool_ball_on_the_bar_sphere_at_both_locations(
             }
             // every point of a run: the ball on the bar's sphere (the G0 to run 2's first
             // station is the rotation itself, with the bar off)
-            let t = tip(pos, rot[0], rot[1]);
             assert!(
-                (dist(t, socket) - 150.0).abs() < 1e-3,
+                (dist(at(pos, rot), socket) - 150.0).abs() < 1e-3,
                 "{machine:?}: {line}"
             );
             // the pod's view: the programmed point from the run's ssm_socket
@@ -433,32 +455,29 @@ fn the_two_step_program_keeps_the_tool_ball_on_the_bar_sphere_at_both_locations(
         }
         assert_eq!(stops, 3, "mount, off, mount again");
         assert_eq!((dwells[0].len(), dwells[1].len()), (4, 4));
-        let first = [dwells[0][0], dwells[1][0]];
-        let want = match machine {
-            TwoStepMachine::Rrttt => [
-                fwd::rrttt_tip(origin, [0.0; 3], 0.0, 0.0, z_r),
-                fwd::rrttt_tip(origin, [0.0; 3], a_rad, b_rad, z_r),
-            ],
-            _ => [
-                fwd::rtttr_tip(origin, [0.0; 3], 0.0, z_r),
-                fwd::rtttr_tip(origin, [0.0; 3], b_rad, z_r),
-            ],
+        let words = |a: [f32; 2]| -> [f64; 3] {
+            let d = |k: usize| f64::from(a[k]).to_radians();
+            match machine {
+                M::Rrttt => [d(0), d(1), 0.0],
+                M::RtttrSpindle => [0.0, d(0), 0.0],
+                M::Tttrr => [d(0), 0.0, d(1)],
+                _ => [d(0), 0.0, 0.0],
+            }
         };
-        for ((p, r), w) in first.iter().zip(want) {
-            assert!(
-                dist(tip(*p, r[0], r[1]), w) < 1e-4,
-                "{machine:?}: {p:?} {w:?}"
-            );
+        let want = [ball(origin, [0.0; 3]), ball(origin, words(t.ts_angles_deg))];
+        for ((p, w), b) in [dwells[0][0], dwells[1][0]].iter().zip(want) {
+            assert!(dist(at(*p, *w), b) < 1e-4, "{machine:?}: {p:?} {b:?}");
         }
         // both runs' first stations are the same programmed point: the linear axes stand
         // still through the rotation
-        assert!(dist(first[0].0, first[1].0) < 1e-4);
+        assert!(dist(dwells[0][0].0, dwells[1][0].0) < 1e-4, "{machine:?}");
     }
     // refusals name their field
-    let mut cfg = two_step_cfg(TwoStepMachine::Tttrr);
+    let mut cfg = two_step_cfg(M::Tttrr);
+    cfg.setup.ts_reference_mm[1] = f32::NAN;
     let e = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 4, 1000.0).unwrap_err();
-    assert_eq!(e.field, "ts_machine");
-    cfg.setup.ts_machine = TwoStepMachine::Rrttt;
+    assert_eq!(e.field, "ts_reference_y");
+    let mut cfg = two_step_cfg(M::Rrttt);
     cfg.setup.ts_tool_z_mm = f32::NAN;
     let e = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 4, 1000.0).unwrap_err();
     assert_eq!(e.field, "ts_tool_z");
@@ -466,6 +485,9 @@ fn the_two_step_program_keeps_the_tool_ball_on_the_bar_sphere_at_both_locations(
     cfg.setup.ts_angles_deg = [60.0, 40.0];
     let e = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 4, 1000.0).unwrap_err();
     assert_eq!(e.field, "bar_length", "{e}");
+    cfg.setup.ts_machine = M::None;
+    let e = ballpod_host::ncgen::TwoStepTest::from_config(&cfg, 10.0, 4, 1000.0).unwrap_err();
+    assert_eq!(e.field, "ts_machine");
 }
 
 #[test]

@@ -1,26 +1,25 @@
-//! Seed 000's two-step procedure (spec B.6) on a spindle-head machine — RRTTT (α about X, β
-//! about Y: words A, B) or the spindle axis of an RTTTR machine (β about Y: word B): an SSM
-//! station set after the 3-DOF translation (ΔV1), the rotation, and an SSM station set after it
-//! (ΔV2), from the pod's two-step set-up (`ts_machine`, `ts_origin_*` the pivot after the
-//! translation, `ts_tool_z` the signed tool vector z_r, `ts_angle_*`) and its bar and dwell
-//! fields.
+//! Seed 000's two-step procedure (spec B.6): an SSM station set after the 3-DOF translation
+//! (ΔV1), the rotation, and an SSM station set after it (ΔV2), from the pod's two-step set-up
+//! (`ts_machine`, `ts_origin_*`, `ts_tool_z`, `ts_z_alpha_gamma`, `ts_reference_*`,
+//! `ts_angle_*`) and its bar and dwell fields, for the four machine types of seed 000 Fig. 1.
 //!
-//! **Geometry** (seed 000 eqs 2/4 and 13/15): the tool ball is at T = O + R·(0, 0, z_r), R =
-//! Rx(α)·Ry(β) (RTTTR: Ry(β)), O the pivot. Location 1 is T at A0 B0, location 2 T at the
-//! angles, the pivot unchanged. The socket is mounted once (seed 000: "on the bed") where the
-//! bar reaches both: on the bisecting plane of the two locations, the bar's length from each,
-//! below them. Each run's station set ([`SsmTest`]) lies on the bar's sphere with its first
-//! station at the location.
+//! **Geometry** (seed 000 eqs 2/4, 8, 13/15, 14/16): the measured ball — the tool ball on a
+//! spindle-head machine, the reference ball on the table of a table machine — is at
+//! B = O + c(angles), O the origin after the translation (`ts_origin`: the pivot, or the table
+//! origin) and c the machine's chain: RRTTT Rx(α)·Ry(β)·(0, 0, z_r) (words A, B); RTTTR spindle
+//! Ry(β)·(0, 0, z_r) (word B); TTTRR Rx(α)·((0, 0, z_αγ) + Rz(γ)·r) (words A, C); RTTTR table
+//! Rx(α)·r (word A), the words carrying the seed's angles. Location 1 is B at zero angles,
+//! location 2 B at the angles, the linear axes unchanged. The socket — on the bed under the
+//! spindle's ball, on the spindle over the table's — is mounted once where the bar reaches both
+//! locations (on their bisecting plane, the bar's length from each), and each run's station set
+//! ([`SsmTest`]) lies on the bar's sphere with its first station at the location.
 //!
-//! **Words.** Tool length compensation on, no TCPM: the programmed X Y Z is the tool ball at
-//! A0 B0, i.e. O + (0, 0, z_r); at the angles the ball is `(R − I)·(0, 0, z_r)` from it, so
-//! the second run's points are programmed that far from the stations. The rotation moves the
-//! ball off the bar's sphere: the program stops (`M0`) for the bar to be taken off and put
-//! back. The pod's encoders read the programmed X Y Z, so the second run's `ssm_socket` is the
-//! socket less that offset (the header says both values).
-//!
-//! Machines with the rotary axes in the table (TTTRR, RTTTR table: the reference point on the
-//! spindle) are refused: their station sets move the socket with the spindle.
+//! **Words.** The programmed X Y Z is the ball at zero angles (tool length compensation or the
+//! work offset at the ball; no TCPM), so at the angles the ball is c(angles) − c(0) from the
+//! programmed point and the second run's points are programmed that much short of the
+//! stations. The rotation moves the ball off the bar's sphere: the program stops (`M0`) for the
+//! bar to be taken off and put back. The pod's encoders read the programmed X Y Z, so the second
+//! run's `ssm_socket` is the socket less that offset (the header says both values).
 
 use std::fmt::Write as _;
 
@@ -32,33 +31,38 @@ use super::{Dialect, NcError, num};
 /// A two-step procedure ready to be written.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TwoStepTest {
-    /// RRTTT or RTTTR spindle.
+    /// The machine type.
     pub machine: TwoStepMachine,
-    /// Pivot after the translation, mm.
+    /// Origin after the translation (pivot or table origin), mm.
     pub origin_mm: [f64; 3],
-    /// Signed tool vector z_r, mm.
-    pub tool_z_mm: f64,
-    /// Angles of the rotation, degrees: (α, β) for RRTTT, (β, –) for RTTTR spindle.
-    pub angles_deg: [f64; 2],
+    /// The ball from the origin at zero angles and at the angles, c(0) and c(angles), mm.
+    pub chain_mm: [[f64; 3]; 2],
+    /// The rotary words (letter, the seed's angle in degrees).
+    pub rotary_deg: Vec<(char, f64)>,
     /// Socket centre, mm.
     pub socket_mm: [f64; 3],
     /// The station sets after the translation and after the rotation (tool-ball positions).
     pub runs: [SsmTest; 2],
 }
 
-/// R·v for R = Rx(α)·Ry(β) (right-handed, seed 000 D1).
-fn rotate(alpha_deg: f64, beta_deg: f64, v: [f64; 3]) -> [f64; 3] {
-    let (sa, ca) = alpha_deg.to_radians().sin_cos();
-    let (sb, cb) = beta_deg.to_radians().sin_cos();
-    // Ry(β)·v, then Rx(α)·that
-    let w = [cb * v[0] + sb * v[2], v[1], -sb * v[0] + cb * v[2]];
-    [w[0], ca * w[1] - sa * w[2], sa * w[1] + ca * w[2]]
+/// Right-handed rotations of `v` by `deg` about X, Y, Z (seed 000 D1).
+fn rx(deg: f64, v: [f64; 3]) -> [f64; 3] {
+    let (s, c) = deg.to_radians().sin_cos();
+    [v[0], c * v[1] - s * v[2], s * v[1] + c * v[2]]
+}
+fn ry(deg: f64, v: [f64; 3]) -> [f64; 3] {
+    let (s, c) = deg.to_radians().sin_cos();
+    [c * v[0] + s * v[2], v[1], -s * v[0] + c * v[2]]
+}
+fn rz(deg: f64, v: [f64; 3]) -> [f64; 3] {
+    let (s, c) = deg.to_radians().sin_cos();
+    [c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]]
 }
 
 impl TwoStepTest {
     /// The procedure of the set-up in `cfg`; `separation_deg`, `stations`, `feed_mm_per_min`
-    /// as for [`SsmTest`]. Refused with the field named: a table-side machine, a field not
-    /// set, a rotation that moves the ball farther than the bar can span.
+    /// as for [`SsmTest`]. Refused with the field named: the machine or a field it needs not
+    /// set, a rotation that moves the ball less than 1 mm or farther than the bar can span.
     pub fn from_config(
         cfg: &Config,
         separation_deg: f64,
@@ -76,55 +80,74 @@ impl TwoStepTest {
                 .ok_or(bad(field, "not set"))
         };
         let machine = t.ts_machine;
-        let (alpha, beta) = match machine {
-            TwoStepMachine::Rrttt => (
-                set(t.ts_angles_deg[0], "ts_angle_1")?,
-                set(t.ts_angles_deg[1], "ts_angle_2")?,
-            ),
-            TwoStepMachine::RtttrSpindle => (0.0, set(t.ts_angles_deg[0], "ts_angle_1")?),
-            TwoStepMachine::None => return Err(bad("ts_machine", "not set")),
-            _ => {
-                return Err(bad(
-                    "ts_machine",
-                    "TTTRR and RTTTR_TABLE put the reference point on the spindle: not generated (RRTTT and RTTTR_SPINDLE are)",
-                ));
-            }
-        };
         let origin_mm = [
             set(t.ts_origin_mm[0], "ts_origin_x")?,
             set(t.ts_origin_mm[1], "ts_origin_y")?,
             set(t.ts_origin_mm[2], "ts_origin_z")?,
         ];
-        let tool_z_mm = set(t.ts_tool_z_mm, "ts_tool_z")?;
-        let tool = [0.0, 0.0, tool_z_mm];
-        let p1: [f64; 3] = std::array::from_fn(|i| origin_mm[i] + tool[i]);
-        let rt = rotate(alpha, beta, tool);
-        let p2: [f64; 3] = std::array::from_fn(|i| origin_mm[i] + rt[i]);
-        // the socket: on the bisecting plane, L from both, below them
+        let angle = |k: usize, field| set(t.ts_angles_deg[k], field);
+        let tool = || Ok::<_, NcError>([0.0, 0.0, set(t.ts_tool_z_mm, "ts_tool_z")?]);
+        let reference = || {
+            Ok::<_, NcError>([
+                set(t.ts_reference_mm[0], "ts_reference_x")?,
+                set(t.ts_reference_mm[1], "ts_reference_y")?,
+                set(t.ts_reference_mm[2], "ts_reference_z")?,
+            ])
+        };
+        // c(0), c(angles), the rotary words; the socket above the ball on a table machine
+        let (chain_mm, rotary_deg, socket_above) = match machine {
+            TwoStepMachine::Rrttt => {
+                let (a, b, v) = (angle(0, "ts_angle_1")?, angle(1, "ts_angle_2")?, tool()?);
+                ([v, rx(a, ry(b, v))], vec![('A', a), ('B', b)], false)
+            }
+            TwoStepMachine::RtttrSpindle => {
+                let (b, v) = (angle(0, "ts_angle_1")?, tool()?);
+                ([v, ry(b, v)], vec![('B', b)], false)
+            }
+            TwoStepMachine::Tttrr => {
+                let (a, g) = (angle(0, "ts_angle_1")?, angle(1, "ts_angle_2")?);
+                let z = set(t.ts_z_alpha_gamma_mm, "ts_z_alpha_gamma")?;
+                let r = reference()?;
+                let at = |a: f64, g: f64| {
+                    let q = rz(g, r);
+                    rx(a, [q[0], q[1], q[2] + z])
+                };
+                ([at(0.0, 0.0), at(a, g)], vec![('A', a), ('C', g)], true)
+            }
+            TwoStepMachine::RtttrTable => {
+                let (a, r) = (angle(0, "ts_angle_1")?, reference()?);
+                ([r, rx(a, r)], vec![('A', a)], true)
+            }
+            TwoStepMachine::None => return Err(bad("ts_machine", "not set")),
+        };
+        let p1: [f64; 3] = std::array::from_fn(|i| origin_mm[i] + chain_mm[0][i]);
+        let p2: [f64; 3] = std::array::from_fn(|i| origin_mm[i] + chain_mm[1][i]);
+        // the socket: on the bisecting plane, L from both, below (above) the ball
         let bar = f64::from(cfg.bar_length_mm);
         let d: [f64; 3] = std::array::from_fn(|i| p2[i] - p1[i]);
         let dist = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
         if dist < 1.0 {
             return Err(bad(
                 "ts_angle_1",
-                "the rotation moves the tool ball less than 1 mm: nothing to measure",
+                "the rotation moves the ball less than 1 mm: nothing to measure",
             ));
         }
         if dist >= 1.9 * bar {
             return Err(NcError {
                 field: "bar_length",
                 what: format!(
-                    "the rotation moves the tool ball {} mm: more than the bar can span from one socket",
+                    "the rotation moves the ball {} mm: more than the bar can span from one socket",
                     num(dist)
                 ),
             });
         }
         let u = unit(d);
-        // −Z made perpendicular to the move (−X if the move is along Z)
+        // ∓Z made perpendicular to the move (∓X if the move is along Z)
+        let side = if socket_above { 1.0 } else { -1.0 };
         let down = if u[2].abs() > 0.99 {
-            [-1.0, 0.0, 0.0]
+            [side, 0.0, 0.0]
         } else {
-            [0.0, 0.0, -1.0]
+            [0.0, 0.0, side]
         };
         let along = down[0] * u[0] + down[1] * u[1] + down[2] * u[2];
         let n = unit(std::array::from_fn(|i| down[i] - along * u[i]));
@@ -144,31 +167,27 @@ impl TwoStepTest {
         Ok(Self {
             machine,
             origin_mm,
-            tool_z_mm,
-            angles_deg: [alpha, beta],
+            chain_mm,
+            rotary_deg,
             socket_mm,
             runs: [run(p1)?, run(p2)?],
         })
     }
 
-    /// The rotary words at the angles (`A… B…` for RRTTT, `B…` for RTTTR spindle).
+    /// The rotary words at the angles, or at zero.
     fn rotary(&self, at_angles: bool) -> String {
-        let [a, b] = if at_angles {
-            self.angles_deg
-        } else {
-            [0.0, 0.0]
-        };
-        match self.machine {
-            TwoStepMachine::Rrttt => format!("A{} B{}", num(a), num(b)),
-            _ => format!("B{}", num(b)),
-        }
+        let words: Vec<String> = self
+            .rotary_deg
+            .iter()
+            .map(|(c, a)| format!("{c}{}", num(if at_angles { *a } else { 0.0 })))
+            .collect();
+        words.join(" ")
     }
 
-    /// Where a programmed point is from the tool ball it makes at the angles: (I − R)·(0, 0, z_r).
+    /// Where a programmed point is from the ball it makes at the angles: c(0) − c(angles).
     fn offset_mm(&self) -> [f64; 3] {
-        let [a, b] = self.angles_deg;
-        let rt = rotate(a, b, [0.0, 0.0, self.tool_z_mm]);
-        [-rt[0], -rt[1], self.tool_z_mm - rt[2]]
+        let [c0, c1] = self.chain_mm;
+        std::array::from_fn(|i| c0[i] - c1[i])
     }
 
     /// The part program in `dialect`.
@@ -176,9 +195,15 @@ impl TwoStepTest {
         let xyz = |p: [f64; 3]| format!("X{} Y{} Z{}", num(p[0]), num(p[1]), num(p[2]));
         let off = self.offset_mm();
         let socket2: [f64; 3] = std::array::from_fn(|i| self.socket_mm[i] + off[i]);
-        let name = match self.machine {
-            TwoStepMachine::Rrttt => "RRTTT",
-            _ => "RTTTR_SPINDLE",
+        let name = TwoStepMachine::NAMES
+            .get(self.machine as usize)
+            .copied()
+            .unwrap_or("?");
+        let member = match self.machine {
+            TwoStepMachine::Rrttt | TwoStepMachine::RtttrSpindle => {
+                "spindle-head machine: tool length compensation on"
+            }
+            _ => "table machine: work offset at the table's ball",
         };
         let s = &self.runs[0];
         let header = [
@@ -187,9 +212,9 @@ impl TwoStepTest {
                 self.rotary(true)
             ),
             format!(
-                "pivot {} after the translation, tool z_r {} mm; tool length compensation on, no TCPM",
+                "origin {} after the translation, the ball {} from it at zero angles; {member}, no TCPM",
                 xyz(self.origin_mm),
-                num(self.tool_z_mm)
+                xyz(self.chain_mm[0])
             ),
             format!(
                 "socket {}, bar {} mm; {} stations {} deg apart, dwell {} s, F{}",
@@ -201,7 +226,7 @@ impl TwoStepTest {
                 num(s.feed_mm_per_min)
             ),
             format!(
-                "pod set-up: ts_machine {name}, ts_origin, ts_tool_z, ts_angle as above; pattern SSM; run 1 ssm_socket {}, run 2 ssm_socket {}",
+                "pod set-up: ts_machine {name} and its ts_* fields; pattern SSM; run 1 ssm_socket {}, run 2 ssm_socket {}",
                 xyz(self.socket_mm),
                 xyz(socket2)
             ),
@@ -221,7 +246,7 @@ impl TwoStepTest {
             } else {
                 dialect.comment(
                     &mut out,
-                    "take the bar off the tool ball: the rotation leaves the bar's sphere",
+                    "take the bar off the ball: the rotation leaves the bar's sphere",
                 );
                 let _ = writeln!(out, "M0");
                 dialect.comment(&mut out, "run 2, dV2: after the rotation");

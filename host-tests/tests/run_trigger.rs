@@ -30,6 +30,11 @@ const REST: usize = 50;
 
 /// The nominal path of one CCW run, sample by sample (X, Y in mm).
 fn path(feed_in: bool) -> Vec<[f64; 2]> {
+    path_in(feed_in, 1.0)
+}
+
+/// The nominal path of one run turning in `sign` (+1 CCW, −1 CW).
+fn path_in(feed_in: bool, sign: f64) -> Vec<[f64; 2]> {
     let mut p = Vec::new();
     let start = if feed_in { R_MM + FEED_IN_MM } else { R_MM };
     for _ in 0..REST {
@@ -41,8 +46,8 @@ fn path(feed_in: bool) -> Vec<[f64; 2]> {
             p.push([start - FEED_IN_MM * k as f64 / n as f64, 0.0]);
         }
     }
-    let arc = (360.0 + OVERSHOOT_DEG).to_radians();
-    let n = (arc * R_MM / STEP_MM).ceil() as usize;
+    let arc = sign * (360.0 + OVERSHOOT_DEG).to_radians();
+    let n = (arc.abs() * R_MM / STEP_MM).ceil() as usize;
     for k in 1..=n {
         let t = arc * k as f64 / n as f64;
         p.push([R_MM * t.cos(), R_MM * t.sin()]);
@@ -59,15 +64,24 @@ fn path(feed_in: bool) -> Vec<[f64; 2]> {
     p
 }
 
-/// The first and last sample of the data arc by the documented rule, from the nominal path:
-/// (start, end) indices, end included; `arc_deg` None = until the feed-out.
+/// The first and last sample of the data arc by the documented rule, from the nominal path of
+/// a CCW run: (start, end) indices, end included; `arc_deg` None = until the feed-out.
 fn data_arc(p: &[[f64; 2]], arc_deg: Option<f64>) -> Option<(usize, usize)> {
+    data_arc_in(p, arc_deg, 1.0)
+}
+
+/// [`data_arc`] of a run turning in `sign`.
+fn data_arc_in(p: &[[f64; 2]], arc_deg: Option<f64>, sign: f64) -> Option<(usize, usize)> {
     let r = |q: &[f64; 2]| q[0].hypot(q[1]);
     let split = |k: usize| {
         let (a, b) = (p[k - 1], p[k]);
         let u = [b[0] / r(&b), b[1] / r(&b)];
         let d = [b[0] - a[0], b[1] - a[1]];
-        (u[0] * d[1] - u[1] * d[0], (u[0] * d[0] + u[1] * d[1]).abs()) // along (CCW), across
+        // along (in the run's direction), across
+        (
+            sign * (u[0] * d[1] - u[1] * d[0]),
+            (u[0] * d[0] + u[1] * d[1]).abs(),
+        )
     };
     let fed_in = p.iter().position(|q| r(q) - R_MM >= 0.05)?;
     let start = (fed_in.max(1)..p.len()).find(|&k| {
@@ -307,4 +321,32 @@ fn without_a_feed_in_the_run_never_starts_and_the_pod_says_why() {
     // an abort ends the wait
     pod.execute(Command::Abort).expect("abort");
     assert_eq!(pod.app.session(), SessionState::Aborted);
+}
+
+/// A CW run triggers the same way, turning the other way; the CW direction armed on a CCW
+/// program never starts (the note says it was fed in and waits for the data arc).
+#[test]
+fn a_cw_run_starts_and_stops_itself_and_the_wrong_direction_waits() {
+    use ballpod::app::Direction;
+    let p = path_in(true, -1.0);
+    let (start, end) = data_arc_in(&p, Some(360.0), -1.0).expect("the rule finds the data arc");
+    assert_eq!(start, REST + 60);
+    let mut cw = pod(RunTrigger::FeedIn, Some(360.0), p[0]);
+    cw.app.set_direction(Direction::Cw).unwrap();
+    cw.execute(Command::Arm).expect("arm");
+    drive(&mut cw, &p, |_, _| {});
+    assert_eq!(cw.app.session(), SessionState::Done);
+    assert_eq!(recorded(&cw).0, end - start + 1);
+    let span = f64::from(cw.app.results().get(ResultId::Arc).value);
+    assert!((360.0..360.05).contains(&span), "{span}");
+    // armed CW, the program runs CCW: fed in, never started
+    let ccw = path(true);
+    let mut wrong = pod(RunTrigger::FeedIn, Some(360.0), ccw[0]);
+    wrong.app.set_direction(Direction::Cw).unwrap();
+    wrong.execute(Command::Arm).expect("arm");
+    let on_circle = ccw.len() - REST - (FEED_IN_MM / STEP_MM).round() as usize;
+    drive(&mut wrong, &ccw[..on_circle], |_, _| {});
+    assert_eq!(wrong.app.session(), SessionState::Armed);
+    let note = wrong.app.procedure_note().expect("a note").text();
+    assert_eq!(note, ("FEED_IN: fed in, waiting for the data arc", ""));
 }

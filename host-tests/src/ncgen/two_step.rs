@@ -235,11 +235,8 @@ impl TwoStepTest {
         dialect.begin(&mut out, &header);
         let _ = writeln!(out, "{}", dialect.modal(CirclePlane::XY));
         for (k, run) in self.runs.iter().enumerate() {
-            let (offset, first) = if k == 0 {
-                ([0.0; 3], run.stations_mm()[0])
-            } else {
-                (off, run.stations_mm()[0])
-            };
+            let offset = if k == 0 { [0.0; 3] } else { off };
+            let first = run.stations_mm()[0];
             let p: [f64; 3] = std::array::from_fn(|i| first[i] + offset[i]);
             if k == 0 {
                 dialect.comment(&mut out, "run 1, dV1: after the translation");

@@ -1004,6 +1004,116 @@ fn info(field: Field) -> Option<&'static FieldInfo> {
     FIELDS.iter().find(|i| i.field == key)
 }
 
+impl Field {
+    /// What the field is, for the EDS and the book's configuration reference (an exhaustive
+    /// match: a new field does not build without its text; the firmware never calls it, so the
+    /// text is not in flash).
+    pub const fn meaning(self) -> &'static str {
+        match self {
+            Field::BarLengthMm => {
+                "Calibrated ball-bar length at 20 °C (the nominal the LVDT's ΔL is measured against)"
+            }
+            Field::BarCtePpmPerK => "Thermal expansion coefficient of the bar body (steel 11.5)",
+            Field::LvdtPolyUm(_) => {
+                "LVDT calibration polynomial, coefficient k of x = Σ c_k·r^k (r the demodulated ratio)"
+            }
+            Field::LvdtMaxAbsRatio => {
+                "Largest |ratio| inside the calibrated stroke; beyond it a sample is over-range"
+            }
+            Field::LvdtMinSignal => {
+                "Smallest healthy LVDT signal, ADC counts (AC) or volts (DC); below it the coil is open"
+            }
+            Field::LvdtDcZeroV => "DC input mode: the conditioner's output at the LVDT null",
+            Field::LvdtDcSpanV => "DC input mode: the conditioner's output change for ratio 1",
+            Field::ExcitationHz => {
+                "LVDT excitation frequency; a sample must be a whole 1 … 5 excitation periods (taken at reset)"
+            }
+            Field::SamplesPerPeriod => {
+                "ADC samples per excitation period: the 20-point excitation table (taken at reset)"
+            }
+            Field::SampleRateHz => "Pod sample rate (ΔL and axes); taken at reset",
+            Field::AxisCountsPerUnit(_) => {
+                "Encoder input n: counts per mm (linear) or per degree (rotary), after ×4 quadrature decoding"
+            }
+            Field::AxisMaxSpeed(_) => {
+                "Encoder input n: fastest plausible axis speed; a larger count step is a quadrature glitch"
+            }
+            Field::ThermistorR25Ohm => "Bar thermistor: resistance at 25 °C",
+            Field::ThermistorBetaK => "Bar thermistor: β constant",
+            Field::ThermistorRFixedOhm => "Bar thermistor: the divider's fixed resistor",
+            Field::ProbeDebounceUs => {
+                "Touch probe: edges this soon after a trigger are contact bounce"
+            }
+            Field::ProbeReseatUs => {
+                "Touch probe: time the stylus must read seated before the probe re-arms"
+            }
+            Field::CanNodeId => "CANopen node-ID (taken at reset communication)",
+            Field::CirclePlane => "CIRCLE: plane of the circle",
+            Field::CircleCentreMm(_) => {
+                "CIRCLE: circle centre = the socket, machine coordinate X, Y or Z (the coordinate normal to the plane may stay not set)"
+            }
+            Field::CircleRadiusMm => {
+                "CIRCLE: nominal radius (the bar length for a circle about the socket in its plane)"
+            }
+            Field::CircleFeed => "CIRCLE: programmed feed (for the servo-mismatch diagnosis)",
+            Field::CircleMinArcDeg => {
+                "Circular runs: shortest arc that gives results (set at most 220 for a 220° partial arc)"
+            }
+            Field::S002LbMm => "Seed 002 (Table 4.3): L_B, ball-bar length",
+            Field::S002RbMm => "Seed 002: R_B, B-axis centre to T-ball, steps BX … CA",
+            Field::S002Rb2Mm => "Seed 002: R′_B, B-axis centre to T-ball, step CR2",
+            Field::S002RcMm => "Seed 002: R_C, W-ball distance from the C centreline",
+            Field::S002ZcMm => "Seed 002: Z_C, W-ball height above the C table",
+            Field::S002ZtMm => "Seed 002 thesis mode: Z_T, lever arm of steps 1–4",
+            Field::S002Zt2Mm => "Seed 002 thesis mode: Z′_T, lever arm of step 5",
+            Field::S002XtMm => "Seed 002 thesis mode: X_T, lever arm",
+            Field::S002OriginMm(_) => {
+                "Seed 002: machine coordinate X, Y or Z of the model frame's origin O_M (on the C axis at the table)"
+            }
+            Field::SsmSocketMm(_) => {
+                "SSM: machine coordinate X, Y or Z of the socket (pivot) centre P0"
+            }
+            Field::SsmWindowRadiusMm => {
+                "SSM streaming: radius of the neighbourhood whose samples share one E"
+            }
+            Field::SsmDwellSpeed => "SSM stations: linear speed below which the machine dwells",
+            Field::SsmSettleMs => "SSM stations: settling time before a dwell is averaged",
+            Field::SsmMinDwellSamples => {
+                "SSM stations: fewest averaged samples for a dwell to count as a station"
+            }
+            Field::TsMachine => "Seed 000 two-step: machine type",
+            Field::TsToolZMm => {
+                "Two-step: signed tool vector z_r along the spindle axis (RRTTT, RTTTR spindle)"
+            }
+            Field::TsZAlphaGammaMm => "Two-step: z_αγ between the table's α and γ centres (TTTRR)",
+            Field::TsReferenceMm(_) => {
+                "Two-step: reference point in the table frame, X, Y or Z (TTTRR, RTTTR table)"
+            }
+            Field::TsOriginMm(_) => {
+                "Two-step: nominal pivot (spindle) or table origin after the translation, X, Y or Z"
+            }
+            Field::TsAngleDeg(_) => {
+                "Two-step: nominal angle 1 or 2 of the rotation: RRTTT (α, β), TTTRR (α, γ), RTTTR spindle (β), RTTTR table (α)"
+            }
+            Field::ProbeLengthMm => {
+                "PROBE: tool length R, B-axis centre to stylus-ball centre; set, a touch point is the nominal stylus-ball centre axes − R·(sin B, 0, cos B)"
+            }
+            Field::RunTrigger => {
+                "What starts and stops a run: COMMAND (a client) or FEED_IN (CIRCLE: the part program's feed-in and data arc)"
+            }
+            Field::CircleArcDeg => {
+                "CIRCLE, FEED_IN: span of the data arc a self-triggered run measures (not set: until the feed-out)"
+            }
+            Field::PeriodsPerSample => {
+                "Cross-field rule: excitation / sample_rate must be a whole 1 … 5 periods"
+            }
+            Field::AxisNameDuplicate(_) => {
+                "Cross-field rule: an axis name may be used by one encoder input only"
+            }
+        }
+    }
+}
+
 impl FieldInfo {
     /// The field of element `k` of this row (the row's own field for a scalar).
     pub const fn element(&self, k: u8) -> Field {

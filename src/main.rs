@@ -3,7 +3,7 @@
 //! Clocks: 24 MHz HSE (ST-LINK MCO) → PLL → 170 MHz system clock; the FDCAN kernel clock is
 //! the 24 MHz HSE itself (every offered CAN bit rate exact); ADC clocks from the system clock;
 //! 48 MHz USB from HSI48 with clock recovery.
-//! The tasks are in `board/`; the pin table is in `board/mod.rs` and README.md.
+//! The tasks are in `board/`; the pin table is in the book (`docs/src/hardware.md`).
 #![no_std]
 #![no_main]
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from canopen.sdo.exceptions import SdoAbortedError
 
-# --- the contract (README "CANopen", EDS comments, SCPI names) ------------------------------------
+# --- the contract (the book's CANopen pages, EDS comments, SCPI names) ------------------------------------
 PATTERN = {"CIRCLE": 0, "BX": 1, "BY": 2, "CR": 3, "CA": 4, "CR2": 5, "SSM": 6, "PROBE": 7}
 DIRECTION = {"CCW": 0, "CW": 1}
 COMMAND = {"arm": 1, "start": 2, "stop": 3, "abort": 4, "clear": 5, "reset": 6, "store": 7,

@@ -1,5 +1,5 @@
 """The seed 002 chapter 5 touch-probe procedure driven over CANopen as a CNC would: the served
-machine's PROBE runs go through the chapter 5 sequence (README, simulated pod: C = 0/90/180/270°
+machine's PROBE runs go through the chapter 5 sequence (docs/src/serve.md, simulated pod: C = 0/90/180/270°
 with B = 0, then B = 0/90° with the short stylus and B = 0/90° with the long one). The CNC writes
 the set-up (seed 002 origin, Z_C) and the tool length `probe_length` of each stylus, runs the eight
 PROBE runs, reads every run's touch points and fitted sphere, and reads the C- and B-axis

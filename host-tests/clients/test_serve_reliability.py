@@ -11,7 +11,7 @@ import pytest
 
 from podlib import COMMAND, PATTERN, configure_circle, connect, wait_until
 
-HEARTBEAT_S = 1.0  # 0x1017 default (README)
+HEARTBEAT_S = 1.0  # 0x1017 default (reference: CANopen objects)
 
 
 def start_circle(sdo):

@@ -371,21 +371,25 @@ def test_ssm_station_sets_dwell_on_the_sphere_and_move_on_it(tmp_path, socket, t
         assert bar - r(mid) < TOL_MM + 1e-4, (a, b)
 
 
-def readme_block(heading, lang):
-    """The first fenced `lang` block after `heading` in README.md (the docs' examples run)."""
-    text = (pathlib.Path(__file__).resolve().parents[2] / "README.md").read_text()
-    rest = text[text.index(heading):]
+def docs_block(marker, lang):
+    """The first fenced `lang` block after `marker` in the one page of README.md and docs/src/
+    that holds it (the docs' examples run)."""
+    root = pathlib.Path(__file__).resolve().parents[2]
+    pages = [root / "README.md", *sorted((root / "docs" / "src").rglob("*.md"))]
+    holding = [p.read_text() for p in pages if marker in p.read_text()]
+    assert len(holding) == 1, f"{marker} in {len(holding)} pages"
+    rest = holding[0][holding[0].index(marker):]
     start = rest.index("```" + lang + "\n") + len(lang) + 4
     return rest[start:rest.index("```", start)]
 
 
 def test_a_program_corrected_for_centrelines_moves_as_its_comments_say(tmp_path):
-    # seed 004 4.3: a program of X Y Z A B points corrected with the README's centrelines file
+    # seed 004 4.3: a program of X Y Z A B points corrected with the docs' centrelines file
     # is accepted by rs274, moves through as many points, A and B as programmed, X Y Z moved by
     # what each block's comment states (um, to the words' 0.1 um)
     assert NCGEN, "set BALLPOD_NCGEN to the ncgen binary"
     lines = tmp_path / "centrelines.toml"
-    lines.write_text(readme_block("**Centrelines file**", "toml"))
+    lines.write_text(docs_block("**Centrelines file**", "toml"))
     program = tmp_path / "groove.ngc"
     program.write_text("G21 G90 G94\n" + "".join(
         f"G0 X-58.72 Y{-60.71 + 8 * k} Z258.75 A{60 * k} B{25 * k}\n"

@@ -3,6 +3,8 @@
 pub mod app_state;
 pub mod cli;
 pub mod diagonals;
+pub mod docs;
+pub mod docs_ref;
 pub mod flash_model;
 pub mod forward_seed000;
 pub mod forward_seed001;
@@ -12,7 +14,6 @@ pub mod forward_seed004;
 pub mod lvdt_model;
 pub mod ncgen;
 pub mod oracle;
-pub mod readme;
 pub mod recording;
 pub mod replay;
 pub mod report;

@@ -508,7 +508,13 @@ pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
                 reading_um: r[3],
             })
             .collect();
-        let w = fw::normalize(fw::mul(fw::rodrigues(axis, -b.to_radians()), w0));
+        // the gauge reads the face as the table turned it: by −b for a commanded +b on a
+        // primed axis (seed 004), by +b on a right-handed one
+        let turn = match sense {
+            RotationSense::Primed => -b,
+            RotationSense::RightHanded => b,
+        };
+        let w = fw::normalize(fw::mul(fw::rodrigues(axis, turn.to_radians()), w0));
         let u = fw::normalize(fw::sub(axis, fw::scale(fw::dot(axis, w), w)));
         let g = GaugeFrame {
             lateral_u: u,

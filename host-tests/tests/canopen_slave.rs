@@ -38,7 +38,7 @@ const CANNOT_STORE: u32 = 0x0800_0020;
 const WRONG_STATE: u32 = 0x0800_0022;
 const NO_DATA: u32 = 0x0800_0024;
 
-// Codes of the session objects (README / EDS comments: 0x3000 pattern, 0x3001 direction,
+// Codes of the session objects (book reference "CANopen objects" / EDS comments: 0x3000 pattern, 0x3001 direction,
 // 0x3002 command, 0x3003 state, 0x3004 abort reason).
 const PAT_CIRCLE: u8 = 0;
 const PAT_BX: u8 = 1;

@@ -1,13 +1,13 @@
-//! The machine file (`--machine`): the example in README's "Machine file" section parses with
+//! The machine file (`--machine`): the example in the book's "Machine file" section (docs/src/simulator.md) parses with
 //! `deny_unknown_fields`, names every key `MachineFile` has (so every fault the virtual machine
 //! tool can inject is documented and settable), and states the defaults.
 
 use ballpod_host::vmt::machine::MachineFile;
 use std::collections::BTreeSet;
 
-/// The ```toml block after README's "### Machine file" heading.
+/// The ```toml block after the book's "## Machine file" heading.
 fn readme_example() -> String {
-    ballpod_host::readme::block_after("### Machine file", "toml")
+    ballpod_host::docs::block_after("## Machine file (`--machine`", "toml")
 }
 
 /// `section.key` of every key of a two-level TOML table.
@@ -24,11 +24,14 @@ fn keys(v: &toml::Value) -> BTreeSet<String> {
 #[test]
 fn the_readme_example_names_every_key_and_states_the_defaults() {
     let text = readme_example();
-    let parsed: MachineFile = toml::from_str(&text).expect("README example parses");
+    let parsed: MachineFile = toml::from_str(&text).expect("the docs' example parses");
     let documented = keys(&toml::from_str::<toml::Value>(&text).expect("toml"));
     let all = keys(&toml::Value::try_from(MachineFile::default()).expect("serialise"));
     let missing: Vec<_> = all.difference(&documented).collect();
-    assert!(missing.is_empty(), "keys not in README: {missing:?}");
+    assert!(
+        missing.is_empty(),
+        "keys not in the docs' example: {missing:?}"
+    );
     assert_eq!(parsed, MachineFile::default());
 }
 

@@ -166,11 +166,11 @@ fn a_set_up_the_machine_cannot_run_is_refused_with_the_field() {
     }
 }
 
-/// README's example: its set-up file and command, as a user runs them.
+/// The docs' example (docs/src/part-programs.md): its set-up file and command, as a user runs them.
 #[test]
 fn the_readme_example_writes_its_program() {
-    let section = ballpod_host::readme::from("## Part programs");
-    let toml = ballpod_host::readme::block_after("## Part programs", "toml");
+    let section = ballpod_host::docs::from("# Part programs (`cargo ncgen`)");
+    let toml = ballpod_host::docs::block_after("# Part programs (`cargo ncgen`)", "toml");
     // the example command (the first `cargo ncgen -- …` of the section is its synopsis)
     let command = section
         .split_once("`cargo ncgen -- circle circle.toml")
@@ -327,7 +327,7 @@ fn the_pattern_programs_match_their_golden_files_and_differ_from_linuxcnc_only_i
     }
 }
 
-/// The two-step set-ups of the README's examples: RRTTT / RTTTR spindle (pivot after the
+/// The two-step set-ups of the docs' examples: RRTTT / RTTTR spindle (pivot after the
 /// translation, tool z_r −250 mm, rotation A20 B30 / B20) and TTTRR / RTTTR table (table
 /// origin, z_αγ 80 mm, reference ball (60, −20, 30) mm, A15 C40 / A15); bar 150 mm.
 fn two_step_cfg(machine: ballpod::config::TwoStepMachine) -> Config {

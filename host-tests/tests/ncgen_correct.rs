@@ -179,13 +179,13 @@ fn groove(moves: &[(&str, f64)]) -> (String, Vec<([f64; 3], f64, f64, [f64; 3])>
 /// Seed 004 §4.3 on its groove test (work block at (−63.72, −70.71, 258.75) mm, grooves at the
 /// postures A0B0 … A180B75): the program a post-processor writes with the NC-set centrelines
 /// (eq 9's V2, from the independent forward model `forward_seed004::eq9`, table axes primed),
-/// corrected with the README's example centrelines, commands each point where the machine
+/// corrected with the docs' example centrelines (docs/src/part-programs.md), commands each point where the machine
 /// with those centrelines actually carries the work point (V1) — within the words' 0.1 µm —
 /// where the uncorrected program misses by up to hundreds of µm. A and B stay as programmed.
 #[test]
 fn a_program_corrected_for_the_centrelines_reaches_the_work_points() {
-    let toml = ballpod_host::readme::block_after("**Centrelines file**", "toml");
-    let lines = centrelines_from_toml(&toml).expect("the README's centrelines file");
+    let toml = ballpod_host::docs::block_after("**Centrelines file**", "toml");
+    let lines = centrelines_from_toml(&toml).expect("the docs' centrelines file");
     let a = &lines.actual;
     let (program, work) = groove(&[("G0", 5.0), ("G1", 45.0)]);
     let corrected = correct_program_centrelines(&program, &lines, "centrelines.toml").unwrap();

@@ -187,7 +187,7 @@ fn figure<'a>(figures: &'a [Figure], name: &str) -> &'a Figure {
     figures.iter().find(|f| f.name == name).unwrap()
 }
 
-/// One measurement, σ = 0.1 µm per stop, through the README's session file: the squareness within 3u of the truth, every point of
+/// One measurement, σ = 0.1 µm per stop, through the docs' session file: the squareness within 3u of the truth, every point of
 /// the nine tables within 4u (189 points of one noise draw; the coverage is the next test's); the Siemens file carries the same values as Table 8.3 lays them
 /// out; the grid is the sum of the three axes' curves.
 #[test]
@@ -195,11 +195,11 @@ fn vector_method_tables_reproduce_the_machines_curves() {
     let (c, s_true) = truth();
     let mut rng = Rng::new(7);
     let sigma = 0.1;
-    // the README's example session, verbatim
+    // the docs' example session (docs/src/replay.md), verbatim
     let session = Session::new("one", &readings_csv(&mut rng, sigma, None), "");
     std::fs::write(
         session.path(),
-        ballpod_host::readme::block_after("**Seed 001 diagonals**", "toml"),
+        ballpod_host::docs::block_after("## Seed 001 diagonals", "toml"),
     )
     .unwrap();
     std::fs::write(session.dir.join("body.csv"), BODY_CSV).unwrap();

@@ -274,7 +274,7 @@ fn partial_arcs_on_the_pod_and_in_replay_match_an_f64_fit_within_1_nm() {
 
 #[test]
 fn the_readme_session_file_replays_a_pod_file_and_a_plain_log() {
-    // The README's example verbatim, with its two logs made here from the forward model: a
+    // The docs' example (docs/src/replay.md) verbatim, with its two logs made here from the forward model: a
     // CCW circle recorded by the pod's application (a pod file), the CW circle as a plain log of
     // another recorder. R 150 mm about (0, 0), traced e = (4, −2.5) µm off the socket, r0 1 µm.
     const R_MM: f64 = 150.0;
@@ -292,7 +292,7 @@ fn the_readme_session_file_replays_a_pod_file_and_a_plain_log() {
         }
     };
 
-    // the pod's set-up is the README's [setup] (circle_centre_z stays unset: an XY circle does
+    // the pod's set-up is the docs' [setup] (circle_centre_z stays unset: an XY circle does
     // not need it), so both runs belong to one circular test
     let mut cfg = Config::default();
     cfg.setup.circle_centre_mm[0] = 0.0;
@@ -326,13 +326,13 @@ fn the_readme_session_file_replays_a_pod_file_and_a_plain_log() {
     let session = dir.join("session.toml");
     std::fs::write(
         &session,
-        ballpod_host::readme::block_after("**Session file**", "toml"),
+        ballpod_host::docs::block_after("## Session file", "toml"),
     )
     .expect("session");
 
     let read = read_inputs(&[session]);
     let _ = std::fs::remove_dir_all(&dir);
-    let inputs = read.expect("the README's session file reads");
+    let inputs = read.expect("the docs' session file reads");
     let (runs, host) = (inputs.runs, inputs.host);
     assert!(host.is_empty());
     let names: Vec<_> = runs

@@ -47,6 +47,7 @@ scenarios! {
     seed002_probe_b_axis => "seed002_probe_b_axis.toml",
     seed003_rtest_table4 => "seed003_rtest_table4.toml",
     seed004_dial_gauge => "seed004_dial_gauge.toml",
+    seed004_dial_gauge_right_handed => "seed004_dial_gauge_right_handed.toml",
     iso230_4_typical => "iso230_4_typical.toml",
     iso230_4_backlash_only => "iso230_4_backlash_only.toml",
 }

@@ -5,8 +5,8 @@
 //! replaces that direction's previous run (runs are never merged), the other direction is
 //! kept while the geometry stays the same. At the end of a run: the run's limaçon fit, G and F
 //! of its direction; once the latest CCW and CW runs are both complete: G(b), H, the mean
-//! bi-directional radial deviation and (full circles) the ball-bar diagnoses, and the servo
-//! mismatch when the feed is set.
+//! bi-directional radial deviation and (arcs with samples in all four quadrants) the ball-bar
+//! diagnoses, and the servo mismatch when the feed is set.
 
 use super::pattern::Direction;
 use super::results::{ResultId, Results};

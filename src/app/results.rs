@@ -53,7 +53,7 @@ results! {
     GBidir => ("G_bidir", "um", "ISO 230-4 bi-directional circular deviation G(b) (latest CCW and CW runs)"),
     H => ("H", "um", "ISO 230-4 circular hysteresis H (latest CCW and CW runs)"),
     RadialBidir => ("radial_bidir", "um", "ISO 230-4 mean bi-directional radial deviation"),
-    Squareness => ("squareness", "urad", "Ball-bar diagnosis: out-of-squareness of the plane's axes (mean of CCW and CW; full circles)"),
+    Squareness => ("squareness", "urad", "Ball-bar diagnosis: out-of-squareness of the plane's axes (mean of CCW and CW; both arcs with samples in all four quadrants)"),
     ScaleMismatch => ("scale_mismatch", "um/m", "Ball-bar diagnosis: scale mismatch k_u − k_v"),
     ReversalU => ("reversal_u", "um", "Ball-bar diagnosis: reversal step (backlash) of the first axis"),
     ReversalV => ("reversal_v", "um", "Ball-bar diagnosis: reversal step (backlash) of the second axis"),

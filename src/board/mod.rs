@@ -2,22 +2,8 @@
 //! DMA side and the compute task, and their overrun counters. Tasks here only configure, read,
 //! hand over and send; every computation is in the `ballpod` core.
 //!
-//! Pin table (also in README.md):
-//!
-//! | pin | function | peripheral |
-//! |---|---|---|
-//! | PA4 | LVDT primary excitation (sine) | DAC1 CH1, DMA1 CH1, triggered by TIM6 TRGO |
-//! | PA0 | LVDT secondary A (or DC conditioner input) | ADC1 IN1, DMA1 CH2, TIM6 TRGO, AWD1 |
-//! | PA1 | LVDT secondary B | ADC2 IN2, DMA1 CH3, TIM6 TRGO, AWD1 |
-//! | PB0 | bar thermistor (divider to 3.3 V) | ADC3 IN12 |
-//! | PA8 / PA9 | encoder 1 A / B | TIM1 CH1 / CH2 |
-//! | PA6 / PA7 | encoder 2 A / B | TIM3 CH1 / CH2 |
-//! | PB6 / PB7 | encoder 3 A / B | TIM4 CH1 / CH2 |
-//! | PC6 / PC7 | encoder 4 A / B | TIM8 CH1 / CH2 |
-//! | PB2 / PC12 | encoder 5 A / B | TIM5 CH1 / CH2 |
-//! | PB4 | touch probe (NC contact to GND, pull-up: seated = low, trigger = rising edge) | EXTI4 |
-//! | PB8 / PB9 | CAN RX / TX (to a transceiver) | FDCAN1 |
-//! | PA11 / PA12 | USB DM / DP | USB FS (CDC-ACM) |
+//! The pin table (pins, Nucleo headers, peripherals, wiring notes) is in the book:
+//! `docs/src/hardware.md`.
 
 pub mod can;
 pub mod compute;

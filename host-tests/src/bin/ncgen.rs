@@ -70,7 +70,7 @@ enum Test {
     /// A single-socket-method station set (pattern SSM) from the pod's set-up file.
     Ssm(SsmArgs),
     /// Seed 000's two-step procedure (pattern SSM twice: after the translation and after the
-    /// rotation) from the pod's set-up file (`ts_*` fields, RRTTT or RTTTR_SPINDLE).
+    /// rotation) from the pod's set-up file (`ts_*` fields; RRTTT, TTTRR, RTTTR_SPINDLE or RTTTR_TABLE).
     TwoStep(TwoStepArgs),
     /// A program's G0/G1 points corrected for the identified deviations (seed 002 ch. 3; the
     /// program keeps its dialect).
@@ -86,7 +86,7 @@ struct CentrelinesArgs {
     /// The NC program (G0/G1 points of X Y Z A B, machine coordinates, computed with the
     /// NC-set centrelines).
     program: PathBuf,
-    /// Centrelines file (TOML): `[actual]`, optional `[nominal]` and `[sense]` (README "Part
+    /// Centrelines file (TOML): `[actual]`, optional `[nominal]` and `[sense]` (book: "Part
     /// programs").
     centrelines: PathBuf,
 }

@@ -76,6 +76,10 @@ pub struct Scenario {
     /// Dial gauge: tilt of the B (tilting) axis direction about X and Z, µrad.
     #[serde(default)]
     pub axis_tilt_urad: Option<[f64; 2]>,
+    /// `seed004_dial_gauge`: how a commanded angle turns the table, `"primed"` (default) or
+    /// `"right_handed"` (the session file's `[dial] sense`).
+    #[serde(default)]
+    pub dial_sense: Option<String>,
     /// Two-step RRTTT: (Δα, Δβ) µrad, the second step's (α, β) degrees, tool z_r mm and the
     /// translation error ΔV1 µm.
     #[serde(default)]
@@ -534,11 +538,18 @@ fn seed004_dial_gauge(s: &Scenario) -> Result<Vec<Check>, String> {
     // the dial gauge is a contact LVDT on one of the pod's channels (sensor level), reading
     // along the nominal axis' frame turned to each angle (the session file's defaults: axis +Y,
     // reading direction +Z at 0°)
+    // A primed table axis turns the work by −b for a commanded +b (seed 004), a right-handed
+    // one by +b.
+    let (turn, sense_line) = match s.dial_sense.as_deref() {
+        None | Some("primed") => (-1.0, ""),
+        Some("right_handed") => (1.0, "sense = \"right_handed\"\n"),
+        Some(x) => return Err(format!("dial_sense {x:?}: primed or right_handed")),
+    };
     let mut probe = crate::vmt::lvdt_channel::LvdtProbe::new(s.noise_um, s.seed);
     let mut table = String::from("b_deg,u_mm,v_mm,reading_um\n");
     for b in [0.0f64, 30.0, 60.0, 90.0] {
-        let n = fw::mul(fw::rodrigues(d, -b.to_radians()), n0);
-        let w = fw::normalize(fw::mul(fw::rodrigues(Y, -b.to_radians()), Z));
+        let n = fw::mul(fw::rodrigues(d, turn * b.to_radians()), n0);
+        let w = fw::normalize(fw::mul(fw::rodrigues(Y, turn * b.to_radians()), Z));
         let u = fw::normalize(fw::sub(Y, fw::scale(fw::dot(Y, w), w)));
         let v = fw::cross(w, u);
         let zero = fw::dial_reading_um(n, u, v, w, 0.0, 0.0, 0.0);
@@ -549,7 +560,7 @@ fn seed004_dial_gauge(s: &Scenario) -> Result<Vec<Check>, String> {
     }
     let figs = replay_session(
         &format!("dial-{}", s.seed),
-        "[dial]\nreadings = \"readings.csv\"\n",
+        &format!("[dial]\nreadings = \"readings.csv\"\n{sense_line}"),
         &table,
     )?;
     let check = |name: &str, fig: &str, truth: f64| -> Result<Check, String> {

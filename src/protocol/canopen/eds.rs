@@ -42,6 +42,92 @@ fn write_value(w: &mut impl Write, e: &Entry, bytes: &[u8]) -> fmt::Result {
     }
 }
 
+/// What object `index` is, for the EDS's `; what:` lines and the book's object reference (the
+/// configuration objects 0x2000 + i are described by [`crate::config::Field::meaning`], the
+/// results by [`RESULT_MEANINGS`]). Empty for an index that is not an object.
+pub const fn object_meaning(index: u16) -> &'static str {
+    match index {
+        0x1000 => {
+            "Device type: 0, no standard device profile (the live values are CiA 404-style REAL32 process values, but the pod does not claim a profile whose objects it lacks)"
+        }
+        0x1001 => {
+            "Error register: bit 0 generic, bit 4 communication (overrun, error state), bit 7 manufacturer-specific"
+        }
+        0x1003 => {
+            "Error history: sub 0 the number of errors (write 0 to clear), sub k error k (1 = newest): the EMCY error code and its manufacturer byte"
+        }
+        0x1005 => {
+            "COB-ID of the SYNC the pod consumes (default 0x080; a SYNC producer or a 29-bit ID is refused)"
+        }
+        0x1008 => "Manufacturer device name",
+        0x1009 => "Manufacturer hardware version",
+        0x100A => "Manufacturer software version",
+        0x1010 => {
+            "Store parameters: write \"save\" (0x65766173) to sub 1 to store the configuration in flash"
+        }
+        0x1011 => {
+            "Restore default parameters: write \"load\" (0x64616F6C) to sub 1 to store the defaults, in force at the next reset"
+        }
+        0x1015 => "EMCY inhibit time, 100 µs",
+        0x1017 => "Producer heartbeat time, ms (0: no heartbeat)",
+        0x1018 => {
+            "Identity: vendor 0, product 0xBA110001, revision, serial number (the CRC-32 of the MCU's unique ID, as SCPI *IDN? and the USB iSerialNumber)"
+        }
+        0x1200 => {
+            "SDO server: COB-IDs 0x600 + node-ID (client to pod) and 0x580 + node-ID (pod to client); expedited and segmented transfers, 1 s segment timeout, no block transfer"
+        }
+        0x1800..=0x1803 => {
+            "TPDO communication parameter: COB-ID (bit 31 disables), transmission type (1–240: every n-th SYNC; 254/255: event timer), inhibit time, event timer (ms)"
+        }
+        0x1A00..=0x1A03 => {
+            "TPDO mapping: up to 64 bits of 0x1001, 0x2100–0x2103 and 0x3003, changed per the CiA 301 procedure (disable the TPDO, set sub 0 to 0, map, set sub 0)"
+        }
+        0x2040 => "LVDT input mode (written only in pre-operational)",
+        0x2041 => "CAN bit rate, taken at reset (written only in pre-operational)",
+        0x2042 => {
+            "Axis name of encoder input k (written only in pre-operational; a name used twice is refused)"
+        }
+        0x2043 => {
+            "Counting direction of encoder input k: true if the counter counts down in the axis' positive direction (written only in pre-operational)"
+        }
+        0x2100 => {
+            "Live values, refreshed every sample: delta_l (µm), ssm_ex, ssm_ey, ssm_ez (µm), ecc_u, ecc_v, r0 (µm), temp (°C); NaN while not valid (0x2103)"
+        }
+        0x2101 => "Sample counter: every sample the pod produced (a gap is a lost sample)",
+        0x2102 => {
+            "Status word: bits 0–5 the latest sample's flags (1 LVDT over-range, 2 LVDT open, 4 quadrature error, 8 probe, 16 overrun, 32 thermistor fault), 8 armed, 9 running, 10 results ready, 11 aborted, 12 every live value of the pattern valid, 13 identification pending, 14 a field that takes effect at reset changed, 15 error"
+        }
+        0x2103 => "Validity mask of the live values: bit k−1 set when 0x2100:k is valid",
+        0x2110 => "Device counters (refreshed every 100 ms; 0xFFFFFFFF: not measured by this pod)",
+        0x3000 => "Pattern of the next run (written while no run is armed or running)",
+        0x3001 => "Direction of the next run",
+        0x3002 => {
+            "Session command: 1 arm (in IDLE, DONE or ABORTED), 2 start (ARMED), 3 stop (RUNNING: results, or ABORTED with reason 4 if the run has none), 4 abort (ARMED or RUNNING), 5 clear procedures and results (not while ARMED or RUNNING), 6 reset (any state: aborts a run, forgets procedures and results, keeps the configuration), 7 store the configuration, 8 restore the defaults at the next reset. A refused command aborts the SDO with 0x08000022 and 0x3006 says why"
+        }
+        0x3003 => "Session state",
+        0x3004 => "Why the last run aborted",
+        0x3005 => "Run counters of the present or last run, samples",
+        0x3006 => "Why the last command or write was refused (text)",
+        0x3007 => {
+            "Procedure note: what the last procedure step could not do, or what an armed self-triggered run waits for (text)"
+        }
+        0x3008 => "Number of touch points of the last PROBE run",
+        0x3009 => "X of touch point k of the last PROBE run, mm",
+        0x300A => "Y of touch point k of the last PROBE run, mm",
+        0x300B => "Z of touch point k of the last PROBE run, mm",
+        0x4000 => {
+            "Result values: sub-index k+1 = result k of the results catalogue; reading an invalid result aborts with 0x08000024 (no data available)"
+        }
+        0x4001 => {
+            "Standard uncertainties of the results (NaN: not evaluated); an invalid result aborts with 0x08000024"
+        }
+        0x4002 => {
+            "Validity of the results: true once a run (or the procedure) has computed the result"
+        }
+        _ => "",
+    }
+}
+
 /// The EDS ParameterName of an entry: its name, with the element number appended
 /// (`name_k` for generated names, `Name k` for CiA names with spaces).
 fn write_name(w: &mut impl Write, e: &Entry) -> fmt::Result {
@@ -62,7 +148,13 @@ fn write_entry(
 ) -> fmt::Result {
     match section_sub {
         Some(s) => writeln!(w, "[{:04X}sub{:X}]", e.index, s)?,
-        None => writeln!(w, "[{:04X}]", e.index)?,
+        None => {
+            writeln!(w, "[{:04X}]", e.index)?;
+            let what = object_meaning(e.index);
+            if !what.is_empty() {
+                writeln!(w, "; what: {what}")?;
+            }
+        }
     }
     if !e.unit.is_empty() {
         writeln!(w, "; unit: {}", e.unit)?;
@@ -74,6 +166,7 @@ fn write_entry(
             }
         }
         od::Var::Config(f) => {
+            writeln!(w, "; what: {}", f.meaning())?;
             if let Some(i) = Config::field_info(f) {
                 if !i.choices.is_empty() {
                     w.write_str("; codes:")?;
@@ -214,6 +307,10 @@ pub fn write_eds(w: &mut impl Write) -> fmt::Result {
         }
         let subs = (0..=obj.max_sub).filter(|&s| od::entry(index, s).is_ok());
         writeln!(w, "[{index:04X}]")?;
+        let what = object_meaning(index);
+        if !what.is_empty() {
+            writeln!(w, "; what: {what}")?;
+        }
         writeln!(w, "ParameterName={}", obj.name)?;
         writeln!(w, "ObjectType=0x{:X}", obj.kind as u8)?;
         writeln!(w, "SubNumber={}", subs.clone().count())?;

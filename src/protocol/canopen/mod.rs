@@ -74,7 +74,7 @@
 //! formatting is linked (only [`eds`] formats floats, and the firmware does not call it).
 //!
 //! # Object dictionary
-//! `ballpod.eds` has every entry (the README's CANopen section lists them); [`od`] says where
+//! `ballpod.eds` has every entry (as does the book's generated `docs/src/reference/canopen-objects.md`); [`od`] says where
 //! each value comes from.
 
 pub mod abort;

@@ -47,7 +47,8 @@
 //!
 //! # Command set
 //!
-//! The table is in README.md ("USB command interface"); the host tests execute its examples.
+//! The command table is the book's generated reference (`docs/src/reference/scpi-commands.md`,
+//! from [`self::reference`]); the host tests execute the examples of `docs/src/technician.md`.
 //! Names of patterns, directions, abort reasons, results and live values are the application's
 //! ([`crate::app`]); configuration fields are [`FIELDS`] by name.
 //!
@@ -58,6 +59,7 @@
 
 pub mod number;
 pub mod parse;
+pub mod reference;
 pub mod status;
 
 use crate::acquisition::MAX_AXES;

@@ -83,14 +83,10 @@ pub mod code {
     pub const INVALID_SUFFIX: i16 = -131;
     /// -141: a character parameter that is not one of the choices.
     pub const INVALID_CHARACTER_DATA: i16 = -141;
-    /// -151: an unterminated or malformed string.
-    pub const INVALID_STRING_DATA: i16 = -151;
     /// -158: a string where none is accepted.
     pub const STRING_DATA_NOT_ALLOWED: i16 = -158;
     /// -168: block data where none is accepted.
     pub const BLOCK_DATA_NOT_ALLOWED: i16 = -168;
-    /// -200: the command could not be executed (see detail).
-    pub const EXECUTION_ERROR: i16 = -200;
     /// -203: a protected command (configuration write before `CONFigure:UNLock`).
     pub const COMMAND_PROTECTED: i16 = -203;
     /// -221: valid on its own, but conflicts with the device state or other settings.
@@ -131,10 +127,8 @@ pub const fn message(c: i16) -> &'static str {
         code::TOO_MANY_DIGITS => "Too many digits",
         code::INVALID_SUFFIX => "Invalid suffix",
         code::INVALID_CHARACTER_DATA => "Invalid character data",
-        code::INVALID_STRING_DATA => "Invalid string data",
         code::STRING_DATA_NOT_ALLOWED => "String data not allowed",
         code::BLOCK_DATA_NOT_ALLOWED => "Block data not allowed",
-        code::EXECUTION_ERROR => "Execution error",
         code::COMMAND_PROTECTED => "Command protected",
         code::SETTINGS_CONFLICT => "Settings conflict",
         code::DATA_OUT_OF_RANGE => "Data out of range",

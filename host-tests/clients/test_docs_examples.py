@@ -1,8 +1,9 @@
-"""The README's protocol examples run verbatim against the simulated pod: every ```python block of
-the sections "CANopen (CiA 301)" and "USB command interface (SCPI)", with only the port
-placeholders CAN_PORT / USB_PORT filled in, in a fresh interpreter from the repository root; what
-they print is checked against the served machine's truth. The "Serving the simulated pod"
-section must name every key of the JSON line the pod prints."""
+"""The book's protocol examples run verbatim against the simulated pod: every ```python block of
+the pages "The CNC's side" (docs/src/cnc.md) and "The technician's side" (docs/src/technician.md),
+with only the port placeholders CAN_PORT / USB_PORT filled in, in a fresh interpreter from the
+repository root; what they print is checked against the served machine's truth. The page
+"Serving the simulated pod" (docs/src/serve.md) must name every key of the JSON line the pod
+prints."""
 import pathlib
 import re
 import subprocess
@@ -11,29 +12,26 @@ import sys
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
 
-def section(heading):
-    text = (ROOT / "README.md").read_text()
-    start = text.index(f"\n## {heading}")
-    end = text.find("\n## ", start + 1)
-    return text[start:end if end >= 0 else len(text)]
+def page(name):
+    return (ROOT / "docs" / "src" / name).read_text()
 
 
-def python_blocks(heading):
-    blocks = re.findall(r"```python\n(.*?)```", section(heading), re.S)
-    assert blocks, f"no python example under {heading!r}"
+def python_blocks(name):
+    blocks = re.findall(r"```python\n(.*?)```", page(name), re.S)
+    assert blocks, f"no python example in docs/src/{name}"
     return blocks
 
 
-def run_example(code):
+def run_example(code, page):
     out = subprocess.run([sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, timeout=90)
-    assert out.returncode == 0, f"README example failed:\n{code}\n{out.stderr}"
+    assert out.returncode == 0, f"the example of docs/src/{page} failed:\n{code}\n{out.stderr}"
     return out.stdout.splitlines()
 
 
 def test_canopen_example(pod):
-    (code,) = python_blocks("CANopen (CiA 301)")
+    (code,) = python_blocks("cnc.md")
     assert "net.add_node(16," in code and pod["node_id"] == 16  # the example's node-ID is the pod's
-    lines = run_example(code.replace("CAN_PORT", str(pod["can_port"])))
+    lines = run_example(code.replace("CAN_PORT", str(pod["can_port"])), "cnc.md")
     assert lines[0] == "ballpod measurement pod"
     assert lines[1] == "ecc_u: abort 0x08000024"  # CiA 301: no data available
     assert re.fullmatch(r"delta_l_um -?\d+\.\d+(e-?\d+)? at sample \d+", lines[2]), lines[2]
@@ -46,8 +44,8 @@ def test_canopen_example(pod):
 
 
 def test_scpi_examples(pod):
-    visa, pyserial = python_blocks("USB command interface (SCPI)")
-    lines = run_example(visa.replace("USB_PORT", str(pod["usb_port"])))
+    visa, pyserial = python_blocks("technician.md")
+    lines = run_example(visa.replace("USB_PORT", str(pod["usb_port"])), "technician.md")
     assert lines[0].startswith("BALLPOD,BP-1,")
     assert lines[1] == '-230,"Data corrupt or stale;ecc_u has no valid value"'
     s = pod["truth"]["machine"]["circle"]["socket_offset_um"]
@@ -56,13 +54,13 @@ def test_scpi_examples(pod):
     assert lines[3].endswith(",9.91E+37,UM"), lines[3]
     assert len(lines[4].split(",")) == 11, lines[4]
     # pyserial on the same pod, after the PyVISA session
-    (line,) = run_example(pyserial.replace("USB_PORT", str(pod["usb_port"])))
+    (line,) = run_example(pyserial.replace("USB_PORT", str(pod["usb_port"])), "technician.md")
     assert re.fullmatch(r'DONE;-?\d+\.\d{4},\d+\.\d{4},UM;0,"No error"', line), line
 
 
 def test_serve_section_names_the_json_line(pod):
-    text = section("Serving the simulated pod")
+    text = page("serve.md")
     keys = set(pod) | set(pod["truth"]) | set(pod["truth"]["machine"])
     missing = sorted(k for k in keys if f"`{k}`" not in text and f"`truth.{k}`" not in text
                      and f"`truth.machine.{k}`" not in text)
-    assert not missing, f"keys of the JSON line not in the README: {missing}"
+    assert not missing, f"keys of the JSON line not in docs/src/serve.md: {missing}"

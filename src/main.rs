@@ -1,6 +1,6 @@
 //! ballpod firmware for the NUCLEO-G474RE (STM32G474RE, Cortex-M4F at 170 MHz).
 //!
-//! Clocks: 24 MHz HSE (ST-LINK MCO) → PLL → 170 MHz system clock; the FDCAN kernel clock is
+//! Clocks: 24 MHz HSE crystal → PLL → 170 MHz system clock; the FDCAN kernel clock is
 //! the 24 MHz HSE itself (every offered CAN bit rate exact); ADC clocks from the system clock;
 //! 48 MHz USB from HSI48 with clock recovery.
 //! The tasks are in `board/`; the pin table is in the book (`docs/src/hardware.md`).

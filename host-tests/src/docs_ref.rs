@@ -9,14 +9,14 @@ use std::fmt::Write;
 
 use ballpod::acquisition::{MAX_AXES, SampleFlags};
 use ballpod::app::results::{RESULT_MEANINGS, RESULTS};
-use ballpod::app::run::{AbortReason, RunCounters};
+use ballpod::app::run::AbortReason;
 use ballpod::app::{App, Direction, Pattern, SessionState};
 use ballpod::config::{
     AT_RESET, AxisName, CanBitrate, Config, FIELDS, FieldInfo, FieldType, LvdtInput,
 };
-use ballpod::protocol::canopen::eds::object_meaning;
+use ballpod::protocol::canopen::eds::{object_meaning, write_default};
 use ballpod::protocol::canopen::emcy;
-use ballpod::protocol::canopen::od::{self, CommParams, DataType, Entry, MAX_VALUE_LEN};
+use ballpod::protocol::canopen::od::{self, CommParams, DataType, Entry};
 use ballpod::protocol::scpi::reference::{ERRORS, commands};
 use ballpod::protocol::scpi::status::message;
 
@@ -114,9 +114,9 @@ fn configuration_fields() -> String {
                 .get(v as usize)
                 .map_or_else(|| num(v), |c| (*c).to_string()),
             // an f32 field as the f32 it is (0.55, not 0.550000011920929)
-            (Some(v), true) if matches!(i.ty, FieldType::F32) => num(f64::from(v as f32))
-                .parse::<f32>()
-                .map_or_else(|_| num(v), |x| format!("{x}")),
+            (Some(v), true) if matches!(i.ty, FieldType::F32) && !v.is_nan() => {
+                format!("{}", v as f32)
+            }
             (Some(v), true) => num(v),
             (None, _) => "–".into(),
         };
@@ -186,10 +186,10 @@ fn configuration_fields() -> String {
     );
     let _ = writeln!(s, "| field | CANopen | SCPI | default | codes | what |");
     let _ = writeln!(s, "|---|---|---|---|---|---|");
-    let rows: [(&str, &str, &str, String, String, &str); 4] = [
+    let rows: [(&str, String, &str, String, String, &str); 4] = [
         (
             "`lvdt_input`",
-            "0x2040",
+            "0x2040".to_string(),
             "–",
             format!("{:?}", cfg.lvdt_input),
             lvdt,
@@ -197,7 +197,7 @@ fn configuration_fields() -> String {
         ),
         (
             "`can_bitrate`",
-            "0x2041",
+            "0x2041".to_string(),
             "–",
             format!("{} kbit/s", cfg.can_bitrate.bits_per_s() / 1000),
             bitrate,
@@ -205,7 +205,7 @@ fn configuration_fields() -> String {
         ),
         (
             "`axis_name`",
-            "0x2042:1–5",
+            format!("0x2042:1–{MAX_AXES}"),
             "`AXIS<n>:NAME`",
             default_axes,
             axes,
@@ -213,7 +213,7 @@ fn configuration_fields() -> String {
         ),
         (
             "`axis_reversed`",
-            "0x2043:1–5",
+            format!("0x2043:1–{MAX_AXES}"),
             "–",
             "false".into(),
             "false, true".into(),
@@ -228,7 +228,6 @@ fn configuration_fields() -> String {
             cell(what)
         );
     }
-    debug_assert_eq!(MAX_AXES, 5);
     s
 }
 
@@ -244,26 +243,12 @@ fn type_name(t: DataType) -> &'static str {
 }
 
 fn default_value(e: &Entry, comm: &CommParams, app: &App) -> String {
-    let mut buf = [0u8; MAX_VALUE_LEN];
-    if !e.access.readable() {
-        return "–".into();
+    let mut text = String::new();
+    if e.access.readable() {
+        // the EDS's own formatter: `$NODEID+0x…` for node-relative COB-IDs
+        let _ = write_default(&mut text, e, comm, app, ("", ""));
     }
-    let Ok(n) = od::read(comm, app, e.var, &mut buf) else {
-        return "–".into();
-    };
-    let bytes = &buf[..n];
-    let mut b = [0u8; 4];
-    for (d, s) in b.iter_mut().zip(bytes) {
-        *d = *s;
-    }
-    let raw = u32::from_le_bytes(b);
-    match e.ty {
-        DataType::VisibleString => format!("\"{}\"", String::from_utf8_lossy(bytes)),
-        DataType::Real32 => num(f64::from(f32::from_le_bytes(b))).replace("not set", "NaN"),
-        DataType::Unsigned32 if e.node_id_relative => format!("0x{raw:X} + node-ID"),
-        DataType::Unsigned32 => format!("0x{raw:08X}"),
-        DataType::Boolean | DataType::Unsigned8 | DataType::Unsigned16 => format!("{raw}"),
-    }
+    if text.is_empty() { "–".into() } else { text }
 }
 
 /// Codes of the session objects, from the application's own enums.
@@ -317,7 +302,7 @@ fn canopen_objects() -> String {
         s,
         "Every entry of the pod's object dictionary (`ballpod::protocol::canopen::od`), as the SDO server \
          answers it and as `ballpod.eds` (CiA 306, generated from the same table) lists it. Defaults are \
-         those of a pod with the default configuration; COB-IDs are given relative to the node-ID. The \
+         those of a pod with the default configuration; COB-IDs relative to the node-ID are written as in the EDS, `$NODEID+0x…`. The \
          configuration objects 0x2000 + i are listed with their unit, default and range under \
          [Configuration fields](configuration-fields.md), the result arrays' sub-entries under \
          [Results](results.md). How the CNC uses them: [The CNC's side](../cnc.md).\n"
@@ -410,7 +395,6 @@ fn canopen_objects() -> String {
         "\nRun counters (0x3005) are described under [Reliability](../reliability.md), device counters \
          (0x2110) under [Hardware](../hardware.md)."
     );
-    debug_assert_eq!(RunCounters::NAMES.len(), RunCounters::LEN);
     s
 }
 

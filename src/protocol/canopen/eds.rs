@@ -128,6 +128,28 @@ pub const fn object_meaning(index: u16) -> &'static str {
     }
 }
 
+/// Writes the default of entry `e` as the EDS gives it (`DefaultValue=`), between `around.0`
+/// and `around.1`: the value a pod with the default configuration and fresh communication
+/// parameters reads, COB-IDs relative to the node-ID as `$NODEID+0x…`; nothing at all for an
+/// entry that cannot be read.
+pub fn write_default(
+    w: &mut impl Write,
+    e: &Entry,
+    comm: &CommParams,
+    app: &App,
+    around: (&str, &str),
+) -> fmt::Result {
+    let mut buf = [0u8; MAX_VALUE_LEN];
+    match od::read(comm, app, e.var, &mut buf) {
+        Ok(n) => {
+            w.write_str(around.0)?;
+            write_value(w, e, buf.get(..n).unwrap_or(&[]))?;
+            w.write_str(around.1)
+        }
+        Err(_) => Ok(()),
+    }
+}
+
 /// The EDS ParameterName of an entry: its name, with the element number appended
 /// (`name_k` for generated names, `Name k` for CiA names with spaces).
 fn write_name(w: &mut impl Write, e: &Entry) -> fmt::Result {
@@ -195,13 +217,8 @@ fn write_entry(
         writeln!(w, "LowLimit={lo}")?;
         writeln!(w, "HighLimit={hi}")?;
     }
-    let mut buf = [0u8; MAX_VALUE_LEN];
-    if e.access != Access::Wo
-        && let Ok(n) = od::read(comm, app, e.var, &mut buf)
-    {
-        w.write_str("DefaultValue=")?;
-        write_value(w, e, buf.get(..n).unwrap_or(&[]))?;
-        writeln!(w)?;
+    if e.access != Access::Wo {
+        write_default(w, e, comm, app, ("DefaultValue=", "\n"))?;
     }
     writeln!(w, "PDOMapping={}", u8::from(e.pdo_mappable))?;
     writeln!(w)
@@ -281,7 +298,6 @@ pub fn write_eds(w: &mut impl Write) -> fmt::Result {
     writeln!(w, "[Comments]")?;
     let comments = [
         "Configuration objects 0x2000-0x20FF are written only in pre-operational (abort 0x08000022 otherwise).",
-        "Session command 0x3002: 1 arm, 2 start, 3 stop, 4 abort, 5 clear, 6 reset, 7 store, 8 restore; a refusal aborts 0x08000022 and 0x3006 says why.",
         "Results 0x4000/0x4001 abort 0x08000024 until valid (0x4002); live values 0x2100 read NaN while invalid (0x2103).",
         "TPDO transmission types: 1-240 (SYNC) and 254/255 (event timer).",
     ];

@@ -18,5 +18,8 @@ fn main() {
         println!("cargo:rustc-link-arg-bins=--nmagic");
         println!("cargo:rustc-link-arg-bins=-Tlink.x");
         println!("cargo:rustc-link-arg-bins=-Tdefmt.x");
+        // Identical code folding: monomorphised copies that compile to the same machine code
+        // (e.g. embassy's per-peripheral generics) share one body; 0.6 KB of flash.
+        println!("cargo:rustc-link-arg-bins=--icf=all");
     }
 }

@@ -533,8 +533,9 @@ const fn code(field: Field, name: &'static str, choices: &'static [&'static str]
     }
 }
 
-/// Largest |coordinate| of a set-up position, mm.
-const POS_MM: f64 = 10_000.0;
+/// Largest |coordinate| of a set-up position or an axis reference, mm (degrees for a rotary
+/// axis's reference).
+pub const POS_MM: f64 = 10_000.0;
 
 /// Every numeric configuration field with unit, type and range: the single table that
 /// validation, the binary encoding, the CANopen objects (0x2000 + row), SCPI `CONFigure`, the
@@ -849,6 +850,14 @@ pub enum ConfigError {
 
 impl Default for TestSetup {
     fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+impl TestSetup {
+    /// The defaults: every length and position not set (NaN), the SSM and circle limits.
+    // A constant, so a default is a copy from flash (smaller than building it in code).
+    const DEFAULT: Self = {
         const NOT_SET: f32 = f32::NAN;
         Self {
             circle_plane: CirclePlane::XY,
@@ -880,23 +889,35 @@ impl Default for TestSetup {
             run_trigger: RunTrigger::Command,
             circle_arc_deg: NOT_SET,
         }
-    }
+    };
 }
 
 impl Default for Config {
     fn default() -> Self {
-        let lin = |name| AxisConfig {
-            name,
-            counts_per_unit: 10_000.0,
-            reversed: false,
-            max_speed_per_s: 1000.0,
-        };
-        let rot = |name| AxisConfig {
-            name,
-            counts_per_unit: 10_000.0,
-            reversed: false,
-            max_speed_per_s: 3600.0,
-        };
+        Self::DEFAULT
+    }
+}
+
+impl Config {
+    /// The defaults (the tables of the book's configuration reference).
+    // A constant, so a default is a copy from flash (smaller than building it in code).
+    const DEFAULT: Self = {
+        const fn lin(name: AxisName) -> AxisConfig {
+            AxisConfig {
+                name,
+                counts_per_unit: 10_000.0,
+                reversed: false,
+                max_speed_per_s: 1000.0,
+            }
+        }
+        const fn rot(name: AxisName) -> AxisConfig {
+            AxisConfig {
+                name,
+                counts_per_unit: 10_000.0,
+                reversed: false,
+                max_speed_per_s: 3600.0,
+            }
+        }
         Self {
             bar_length_mm: 150.0,
             bar_cte_ppm_per_k: 11.5,
@@ -924,9 +945,9 @@ impl Default for Config {
             probe_reseat_us: 50_000,
             can_node_id: 16,
             can_bitrate: CanBitrate::K500,
-            setup: TestSetup::default(),
+            setup: TestSetup::DEFAULT,
         }
-    }
+    };
 }
 
 impl Config {

@@ -288,3 +288,26 @@ def test_circle_ccw_then_cw_against_numpy_and_truth(pod, eds):
     finally:
         net.disconnect()
         stream.close()
+
+
+def test_axis_reference_over_sdo(pod, eds):
+    """0x300C: an axis's position is read back as written (REAL32, the EDS's names), in
+    operational too; refused with the reason while a run runs; the EDS's limits hold."""
+    net, node = connect(pod, eds)
+    sdo = node.sdo
+    try:
+        configure_circle(sdo, pod["truth"]["machine"]["circle"])  # in pre-operational
+        x = sdo["axis_position"]["axis_position_1"]
+        start = x.raw
+        node.nmt.state = "OPERATIONAL"
+        x.raw = start + 10.0
+        assert abs(x.raw - (start + 10.0)) < 1e-4  # the count nearest to the written mm
+        assert abort_code(lambda: setattr(x, "raw", 10_000.5)) == ABORT_TOO_HIGH
+        x.raw = start
+        sdo["session_command"].raw = COMMAND["arm"]
+        sdo["session_command"].raw = COMMAND["start"]
+        assert abort_code(lambda: setattr(x, "raw", start)) == ABORT_DEVICE_STATE
+        assert sdo["last_refusal"].raw == "not while a run is armed or running"
+        sdo["session_command"].raw = COMMAND["abort"]
+    finally:
+        net.disconnect()

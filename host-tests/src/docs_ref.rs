@@ -333,7 +333,7 @@ fn canopen_objects() -> String {
             let _ = writeln!(
                 s,
                 "| 0x{index:04X}{n} | {} | | | | | | | {what} |",
-                obj.name
+                obj.name.as_str()
             );
             continue;
         }
@@ -350,11 +350,11 @@ fn canopen_objects() -> String {
                     type_name(e.ty),
                     e.access.eds(),
                     if e.pdo_mappable { "yes" } else { "" },
-                    e.unit,
+                    e.unit.as_str(),
                     limits,
                     cell(&default_value(&e, &comm, &app)),
                 );
-                (e.sub, e.element, e.name, rest)
+                (e.sub, e.element, e.name.as_str(), rest)
             })
             .collect();
         // the EDS's ParameterName: `name_k`, or `Name k` for CiA names with spaces

@@ -1371,3 +1371,88 @@ fn a_panic_found_at_boot_is_reported_by_one_emcy_after_boot_up() {
     b.rx(0x000, &[0x82, NODE]);
     assert_eq!(b.take(), vec![frame(HEARTBEAT, &[0x00])]);
 }
+
+/// A healthy AC block of LVDT ratio 0.1 (ΔL is not what these tests look at).
+fn healthy_block() -> ballpod::acquisition::lvdt::BlockReading {
+    ballpod::acquisition::lvdt::BlockReading::Ac(Ok(ballpod::acquisition::lvdt::LvdtReading {
+        ratio: 0.1,
+        signal_level: 1000.0,
+        iq_a: [0.0; 2],
+        clipped: false,
+    }))
+}
+
+impl Bench {
+    /// One sample through the acquisition with the hardware encoder counters `raw` (16-bit).
+    fn raw_sample(&mut self, raw: [u32; MAX_AXES]) -> Sample {
+        self.seq += 1;
+        let t = 1_000_000 + u64::from(self.seq) * 1000;
+        self.app.on_raw_sample(t, healthy_block(), raw, 0, &mut ())
+    }
+}
+
+#[test]
+fn axes_are_referenced_over_sdo_where_they_stand_and_count_on_from_there() {
+    // Forward model of a 16-bit quadrature counter: position = reference + (counts moved,
+    // through the wrap) / counts_per_unit, negated for a reversed input (defaults: 10 000
+    // counts per mm or degree; inputs X Y Z B C).
+    let mut b = Bench::new();
+    let axis = 0x300C;
+    // before the first reading there is no count to reference
+    assert_eq!(b.write_f32(axis, 1, 100.0), Err(WRONG_STATE));
+    assert!(
+        b.text(0x3006).contains("not read yet"),
+        "{}",
+        b.text(0x3006)
+    );
+    let raw0 = [65_000, 12, 40_000, 7, 0];
+    let s = b.raw_sample(raw0);
+    assert_eq!(
+        s.axes[0], 0.0,
+        "unreferenced: counts from the first reading"
+    );
+    // X at 100 mm, B at −30°, in pre-operational and in operational alike
+    b.write_f32(axis, 1, 100.0).unwrap();
+    b.start();
+    b.write_f32(axis, 4, -30.0).unwrap();
+    assert_eq!(b.read_f32(axis, 1), 100.0);
+    assert_eq!(b.read_f32(axis, 4), -30.0);
+    // X moves +1234 counts through the wrap, B −500 counts through zero
+    let s = b.raw_sample([(65_000 + 1_234) % 65_536, 12, 40_000, 65_536 - 493, 0]);
+    let expect = |reference: f64, counts: f64| (reference + counts / 10_000.0) as f32;
+    assert_eq!(s.axes[0], expect(100.0, 1_234.0));
+    assert_eq!(s.axes[3], expect(-30.0, -500.0));
+    assert_eq!(b.read_f32(axis, 1), expect(100.0, 1_234.0));
+    // the bounds of the object (±10 000 mm or degrees, the EDS's limits) and NaN
+    b.write_f32(axis, 2, 10_000.0).unwrap();
+    b.write_f32(axis, 2, -10_000.0).unwrap();
+    assert_eq!(b.read_f32(axis, 2), -10_000.0);
+    assert_eq!(b.write_f32(axis, 2, 10_000.5), Err(TOO_HIGH));
+    assert_eq!(b.write_f32(axis, 2, -10_000.5), Err(TOO_LOW));
+    assert_eq!(b.write_f32(axis, 2, f32::NAN), Err(INVALID));
+    assert_eq!(b.download(axis, 6, &1.0f32.to_le_bytes()), Err(NO_SUB));
+    // not while a run is armed or running
+    b.download(0x3000, 0, &[PAT_PROBE]).unwrap();
+    b.command(CMD_ARM).unwrap();
+    assert_eq!(b.write_f32(axis, 1, 0.0), Err(WRONG_STATE));
+    assert_eq!(b.text(0x3006), "not while a run is armed or running");
+    b.command(CMD_ABORT).unwrap();
+    // a reversed input counts down in the positive direction
+    b.nmt(0x80, NODE); // pre-operational: configuration
+    b.download(0x2043, 2, &[1]).unwrap();
+    b.write_f32(axis, 2, 50.0).unwrap();
+    let s = b.raw_sample([(65_000 + 1_234) % 65_536, 12 + 250, 40_000, 65_536 - 493, 0]);
+    assert_eq!(s.axes[1], expect(50.0, -250.0));
+}
+
+#[test]
+fn referencing_an_axis_forgets_the_runs_measured_in_the_old_coordinates() {
+    let mut b = Bench::new();
+    b.raw_sample([0; MAX_AXES]);
+    b.run_circle();
+    b.command(CMD_STOP).unwrap();
+    let ecc_u = result_sub("ecc_u");
+    assert_eq!(b.read_u32(0x4002, ecc_u), 1, "the run's result is valid");
+    b.write_f32(0x300C, 1, 0.0).unwrap();
+    assert_eq!(b.upload(0x4000, ecc_u), Err(NO_DATA), "as after command 5");
+}

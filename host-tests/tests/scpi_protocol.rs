@@ -1518,3 +1518,53 @@ fn a_device_error_is_reported_by_syst_err_with_its_detail() {
     );
     assert_eq!(b.error(), (0, "No error".into()));
 }
+
+#[test]
+fn axes_are_referenced_with_axis_position_on_a_locked_port() {
+    use ballpod::acquisition::lvdt::{BlockReading, LvdtReading};
+    let block = || {
+        BlockReading::Ac(Ok(LvdtReading {
+            ratio: 0.1,
+            signal_level: 1000.0,
+            iq_a: [0.0; 2],
+            clipped: false,
+        }))
+    };
+    let mut b = Bench::new();
+    // before the first reading: refused with the reason
+    assert_eq!(b.send("AXIS2:POS 50"), "");
+    let (n, msg) = b.error();
+    assert_eq!(n, -221);
+    assert!(msg.contains("not read yet"), "{msg}");
+    b.app
+        .on_raw_sample(1_000, block(), [100, 200, 300, 400, 500], 0, &mut ());
+    // the port is locked (configuration) but a reference is not configuration
+    assert_eq!(b.send("AXIS2:POS 50;:AXIS2:POS?"), "50.0000");
+    // forward model: Y moved +25 counts at 10 000 counts per mm
+    b.app
+        .on_raw_sample(2_000, block(), [100, 225, 300, 400, 500], 0, &mut ());
+    assert_eq!(b.send("AXIS2:POSITION?"), "50.0025");
+    assert_eq!(
+        b.send("AXIS1:POS?"),
+        "0.0000",
+        "X: counts from its first reading"
+    );
+    // out of range, no such input, not a number
+    assert_eq!(b.send("AXIS2:POS 10000.5"), "");
+    assert_eq!(b.error().0, -222);
+    assert_eq!(b.send("AXIS6:POS?"), "");
+    assert_eq!(b.error().0, -114);
+    assert_eq!(b.send("AXIS2:POS X"), "");
+    assert_eq!(b.error().0, -104);
+    assert_eq!(b.send("AXIS2:POS?"), "50.0025", "nothing changed");
+    // not while a run is armed
+    assert_eq!(b.send("SESS:PATT PROBE;ARM"), "");
+    assert_eq!(b.send("AXIS2:POS 0"), "");
+    assert_eq!(
+        b.error(),
+        (
+            -221,
+            "Settings conflict;not while a run is armed or running".into()
+        )
+    );
+}

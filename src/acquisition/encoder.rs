@@ -54,6 +54,15 @@ impl CountExtender {
         }
     }
 
+    /// Sets the extended count at the counter's last reading to `count` (referencing an axis
+    /// that has been read); false, and nothing changes, before the first reading.
+    pub fn rebase(&mut self, count: i64) -> bool {
+        if self.primed {
+            self.count = count;
+        }
+        self.primed
+    }
+
     /// Sets the extended count to `count` at the hardware value `raw` (homing / reference).
     pub fn set(&mut self, raw: u32, count: i64) {
         self.last_raw = raw & self.mask();
@@ -142,6 +151,19 @@ impl AxisScale {
             reversed,
             per_count: [hi, (k - f64::from(hi)) as f32],
         }
+    }
+
+    /// The extended count at `position` (mm / degrees), rounded to the nearest count; `None`
+    /// for a position that is not finite or beyond ±[`POS_MM`](crate::config::POS_MM).
+    pub fn count_at(&self, position: f64) -> Option<i64> {
+        if !(position.abs() <= crate::config::POS_MM) {
+            return None;
+        }
+        let c = libm::round(position * self.counts_per_unit);
+        let c = if self.reversed { -c } else { c };
+        // |c| ≤ POS_MM × the largest counts_per_unit the configuration accepts (1e8) = 1e12,
+        // well inside i64; `as` saturates for a scale built outside the configuration
+        Some(c as i64)
     }
 
     /// Position in mm or degrees of an extended count: the f32 nearest to the exact

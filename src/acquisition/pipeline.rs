@@ -194,15 +194,34 @@ impl Acquisition {
             .zip(raw)
             .zip(positions)
         {
-            let c = p * s.counts_per_unit;
-            let c = if s.reversed { -c } else { c };
-            let c = if c.is_finite() && c.abs() < 9.0e18 {
-                libm::round(c) as i64
-            } else {
-                0
-            };
-            ext.set(r, c);
+            ext.set(r, s.count_at(p).unwrap_or(0));
         }
+    }
+
+    /// References axis `k` (0-based) where it stands: its counter's last reading is at
+    /// `position` (mm / degrees), and later counts extend from there. False, and nothing
+    /// changes, if the axis has not been read yet or `position` is not a count.
+    pub fn reference_axis(&mut self, k: usize, position: f64) -> bool {
+        let (Some(ext), Some(s), Some(last)) = (
+            self.counters_hw.get_mut(k),
+            self.scales.get(k),
+            self.last_position.get_mut(k),
+        ) else {
+            return false;
+        };
+        let Some(c) = s.count_at(position) else {
+            return false;
+        };
+        if !ext.rebase(c) {
+            return false;
+        }
+        *last = (c, s.position(c));
+        true
+    }
+
+    /// The position of axis `k` (0-based) at the last sample or reference, mm / degrees.
+    pub fn axis_position(&self, k: usize) -> Option<f32> {
+        self.last_position.get(k).map(|l| l.1)
     }
 
     /// Axis positions (mm / degrees) of extended counts.

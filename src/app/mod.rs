@@ -953,6 +953,32 @@ impl App {
         self.acq.reference_axes(raw, positions);
     }
 
+    /// References encoder input `k` (0-based) where the axis stands: it is at `position` (mm /
+    /// degrees, machine coordinates), and its later counts extend from there (CANopen 0x300C,
+    /// SCPI `AXIS<n>:POSition`). The CNC tells the pod where the machine is, once the axes
+    /// stand still; the set-up of every pattern is in the same coordinates. Not while a run is
+    /// armed or running; the procedures' runs and the results are forgotten (as command 5:
+    /// runs measured in the old coordinates must not mix with new ones). Refused before the
+    /// axis has been read and for a position that is not a count.
+    pub fn reference_axis(&mut self, k: usize, position: f64) -> Result<(), CommandError> {
+        if !self.idle() {
+            return self.refuse(CommandError::Busy);
+        }
+        if !self.acq.reference_axis(k, position) {
+            return self.refuse(CommandError::WrongState(
+                "axis position out of range, or the axis not read yet",
+            ));
+        }
+        self.clear_procedures();
+        Ok(())
+    }
+
+    /// The position of encoder input `k` (0-based) at the last sample or reference, mm /
+    /// degrees.
+    pub fn axis_position(&self, k: usize) -> Option<f32> {
+        self.acq.axis_position(k)
+    }
+
     /// A thermistor ADC code (12-bit) from the thermistor task.
     pub fn on_thermistor(
         &mut self,

@@ -115,6 +115,9 @@ pub const fn object_meaning(index: u16) -> &'static str {
         0x3009 => "X of touch point k of the last PROBE run, mm",
         0x300A => "Y of touch point k of the last PROBE run, mm",
         0x300B => "Z of touch point k of the last PROBE run, mm",
+        0x300C => {
+            "Axis positions, mm or degrees: reading sub k gives encoder input k's position at the last sample; writing references input k where the axis stands (it is at that machine position now; later counts extend from there). Not while a run is armed or running; the procedures' runs and the results are forgotten, as command 5"
+        }
         0x4000 => {
             "Result values: sub-index k+1 = result k of the results catalogue; reading an invalid result aborts with 0x08000024 (no data available)"
         }
@@ -153,9 +156,9 @@ pub fn write_default(
 /// The EDS ParameterName of an entry: its name, with the element number appended
 /// (`name_k` for generated names, `Name k` for CiA names with spaces).
 fn write_name(w: &mut impl Write, e: &Entry) -> fmt::Result {
-    w.write_str(e.name)?;
+    w.write_str(e.name.as_str())?;
     match e.element {
-        Some(k) if e.name.contains(' ') => write!(w, " {k}"),
+        Some(k) if e.name.as_str().contains(' ') => write!(w, " {k}"),
         Some(k) => write!(w, "_{k}"),
         None => Ok(()),
     }
@@ -178,8 +181,8 @@ fn write_entry(
             }
         }
     }
-    if !e.unit.is_empty() {
-        writeln!(w, "; unit: {}", e.unit)?;
+    if !e.unit.as_str().is_empty() {
+        writeln!(w, "; unit: {}", e.unit.as_str())?;
     }
     match e.var {
         od::Var::ResultValue(k) | od::Var::ResultUncertainty(k) | od::Var::ResultValid(k) => {
@@ -327,7 +330,7 @@ pub fn write_eds(w: &mut impl Write) -> fmt::Result {
         if !what.is_empty() {
             writeln!(w, "; what: {what}")?;
         }
-        writeln!(w, "ParameterName={}", obj.name)?;
+        writeln!(w, "ParameterName={}", obj.name.as_str())?;
         writeln!(w, "ObjectType=0x{:X}", obj.kind as u8)?;
         writeln!(w, "SubNumber={}", subs.clone().count())?;
         writeln!(w)?;

@@ -32,7 +32,9 @@ use crate::app::{
     App, Command, CommandError, DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, Direction, LIVE, LIVE_COUNT,
     Pattern, RESULT_COUNT, RESULTS, RunCounters,
 };
-use crate::config::{AxisName, CanBitrate, ConfigError, FIELDS, Field, FieldType, LvdtInput};
+use crate::config::{
+    AxisName, CanBitrate, ConfigError, FIELDS, Field, FieldType, LvdtInput, POS_MM,
+};
 
 /// Largest value of any object, bytes (the longest VISIBLE_STRING).
 pub const MAX_VALUE_LEN: usize = 64;
@@ -150,13 +152,40 @@ pub enum ObjectKind {
     Record = 0x9,
 }
 
+/// A text of the dictionary that only the EDS and the book show (a parameter name or a unit).
+/// CANopen never sends names over the bus, so the firmware keeps none: with the `firmware`
+/// feature the text is dropped where the dictionary is built (1 KB of flash) and
+/// [`as_str`](Self::as_str) is empty.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EdsText(#[cfg(not(feature = "firmware"))] &'static str);
+
+impl EdsText {
+    /// The text (empty on the firmware).
+    pub const fn as_str(self) -> &'static str {
+        #[cfg(not(feature = "firmware"))]
+        return self.0;
+        #[cfg(feature = "firmware")]
+        ""
+    }
+
+    const fn new(text: &'static str) -> Self {
+        #[cfg(not(feature = "firmware"))]
+        return Self(text);
+        #[cfg(feature = "firmware")]
+        {
+            let _ = text;
+            Self()
+        }
+    }
+}
+
 /// One object (index) of the dictionary.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Object {
     /// Index.
     pub index: u16,
     /// Parameter name.
-    pub name: &'static str,
+    pub name: EdsText,
     /// VAR, ARRAY or RECORD.
     pub kind: ObjectKind,
     /// Highest sub-index (0 for a VAR).
@@ -246,6 +275,8 @@ pub enum Var {
     TouchCount,
     /// 0x3009–0x300B:k coordinate (0 X, 1 Y, 2 Z) of touch point k.
     Touch(u8, u8),
+    /// 0x300C:k+1 position of encoder input k (read), or its reference (write), mm / degrees.
+    AxisPosition(u8),
     /// 0x4000:k+1 result k value.
     ResultValue(u8),
     /// 0x4001:k+1 result k standard uncertainty.
@@ -262,7 +293,7 @@ pub struct Entry {
     /// Sub-index.
     pub sub: u8,
     /// Parameter name (for ARRAY elements of generated objects the EDS appends the element).
-    pub name: &'static str,
+    pub name: EdsText,
     /// Element number appended to `name` in the EDS (`name_k`), if any.
     pub element: Option<u8>,
     /// Data type.
@@ -276,7 +307,7 @@ pub struct Entry {
     /// Inclusive value limits (EDS `LowLimit`/`HighLimit`), in the entry's unit.
     pub limits: Option<(f64, f64)>,
     /// Unit of the value (documentation; empty if none).
-    pub unit: &'static str,
+    pub unit: EdsText,
     /// True if the default value is "$NODEID + x" in the EDS.
     pub node_id_relative: bool,
 }
@@ -292,14 +323,14 @@ const fn e(
     Entry {
         index,
         sub,
-        name,
+        name: EdsText::new(name),
         element: None,
         ty,
         access,
         pdo_mappable: false,
         var,
         limits: None,
-        unit: "",
+        unit: EdsText::new(""),
         node_id_relative: false,
     }
 }
@@ -314,7 +345,7 @@ impl Entry {
         self
     }
     const fn unit(mut self, unit: &'static str) -> Self {
-        self.unit = unit;
+        self.unit = EdsText::new(unit);
         self
     }
     const fn node_rel(mut self) -> Self {
@@ -354,7 +385,7 @@ pub fn indices() -> impl Iterator<Item = u16> {
         .chain(CONFIG_ENUMS..CONFIG_ENUMS + 4)
         .chain(0x2100..=0x2103)
         .chain(core::iter::once(0x2110))
-        .chain(0x3000..=0x300B)
+        .chain(0x3000..=0x300C)
         .chain(0x4000..=0x4002)
 }
 
@@ -364,7 +395,7 @@ pub fn object(index: u16) -> Option<Object> {
     let o = |name, kind, max_sub| {
         Some(Object {
             index,
-            name,
+            name: EdsText::new(name),
             kind,
             max_sub,
         })
@@ -426,6 +457,7 @@ pub fn object(index: u16) -> Option<Object> {
         0x3009 => o("touch_x", Array, MAX_TOUCHES as u8),
         0x300A => o("touch_y", Array, MAX_TOUCHES as u8),
         0x300B => o("touch_z", Array, MAX_TOUCHES as u8),
+        0x300C => o("axis_position", Array, MAX_AXES as u8),
         0x4000 => o("result_value", Array, RESULT_COUNT as u8),
         0x4001 => o("result_uncertainty", Array, RESULT_COUNT as u8),
         0x4002 => o("result_valid", Array, RESULT_COUNT as u8),
@@ -491,7 +523,7 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
     };
     let var = |ty, access, v| {
         if sub == 0 {
-            Ok(e(index, 0, obj.name, ty, access, v))
+            Ok(e(index, 0, obj.name.as_str(), ty, access, v))
         } else {
             Err(SdoAbort::NoSubIndex)
         }
@@ -703,13 +735,28 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
             k => Ok(e(
                 index,
                 k,
-                obj.name,
+                obj.name.as_str(),
                 Real32,
                 Ro,
                 Var::Touch((index - 0x3009) as u8, k - 1),
             )
             .unit("mm")
             .element(k - 1)),
+        },
+
+        0x300C => match sub {
+            0 => count(MAX_AXES as u8),
+            k => Ok(e(
+                index,
+                k,
+                obj.name.as_str(),
+                Real32,
+                Rw,
+                Var::AxisPosition(k - 1),
+            )
+            .limits(-POS_MM, POS_MM)
+            .unit("mm or deg")
+            .element(k)),
         },
         0x4000..=0x4002 => match sub {
             0 => count(RESULT_COUNT as u8),
@@ -955,6 +1002,10 @@ pub fn read(
                 .ok_or(SdoAbort::NoSubIndex)?;
             put(buf, &(v as f32).to_le_bytes())
         }
+        Var::AxisPosition(k) => {
+            let p = app.axis_position(usize::from(k)).unwrap_or(f32::NAN);
+            put(buf, &p.to_le_bytes())
+        }
         Var::ResultValue(k) => put(buf, &result(k)?.value.to_le_bytes()),
         Var::ResultUncertainty(k) => put(buf, &result(k)?.std_uncertainty.to_le_bytes()),
         Var::ResultValid(k) => {
@@ -1006,8 +1057,19 @@ pub fn write(
     if is_config && nmt != NmtState::PreOperational {
         return Err(SdoAbort::WrongState);
     }
+    let v = if e.ty == DataType::Real32 {
+        let v = f64::from(f32::from_le_bytes(raw.to_le_bytes()));
+        if v.is_nan() {
+            return Err(SdoAbort::InvalidValue);
+        }
+        v
+    } else {
+        f64::from(raw)
+    };
+    // A REAL32 configuration field's range is the configuration's own check (limits rounded
+    // to REAL32, so the EDS's LowLimit/HighLimit are writable), aborted by `refusal_abort`.
     if !(matches!(e.var, Var::Config(_)) && e.ty == DataType::Real32) {
-        check_limits(e, f64::from(raw))?;
+        check_limits(e, v)?;
     }
     let tpdo_index = |n: u8| usize::from(n).min(TPDO_COUNT - 1);
     let refused = |f: Option<Field>| move |err| refusal_abort(err, f);
@@ -1111,20 +1173,10 @@ pub fn write(
                 .ok_or(SdoAbort::NoSubIndex)?;
             *slot = raw;
         }
-        Var::Config(f) => {
-            let v = if e.ty == DataType::Real32 {
-                let v = f64::from(f32::from_le_bytes(raw.to_le_bytes()));
-                if v.is_nan() {
-                    return Err(SdoAbort::InvalidValue);
-                }
-                // Range: the configuration's own check (limits rounded to REAL32, so the
-                // EDS's LowLimit/HighLimit are writable), aborted by `refusal_abort`.
-                v
-            } else {
-                f64::from(raw)
-            };
-            app.set_field(f, v).map_err(refused(Some(f)))?;
-        }
+        Var::Config(f) => app.set_field(f, v).map_err(refused(Some(f)))?,
+        Var::AxisPosition(k) => app
+            .reference_axis(usize::from(k), v)
+            .map_err(refused(None))?,
         Var::LvdtInput => {
             let m = match raw {
                 0 => LvdtInput::AcRatiometric,

@@ -379,6 +379,7 @@ enum Command {
     ConfLock,
     ConfField(Field, &'static FieldInfo),
     ConfAxisName(usize),
+    AxisPosition(usize),
     SessPattern,
     SessDirection,
     SessArm,
@@ -411,8 +412,8 @@ const fn forms(c: Command) -> (bool, bool) {
         | FetchCatalog | FetchTouch | FetchTouchCount | DataLogCount | DataLog => (true, false),
         Rst | Cls | Wai | Sav | ConfUnlock | SessArm | SessStart | SessStop | SessAbort
         | SessClear => (false, true),
-        Opc | Ese | Sre | ConfLock | ConfField(..) | ConfAxisName(_) | SessPattern
-        | SessDirection => (true, true),
+        Opc | Ese | Sre | ConfLock | ConfField(..) | ConfAxisName(_) | AxisPosition(_)
+        | SessPattern | SessDirection => (true, true),
     }
 }
 
@@ -470,6 +471,15 @@ fn config_field(m: &Mnemonic<'_>) -> Result<Command, ScpiError> {
     Ok(Command::ConfField(field, info))
 }
 
+/// The encoder input (0-based) of an `AXIS<n>` node, n = 1 … [`MAX_AXES`].
+fn axis_input(a: &Mnemonic<'_>) -> Result<usize, ScpiError> {
+    let k = a.suffix.unwrap_or(1);
+    if !(1..=MAX_AXES as u32).contains(&k) {
+        return Err(ScpiError::with(code::HEADER_SUFFIX_OUT_OF_RANGE, "AXIS"));
+    }
+    Ok((k - 1) as usize)
+}
+
 /// Resolves a compound header path (SCPI-99 Vol 1 §6: `[...]` nodes optional).
 fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
     let undefined = ScpiError::new(code::UNDEFINED_HEADER);
@@ -479,11 +489,10 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
         [s, v] if s.is("SYSTem") && v.is("VERSion") => Command::SystVersion,
         [s, c] if s.is("SYSTem") && c.is("COUNt") => Command::SystCount,
         [c, a, n] if c.is("CONFigure") && a.is_with_suffix("AXIS") && n.is("NAME") => {
-            let k = a.suffix.unwrap_or(1);
-            if !(1..=MAX_AXES as u32).contains(&k) {
-                return Err(ScpiError::with(code::HEADER_SUFFIX_OUT_OF_RANGE, "AXIS"));
-            }
-            Command::ConfAxisName((k - 1) as usize)
+            Command::ConfAxisName(axis_input(a)?)
+        }
+        [a, p] if a.is_with_suffix("AXIS") && p.is("POSition") => {
+            Command::AxisPosition(axis_input(a)?)
         }
         [c, u] if c.is("CONFigure") && u.is("UNLock") => Command::ConfUnlock,
         [c, l] if c.is("CONFigure") && l.is("LOCK") => Command::ConfLock,
@@ -826,6 +835,16 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 }
                 self.app.set_field(field, v).map_err(refusal)?;
             }
+            Command::AxisPosition(i) => {
+                let v = numeric(arg(0)?)?;
+                if !(v.abs() <= crate::config::POS_MM) {
+                    return Err(ScpiError::with(
+                        code::DATA_OUT_OF_RANGE,
+                        "axis position out of range",
+                    ));
+                }
+                self.app.reference_axis(i, v).map_err(refusal)?;
+            }
             Command::ConfAxisName(i) => {
                 self.unlocked_for("CONF:UNL first")?;
                 let k = character(arg(0)?)?;
@@ -1035,6 +1054,10 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                     w |= StatusWord::ERROR;
                 }
                 push_u64(&mut r, u64::from(w));
+            }
+            Command::AxisPosition(i) => {
+                none()?;
+                fixed(&mut r, self.app.axis_position(i).unwrap_or(f32::NAN));
             }
             Command::MeasDl => {
                 none()?;

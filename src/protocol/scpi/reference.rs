@@ -27,7 +27,7 @@ const CONF_FIELD: Command = match FIELDS.first() {
 };
 
 /// Every command the server resolves, in the reference's order.
-const ALL: [Command; 38] = {
+const ALL: [Command; 39] = {
     use Command::*;
     [
         Idn,
@@ -44,6 +44,7 @@ const ALL: [Command; 38] = {
         ConfLock,
         CONF_FIELD,
         ConfAxisName(1),
+        AxisPosition(0),
         SessPattern,
         SessDirection,
         SessArm,
@@ -154,6 +155,11 @@ const fn doc(c: Command) -> CommandDoc {
             "CONFigure:AXIS<n>:NAME <X|Y|Z|A|B|C|NONE>, CONFigure:AXIS<n>:NAME?",
             "the machine axis encoder input n (1–5) reads (lvdt_input, can_bitrate and the counting direction: CANopen only)",
             "CONF:AXIS1:NAME?",
+        ),
+        AxisPosition(_) => d(
+            "AXIS<n>:POSition <mm|deg>, AXIS<n>:POSition?",
+            "reference encoder input n (1–5) where the axis stands: it is at this machine position now (mm, or degrees for a rotary axis; ±10 000), later counts extend from there — not while a run is armed or running, and the procedures' runs and results are forgotten (as `SESSion:CLEar`); the query answers the position at the last sample (CANopen 0x300C). Not locked: the CNC's position, not configuration",
+            "AXIS1:POS?",
         ),
         SessPattern => d(
             "SESSion:PATTern <CIRCLE|BX|BY|CR|CA|CR2|SSM|PROBE>, SESSion:PATTern?",

@@ -96,12 +96,11 @@ impl AdcSample for u16 {
         table: &ExcitationTable<P>,
         rails: RailTest,
     ) -> Projection {
-        use super::projection::{MAX_CHUNK_SAMPLES, Q14_ONE, Q14Sums, add_periods};
+        use super::projection::{MAX_CHUNK_SAMPLES, Q14_ONE, Q14Sums};
         let per_chunk = (MAX_CHUNK_SAMPLES / P).max(1) * P;
         let mut out = Projection::default();
         for (ca, cb) in a.chunks(per_chunk).zip(b.chunks(per_chunk)) {
-            let mut acc = Q14Sums::default();
-            add_periods(&mut acc, ca, cb, &table.q14, rails);
+            let acc = Q14Sums::of(ca, cb, &table.q14, rails);
             let f = |v: i32| v as f32 * (1.0 / Q14_ONE);
             out.a[0] += f(acc.ia);
             out.a[1] += f(acc.qa);

@@ -333,7 +333,11 @@ impl<const S: usize> StationCollector<S> {
         }
         if !still {
             let closed = self.still_since_us.is_some();
-            self.close();
+            // a moving sample closes nothing unless a dwell was open (the call alone is a
+            // dozen instructions of the per-sample path)
+            if closed || self.acc.n != 0 {
+                self.close();
+            }
             return if closed {
                 DwellEvent::DwellClosed
             } else {

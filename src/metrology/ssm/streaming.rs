@@ -7,23 +7,25 @@
 //! (one SMLAL each on the M4). Entering *and leaving* samples are then added and subtracted
 //! without any drift, which a sliding window of compensated float sums cannot guarantee. The
 //! sums are taken of v = u − u_ref, u_ref a reference direction moved to the window's mean
-//! direction whenever the mean drifts 1/256 rad from it (an exact O(1) shift of the sums): so
-//! the window's *scatter* of directions, which decides what E the path can see, is exact too.
-//! G = Σ u uᵀ and b = Σ u y follow exactly (wrapping i64 arithmetic; their true values are in
-//! range, so the modular results are exact).
+//! direction (an exact O(1) shift of the sums) only when the mean has drifted so far that Σv
+//! would leave the i32 range (1/4 rad for the pod's 256-sample window: a shift every quarter
+//! radian of turn). G = Σ u uᵀ and b = Σ u y follow exactly (wrapping i64 arithmetic; their
+//! true values are in range, so the modular results are exact), and so do the window's
+//! *centred* sums n Σvvᵀ − Σv Σvᵀ = n² C and n Σvy − Σv Σy = n² c, the scatter of the
+//! directions — which decides what E the path can see — and their covariance with y.
 //!
 //! Two solves of the same sums:
-//! - [`StreamingSsm::live`], every sample (≈ 420 instructions, f32 on the FPU): the live E,
+//! - [`StreamingSsm::live`], every sample (≈ 490 instructions, f32 on the FPU): the live E,
 //!   solved on the window's mean and scatter (below), with the observability rule of
 //!   [`super::solve_normal`];
 //! - [`StreamingSsm::estimate`] (f64, soft-float on the M4, with the full observability
 //!   analysis of G) and [`StreamingSsm::estimate_refined`] on the exact sphere equation.
 //!
 //! The live solve: with m the mean direction, C the covariance of the directions and c their
-//! covariance with y (both exact from the centred sums), G/n = C + m mᵀ and b/n = c + m ȳ. In an
-//! orthonormal basis (t₁, t₂, m̂) the m̂ row gives E_m = (|m| ȳ + c_m − C_mt E_t)/(|m|² + C_mm),
-//! and the tangent rows the 2×2 Schur complement S E_t = c_t − C_tm α: only C and c, of the
-//! size of the window's spread (≈ 10⁻⁴ for a 5 mm window at 150 mm), enter the small
+//! covariance with y (both from the exact centred sums, one f32 rounding), G/n = C + m mᵀ and
+//! b/n = c + m ȳ. In an orthonormal basis (t₁, t₂, m̂) the m̂ row gives
+//! E_m = (|m| ȳ + c_m − C_mt E_t)/(|m|² + C_mm), and the tangent rows the 2×2 Schur complement
+//! S E_t = c_t − C_tm α: only C and c, of the size of the window's spread (≈ 10⁻⁴ for a 5 mm window at 150 mm), enter the small
 //! eigenvalues, so f32 resolves them far below the 10⁻⁹ observability threshold; forming G
 //! in f32 would lose them.
 //!
@@ -143,6 +145,18 @@ impl Sums {
         add(p0, sg(d0));
         add(p1, sg(d1));
         add(p2, sg(d2));
+    }
+
+    /// The sums of a window of one entry, relative to its own direction (v = 0).
+    fn first(e: &Entry) -> Self {
+        let [d0, d1, d2] = e.d;
+        let y8 = e.y >> 4;
+        Self {
+            y: i64::from(e.y),
+            yy: i64::from(y8) * i64::from(y8),
+            d: [i64::from(d0), i64::from(d1), i64::from(d2)],
+            ..Self::default()
+        }
     }
 
     /// The same sums relative to u_ref + `delta` (v' = v − Δ), exactly (mod 2⁶⁴): with
@@ -353,27 +367,38 @@ impl<const W: usize> StreamingSsm<W> {
             self.pop_oldest();
             self.evicted_full = self.evicted_full.saturating_add(1);
         }
-        if self.len == 0 {
-            // a new window: its first direction is the reference
-            self.sums = Sums::default();
-            self.u_ref = entry.u;
-        }
         let head = (self.tail + self.len) % W;
         if let Some(slot) = self.ring.get_mut(head) {
             *slot = entry;
-            self.sums.apply::<true>(&entry, &self.u_ref);
+            if self.len == 0 {
+                // a new window: its first direction is the reference, so its sums are those of
+                // one entry with v = 0 (stored, not a reset followed by `apply`: merged, the
+                // two paths made every sum a select and spilled them all, ~65 instructions)
+                self.u_ref = entry.u;
+                self.sums = Sums::first(&entry);
+            } else {
+                self.sums.apply::<true>(&entry, &self.u_ref);
+            }
             self.len += 1;
         }
         self.recentre();
         used
     }
 
-    /// Moves u_ref to (about) the window's mean direction once the mean is 1/256 rad (2¹⁶ in
-    /// Q24) or more from it. Any integer shift keeps the sums exact, so the mean is taken in f32
-    /// (no i64 division).
-    #[inline(always)] // the test is a few instructions; the shift is rare at measuring feeds
+    /// How far (Q24 bits) the window's mean direction may drift from u_ref: as far as keeps
+    /// |Σv| ≤ W·2^bits ≤ 2³⁰, an i32 for the live solve's products (2²², 1/4 rad, for 256
+    /// samples; 2¹⁹ for 2048). The live solve centres the sums exactly, so the drift costs no
+    /// precision; the f64 solve rebuilds G exactly whatever u_ref is.
+    const SHIFT_BITS: u32 = 30 - (usize::BITS - (W - 1).leading_zeros());
+
+    /// Moves u_ref to (about) the window's mean direction once the mean is 2^[`SHIFT_BITS`]
+    /// (Q24) or more from it. Any integer shift keeps the sums exact, so the mean is taken in
+    /// f32 (no i64 division).
+    ///
+    /// [`SHIFT_BITS`]: Self::SHIFT_BITS
+    #[inline(always)] // the test is a few instructions; the shift is rare
     fn recentre(&mut self) {
-        let limit = ((self.len as i64) << 16).unsigned_abs();
+        let limit = ((self.len as i64) << Self::SHIFT_BITS).unsigned_abs();
         let [v0, v1, v2] = self.sums.v;
         if v0.unsigned_abs() > limit || v1.unsigned_abs() > limit || v2.unsigned_abs() > limit {
             self.shift_to_mean();
@@ -383,9 +408,9 @@ impl<const W: usize> StreamingSsm<W> {
     /// Moves u_ref to the window's mean direction (rounded to Q24), shifting the sums.
     #[inline(never)] // out of line: inlined, its register pressure costs `update` every sample
     fn shift_to_mean(&mut self) {
+        // |mean| ≤ 2^SHIFT_BITS + one sample's 2²⁵: well inside i32
         let [v0, v1, v2] = self.sums.v;
         let inv_n = 1.0 / self.len as f32;
-        // |mean| ≤ 2²⁵ in Q24: the f32 → i32 conversions cannot saturate
         let mean = |s: i64| (f32_of(s) * inv_n) as i32;
         let delta = [mean(v0), mean(v1), mean(v2)];
         self.sums.shift(delta, self.len as i32);
@@ -482,41 +507,90 @@ impl<const W: usize> StreamingSsm<W> {
         const U: f32 = 1.0 / U_SCALE;
         const Y: f32 = 1.0 / Y_SCALE;
         let s = &self.sums;
-        let inv_n = 1.0 / n as f32;
-        // Σ v y is read only while it is certainly in range: Σv_k²·Σy² < 2¹²⁴ (Cauchy–Schwarz)
-        // (no array `map`s in this function: at opt-level "z" each is an out-of-line loop)
-        let yy = f32_of(s.yy) * 256.0;
+        let nf = n as f32;
+        let inv_n = 1.0 / nf;
+        // (no array `map`s in this function: at opt-level "z" each is an out-of-line loop;
+        // comparisons, not `max`: that is a call here)
+        // |Σv| ≤ n·2^SHIFT_BITS ≤ 2³⁰ after `recentre`: i32, and Σv Σvᵀ single SMULLs
+        let [v0, v1, v2] = s.v;
+        let [w0, w1, w2] = [v0 as i32, v1 as i32, v2 as i32];
+        let ku = inv_n * U;
+        let [a, b, c] = [w0 as f32 * ku, w1 as f32 * ku, w2 as f32 * ku];
+        let sy = f32_of(s.y);
+        let ybar = sy * inv_n * Y;
         let [vv0, vv1, vv2, vv3, vv4, vv5] = s.vv;
-        let [vv0, vv1, vv2, vv3, vv4, vv5] = [
-            f32_of(vv0),
-            f32_of(vv1),
-            f32_of(vv2),
-            f32_of(vv3),
-            f32_of(vv4),
-            f32_of(vv5),
-        ];
-        // (comparisons, not `f32::max`: that is a call to `fmaxf` here)
+        // The centred sums P = n Σvvᵀ − Σv Σvᵀ = n² C and Q = n Σvy − Σv Σy = n² c, computed
+        // mod 2⁶⁴, are exact when their true values are in range: P when its diagonals are
+        // below 2⁶² (|P_ij| ≤ √(P_ii P_jj)), certainly so when n Σvv_kk is (each vv ≤ W·2⁵⁰
+        // does not wrap) — the pod's windows, whose directions stay within 1/4 rad of u_ref.
         let big = if vv3 > vv0 { vv3 } else { vv0 };
         let big = if vv5 > big { vv5 } else { big };
-        if !(big * yy < 2.126_765e37) {
-            return Err(SsmError::InvalidInput);
-        }
-        let [v0, v1, v2] = s.v;
-        let k = inv_n * U;
-        let [a, b, c] = [f32_of(v0) * k, f32_of(v1) * k, f32_of(v2) * k];
-        let ybar = f32_of(s.y) * inv_n * Y;
-        let q = inv_n * U * U;
-        // covariance of the directions and of directions with y
-        let cov = [
-            [vv0 * q - a * a, vv1 * q - a * b, vv2 * q - a * c],
-            [vv1 * q - a * b, vv3 * q - b * b, vv4 * q - b * c],
-            [vv2 * q - a * c, vv4 * q - b * c, vv5 * q - c * c],
-        ];
-        let cy: [f32; 3] = {
+        let (cov, cy) = if f32_of(big) * nf < 4.6e18 {
+            let nn = i64::from(n);
+            let p = |vv: i64, a: i32, b: i32| {
+                f32_of(
+                    vv.wrapping_mul(nn)
+                        .wrapping_sub(i64::from(a) * i64::from(b)),
+                )
+            };
+            let k = inv_n * inv_n * U * U;
+            let p0 = p(vv0, w0, w0) * k;
+            let p1 = p(vv1, w0, w1) * k;
+            let p2 = p(vv2, w0, w2) * k;
+            let p3 = p(vv3, w1, w1) * k;
+            let p4 = p(vv4, w1, w2) * k;
+            let p5 = p(vv5, w2, w2) * k;
+            // Q is in range when P_kk · n²var(y) < 2¹²⁴ (Cauchy–Schwarz), with n²var(y) ≤
+            // n Σy² − (Σy)² and Σy² ≤ 257 Σ(y/16)² + 65 792 n (y/16 truncated: y² ≤
+            // 256 (y>>4)² + 512 |y>>4| + 256), in f32 with a 2⁻²⁰ margin (Σvy may wrap)
+            let syy = nf * (257.0 * f32_of(s.yy) + 65_792.0 * nf);
+            let var_y = syy * (1.0 + 1.0 / 1_048_576.0) - sy * sy;
+            let pk = if p3 > p0 { p3 } else { p0 };
+            let pk = if p5 > pk { p5 } else { pk };
+            if !(pk * var_y < 2.126_765e37 * k) {
+                return Err(SsmError::InvalidInput);
+            }
+            let q = |vy: i64, a: i32| {
+                f32_of(
+                    vy.wrapping_mul(nn)
+                        .wrapping_sub(i64::from(a).wrapping_mul(s.y)),
+                )
+            };
+            let kc = inv_n * inv_n * U * Y;
+            let [vy0, vy1, vy2] = s.vy;
+            (
+                [[p0, p1, p2], [p1, p3, p4], [p2, p4, p5]],
+                [q(vy0, w0) * kc, q(vy1, w1) * kc, q(vy2, w2) * kc],
+            )
+        } else {
+            // A window of widely spread directions (radius comparable with the bar): the
+            // covariances as means less products in f32, whose cancellation is small beside a
+            // spread this wide; Σvy is read only while certainly in range (Σv_k²·Σy² < 2¹²⁴).
+            let [vv0, vv1, vv2, vv3, vv4, vv5] = [
+                f32_of(vv0),
+                f32_of(vv1),
+                f32_of(vv2),
+                f32_of(vv3),
+                f32_of(vv4),
+                f32_of(vv5),
+            ];
+            let big = if vv3 > vv0 { vv3 } else { vv0 };
+            let big = if vv5 > big { vv5 } else { big };
+            if !(big * f32_of(s.yy) * 256.0 < 2.126_765e37) {
+                return Err(SsmError::InvalidInput);
+            }
+            let q = inv_n * U * U;
             let [w0, w1, w2] = s.vy;
             let [w0, w1, w2] = [f32_of(w0), f32_of(w1), f32_of(w2)];
             let k = inv_n * U * Y;
-            [w0 * k - a * ybar, w1 * k - b * ybar, w2 * k - c * ybar]
+            (
+                [
+                    [vv0 * q - a * a, vv1 * q - a * b, vv2 * q - a * c],
+                    [vv1 * q - a * b, vv3 * q - b * b, vv4 * q - b * c],
+                    [vv2 * q - a * c, vv4 * q - b * c, vv5 * q - c * c],
+                ],
+                [w0 * k - a * ybar, w1 * k - b * ybar, w2 * k - c * ybar],
+            )
         };
         let [u0, u1, u2] = self.u_ref;
         let m = [u0 as f32 * U + a, u1 as f32 * U + b, u2 as f32 * U + c];

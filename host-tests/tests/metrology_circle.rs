@@ -271,6 +271,11 @@ fn not_observable_states_and_bad_samples() {
     assert_eq!(g.samples(), 720);
     let full = fit(&run, &s);
     assert_eq!(g.estimate(), full.estimate());
+    assert_eq!(
+        g.live(),
+        full.live(),
+        "the live (f32) solve keeps the same rules"
+    );
 
     // all samples at one position: never observable, never NaN
     let mut h = fit(&run, &s[..0]);

@@ -726,3 +726,47 @@ fn station_covariance_covers_the_truth() {
         );
     }
 }
+
+/// Issue 17, bad input: the fast (live, f32) and the slow (f64) solve keep the validity rules —
+/// flagged samples and NaN, ±inf or out-of-range values fed between the good ones change
+/// neither, every sample (bit for bit against a stream that never saw them).
+#[test]
+fn bad_samples_between_good_ones_change_neither_the_live_nor_the_f64_solve() {
+    let p0 = [-100.0, 250.0, 50.0];
+    let l = 150.0;
+    let path = cone_path(p0, l, 60.0, 720, 0.1);
+    let config = StreamingConfig {
+        geometry: SsmGeometry {
+            socket_mm: p0,
+            bar_length_mm: l,
+        },
+        radius_mm: 5.0,
+        rotary_tol_deg: 0.001,
+    };
+    let mut clean = StreamingSsm::<256>::new(config);
+    let mut fed = StreamingSsm::<256>::new(config);
+    let (mut flagged, mut invalid) = (0, 0);
+    for (i, s) in path.samples.iter().enumerate() {
+        clean.update(s);
+        fed.update(s);
+        let mut bad = *s;
+        match i % 6 {
+            0 => bad.flags = SampleFlags::LVDT_OVER_RANGE,
+            1 => bad.delta_l_um = f32::NAN,
+            2 => bad.axes[0] = f32::INFINITY,
+            3 => bad.axes[2] = f32::NEG_INFINITY,
+            4 => bad.delta_l_um = 5_000.0, // |y| beyond MAX_ABS_Y_UM
+            _ => bad.axes[4] = f32::NAN,
+        }
+        match fed.update(&bad) {
+            StreamUse::SkippedFlagged => flagged += 1,
+            StreamUse::SkippedInvalid => invalid += 1,
+            other => panic!("sample {i}: {other:?}"),
+        }
+        assert_eq!(fed.live(), clean.live(), "live, sample {i}");
+        assert_eq!(fed.estimate(), clean.estimate(), "f64, sample {i}");
+    }
+    assert_eq!((flagged, invalid), (120, 600));
+    assert_eq!((fed.skipped_flagged(), fed.skipped_invalid()), (120, 600));
+    assert!(clean.live().is_ok(), "{:?}", clean.live());
+}

@@ -204,9 +204,10 @@ pub fn simulate(
                     let n = step_samples(&pod_setup, step, o.feed_mm_per_min, rate);
                     let angle = |i: usize| {
                         if matches!(step, Pattern::Bx | Pattern::By) {
+                            // CCW: θ increasing in XZ, φ (B) 90° → 0° (`Direction`)
                             let k = match dir {
-                                Direction::Ccw => i,
-                                Direction::Cw => n - 1 - i,
+                                Direction::Ccw => n - 1 - i,
+                                Direction::Cw => i,
                             };
                             std::f64::consts::FRAC_PI_2 * k as f64 / (n - 1) as f64
                         } else {

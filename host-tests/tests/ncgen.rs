@@ -569,3 +569,46 @@ fn programs_beyond_the_travel_are_refused_naming_the_axis() {
         "travel.z_mm"
     );
 }
+
+/// One direction convention (`Direction`: θ increasing in the pattern's plane, so for the B arcs
+/// in XZ B 90° → 0° is CCW): a B pattern program's run and the served pod's built-in motion of
+/// the same direction turn B the same way, so a run's label in the pod's log and results is the
+/// program's.
+#[test]
+fn a_b_pattern_program_and_the_served_pods_motion_turn_b_alike_for_each_direction() {
+    use ballpod::app::Pattern;
+    use ballpod_host::vmt::motion::{Motion, ServeTruth};
+    let mut cfg = Config::default();
+    ballpod::app::seed002::Setup::thesis_table_4_3().to_config(&mut cfg.setup);
+    for d in Direction::ALL {
+        let program =
+            ballpod_host::ncgen::PatternTest::from_config(&cfg, Pattern::Bx, 8, 1000.0, vec![d])
+                .unwrap()
+                .program(Dialect::Fanuc);
+        let b: Vec<f64> = program
+            .lines()
+            .filter(|l| l.starts_with("G1 "))
+            .map(|l| {
+                let w = l.split_whitespace().find(|w| w.starts_with('B')).unwrap();
+                w[1..].parse().unwrap()
+            })
+            .collect();
+        let mut motion = Motion::plan(&ServeTruth::default(), &cfg, Pattern::Bx, d, 0).unwrap();
+        let first = motion.start().unwrap()[3];
+        let mut last = first;
+        while let Some(s) = motion.next_step() {
+            last = s.axes[3];
+        }
+        let want = if d == Direction::Ccw { -1.0 } else { 1.0 };
+        assert_eq!(
+            (b[b.len() - 1] - b[0]).signum(),
+            want,
+            "program {d:?}: {b:?}"
+        );
+        assert_eq!(
+            (last - first).signum(),
+            want,
+            "motion {d:?}: {first} → {last}"
+        );
+    }
+}

@@ -42,7 +42,9 @@ impl Plane {
 }
 
 /// Direction of a run along its pattern: counter-clockwise = the pattern angle θ increasing
-/// (from +u towards +v; for the seed 002 B arcs φ increasing, for the C circles C increasing).
+/// (from +u towards +v; for the C circles C increasing; for the seed 002 B arcs, in the XZ plane
+/// with n = (sin φ, cos φ), θ = 90° − φ: B 90° → 0° — ISO 230-4's ZX plane, u = Z, would call
+/// that turn clockwise).
 /// The one direction type of the pod: metrology, the application, both protocols, the logs and
 /// replay use it and its [`name`](Direction::name).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]

@@ -139,7 +139,8 @@ impl Motion {
                 (0..n)
                     .map(|i| {
                         let angle = if b {
-                            let k = if sign > 0.0 { i } else { n - 1 - i };
+                            // CCW: θ increasing in XZ, φ (B) 90° → 0° (`Direction`)
+                            let k = if sign > 0.0 { n - 1 - i } else { i };
                             std::f64::consts::FRAC_PI_2 * k as f64 / (n - 1) as f64
                         } else {
                             sign * 2.0 * std::f64::consts::PI * i as f64 / n as f64

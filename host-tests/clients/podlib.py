@@ -180,7 +180,7 @@ def profile_residuals(bins, x):
 
 def iso230_4(ccw, cw):
     """ISO 230-4 figures of a CCW and a CW run (each from `limacon_fit`, with `dl`): G, F per
-    direction; G(b), H and the mean bi-directional radial deviation from one circle fitted to
+    direction on 1° bin means; G(b), H and the mean bi-directional radial deviation from one circle fitted to
     both directions."""
     out = {}
     bins = {}
@@ -188,8 +188,9 @@ def iso230_4(ccw, cw):
         bins[name] = bins_1deg(f["nu"], f["nv"], f["dl"])
         r = profile_residuals(bins[name], f["x"])
         out[f"G_{name}"] = max(r.values()) - min(r.values())
-        out[f"F_max_{name}"] = float(f["dl"].max())
-        out[f"F_min_{name}"] = float(f["dl"].min())
+        # F on the same bin means (the single samples' extremes would be the noise's)
+        out[f"F_max_{name}"] = float(max(d for d, _, _ in bins[name].values()))
+        out[f"F_min_{name}"] = float(min(d for d, _, _ in bins[name].values()))
     nu = np.concatenate([ccw["nu"], cw["nu"]])
     nv = np.concatenate([ccw["nv"], cw["nv"]])
     dl = np.concatenate([ccw["dl"], cw["dl"]])

@@ -79,6 +79,29 @@ pub fn sqrtf(x: f32) -> f32 {
     }
 }
 
+/// Sorts `v` ascending in place by insertion, NaNs last (O(n²): for the few hundred values of
+/// a bin profile; core's slice sort would be 2 KB of flash).
+pub fn sort_f32(v: &mut [f32]) {
+    for i in 1..v.len() {
+        let Some(&x) = v.get(i) else {
+            break;
+        };
+        let mut k = i;
+        while let Some(&prev) = k.checked_sub(1).and_then(|p| v.get(p)) {
+            if prev.total_cmp(&x).is_le() {
+                break;
+            }
+            if let Some(slot) = v.get_mut(k) {
+                *slot = prev;
+            }
+            k -= 1;
+        }
+        if let Some(slot) = v.get_mut(k) {
+            *slot = x;
+        }
+    }
+}
+
 /// True if every value is finite (no NaN, no infinity): the input check of the core's
 /// methods (arrays of points: `all_finite(points.as_flattened())`).
 // one copy in flash for the many input checks

@@ -217,8 +217,8 @@ def test_circle_ccw_then_cw_against_numpy_and_truth(pod, eds):
         for name in ("G_cw", "G_bidir", "H", "squareness"):
             assert_invalid(sdo, name)  # need the CW run
         assert run(sdo, "CIRCLE", "CW") == 3
-        pod_r = {n: result(sdo, n)[0] for n in ("G_ccw", "F_max_ccw", "F_min_ccw", "G_cw", "F_max_cw",
-                                                "F_min_cw", "G_bidir", "H", "radial_bidir")}
+        pod_r = {n: result(sdo, n) for n in ("G_ccw", "F_max_ccw", "F_min_ccw", "G_cw", "F_max_cw",
+                                             "F_min_cw", "G_bidir", "H", "radial_bidir")}
         cw_pod = {n: result(sdo, n) for n in ("ecc_u", "ecc_v", "r0", "residual_rms", "arc")}
         diag = {n: result(sdo, n)[0] for n in ("squareness", "scale_mismatch", "reversal_u", "reversal_v",
                                                "cyclic_amplitude", "cyclic_order", "servo_mismatch")}
@@ -240,9 +240,14 @@ def test_circle_ccw_then_cw_against_numpy_and_truth(pod, eds):
             u = p["ecc_u"][1]
             assert abs(p["ecc_u"][0] + s[0]) <= 3 * u and abs(p["ecc_v"][0] + s[1]) <= 3 * u, (p, s)
         iso = iso230_4(*fits)
-        for name, v in pod_r.items():
-            tol = 1e-4 if name.startswith("F_") else 0.01
-            assert v == pytest.approx(iso[name], abs=tol), name
+        for name, (v, u) in pod_r.items():
+            if name == "radial_bidir":
+                assert v == pytest.approx(iso[name], abs=0.01) and math.isnan(u), name
+                continue
+            # numpy's extremes of the bin means, which the pod corrects for the noise's bias by
+            # less than its stated u twice over (metrology/extremes.rs)
+            assert 0.0 < u < 0.1, (name, u)
+            assert v == pytest.approx(iso[name], abs=2 * u), name
         # the diagnoses against the injected faults (±10 %, as sim_iso230_4.rs)
         injected = {"squareness": truth["squareness_urad"],
                     "scale_mismatch": truth["scale_x_um_per_m"] - truth["scale_y_um_per_m"],

@@ -103,8 +103,10 @@ def test_pyvisa_circle_session(pod, eds):
             assert abs(p["ecc_u"][0] + s[0]) <= 3 * p["ecc_u"][1]
             assert abs(p["ecc_v"][0] + s[1]) <= 3 * p["ecc_v"][1]
         for name, (v, u, unit) in list(cw.items())[3:] + [("G_ccw", ccw["G_ccw"])]:
-            assert v == pytest.approx(iso[name], abs=0.01), name
-            assert math.isnan(scpi_nan(u)) and unit == "UM"  # G, H: uncertainty not evaluated
+            # numpy's extremes of the bin means, which the pod corrects for the noise's bias by
+            # less than its stated u twice over (metrology/extremes.rs)
+            assert 0.0 < u < 0.1 and unit == "UM", (name, u)
+            assert v == pytest.approx(iso[name], abs=2 * u), name
         # the same numbers over CANopen
         net, node = connect(pod, eds)
         try:

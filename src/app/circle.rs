@@ -157,11 +157,14 @@ impl CircleTest {
         if let Some(c) = self.complete.get_mut(dir_index(d)) {
             *c = true;
         }
-        const NOT_EVALUATED: f64 = f64::NAN;
         if let Ok(f) = self.test.direction_figures(d) {
-            results.set(g, f64::from(f.circular_deviation_g_um), NOT_EVALUATED);
-            results.set(fmax, f64::from(f.radial_deviation_f_max_um), NOT_EVALUATED);
-            results.set(fmin, f64::from(f.radial_deviation_f_min_um), NOT_EVALUATED);
+            for (id, v) in [
+                (g, f.circular_deviation_g_um),
+                (fmax, f.radial_deviation_f_max_um),
+                (fmin, f.radial_deviation_f_min_um),
+            ] {
+                set(results, id, v);
+            }
         }
         if self.complete == [true, true] {
             self.bidirectional(results);
@@ -170,22 +173,18 @@ impl CircleTest {
     }
 
     fn bidirectional(&self, results: &mut Results) {
-        const NOT_EVALUATED: f64 = f64::NAN;
         if let Ok(b) = self.test.bidirectional_figures() {
-            results.set(
+            set(
+                results,
                 ResultId::GBidir,
-                f64::from(b.bidirectional_circular_deviation_um),
-                NOT_EVALUATED,
+                b.bidirectional_circular_deviation_um,
             );
-            results.set(
-                ResultId::H,
-                f64::from(b.circular_hysteresis_h_um),
-                NOT_EVALUATED,
-            );
+            set(results, ResultId::H, b.circular_hysteresis_h_um);
+            // the joint circle's radius change: its u is not evaluated (NaN)
             results.set(
                 ResultId::RadialBidir,
                 f64::from(b.mean_bidirectional_radial_deviation_um),
-                NOT_EVALUATED,
+                f64::NAN,
             );
         }
         let diag = |d| self.test.diagnostics(d);
@@ -201,7 +200,7 @@ impl CircleTest {
             (ResultId::ReversalV, m.reversal_step_v_um),
             (ResultId::CyclicAmplitude, m.cyclic_amplitude_um),
         ] {
-            results.set(id, f64::from(v.value), f64::from(v.std_uncertainty));
+            set(results, id, v);
         }
         // 0: no harmonic of order 3–16 is significant (none named)
         let order = m.named_cyclic_order().unwrap_or(0);
@@ -221,6 +220,11 @@ impl CircleTest {
     pub fn diagnostics_error(&self, d: Direction) -> Option<IsoError> {
         self.test.diagnostics(d).err()
     }
+}
+
+/// Publishes an ISO 230-4 figure or diagnosis with its u.
+fn set(results: &mut Results, id: ResultId, v: iso230_4::Diagnosed) {
+    results.set(id, f64::from(v.value), f64::from(v.std_uncertainty));
 }
 
 /// Servo mismatch τ_u − τ_v and its standard uncertainty (ms) from the per-direction

@@ -43,6 +43,7 @@
 //! instrument's calibration (bar length, LVDT scale) and the set-up (issue 14).
 use super::angle::quadrant_angle;
 use super::circle_fit::{CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, Moments};
+use super::extremes;
 use super::solve3::cholesky_solve;
 use crate::acquisition::Sample;
 
@@ -73,16 +74,13 @@ struct Bin {
 }
 
 impl Bin {
-    fn mean(&self) -> Option<(f64, f64, f64)> {
+    /// Means of ΔL (µm) and of n's components, f32 (the figures' small numbers).
+    fn mean(&self) -> Option<(f32, f32, f32)> {
         if self.n == 0 {
             return None;
         }
-        let k = 1.0 / f64::from(self.n);
-        Some((
-            f64::from(self.dl_um) * k,
-            f64::from(self.nu) * k,
-            f64::from(self.nv) * k,
-        ))
+        let k = 1.0 / self.n as f32;
+        Some((self.dl_um * k, self.nu * k, self.nv * k))
     }
 }
 
@@ -92,19 +90,79 @@ struct Run<const BINS: usize> {
     bins: [Bin; BINS],
 }
 
+impl<const BINS: usize> Run<BINS> {
+    /// One sample's ΔL noise, µm, from the bin profile ([`extremes::sample_noise_um`]); NaN
+    /// if the profile is too short to tell.
+    fn noise_um(&self) -> f32 {
+        let mut scratch = [0.0f32; BINS];
+        let bin = |i: usize| {
+            self.bins
+                .get(i)
+                .and_then(|b| {
+                    b.mean().map(|(dl, _, _)| extremes::BinMean {
+                        mean_um: dl,
+                        n: b.n,
+                    })
+                })
+                .unwrap_or_default()
+        };
+        extremes::sample_noise_um(BINS, bin, &mut scratch).unwrap_or(f32::NAN)
+    }
+}
+
+/// Marks a CW bin's sample count for the bidirectional bootstrap's noise (a bin never holds
+/// 2³¹ samples).
+const CW_BIN: u32 = 1 << 31;
+
+/// The values `figures` computes, observed (no noise added), and their moments over
+/// [`extremes::REPLICAS`] replicas with normal noise of standard deviation `sigma(n)` added to
+/// each bin of n samples ([`super::extremes`]); `Err(observed)` if the noise is not told (σ
+/// NaN).
+// one copy in flash for both callers (`dyn`), five values each (the bidirectional use four)
+#[allow(clippy::type_complexity)]
+fn bootstrap(
+    figures: &dyn Fn(&mut dyn FnMut(u32) -> f32) -> [f32; 5],
+    sigma: &dyn Fn(u32) -> f32,
+) -> Result<([f32; 5], [extremes::Replicas; 5]), [f32; 5]> {
+    let observed = figures(&mut |_| 0.0);
+    if sigma(1).is_nan() || sigma(1 | CW_BIN).is_nan() {
+        return Err(observed);
+    }
+    let mut normals = extremes::Normals::default();
+    let mut moments = [extremes::Replicas::default(); 5];
+    for _ in 0..extremes::REPLICAS {
+        let replica = figures(&mut |n| sigma(n) * normals.draw());
+        for ((m, v), o) in moments.iter_mut().zip(replica).zip(observed) {
+            m.add(v - o);
+        }
+    }
+    Ok((observed, moments))
+}
+
+/// A figure whose u is not evaluated (NaN).
+fn not_evaluated(value: f32) -> Diagnosed {
+    Diagnosed {
+        value,
+        std_uncertainty: f32::NAN,
+    }
+}
+
 /// Figures of one direction.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct DirectionFigures {
     /// The least-squares (limaçon) circle: centre offset e, radius change r0, uncertainties.
     pub fit: CircleEstimate,
-    /// Circular deviation G (2005) = circular error G (2022), µm.
-    pub circular_deviation_g_um: f32,
+    /// Circular deviation G (2005) = circular error G (2022), µm, with its u (noise only,
+    /// [`super::extremes`]; NaN if the profile is too short to tell its noise).
+    pub circular_deviation_g_um: Diagnosed,
     /// Radial deviation F_max (2005) = radial error F_max (2022): max of the bin-averaged ΔL
-    /// about the socket, µm.
-    pub radial_deviation_f_max_um: f32,
+    /// about the socket, µm, with its u as G's.
+    pub radial_deviation_f_max_um: Diagnosed,
     /// Radial deviation F_min (2005) = radial error F_min (2022): min of the bin-averaged ΔL
-    /// about the socket, µm.
-    pub radial_deviation_f_min_um: f32,
+    /// about the socket, µm, with its u as G's.
+    pub radial_deviation_f_min_um: Diagnosed,
+    /// Standard deviation of one sample's ΔL noise the u rest on, µm (NaN: not told).
+    pub sample_std_um: f32,
     /// Bins that received samples.
     pub bins_used: u32,
 }
@@ -112,10 +170,12 @@ pub struct DirectionFigures {
 /// Figures that compare or combine both directions.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct BidirectionalFigures {
-    /// Circular hysteresis H (2005 and 2022): max |CW − CCW| at equal angle (bins), µm.
-    pub circular_hysteresis_h_um: f32,
-    /// Bi-directional circular deviation G(b) (2005) = bi-directional circular error (2022), µm.
-    pub bidirectional_circular_deviation_um: f32,
+    /// Circular hysteresis H (2005 and 2022): max |CW − CCW| at equal angle (bins), µm, with
+    /// its u as G's.
+    pub circular_hysteresis_h_um: Diagnosed,
+    /// Bi-directional circular deviation G(b) (2005) = bi-directional circular error (2022), µm,
+    /// with its u as G's.
+    pub bidirectional_circular_deviation_um: Diagnosed,
     /// Mean bi-directional radial deviation (2005) = mean bi-directional radial error (2022):
     /// radius change of the circle fitted to both directions, µm.
     pub mean_bidirectional_radial_deviation_um: f32,
@@ -123,13 +183,13 @@ pub struct BidirectionalFigures {
     pub joint_e_um: [f32; 2],
 }
 
-/// A diagnosed quantity: its value and standard uncertainty, same unit.
+/// An ISO 230-4 figure or diagnosis: its value and standard uncertainty, same unit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Diagnosed {
     /// The estimate.
     pub value: f32,
-    /// Its standard uncertainty (Type A from the residual of the joint fit, the resolution's
-    /// as a floor; the module doc).
+    /// Its standard uncertainty (diagnoses: Type A from the residual of the joint fit, the
+    /// resolution's as a floor, the module doc; figures: [`super::extremes`]).
     pub std_uncertainty: f32,
 }
 
@@ -279,24 +339,42 @@ impl<const BINS: usize> CircularTest<BINS> {
         let run = self.run(d);
         let fit = run.fit.estimate().map_err(IsoError::Fit)?;
         let x = run.fit.moments().solve_f64().map_err(IsoError::Fit)?;
-        let (mut lo, mut hi, mut used) = (f64::INFINITY, f64::NEG_INFINITY, 0u32);
-        for (r, _) in residuals(&run.bins, x) {
-            lo = lo.min(r);
-            hi = hi.max(r);
-            used += 1;
-        }
-        // F on the same bin-averaged profile as G: the extremes of single samples would be
-        // the noise's (+4σ at 0.2 µm and 57 000 samples: +0.8 µm), not the path's
-        let (mut f_lo, mut f_hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for (dl, _, _) in run.bins.iter().filter_map(Bin::mean) {
-            f_lo = f_lo.min(dl);
-            f_hi = f_hi.max(dl);
-        }
+        let used = run.bins.iter().filter(|b| b.n > 0).count() as u32;
+        let [x0, x1, x2] = [x[0] as f32, x[1] as f32, x[2] as f32];
+        let s = run.noise_um();
+        // G and F of the profile with `noise(n)` added to each bin of n samples: F on the same
+        // bin-averaged profile as G (single samples' extremes would be the noise's: +4σ at
+        // 0.2 µm and 57 000 samples, +0.8 µm), G about the least-squares circle
+        let figures = |noise: &mut dyn FnMut(u32) -> f32| {
+            let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+            let (mut f_lo, mut f_hi) = (f32::INFINITY, f32::NEG_INFINITY);
+            for b in &run.bins {
+                if let Some((dl, nu, nv)) = b.mean() {
+                    let p = noise(b.n);
+                    let r = dl - x0 - x1 * nu - x2 * nv + p;
+                    let dl = dl + p;
+                    lo = lo.min(r);
+                    hi = hi.max(r);
+                    f_lo = f_lo.min(dl);
+                    f_hi = f_hi.max(dl);
+                }
+            }
+            [hi - lo, hi, lo, f_hi, f_lo]
+        };
+        let [g, f_max, f_min] = match bootstrap(&figures, &|n| s / crate::num::sqrtf(n as f32)) {
+            Ok(([g, _, _, f_hi, f_lo], [rg, rhi, rlo, rf_hi, rf_lo])) => [
+                rg.figure(g, &[rhi.excess(), rlo.excess()]),
+                rf_hi.figure(f_hi, &[rf_hi.excess()]),
+                rf_lo.figure(f_lo, &[rf_lo.excess()]),
+            ],
+            Err([g, _, _, f_hi, f_lo]) => [g, f_hi, f_lo].map(not_evaluated),
+        };
         Ok(DirectionFigures {
             fit,
-            circular_deviation_g_um: (hi - lo) as f32,
-            radial_deviation_f_max_um: f_hi as f32,
-            radial_deviation_f_min_um: f_lo as f32,
+            circular_deviation_g_um: g,
+            radial_deviation_f_max_um: f_max,
+            radial_deviation_f_min_um: f_min,
+            sample_std_um: s,
             bins_used: used,
         })
     }
@@ -311,24 +389,40 @@ impl<const BINS: usize> CircularTest<BINS> {
         cw.fit.estimate().map_err(IsoError::Fit)?;
         let joint: Moments = ccw.fit.moments().merged(&cw.fit.moments());
         let x = joint.solve_f64().map_err(IsoError::Fit)?;
-        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for run in [ccw, cw] {
-            for (r, _) in residuals(&run.bins, x) {
-                lo = lo.min(r);
-                hi = hi.max(r);
+        let (sa, sb) = (ccw.noise_um(), cw.noise_um());
+        let [x0, x1, x2] = [x[0] as f32, x[1] as f32, x[2] as f32];
+        let residual = |b: &Bin| b.mean().map(|(dl, nu, nv)| dl - x0 - x1 * nu - x2 * nv);
+        // G(b): both profiles about the joint circle; H: bin by bin |CW − CCW| about it
+        let figures = |noise: &mut dyn FnMut(u32) -> f32| {
+            let (mut lo, mut hi, mut h) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
+            for (a, b) in ccw.bins.iter().zip(cw.bins.iter()) {
+                // the noise of a: n > 0; of b: the high bit marks the CW profile
+                let ra = residual(a).map(|r| r + noise(a.n));
+                let rb = residual(b).map(|r| r + noise(b.n | CW_BIN));
+                for r in [ra, rb].into_iter().flatten() {
+                    lo = lo.min(r);
+                    hi = hi.max(r);
+                }
+                if let (Some(ra), Some(rb)) = (ra, rb) {
+                    h = h.max((ra - rb).abs());
+                }
             }
-        }
-        let mut h: f64 = 0.0;
-        for (a, b) in ccw.bins.iter().zip(cw.bins.iter()) {
-            if let (Some((la, ua, va)), Some((lb, ub, vb))) = (a.mean(), b.mean()) {
-                let ra = la - x[1] * ua - x[2] * va;
-                let rb = lb - x[1] * ub - x[2] * vb;
-                h = h.max((ra - rb).abs());
-            }
-        }
+            [hi - lo, hi, lo, h, 0.0]
+        };
+        let sigma = |n: u32| {
+            let s = if n & CW_BIN != 0 { sb } else { sa };
+            s / crate::num::sqrtf((n & !CW_BIN) as f32)
+        };
+        let [g_b, h] = match bootstrap(&figures, &sigma) {
+            Ok(([g, _, _, h, _], [rg, rhi, rlo, rh, _])) => [
+                rg.figure(g, &[rhi.excess(), rlo.excess()]),
+                rh.figure(h, &[rh.excess()]),
+            ],
+            Err([g, _, _, h, _]) => [g, h].map(not_evaluated),
+        };
         Ok(BidirectionalFigures {
-            circular_hysteresis_h_um: h as f32,
-            bidirectional_circular_deviation_um: (hi - lo) as f32,
+            circular_hysteresis_h_um: h,
+            bidirectional_circular_deviation_um: g_b,
             mean_bidirectional_radial_deviation_um: x[0] as f32,
             joint_e_um: [x[1] as f32, x[2] as f32],
         })
@@ -594,14 +688,6 @@ impl NormalEquations {
 
 fn dot(a: &[f32], b: &[f32]) -> f32 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
-}
-
-/// Residuals of the bin means against the circle x = (r0, e_u, e_v), with the bin index.
-fn residuals(bins: &[Bin], x: [f64; 3]) -> impl Iterator<Item = (f64, usize)> + '_ {
-    bins.iter().enumerate().filter_map(move |(i, b)| {
-        b.mean()
-            .map(|(dl, nu, nv)| (dl - x[0] - x[1] * nu - x[2] * nv, i))
-    })
 }
 
 /// Mean of the CW and CCW diagnostics (squareness, scale and cyclic error are common to both

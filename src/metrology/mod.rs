@@ -3,6 +3,7 @@
 //! - [`pattern`]: a measuring pattern's plane, centre and sensitive direction n;
 //! - [`circle_fit`]: the running limaçon fit ΔL = r0 + e·n (seed 002 §3.5), f32 per sample;
 //! - [`iso230_4`]: ISO 230-4 figures (G, F, H, G(b)) and ball-bar diagnostics;
+//! - [`extremes`]: the noise of a bin profile and the uncertainty of its extremes (G, F, …);
 //! - [`angle`]: quadrant + polynomial angle for binning (no atan2);
 //! - [`compensated`]: the Kahan-compensated f32 sum the running fits accumulate with;
 //! - [`point_fit`]: circle and sphere from touch points (Taubin + Gauss–Newton);
@@ -15,6 +16,7 @@
 pub mod angle;
 pub mod circle_fit;
 pub mod compensated;
+pub mod extremes;
 pub mod iso230_4;
 pub mod pattern;
 pub mod point_fit;

@@ -333,7 +333,7 @@ fn main() -> ! {
 
     let (_, empty) = measure(|| ());
     let top = stack::sp();
-    let mut stack_rows: [(&str, usize); 16] = [("", 0); 16];
+    let mut stack_rows: [(&str, usize); 20] = [("", 0); 20];
     let mut n_stack = 0;
     let mut record_stack = |name: &'static str, lo: usize| {
         if let Some(r) = stack_rows.get_mut(n_stack) {
@@ -574,6 +574,18 @@ fn main() -> ! {
         n,
         n as f64 / 170e3,
         dg.is_ok()
+    );
+    // The figures of one direction at the end of its run: G and F with their u, from the noise
+    // of the bin profile and the bootstrap of its extremes (metrology/extremes.rs).
+    let lo = stack::paint(top);
+    let (fg, n) = measure_long(|| iso.direction_figures(Direction::Ccw));
+    record_stack("ISO 230-4 figures (CircularTest::direction_figures)", lo);
+    hprintln!(
+        "| ISO 230-4 figures of one direction (G, F and their u: noise + bootstrap of {} copies) | run | {} | — | — | — | — | {:.1} ms at 170 MHz (1 insn/cycle), ok = {} |",
+        ballpod::metrology::extremes::REPLICAS,
+        n,
+        n as f64 / 170e3,
+        fg.is_ok_and(|f| f.circular_deviation_g_um.std_uncertainty.is_finite())
     );
 
     // Streaming SSM update. FLOP per sample (float): d = P − P0 (3), r² (5), √ (1),

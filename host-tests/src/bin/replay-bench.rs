@@ -122,7 +122,7 @@ fn main() {
         match iso.direction_figures(Direction::Ccw) {
             Ok(f) => println!(
                 "check: CCW eccentricity ({:.3}, {:.3}) um (truth {:?}), G {:.3} um",
-                f.fit.e_um[0], f.fit.e_um[1], E_UM, f.circular_deviation_g_um
+                f.fit.e_um[0], f.fit.e_um[1], E_UM, f.circular_deviation_g_um.value
             ),
             Err(e) => println!("check: no CCW figures: {e:?}"),
         }

@@ -15,7 +15,7 @@
 //! directions — which decides what E the path can see — and their covariance with y.
 //!
 //! Two solves of the same sums:
-//! - [`StreamingSsm::live`], every sample (≈ 490 instructions, f32 on the FPU): the live E,
+//! - [`StreamingSsm::live`], every sample (≈ 495 instructions, f32 on the FPU): the live E,
 //!   solved on the window's mean and scatter (below), with the observability rule of
 //!   [`super::solve_normal`];
 //! - [`StreamingSsm::estimate`] (f64, soft-float on the M4, with the full observability

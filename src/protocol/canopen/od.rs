@@ -421,7 +421,12 @@ pub fn object(index: u16) -> Option<Object> {
                 "TPDO communication parameter 3",
                 "TPDO communication parameter 4",
             ];
-            o(N.get(usize::from(index - 0x1800))?, Record, 5)
+            // (not `?`: the name is dropped on the firmware, so must the lookup be)
+            o(
+                N.get(usize::from(index - 0x1800)).copied().unwrap_or(""),
+                Record,
+                5,
+            )
         }
         0x1A00..=0x1A03 => {
             const N: [&str; TPDO_COUNT] = [
@@ -431,7 +436,7 @@ pub fn object(index: u16) -> Option<Object> {
                 "TPDO mapping parameter 4",
             ];
             o(
-                N.get(usize::from(index - 0x1A00))?,
+                N.get(usize::from(index - 0x1A00)).copied().unwrap_or(""),
                 Record,
                 MAX_MAPPED as u8,
             )

@@ -353,10 +353,11 @@ impl<const BINS: usize> CircularTest<BINS> {
                     let p = noise(b.n);
                     let r = dl - x0 - x1 * nu - x2 * nv + p;
                     let dl = dl + p;
-                    lo = lo.min(r);
-                    hi = hi.max(r);
-                    f_lo = f_lo.min(dl);
-                    f_hi = f_hi.max(dl);
+                    // comparisons, not f32::min/max (library calls on the M4F)
+                    lo = if r < lo { r } else { lo };
+                    hi = if r > hi { r } else { hi };
+                    f_lo = if dl < f_lo { dl } else { f_lo };
+                    f_hi = if dl > f_hi { dl } else { f_hi };
                 }
             }
             [hi - lo, hi, lo, f_hi, f_lo]
@@ -400,11 +401,12 @@ impl<const BINS: usize> CircularTest<BINS> {
                 let ra = residual(a).map(|r| r + noise(a.n));
                 let rb = residual(b).map(|r| r + noise(b.n | CW_BIN));
                 for r in [ra, rb].into_iter().flatten() {
-                    lo = lo.min(r);
-                    hi = hi.max(r);
+                    lo = if r < lo { r } else { lo };
+                    hi = if r > hi { r } else { hi };
                 }
                 if let (Some(ra), Some(rb)) = (ra, rb) {
-                    h = h.max((ra - rb).abs());
+                    let d = (ra - rb).abs();
+                    h = if d > h { d } else { h };
                 }
             }
             [hi - lo, hi, lo, h, 0.0]

@@ -14,6 +14,7 @@
 //! settings slots and the CAN/USB configuration objects document.
 
 use crate::acquisition::MAX_AXES;
+use crate::identify::multitasking::model_lsq::MountingUncertainty;
 
 /// Names of the axes the encoder inputs can be assigned to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -279,6 +280,15 @@ pub struct TestSetup {
     /// CIRCLE: span of the data arc a self-triggered run measures, degrees (not set: until the
     /// feed-out; added in encoding version 4).
     pub circle_arc_deg: f32,
+    /// Seed 002: standard uncertainty of each component of the W-ball's clamping shift, µm
+    /// ([`MountingUncertainty::w_clamp_um`]; added in encoding version 5).
+    pub s002_u_w_clamp_um: f32,
+    /// Seed 002: standard uncertainty of each radial component of the T-ball's offset left by
+    /// centring, µm ([`MountingUncertainty::t_centring_um`]; added in encoding version 5).
+    pub s002_u_t_centring_um: f32,
+    /// Seed 002: standard uncertainty of the T-ball's axial offset (its tool length), µm
+    /// ([`MountingUncertainty::t_axial_um`]; added in encoding version 5).
+    pub s002_u_t_axial_um: f32,
 }
 
 /// The pod's configuration (see the module doc; fields listed with unit, default and range in
@@ -422,6 +432,12 @@ pub enum Field {
     RunTrigger,
     /// [`TestSetup::circle_arc_deg`] (added in encoding version 4).
     CircleArcDeg,
+    /// [`TestSetup::s002_u_w_clamp_um`] (added in encoding version 5).
+    S002UWClampUm,
+    /// [`TestSetup::s002_u_t_centring_um`] (added in encoding version 5).
+    S002UTCentringUm,
+    /// [`TestSetup::s002_u_t_axial_um`] (added in encoding version 5).
+    S002UTAxialUm,
     /// A pod sample is not a whole number of excitation periods within the ADC ring
     /// (`excitation / sample_rate` ∉ 1…[`MAX_PERIODS_PER_SAMPLE`]).
     PeriodsPerSample,
@@ -802,6 +818,15 @@ pub const FIELDS: &[FieldInfo] = &[
     )),
     code(Field::RunTrigger, "run_trigger", &RunTrigger::NAMES),
     unset(real(Field::CircleArcDeg, "circle_arc", "deg", 10.0, 360.0)),
+    real(Field::S002UWClampUm, "s002_u_w_clamp", "um", 0.0, 1000.0),
+    real(
+        Field::S002UTCentringUm,
+        "s002_u_t_centring",
+        "um",
+        0.0,
+        1000.0,
+    ),
+    real(Field::S002UTAxialUm, "s002_u_t_axial", "um", 0.0, 1000.0),
 ];
 
 /// Why a configuration was rejected.
@@ -888,6 +913,9 @@ impl TestSetup {
             probe_length_mm: NOT_SET,
             run_trigger: RunTrigger::Command,
             circle_arc_deg: NOT_SET,
+            s002_u_w_clamp_um: MountingUncertainty::SEED002.w_clamp_um as f32,
+            s002_u_t_centring_um: MountingUncertainty::SEED002.t_centring_um as f32,
+            s002_u_t_axial_um: MountingUncertainty::SEED002.t_axial_um as f32,
         }
     };
 }
@@ -1009,6 +1037,9 @@ impl Config {
                 probe_length_mm: 0.0,
                 run_trigger: RunTrigger::Command,
                 circle_arc_deg: 0.0,
+                s002_u_w_clamp_um: 0.0,
+                s002_u_t_centring_um: 0.0,
+                s002_u_t_axial_um: 0.0,
             },
         }
     };
@@ -1124,6 +1155,15 @@ impl Field {
             }
             Field::CircleArcDeg => {
                 "CIRCLE, FEED_IN: span of the data arc a self-triggered run measures (not set: until the feed-out)"
+            }
+            Field::S002UWClampUm => {
+                "Seed 002 uncertainty budget: W-ball clamping shift, standard uncertainty per component, each clamping (default: 10–60 µm in a random direction)"
+            }
+            Field::S002UTCentringUm => {
+                "Seed 002 uncertainty budget: T-ball radial offset left by centring, standard uncertainty per component, each tool length (default: within a 1 µm disc)"
+            }
+            Field::S002UTAxialUm => {
+                "Seed 002 uncertainty budget: T-ball axial offset (tool-length error), standard uncertainty, each tool length (default: as the W-ball's clamping shift)"
             }
             Field::PeriodsPerSample => {
                 "Cross-field rule: excitation / sample_rate must be a whole 1 … 5 periods"
@@ -1324,6 +1364,9 @@ impl Config {
             Field::ProbeLengthMm => f64::from(s.probe_length_mm),
             Field::RunTrigger => f64::from(s.run_trigger as u8),
             Field::CircleArcDeg => f64::from(s.circle_arc_deg),
+            Field::S002UWClampUm => f64::from(s.s002_u_w_clamp_um),
+            Field::S002UTCentringUm => f64::from(s.s002_u_t_centring_um),
+            Field::S002UTAxialUm => f64::from(s.s002_u_t_axial_um),
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => return None,
         })
     }
@@ -1415,6 +1458,9 @@ impl Config {
                 }
             }
             Field::CircleArcDeg => s.circle_arc_deg = x,
+            Field::S002UWClampUm => s.s002_u_w_clamp_um = x,
+            Field::S002UTCentringUm => s.s002_u_t_centring_um = x,
+            Field::S002UTAxialUm => s.s002_u_t_axial_um = x,
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => {}
         }
     }
@@ -1460,11 +1506,12 @@ impl Config {
 
 /// Magic at the start of an encoded configuration.
 pub const MAGIC: [u8; 4] = *b"BPOD";
-/// Current encoding version (4: version 3 plus `run_trigger` and `circle_arc`; 3: version 2
-/// plus `probe_length`). Version 2 and 3 encodings are read and migrated (the fields added
-/// since keep their defaults); version 1 records are not read: the pod boots on the defaults
-/// and says so.
-pub const ENCODING_VERSION: u16 = 4;
+/// Current encoding version (5: version 4 plus the seed 002 mounting uncertainties
+/// `s002_u_w_clamp`, `s002_u_t_centring`, `s002_u_t_axial`; 4: version 3 plus `run_trigger`
+/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2, 3 and 4 encodings are read
+/// and migrated (the fields added since keep their defaults); version 1 records are not read:
+/// the pod boots on the defaults and says so.
+pub const ENCODING_VERSION: u16 = 5;
 /// Oldest encoding version read.
 pub const OLDEST_ENCODING_VERSION: u16 = 2;
 
@@ -1474,6 +1521,7 @@ const fn added_in(f: Field) -> u16 {
     match f {
         Field::ProbeLengthMm => 3,
         Field::RunTrigger | Field::CircleArcDeg => 4,
+        Field::S002UWClampUm | Field::S002UTCentringUm | Field::S002UTAxialUm => 5,
         _ => 2,
     }
 }
@@ -1514,9 +1562,10 @@ const PAYLOAD: usize = payload_len(ENCODING_VERSION);
 /// Total encoded size: magic, version u16, payload length u16, payload, CRC-32.
 pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD + 4;
 /// Total size of each encoding read, oldest first (read and migrated; only the last written).
-pub const ENCODED_LENS: [usize; 3] = [
+pub const ENCODED_LENS: [usize; 4] = [
     12 + payload_len(2),
     12 + payload_len(3),
+    12 + payload_len(4),
     12 + payload_len(ENCODING_VERSION),
 ];
 
@@ -1601,7 +1650,7 @@ impl Config {
 
     /// Decodes and validates an encoding. Every check (length, magic, version, CRC, enum
     /// bytes, ranges) must pass; otherwise the error says which failed and nothing is returned.
-    /// An older encoding (versions 2 and 3, [`ENCODED_LENS`]) is read too: the fields added
+    /// An older encoding (versions 2 to 4, [`ENCODED_LENS`]) is read too: the fields added
     /// since keep their defaults.
     pub fn decode(bytes: &[u8]) -> Result<Config, ConfigError> {
         let mut r = Reader { buf: bytes, pos: 0 };

@@ -7,11 +7,13 @@ import math
 
 import pytest
 
-from podlib import (COMMAND, DIRECTION, PATTERN, SEED002_DEVIATIONS, STATUS_IDENTIFYING,
-                    STATUS_RESULTS_READY, TABLE_4_3, assert_invalid, assert_refused, connect, run,
-                    wait_until)
+from podlib import (ABORT_TOO_LOW, COMMAND, DIRECTION, PATTERN, SEED002_DEVIATIONS,
+                    STATUS_IDENTIFYING, STATUS_RESULTS_READY, TABLE_4_3, abort_code, assert_invalid,
+                    assert_refused, connect, run, wait_until)
 
 STEPS = ["BX", "BY", "CR", "CA", "CR2"]
+# the seed 002 budget's mounting inputs and their defaults (µm; Configuration fields)
+MOUNTING_DEFAULTS = {"s002_u_w_clamp": 22.0, "s002_u_t_centring": 0.5, "s002_u_t_axial": 22.0}
 
 
 @pytest.mark.sim_args("--speed", "40")
@@ -26,6 +28,13 @@ def test_seed002_procedure_identifies_the_truth(pod, eds):
         sdo["bar_length"].raw = TABLE_4_3["s002_l_b"]  # the bar of the procedure, L_B
         for name, value in TABLE_4_3.items():
             sdo[name].raw = value
+        # the uncertainty budget's mounting inputs (µm) default to the procedure's (the W-ball's
+        # 10-60 µm clamping shifts, the T-ball centred within 1 µm); the simulated machine's balls
+        # are mounted without offsets, so this CNC states none, and u is the bar noise's
+        for name, default in MOUNTING_DEFAULTS.items():
+            assert sdo[name].raw == pytest.approx(default)
+            assert abort_code(lambda: setattr(sdo[name], "raw", -1.0)) == ABORT_TOO_LOW
+            sdo[name].raw = 0.0
         for i, step in enumerate(STEPS):
             for direction in ("CW", "CCW"):
                 assert run(sdo, step, direction) == 3, (step, direction)

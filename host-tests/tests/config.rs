@@ -220,6 +220,18 @@ fn v2_record() -> Vec<u8> {
 }
 
 /// The bytes of a hex record file (32 bytes a line, `#` comments).
+/// The next save of a migrated record writes the current encoding version, and it reads back
+/// as `cfg`.
+fn resaved_as_current_version(cfg: &Config, sequence: u32) {
+    use ballpod::settings::{decode_record, encode_record};
+    let now = encode_record(cfg, sequence).unwrap();
+    assert_eq!(
+        u16::from_le_bytes([now[12 + 4], now[12 + 5]]),
+        ballpod::config::ENCODING_VERSION
+    );
+    assert!(same(&decode_record(&now).unwrap().config, cfg));
+}
+
 fn hex_record(text: &str) -> Vec<u8> {
     text.lines()
         .filter(|l| !l.starts_with('#'))
@@ -260,18 +272,13 @@ fn a_settings_record_of_encoding_version_2_is_read_and_migrated() {
     bad[40] ^= 4;
     assert!(decode_record(&bad).is_err());
     // and the next save writes the current version
-    let now = ballpod::settings::encode_record(&rec.config, 8).unwrap();
-    assert_eq!(
-        u16::from_le_bytes([now[12 + 4], now[12 + 5]]),
-        ballpod::config::ENCODING_VERSION
-    );
-    assert!(same(&decode_record(&now).unwrap().config, &want));
+    resaved_as_current_version(&rec.config, 8);
 }
 
 #[test]
 fn a_settings_record_of_encoding_version_3_is_read_and_migrated() {
     use ballpod::config::{CirclePlane, RunTrigger};
-    use ballpod::settings::{RECORD_LEN, decode_record, encode_record};
+    use ballpod::settings::{RECORD_LEN, decode_record};
     let mut slot = hex_record(include_str!("data/settings_record_v3.hex"));
     slot.resize(slot.len().max(RECORD_LEN), 0xFF);
     let rec = decode_record(&slot).expect("a version 3 record is read");
@@ -293,14 +300,56 @@ fn a_settings_record_of_encoding_version_3_is_read_and_migrated() {
     let mut bad = slot.clone();
     bad[60] ^= 1;
     assert!(decode_record(&bad).is_err());
-    // the next save writes version 4 with the new fields, and reads back
+    // the next save writes the current version with the new fields, and reads back
     let mut now_cfg = rec.config;
     now_cfg.setup.run_trigger = RunTrigger::FeedIn;
     now_cfg.setup.circle_arc_deg = 360.0;
-    let now = encode_record(&now_cfg, 12).unwrap();
+    resaved_as_current_version(&now_cfg, 12);
+}
+
+#[test]
+fn a_settings_record_of_encoding_version_4_is_read_and_migrated() {
+    use ballpod::config::{CirclePlane, RunTrigger};
+    use ballpod::identify::multitasking::model_lsq::MountingUncertainty;
+    use ballpod::settings::{RECORD_LEN, decode_record};
+    let mut slot = hex_record(include_str!("data/settings_record_v4.hex"));
+    slot.resize(slot.len().max(RECORD_LEN), 0xFF);
+    let rec = decode_record(&slot).expect("a version 4 record is read");
+    assert_eq!(rec.sequence, 21);
+    // what the file's header says it holds; the fields version 5 added keep their defaults,
+    // the seed 002 mounting uncertainties of the core's budget
+    let mut want = Config {
+        bar_length_mm: 150.0031,
+        can_node_id: 23,
+        ..Config::default()
+    };
+    want.setup.circle_plane = CirclePlane::ZX;
+    want.setup.s002_l_b_mm = 100.0;
+    want.setup.s002_r_b_mm = 356.4;
+    want.setup.s002_r_b2_mm = 406.5;
+    want.setup.run_trigger = RunTrigger::FeedIn;
+    want.setup.circle_arc_deg = 360.0;
+    assert!(same(&rec.config, &want), "{:?}", rec.config);
+    let s = &rec.config.setup;
+    let d = MountingUncertainty::SEED002;
     assert_eq!(
-        u16::from_le_bytes([now[12 + 4], now[12 + 5]]),
-        ballpod::config::ENCODING_VERSION
+        [
+            s.s002_u_w_clamp_um,
+            s.s002_u_t_centring_um,
+            s.s002_u_t_axial_um
+        ],
+        [22.0, 0.5, 22.0]
     );
-    assert!(same(&decode_record(&now).unwrap().config, &now_cfg));
+    assert_eq!(
+        [d.w_clamp_um, d.t_centring_um, d.t_axial_um],
+        [22.0, 0.5, 22.0]
+    );
+    let mut bad = slot.clone();
+    bad[50] ^= 2;
+    assert!(decode_record(&bad).is_err());
+    // the next save writes the current version with the new fields, and reads back
+    let mut now_cfg = rec.config;
+    now_cfg.setup.s002_u_w_clamp_um = 35.0;
+    now_cfg.setup.s002_u_t_centring_um = 1.5;
+    resaved_as_current_version(&now_cfg, 22);
 }

@@ -2,7 +2,9 @@
 //! (`identify::multitasking::model_lsq`): random deviations → the independent forward model of
 //! `ballpod_host::forward_seed002` (literal 4×4 products + §3.5 fit) → identification recovers
 //! them; rank-deficient set-ups are reported with the combination they cannot separate.
-use ballpod::identify::multitasking::model_lsq::{ModelLsq, ModelLsqError, PatternMeasurement};
+use ballpod::identify::multitasking::model_lsq::{
+    ModelLsq, ModelLsqError, MountingUncertainty, PatternMeasurement,
+};
 use ballpod::identify::multitasking::patterns::{Pattern, PatternError, PatternGeometry};
 use ballpod::identify::multitasking::{Deviations, Parameter};
 use ballpod_host::forward_seed002 as fwd;
@@ -330,7 +332,10 @@ fn propagated_uncertainty_matches_re_identification() {
         .map(|i| [0.1 + 0.02 * i as f64, 0.15])
         .collect();
     let lsq = ModelLsq::without_squareness();
-    let (res, got) = lsq.identify_propagated(&m, &u).unwrap();
+    let (res, got) = lsq
+        .identify_propagated(&m, &u, &MountingUncertainty::NONE)
+        .unwrap();
+    let got = got.combined;
     let x0 = res.deviations.to_array();
     let mut var = [0.0f64; 13];
     for i in 0..m.len() {
@@ -356,7 +361,8 @@ fn propagated_uncertainty_matches_re_identification() {
         );
     }
     assert_eq!(
-        lsq.identify_propagated(&m, &u[..2]).map(|_| ()),
+        lsq.identify_propagated(&m, &u[..2], &MountingUncertainty::NONE)
+            .map(|_| ()),
         Err(ModelLsqError::BadMeasurement { index: 2 })
     );
 }

@@ -181,20 +181,23 @@ fn tv9_w_ball_mounting_invariance() {
     );
 }
 
-/// T-ball offsets x_T, z_T act like δx_BT, δz_BT to first order (spec §3.7; 2nd order ~2 nm).
+/// T-ball offsets x_T, y_T, z_T act like δx_BT, −δy_CZ, δz_BT to first order on every pattern
+/// of the procedure (spec §3.7 for x_T, z_T; 2nd order ~2 nm): what the model mode identifies
+/// as those deviations includes them (`model_lsq::MountingUncertainty`).
 #[test]
 fn t_ball_offsets_alias_spindle_offsets() {
-    for p in [Pattern::Bx, Pattern::Cr] {
+    for p in [Pattern::Bx, Pattern::By, Pattern::Cr, Pattern::Ca] {
         let by_offset = ecc(
             p,
             &Deviations::default(),
             &Mounting {
-                t_offset_um: [15.0, 0.0, -12.0],
+                t_offset_um: [15.0, 9.0, -12.0],
                 w_offset_um: [0.0; 3],
             },
         );
         let d = Deviations {
             dx_bt_um: 15.0,
+            dy_cz_um: -9.0,
             dz_bt_um: -12.0,
             ..Deviations::default()
         };

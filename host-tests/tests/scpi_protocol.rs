@@ -564,6 +564,9 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::TsOriginMm(k) => g(s.ts_origin_mm[k as usize]),
         Field::TsAngleDeg(k) => g(s.ts_angles_deg[k as usize]),
         Field::ProbeLengthMm => g(s.probe_length_mm),
+        Field::S002UWClampUm => g(s.s002_u_w_clamp_um),
+        Field::S002UTCentringUm => g(s.s002_u_t_centring_um),
+        Field::S002UTAxialUm => g(s.s002_u_t_axial_um),
         Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => unreachable!(),
     }
 }

@@ -4,6 +4,7 @@
 //! machine's deviations. Truth: the machine preset (thesis Table 4.5 values, spec seed-002
 //! §5.7), simulated by the independent forward model `forward_seed002`.
 
+use ballpod::app::seed002::Setup;
 use ballpod::identify::multitasking::compensation::{CompensationMode, compensate};
 use ballpod::identify::multitasking::model_lsq::ModelLsq;
 use ballpod::identify::multitasking::patterns::NcBlock;
@@ -39,16 +40,6 @@ fn figure<'a>(r: &'a Report, name: &str) -> &'a Figure {
     r.result(name).unwrap_or_else(|| panic!("{name} not valid"))
 }
 
-/// The model mode's free deviations (the ten the procedure identifies; the squareness errors
-/// are fixed at 0).
-fn free() -> Vec<Parameter> {
-    let free = ModelLsq::without_squareness().free;
-    Parameter::ALL
-        .into_iter()
-        .filter(|p| free[p.index()])
-        .collect()
-}
-
 #[test]
 fn identified_deviations_match_the_truth_within_their_uncertainty() {
     let m = MachineFile::default();
@@ -58,8 +49,9 @@ fn identified_deviations_match_the_truth_within_their_uncertainty() {
     assert_eq!(r.runs.len(), 10);
     assert!(r.runs.iter().all(|x| x.outcome == "DONE"), "{:?}", r.runs);
     let truth = m.seed002.deviations();
+    let setup = Setup::thesis_table_4_3();
     let mut checked = 0;
-    for p in free() {
+    for p in ModelLsq::without_squareness().free_parameters() {
         let v = figure(r, p.name());
         let (value, u) = (f64::from(v.value), f64::from(v.u.expect("u evaluated")));
         let (t, unit) = if p.is_positional() {
@@ -69,7 +61,27 @@ fn identified_deviations_match_the_truth_within_their_uncertainty() {
         };
         assert_eq!(v.unit, unit, "{}", v.name);
         let d = (value - t).abs();
-        assert!(u > 0.0 && u < 0.2, "{}: u = {u}", v.name);
+        // The T-ball's re-centring on the extension (two centrings, each with u_c per radial
+        // component) is seen over R′_B − R_B only: to first order α_BT and β_XB move by
+        // Δ/(R′_B − R_B), δx_BT and δy_CZ by Δ·R_B/(R′_B − R_B), Δ the two centrings'
+        // difference (u = √2·u_c). The other deviations' u stays near the eccentricities'.
+        let recentring = std::f64::consts::SQRT_2 * setup.mounting.t_centring_um;
+        let lever = setup.r_b2_mm - setup.r_b_mm;
+        let want_u = match p {
+            Parameter::AlphaBt | Parameter::BetaXb => {
+                Some(urad_to_arcsec(recentring / lever * 1e3))
+            }
+            Parameter::DxBt | Parameter::DyCz => Some(recentring * setup.r_b_mm / lever),
+            _ => None,
+        };
+        match want_u {
+            Some(w) => assert!(
+                (u - w).abs() <= 0.01 * w,
+                "{}: u = {u}, {w} expected",
+                v.name
+            ),
+            None => assert!(u > 0.0 && u < 0.2, "{}: u = {u}", v.name),
+        }
         // k = 3: the test must not fail by chance on one of ten normal deviates
         assert!(d <= 3.0 * u, "{}: |{value} − {t}| > 3·{u}", v.name);
         assert!(d <= 0.5, "{}: {value} vs {t}", v.name);
@@ -101,7 +113,7 @@ fn an_incomplete_procedure_reports_no_identification() {
     let r = replay(first).expect("replay");
     assert_eq!(r.runs.len(), 9);
     assert!(r.runs.iter().all(|x| x.outcome == "DONE"));
-    for p in free() {
+    for p in ModelLsq::without_squareness().free_parameters() {
         assert!(r.result(p.name()).is_none(), "{} without CR2 CCW", p.name());
         assert!(r.result(&format!("corr_{}", p.name())).is_none());
     }
@@ -128,7 +140,7 @@ fn compensation_of_a_simulated_run_removes_the_true_error() {
     // µrad, and their standard uncertainties (0 where fixed)
     let mut identified = [0.0f64; 13];
     let mut u = [0.0f64; 13];
-    for p in free() {
+    for p in ModelLsq::without_squareness().free_parameters() {
         let c = figure(r, &format!("corr_{}", p.name()));
         let (v, uu) = (-f64::from(c.value), f64::from(c.u.expect("u")));
         let to_core = |x: f64| {

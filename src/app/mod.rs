@@ -906,7 +906,7 @@ impl App {
             let i = p.index();
             let (v, u) = (
                 x.get(i).copied().unwrap_or(f64::NAN),
-                m.std_uncertainty.get(i).copied().unwrap_or(f64::NAN),
+                m.uncertainty.combined.get(i).copied().unwrap_or(f64::NAN),
             );
             let (v, u) = if p.is_positional() {
                 (v, u)

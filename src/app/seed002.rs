@@ -11,7 +11,8 @@
 //!
 //! both with standard uncertainties propagated from the eccentricity uncertainties (thesis
 //! mode: one perturbation per eccentricity component; model mode: linear propagation through
-//! the solution's sensitivities, [`ModelLsq::identify_propagated`]).
+//! the solution's sensitivities, [`ModelLsq::identify_propagated`]); the model mode's adds the
+//! balls' mounting offsets of the set-up's budget ([`Setup::mounting`]).
 //!
 //! Eccentricity uncertainty of a step: u = max(u_fit, s/√m) per component, u_fit from the runs'
 //! residuals (combined CW/CCW, averaged over the m repeats), s the repeat scatter (m ≥ 2).
@@ -26,7 +27,8 @@ use crate::identify::multitasking::ballbar::{
     BallBarError, ThesisEccentricities, ThesisGeometry, ThesisResult, identify_thesis,
 };
 use crate::identify::multitasking::model_lsq::{
-    ModelLsq, ModelLsqError, ModelLsqResult, PatternMeasurement,
+    DeviationUncertainty, ModelLsq, ModelLsqError, ModelLsqResult, MountingUncertainty,
+    PatternMeasurement,
 };
 use crate::identify::multitasking::patterns::{NcOffset, Pattern as ModelPattern, PatternGeometry};
 use crate::metrology::circle_fit::{
@@ -81,6 +83,8 @@ pub struct Setup {
     pub x_t_mm: f64,
     /// Offset of the machine coordinates from the model frame (mm).
     pub offset: NcOffset,
+    /// The balls' mounting uncertainties (Type B inputs of the model mode's budget, µm).
+    pub mounting: MountingUncertainty,
 }
 
 impl Setup {
@@ -100,6 +104,7 @@ impl Setup {
                 y_mm: 0.0,
                 z_mm: 0.0,
             },
+            mounting: MountingUncertainty::SEED002,
         }
     }
 
@@ -121,6 +126,11 @@ impl Setup {
                 let [x_mm, y_mm, z_mm] = required3(t.s002_origin_mm, Field::S002OriginMm)?;
                 NcOffset { x_mm, y_mm, z_mm }
             },
+            mounting: MountingUncertainty {
+                w_clamp_um: f64::from(t.s002_u_w_clamp_um),
+                t_centring_um: f64::from(t.s002_u_t_centring_um),
+                t_axial_um: f64::from(t.s002_u_t_axial_um),
+            },
         })
     }
 
@@ -139,6 +149,9 @@ impl Setup {
             self.offset.y_mm as f32,
             self.offset.z_mm as f32,
         ];
+        t.s002_u_w_clamp_um = self.mounting.w_clamp_um as f32;
+        t.s002_u_t_centring_um = self.mounting.t_centring_um as f32;
+        t.s002_u_t_axial_um = self.mounting.t_axial_um as f32;
     }
 
     /// The pattern geometry of a step (R′_B for CR2).
@@ -229,9 +242,9 @@ pub struct StepEccentricity {
 pub struct ModelIdentification {
     /// The Gauss–Newton solution on the measured eccentricities.
     pub result: ModelLsqResult,
-    /// Standard uncertainty of each deviation propagated from the eccentricity uncertainties
-    /// (µm / µrad, 0 for the fixed squareness errors).
-    pub std_uncertainty: [f64; 13],
+    /// Standard uncertainty of each deviation by source, the eccentricities' and the balls'
+    /// mounting offsets ([`Setup::mounting`]) (µm / µrad, 0 for the fixed squareness errors).
+    pub uncertainty: DeviationUncertainty,
 }
 
 /// Everything the procedure identifies.
@@ -499,12 +512,12 @@ impl Procedure {
         u.iter_mut()
             .zip(steps.iter())
             .for_each(|(u, s)| *u = s.u_e_um);
-        let (result, std_uncertainty) = lsq
-            .identify_propagated(&m, &u)
+        let (result, uncertainty) = lsq
+            .identify_propagated(&m, &u, &self.setup.mounting)
             .map_err(SessionError::Model)?;
         Ok(ModelIdentification {
             result,
-            std_uncertainty,
+            uncertainty,
         })
     }
 }

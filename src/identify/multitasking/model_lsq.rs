@@ -15,8 +15,11 @@
 //!   exactly (10 equations) unless patterns are repeated;
 //! - α_YZ and β_YZ alias α_XB and β_XB, and γ_XY is seen only by CX (spec §3.4): freeing
 //!   them gives [`ModelLsqError::NotSeparable`] naming the combination;
-//! - T-ball mounting offsets x_T, z_T act exactly like δx_BT, δz_BT (they are not unknowns
-//!   here; what is identified as δx_BT/δz_BT includes them).
+//! - T-ball mounting offsets x_T, y_T, z_T act exactly like δx_BT, −δy_CZ, δz_BT to first
+//!   order (they are not unknowns here; what is identified as δx_BT, δy_CZ, δz_BT includes
+//!   the first tool length's offset);
+//! - the balls' mounting offsets are not identifiable at all (no redundancy): their effect is
+//!   budgeted ([`MountingUncertainty`], [`ModelLsq::identify_propagated`]).
 use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError, LsqSolution};
 
 /// Relative damping λ of the free deviations (× the largest weighted sensitivity column).
@@ -88,7 +91,114 @@ pub enum ModelLsqError {
     },
     /// Gauss–Newton did not converge within the iteration limit.
     NoConvergence,
+    /// A mounting input uncertainty is negative or not finite.
+    BadMountingUncertainty {
+        /// The input.
+        input: MountingInput,
+    },
 }
+
+/// What the identified deviations absorb of the first tool length's T-ball offset (x_T, y_T,
+/// z_T in the spindle frame): x_T acts as δx_BT, y_T as −δy_CZ, z_T as δz_BT, exactly to first
+/// order (`identify_multitasking_model.rs::t_ball_offsets_alias_spindle_offsets`).
+const T_BALL_ALIAS: [(Parameter, f64); 3] = [
+    (Parameter::DxBt, 1.0),
+    (Parameter::DyCz, -1.0),
+    (Parameter::DzBt, 1.0),
+];
+
+/// One Type B input of [`MountingUncertainty`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MountingInput {
+    /// [`MountingUncertainty::w_clamp_um`].
+    WClamp,
+    /// [`MountingUncertainty::t_centring_um`].
+    TCentring,
+    /// [`MountingUncertainty::t_axial_um`].
+    TAxial,
+}
+
+/// Type B inputs of the seed 002 set-up: the standard uncertainty of each Cartesian component
+/// of the balls' mounting offsets (µm; spec seed-002 §2.7, eqs 2.20–2.21), every clamping and
+/// every centring independent. The identification cannot estimate them (five steps, ten
+/// deviations: no redundancy), so [`ModelLsq::identify_propagated`] budgets them: each
+/// offset component is moved by its u through the full model at the identified deviations.
+///
+/// Which measurements share an offset (the procedure of §5.3):
+/// - one W-ball clamping for the B patterns (W-ball on the C axis: BX, BY) and one for the
+///   C patterns (W-ball at R_C: CR, CA and CR′, "not moved after CR");
+/// - one T-ball mounting per tool length R_B (BX–CA; CR′ has its own, re-centred on the
+///   extension).
+///
+/// The first measurement's tool length's T-ball offset is absorbed to first order by δx_BT
+/// (x_T), δy_CZ (−y_T) and δz_BT (z_T): what is identified includes it, and only its second
+/// order is budgeted. Another tool length's offset is an error of first order: the pair of
+/// tool lengths separates δx_BT and the tilts over R′_B − R_B, so a re-centring difference of
+/// 1 µm moves α_BT and β_XB by about 1/(R′_B − R_B) = 20 µrad at 50 mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MountingUncertainty {
+    /// W-ball clamping shift, each clamping, per component of the C frame (µm).
+    pub w_clamp_um: f64,
+    /// T-ball radial offset left by centring (x_T, y_T), each tool length (µm).
+    pub t_centring_um: f64,
+    /// T-ball axial offset z_T (the error of the tool length as entered), each tool length
+    /// (µm).
+    pub t_axial_um: f64,
+}
+
+impl MountingUncertainty {
+    /// The defaults, from the procedure of spec seed-002 §2.7 and §5.2:
+    /// - W-ball 22 µm: it shifts 10–60 µm in a random direction at every clamping (measured
+    ///   in the thesis); a magnitude uniform in 10–60 µm gives an rms per component of
+    ///   √((60³ − 10³) / (3 · 50) / 3) = 21.9 µm;
+    /// - T-ball radial 0.5 µm: centred until the bar's length change stays within ±1 µm as
+    ///   the spindle turns, an offset uniform in a disc of 1 µm radius (rms per component
+    ///   1/2 µm);
+    /// - T-ball axial 22 µm: the T-ball's clamping shift along the spindle, taken as the
+    ///   W-ball's (the dummy sphere, not the T-ball, sets R_B).
+    pub const SEED002: Self = Self {
+        w_clamp_um: 22.0,
+        t_centring_um: 0.5,
+        t_axial_um: 22.0,
+    };
+
+    /// No mounting uncertainty: the eccentricities' u alone.
+    pub const NONE: Self = Self {
+        w_clamp_um: 0.0,
+        t_centring_um: 0.0,
+        t_axial_um: 0.0,
+    };
+
+    /// Every input finite and ≥ 0, or the first one that is not.
+    pub fn validate(&self) -> Result<(), MountingInput> {
+        for (v, input) in [
+            (self.w_clamp_um, MountingInput::WClamp),
+            (self.t_centring_um, MountingInput::TCentring),
+            (self.t_axial_um, MountingInput::TAxial),
+        ] {
+            if !(v >= 0.0 && v.is_finite()) {
+                return Err(input);
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Standard uncertainty of every deviation by source (order of [`Parameter::ALL`], µm /
+/// µrad; 0 for fixed deviations).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct DeviationUncertainty {
+    /// Combined: the root sum of squares of the sources.
+    pub combined: [f64; 13],
+    /// By source, in the order of [`UNCERTAINTY_SOURCES`]: the eccentricities' standard
+    /// uncertainties (Type A: bar noise, fit residuals, repeat scatter); the W-ball clamping
+    /// shifts (Type B, second order); the T-ball offsets beyond what the identified deviations
+    /// absorb (Type B).
+    pub by_source: [[f64; 13]; 3],
+}
+
+/// The sources of [`DeviationUncertainty::by_source`].
+pub const UNCERTAINTY_SOURCES: [&str; 3] = ["eccentricities", "W-ball clamping", "T-ball mounting"];
 
 /// Identifiability of a set-up: singular values of the (weighted) sensitivity matrix over the
 /// free deviations, and the combinations the set-up cannot separate.
@@ -178,6 +288,14 @@ impl ModelLsq {
         }
     }
 
+    /// The free deviations, in the order of [`Parameter::ALL`].
+    pub fn free_parameters(&self) -> impl Iterator<Item = Parameter> + '_ {
+        Parameter::ALL
+            .into_iter()
+            .zip(self.free.iter())
+            .filter_map(|(p, f)| f.then_some(p))
+    }
+
     fn free_count(&self) -> usize {
         self.free.iter().filter(|f| **f).count()
     }
@@ -233,11 +351,9 @@ impl ModelLsq {
         x: &[f64; 13],
         pred: &[[f64; 2]; MAX_MEASUREMENTS],
         differences: Differences,
-    ) -> Result<Jacobian, ModelLsqError> {
-        let mut jac = Jacobian {
-            rows: [[0.0; 13]; 2 * MAX_MEASUREMENTS],
-            scale: 1.0,
-        };
+        jac: &mut Jacobian,
+    ) -> Result<(), ModelLsqError> {
+        jac.scale = 1.0;
         let h = match differences {
             Differences::Forward => 0.01,
             Differences::Central => 1.0,
@@ -283,7 +399,7 @@ impl ModelLsq {
         if scale > 0.0 && scale.is_finite() {
             jac.scale = scale;
         }
-        Ok(jac)
+        Ok(())
     }
 
     /// The linear system `J Δx ≈ b` (`b` per measurement and component, µm).
@@ -366,7 +482,8 @@ impl ModelLsq {
         self.check(m)?;
         let x = self.fixed.to_array();
         let pred = Self::predict(m, &x)?;
-        let jac = self.jacobian(m, &x, &pred, Differences::Central)?;
+        let mut jac = Jacobian::EMPTY;
+        self.jacobian(m, &x, &pred, Differences::Central, &mut jac)?;
         let sol = self
             .system(m, &jac, &pred)?
             .solve(DEFAULT_RANK_TOL)
@@ -398,49 +515,121 @@ impl ModelLsq {
     /// Identifies the free deviations from the measured patterns on the literal model. Rank
     /// deficiency is an error naming the inseparable combination.
     pub fn identify(&self, m: &[PatternMeasurement]) -> Result<ModelLsqResult, ModelLsqError> {
-        self.solve(m).map(|(result, _)| result)
+        let mut jac = Jacobian::EMPTY;
+        self.solve(m, &mut jac)
     }
 
-    /// [`Self::identify`], plus the standard uncertainty of every deviation propagated from
-    /// the standard uncertainties `u_um[i]` of measurement `i`'s two components (µm; same
-    /// length as `m`; 0 or NaN for a component without one): linear propagation through the
-    /// solution's sensitivity, `u(x_j)² = Σ (∂x_j/∂e_k · u_k)²` (GUM §5.1.2, uncorrelated
-    /// inputs), each `∂x/∂e_k` one solve of the same weighted system. Result in µm / µrad,
-    /// 0 for fixed deviations.
+    /// [`Self::identify`], plus every deviation's standard uncertainty by source (µm / µrad,
+    /// 0 for fixed deviations):
+    /// - from the eccentricities: the standard uncertainties `u_um[i]` of measurement `i`'s
+    ///   two components (µm; same length as `m`; 0 or NaN for a component without one),
+    ///   propagated linearly through the solution's sensitivity, `u(x_j)² = Σ (∂x_j/∂e_k ·
+    ///   u_k)²` (GUM §5.1.2, uncorrelated inputs), each `∂x/∂e_k` one solve of the same
+    ///   weighted system;
+    /// - from the balls' mounting offsets (Type B, [`MountingUncertainty`]): see
+    ///   [`MountingUncertainty`] for which measurements share a clamping or a centring and
+    ///   what the identified deviations absorb.
+    #[inline(never)] // flash: 0.9 KB smaller than inlined into the application task
     pub fn identify_propagated(
         &self,
         m: &[PatternMeasurement],
         u_um: &[[f64; 2]],
-    ) -> Result<(ModelLsqResult, [f64; 13]), ModelLsqError> {
+        budget: &MountingUncertainty,
+    ) -> Result<(ModelLsqResult, DeviationUncertainty), ModelLsqError> {
         if u_um.len() != m.len() {
             return Err(ModelLsqError::BadMeasurement {
                 index: m.len().min(u_um.len()),
             });
         }
-        let (result, jac) = self.solve(m)?;
-        let mut var = [0.0f64; 13];
-        for (i, u) in u_um.iter().enumerate() {
-            for (k, &uk) in u.iter().enumerate() {
-                if !(uk > 0.0 && uk.is_finite()) {
+        budget
+            .validate()
+            .map_err(|input| ModelLsqError::BadMountingUncertainty { input })?;
+        let mut jac = Jacobian::EMPTY;
+        let result = self.solve(m, &mut jac)?;
+        let x = result.deviations.to_array();
+        let pred = Self::predict(m, &x)?;
+        let mut var = [[0.0f64; 13]; 3];
+        // The inputs of measurement i: its two eccentricity components (moved by their u),
+        // then the three components of the W-ball's clamping and of the T-ball's mounting
+        // that measurement i is the first to share (each moved by its u through the full model
+        // at the identified deviations: a secant, all measurements sharing it at once). Each
+        // input's eccentricity changes b give the deviations' response ∂x/∂e · b.
+        for (i, (p, u_e)) in m.iter().zip(u_um.iter()).enumerate() {
+            for input in 0..8usize {
+                let mut b = [[0.0f64; 2]; MAX_MEASUREMENTS];
+                let k = (input + 1) % 3; // 2, 3, 4 → x, y, z; 5, 6, 7 → x, y, z
+                let w_ball = input < 5;
+                let shares = |q: &PatternMeasurement| {
+                    if w_ball {
+                        q.pattern.is_b() == p.pattern.is_b()
+                    } else {
+                        q.geometry.r_b_mm == p.geometry.r_b_mm
+                    }
+                };
+                let (source, u) = if input < 2 {
+                    let uk = u_e.get(input).copied().unwrap_or(0.0);
+                    if let Some(v) = b.get_mut(i).and_then(|r| r.get_mut(input)) {
+                        *v = uk;
+                    }
+                    (0, uk)
+                } else if m.iter().position(shares) != Some(i) {
+                    continue;
+                } else {
+                    let mut mounting = Mounting::default();
+                    let (source, offset, u) = match (w_ball, k) {
+                        (true, _) => (1, &mut mounting.w_offset_um, budget.w_clamp_um),
+                        (false, 2) => (2, &mut mounting.t_offset_um, budget.t_axial_um),
+                        (false, _) => (2, &mut mounting.t_offset_um, budget.t_centring_um),
+                    };
+                    if let Some(v) = offset.get_mut(k) {
+                        *v = u;
+                    }
+                    for (index, ((q, dst), base)) in
+                        m.iter().zip(b.iter_mut()).zip(pred.iter()).enumerate()
+                    {
+                        if shares(q) && u > 0.0 {
+                            let e = predict_with(index, q, &x, &mounting)?;
+                            *dst = [e[0] - base[0], e[1] - base[1]];
+                        }
+                    }
+                    (source, u)
+                };
+                if !(u > 0.0 && u.is_finite()) {
                     continue;
                 }
-                let mut b = [[0.0f64; 2]; MAX_MEASUREMENTS];
-                if let Some(v) = b.get_mut(i).and_then(|r| r.get_mut(k)) {
-                    *v = uk;
+                let mut dx = response(m, &jac, &b);
+                if source == 2 && i == 0 {
+                    // The first tool length's T-ball offset is part of what is identified.
+                    if let Some((param, sign)) = T_BALL_ALIAS.get(k)
+                        && let Some(v) = dx.get_mut(param.index())
+                    {
+                        *v -= sign * u;
+                    }
                 }
-                let dx = self
-                    .system(m, &jac, &b)?
-                    .solve(DEFAULT_RANK_TOL)
-                    .map_err(ModelLsqError::Lsq)?
-                    .x;
-                var.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
+                if let Some(v) = var.get_mut(source) {
+                    v.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
+                }
             }
         }
-        let mut u = [0.0f64; 13];
-        for ((dst, v), f) in u.iter_mut().zip(var.iter()).zip(self.free.iter()) {
-            *dst = if *f { crate::num::sqrt(*v) } else { 0.0 };
+        let mut out = DeviationUncertainty::default();
+        for (j, free) in self.free.iter().enumerate() {
+            let mut sum = 0.0;
+            for (v, dst) in var.iter().zip(out.by_source.iter_mut()) {
+                let vj = if *free {
+                    v.get(j).copied().unwrap_or(0.0)
+                } else {
+                    0.0
+                };
+                sum += vj;
+                if let Some(d) = dst.get_mut(j) {
+                    *d = crate::num::sqrt(vj);
+                }
+            }
+            if let Some(d) = out.combined.get_mut(j) {
+                *d = crate::num::sqrt(sum);
+            }
         }
-        Ok((result, u))
+        Ok((result, out))
     }
 
     /// Chord (frozen-Jacobian) Gauss–Newton: the sensitivities are taken once at the start
@@ -451,11 +640,19 @@ impl ModelLsq {
     /// unknowns) and differs from it by (J − J₀)ᵀ·residual ≈ 1e-5 × the residual otherwise.
     /// One Jacobian costs a model simulation per free deviation and pattern; each iteration
     /// one per pattern — the reason for the chord method on the pod (soft f64 on the M4).
-    fn solve(&self, m: &[PatternMeasurement]) -> Result<(ModelLsqResult, Jacobian), ModelLsqError> {
+    ///
+    /// `jac` is the caller's (3.3 KiB of sensitivities and the SVD, kept off this frame): it
+    /// ends holding the last sensitivities and the converged system's SVD ([`response`]).
+    #[inline(never)] // flash: one body for identify and identify_propagated
+    fn solve(
+        &self,
+        m: &[PatternMeasurement],
+        jac: &mut Jacobian,
+    ) -> Result<ModelLsqResult, ModelLsqError> {
         self.check(m)?;
         let mut x = self.fixed.to_array();
         let mut pred = Self::predict(m, &x)?;
-        let mut jac = self.jacobian(m, &x, &pred, Differences::Forward)?;
+        self.jacobian(m, &x, &pred, Differences::Forward, jac)?;
         let mut last_step = f64::INFINITY;
         let mut checked_rank = false;
         for it in 0..self.max_iterations.max(1) {
@@ -466,7 +663,7 @@ impl ModelLsq {
                 rss += dst[0] * dst[0] + dst[1] * dst[1];
             }
             let sol = self
-                .system(m, &jac, &b)?
+                .system(m, jac, &b)?
                 .solve(DEFAULT_RANK_TOL)
                 .map_err(ModelLsqError::Lsq)?;
             if !checked_rank {
@@ -507,12 +704,14 @@ impl ModelLsq {
                     condition: sol.condition,
                     iterations: it + 1,
                 };
-                return Ok((result, jac));
+                jac.singular_values = sol.singular_values;
+                jac.right_singular_vectors = sol.right_singular_vectors;
+                return Ok(result);
             }
             x.iter_mut().zip(sol.x.iter()).for_each(|(a, d)| *a += d);
             pred = Self::predict(m, &x)?;
             if step > 0.1 * last_step {
-                jac = self.jacobian(m, &x, &pred, Differences::Forward)?;
+                self.jacobian(m, &x, &pred, Differences::Forward, jac)?;
             }
             last_step = step;
         }
@@ -525,10 +724,23 @@ impl ModelLsq {
 pub const MAX_MEASUREMENTS: usize = 16;
 
 /// Sensitivity rows ∂e/∂x of the measurement equations (µm per µm / µrad, unweighted; two
-/// per measurement), and the largest weighted column norm.
+/// per measurement), the largest weighted column norm, and once solved the weighted system's
+/// singular values and right singular vectors ([`response`]).
 struct Jacobian {
     rows: [[f64; 13]; 2 * MAX_MEASUREMENTS],
     scale: f64,
+    singular_values: [f64; 13],
+    right_singular_vectors: [[f64; 13]; 13],
+}
+
+impl Jacobian {
+    /// All zero (a constant of zeros is a memset, any other value a 4.8 KB image in flash).
+    const EMPTY: Self = Self {
+        rows: [[0.0; 13]; 2 * MAX_MEASUREMENTS],
+        scale: 0.0,
+        singular_values: [0.0; 13],
+        right_singular_vectors: [[0.0; 13]; 13],
+    };
 }
 
 /// How [`ModelLsq::jacobian`] differentiates the model.
@@ -538,17 +750,59 @@ enum Differences {
     Central,
 }
 
-/// The model's eccentricity for measurement `index` at deviations `x` (µm).
+/// The deviations' response ∂x/∂e · b to eccentricity changes `b` (µm): the least-squares
+/// step of the converged system (weighted design A with its fixing and damping rows,
+/// `AᵀA = V·Σ²·Vᵀ` from the SVD [`ModelLsq::solve`] leaves in `jac`) for the right-hand side
+/// b, `Δx = V·Σ⁻²·Vᵀ·JᵀW·b` — one product instead of a new factorisation per input.
+fn response(
+    m: &[PatternMeasurement],
+    jac: &Jacobian,
+    b: &[[f64; 2]; MAX_MEASUREMENTS],
+) -> [f64; 13] {
+    let mut g = [0.0f64; 13];
+    for ((p, rows), rhs) in m.iter().zip(jac.rows.chunks_exact(2)).zip(b.iter()) {
+        for (row, v) in rows.iter().zip(rhs.iter()) {
+            let wv = p.weight() * v;
+            g.iter_mut().zip(row.iter()).for_each(|(g, r)| *g += wv * r);
+        }
+    }
+    let mut dx = [0.0f64; 13];
+    for (s, v) in jac
+        .singular_values
+        .iter()
+        .zip(jac.right_singular_vectors.iter())
+    {
+        if *s > 0.0 {
+            let c = v.iter().zip(g.iter()).map(|(a, b)| a * b).sum::<f64>() / (s * s);
+            dx.iter_mut().zip(v.iter()).for_each(|(d, a)| *d += c * a);
+        }
+    }
+    dx
+}
+
+/// The model's eccentricity for measurement `index` at deviations `x` (µm), balls mounted
+/// without offsets.
 fn predict_one(
     index: usize,
     p: &PatternMeasurement,
     x: &[f64; 13],
 ) -> Result<[f64; 2], ModelLsqError> {
+    predict_with(index, p, x, &Mounting::default())
+}
+
+/// The model's eccentricity for measurement `index` at deviations `x` with the balls'
+/// mounting offsets `mounting` (µm).
+fn predict_with(
+    index: usize,
+    p: &PatternMeasurement,
+    x: &[f64; 13],
+    mounting: &Mounting,
+) -> Result<[f64; 2], ModelLsqError> {
     simulate_eccentricity(
         p.pattern,
         &p.geometry,
         &Deviations::from_array(x),
-        &Mounting::default(),
+        mounting,
         p.samples,
     )
     .map(|e| [e.e1_um, e.e2_um])

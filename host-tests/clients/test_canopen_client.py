@@ -242,7 +242,9 @@ def test_circle_ccw_then_cw_against_numpy_and_truth(pod, eds):
         iso = iso230_4(*fits)
         for name, (v, u) in pod_r.items():
             if name == "radial_bidir":
-                assert v == pytest.approx(iso[name], abs=0.01) and math.isnan(u), name
+                # numpy's joint fit of the streamed samples (at the stream's resolution); its u is
+                # the noise's through that fit, nanometres over a whole circle of samples
+                assert v == pytest.approx(iso[name], abs=0.01) and 0.0 < u < 0.01, (name, u)
                 continue
             # numpy's extremes of the bin means, which the pod corrects for the noise's bias by
             # less than its stated u twice over (metrology/extremes.rs)

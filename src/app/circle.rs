@@ -180,11 +180,10 @@ impl CircleTest {
                 b.bidirectional_circular_deviation_um,
             );
             set(results, ResultId::H, b.circular_hysteresis_h_um);
-            // the joint circle's radius change: its u is not evaluated (NaN)
-            results.set(
+            set(
+                results,
                 ResultId::RadialBidir,
-                f64::from(b.mean_bidirectional_radial_deviation_um),
-                f64::NAN,
+                b.mean_bidirectional_radial_deviation_um,
             );
         }
         let diag = |d| self.test.diagnostics(d);

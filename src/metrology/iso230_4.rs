@@ -177,8 +177,11 @@ pub struct BidirectionalFigures {
     /// with its u as G's.
     pub bidirectional_circular_deviation_um: Diagnosed,
     /// Mean bi-directional radial deviation (2005) = mean bi-directional radial error (2022):
-    /// radius change of the circle fitted to both directions, µm.
-    pub mean_bidirectional_radial_deviation_um: f32,
+    /// radius change of the circle fitted to both directions, µm, with its u from the
+    /// samples' noise (the profiles' third differences, as G's): σ·√((AᵀA)⁻¹₀₀) of the joint
+    /// least squares, σ² the directions' noise pooled by their sample counts. The profile's
+    /// shape is not noise (it is what is measured), so the fit residual is not its u.
+    pub mean_bidirectional_radial_deviation_um: Diagnosed,
     /// Centre offset of the circle fitted to both directions, (u, v) µm.
     pub joint_e_um: [f32; 2],
 }
@@ -422,10 +425,19 @@ impl<const BINS: usize> CircularTest<BINS> {
             ],
             Err([g, _, _, h, _]) => [g, h].map(not_evaluated),
         };
+        let (na, nb) = (ccw.fit.samples() as f32, cw.fit.samples() as f32);
+        let pooled = (na * sa * sa + nb * sb * sb) / (na + nb);
+        let a00 = joint
+            .normal_matrix()
+            .cholesky()
+            .map_or(f64::NAN, |c| c.inverse().a00) as f32;
         Ok(BidirectionalFigures {
             circular_hysteresis_h_um: h,
             bidirectional_circular_deviation_um: g_b,
-            mean_bidirectional_radial_deviation_um: x[0] as f32,
+            mean_bidirectional_radial_deviation_um: Diagnosed {
+                value: x0,
+                std_uncertainty: crate::num::sqrtf(pooled * a00),
+            },
             joint_e_um: [x[1] as f32, x[2] as f32],
         })
     }

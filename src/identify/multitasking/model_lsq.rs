@@ -190,15 +190,11 @@ impl MountingUncertainty {
 pub struct DeviationUncertainty {
     /// Combined: the root sum of squares of the sources.
     pub combined: [f64; 13],
-    /// By source, in the order of [`UNCERTAINTY_SOURCES`]: the eccentricities' standard
-    /// uncertainties (Type A: bar noise, fit residuals, repeat scatter); the W-ball clamping
-    /// shifts (Type B, second order); the T-ball offsets beyond what the identified deviations
-    /// absorb (Type B).
+    /// By source: `[0]` the eccentricities' standard uncertainties (Type A: bar noise, fit
+    /// residuals, repeat scatter); `[1]` the W-ball clamping shifts (Type B, second order);
+    /// `[2]` the T-ball offsets beyond what the identified deviations absorb (Type B).
     pub by_source: [[f64; 13]; 3],
 }
-
-/// The sources of [`DeviationUncertainty::by_source`].
-pub const UNCERTAINTY_SOURCES: [&str; 3] = ["eccentricities", "W-ball clamping", "T-ball mounting"];
 
 /// Identifiability of a set-up: singular values of the (weighted) sensitivity matrix over the
 /// free deviations, and the combinations the set-up cannot separate.
@@ -524,8 +520,8 @@ impl ModelLsq {
     /// - from the eccentricities: the standard uncertainties `u_um[i]` of measurement `i`'s
     ///   two components (µm; same length as `m`; 0 or NaN for a component without one),
     ///   propagated linearly through the solution's sensitivity, `u(x_j)² = Σ (∂x_j/∂e_k ·
-    ///   u_k)²` (GUM §5.1.2, uncorrelated inputs), each `∂x/∂e_k` one solve of the same
-    ///   weighted system;
+    ///   u_k)²` (GUM §5.1.2, uncorrelated inputs), each `∂x/∂e_k` one product with the
+    ///   converged system's SVD, `Δx = V·Σ⁻²·Vᵀ·JᵀW·b`;
     /// - from the balls' mounting offsets (Type B, [`MountingUncertainty`]): see
     ///   [`MountingUncertainty`] for which measurements share a clamping or a centring and
     ///   what the identified deviations absorb.
@@ -641,8 +637,8 @@ impl ModelLsq {
     /// One Jacobian costs a model simulation per free deviation and pattern; each iteration
     /// one per pattern — the reason for the chord method on the pod (soft f64 on the M4).
     ///
-    /// `jac` is the caller's (3.3 KiB of sensitivities and the SVD, kept off this frame): it
-    /// ends holding the last sensitivities and the converged system's SVD ([`response`]).
+    /// `jac` is the caller's (4.8 KiB of sensitivities and SVD, kept off this frame): it ends
+    /// holding the last sensitivities and the converged system's SVD ([`response`]).
     #[inline(never)] // flash: one body for identify and identify_propagated
     fn solve(
         &self,

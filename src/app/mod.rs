@@ -686,11 +686,15 @@ impl App {
                     Ok(s) => s,
                     Err(f) => return self.refuse(CommandError::Missing(f)),
                 };
-                if self.seed002.as_ref().map(|p| *p.setup()) != Some(s) {
-                    // a new set-up starts a new procedure
-                    self.seed002 = Some(Procedure::new(s));
-                    self.identify_pending = false;
-                    self.results.clear(ResultId::EBxX, ResultId::CorrBetaCz);
+                match self.seed002.as_mut() {
+                    // a new budget applies to the runs measured so far
+                    Some(p) if p.setup().same_measurement(&s) => p.set_mounting(s.mounting),
+                    _ => {
+                        // a new set-up starts a new procedure
+                        self.seed002 = Some(Procedure::new(s));
+                        self.identify_pending = false;
+                        self.results.clear(ResultId::EBxX, ResultId::CorrBetaCz);
+                    }
                 }
                 let fit = match self.seed002.as_ref() {
                     Some(p) => p.run_fit(step),

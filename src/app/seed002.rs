@@ -154,6 +154,16 @@ impl Setup {
         t.s002_u_t_axial_um = self.mounting.t_axial_um as f32;
     }
 
+    /// Whether `other` describes the same measurement: every length and the origin. The
+    /// budget's inputs ([`Setup::mounting`]) do not count: runs measured under one budget stay
+    /// valid under another.
+    pub fn same_measurement(&self, other: &Setup) -> bool {
+        Setup {
+            mounting: other.mounting,
+            ..*self
+        } == *other
+    }
+
     /// The pattern geometry of a step (R′_B for CR2).
     pub fn geometry(&self, step: Pattern) -> PatternGeometry {
         PatternGeometry {
@@ -285,6 +295,11 @@ impl Procedure {
     /// The set-up.
     pub const fn setup(&self) -> &Setup {
         &self.setup
+    }
+
+    /// Takes a new budget for the identification; the runs stay.
+    pub fn set_mounting(&mut self, mounting: MountingUncertainty) {
+        self.setup.mounting = mounting;
     }
 
     /// A fresh running fit for a run of `step`.

@@ -232,6 +232,20 @@ fn resaved_as_current_version(cfg: &Config, sequence: u32) {
     assert!(same(&decode_record(&now).unwrap().config, cfg));
 }
 
+/// The fixture's slot bytes (padded to a slot as flash is), decoded: its sequence must be
+/// `sequence`; and a damaged copy (one bit of byte `damaged` flipped) is refused as any record.
+fn read_fixture(text: &str, sequence: u32, damaged: usize) -> Config {
+    use ballpod::settings::{RECORD_LEN, decode_record};
+    let mut slot = hex_record(text);
+    slot.resize(slot.len().max(RECORD_LEN), 0xFF);
+    let rec = decode_record(&slot).expect("the fixture's record is read");
+    assert_eq!(rec.sequence, sequence);
+    let mut bad = slot.clone();
+    bad[damaged] ^= 2;
+    assert!(decode_record(&bad).is_err());
+    rec.config
+}
+
 fn hex_record(text: &str) -> Vec<u8> {
     text.lines()
         .filter(|l| !l.starts_with('#'))
@@ -278,11 +292,7 @@ fn a_settings_record_of_encoding_version_2_is_read_and_migrated() {
 #[test]
 fn a_settings_record_of_encoding_version_3_is_read_and_migrated() {
     use ballpod::config::{CirclePlane, RunTrigger};
-    use ballpod::settings::{RECORD_LEN, decode_record};
-    let mut slot = hex_record(include_str!("data/settings_record_v3.hex"));
-    slot.resize(slot.len().max(RECORD_LEN), 0xFF);
-    let rec = decode_record(&slot).expect("a version 3 record is read");
-    assert_eq!(rec.sequence, 11);
+    let got = read_fixture(include_str!("data/settings_record_v3.hex"), 11, 60);
     // what the file's header says it holds; the fields version 4 added keep their defaults
     let mut want = Config {
         bar_length_mm: 100.0042,
@@ -294,14 +304,11 @@ fn a_settings_record_of_encoding_version_3_is_read_and_migrated() {
     want.setup.circle_radius_mm = 100.0;
     want.setup.circle_feed_mm_per_min = 2000.0;
     want.setup.probe_length_mm = 152.25;
-    assert!(same(&rec.config, &want), "{:?}", rec.config);
-    assert_eq!(rec.config.setup.run_trigger, RunTrigger::Command);
-    assert!(rec.config.setup.circle_arc_deg.is_nan());
-    let mut bad = slot.clone();
-    bad[60] ^= 1;
-    assert!(decode_record(&bad).is_err());
+    assert!(same(&got, &want), "{got:?}");
+    assert_eq!(got.setup.run_trigger, RunTrigger::Command);
+    assert!(got.setup.circle_arc_deg.is_nan());
     // the next save writes the current version with the new fields, and reads back
-    let mut now_cfg = rec.config;
+    let mut now_cfg = got;
     now_cfg.setup.run_trigger = RunTrigger::FeedIn;
     now_cfg.setup.circle_arc_deg = 360.0;
     resaved_as_current_version(&now_cfg, 12);
@@ -311,11 +318,7 @@ fn a_settings_record_of_encoding_version_3_is_read_and_migrated() {
 fn a_settings_record_of_encoding_version_4_is_read_and_migrated() {
     use ballpod::config::{CirclePlane, RunTrigger};
     use ballpod::identify::multitasking::model_lsq::MountingUncertainty;
-    use ballpod::settings::{RECORD_LEN, decode_record};
-    let mut slot = hex_record(include_str!("data/settings_record_v4.hex"));
-    slot.resize(slot.len().max(RECORD_LEN), 0xFF);
-    let rec = decode_record(&slot).expect("a version 4 record is read");
-    assert_eq!(rec.sequence, 21);
+    let got = read_fixture(include_str!("data/settings_record_v4.hex"), 21, 50);
     // what the file's header says it holds; the fields version 5 added keep their defaults,
     // the seed 002 mounting uncertainties of the core's budget
     let mut want = Config {
@@ -329,8 +332,8 @@ fn a_settings_record_of_encoding_version_4_is_read_and_migrated() {
     want.setup.s002_r_b2_mm = 406.5;
     want.setup.run_trigger = RunTrigger::FeedIn;
     want.setup.circle_arc_deg = 360.0;
-    assert!(same(&rec.config, &want), "{:?}", rec.config);
-    let s = &rec.config.setup;
+    assert!(same(&got, &want), "{got:?}");
+    let s = &got.setup;
     let d = MountingUncertainty::SEED002;
     assert_eq!(
         [
@@ -344,11 +347,8 @@ fn a_settings_record_of_encoding_version_4_is_read_and_migrated() {
         [d.w_clamp_um, d.t_centring_um, d.t_axial_um],
         [22.0, 0.5, 22.0]
     );
-    let mut bad = slot.clone();
-    bad[50] ^= 2;
-    assert!(decode_record(&bad).is_err());
     // the next save writes the current version with the new fields, and reads back
-    let mut now_cfg = rec.config;
+    let mut now_cfg = got;
     now_cfg.setup.s002_u_w_clamp_um = 35.0;
     now_cfg.setup.s002_u_t_centring_um = 1.5;
     resaved_as_current_version(&now_cfg, 22);

@@ -13,6 +13,7 @@ use ballpod::identify::multitasking::model_lsq::{
 };
 use ballpod::identify::multitasking::patterns::{Pattern, PatternGeometry};
 use ballpod_host::forward_seed002 as fwd;
+use ballpod_host::rng::Rng;
 
 /// Samples of the simulated measurement (the forward model) and of the pod's model.
 const N_MEASURED: usize = 181;
@@ -27,40 +28,24 @@ const RC: f64 = 50.0;
 /// size the worked example's 0.2 µm bar noise gives).
 const U_ECC_UM: f64 = 0.005;
 
-struct Rng(fwd::Rng);
+/// A direction uniform on the sphere.
+fn direction(rng: &mut Rng) -> [f64; 3] {
+    let z = rng.range(-1.0, 1.0);
+    let a = rng.range(0.0, std::f64::consts::TAU);
+    let r = (1.0 - z * z).sqrt();
+    [r * a.cos(), r * a.sin(), z]
+}
 
-impl Rng {
-    fn uniform01(&mut self) -> f64 {
-        (self.0.uniform() + 1.0) / 2.0
-    }
+/// A clamping shift: 10–60 µm, uniform magnitude, random direction (µm).
+fn clamping_shift(rng: &mut Rng) -> [f64; 3] {
+    let m = rng.range(10.0, 60.0);
+    direction(rng).map(|c| m * c)
+}
 
-    fn normal(&mut self) -> f64 {
-        let (a, b) = (self.uniform01().max(1e-300), self.uniform01());
-        (-2.0 * a.ln()).sqrt() * (2.0 * std::f64::consts::PI * b).cos()
-    }
-
-    /// A direction uniform on the sphere.
-    fn direction(&mut self) -> [f64; 3] {
-        let z = self.0.uniform();
-        let a = std::f64::consts::PI * self.0.uniform();
-        let r = (1.0 - z * z).sqrt();
-        [r * a.cos(), r * a.sin(), z]
-    }
-
-    /// A clamping shift: 10–60 µm, uniform magnitude, random direction (µm).
-    fn clamping_shift(&mut self) -> [f64; 3] {
-        let m = 10.0 + 50.0 * self.uniform01();
-        self.direction().map(|c| m * c)
-    }
-
-    /// A T-ball offset: radial uniform in a 1 µm disc, axial from a clamping shift (µm).
-    fn t_ball(&mut self) -> [f64; 3] {
-        let (r, a) = (
-            self.uniform01().sqrt(),
-            2.0 * std::f64::consts::PI * self.uniform01(),
-        );
-        [r * a.cos(), r * a.sin(), self.clamping_shift()[2]]
-    }
+/// A T-ball offset: radial uniform in a 1 µm disc, axial from a clamping shift (µm).
+fn t_ball(rng: &mut Rng) -> [f64; 3] {
+    let (r, a) = (rng.uniform().sqrt(), rng.range(0.0, std::f64::consts::TAU));
+    [r * a.cos(), r * a.sin(), clamping_shift(rng)[2]]
 }
 
 struct Truth {
@@ -114,18 +99,19 @@ fn procedure(truth: &Truth, rng: &mut Rng) -> Vec<PatternMeasurement> {
 
 /// Per free deviation: the share of runs whose |error| ≤ 2u, and rms(u) / rms(error).
 fn monte_carlo(budget: &MountingUncertainty, seed: u64, runs: usize) -> Vec<(Parameter, f64, f64)> {
-    let mut rng = Rng(fwd::Rng(seed));
+    // the machines' deviations from the forward model's generator, the rest from the tests' one
+    let (mut machines, mut rng) = (fwd::Rng(seed), Rng::new(seed));
     let mut covered = [0usize; 13];
     let (mut err2, mut u2) = ([0.0f64; 13], [0.0f64; 13]);
     for _ in 0..runs {
-        let mut deviations = rng.0.deviations();
+        let mut deviations = machines.deviations();
         for p in [Parameter::GammaXy, Parameter::AlphaYz, Parameter::BetaYz] {
             deviations[p.index()] = 0.0;
         }
         let truth = Truth {
             deviations,
-            w: [rng.clamping_shift(), rng.clamping_shift()],
-            t: [rng.t_ball(), rng.t_ball()],
+            w: [clamping_shift(&mut rng), clamping_shift(&mut rng)],
+            t: [t_ball(&mut rng), t_ball(&mut rng)],
         };
         let m = procedure(&truth, &mut rng);
         let u_ecc = vec![[U_ECC_UM; 2]; m.len()];
@@ -186,7 +172,7 @@ fn eccentricity_u_alone_does_not_cover_the_clamping_shifts() {
 /// A negative or non-finite input uncertainty is refused with the input named.
 #[test]
 fn bad_mounting_uncertainty_is_refused_with_the_input_named() {
-    let mut rng = Rng(fwd::Rng(7));
+    let mut rng = Rng::new(7);
     let truth = Truth {
         deviations: [0.0; 13],
         w: [[0.0; 3]; 2],

@@ -577,13 +577,16 @@ impl ModelLsq {
                         (false, 2) => (2, &mut mounting.t_offset_um, budget.t_axial_um),
                         (false, _) => (2, &mut mounting.t_offset_um, budget.t_centring_um),
                     };
+                    if u == 0.0 {
+                        continue; // validated: ≥ 0 and finite
+                    }
                     if let Some(v) = offset.get_mut(k) {
                         *v = u;
                     }
                     for (index, ((q, dst), base)) in
                         m.iter().zip(b.iter_mut()).zip(pred.iter()).enumerate()
                     {
-                        if shares(q) && u > 0.0 {
+                        if shares(q) {
                             let e = predict_with(index, q, &x, &mounting)?;
                             *dst = [e[0] - base[0], e[1] - base[1]];
                         }
@@ -591,7 +594,7 @@ impl ModelLsq {
                     (source, u)
                 };
                 if !(u > 0.0 && u.is_finite()) {
-                    continue;
+                    continue; // an eccentricity component without a u
                 }
                 let mut dx = response(m, &jac, &b);
                 if source == 2 && i == 0 {

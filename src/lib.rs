@@ -38,6 +38,7 @@ pub mod acquisition;
 pub mod app;
 pub mod config;
 pub mod identify;
+mod in_place;
 pub mod metrology;
 pub mod num;
 pub mod protocol;

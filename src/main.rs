@@ -114,10 +114,11 @@ async fn main(spawner: Spawner) {
         usb: usb_report,
         settings_rejected: loaded.rejected(),
     };
+    let pod = board::compute::Pod::new(cfg, device_serial(), boot);
     spawn(
         &spawner,
         "compute",
-        board::compute::compute_task(cfg, encoders, probe_in, flash, device_serial(), boot),
+        board::compute::compute_task(pod, encoders, probe_in, flash),
     );
     spawn(
         &spawner,

@@ -682,3 +682,62 @@ fn iso_figures_u_covers_the_noise_free_figures_in_95_percent_of_runs() {
         "coverage or scatter/u out of bounds: {failed:?}"
     );
 }
+
+/// A test restarted in place (the pod restarts its one 11.8 KiB test instead of building a new
+/// one on the stack) and a direction reset keep nothing of what they replace: fed the same
+/// samples, they reach the state of tests built fresh, bit for bit, and the same figures.
+#[test]
+fn restart_and_direction_reset_forget_the_previous_samples() {
+    let old = Machine {
+        squareness: 40e-6,
+        bx: 0.004,
+        noise_um: 0.3,
+        radius: 100.0,
+        ..Machine::default()
+    };
+    let new = Machine {
+        kx: 25e-6,
+        by: 0.003,
+        noise_um: 0.2,
+        ..Machine::default()
+    };
+    let mut t = test_seeded(&old, 5);
+    let fresh = test_seeded(&new, 6);
+    let config = *fresh.fit(Direction::Ccw).config();
+    t.restart(config, new.r() as f32);
+    assert_eq!(t.fit(Direction::Cw).samples(), 0);
+    let mut rng = Rng::new(6);
+    for dir in [Direction::Ccw, Direction::Cw] {
+        for s in run(&new, dir, 7200, &mut rng) {
+            t.update(&s, dir);
+        }
+    }
+    assert!(t == fresh, "a restarted test differs from a new one");
+    let (got, want) = (
+        t.diagnostics(Direction::Cw),
+        fresh.diagnostics(Direction::Cw),
+    );
+    assert_eq!(got, want);
+    assert!(
+        (got.unwrap().squareness_urad.value).abs() < 5.0,
+        "the old squareness is gone"
+    );
+
+    // a new CW run of the same test: the CCW run stays, the old CW samples go
+    let mut rng = Rng::new(7);
+    let cw = run(&new, Direction::Cw, 7200, &mut rng);
+    let mut reference = empty_test(new.r());
+    let mut rng = Rng::new(6);
+    for s in run(&new, Direction::Ccw, 7200, &mut rng) {
+        reference.update(&s, Direction::Ccw);
+    }
+    t.reset_direction(Direction::Cw);
+    for s in &cw {
+        t.update(s, Direction::Cw);
+        reference.update(s, Direction::Cw);
+    }
+    assert!(
+        t == reference,
+        "a reset direction kept samples of its previous run"
+    );
+}

@@ -11,9 +11,11 @@
 use super::pattern::Direction;
 use super::results::{ResultId, Results};
 use crate::config::{CirclePlane, Field, TestSetup, is_set};
+use crate::in_place::init_in_place;
 use crate::metrology::circle_fit::{CircleEstimate, CircleFitConfig, CircleFitError, SampleUse};
 use crate::metrology::iso230_4::{self, CircularTest, IsoError};
 use crate::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use core::mem::MaybeUninit;
 
 /// Angular bins of the ISO 230-4 profile (1° each; 11.8 KiB of state).
 pub const ISO_BINS: usize = 360;
@@ -87,32 +89,47 @@ const fn dir_index(d: Direction) -> usize {
 /// The circular test: both directions' latest runs (state 11.9 KiB).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CircleTest {
-    geometry: CircleGeometry,
+    /// The test's geometry; `None` before the first run (and after [`CircleTest::clear`]).
+    geometry: Option<CircleGeometry>,
     test: CircularTest<ISO_BINS>,
     /// A completed run (with a fit) of each direction, CCW and CW.
     complete: [bool; 2],
 }
 
+/// The fit the state holds before the first run (never fed: the test has no geometry).
+const NO_TEST: CircleFitConfig = CircleFitConfig {
+    geometry: PatternGeometry {
+        plane: Plane::XY,
+        centre_u_mm: 0.0,
+        centre_v_mm: 0.0,
+        sensitivity: Sensitivity::Outward,
+    },
+    min_arc_deg: 360.0,
+};
+
 impl CircleTest {
-    /// An empty test of `geometry`.
-    pub fn new(geometry: CircleGeometry) -> Self {
-        Self {
-            geometry,
-            test: CircularTest::new(geometry.fit, geometry.radius_mm),
+    /// No test yet, built in place in `slot` (the state never passes through the stack).
+    pub fn init(slot: &mut MaybeUninit<Self>) -> &mut Self {
+        init_in_place!(slot, Self {
+            geometry: None,
             complete: [false; 2],
-        }
+        } in place {
+            test: |s| CircularTest::init(s, NO_TEST, f32::NAN),
+        })
     }
 
-    /// The geometry.
-    pub fn geometry(&self) -> &CircleGeometry {
-        &self.geometry
+    /// Forgets the test: the next run starts a new one.
+    pub fn clear(&mut self) {
+        self.geometry = None;
     }
 
-    /// A run of direction `d` begins with `geometry`: a new geometry starts a new test, else
-    /// the direction's previous run is forgotten.
+    /// A run of direction `d` begins with `geometry`: a new geometry starts a new test (in
+    /// place), else the direction's previous run is forgotten.
     pub fn begin_run(&mut self, geometry: CircleGeometry, d: Direction) {
-        if geometry != self.geometry {
-            *self = Self::new(geometry);
+        if self.geometry != Some(geometry) {
+            self.geometry = Some(geometry);
+            self.test.restart(geometry.fit, geometry.radius_mm);
+            self.complete = [false; 2];
         } else {
             self.test.reset_direction(d);
             if let Some(c) = self.complete.get_mut(dir_index(d)) {
@@ -204,12 +221,14 @@ impl CircleTest {
         // 0: no harmonic of order 3–16 is significant (none named)
         let order = m.named_cyclic_order().unwrap_or(0);
         results.set(ResultId::CyclicOrder, f64::from(order), 0.0);
-        let tau = servo_mismatch_ms(
-            &ccw,
-            &cw,
-            f64::from(self.geometry.radius_mm),
-            f64::from(self.geometry.feed_mm_per_min),
-        );
+        let tau = self.geometry.and_then(|g| {
+            servo_mismatch_ms(
+                &ccw,
+                &cw,
+                f64::from(g.radius_mm),
+                f64::from(g.feed_mm_per_min),
+            )
+        });
         if let Some((t, u)) = tau {
             results.set(ResultId::ServoMismatch, t, u);
         }

@@ -22,6 +22,8 @@
 use super::record::{Recorder, RunEnd, RunMeta, Touch};
 use super::run::{AbortReason, RunCounters};
 use crate::acquisition::{MAX_AXES, Sample, SampleFlags};
+use crate::in_place::{self, init_in_place};
+use core::mem::MaybeUninit;
 
 /// Records the firmware's log holds (36 bytes each: 21.6 KiB, a third of the 64 KiB static-RAM
 /// budget).
@@ -150,9 +152,7 @@ pub struct SampleLog<const N: usize> {
     overwritten: u32,
     /// Sample number of the last sample seen (a touch point is filed before the next one).
     last_seq: u32,
-    /// The run's header; valid when `has_meta`. Plain fields rather than `Option`s keep an
-    /// empty log all-zero bytes, so a `static` log lands in `.bss`, not in flash-initialised
-    /// `.data`.
+    /// The run's header; valid when `has_meta`.
     meta: RunMeta,
     has_meta: bool,
     /// How the run ended ([`AbortReason`] code, 0 = normal stop); valid when `has_end`.
@@ -169,9 +169,13 @@ impl<const N: usize> Default for SampleLog<N> {
 
 impl<const N: usize> SampleLog<N> {
     /// An empty log.
-    pub const fn new() -> Self {
-        Self {
-            records: [LogRecord::ZERO; N],
+    pub fn new() -> Self {
+        in_place::build(Self::init)
+    }
+
+    /// An empty log built in place in `slot` (the pod's log is larger than its stack).
+    pub fn init(slot: &mut MaybeUninit<Self>) -> &mut Self {
+        init_in_place!(slot, Self {
             len: 0,
             first_t_us: 0,
             first_seq: None,
@@ -183,7 +187,9 @@ impl<const N: usize> SampleLog<N> {
             end_abort: 0,
             end_counters: RunCounters::ZERO,
             has_end: false,
-        }
+        } in place {
+            records: |s| in_place::fill(s, LogRecord::ZERO),
+        })
     }
 
     /// Capacity, records.

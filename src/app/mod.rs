@@ -193,8 +193,8 @@ enum RunEstimator {
     Circle,
     /// A seed 002 step's running fit.
     Step(Pattern, CircleFit),
-    /// SSM.
-    Ssm(SsmRun),
+    /// SSM: the samples go into [`App::ssm`].
+    Ssm,
     /// PROBE.
     Probe(ProbeRun),
 }
@@ -288,7 +288,8 @@ pub struct App {
     monitor: RunMonitor,
     estimator: RunEstimator,
     meta: RunMeta,
-    circle: Option<CircleTest>,
+    circle: CircleTest,
+    ssm: SsmRun,
     seed002: Option<Procedure>,
     seed002_runs_not_kept: u32,
     identify_pending: bool,
@@ -319,14 +320,24 @@ impl App {
     /// [`Config::validate`] is replaced by the defaults) and hardware counters of
     /// `counter_bits` bits per encoder input. Idle, no results.
     pub fn new(config: Config, counter_bits: [u32; MAX_AXES]) -> Self {
+        crate::in_place::build(|s| Self::init(s, config, counter_bits))
+    }
+
+    /// [`App::new`] built in place in `slot` (the firmware's `static`): the application never
+    /// passes through the stack, which could not hold it.
+    pub fn init(
+        slot: &mut core::mem::MaybeUninit<Self>,
+        config: Config,
+        counter_bits: [u32; MAX_AXES],
+    ) -> &mut Self {
         let config = if config.validate().is_ok() {
             config
         } else {
             Config::default()
         };
-        Self {
-            config,
-            counter_bits,
+        crate::in_place::init_in_place!(slot, Self {
+            config: config,
+            counter_bits: counter_bits,
             acq: Acquisition::new(&config, counter_bits),
             axes: AxisMap::new(&config),
             limits: RunLimits::DEFAULT,
@@ -340,7 +351,6 @@ impl App {
                 config,
                 ..RunMeta::ZERO
             },
-            circle: None,
             seed002: None,
             seed002_runs_not_kept: 0,
             identify_pending: false,
@@ -365,7 +375,10 @@ impl App {
             ),
             settings_failed: false,
             last_flags: SampleFlags::NONE,
-        }
+        } in place {
+            circle: CircleTest::init,
+            ssm: |s| SsmRun::init(s, &config.setup),
+        })
     }
 
     // ------------------------------------------------------------------ read access
@@ -638,7 +651,7 @@ impl App {
     }
 
     fn clear_procedures(&mut self) {
-        self.circle = None;
+        self.circle.clear();
         self.seed002 = None;
         self.identify_pending = false;
         self.two_step.clear();
@@ -670,14 +683,11 @@ impl App {
                 if setup.run_trigger == RunTrigger::FeedIn {
                     trigger = Some(ArcTrigger::new(&g, self.direction, setup.circle_arc_deg));
                 }
-                match self.circle.as_mut() {
-                    Some(c) => c.begin_run(g, self.direction),
-                    None => self.circle = Some(CircleTest::new(g)),
-                }
+                self.circle.begin_run(g, self.direction);
                 RunEstimator::Circle
             }
-            Pattern::Ssm => match SsmRun::new(&setup, self.config.bar_length_mm) {
-                Ok(r) => RunEstimator::Ssm(r),
+            Pattern::Ssm => match self.ssm.restart(&setup, self.config.bar_length_mm) {
+                Ok(()) => RunEstimator::Ssm,
                 Err(f) => return self.refuse(CommandError::Missing(f)),
             },
             Pattern::Probe => RunEstimator::Probe(ProbeRun::new(f64::from(setup.probe_length_mm))),
@@ -778,16 +788,13 @@ impl App {
         self.procedure_note = None;
         let ok = match &mut self.estimator {
             RunEstimator::None => false,
-            RunEstimator::Circle => match self.circle.as_mut() {
-                Some(c) => match c.finish_run(d, &mut self.results) {
-                    Ok(e) => {
-                        let arc = c.arc_deg(d);
-                        self.publish_run_fit(&e, arc);
-                        true
-                    }
-                    Err(_) => false,
-                },
-                None => false,
+            RunEstimator::Circle => match self.circle.finish_run(d, &mut self.results) {
+                Ok(e) => {
+                    let arc = self.circle.arc_deg(d);
+                    self.publish_run_fit(&e, arc);
+                    true
+                }
+                Err(_) => false,
             },
             RunEstimator::Step(step, fit) => {
                 let (step, fit) = (*step, *fit);
@@ -800,7 +807,7 @@ impl App {
                     Err(_) => false,
                 }
             }
-            RunEstimator::Ssm(run) => match run.finish() {
+            RunEstimator::Ssm => match self.ssm.finish() {
                 Ok(m) => {
                     ssm::publish(&m, &mut self.results);
                     match self.two_step.on_measurement(&setup, &m, &mut self.results) {
@@ -1171,14 +1178,12 @@ impl App {
         let d = self.direction;
         match &mut self.estimator {
             RunEstimator::Circle => {
-                if let Some(c) = self.circle.as_mut() {
-                    c.update(s, d);
-                }
+                self.circle.update(s, d);
             }
             RunEstimator::Step(_, fit) => {
                 fit.update(s);
             }
-            RunEstimator::Ssm(run) => run.update(s),
+            RunEstimator::Ssm => self.ssm.update(s),
             RunEstimator::Probe(_) | RunEstimator::None => {}
         }
     }
@@ -1186,15 +1191,12 @@ impl App {
     fn refresh_live(&mut self) {
         let running = self.session == SessionState::Running;
         let fit = match (&self.estimator, running) {
-            (RunEstimator::Circle, true) => self
-                .circle
-                .as_ref()
-                .and_then(|c| c.live(self.direction).ok()),
+            (RunEstimator::Circle, true) => self.circle.live(self.direction).ok(),
             (RunEstimator::Step(_, f), true) => f.live().ok(),
             _ => None,
         };
         let e = match (&self.estimator, running) {
-            (RunEstimator::Ssm(r), true) => r.live(),
+            (RunEstimator::Ssm, true) => self.ssm.live(),
             _ => [None; 3],
         };
         let live = &mut self.live;

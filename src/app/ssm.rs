@@ -15,12 +15,14 @@ use crate::identify::two_step::{
     RrtttMeasurement, RtttrSpindleConfig, RtttrTableConfig, SingleAxisMeasurement, TttrrConfig,
     TttrrMeasurement, TwoStepError,
 };
+use crate::in_place::{self, init_in_place};
 use crate::metrology::solve3::Sym3;
 use crate::metrology::ssm::station::{
     DwellConfig, StationCollector, refine, solve_stations, station_covariance,
 };
 use crate::metrology::ssm::streaming::{StreamingConfig, StreamingSsm};
 use crate::metrology::ssm::{SsmError, SsmGeometry, SsmSolution};
+use core::mem::MaybeUninit;
 
 /// Samples the streaming neighbourhood holds at most (7 KiB: 0.26 s at 1 kHz; a sample that
 /// leaves only because the window is full is counted by the estimator).
@@ -73,27 +75,48 @@ impl SsmMeasurement {
     }
 }
 
+/// The geometry of the state before the first SSM run (never fed: no run is armed).
+const NO_RUN: SsmGeometry = SsmGeometry {
+    socket_mm: [f64::NAN; 3],
+    bar_length_mm: f64::NAN,
+};
+
 impl SsmRun {
-    /// A run on the set-up's socket with a bar of `bar_length_mm`, or the first field the
-    /// set-up lacks (the socket position).
-    pub fn new(t: &TestSetup, bar_length_mm: f32) -> Result<Self, Field> {
-        let socket_mm = required3(t.ssm_socket_mm, Field::SsmSocketMm)?;
+    /// No run yet, built in place in `slot` (the 7.8 KiB state never passes through the
+    /// stack); [`SsmRun::restart`] starts one.
+    pub fn init<'a>(slot: &'a mut MaybeUninit<Self>, t: &TestSetup) -> &'a mut Self {
+        Self::init_with(slot, NO_RUN, t)
+    }
+
+    /// Starts a run in place on the set-up's socket with a bar of `bar_length_mm`, or returns
+    /// the first field the set-up lacks (the socket position; the state is then unchanged).
+    pub fn restart(&mut self, t: &TestSetup, bar_length_mm: f32) -> Result<(), Field> {
         let geometry = SsmGeometry {
-            socket_mm,
+            socket_mm: required3(t.ssm_socket_mm, Field::SsmSocketMm)?,
             bar_length_mm: f64::from(bar_length_mm),
         };
-        Ok(Self {
-            geometry,
-            stream: StreamingSsm::new(StreamingConfig {
-                geometry,
-                radius_mm: t.ssm_window_radius_mm,
-                rotary_tol_deg: ROTARY_TOL_DEG,
-            }),
+        in_place::reinit(self, |s| Self::init_with(s, geometry, t));
+        Ok(())
+    }
+
+    fn init_with<'a>(
+        slot: &'a mut MaybeUninit<Self>,
+        geometry: SsmGeometry,
+        t: &TestSetup,
+    ) -> &'a mut Self {
+        init_in_place!(slot, Self {
+            geometry: geometry,
             stations: StationCollector::new(DwellConfig {
                 max_speed_mm_per_s: t.ssm_dwell_speed_mm_per_s,
                 max_rotary_speed_deg_per_s: DWELL_ROTARY_SPEED_DEG_PER_S,
                 settle_us: (f64::from(t.ssm_settle_ms) * 1e3) as u64,
                 min_samples: t.ssm_min_dwell_samples,
+            }),
+        } in place {
+            stream: |s| StreamingSsm::init(s, StreamingConfig {
+                geometry,
+                radius_mm: t.ssm_window_radius_mm,
+                rotary_tol_deg: ROTARY_TOL_DEG,
             }),
         })
     }

@@ -1,16 +1,20 @@
-//! The application task: it owns the pod — the core's [`App`], the CANopen node, the SCPI
-//! server, the sample log and the USB sample stream — and wires them to the queues. Per LVDT
+//! The application task: it drives the pod ([`Pod`]: the core's [`App`], the CANopen node, the
+//! SCPI server, the sample log and the USB sample stream, statics built in place at boot) and
+//! wires it to the queues. Per LVDT
 //! block: temperature codes, probe edges and the encoder counters go to the application with
 //! the block, the node sees the sample's flags; CAN frames and USB bytes go to the node and
 //! the server, whose answers go back out; every millisecond the node is polled. It takes no
 //! decision of its own: every one is the application's.
 
+use core::cell::UnsafeCell;
+use core::mem::MaybeUninit;
 use core::sync::atomic::Ordering;
 
 use embassy_futures::select::{Either4, select4};
 use embassy_stm32::exti::ExtiInput;
 use embassy_stm32::mode::Blocking;
 use embassy_time::{Duration, Instant, Ticker};
+use static_cell::StaticCell;
 
 use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
@@ -34,7 +38,7 @@ const DEVICE_COUNTERS_EVERY_MS: u32 = 100;
 /// it is downloaded; the stream still has them).
 pub static LOG_PAUSED_SAMPLES: Overruns = Overruns::new();
 
-/// Bytes of the application's state ([`App`], which this task owns), for the size report
+/// Bytes of the application's state ([`App`], in [`Pod`]), for the size report
 /// (`.ci/size-report` reads this word from the ELF): 4 bytes of flash.
 #[used]
 #[unsafe(no_mangle)]
@@ -87,30 +91,83 @@ impl Recorder for Recorders<'_> {
     }
 }
 
+/// The pod's state: the application, the log, the stream and the two protocol servers. Each
+/// lives in a `static` and is built there in place at boot ([`Pod::new`]): the task's future
+/// holds only these references, so neither spawning it nor polling it builds the 50 KiB of
+/// state on the stack (book "Performance and memory", §Stack).
+pub struct Pod {
+    app: &'static mut App,
+    log: &'static mut SampleLog<LOG_CAPACITY>,
+    stream: &'static mut SampleStream<STREAM_RING>,
+    node: &'static mut CanOpenNode,
+    scpi: &'static mut ScpiServer,
+}
+
+static APP: StaticCell<App> = StaticCell::new();
+/// The sample log's place, in CCM SRAM (`memory.x`: CPU-only memory, 22 KiB more stack in RAM).
+#[unsafe(link_section = ".ccmram.LOG")]
+static LOG: Ccm<SampleLog<LOG_CAPACITY>> = Ccm(UnsafeCell::new(MaybeUninit::uninit()));
+
+/// A place in `.ccmram`, which the start-up code leaves as the reset found it.
+struct Ccm<T>(UnsafeCell<MaybeUninit<T>>);
+
+// SAFETY: the one reference to the place is taken once, by `Pod::new` (below).
+unsafe impl<T> Sync for Ccm<T> {}
+static STREAM: StaticCell<SampleStream<STREAM_RING>> = StaticCell::new();
+static NODE: StaticCell<CanOpenNode> = StaticCell::new();
+static SCPI: StaticCell<ScpiServer> = StaticCell::new();
+
+impl Pod {
+    /// The pod with configuration `cfg`, serial number `serial` and what the boot found
+    /// (reported by both protocols). Called once, at boot (a second call panics: each cell is
+    /// initialised once).
+    pub fn new(cfg: Config, serial: u32, boot: BootReport) -> Self {
+        // `APP.uninit()` panics on a second call: what follows runs once.
+        let app = App::init(APP.uninit(), cfg, super::encoders::COUNTER_BITS);
+        // SAFETY: the only reference ever taken to the log's place (this runs once, above).
+        let log = unsafe { &mut *LOG.0.get() };
+        // CCM SRAM holds what the reset left: zeroed first, so that no read (a struct's padding
+        // included) ever meets a word that was never written (a parity error where the SRAM
+        // parity option is set).
+        // SAFETY: the place is valid for writes of one `SampleLog`.
+        unsafe { log.as_mut_ptr().write_bytes(0, 1) };
+        let log = SampleLog::init(log);
+        let node = NODE.init(CanOpenNode::new(app.config().can_node_id, serial));
+        if let Some((code, reason)) = boot.can {
+            node.report_boot_error(code, reason);
+        }
+        let scpi = SCPI.init(ScpiServer::new());
+        scpi.set_pull_download(true);
+        scpi.set_serial(serial);
+        if let Some(text) = boot.usb {
+            scpi.push_device_error(text);
+        }
+        ballpod::protocol::report_rejected_settings(boot.settings_rejected, node, scpi);
+        Self {
+            app,
+            log,
+            stream: STREAM.init(SampleStream::new()),
+            node,
+            scpi,
+        }
+    }
+}
+
 /// Runs the application.
 #[embassy_executor::task]
 pub async fn compute_task(
-    cfg: Config,
+    pod: Pod,
     _encoders: super::encoders::Encoders,
     probe_in: ExtiInput<'static, Blocking>,
     mut flash: SettingsPages,
-    serial: u32,
-    boot: BootReport,
 ) {
-    let mut app = App::new(cfg, super::encoders::COUNTER_BITS);
-    let mut log = SampleLog::<LOG_CAPACITY>::new();
-    let mut stream = SampleStream::<STREAM_RING>::new();
-    let mut node = CanOpenNode::new(app.config().can_node_id, serial);
-    if let Some((code, reason)) = boot.can {
-        node.report_boot_error(code, reason);
-    }
-    let mut scpi = ScpiServer::new();
-    scpi.set_pull_download(true);
-    scpi.set_serial(serial);
-    if let Some(text) = boot.usb {
-        scpi.push_device_error(text);
-    }
-    ballpod::protocol::report_rejected_settings(boot.settings_rejected, &mut node, &mut scpi);
+    let Pod {
+        app,
+        log,
+        stream,
+        node,
+        scpi,
+    } = pod;
     let can_out = &mut |f: CanFrame| {
         if state::CAN_TX.try_send(f).is_err() {
             state::CAN_TX_OVERRUNS.count();
@@ -141,8 +198,8 @@ pub async fn compute_task(
                 }
                 let mut rec = Recorders {
                     log_paused: scpi.download_pending(),
-                    log: &mut log,
-                    stream: &mut stream,
+                    log: &mut *log,
+                    stream: &mut *stream,
                 };
                 while let Ok(edge) = probe::EDGES.try_receive() {
                     let o = app.on_probe_edge(edge.t_us, edge.raw, &mut rec);
@@ -158,9 +215,9 @@ pub async fn compute_task(
                 node.on_sample(s.flags, now, can_out);
                 super::safety::check_in(super::safety::Task::Compute);
             }
-            Either4::Second(frame) => node.on_frame(&frame, &mut app, now, can_out),
+            Either4::Second(frame) => node.on_frame(&frame, app, now, can_out),
             Either4::Third(UsbEvent::Bytes { data, len }) => {
-                scpi.feed(data.get(..len).unwrap_or(&[]), &mut app, &log, usb_out);
+                scpi.feed(data.get(..len).unwrap_or(&[]), app, log, usb_out);
             }
             Either4::Third(UsbEvent::CommandClosed) => scpi.connection_closed(),
             Either4::Third(UsbEvent::StreamOpened) => stream.set_enabled(true),
@@ -177,22 +234,22 @@ pub async fn compute_task(
                 if let Some(bus) = state::CAN_BUS.try_take() {
                     node.on_bus_state(bus, now, can_out);
                 }
-                node.poll(now, &app, can_out);
+                node.poll(now, app, can_out);
             }
         }
         // A run armed or stopped by the commands just handled is recorded now, not at the
         // next sample.
         app.flush(&mut Recorders {
             log_paused: scpi.download_pending(),
-            log: &mut log,
-            stream: &mut stream,
+            log: &mut *log,
+            stream: &mut *stream,
         });
         // A pulled log download goes out as the command port takes it.
         let mut packet = [0u8; state::PACKET];
         // (0 bytes: the block's length is being counted, a few lines a pull: the task goes round
         // its loop, samples first, and counts on at the next turn)
         while scpi.download_pending() && state::USB_TX.free_capacity() >= state::PACKET {
-            let n = scpi.pull_download(&log, &mut packet);
+            let n = scpi.pull_download(log, &mut packet);
             if n == 0 {
                 break;
             }

@@ -46,6 +46,8 @@ use super::circle_fit::{CircleEstimate, CircleFit, CircleFitConfig, CircleFitErr
 use super::extremes;
 use super::solve3::cholesky_solve;
 use crate::acquisition::Sample;
+use crate::in_place::{self, init_in_place};
+use core::mem::MaybeUninit;
 
 /// Highest harmonic order searched for the cyclic error.
 pub const MAX_CYCLIC_ORDER: u32 = 16;
@@ -91,6 +93,15 @@ struct Run<const BINS: usize> {
 }
 
 impl<const BINS: usize> Run<BINS> {
+    /// An empty run of the fit `config`, built in `slot`.
+    fn init(slot: &mut MaybeUninit<Self>, config: CircleFitConfig) -> &mut Self {
+        init_in_place!(slot, Self {
+            fit: CircleFit::new(config),
+        } in place {
+            bins: |s| in_place::fill(s, Bin::default()),
+        })
+    }
+
     /// One sample's ΔL noise, µm, from the bin profile ([`extremes::sample_noise_um`]); NaN
     /// if the profile is too short to tell.
     fn noise_um(&self) -> f32 {
@@ -252,7 +263,8 @@ impl Diagnostics {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CircularTest<const BINS: usize> {
     radius_mm: f32,
-    runs: [Run<BINS>; 2],
+    ccw: Run<BINS>,
+    cw: Run<BINS>,
 }
 
 impl<const BINS: usize> CircularTest<BINS> {
@@ -267,30 +279,36 @@ impl<const BINS: usize> CircularTest<BINS> {
     /// A new test; `config.geometry` is the circle about the socket, `radius_mm` its nominal
     /// radius (the bar length, for the diagnostics' angular units).
     pub fn new(config: CircleFitConfig, radius_mm: f32) -> Self {
+        in_place::build(|s| Self::init(s, config, radius_mm))
+    }
+
+    /// [`CircularTest::new`] built in place in `slot` (no stack copy of the 11.8 KiB state).
+    pub fn init(
+        slot: &mut MaybeUninit<Self>,
+        config: CircleFitConfig,
+        radius_mm: f32,
+    ) -> &mut Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::CHECK;
-        let run = Run {
-            fit: CircleFit::new(config),
-            bins: [Bin::default(); BINS],
-        };
-        Self {
-            radius_mm,
-            runs: [run, run],
-        }
+        init_in_place!(slot, Self {
+            radius_mm: radius_mm,
+        } in place {
+            ccw: |s| Run::init(s, config),
+            cw: |s| Run::init(s, config),
+        })
+    }
+
+    /// Starts a new test in place (as [`CircularTest::new`]).
+    pub fn restart(&mut self, config: CircleFitConfig, radius_mm: f32) {
+        in_place::reinit(self, |s| Self::init(s, config, radius_mm));
     }
 
     /// Forgets the samples of direction `d` (a new run of that direction replaces the old one:
     /// runs are not merged); the other direction is kept.
     pub fn reset_direction(&mut self, d: Direction) {
-        let [ccw, cw] = &mut self.runs;
-        let run = match d {
-            Direction::Ccw => ccw,
-            Direction::Cw => cw,
-        };
-        *run = Run {
-            fit: CircleFit::new(*run.fit.config()),
-            bins: [Bin::default(); BINS],
-        };
+        let run = self.run_mut(d);
+        let config = *run.fit.config();
+        in_place::reinit(run, |s| Run::init(s, config));
     }
 
     /// The nominal radius the test was built with, mm.
@@ -299,10 +317,16 @@ impl<const BINS: usize> CircularTest<BINS> {
     }
 
     fn run(&self, d: Direction) -> &Run<BINS> {
-        let [ccw, cw] = &self.runs;
         match d {
-            Direction::Ccw => ccw,
-            Direction::Cw => cw,
+            Direction::Ccw => &self.ccw,
+            Direction::Cw => &self.cw,
+        }
+    }
+
+    fn run_mut(&mut self, d: Direction) -> &mut Run<BINS> {
+        match d {
+            Direction::Ccw => &mut self.ccw,
+            Direction::Cw => &mut self.cw,
         }
     }
 
@@ -314,11 +338,7 @@ impl<const BINS: usize> CircularTest<BINS> {
     /// Feeds one sample of the run in direction `d` (O(1): the fit update, a polynomial atan
     /// for the bin, 3 adds).
     pub fn update(&mut self, sample: &Sample, d: Direction) -> super::circle_fit::SampleUse {
-        let [ccw, cw] = &mut self.runs;
-        let run = match d {
-            Direction::Ccw => ccw,
-            Direction::Cw => cw,
-        };
+        let run = self.run_mut(d);
         let [nu, nv] = match run.fit.update_direction(sample) {
             Ok(n) => n,
             Err(skipped) => return skipped,
@@ -385,7 +405,7 @@ impl<const BINS: usize> CircularTest<BINS> {
 
     /// Figures comparing or combining both directions.
     pub fn bidirectional_figures(&self) -> Result<BidirectionalFigures, IsoError> {
-        let [ccw, cw] = &self.runs;
+        let (ccw, cw) = (&self.ccw, &self.cw);
         if ccw.fit.samples() == 0 || cw.fit.samples() == 0 {
             return Err(IsoError::MissingDirection);
         }

@@ -37,7 +37,9 @@ use super::{
     OBSERVABLE_AXIS_TOL, SsmError, SsmGeometry, SsmSolution, UNOBSERVABLE_EIG_RATIO, solve_normal,
 };
 use crate::acquisition::Sample;
+use crate::in_place::{self, init_in_place};
 use crate::metrology::solve3::Sym3;
+use core::mem::MaybeUninit;
 
 const U_SCALE: f32 = 16_777_216.0; // 2^24
 const Y_SCALE: f32 = 65_536.0; // 2^16 per µm
@@ -245,15 +247,19 @@ impl<const W: usize> StreamingSsm<W> {
 
     /// An empty estimator.
     pub fn new(config: StreamingConfig) -> Self {
+        in_place::build(|s| Self::init(s, config))
+    }
+
+    /// [`StreamingSsm::new`] built in place in `slot` (no stack copy of the window).
+    pub fn init(slot: &mut MaybeUninit<Self>, config: StreamingConfig) -> &mut Self {
         #[allow(clippy::let_unit_value)]
         let () = Self::CHECK;
         let [x, y, z] = config.geometry.socket_mm;
-        Self {
-            config,
+        init_in_place!(slot, Self {
+            config: config,
             socket_f32: [x as f32, y as f32, z as f32],
             bar_length_f32: config.geometry.bar_length_mm as f32,
             radius2_q: (config.radius_mm * P_SCALE) * (config.radius_mm * P_SCALE),
-            ring: [Entry::default(); W],
             tail: 0,
             len: 0,
             sums: Sums::default(),
@@ -262,7 +268,9 @@ impl<const W: usize> StreamingSsm<W> {
             skipped_flagged: 0,
             skipped_invalid: 0,
             evicted_full: 0,
-        }
+        } in place {
+            ring: |s| in_place::fill(s, Entry::default()),
+        })
     }
 
     /// Samples in the current neighbourhood.

@@ -15,6 +15,7 @@
 
 use crate::acquisition::MAX_AXES;
 use crate::identify::multitasking::model_lsq::MountingUncertainty;
+use crate::metrology::bar_budget::{DEFAULT_U_LENGTH_UM, DEFAULT_U_SCALE_PPM, DEFAULT_U_TEMP_K};
 
 /// Names of the axes the encoder inputs can be assigned to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -335,6 +336,15 @@ pub struct Config {
     pub can_bitrate: CanBitrate,
     /// The test set-up (pattern geometry).
     pub setup: TestSetup,
+    /// Standard uncertainty of the bar's calibrated length, µm (its certificate; added in
+    /// encoding version 6).
+    pub bar_u_length_um: f32,
+    /// Standard uncertainty of the bar's temperature as the pod measures it, K (added in
+    /// encoding version 6).
+    pub bar_u_temp_k: f32,
+    /// Relative standard uncertainty of the LVDT's scale (calibration and linearity), ppm of
+    /// ΔL (added in encoding version 6).
+    pub lvdt_u_scale_ppm: f32,
 }
 
 /// A configuration field (named in [`ConfigError`] and in [`FIELDS`]).
@@ -438,6 +448,12 @@ pub enum Field {
     S002UTCentringUm,
     /// [`TestSetup::s002_u_t_axial_um`] (added in encoding version 5).
     S002UTAxialUm,
+    /// [`Config::bar_u_length_um`] (added in encoding version 6).
+    BarULengthUm,
+    /// [`Config::bar_u_temp_k`] (added in encoding version 6).
+    BarUTempK,
+    /// [`Config::lvdt_u_scale_ppm`] (added in encoding version 6).
+    LvdtUScalePpm,
     /// A pod sample is not a whole number of excitation periods within the ADC ring
     /// (`excitation / sample_rate` ∉ 1…[`MAX_PERIODS_PER_SAMPLE`]).
     PeriodsPerSample,
@@ -827,6 +843,9 @@ pub const FIELDS: &[FieldInfo] = &[
         1000.0,
     ),
     real(Field::S002UTAxialUm, "s002_u_t_axial", "um", 0.0, 1000.0),
+    real(Field::BarULengthUm, "bar_u_length", "um", 0.0, 100.0),
+    real(Field::BarUTempK, "bar_u_temp", "K", 0.0, 10.0),
+    real(Field::LvdtUScalePpm, "lvdt_u_scale", "ppm", 0.0, 100_000.0),
 ];
 
 /// Why a configuration was rejected.
@@ -974,13 +993,16 @@ impl Config {
             can_node_id: 16,
             can_bitrate: CanBitrate::K500,
             setup: TestSetup::DEFAULT,
+            bar_u_length_um: DEFAULT_U_LENGTH_UM,
+            bar_u_temp_k: DEFAULT_U_TEMP_K,
+            lvdt_u_scale_ppm: DEFAULT_U_SCALE_PPM,
         }
     };
 }
 
 impl Config {
-    /// All-zero bytes: a placeholder for the header of an empty log (`.bss`), not a valid
-    /// configuration ([`Config::validate`] refuses it).
+    /// All zeros: a placeholder for the header of an empty log, not a valid configuration
+    /// ([`Config::validate`] refuses it).
     pub const ZERO: Self = {
         const AXIS: AxisConfig = AxisConfig {
             name: AxisName::Unused,
@@ -1041,6 +1063,9 @@ impl Config {
                 s002_u_t_centring_um: 0.0,
                 s002_u_t_axial_um: 0.0,
             },
+            bar_u_length_um: 0.0,
+            bar_u_temp_k: 0.0,
+            lvdt_u_scale_ppm: 0.0,
         }
     };
 }
@@ -1164,6 +1189,15 @@ impl Field {
             }
             Field::S002UTAxialUm => {
                 "Seed 002 uncertainty budget: T-ball axial offset (tool-length error), standard uncertainty, each tool length (default: as the W-ball's clamping shift)"
+            }
+            Field::BarULengthUm => {
+                "Uncertainty budget: the bar's calibrated length, standard uncertainty (default: a certificate's U = 1 µm at k = 2)"
+            }
+            Field::BarUTempK => {
+                "Uncertainty budget: the bar's temperature as measured, standard uncertainty (default: the thermistor and the bar's gradient)"
+            }
+            Field::LvdtUScalePpm => {
+                "Uncertainty budget: the LVDT's scale (calibration, linearity), relative standard uncertainty of ΔL (default: 0.1 %)"
             }
             Field::PeriodsPerSample => {
                 "Cross-field rule: excitation / sample_rate must be a whole 1 … 5 periods"
@@ -1367,6 +1401,9 @@ impl Config {
             Field::S002UWClampUm => f64::from(s.s002_u_w_clamp_um),
             Field::S002UTCentringUm => f64::from(s.s002_u_t_centring_um),
             Field::S002UTAxialUm => f64::from(s.s002_u_t_axial_um),
+            Field::BarULengthUm => f64::from(self.bar_u_length_um),
+            Field::BarUTempK => f64::from(self.bar_u_temp_k),
+            Field::LvdtUScalePpm => f64::from(self.lvdt_u_scale_ppm),
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => return None,
         })
     }
@@ -1461,6 +1498,9 @@ impl Config {
             Field::S002UWClampUm => s.s002_u_w_clamp_um = x,
             Field::S002UTCentringUm => s.s002_u_t_centring_um = x,
             Field::S002UTAxialUm => s.s002_u_t_axial_um = x,
+            Field::BarULengthUm => self.bar_u_length_um = x,
+            Field::BarUTempK => self.bar_u_temp_k = x,
+            Field::LvdtUScalePpm => self.lvdt_u_scale_ppm = x,
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => {}
         }
     }
@@ -1506,12 +1546,13 @@ impl Config {
 
 /// Magic at the start of an encoded configuration.
 pub const MAGIC: [u8; 4] = *b"BPOD";
-/// Current encoding version (5: version 4 plus the seed 002 mounting uncertainties
+/// Current encoding version (6: version 5 plus the bar's uncertainty budget `bar_u_length`,
+/// `bar_u_temp`, `lvdt_u_scale`; 5: version 4 plus the seed 002 mounting uncertainties
 /// `s002_u_w_clamp`, `s002_u_t_centring`, `s002_u_t_axial`; 4: version 3 plus `run_trigger`
-/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2, 3 and 4 encodings are read
+/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2 to 5 encodings are read
 /// and migrated (the fields added since keep their defaults); version 1 records are not read:
 /// the pod boots on the defaults and says so.
-pub const ENCODING_VERSION: u16 = 5;
+pub const ENCODING_VERSION: u16 = 6;
 /// Oldest encoding version read.
 pub const OLDEST_ENCODING_VERSION: u16 = 2;
 
@@ -1522,6 +1563,7 @@ const fn added_in(f: Field) -> u16 {
         Field::ProbeLengthMm => 3,
         Field::RunTrigger | Field::CircleArcDeg => 4,
         Field::S002UWClampUm | Field::S002UTCentringUm | Field::S002UTAxialUm => 5,
+        Field::BarULengthUm | Field::BarUTempK | Field::LvdtUScalePpm => 6,
         _ => 2,
     }
 }
@@ -1562,10 +1604,11 @@ const PAYLOAD: usize = payload_len(ENCODING_VERSION);
 /// Total encoded size: magic, version u16, payload length u16, payload, CRC-32.
 pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD + 4;
 /// Total size of each encoding read, oldest first (read and migrated; only the last written).
-pub const ENCODED_LENS: [usize; 4] = [
+pub const ENCODED_LENS: [usize; 5] = [
     12 + payload_len(2),
     12 + payload_len(3),
     12 + payload_len(4),
+    12 + payload_len(5),
     12 + payload_len(ENCODING_VERSION),
 ];
 
@@ -1650,7 +1693,7 @@ impl Config {
 
     /// Decodes and validates an encoding. Every check (length, magic, version, CRC, enum
     /// bytes, ranges) must pass; otherwise the error says which failed and nothing is returned.
-    /// An older encoding (versions 2 to 4, [`ENCODED_LENS`]) is read too: the fields added
+    /// An older encoding (versions 2 to 5, [`ENCODED_LENS`]) is read too: the fields added
     /// since keep their defaults.
     pub fn decode(bytes: &[u8]) -> Result<Config, ConfigError> {
         let mut r = Reader { buf: bytes, pos: 0 };

@@ -353,3 +353,30 @@ fn a_settings_record_of_encoding_version_4_is_read_and_migrated() {
     now_cfg.setup.s002_u_t_centring_um = 1.5;
     resaved_as_current_version(&now_cfg, 22);
 }
+
+#[test]
+fn a_settings_record_of_encoding_version_5_is_read_and_migrated() {
+    use ballpod::config::CirclePlane;
+    let got = read_fixture(include_str!("data/settings_record_v5.hex"), 33, 70);
+    // what the file's header says it holds; the fields version 6 added keep their defaults,
+    // the bar's budget of the book's table (0.5 µm, 0.2 K, 1000 ppm)
+    let mut want = Config {
+        bar_length_mm: 149.9987,
+        can_node_id: 31,
+        ..Config::default()
+    };
+    want.setup.circle_plane = CirclePlane::YZ;
+    want.setup.s002_u_w_clamp_um = 35.0;
+    want.setup.s002_u_t_centring_um = 1.5;
+    want.setup.s002_u_t_axial_um = 12.0;
+    assert!(same(&got, &want), "{got:?}");
+    assert_eq!(
+        [got.bar_u_length_um, got.bar_u_temp_k, got.lvdt_u_scale_ppm],
+        [0.5, 0.2, 1000.0]
+    );
+    // the next save writes the current version with the new fields, and reads back
+    let mut now_cfg = got;
+    now_cfg.bar_u_length_um = 0.8;
+    now_cfg.lvdt_u_scale_ppm = 2500.0;
+    resaved_as_current_version(&now_cfg, 34);
+}

@@ -567,6 +567,9 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::S002UWClampUm => g(s.s002_u_w_clamp_um),
         Field::S002UTCentringUm => g(s.s002_u_t_centring_um),
         Field::S002UTAxialUm => g(s.s002_u_t_axial_um),
+        Field::BarULengthUm => g(c.bar_u_length_um),
+        Field::BarUTempK => g(c.bar_u_temp_k),
+        Field::LvdtUScalePpm => g(c.lvdt_u_scale_ppm),
         Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => unreachable!(),
     }
 }

@@ -12,6 +12,8 @@ use super::pattern::Direction;
 use super::results::{ResultId, Results};
 use crate::config::{CirclePlane, Field, TestSetup, is_set};
 use crate::in_place::init_in_place;
+use crate::metrology::bar_budget::BarBudget;
+use crate::metrology::bar_budget::FigureKind::{self, Radial, Shape};
 use crate::metrology::circle_fit::{CircleEstimate, CircleFitConfig, CircleFitError, SampleUse};
 use crate::metrology::iso230_4::{self, CircularTest, IsoError};
 use crate::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
@@ -156,11 +158,13 @@ impl CircleTest {
     }
 
     /// Ends the run of direction `d`: its results, and the bi-directional ones when both
-    /// directions are complete. `Err` if the run has no fit (too short an arc, too few samples).
+    /// directions are complete, each u with the bar's share `bar` (`metrology::bar_budget`).
+    /// `Err` if the run has no fit (too short an arc, too few samples).
     pub fn finish_run(
         &mut self,
         d: Direction,
         results: &mut Results,
+        bar: &BarBudget,
     ) -> Result<CircleEstimate, CircleFitError> {
         results.clear(ResultId::GBidir, ResultId::ServoMismatch);
         let (g, fmax, fmin) = match d {
@@ -170,38 +174,42 @@ impl CircleTest {
         for id in [g, fmax, fmin] {
             results.clear(id, id);
         }
-        let est = self.test.fit(d).estimate()?;
+        let est = self.test.fit_estimate(d)?;
         if let Some(c) = self.complete.get_mut(dir_index(d)) {
             *c = true;
         }
         if let Ok(f) = self.test.direction_figures(d) {
-            for (id, v) in [
-                (g, f.circular_deviation_g_um),
-                (fmax, f.radial_deviation_f_max_um),
-                (fmin, f.radial_deviation_f_min_um),
+            for (id, v, kind) in [
+                (g, f.circular_deviation_g_um, Shape),
+                (fmax, f.radial_deviation_f_max_um, Radial),
+                (fmin, f.radial_deviation_f_min_um, Radial),
             ] {
-                set(results, id, v);
+                set(results, id, v, bar, kind);
             }
         }
         if self.complete == [true, true] {
-            self.bidirectional(results);
+            self.bidirectional(results, bar);
         }
         Ok(est)
     }
 
-    fn bidirectional(&self, results: &mut Results) {
+    fn bidirectional(&self, results: &mut Results, bar: &BarBudget) {
         if let Ok(b) = self.test.bidirectional_figures() {
-            set(
-                results,
-                ResultId::GBidir,
-                b.bidirectional_circular_deviation_um,
-            );
-            set(results, ResultId::H, b.circular_hysteresis_h_um);
-            set(
-                results,
-                ResultId::RadialBidir,
-                b.mean_bidirectional_radial_deviation_um,
-            );
+            for (id, v, kind) in [
+                (
+                    ResultId::GBidir,
+                    b.bidirectional_circular_deviation_um,
+                    Shape,
+                ),
+                (ResultId::H, b.circular_hysteresis_h_um, Shape),
+                (
+                    ResultId::RadialBidir,
+                    b.mean_bidirectional_radial_deviation_um,
+                    Radial,
+                ),
+            ] {
+                set(results, id, v, bar, kind);
+            }
         }
         let diag = |d| self.test.diagnostics(d);
         let (Ok(ccw), Ok(cw)) = (diag(Direction::Ccw), diag(Direction::Cw)) else {
@@ -216,7 +224,7 @@ impl CircleTest {
             (ResultId::ReversalV, m.reversal_step_v_um),
             (ResultId::CyclicAmplitude, m.cyclic_amplitude_um),
         ] {
-            set(results, id, v);
+            set(results, id, v, bar, Shape);
         }
         // 0: no harmonic of order 3–16 is significant (none named)
         let order = m.named_cyclic_order().unwrap_or(0);
@@ -230,7 +238,9 @@ impl CircleTest {
             )
         });
         if let Some((t, u)) = tau {
-            results.set(ResultId::ServoMismatch, t, u);
+            // a difference of squareness: a shape figure
+            let u = bar.combined(Shape, t as f32, u as f32);
+            results.set(ResultId::ServoMismatch, t, f64::from(u));
         }
     }
 
@@ -240,9 +250,16 @@ impl CircleTest {
     }
 }
 
-/// Publishes an ISO 230-4 figure or diagnosis with its u.
-fn set(results: &mut Results, id: ResultId, v: iso230_4::Diagnosed) {
-    results.set(id, f64::from(v.value), f64::from(v.std_uncertainty));
+/// Publishes an ISO 230-4 figure or diagnosis of kind `kind` with its u and the bar's share.
+fn set(
+    results: &mut Results,
+    id: ResultId,
+    v: iso230_4::Diagnosed,
+    bar: &BarBudget,
+    kind: FigureKind,
+) {
+    let u = bar.combined(kind, v.value, v.std_uncertainty);
+    results.set(id, f64::from(v.value), f64::from(u));
 }
 
 /// Servo mismatch τ_u − τ_v and its standard uncertainty (ms) from the per-direction

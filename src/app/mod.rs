@@ -55,6 +55,7 @@ use crate::acquisition::probe::{ProbeLatch, TriggerOutcome};
 use crate::acquisition::{Acquisition, AcquisitionCounters, MAX_AXES, Sample, SampleFlags};
 use crate::config::{AxisName, Config, ConfigError, Field, LvdtInput, RunTrigger};
 use crate::identify::multitasking::{Parameter, urad_to_arcsec};
+use crate::metrology::bar_budget::{BarBudget, FigureKind};
 use crate::metrology::circle_fit::{CircleEstimate, CircleFit};
 use circle::{CircleGeometry, CircleTest};
 use probe::{ProbeRun, Spheres};
@@ -763,13 +764,17 @@ impl App {
         self.end_run(Some(reason));
     }
 
+    /// Publishes a run's limaçon fit; each u with the bar's share (`metrology::bar_budget`).
     fn publish_run_fit(&mut self, e: &CircleEstimate, arc_deg: f32) {
+        let bar = BarBudget::from_config(&self.config);
         let r = &mut self.results;
-        let [eu, ev] = e.e_um;
-        let [uu, uv] = e.u_e_um;
-        r.set(ResultId::EccU, f64::from(eu), f64::from(uu));
-        r.set(ResultId::EccV, f64::from(ev), f64::from(uv));
-        r.set(ResultId::R0, f64::from(e.r0_um), f64::from(e.u_r0_um));
+        for (id, v, u, kind) in [
+            (ResultId::EccU, e.e_um[0], e.u_e_um[0], FigureKind::Shape),
+            (ResultId::EccV, e.e_um[1], e.u_e_um[1], FigureKind::Shape),
+            (ResultId::R0, e.r0_um, e.u_r0_um, FigureKind::Radial),
+        ] {
+            r.set(id, f64::from(v), f64::from(bar.combined(kind, v, u)));
+        }
         r.set(
             ResultId::ResidualRms,
             f64::from(e.residual_rms_um),
@@ -788,7 +793,11 @@ impl App {
         self.procedure_note = None;
         let ok = match &mut self.estimator {
             RunEstimator::None => false,
-            RunEstimator::Circle => match self.circle.finish_run(d, &mut self.results) {
+            RunEstimator::Circle => match self.circle.finish_run(
+                d,
+                &mut self.results,
+                &BarBudget::from_config(&self.config),
+            ) {
                 Ok(e) => {
                     let arc = self.circle.arc_deg(d);
                     self.publish_run_fit(&e, arc);

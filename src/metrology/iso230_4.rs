@@ -39,8 +39,9 @@
 //! Uncertainty (GUM Type A): u_j = s·√((GᵀWG)⁻¹)_jj with the bins' sample counts as weights and
 //! s² = RSS / (bins − 9) the per-sample variance the residual shows — which also holds what the
 //! model leaves out (another cyclic order, a fault of another shape), so u grows with it — and at
-//! least the resolution's q²/12 (Type B, `RESOLUTION_UM`). Not yet in the budget: the
-//! instrument's calibration (bar length, LVDT scale) and the set-up (issue 14).
+//! least the resolution's q²/12 (Type B, `RESOLUTION_UM`). The bar's own uncertainty (length,
+//! temperature, LVDT scale) is added where the results are published ([`super::bar_budget`]);
+//! not yet in the budget: the set-up (issue 14).
 use super::angle::quadrant_angle;
 use super::circle_fit::{CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, Moments};
 use super::extremes;
@@ -333,6 +334,24 @@ impl<const BINS: usize> CircularTest<BINS> {
     /// The running fit of one direction.
     pub fn fit(&self, d: Direction) -> &CircleFit {
         &self.run(d).fit
+    }
+
+    /// The limaçon fit of direction `d` (r0, e) with its u from the samples' noise (the
+    /// profile's third differences, as G's), σ·√((AᵀA)⁻¹ᵢᵢ), rather than from the fit's
+    /// residual: the profile's shape is what is measured, not noise (on a circle with the
+    /// faults above the residual's u(e) was 6–7 times the scatter). The residual's u where the
+    /// profile is too short to tell its noise.
+    pub fn fit_estimate(&self, d: Direction) -> Result<CircleEstimate, CircleFitError> {
+        let run = self.run(d);
+        let mut est = run.fit.estimate()?;
+        let s = run.noise_um();
+        if let (true, Ok(c)) = (s.is_finite(), run.fit.moments().normal_matrix().cholesky()) {
+            let inv = c.inverse();
+            let u = |a: f64| crate::num::sqrtf(s * s * a as f32);
+            est.u_r0_um = u(inv.a00);
+            est.u_e_um = [u(inv.a11), u(inv.a22)];
+        }
+        Ok(est)
     }
 
     /// Feeds one sample of the run in direction `d` (O(1): the fit update, a polynomial atan

@@ -5,6 +5,7 @@
 //! - [`iso230_4`]: ISO 230-4 figures (G, F, H, G(b)) and ball-bar diagnostics;
 //! - [`extremes`]: the noise of a bin profile and the uncertainty of its extremes (G, F, …);
 //! - [`angle`]: quadrant + polynomial angle for binning (no atan2);
+//! - [`bar_budget`]: the ball bar's own Type B uncertainty (length, temperature, LVDT scale);
 //! - [`compensated`]: the Kahan-compensated f32 sum the running fits accumulate with;
 //! - [`point_fit`]: circle and sphere from touch points (Taubin + Gauss–Newton);
 //! - [`ssm`]: SSM position errors (seed 000 eq 1), station and streaming modes;
@@ -14,6 +15,7 @@
 //! Error = actual − nominal.
 
 pub mod angle;
+pub mod bar_budget;
 pub mod circle_fit;
 pub mod compensated;
 pub mod extremes;

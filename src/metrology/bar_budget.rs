@@ -1,0 +1,76 @@
+//! The ball bar's own uncertainty (Type B; ISO/TR 230-9's "measuring instrument" inputs): what
+//! every figure computed from ΔL inherits from the bar's calibrated length, its temperature and
+//! the LVDT's scale. The inputs are configuration fields (`bar_u_length`, `bar_u_temp`,
+//! `lvdt_u_scale`; the book's budget table under "Uncertainty").
+//!
+//! Sensitivities (GUM §5.1.2, analytic, first order):
+//! - The pod measures ΔL = distance − L₂₀·(1 + α·(T − 20 °C)). An error δL₂₀ of the calibrated
+//!   length, or δT of the measured temperature (δL = L₂₀·α·δT), shifts every ΔL of a run by the
+//!   same amount: a **radial** figure (r0, F_max, F_min, the mean bi-directional radial
+//!   deviation) moves by it 1:1; a **shape** figure (eccentricity, G, H, G(b), every diagnosis)
+//!   does not (a constant has no eccentricity and no peak-to-valley).
+//! - A relative scale error k of the LVDT multiplies every ΔL by (1 + k) (about ΔL = 0, where
+//!   the calibration puts the bar's nominal length): every figure moves by k times its value.
+
+use crate::config::Config;
+
+/// Default standard uncertainty of the bar's calibrated length, µm: a calibration
+/// certificate's U = 1 µm at k = 2 (state the bar's own: `bar_u_length`).
+pub const DEFAULT_U_LENGTH_UM: f32 = 0.5;
+/// Default standard uncertainty of the bar's temperature as measured, K: the thermistor's
+/// tolerance and the gradient along a hand-warmed bar.
+pub const DEFAULT_U_TEMP_K: f32 = 0.2;
+/// Default relative standard uncertainty of the LVDT's scale, ppm of ΔL: a 0.1 % calibration
+/// and linearity.
+pub const DEFAULT_U_SCALE_PPM: f32 = 1000.0;
+
+/// How a figure depends on the bar (module doc).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FigureKind {
+    /// Moves 1:1 with a constant ΔL offset (r0, F, the mean radial deviation), and with the
+    /// scale.
+    Radial,
+    /// Moves with the scale only (eccentricity, G, H, G(b), the diagnoses).
+    Shape,
+}
+
+/// The bar's uncertainty as it enters a figure (f32 on the FPU: the results are f32).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BarBudget {
+    /// Standard uncertainty of a constant offset of every ΔL, µm: the length calibration's and
+    /// the temperature's (L₂₀·α·u_T) in quadrature.
+    pub offset_um: f32,
+    /// Relative standard uncertainty of the ΔL scale (1 = 100 %).
+    pub scale: f32,
+}
+
+impl BarBudget {
+    /// No uncertainty of the bar (a figure keeps its Type A u).
+    pub const NONE: Self = Self {
+        offset_um: 0.0,
+        scale: 0.0,
+    };
+
+    /// The budget of the configured bar (length, CTE and the three inputs).
+    pub fn from_config(c: &Config) -> Self {
+        // L₂₀ in mm × α in ppm/K × u_T in K = 10⁻³ µm
+        let thermal_um = c.bar_length_mm * c.bar_cte_ppm_per_k * c.bar_u_temp_k * 1e-3;
+        let length_um = c.bar_u_length_um;
+        Self {
+            offset_um: crate::num::sqrtf(length_um * length_um + thermal_um * thermal_um),
+            scale: c.lvdt_u_scale_ppm * 1e-6,
+        }
+    }
+
+    /// The combined standard uncertainty of a figure of kind `kind` and value `value` whose
+    /// own (Type A) standard uncertainty is `u_a` (same unit as the value; a radial figure in
+    /// µm): √(u_a² + (value·u_k)² [+ u_offset²]).
+    pub fn combined(&self, kind: FigureKind, value: f32, u_a: f32) -> f32 {
+        let scale = value * self.scale;
+        let offset = match kind {
+            FigureKind::Radial => self.offset_um,
+            FigureKind::Shape => 0.0,
+        };
+        crate::num::sqrtf(u_a * u_a + scale * scale + offset * offset)
+    }
+}

@@ -25,8 +25,8 @@ use crate::acquisition::{MAX_AXES, Sample, SampleFlags};
 use crate::in_place::{self, init_in_place};
 use core::mem::MaybeUninit;
 
-/// Records the firmware's log holds (36 bytes each: 21.6 KiB, a third of the 64 KiB static-RAM
-/// budget).
+/// Records the firmware's log holds (36 bytes each: 21.6 KiB, in the 32 KiB CCM SRAM of the
+/// pod, `memory.x`).
 pub const LOG_CAPACITY: usize = 600;
 
 /// Temperature stored when the sample's temperature is not finite or beyond ±327 °C.

@@ -764,9 +764,8 @@ impl App {
         self.end_run(Some(reason));
     }
 
-    /// Publishes a run's limaçon fit; each u with the bar's share (`metrology::bar_budget`).
-    fn publish_run_fit(&mut self, e: &CircleEstimate, arc_deg: f32) {
-        let bar = BarBudget::from_config(&self.config);
+    /// Publishes a run's limaçon fit; each u with the bar's share `bar`.
+    fn publish_run_fit(&mut self, e: &CircleEstimate, arc_deg: f32, bar: &BarBudget) {
         let r = &mut self.results;
         for (id, v, u, kind) in [
             (ResultId::EccU, e.e_um[0], e.u_e_um[0], FigureKind::Shape),
@@ -790,17 +789,15 @@ impl App {
         }
         let d = self.direction;
         let setup = self.config.setup;
+        // the bar's share of every u (`metrology::bar_budget`)
+        let bar = BarBudget::from_config(&self.config);
         self.procedure_note = None;
         let ok = match &mut self.estimator {
             RunEstimator::None => false,
-            RunEstimator::Circle => match self.circle.finish_run(
-                d,
-                &mut self.results,
-                &BarBudget::from_config(&self.config),
-            ) {
+            RunEstimator::Circle => match self.circle.finish_run(d, &mut self.results, &bar) {
                 Ok(e) => {
                     let arc = self.circle.arc_deg(d);
-                    self.publish_run_fit(&e, arc);
+                    self.publish_run_fit(&e, arc, &bar);
                     true
                 }
                 Err(_) => false,
@@ -809,7 +806,7 @@ impl App {
                 let (step, fit) = (*step, *fit);
                 match fit.estimate() {
                     Ok(e) => {
-                        self.publish_run_fit(&e, fit.arc_deg());
+                        self.publish_run_fit(&e, fit.arc_deg(), &bar);
                         self.record_step(step, d, e);
                         true
                     }

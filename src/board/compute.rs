@@ -104,7 +104,11 @@ pub struct Pod {
 }
 
 static APP: StaticCell<App> = StaticCell::new();
+static STREAM: StaticCell<SampleStream<STREAM_RING>> = StaticCell::new();
+static NODE: StaticCell<CanOpenNode> = StaticCell::new();
+static SCPI: StaticCell<ScpiServer> = StaticCell::new();
 /// The sample log's place, in CCM SRAM (`memory.x`: CPU-only memory, 22 KiB more stack in RAM).
+/// Not a `StaticCell`: its taken flag would lie in memory the start-up code does not initialise.
 #[unsafe(link_section = ".ccmram.LOG")]
 static LOG: Ccm<SampleLog<LOG_CAPACITY>> = Ccm(UnsafeCell::new(MaybeUninit::uninit()));
 
@@ -113,9 +117,6 @@ struct Ccm<T>(UnsafeCell<MaybeUninit<T>>);
 
 // SAFETY: the one reference to the place is taken once, by `Pod::new` (below).
 unsafe impl<T> Sync for Ccm<T> {}
-static STREAM: StaticCell<SampleStream<STREAM_RING>> = StaticCell::new();
-static NODE: StaticCell<CanOpenNode> = StaticCell::new();
-static SCPI: StaticCell<ScpiServer> = StaticCell::new();
 
 impl Pod {
     /// The pod with configuration `cfg`, serial number `serial` and what the boot found

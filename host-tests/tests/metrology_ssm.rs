@@ -2,11 +2,16 @@
 //! models of the ball bar: station mode, dwell detection, streaming mode, bad input.
 
 use ballpod::acquisition::{Sample, SampleFlags};
+use ballpod::app::ssm::{FIXED_POSITION_U_UM, SsmMeasurement, TwoStep};
+use ballpod::app::{ResultId, Results};
+use ballpod::config::{TestSetup, TwoStepMachine};
+use ballpod::metrology::bar_budget::BarBudget;
 use ballpod::metrology::ssm::station::{
     DwellConfig, DwellEvent, Station, StationCollector, refine, solve_stations, station_covariance,
 };
 use ballpod::metrology::ssm::streaming::{StreamUse, StreamingConfig, StreamingSsm};
 use ballpod::metrology::ssm::{SsmError, SsmGeometry};
+use ballpod_host::forward_seed000 as fwd;
 use ballpod_host::oracle::Rng;
 
 fn norm(v: [f64; 3]) -> f64 {
@@ -641,6 +646,61 @@ fn streaming_on_a_tilted_planar_arc_keeps_the_in_plane_component_observable_ever
     );
 }
 
+/// Where an SSM run's stations are: `count` dwells on a cone of `half_angle_deg` about +Z
+/// through the socket `p0`, each up to `off_sphere_mm` off the sphere of the bar's length `l`.
+struct Cone {
+    p0: [f64; 3],
+    l: f64,
+    count: usize,
+    half_angle_deg: f64,
+    off_sphere_mm: f64,
+}
+
+/// An SSM run's stations as a bar reads them: on `cone` (random start); the exact ΔL
+/// (forward model) passes through `bar` (the bar's own errors), then each dwell averages 50
+/// samples of 0.4 µm noise and adds a fixed 0.1 µm error that dwelling does not average away.
+fn dwell_stations(
+    rng: &mut Rng,
+    cone: &Cone,
+    e_mm: [f64; 3],
+    bar: impl Fn(f64) -> f64,
+) -> Vec<Station> {
+    let Cone {
+        p0,
+        l,
+        count,
+        half_angle_deg,
+        off_sphere_mm,
+    } = *cone;
+    let phi0 = rng.range(0.0, std::f64::consts::TAU);
+    let (s, c) = (
+        half_angle_deg.to_radians().sin(),
+        half_angle_deg.to_radians().cos(),
+    );
+    let pts: Vec<[f64; 3]> = (0..count)
+        .map(|i| {
+            let phi = phi0 + std::f64::consts::TAU * i as f64 / count as f64;
+            let nominal = l + rng.range(-off_sphere_mm, off_sphere_mm);
+            [
+                p0[0] + nominal * s * phi.cos(),
+                p0[1] + nominal * s * phi.sin(),
+                p0[2] + nominal * c,
+            ]
+        })
+        .collect();
+    let mut st = exact_stations(p0, l, &pts, e_mm);
+    for s in st.iter_mut() {
+        let n = 50;
+        let noise: Vec<f64> = (0..n).map(|_| 0.4 * rng.normal()).collect();
+        let mean = noise.iter().sum::<f64>() / n as f64;
+        let var = noise.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
+        s.delta_l_um = bar(s.delta_l_um) + mean + 0.1 * rng.normal();
+        s.std_um = var.sqrt() as f32;
+        s.samples = n as u32;
+    }
+    st
+}
+
 /// Issue 14: the stations' E states its covariance. 400 simulated SSM tests (6 stations on a
 /// cone about the socket, true E of up to ±30 µm, each dwell 50 samples of 0.4 µm noise plus a
 /// fixed 0.1 µm error that dwelling does not average away): U = 2u of each component covers the
@@ -660,33 +720,21 @@ fn station_covariance_covers_the_truth() {
         const RUNS: usize = 400;
         for _ in 0..RUNS {
             let e_mm = [0; 3].map(|_| rng.range(-0.03, 0.03));
-            // stations on a cone of half-angle 50° about +Z, random start
-            let phi0 = rng.range(0.0, std::f64::consts::TAU);
-            let pts: Vec<[f64; 3]> = (0..count)
-                .map(|i| {
-                    let phi = phi0 + std::f64::consts::TAU * i as f64 / count as f64;
-                    let (s, c) = (50f64.to_radians().sin(), 50f64.to_radians().cos());
-                    let nominal = l + rng.range(-0.2, 0.2); // not exactly on the sphere
-                    [
-                        p0[0] + nominal * s * phi.cos(),
-                        p0[1] + nominal * s * phi.sin(),
-                        p0[2] + nominal * c,
-                    ]
-                })
-                .collect();
-            let mut st = exact_stations(p0, l, &pts, e_mm);
-            for s in st.iter_mut() {
-                let n = 50;
-                let noise: Vec<f64> = (0..n).map(|_| 0.4 * rng.normal()).collect();
-                let mean = noise.iter().sum::<f64>() / n as f64;
-                let var = noise.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1) as f64;
-                s.delta_l_um += mean + 0.1 * rng.normal();
-                s.std_um = var.sqrt() as f32;
-                s.samples = n as u32;
-            }
+            let st = dwell_stations(
+                &mut rng,
+                &Cone {
+                    p0,
+                    l,
+                    count,
+                    half_angle_deg: 50.0,
+                    off_sphere_mm: 0.2,
+                },
+                e_mm,
+                |dl| dl,
+            );
             let sol = solve_stations(&st, &geom).unwrap();
             let sol = refine(&st, &geom, &sol, 10).unwrap();
-            let cov = station_covariance(&st, &geom, &sol, 0.1).unwrap();
+            let (cov, _) = station_covariance(&st, &geom, &sol, 0.1).unwrap();
             let u = [cov.a00, cov.a11, cov.a22].map(f64::sqrt);
             for k in 0..3 {
                 let err = sol.e_um[k].unwrap() - e_mm[k] * 1e3;
@@ -725,6 +773,195 @@ fn station_covariance_covers_the_truth() {
             Err(SsmError::InvalidInput)
         );
     }
+}
+
+/// An SSM run's measurement as the pod makes it at a run's end (solve, refine, covariance,
+/// the bar's sensitivities).
+fn measure(st: &[Station], geom: &SsmGeometry) -> SsmMeasurement {
+    let sol = solve_stations(st, geom).unwrap();
+    let solution = refine(st, geom, &sol, 10).unwrap();
+    let (covariance_um2, bar) =
+        station_covariance(st, geom, &solution, FIXED_POSITION_U_UM).unwrap();
+    SsmMeasurement {
+        solution,
+        covariance_um2,
+        bar,
+    }
+}
+
+/// The bar of the Monte Carlo runs below: its length (calibration and temperature) known to
+/// 0.6 µm, its LVDT's scale to 0.5 % (larger than the defaults, so that the bar dominates).
+const BAR: BarBudget = BarBudget {
+    offset_um: 0.6,
+    scale: 0.005,
+};
+
+/// Draws one bar error from [`BAR`]: (offset µm, relative scale), normal.
+fn draw_bar(rng: &mut Rng) -> (f64, f64) {
+    (
+        f64::from(BAR.offset_um) * rng.normal(),
+        f64::from(BAR.scale) * rng.normal(),
+    )
+}
+
+/// Issue 14: E carries the bar's own errors. 400 simulated SSM runs (as above), each read by a
+/// bar whose length is off by δ ~ N(0, 0.6 µm) and whose LVDT scale is off by k ~ N(0, 0.5 %)
+/// — the forward model reads ΔL·(1 + k) + δ at every station: U = 2u of each component of E
+/// (stations and bar) covers the truth in 95 % ± 3 %, and u matches the scatter within 20 %.
+/// With the stations' share alone the bar's offset, common to every station, is missed.
+/// The stations sit within 20 µm of the bar's sphere, as the pod's station set puts them
+/// (`ncgen` SSM). Far off the sphere the LVDT's scale error also shows in the stations'
+/// scatter, which the Birge ratio then counts a second time: at ±0.2 mm and 0.5 % u came out
+/// 1.4 times the scatter.
+#[test]
+fn the_bar_errors_move_e_and_its_u_covers_them() {
+    let p0 = [-40.0, 120.0, 10.0];
+    let l = 150.0;
+    let geom = SsmGeometry {
+        socket_mm: p0,
+        bar_length_mm: l,
+    };
+    for (count, half_angle) in [(6usize, 50.0), (4, 35.0)] {
+        let mut rng = Rng::new(1400 + count as u64);
+        let (mut covered, mut covered_a) = ([0usize; 3], [0usize; 3]);
+        let (mut e2, mut u2) = ([0.0f64; 3], [0.0f64; 3]);
+        const RUNS: usize = 400;
+        for _ in 0..RUNS {
+            let e_mm = [0; 3].map(|_| rng.range(-0.03, 0.03));
+            let (offset, k) = draw_bar(&mut rng);
+            let bar = |dl: f64| dl * (1.0 + k) + offset;
+            let st = dwell_stations(
+                &mut rng,
+                &Cone {
+                    p0,
+                    l,
+                    count,
+                    half_angle_deg: half_angle,
+                    off_sphere_mm: 0.02,
+                },
+                e_mm,
+                bar,
+            );
+            let m = measure(&st, &geom);
+            let u = m.u_e_um(&BAR);
+            let u_a = m.u_e_um(&BarBudget::NONE);
+            for k in 0..3 {
+                let err = m.solution.e_um[k].unwrap() - e_mm[k] * 1e3;
+                covered[k] += usize::from(err.abs() <= 2.0 * u[k]);
+                covered_a[k] += usize::from(err.abs() <= 2.0 * u_a[k]);
+                e2[k] += err * err;
+                u2[k] += u[k] * u[k];
+            }
+        }
+        for k in 0..3 {
+            let coverage = covered[k] as f64 / RUNS as f64;
+            let coverage_a = covered_a[k] as f64 / RUNS as f64;
+            let ratio = (u2[k] / e2[k]).sqrt();
+            let what = format!(
+                "{count} stations at {half_angle}°, E[{k}]: coverage {coverage:.3} \
+                 (stations' u alone {coverage_a:.3}), rms u / rms error {ratio:.3}"
+            );
+            println!("{what}");
+            assert!(
+                (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
+                "{what}"
+            );
+        }
+        // along the cone's axis the offset moves E by δ / cos(half angle)
+        let coverage_a = covered_a[2] as f64 / RUNS as f64;
+        assert!(
+            coverage_a < 0.8,
+            "the stations' u alone covers E_z in {coverage_a:.3}"
+        );
+    }
+}
+
+/// Issue 14: the seed 000 two-step (RTTTR table, Δα) from two SSM runs through the pod's
+/// pairing ([`TwoStep`]): one bar measures both runs, so its errors move ΔV1 and ΔV2 together.
+/// 300 pairs with random Δα, random E after the translation, the stations on cones of random
+/// half-angle (30–60°: the bar's offset moves the two runs differently, so it does not cancel)
+/// and one bar error per pair: U = 2u of Δα covers the truth in 95 % ± 3 %, and u matches the
+/// scatter within 20 %. The forward model is the seed's HTM chain Trans(p + e)·Rx(α)·r_t
+/// (`forward_seed000`).
+#[test]
+fn two_step_u_covers_one_bar_measuring_both_runs() {
+    let p0 = [0.0, 0.0, 0.0];
+    let l = 150.0;
+    let geom = SsmGeometry {
+        socket_mm: p0,
+        bar_length_mm: l,
+    };
+    let (alpha_deg, r_t) = (40.0f64, [25.0, 70.0, 45.0]);
+    let setup = TestSetup {
+        ts_machine: TwoStepMachine::RtttrTable,
+        ts_reference_mm: r_t.map(|x| x as f32),
+        ts_origin_mm: p0.map(|x| x as f32),
+        ts_angles_deg: [alpha_deg as f32, f32::NAN],
+        ..TestSetup::default()
+    };
+    let mut rng = Rng::new(0x2057e9);
+    const PAIRS: usize = 300;
+    let (mut covered, mut e2, mut u2, mut u_bar_share) = (0usize, 0.0, 0.0, 0.0);
+    for _ in 0..PAIRS {
+        let d_alpha = rng.range(-200e-6, 200e-6);
+        let e1_mm = [0; 3].map(|_| rng.range(-0.02, 0.02));
+        let a = alpha_deg.to_radians();
+        let nominal = fwd::rtttr_table_point(p0, [0.0; 3], a, r_t);
+        let actual = fwd::rtttr_table_point(p0, e1_mm, a + d_alpha, r_t);
+        let dv2_mm = fwd::diff_um(actual, nominal).map(|x| x * 1e-3);
+        let (offset, k) = draw_bar(&mut rng);
+        let bar = |dl: f64| dl * (1.0 + k) + offset;
+        let mut pair = TwoStep::default();
+        let mut results = Results::new();
+        let mut stations_only = Results::new();
+        for (i, e_mm) in [e1_mm, dv2_mm].into_iter().enumerate() {
+            let half_angle = rng.range(30.0, 60.0);
+            let m = measure(
+                &dwell_stations(
+                    &mut rng,
+                    &Cone {
+                        p0,
+                        l,
+                        count: 6,
+                        half_angle_deg: half_angle,
+                        off_sphere_mm: 0.02,
+                    },
+                    e_mm,
+                    bar,
+                ),
+                &geom,
+            );
+            let mut alone = pair;
+            let done = pair.on_measurement(&setup, &m, &BAR, &mut results).unwrap();
+            alone
+                .on_measurement(&setup, &m, &BarBudget::NONE, &mut stations_only)
+                .unwrap();
+            assert_eq!(done, i == 1);
+        }
+        let r = results.get(ResultId::TsDeltaAlpha);
+        assert!(r.valid);
+        let (err, u) = (
+            f64::from(r.value) - d_alpha * 1e6,
+            f64::from(r.std_uncertainty),
+        );
+        covered += usize::from(err.abs() <= 2.0 * u);
+        e2 += err * err;
+        u2 += u * u;
+        let u_a = f64::from(stations_only.get(ResultId::TsDeltaAlpha).std_uncertainty);
+        u_bar_share += (u * u - u_a * u_a).max(0.0) / (u * u);
+    }
+    let coverage = covered as f64 / PAIRS as f64;
+    let ratio = (u2 / e2).sqrt();
+    let share = u_bar_share / PAIRS as f64;
+    println!(
+        "two-step Δα: coverage {coverage:.3}, rms u / rms error {ratio:.3}, bar's share of u² {share:.2}"
+    );
+    assert!(
+        (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
+        "two-step Δα: coverage {coverage:.3}, rms u / rms error {ratio:.3}"
+    );
+    // the bar is a real part of the budget here, not a rounding
+    assert!(share > 0.2, "the bar's share of u² is {share:.2}");
 }
 
 /// Issue 17, bad input: the fast (live, f32) and the slow (f64) solve keep the validity rules —

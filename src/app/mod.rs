@@ -815,8 +815,11 @@ impl App {
             }
             RunEstimator::Ssm => match self.ssm.finish() {
                 Ok(m) => {
-                    ssm::publish(&m, &mut self.results);
-                    match self.two_step.on_measurement(&setup, &m, &mut self.results) {
+                    ssm::publish(&m, &bar, &mut self.results);
+                    match self
+                        .two_step
+                        .on_measurement(&setup, &m, &bar, &mut self.results)
+                    {
                         Err(ssm::TwoStepFailure::Missing(f)) => {
                             self.procedure_note = Some(CommandError::Missing(f));
                         }

@@ -16,9 +16,10 @@ use crate::identify::two_step::{
     TttrrMeasurement, TwoStepError,
 };
 use crate::in_place::{self, init_in_place};
+use crate::metrology::bar_budget::BarBudget;
 use crate::metrology::solve3::Sym3;
 use crate::metrology::ssm::station::{
-    DwellConfig, StationCollector, refine, solve_stations, station_covariance,
+    BarSensitivity, DwellConfig, StationCollector, refine, solve_stations, station_covariance,
 };
 use crate::metrology::ssm::streaming::{StreamingConfig, StreamingSsm};
 use crate::metrology::ssm::{SsmError, SsmGeometry, SsmSolution};
@@ -55,18 +56,23 @@ pub struct SsmMeasurement {
     pub solution: SsmSolution,
     /// Covariance of E, µm²: each station's ΔL with its dwell mean's standard error and
     /// [`FIXED_POSITION_U_UM`], propagated through the least squares
-    /// ([`station_covariance`]).
+    /// ([`station_covariance`]). Type A and the positions' floor only; the bar's share is in
+    /// `bar`.
     pub covariance_um2: Sym3,
+    /// How E moves with the bar's offset and scale (common to every station and every run).
+    pub bar: BarSensitivity,
 }
 
 impl SsmMeasurement {
-    /// Standard uncertainty of each component of E, µm (NaN where not observable).
-    pub fn u_e_um(&self) -> [f64; 3] {
+    /// Standard uncertainty of each component of E, µm (NaN where not observable): the
+    /// stations' covariance and, with `bar`, the bar's offset and scale in quadrature
+    /// ([`BarBudget::NONE`] leaves the stations' share alone).
+    pub fn u_e_um(&self, bar: &BarBudget) -> [f64; 3] {
         let c = &self.covariance_um2;
         let mut u = [c.a00, c.a11, c.a22];
-        for (u, e) in u.iter_mut().zip(self.solution.e_um) {
+        for ((u, e), b) in u.iter_mut().zip(self.solution.e_um).zip(self.bar.u_um(bar)) {
             *u = if e.is_some() {
-                crate::num::sqrt(*u)
+                crate::num::sqrt(*u + f64::from(b * b))
             } else {
                 f64::NAN
             };
@@ -139,19 +145,20 @@ impl SsmRun {
         let st = self.stations.stations();
         let s0 = solve_stations(st, &self.geometry)?;
         let solution = refine(st, &self.geometry, &s0, REFINE_ITERATIONS)?;
-        let covariance_um2 =
+        let (covariance_um2, bar) =
             station_covariance(st, &self.geometry, &solution, FIXED_POSITION_U_UM)?;
         Ok(SsmMeasurement {
             solution,
             covariance_um2,
+            bar,
         })
     }
 }
 
-/// Writes an SSM measurement into the results.
-pub fn publish(m: &SsmMeasurement, results: &mut Results) {
+/// Writes an SSM measurement into the results, E with the bar's share (`bar`) in its u.
+pub fn publish(m: &SsmMeasurement, bar: &BarBudget, results: &mut Results) {
     let [ex, ey, ez] = m.solution.e_um;
-    let [ux, uy, uz] = m.u_e_um();
+    let [ux, uy, uz] = m.u_e_um(bar);
     for (id, e, u) in [
         (ResultId::SsmEx, ex, ux),
         (ResultId::SsmEy, ey, uy),
@@ -177,7 +184,27 @@ pub fn publish(m: &SsmMeasurement, results: &mut Results) {
 /// a new pair.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct TwoStep {
-    dv1: Option<([f64; 3], f64)>,
+    dv1: Option<PairRun>,
+}
+
+/// One run of a pair: E, its u (the stations' share: the two-step takes one per run) and how
+/// it moves with the bar.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct PairRun {
+    dv_um: [f64; 3],
+    u_um: f64,
+    bar: BarSensitivity,
+}
+
+impl PairRun {
+    /// ΔV moved by the bar's offset and scale error.
+    fn shifted(&self, offset_um: f32, scale: f32) -> [f64; 3] {
+        let mut dv = self.dv_um;
+        for (v, d) in dv.iter_mut().zip(self.bar.shift_um(offset_um, scale)) {
+            *v += f64::from(d);
+        }
+        dv
+    }
 }
 
 /// Why the two-step gave no result.
@@ -202,10 +229,18 @@ impl TwoStep {
 
     /// Takes a finished SSM run; returns `Ok(true)` when the pair was complete and the
     /// results were written. Nothing happens for `ts_machine = NONE` or an incomplete E.
+    ///
+    /// The angles' u: the stations' (each run's largest component's u, independent between
+    /// the runs, propagated analytically by [`two_step`]) and the bar's. One bar measures both
+    /// runs, so its offset and scale errors move ΔV1 and ΔV2 together — fully correlated: an
+    /// offset cancels where the two runs' station layouts match. Their share is propagated by
+    /// perturbation (GUM §5.1.3): the identification repeated with both runs moved by one u of
+    /// the offset, then of the scale ([`BarSensitivity::shift_um`]).
     pub fn on_measurement(
         &mut self,
         t: &TestSetup,
         m: &SsmMeasurement,
+        bar: &BarBudget,
         results: &mut Results,
     ) -> Result<bool, TwoStepFailure> {
         let [Some(x), Some(y), Some(z)] = m.solution.e_um else {
@@ -214,18 +249,30 @@ impl TwoStep {
         if t.ts_machine == TwoStepMachine::None {
             return Ok(false);
         }
-        // each run's u: its largest component's (the two-step takes one per run)
-        let e = (
-            [x, y, z],
-            m.u_e_um().iter().fold(0.0, |a: f64, &b| a.max(b)),
-        );
-        let Some((dv1, u1)) = self.dv1.take() else {
-            self.dv1 = Some(e);
+        let run2 = PairRun {
+            dv_um: [x, y, z],
+            u_um: m
+                .u_e_um(&BarBudget::NONE)
+                .iter()
+                .fold(0.0, |a: f64, &b| a.max(b)),
+            bar: m.bar,
+        };
+        let Some(run1) = self.dv1.take() else {
+            self.dv1 = Some(run2);
             results.clear(ResultId::TsDeltaAlpha, ResultId::TsDeltaGamma);
             return Ok(false);
         };
-        let (dv2, u2) = e;
-        identify(t, dv1, dv2, [u1, u2], results)?;
+        let pair = [&run1, &run2];
+        let ([v1, v2], [u1, u2]) = identify(t, pair, 0.0, 0.0)?;
+        let ([o1, o2], _) = identify(t, pair, bar.offset_um, 0.0)?;
+        let ([k1, k2], _) = identify(t, pair, 0.0, bar.scale)?;
+        let [id1, id2] = angle_results(t.ts_machine);
+        for (id, v, u, o, k) in [(id1, v1, u1, o1, k1), (id2, v2, u2, o2, k2)] {
+            if let Some(id) = id {
+                let u_bar = crate::num::hypot(o - v, k - v);
+                results.set(id, v, crate::num::hypot(u, u_bar));
+            }
+        }
         Ok(true)
     }
 }
@@ -236,15 +283,33 @@ impl From<Field> for TwoStepFailure {
     }
 }
 
+/// The results of a machine type's angles, in [`identify`]'s order.
+fn angle_results(m: TwoStepMachine) -> [Option<ResultId>; 2] {
+    use ResultId::{TsDeltaAlpha, TsDeltaBeta, TsDeltaGamma};
+    match m {
+        TwoStepMachine::None => [None; 2],
+        TwoStepMachine::Rrttt => [Some(TsDeltaAlpha), Some(TsDeltaBeta)],
+        TwoStepMachine::Tttrr => [Some(TsDeltaAlpha), Some(TsDeltaGamma)],
+        TwoStepMachine::RtttrSpindle => [Some(TsDeltaBeta), None],
+        TwoStepMachine::RtttrTable => [Some(TsDeltaAlpha), None],
+    }
+}
+
 /// The two-step identification of the configured machine (exact mode, seed 000 B.3–B.5;
-/// the SSM socket on the member that does not carry the rotated point, α-then-β order).
+/// the SSM socket on the member that does not carry the rotated point, α-then-β order) from
+/// the pair's ΔV, each first moved by a bar offset of `offset_um` and a scale error `scale`:
+/// the angles of [`angle_results`] as (values µrad, the stations' standard uncertainties µrad;
+/// NaN where the machine type has no second angle).
+#[inline(never)] // flash: one body for the three calls of a pair's end
 fn identify(
     t: &TestSetup,
-    dv1_um: [f64; 3],
-    dv2_um: [f64; 3],
-    dv_std_um: [f64; 2],
-    results: &mut Results,
-) -> Result<(), TwoStepFailure> {
+    [run1, run2]: [&PairRun; 2],
+    offset_um: f32,
+    scale: f32,
+) -> Result<([f64; 2], [f64; 2]), TwoStepFailure> {
+    let dv1_um = run1.shifted(offset_um, scale);
+    let dv2_um = run2.shifted(offset_um, scale);
+    let dv_std_um = [run1.u_um, run2.u_um];
     let [a1, a2] = t.ts_angles_deg;
     let origin = required3(t.ts_origin_mm, Field::TsOriginMm)?;
     let fail = TwoStepFailure::Identify;
@@ -255,8 +320,8 @@ fn identify(
         dv2_um,
         dv_std_um,
     };
-    match t.ts_machine {
-        TwoStepMachine::None => {}
+    Ok(match t.ts_machine {
+        TwoStepMachine::None => ([f64::NAN; 2], [f64::NAN; 2]),
         TwoStepMachine::Rrttt => {
             let cfg = RrtttConfig {
                 tool_z_mm: required(t.ts_tool_z_mm, Field::TsToolZMm)?,
@@ -273,9 +338,10 @@ fn identify(
                 dv_std_um,
             };
             let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).map_err(fail)?;
-            let [ua, ub] = r.std_uncertainty_urad;
-            results.set(ResultId::TsDeltaAlpha, r.delta_alpha_urad, ua);
-            results.set(ResultId::TsDeltaBeta, r.delta_beta_urad, ub);
+            (
+                [r.delta_alpha_urad, r.delta_beta_urad],
+                r.std_uncertainty_urad,
+            )
         }
         TwoStepMachine::Tttrr => {
             let cfg = TttrrConfig {
@@ -293,9 +359,10 @@ fn identify(
                 dv_std_um,
             };
             let r = two_step::identify_tttrr(&cfg, &m, Mode::Exact).map_err(fail)?;
-            let [ua, ug] = r.std_uncertainty_urad;
-            results.set(ResultId::TsDeltaAlpha, r.delta_alpha_urad, ua);
-            results.set(ResultId::TsDeltaGamma, r.delta_gamma_urad, ug);
+            (
+                [r.delta_alpha_urad, r.delta_gamma_urad],
+                r.std_uncertainty_urad,
+            )
         }
         TwoStepMachine::RtttrSpindle => {
             let cfg = RtttrSpindleConfig {
@@ -305,7 +372,7 @@ fn identify(
             };
             let m = single(required(a1, Field::TsAngleDeg(0))?);
             let r = two_step::identify_rtttr_spindle(&cfg, &m, Mode::Exact).map_err(fail)?;
-            results.set(ResultId::TsDeltaBeta, r.delta_urad, r.std_uncertainty_urad);
+            ([r.delta_urad, f64::NAN], [r.std_uncertainty_urad, f64::NAN])
         }
         TwoStepMachine::RtttrTable => {
             let cfg = RtttrTableConfig {
@@ -315,8 +382,7 @@ fn identify(
             };
             let m = single(required(a1, Field::TsAngleDeg(0))?);
             let r = two_step::identify_rtttr_table(&cfg, &m, Mode::Exact).map_err(fail)?;
-            results.set(ResultId::TsDeltaAlpha, r.delta_urad, r.std_uncertainty_urad);
+            ([r.delta_urad, f64::NAN], [r.std_uncertainty_urad, f64::NAN])
         }
-    }
-    Ok(())
+    })
 }

@@ -4,6 +4,7 @@
 
 use super::{SsmError, SsmGeometry, SsmSolution, solve_normal};
 use crate::acquisition::{MAX_AXES, Sample};
+use crate::metrology::bar_budget::BarBudget;
 use crate::metrology::compensated::KahanF32;
 use crate::metrology::solve3::Sym3;
 
@@ -108,22 +109,28 @@ pub fn refine(
 /// dwell mean) + `fixed_u_um`² (what dwelling does not average away), so
 /// cov = G⁺ (Σ σ_i² j_i j_iᵀ) G⁺ — times the Birge ratio χ²/(n − observable components) when
 /// the stations scatter about the solution significantly more than their σ_i say (χ² above
-/// its 95 % point). An unobservable direction has no variance.
+/// its 95 % point). An unobservable direction has no variance. With it, how E moves with the
+/// bar's own errors ([`BarSensitivity`], from the same rows).
 #[inline(never)]
 pub fn station_covariance(
     stations: &[Station],
     geom: &SsmGeometry,
     sol: &SsmSolution,
     fixed_u_um: f64,
-) -> Result<Sym3, SsmError> {
+) -> Result<(Sym3, BarSensitivity), SsmError> {
     if !(fixed_u_um.is_finite() && fixed_u_um >= 0.0) {
         return Err(SsmError::InvalidInput);
     }
     let e = sol.e_um.map(|c| c.unwrap_or(0.0));
     let mut w = Sym3::default();
     let (mut chi2, mut n) = (0.0f64, 0u32);
+    let (mut sum_j, mut sum_jl) = ([0.0; 3], [0.0; 3]);
     for st in stations {
         let (j, r) = exact_row(st, geom, e)?;
+        for ((s, sl), j) in sum_j.iter_mut().zip(sum_jl.iter_mut()).zip(j) {
+            *s += j;
+            *sl += j * st.delta_l_um;
+        }
         let sd = f64::from(st.std_um);
         let var = sd * sd / f64::from(st.samples.max(1)) + fixed_u_um * fixed_u_um;
         w.add_outer(j, var);
@@ -158,10 +165,53 @@ pub fn station_covariance(
         a12: c12,
         a22: c22,
     };
+    let f32s = |v: [f64; 3]| v.map(|x| x as f32);
+    let bar = BarSensitivity {
+        per_offset: f32s(gp.mul(sum_j)),
+        per_scale_um: f32s(gp.mul(sum_jl)),
+    };
     if cov.is_finite() {
-        Ok(cov)
+        Ok((cov, bar))
     } else {
         Err(SsmError::Degenerate)
+    }
+}
+
+/// How E moves with the bar's own errors ([`crate::metrology::bar_budget`]), first order at
+/// the solution (GUM §5.1.2, analytic): a constant offset δ of every station's ΔL (the bar's
+/// calibrated length, its temperature) and a relative scale error k of ΔL (the LVDT) change
+/// the stations' y_i by δ + k·ΔL_i, so E by G⁺ Σ j_i (δ + k·ΔL_i). Both are common to every
+/// station of a run — and to every run made with the same bar — so they never average away.
+/// f32 on the FPU, like [`BarBudget`]: these are uncertainties' shares.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BarSensitivity {
+    /// δE per µm of ΔL offset, G⁺ Σ j_i (x, y, z; µm/µm).
+    pub per_offset: [f32; 3],
+    /// δE per unit relative scale error of ΔL, G⁺ Σ j_i ΔL_i (x, y, z; µm).
+    pub per_scale_um: [f32; 3],
+}
+
+impl BarSensitivity {
+    /// The change of E, µm, when every ΔL is offset by `offset_um` and scaled by `1 + scale`.
+    pub fn shift_um(&self, offset_um: f32, scale: f32) -> [f32; 3] {
+        self.each(|o, s| o * offset_um + s * scale)
+    }
+
+    /// The bar's standard uncertainty of each component of E, µm: the offset's and the
+    /// scale's shares in quadrature.
+    pub fn u_um(&self, bar: &BarBudget) -> [f32; 3] {
+        self.each(|o, s| {
+            let (a, b) = (o * bar.offset_um, s * bar.scale);
+            crate::num::sqrtf(a * a + b * b)
+        })
+    }
+
+    fn each(&self, f: impl Fn(f32, f32) -> f32) -> [f32; 3] {
+        let mut out = [0.0; 3];
+        for ((x, o), s) in out.iter_mut().zip(self.per_offset).zip(self.per_scale_um) {
+            *x = f(o, s);
+        }
+        out
     }
 }
 

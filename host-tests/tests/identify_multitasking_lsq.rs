@@ -7,6 +7,7 @@ use ballpod::identify::multitasking::model_lsq::{
 };
 use ballpod::identify::multitasking::patterns::{Pattern, PatternError, PatternGeometry};
 use ballpod::identify::multitasking::{Deviations, Parameter};
+use ballpod::metrology::bar_budget::BarBudget;
 use ballpod_host::forward_seed002 as fwd;
 
 const N: usize = 37;
@@ -333,7 +334,7 @@ fn propagated_uncertainty_matches_re_identification() {
         .collect();
     let lsq = ModelLsq::without_squareness();
     let (res, got) = lsq
-        .identify_propagated(&m, &u, &MountingUncertainty::NONE)
+        .identify_propagated(&m, &u, &MountingUncertainty::NONE, &BarBudget::NONE)
         .unwrap();
     let got = got.combined;
     let x0 = res.deviations.to_array();
@@ -361,7 +362,7 @@ fn propagated_uncertainty_matches_re_identification() {
         );
     }
     assert_eq!(
-        lsq.identify_propagated(&m, &u[..2], &MountingUncertainty::NONE)
+        lsq.identify_propagated(&m, &u[..2], &MountingUncertainty::NONE, &BarBudget::NONE)
             .map(|_| ()),
         Err(ModelLsqError::BadMeasurement { index: 2 })
     );

@@ -4,14 +4,16 @@
 //! 10–60 µm in a random direction (the thesis's measured fact, spec seed-002 §2.7), mounts the
 //! T-ball once per tool length with an axial shift from the same distribution and a radial
 //! offset left by centring (uniform in a 1 µm disc, §5.2 step 3), and adds the bar noise's
-//! eccentricity scatter. The stated U = 2u must cover the truth — the machine's deviations plus
-//! what the identification absorbs of the first tool length's T-ball offset — in ≥ 95 % of the
-//! runs, and u must match the scatter.
+//! eccentricity scatter; an LVDT whose scale is off by k reads every eccentricity (1 + k) times.
+//! The stated U = 2u must cover the truth — the machine's deviations plus what the
+//! identification absorbs of the first tool length's T-ball offset — in ≥ 95 % of the runs,
+//! and u must match the scatter.
 use ballpod::identify::multitasking::Parameter;
 use ballpod::identify::multitasking::model_lsq::{
     ModelLsq, ModelLsqError, MountingInput, MountingUncertainty, PatternMeasurement,
 };
 use ballpod::identify::multitasking::patterns::{Pattern, PatternGeometry};
+use ballpod::metrology::bar_budget::BarBudget;
 use ballpod_host::forward_seed002 as fwd;
 use ballpod_host::rng::Rng;
 
@@ -52,6 +54,10 @@ struct Truth {
     deviations: [f64; 13],
     w: [[f64; 3]; 2],
     t: [[f64; 3]; 2],
+    /// The LVDT's relative scale error.
+    scale: f64,
+    /// The errors of the set-up as entered: R_B, R′_B, R_C, Z_C (mm).
+    entered_mm: [f64; 4],
 }
 
 /// The five steps of §5.3 measured on the forward model with the mounting errors and noise.
@@ -66,6 +72,7 @@ fn procedure(truth: &Truth, rng: &mut Rng) -> Vec<PatternMeasurement> {
     steps
         .iter()
         .map(|&(p, pf, rb, w, t)| {
+            let [d_rb, d_rb2, d_rc, d_zc] = truth.entered_mm;
             let g = fwd::Geo {
                 lb: LB,
                 zc: ZC,
@@ -84,23 +91,41 @@ fn procedure(truth: &Truth, rng: &mut Rng) -> Vec<PatternMeasurement> {
                 pattern: p,
                 geometry: PatternGeometry {
                     l_b_mm: LB,
-                    r_b_mm: rb,
-                    r_c_mm: RC,
-                    z_c_mm: ZC,
+                    r_b_mm: rb + if t == 0 { d_rb } else { d_rb2 },
+                    r_c_mm: RC + d_rc,
+                    z_c_mm: ZC + d_zc,
                 },
                 samples: N_MODEL,
-                e1_um: e1 + U_ECC_UM * rng.normal(),
-                e2_um: e2 + U_ECC_UM * rng.normal(),
+                e1_um: e1 * (1.0 + truth.scale) + U_ECC_UM * rng.normal(),
+                e2_um: e2 * (1.0 + truth.scale) + U_ECC_UM * rng.normal(),
                 sigma_um: U_ECC_UM,
             }
         })
         .collect()
 }
 
-/// Per free deviation: the share of runs whose |error| ≤ 2u, and rms(u) / rms(error).
-fn monte_carlo(budget: &MountingUncertainty, seed: u64, runs: usize) -> Vec<(Parameter, f64, f64)> {
+/// The errors a Monte Carlo run draws: the balls' mounting (10–60 µm clamping shifts, the
+/// T-ball's centring) or none, the LVDT's scale error, N(0, `scale`), and the set-up's lengths
+/// as entered (R_B, R′_B, R_C, Z_C), each off by N(0, its `entered_mm`).
+struct Errors {
+    mounting: bool,
+    scale: f64,
+    entered_mm: [f64; 4],
+}
+
+/// Per free deviation: the share of runs whose |error| ≤ 2u, and rms(u) / rms(error). Each run
+/// draws its `errors`; the pod states `budget` and `bar`.
+fn monte_carlo(
+    errors: &Errors,
+    budget: &MountingUncertainty,
+    bar: &BarBudget,
+    seed: u64,
+    runs: usize,
+) -> Vec<(Parameter, f64, f64)> {
     // the machines' deviations from the forward model's generator, the rest from the tests' one
     let (mut machines, mut rng) = (fwd::Rng(seed), Rng::new(seed));
+    // the entries' errors from a stream of their own: the other draws stay as they were
+    let mut entries = Rng::new(seed ^ 0x05e7);
     let mut covered = [0usize; 13];
     let (mut err2, mut u2) = ([0.0f64; 13], [0.0f64; 13]);
     for _ in 0..runs {
@@ -108,15 +133,18 @@ fn monte_carlo(budget: &MountingUncertainty, seed: u64, runs: usize) -> Vec<(Par
         for p in [Parameter::GammaXy, Parameter::AlphaYz, Parameter::BetaYz] {
             deviations[p.index()] = 0.0;
         }
+        let mounted = |v: [f64; 3]| if errors.mounting { v } else { [0.0; 3] };
         let truth = Truth {
             deviations,
-            w: [clamping_shift(&mut rng), clamping_shift(&mut rng)],
-            t: [t_ball(&mut rng), t_ball(&mut rng)],
+            w: [clamping_shift(&mut rng), clamping_shift(&mut rng)].map(mounted),
+            t: [t_ball(&mut rng), t_ball(&mut rng)].map(mounted),
+            scale: errors.scale * rng.normal(),
+            entered_mm: errors.entered_mm.map(|u| u * entries.normal()),
         };
         let m = procedure(&truth, &mut rng);
         let u_ecc = vec![[U_ECC_UM; 2]; m.len()];
         let (res, u) = ModelLsq::without_squareness()
-            .identify_propagated(&m, &u_ecc, budget)
+            .identify_propagated(&m, &u_ecc, budget, bar)
             .unwrap();
         // What is identified includes the first tool length's T-ball offset (first order).
         let mut want = truth.deviations;
@@ -141,18 +169,41 @@ fn monte_carlo(budget: &MountingUncertainty, seed: u64, runs: usize) -> Vec<(Par
         .collect()
 }
 
-/// Issue 14's criteria: with 10–60 µm clamping shifts U covers the ten deviations in ≥ 95 % of
-/// the runs on average and each in 95 % ± 3 % (1 000 runs: a coverage's sampling standard
-/// deviation is 0.7 %, so a calibrated U's 95.4 % reads 94–97 %), and u is within 20 % of
-/// the scatter.
-#[test]
-fn u_covers_the_deviations_with_the_balls_clamping_shifts() {
-    let r = monte_carlo(&MountingUncertainty::SEED002, 0x0c1a_3902, 1000);
-    for (p, coverage, ratio) in &r {
+/// Each deviation's U covers the truth in 95 % ± 3 % of the runs, and u is within 20 % of the
+/// scatter.
+fn assert_calibrated(r: &[(Parameter, f64, f64)]) {
+    for (p, coverage, ratio) in r {
         println!("{p:?}: coverage {coverage:.3}, rms u / rms error {ratio:.2}");
         assert!((0.92..=0.98).contains(coverage), "{p:?}: {coverage}");
         assert!((0.8..=1.2).contains(ratio), "{p:?}: {ratio}");
     }
+}
+
+/// The pod's default bar: its LVDT's scale known to 0.1 % (`lvdt_u_scale`).
+const DEFAULT_BAR: BarBudget = BarBudget {
+    offset_um: 0.6,
+    scale: 1e-3,
+};
+
+/// Issue 14's criteria: with 10–60 µm clamping shifts (and the LVDT's scale off by 0.1 %
+/// rms) U covers the ten deviations in ≥ 95 % of the runs on average and each in 95 % ± 3 %
+/// (1 000 runs: a coverage's sampling standard deviation is 0.7 %, so a calibrated U's 95.4 %
+/// reads 94–97 %), and u is within 20 % of the scatter.
+#[test]
+fn u_covers_the_deviations_with_the_balls_clamping_shifts() {
+    let errors = Errors {
+        mounting: true,
+        scale: 1e-3,
+        entered_mm: [0.0; 4],
+    };
+    let r = monte_carlo(
+        &errors,
+        &MountingUncertainty::SEED002,
+        &DEFAULT_BAR,
+        0x0c1a_3902,
+        1000,
+    );
+    assert_calibrated(&r);
     let mean = r.iter().map(|(_, c, _)| c).sum::<f64>() / r.len() as f64;
     assert!(mean >= 0.95, "mean coverage {mean}");
 }
@@ -161,12 +212,72 @@ fn u_covers_the_deviations_with_the_balls_clamping_shifts() {
 /// Monte Carlo above detects it (the α_CZ of issue 14, 45u off).
 #[test]
 fn eccentricity_u_alone_does_not_cover_the_clamping_shifts() {
-    let r = monte_carlo(&MountingUncertainty::NONE, 0x0c1a_3903, 100);
+    let errors = Errors {
+        mounting: true,
+        scale: 0.0,
+        entered_mm: [0.0; 4],
+    };
+    let r = monte_carlo(
+        &errors,
+        &MountingUncertainty::NONE,
+        &BarBudget::NONE,
+        0x0c1a_3903,
+        100,
+    );
     for (p, c, _) in &r {
         println!("{p:?}: coverage {c:.3} with the eccentricities' u alone");
     }
     let worst = r.iter().map(|(_, c, _)| *c).fold(1.0f64, f64::min);
     assert!(worst < 0.5, "{r:?}");
+}
+
+/// The LVDT's scale moves every eccentricity by k times itself — one input for all five steps.
+/// With the scale off by 2 % rms (the balls mounted perfectly) U covers each deviation in
+/// 95 % ± 3 % of 400 runs and u matches the scatter within 20 %; the eccentricities' u alone
+/// covers the largest deviations in far fewer.
+#[test]
+fn u_covers_the_lvdt_scale() {
+    let bar = BarBudget {
+        offset_um: 0.0,
+        scale: 0.02,
+    };
+    let errors = Errors {
+        mounting: false,
+        scale: 0.02,
+        entered_mm: [0.0; 4],
+    };
+    let none = MountingUncertainty::NONE;
+    let r = monte_carlo(&errors, &none, &bar, 0x0c1a_3904, 400);
+    assert_calibrated(&r);
+    let without = monte_carlo(&errors, &none, &BarBudget::NONE, 0x0c1a_3904, 400);
+    for (p, c, _) in &without {
+        println!("{p:?}: coverage {c:.3} without the scale's share");
+    }
+    let worst = without.iter().map(|(_, c, _)| *c).fold(1.0f64, f64::min);
+    assert!(worst < 0.5, "{without:?}");
+}
+
+/// The set-up's lengths as entered (R_B, R′_B, R_C, Z_C) are not in the budget: an error δR
+/// moves a deviation read over the lever arm R by about δR/R of itself, second order. With
+/// R_B and R′_B off by N(0, 0.1 mm) (a tool length known to a tenth) and R_C and Z_C by N(0,
+/// 0.05 mm), on top of the mounting errors and the default LVDT scale, U still covers each
+/// deviation in 95 % ± 3 % of 400 runs and u matches the scatter within 20 %. (R_C and Z_C off
+/// by 0.1 mm leave δx_CZ and α_CZ covered in 90–91 % only: the limit the book states.)
+#[test]
+fn setup_as_entered_is_second_order() {
+    let errors = Errors {
+        mounting: true,
+        scale: 1e-3,
+        entered_mm: [0.1, 0.1, 0.05, 0.05],
+    };
+    let r = monte_carlo(
+        &errors,
+        &MountingUncertainty::SEED002,
+        &DEFAULT_BAR,
+        0x0c1a_3905,
+        400,
+    );
+    assert_calibrated(&r);
 }
 
 /// A negative or non-finite input uncertainty is refused with the input named.
@@ -177,6 +288,8 @@ fn bad_mounting_uncertainty_is_refused_with_the_input_named() {
         deviations: [0.0; 13],
         w: [[0.0; 3]; 2],
         t: [[0.0; 3]; 2],
+        scale: 0.0,
+        entered_mm: [0.0; 4],
     };
     let m = procedure(&truth, &mut rng);
     let u = vec![[U_ECC_UM; 2]; m.len()];
@@ -205,9 +318,21 @@ fn bad_mounting_uncertainty_is_refused_with_the_input_named() {
     ] {
         assert_eq!(
             ModelLsq::without_squareness()
-                .identify_propagated(&m, &u, &budget)
+                .identify_propagated(&m, &u, &budget, &DEFAULT_BAR)
                 .map(|_| ()),
             Err(ModelLsqError::BadMountingUncertainty { input })
+        );
+    }
+    for scale in [-1e-3, f32::NAN] {
+        let bar = BarBudget {
+            scale,
+            ..DEFAULT_BAR
+        };
+        assert_eq!(
+            ModelLsq::without_squareness()
+                .identify_propagated(&m, &u, &MountingUncertainty::SEED002, &bar)
+                .map(|_| ()),
+            Err(ModelLsqError::BadScaleUncertainty)
         );
     }
 }

@@ -876,13 +876,66 @@ fn the_bar_errors_move_e_and_its_u_covers_them() {
     }
 }
 
-/// Issue 14: the seed 000 two-step (RTTTR table, Δα) from two SSM runs through the pod's
-/// pairing ([`TwoStep`]): one bar measures both runs, so its errors move ΔV1 and ΔV2 together.
-/// 300 pairs with random Δα, random E after the translation, the stations on cones of random
+/// A two-step machine of the tests below: the pod's set-up and the seed's HTM forward model
+/// (`forward_seed000`): from E after the translation and the true angle errors (rad), ΔV2 (mm).
+struct TwoStepMachineCase {
+    setup: TestSetup,
+    /// The angles' results, in the order of the drawn angle errors.
+    angles: &'static [ResultId],
+    dv2_mm: fn(e1_mm: [f64; 3], d_rad: [f64; 2]) -> [f64; 3],
+}
+
+const D2R: f64 = std::f64::consts::PI / 180.0;
+
+/// RTTTR table (Δα): Trans(p + e)·Rx(α)·r_t at α = 40°, r_t = (25, 70, 45) mm.
+fn rtttr_table() -> TwoStepMachineCase {
+    TwoStepMachineCase {
+        setup: TestSetup {
+            ts_machine: TwoStepMachine::RtttrTable,
+            ts_reference_mm: [25.0, 70.0, 45.0],
+            ts_origin_mm: [0.0; 3],
+            ts_angles_deg: [40.0, f32::NAN],
+            ..TestSetup::default()
+        },
+        angles: &[ResultId::TsDeltaAlpha],
+        dv2_mm: |e1, [d, _]| {
+            let r_t = [25.0, 70.0, 45.0];
+            let nominal = fwd::rtttr_table_point([0.0; 3], [0.0; 3], 40.0 * D2R, r_t);
+            let actual = fwd::rtttr_table_point([0.0; 3], e1, 40.0 * D2R + d, r_t);
+            fwd::diff_um(actual, nominal).map(|x| x * 1e-3)
+        },
+    }
+}
+
+/// RRTTT head (Δα, Δβ): the tip z_r = −250 mm below the pivot (10, 20, 400) mm, at α = 30°,
+/// β = 50°.
+fn rrttt_head() -> TwoStepMachineCase {
+    TwoStepMachineCase {
+        setup: TestSetup {
+            ts_machine: TwoStepMachine::Rrttt,
+            ts_tool_z_mm: -250.0,
+            ts_origin_mm: [10.0, 20.0, 400.0],
+            ts_angles_deg: [30.0, 50.0],
+            ..TestSetup::default()
+        },
+        angles: &[ResultId::TsDeltaAlpha, ResultId::TsDeltaBeta],
+        dv2_mm: |e1, [d1, d2]| {
+            let (p, a, b) = ([10.0, 20.0, 400.0], 30.0 * D2R, 50.0 * D2R);
+            let nominal = fwd::rrttt_tip(p, [0.0; 3], a, b, -250.0);
+            let actual = fwd::rrttt_tip(p, e1, a + d1, b + d2, -250.0);
+            fwd::diff_um(actual, nominal).map(|x| x * 1e-3)
+        },
+    }
+}
+
+/// Issue 14: the seed 000 two-step from two SSM runs through the pod's pairing ([`TwoStep`]),
+/// on an RTTTR table (Δα) and an RRTTT head (Δα, Δβ). One bar measures both runs, so its
+/// errors move ΔV1 and ΔV2 together. 1 000 pairs per machine with random angle errors (±200
+/// µrad), random E after the translation (±20 µm), each run's stations on a cone of random
 /// half-angle (30–60°: the bar's offset moves the two runs differently, so it does not cancel)
-/// and one bar error per pair: U = 2u of Δα covers the truth in 95 % ± 3 %, and u matches the
-/// scatter within 20 %. The forward model is the seed's HTM chain Trans(p + e)·Rx(α)·r_t
-/// (`forward_seed000`).
+/// and one bar error per pair: U = 2u of each angle covers the truth in 95 % ± 3 %, and u
+/// matches the scatter within 20 % (the runs' full covariances are propagated, not each run's
+/// largest component).
 #[test]
 fn two_step_u_covers_one_bar_measuring_both_runs() {
     let p0 = [0.0, 0.0, 0.0];
@@ -891,77 +944,70 @@ fn two_step_u_covers_one_bar_measuring_both_runs() {
         socket_mm: p0,
         bar_length_mm: l,
     };
-    let (alpha_deg, r_t) = (40.0f64, [25.0, 70.0, 45.0]);
-    let setup = TestSetup {
-        ts_machine: TwoStepMachine::RtttrTable,
-        ts_reference_mm: r_t.map(|x| x as f32),
-        ts_origin_mm: p0.map(|x| x as f32),
-        ts_angles_deg: [alpha_deg as f32, f32::NAN],
-        ..TestSetup::default()
-    };
-    let mut rng = Rng::new(0x2057e9);
-    const PAIRS: usize = 300;
-    let (mut covered, mut e2, mut u2, mut u_bar_share) = (0usize, 0.0, 0.0, 0.0);
-    for _ in 0..PAIRS {
-        let d_alpha = rng.range(-200e-6, 200e-6);
-        let e1_mm = [0; 3].map(|_| rng.range(-0.02, 0.02));
-        let a = alpha_deg.to_radians();
-        let nominal = fwd::rtttr_table_point(p0, [0.0; 3], a, r_t);
-        let actual = fwd::rtttr_table_point(p0, e1_mm, a + d_alpha, r_t);
-        let dv2_mm = fwd::diff_um(actual, nominal).map(|x| x * 1e-3);
-        let (offset, k) = draw_bar(&mut rng);
-        let bar = |dl: f64| dl * (1.0 + k) + offset;
-        let mut pair = TwoStep::default();
-        let mut results = Results::new();
-        let mut stations_only = Results::new();
-        for (i, e_mm) in [e1_mm, dv2_mm].into_iter().enumerate() {
-            let half_angle = rng.range(30.0, 60.0);
-            let m = measure(
-                &dwell_stations(
-                    &mut rng,
-                    &Cone {
-                        p0,
-                        l,
-                        count: 6,
-                        half_angle_deg: half_angle,
-                        off_sphere_mm: 0.02,
-                    },
-                    e_mm,
-                    bar,
-                ),
-                &geom,
-            );
-            let mut alone = pair;
-            let done = pair.on_measurement(&setup, &m, &BAR, &mut results).unwrap();
-            alone
-                .on_measurement(&setup, &m, &BarBudget::NONE, &mut stations_only)
-                .unwrap();
-            assert_eq!(done, i == 1);
+    for (name, machine) in [("RTTTR table", rtttr_table()), ("RRTTT", rrttt_head())] {
+        let mut rng = Rng::new(0x2057e9);
+        const PAIRS: usize = 1000;
+        let n = machine.angles.len();
+        let (mut covered, mut e2, mut u2) = (vec![0usize; n], vec![0.0; n], vec![0.0; n]);
+        let mut u_bar_share = vec![0.0; n];
+        for _ in 0..PAIRS {
+            let d_rad = [0; 2].map(|_| rng.range(-200e-6, 200e-6));
+            let e1_mm = [0; 3].map(|_| rng.range(-0.02, 0.02));
+            let dv2_mm = (machine.dv2_mm)(e1_mm, d_rad);
+            let (offset, k) = draw_bar(&mut rng);
+            let bar = |dl: f64| dl * (1.0 + k) + offset;
+            let mut pair = TwoStep::default();
+            let mut results = Results::new();
+            let mut stations_only = Results::new();
+            for (i, e_mm) in [e1_mm, dv2_mm].into_iter().enumerate() {
+                let cone = Cone {
+                    p0,
+                    l,
+                    count: 6,
+                    half_angle_deg: rng.range(30.0, 60.0),
+                    off_sphere_mm: 0.02,
+                };
+                let m = measure(&dwell_stations(&mut rng, &cone, e_mm, bar), &geom);
+                let mut alone = pair;
+                let done = pair
+                    .on_measurement(&machine.setup, &m, &BAR, &mut results)
+                    .unwrap();
+                alone
+                    .on_measurement(&machine.setup, &m, &BarBudget::NONE, &mut stations_only)
+                    .unwrap();
+                assert_eq!(done, i == 1);
+            }
+            for (j, &id) in machine.angles.iter().enumerate() {
+                let r = results.get(id);
+                assert!(r.valid);
+                let (err, u) = (
+                    f64::from(r.value) - d_rad[j] * 1e6,
+                    f64::from(r.std_uncertainty),
+                );
+                covered[j] += usize::from(err.abs() <= 2.0 * u);
+                e2[j] += err * err;
+                u2[j] += u * u;
+                let u_a = f64::from(stations_only.get(id).std_uncertainty);
+                u_bar_share[j] += (u * u - u_a * u_a).max(0.0) / (u * u);
+            }
         }
-        let r = results.get(ResultId::TsDeltaAlpha);
-        assert!(r.valid);
-        let (err, u) = (
-            f64::from(r.value) - d_alpha * 1e6,
-            f64::from(r.std_uncertainty),
-        );
-        covered += usize::from(err.abs() <= 2.0 * u);
-        e2 += err * err;
-        u2 += u * u;
-        let u_a = f64::from(stations_only.get(ResultId::TsDeltaAlpha).std_uncertainty);
-        u_bar_share += (u * u - u_a * u_a).max(0.0) / (u * u);
+        for (j, id) in machine.angles.iter().enumerate() {
+            let coverage = covered[j] as f64 / PAIRS as f64;
+            let ratio = (u2[j] / e2[j]).sqrt();
+            let share = u_bar_share[j] / PAIRS as f64;
+            let what = format!(
+                "{name} {id:?}: coverage {coverage:.3}, rms u / rms error {ratio:.3}, \
+                 the bar's share of u² {share:.2}"
+            );
+            println!("{what}");
+            assert!(
+                (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
+                "{what}"
+            );
+            // the bar is a real part of the budget here, not a rounding
+            assert!(share > 0.1, "{what}");
+        }
     }
-    let coverage = covered as f64 / PAIRS as f64;
-    let ratio = (u2 / e2).sqrt();
-    let share = u_bar_share / PAIRS as f64;
-    println!(
-        "two-step Δα: coverage {coverage:.3}, rms u / rms error {ratio:.3}, bar's share of u² {share:.2}"
-    );
-    assert!(
-        (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
-        "two-step Δα: coverage {coverage:.3}, rms u / rms error {ratio:.3}"
-    );
-    // the bar is a real part of the budget here, not a rounding
-    assert!(share > 0.2, "the bar's share of u² is {share:.2}");
 }
 
 /// Issue 17, bad input: the fast (live, f32) and the slow (f64) solve keep the validity rules —

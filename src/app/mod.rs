@@ -807,7 +807,7 @@ impl App {
                 match fit.estimate() {
                     Ok(e) => {
                         self.publish_run_fit(&e, fit.arc_deg(), &bar);
-                        self.record_step(step, d, e);
+                        self.record_step(step, d, e, &bar);
                         true
                     }
                     Err(_) => false,
@@ -863,7 +863,9 @@ impl App {
         }
     }
 
-    fn record_step(&mut self, step: Pattern, d: Direction, e: CircleEstimate) {
+    /// Files a seed 002 step's run; its eccentricity (mean of the step's runs) goes into the
+    /// results with the LVDT scale's share of `bar` in its u.
+    fn record_step(&mut self, step: Pattern, d: Direction, e: CircleEstimate, bar: &BarBudget) {
         let Some(p) = self.seed002.as_mut() else {
             return;
         };
@@ -880,10 +882,10 @@ impl App {
                 (ResultId::ECr2X, ResultId::ECr2Y),
             ];
             if let Some(&(a, b)) = ids.get(k) {
-                let [e1, e2] = se.e_um;
-                let [u1, u2] = se.u_e_um;
-                self.results.set(a, e1, u1);
-                self.results.set(b, e2, u2);
+                for (id, e, u) in [(a, se.e_um[0], se.u_e_um[0]), (b, se.e_um[1], se.u_e_um[1])] {
+                    let u = bar.combined(FigureKind::Shape, e as f32, u as f32);
+                    self.results.set(id, e, f64::from(u));
+                }
             }
         }
         if p.missing().is_none() {
@@ -900,7 +902,8 @@ impl App {
         }
         self.identify_pending = false;
         self.results.clear(ResultId::DxBt, ResultId::CorrBetaCz);
-        let Some(id) = self.seed002.as_ref().map(Procedure::identify) else {
+        let bar = BarBudget::from_config(&self.config);
+        let Some(id) = self.seed002.as_ref().map(|p| p.identify(&bar)) else {
             return true;
         };
         let Ok(id) = id else {

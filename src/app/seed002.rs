@@ -31,6 +31,7 @@ use crate::identify::multitasking::model_lsq::{
     PatternMeasurement,
 };
 use crate::identify::multitasking::patterns::{NcOffset, Pattern as ModelPattern, PatternGeometry};
+use crate::metrology::bar_budget::BarBudget;
 use crate::metrology::circle_fit::{
     self, CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, SampleUse,
 };
@@ -456,8 +457,9 @@ impl Procedure {
         Ok(out)
     }
 
-    /// Identification from a complete procedure, in both modes.
-    pub fn identify(&self) -> Result<Identification, SessionError> {
+    /// Identification from a complete procedure, in both modes; `bar` the configured bar's
+    /// budget (its LVDT scale enters the model mode's u).
+    pub fn identify(&self, bar: &BarBudget) -> Result<Identification, SessionError> {
         if let Some((step, direction)) = self.missing() {
             return Err(SessionError::Incomplete { step, direction });
         }
@@ -483,7 +485,7 @@ impl Procedure {
             &self.setup.thesis_geometry(),
             Some(&ecc(|s| s.u_e_um)),
         );
-        let model = self.identify_model(&steps)?;
+        let model = self.identify_model(&steps, bar)?;
         Ok(Identification {
             steps,
             thesis,
@@ -520,6 +522,7 @@ impl Procedure {
     fn identify_model(
         &self,
         steps: &[StepEccentricity; 5],
+        bar: &BarBudget,
     ) -> Result<ModelIdentification, SessionError> {
         let lsq = ModelLsq::without_squareness();
         let m = self.measurements(steps);
@@ -528,7 +531,7 @@ impl Procedure {
             .zip(steps.iter())
             .for_each(|(u, s)| *u = s.u_e_um);
         let (result, uncertainty) = lsq
-            .identify_propagated(&m, &u, &self.setup.mounting)
+            .identify_propagated(&m, &u, &self.setup.mounting, bar)
             .map_err(SessionError::Model)?;
         Ok(ModelIdentification {
             result,

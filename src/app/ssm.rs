@@ -17,7 +17,7 @@ use crate::identify::two_step::{
 };
 use crate::in_place::{self, init_in_place};
 use crate::metrology::bar_budget::BarBudget;
-use crate::metrology::solve3::Sym3;
+use crate::metrology::solve3::{Sym3, dot};
 use crate::metrology::ssm::station::{
     BarSensitivity, DwellConfig, StationCollector, refine, solve_stations, station_covariance,
 };
@@ -187,25 +187,18 @@ pub struct TwoStep {
     dv1: Option<PairRun>,
 }
 
-/// One run of a pair: E, its u (the stations' share: the two-step takes one per run) and how
-/// it moves with the bar.
+/// One run of a pair: E, its covariance (the stations' share) and how it moves with the bar.
 #[derive(Clone, Copy, Debug, PartialEq)]
 struct PairRun {
     dv_um: [f64; 3],
-    u_um: f64,
+    covariance_um2: Sym3,
     bar: BarSensitivity,
 }
 
-impl PairRun {
-    /// ΔV moved by the bar's offset and scale error.
-    fn shifted(&self, offset_um: f32, scale: f32) -> [f64; 3] {
-        let mut dv = self.dv_um;
-        for (v, d) in dv.iter_mut().zip(self.bar.shift_um(offset_um, scale)) {
-            *v += f64::from(d);
-        }
-        dv
-    }
-}
+/// The step of the two-step's Jacobian by finite differences, µm of ΔV: small against the
+/// lever arms (≥ 1 mm: the relative error of the slope is about step / lever arm, ≤ 10⁻³),
+/// large against the rounding of the identification (f64, 10⁻¹⁶ of the coordinates in mm).
+const JACOBIAN_STEP_UM: f64 = 1.0;
 
 /// Why the two-step gave no result.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -230,12 +223,14 @@ impl TwoStep {
     /// Takes a finished SSM run; returns `Ok(true)` when the pair was complete and the
     /// results were written. Nothing happens for `ts_machine = NONE` or an incomplete E.
     ///
-    /// The angles' u: the stations' (each run's largest component's u, independent between
-    /// the runs, propagated analytically by [`two_step`]) and the bar's. One bar measures both
-    /// runs, so its offset and scale errors move ΔV1 and ΔV2 together — fully correlated: an
-    /// offset cancels where the two runs' station layouts match. Their share is propagated by
-    /// perturbation (GUM §5.1.3): the identification repeated with both runs moved by one u of
-    /// the offset, then of the scale ([`BarSensitivity::shift_um`]).
+    /// The angles' u, first order (GUM §5.1.2) with the identification's Jacobian
+    /// ∂angle/∂ΔV of each run (finite differences: one identification per component, moved by
+    /// 1 µm): the stations' share jᵣᵀ Σᵣ jᵣ of each run with its full
+    /// covariance Σᵣ (the runs independent), and the bar's. One bar measures both runs, so its
+    /// offset and scale errors move ΔV1 and ΔV2 together — fully correlated, Σᵣ jᵣ·bᵣ before
+    /// squaring (bᵣ the run's [`BarSensitivity`]): an offset cancels where the two runs'
+    /// station layouts match.
+    #[inline(never)] // flash (32 B); and the Jacobian on the stack only while a pair ends
     pub fn on_measurement(
         &mut self,
         t: &TestSetup,
@@ -251,10 +246,7 @@ impl TwoStep {
         }
         let run2 = PairRun {
             dv_um: [x, y, z],
-            u_um: m
-                .u_e_um(&BarBudget::NONE)
-                .iter()
-                .fold(0.0, |a: f64, &b| a.max(b)),
+            covariance_um2: m.covariance_um2,
             bar: m.bar,
         };
         let Some(run1) = self.dv1.take() else {
@@ -262,16 +254,34 @@ impl TwoStep {
             results.clear(ResultId::TsDeltaAlpha, ResultId::TsDeltaGamma);
             return Ok(false);
         };
-        let pair = [&run1, &run2];
-        let ([v1, v2], [u1, u2]) = identify(t, pair, 0.0, 0.0)?;
-        let ([o1, o2], _) = identify(t, pair, bar.offset_um, 0.0)?;
-        let ([k1, k2], _) = identify(t, pair, 0.0, bar.scale)?;
-        let [id1, id2] = angle_results(t.ts_machine);
-        for (id, v, u, o, k) in [(id1, v1, u1, o1, k1), (id2, v2, u2, o2, k2)] {
-            if let Some(id) = id {
-                let u_bar = crate::num::hypot(o - v, k - v);
-                results.set(id, v, crate::num::hypot(u, u_bar));
+        let runs = [run1, run2];
+        let angles = identify(t, &runs, None)?;
+        // Jacobian: per run, per component of its ΔV, the change of each angle (µrad/µm)
+        let mut jacobian = [[[0.0f64; 2]; 3]; 2];
+        for (r, run) in jacobian.iter_mut().enumerate() {
+            for (k, column) in run.iter_mut().enumerate() {
+                let moved = identify(t, &runs, Some((r, k)))?;
+                for ((d, m), a) in column.iter_mut().zip(moved).zip(angles) {
+                    *d = (m - a) / JACOBIAN_STEP_UM;
+                }
             }
+        }
+        let (u_offset, u_scale) = (f64::from(bar.offset_um), f64::from(bar.scale));
+        for (i, (id, value)) in angle_results(t.ts_machine)
+            .into_iter()
+            .zip(angles)
+            .enumerate()
+        {
+            let Some(id) = id else { continue };
+            let (mut var, mut by_offset, mut by_scale) = (0.0, 0.0, 0.0);
+            for (run, jr) in runs.iter().zip(&jacobian) {
+                let j = jr.map(|c| c.get(i).copied().unwrap_or(f64::NAN));
+                var += dot(j, run.covariance_um2.mul(j));
+                by_offset += dot(j, run.bar.per_offset.map(f64::from));
+                by_scale += dot(j, run.bar.per_scale_um.map(f64::from));
+            }
+            let (o, k) = (by_offset * u_offset, by_scale * u_scale);
+            results.set(id, value, crate::num::sqrt(var + o * o + k * k));
         }
         Ok(true)
     }
@@ -297,19 +307,24 @@ fn angle_results(m: TwoStepMachine) -> [Option<ResultId>; 2] {
 
 /// The two-step identification of the configured machine (exact mode, seed 000 B.3–B.5;
 /// the SSM socket on the member that does not carry the rotated point, α-then-β order) from
-/// the pair's ΔV, each first moved by a bar offset of `offset_um` and a scale error `scale`:
-/// the angles of [`angle_results`] as (values µrad, the stations' standard uncertainties µrad;
-/// NaN where the machine type has no second angle).
-#[inline(never)] // flash: one body for the three calls of a pair's end
+/// the pair's ΔV, with component k of run r moved by [`JACOBIAN_STEP_UM`] for `step` =
+/// `Some((r, k))`: the angles of [`angle_results`], µrad (NaN where the machine type has no
+/// second angle).
+#[inline(never)] // flash: one body for the seven calls of a pair's end
 fn identify(
     t: &TestSetup,
-    [run1, run2]: [&PairRun; 2],
-    offset_um: f32,
-    scale: f32,
-) -> Result<([f64; 2], [f64; 2]), TwoStepFailure> {
-    let dv1_um = run1.shifted(offset_um, scale);
-    let dv2_um = run2.shifted(offset_um, scale);
-    let dv_std_um = [run1.u_um, run2.u_um];
+    runs: &[PairRun; 2],
+    step: Option<(usize, usize)>,
+) -> Result<[f64; 2], TwoStepFailure> {
+    let [mut dv1_um, mut dv2_um] = runs.map(|r| r.dv_um);
+    if let Some((r, k)) = step {
+        let dv = if r == 0 { &mut dv1_um } else { &mut dv2_um };
+        if let Some(v) = dv.get_mut(k) {
+            *v += JACOBIAN_STEP_UM;
+        }
+    }
+    // u is propagated by the caller, with the runs' full covariances
+    let dv_std_um = [0.0; 2];
     let [a1, a2] = t.ts_angles_deg;
     let origin = required3(t.ts_origin_mm, Field::TsOriginMm)?;
     let fail = TwoStepFailure::Identify;
@@ -321,7 +336,7 @@ fn identify(
         dv_std_um,
     };
     Ok(match t.ts_machine {
-        TwoStepMachine::None => ([f64::NAN; 2], [f64::NAN; 2]),
+        TwoStepMachine::None => [f64::NAN; 2],
         TwoStepMachine::Rrttt => {
             let cfg = RrtttConfig {
                 tool_z_mm: required(t.ts_tool_z_mm, Field::TsToolZMm)?,
@@ -338,10 +353,7 @@ fn identify(
                 dv_std_um,
             };
             let r = two_step::identify_rrttt(&cfg, &m, Mode::Exact).map_err(fail)?;
-            (
-                [r.delta_alpha_urad, r.delta_beta_urad],
-                r.std_uncertainty_urad,
-            )
+            [r.delta_alpha_urad, r.delta_beta_urad]
         }
         TwoStepMachine::Tttrr => {
             let cfg = TttrrConfig {
@@ -359,10 +371,7 @@ fn identify(
                 dv_std_um,
             };
             let r = two_step::identify_tttrr(&cfg, &m, Mode::Exact).map_err(fail)?;
-            (
-                [r.delta_alpha_urad, r.delta_gamma_urad],
-                r.std_uncertainty_urad,
-            )
+            [r.delta_alpha_urad, r.delta_gamma_urad]
         }
         TwoStepMachine::RtttrSpindle => {
             let cfg = RtttrSpindleConfig {
@@ -372,7 +381,7 @@ fn identify(
             };
             let m = single(required(a1, Field::TsAngleDeg(0))?);
             let r = two_step::identify_rtttr_spindle(&cfg, &m, Mode::Exact).map_err(fail)?;
-            ([r.delta_urad, f64::NAN], [r.std_uncertainty_urad, f64::NAN])
+            [r.delta_urad, f64::NAN]
         }
         TwoStepMachine::RtttrTable => {
             let cfg = RtttrTableConfig {
@@ -382,7 +391,7 @@ fn identify(
             };
             let m = single(required(a1, Field::TsAngleDeg(0))?);
             let r = two_step::identify_rtttr_table(&cfg, &m, Mode::Exact).map_err(fail)?;
-            ([r.delta_urad, f64::NAN], [r.std_uncertainty_urad, f64::NAN])
+            [r.delta_urad, f64::NAN]
         }
     })
 }

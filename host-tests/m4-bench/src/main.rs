@@ -40,6 +40,7 @@ use ballpod::app::seed002::{Procedure, Setup};
 use ballpod::app::{App, Command, Direction as RunDirection, Pattern, Recorder};
 use ballpod::config::Config;
 use ballpod::identify::lsq::GivensLsq;
+use ballpod::metrology::bar_budget::BarBudget;
 use ballpod::metrology::circle_fit::CircleEstimate;
 use ballpod::metrology::circle_fit::{CircleFit, CircleFitConfig};
 use ballpod::metrology::iso230_4::{CircularTest, Direction};
@@ -719,7 +720,8 @@ fn main() -> ! {
         }
     }
     let lo = stack::paint(top);
-    let (id, n) = measure_long(|| procedure.identify());
+    let bar = BarBudget::from_config(&Config::default());
+    let (id, n) = measure_long(|| procedure.identify(&bar));
     record_stack("seed 002 identification (Procedure::identify)", lo);
     hprintln!(
         "| seed 002 identification on the pod (model mode + u, thesis mode; f64 soft-float) | procedure | {} | — | — | — | — | {:.2} s at 170 MHz (1 insn/cycle), ok = {} |",

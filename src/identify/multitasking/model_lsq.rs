@@ -21,6 +21,7 @@
 //! - the balls' mounting offsets are not identifiable at all (no redundancy): their effect is
 //!   budgeted ([`MountingUncertainty`], [`ModelLsq::identify_propagated`]).
 use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError, LsqSolution};
+use crate::metrology::bar_budget::BarBudget;
 
 /// Relative damping λ of the free deviations (× the largest weighted sensitivity column).
 pub const DAMPING: f64 = 1e-7;
@@ -96,6 +97,8 @@ pub enum ModelLsqError {
         /// The input.
         input: MountingInput,
     },
+    /// The LVDT scale's uncertainty ([`BarBudget::scale`]) is negative or not finite.
+    BadScaleUncertainty,
 }
 
 /// What the identified deviations absorb of the first tool length's T-ball offset (x_T, y_T,
@@ -192,8 +195,9 @@ pub struct DeviationUncertainty {
     pub combined: [f64; 13],
     /// By source: `[0]` the eccentricities' standard uncertainties (Type A: bar noise, fit
     /// residuals, repeat scatter); `[1]` the W-ball clamping shifts (Type B, second order);
-    /// `[2]` the T-ball offsets beyond what the identified deviations absorb (Type B).
-    pub by_source: [[f64; 13]; 3],
+    /// `[2]` the T-ball offsets beyond what the identified deviations absorb (Type B); `[3]`
+    /// the LVDT's scale (Type B).
+    pub by_source: [[f64; 13]; 4],
 }
 
 /// Identifiability of a set-up: singular values of the (weighted) sensitivity matrix over the
@@ -524,13 +528,17 @@ impl ModelLsq {
     ///   converged system's SVD, `Δx = V·Σ⁻²·Vᵀ·JᵀW·b`;
     /// - from the balls' mounting offsets (Type B, [`MountingUncertainty`]): see
     ///   [`MountingUncertainty`] for which measurements share a clamping or a centring and
-    ///   what the identified deviations absorb.
+    ///   what the identified deviations absorb;
+    /// - from the LVDT's scale (Type B, [`BarBudget::scale`]): an eccentricity is a shape
+    ///   figure of ΔL, so a scale error k moves every measured eccentricity by k times itself —
+    ///   all at once (one LVDT), one input; the bar's length and temperature move none.
     #[inline(never)] // flash: 0.9 KB smaller than inlined into the application task
     pub fn identify_propagated(
         &self,
         m: &[PatternMeasurement],
         u_um: &[[f64; 2]],
         budget: &MountingUncertainty,
+        bar: &BarBudget,
     ) -> Result<(ModelLsqResult, DeviationUncertainty), ModelLsqError> {
         if u_um.len() != m.len() {
             return Err(ModelLsqError::BadMeasurement {
@@ -540,11 +548,15 @@ impl ModelLsq {
         budget
             .validate()
             .map_err(|input| ModelLsqError::BadMountingUncertainty { input })?;
+        let u_scale = f64::from(bar.scale);
+        if !(u_scale >= 0.0 && u_scale.is_finite()) {
+            return Err(ModelLsqError::BadScaleUncertainty);
+        }
         let mut jac = Jacobian::EMPTY;
         let result = self.solve(m, &mut jac)?;
         let x = result.deviations.to_array();
         let pred = Self::predict(m, &x)?;
-        let mut var = [[0.0f64; 13]; 3];
+        let mut var = [[0.0f64; 13]; 4];
         // The inputs of measurement i: its two eccentricity components (moved by their u),
         // then the three components of the W-ball's clamping and of the T-ball's mounting
         // that measurement i is the first to share (each moved by its u through the full model
@@ -608,6 +620,16 @@ impl ModelLsq {
                 if let Some(v) = var.get_mut(source) {
                     v.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
                 }
+            }
+        }
+        if u_scale > 0.0 {
+            let mut b = [[0.0f64; 2]; MAX_MEASUREMENTS];
+            for (dst, p) in b.iter_mut().zip(m.iter()) {
+                *dst = [p.e1_um * u_scale, p.e2_um * u_scale];
+            }
+            let dx = response(m, &jac, &b);
+            if let Some(v) = var.get_mut(3) {
+                v.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
             }
         }
         let mut out = DeviationUncertainty::default();

@@ -192,11 +192,6 @@ pub struct BarSensitivity {
 }
 
 impl BarSensitivity {
-    /// The change of E, µm, when every ΔL is offset by `offset_um` and scaled by `1 + scale`.
-    pub fn shift_um(&self, offset_um: f32, scale: f32) -> [f32; 3] {
-        self.each(|o, s| o * offset_um + s * scale)
-    }
-
     /// The bar's standard uncertainty of each component of E, µm: the offset's and the
     /// scale's shares in quadrature.
     pub fn u_um(&self, bar: &BarBudget) -> [f32; 3] {

@@ -13,7 +13,7 @@ use super::results::{ResultId, Results};
 use crate::config::{CirclePlane, Field, TestSetup, is_set};
 use crate::in_place::init_in_place;
 use crate::metrology::bar_budget::BarBudget;
-use crate::metrology::bar_budget::FigureKind::{self, Radial, Shape};
+use crate::metrology::bar_budget::FigureKind::{Radial, Shape};
 use crate::metrology::circle_fit::{CircleEstimate, CircleFitConfig, CircleFitError, SampleUse};
 use crate::metrology::iso230_4::{self, CircularTest, IsoError};
 use crate::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
@@ -184,7 +184,7 @@ impl CircleTest {
                 (fmax, f.radial_deviation_f_max_um, Radial),
                 (fmin, f.radial_deviation_f_min_um, Radial),
             ] {
-                set(results, id, v, bar, kind);
+                results.set_with_bar(id, v.value, v.std_uncertainty, bar, kind);
             }
         }
         if self.complete == [true, true] {
@@ -208,7 +208,7 @@ impl CircleTest {
                     Radial,
                 ),
             ] {
-                set(results, id, v, bar, kind);
+                results.set_with_bar(id, v.value, v.std_uncertainty, bar, kind);
             }
         }
         let diag = |d| self.test.diagnostics(d);
@@ -224,7 +224,7 @@ impl CircleTest {
             (ResultId::ReversalV, m.reversal_step_v_um),
             (ResultId::CyclicAmplitude, m.cyclic_amplitude_um),
         ] {
-            set(results, id, v, bar, Shape);
+            results.set_with_bar(id, v.value, v.std_uncertainty, bar, Shape);
         }
         // 0: no harmonic of order 3–16 is significant (none named)
         let order = m.named_cyclic_order().unwrap_or(0);
@@ -239,8 +239,7 @@ impl CircleTest {
         });
         if let Some((t, u)) = tau {
             // a difference of squareness: a shape figure
-            let u = bar.combined(Shape, t as f32, u as f32);
-            results.set(ResultId::ServoMismatch, t, f64::from(u));
+            results.set_with_bar(ResultId::ServoMismatch, t as f32, u as f32, bar, Shape);
         }
     }
 
@@ -248,18 +247,6 @@ impl CircleTest {
     pub fn diagnostics_error(&self, d: Direction) -> Option<IsoError> {
         self.test.diagnostics(d).err()
     }
-}
-
-/// Publishes an ISO 230-4 figure or diagnosis of kind `kind` with its u and the bar's share.
-fn set(
-    results: &mut Results,
-    id: ResultId,
-    v: iso230_4::Diagnosed,
-    bar: &BarBudget,
-    kind: FigureKind,
-) {
-    let u = bar.combined(kind, v.value, v.std_uncertainty);
-    results.set(id, f64::from(v.value), f64::from(u));
 }
 
 /// Servo mismatch τ_u − τ_v and its standard uncertainty (ms) from the per-direction

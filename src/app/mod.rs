@@ -772,7 +772,7 @@ impl App {
             (ResultId::EccV, e.e_um[1], e.u_e_um[1], FigureKind::Shape),
             (ResultId::R0, e.r0_um, e.u_r0_um, FigureKind::Radial),
         ] {
-            r.set(id, f64::from(v), f64::from(bar.combined(kind, v, u)));
+            r.set_with_bar(id, v, u, bar, kind);
         }
         r.set(
             ResultId::ResidualRms,
@@ -883,8 +883,9 @@ impl App {
             ];
             if let Some(&(a, b)) = ids.get(k) {
                 for (id, e, u) in [(a, se.e_um[0], se.u_e_um[0]), (b, se.e_um[1], se.u_e_um[1])] {
-                    let u = bar.combined(FigureKind::Shape, e as f32, u as f32);
-                    self.results.set(id, e, f64::from(u));
+                    let shape = FigureKind::Shape;
+                    self.results
+                        .set_with_bar(id, e as f32, u as f32, bar, shape);
                 }
             }
         }

@@ -8,6 +8,8 @@
 //! "no data available" (0x0800 0024), SCPI -230 with its name. Never 0.0.
 //! A standard uncertainty of NaN means "not evaluated" (the method does not state one yet).
 
+use crate::metrology::bar_budget::{BarBudget, FigureKind};
+
 /// Name and unit of a result.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ResultInfo {
@@ -249,6 +251,21 @@ impl Results {
                 ResultEntry::INVALID
             };
         }
+    }
+
+    /// Sets `id` to a figure computed from ΔL: `value` ± its own (Type A) standard uncertainty
+    /// `u_a`, combined with the bar's share of a figure of `kind` ([`BarBudget::combined`]).
+    #[inline(never)] // one copy for every figure the bar enters
+    pub fn set_with_bar(
+        &mut self,
+        id: ResultId,
+        value: f32,
+        u_a: f32,
+        bar: &BarBudget,
+        kind: FigureKind,
+    ) {
+        let u = bar.combined(kind, value, u_a);
+        self.set(id, f64::from(value), f64::from(u));
     }
 
     /// Invalidates the results from `first` to `last` (inclusive, in [`RESULTS`] order).

@@ -195,18 +195,12 @@ impl BarSensitivity {
     /// The bar's standard uncertainty of each component of E, µm: the offset's and the
     /// scale's shares in quadrature.
     pub fn u_um(&self, bar: &BarBudget) -> [f32; 3] {
-        self.each(|o, s| {
+        let mut u = [0.0; 3];
+        for ((u, o), s) in u.iter_mut().zip(self.per_offset).zip(self.per_scale_um) {
             let (a, b) = (o * bar.offset_um, s * bar.scale);
-            crate::num::sqrtf(a * a + b * b)
-        })
-    }
-
-    fn each(&self, f: impl Fn(f32, f32) -> f32) -> [f32; 3] {
-        let mut out = [0.0; 3];
-        for ((x, o), s) in out.iter_mut().zip(self.per_offset).zip(self.per_scale_um) {
-            *x = f(o, s);
+            *u = crate::num::sqrtf(a * a + b * b);
         }
-        out
+        u
     }
 }
 

@@ -11,6 +11,7 @@ pub mod forward_seed001;
 pub mod forward_seed002;
 pub mod forward_seed003;
 pub mod forward_seed004;
+pub mod gum;
 pub mod lvdt_model;
 pub mod ncgen;
 pub mod oracle;

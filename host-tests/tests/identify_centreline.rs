@@ -4,9 +4,10 @@
 //! transcribed here to show they are NOT what the pod computes, and round trips through the
 //! independent forward model `ballpod_host::forward_seed004`.
 use ballpod::identify::centreline::{
-    AxisLine, CentrelineError, DialPoint, GaugeFrame, NominalAxis, NormalAtAngle, PointAtAngle,
-    RotationSense, TableAxes, axis_centre, axis_direction_half_turn, axis_direction_lsq,
-    axis_direction_two_positions, nc_command_correction, nc_correction, paper, plane_normal,
+    AxisCentre, AxisLine, CentrelineError, DialPoint, GaugeFrame, NominalAxis, NormalAtAngle,
+    PointAtAngle, RotationSense, TableAxes, axis_centre, axis_direction_half_turn,
+    axis_direction_lsq, axis_direction_two_positions, nc_command_correction, nc_correction, paper,
+    plane_normal,
 };
 use ballpod_host::forward_seed004 as fw;
 
@@ -248,6 +249,56 @@ fn c16_eq8_quarter_turn_centre_primed_b() {
     // With the other sense the same data give a different (wrong) centre: the sense matters.
     let wrong = axis_centre(&pos, NominalAxis::Y, RotationSense::RightHanded).unwrap();
     assert!((wrong.centre_mm[0] - 0.03).abs() > 1.0);
+}
+
+/// A vertex turned about a tilted line (the independent forward model's Rodrigues rotation) at
+/// A 0/90/180/270: the in-plane fit finds the projection of the vertex circle's centre, and
+/// `point_on_axis` places it on the line — the circle's centre p + ((v − p)·d)d, out of the
+/// vertex's plane by τ·radius — where the vertex's height would misplace it by τ²·radius.
+#[test]
+fn the_centre_of_a_tilted_axis_is_placed_on_the_line() {
+    let d = fw::normalize([1.6e-3, 0.4e-3, 1.0]);
+    let p = [0.012, -0.008, 0.0];
+    let v = [70.0, -40.0, 0.0];
+    let pos: Vec<PointAtAngle> = [0.0, 90.0, 180.0, 270.0]
+        .iter()
+        .map(|&c: &f64| {
+            let q = fw::rotate_about_line(d, p, c.to_radians(), v);
+            PointAtAngle {
+                commanded_deg: c,
+                point_mm: [q[0], q[1]],
+            }
+        })
+        .collect();
+    let c = axis_centre(&pos, NominalAxis::Z, RotationSense::RightHanded).unwrap();
+    let s = fw::dot(fw::sub(v, p), d);
+    let truth = fw::add(p, fw::scale(s, d));
+    let on_line = c.point_on_axis(NominalAxis::Z, d, v).unwrap();
+    assert!(max_diff(on_line, truth) < 1e-9, "{on_line:?} vs {truth:?}");
+    // at the vertex's height, the line is 0.2 µm away from the centre taken there
+    let at_height = fw::add(p, fw::scale(-p[2] / d[2], d));
+    let off =
+        ((c.centre_mm[0] - at_height[0]).powi(2) + (c.centre_mm[1] - at_height[1]).powi(2)).sqrt();
+    assert!(off > 1.5e-4, "{off}");
+    // the same with Y and Z swapped: nominal Y, in-plane (X, Z), the point's Y from the plane
+    let swap = |a: [f64; 3]| [a[0], a[2], a[1]];
+    let (dy, vy, py) = (swap(d), swap(v), swap(p));
+    let ty = swap(truth);
+    let c_y = AxisCentre {
+        centre_mm: [ty[0], ty[2]],
+        ..c
+    };
+    let q = c_y.point_on_axis(NominalAxis::Y, dy, vy).unwrap();
+    assert!(max_diff(fw::add(py, fw::scale(fw::dot(fw::sub(vy, py), dy), dy)), ty) < 1e-12);
+    assert!(max_diff(q, ty) < 1e-9, "{q:?} vs {ty:?}");
+    assert_eq!(
+        c.point_on_axis(NominalAxis::Z, [1.0, 0.0, 0.1], v),
+        Err(CentrelineError::FarFromNominal)
+    );
+    assert_eq!(
+        c.point_on_axis(NominalAxis::Z, d, [f64::NAN, 0.0, 0.0]),
+        Err(CentrelineError::NonFinite)
+    );
 }
 
 // ------------------------------------------------------------------------------ C17, C18
@@ -790,8 +841,9 @@ fn two_positions_with_gauge_noise_answer_within_u_or_refuse_with_the_noise() {
     );
 }
 
-/// The half turn's propagated u against the scatter of 300 noisy measurements (within 20 %),
-/// and U = 2u covering the truth in 95 % ± 3 %.
+/// The half turn's propagated u against the scatter of 2000 noisy measurements (within 20 %),
+/// U = 2u covering the truth in 95 % ± 3 %, and the stated correlation of the two tilt
+/// components against their errors'.
 #[test]
 fn half_turn_with_gauge_noise_states_an_honest_u() {
     let mut rng = fw::SplitMix(180);
@@ -799,7 +851,8 @@ fn half_turn_with_gauge_noise_states_an_honest_u() {
     let noise_um = 0.3;
     let sigma_urad = noise_um * 2f64.sqrt() / 100.0 * 1e3;
     let (mut covered, mut e2, mut u2) = (0, 0.0, 0.0);
-    const RUNS: usize = 300;
+    let (mut e01, mut e00, mut e11, mut rho_sum) = (0.0, 0.0, 0.0, 0.0);
+    const RUNS: usize = 2000;
     for _ in 0..RUNS {
         let d = fw::normalize([rng.range(-2e-3, 2e-3), rng.range(-2e-3, 2e-3), 1.0]);
         let n0 = fw::normalize([rng.range(-1e-3, 1e-3), rng.range(-1e-3, 1e-3), 1.0]);
@@ -816,13 +869,18 @@ fn half_turn_with_gauge_noise_states_an_honest_u() {
         let (a, b) = (normal(n0), normal(n180));
         let est = axis_direction_half_turn(a, b, Z, sigma_urad).unwrap();
         // nominal Z: tilt components along (X, Y)
+        let e = [0, 1].map(|k| (est.direction[k] - d[k]) * 1e6);
         for k in 0..2 {
-            let e = (est.direction[k] - d[k]) * 1e6;
             let u = est.tilt_uncertainty_urad[k];
-            covered += usize::from(e.abs() <= 2.0 * u);
-            e2 += e * e;
+            covered += usize::from(e[k].abs() <= 2.0 * u);
+            e2 += e[k] * e[k];
             u2 += u * u;
         }
+        e01 += e[0] * e[1];
+        e00 += e[0] * e[0];
+        e11 += e[1] * e[1];
+        rho_sum += est.tilt_correlation;
+        assert_eq!(est.tilt_degrees_of_freedom, None);
     }
     let coverage = covered as f64 / (2 * RUNS) as f64;
     let ratio = (u2 / e2).sqrt();
@@ -830,4 +888,8 @@ fn half_turn_with_gauge_noise_states_an_honest_u() {
         (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
         "coverage {coverage:.3}, rms u / rms error {ratio:.3}"
     );
+    // the stated correlation of the two components against the errors' (its standard error
+    // with 2000 runs ≈ 0.02)
+    let (empirical, stated) = (e01 / (e00 * e11).sqrt(), rho_sum / RUNS as f64);
+    assert!((empirical - stated).abs() < 0.08, "{empirical} vs {stated}");
 }

@@ -72,6 +72,7 @@ fn exact_cubic_is_recovered() {
     assert_eq!(s.rank, 4);
 }
 
+/// x, u and the correlation of every pair of unknowns against the normal equations' oracle.
 #[test]
 fn noisy_fit_matches_normal_equation_oracle_with_uncertainties() {
     // deterministic pseudo-noise
@@ -98,7 +99,15 @@ fn noisy_fit_matches_normal_equation_oracle_with_uncertainties() {
             (s.std_uncertainty[i] - u_ref).abs() < 1e-9 * u_ref.max(1e-12),
             "{i}"
         );
+        // the correlations of the same (AᵀA)⁻¹ (the powers of a cubic's basis correlate
+        // strongly: the check is not of zeros)
+        for j in 0..4 {
+            let r_ref = inv[i][j] / (inv[i][i] * inv[j][j]).sqrt();
+            assert!((s.correlation(i, j) - r_ref).abs() < 1e-9, "{i} {j}");
+        }
     }
+    assert!(s.correlation(0, 2).abs() > 0.3);
+    assert_eq!(s.correlation(0, 4), 0.0);
     assert!((s.residual_rms - (rss / rows.len() as f64).sqrt()).abs() < 1e-12);
 }
 

@@ -200,6 +200,13 @@ pub struct AxisDirection {
     /// it from its residual (0 without redundancy); the half turn propagates the stated normal
     /// noise.
     pub tilt_uncertainty_urad: [f64; 2],
+    /// Correlation coefficient of the two tilt components' errors (−1 … 1; 0 where
+    /// `tilt_uncertainty_urad` is 0).
+    pub tilt_correlation: f64,
+    /// Degrees of freedom of `tilt_uncertainty_urad` (GUM G.3): positions − 3 for the
+    /// ≥ 3-position method, whose u comes from its residual; `None` where u is propagated from
+    /// a stated noise (the half turn).
+    pub tilt_degrees_of_freedom: Option<u32>,
     /// RMS of the plane residuals `d · n_i − k` over the positions, µrad (0 without
     /// redundancy).
     pub residual_rms_urad: f64,
@@ -261,6 +268,12 @@ pub struct AxisCentre {
     pub centre_mm: [f64; 2],
     /// Standard uncertainty of the centre coordinates, µm (0 without redundancy).
     pub centre_uncertainty_um: [f64; 2],
+    /// Correlation coefficient of the two centre coordinates' errors (−1 … 1; 0 without
+    /// redundancy).
+    pub centre_correlation: f64,
+    /// Degrees of freedom of `centre_uncertainty_um` (GUM G.3): 2 · positions − 4, the
+    /// residual's (0 without redundancy).
+    pub centre_degrees_of_freedom: u32,
     /// Distance of the vertex from the axis, mm.
     pub radius_mm: f64,
     /// RMS of the point residuals (per coordinate), µm (0 without redundancy).
@@ -454,10 +467,13 @@ pub fn axis_direction_half_turn(
     }
     let d = orient(s / s.norm(), &e)?;
     let half_turn = |a: &Vector3<f64>, b: &Vector3<f64>| orient((a + b).normalize(), &e);
+    let (u, rho) = propagate(&n1.into_inner(), &n2.into_inner(), sigma, &e, half_turn)?;
     Ok(AxisDirection {
         direction: arr(&d),
         axial_cos: d.dot(&n1),
-        tilt_uncertainty_urad: propagate(&n1.into_inner(), &n2.into_inner(), sigma, &e, half_turn)?,
+        tilt_uncertainty_urad: u,
+        tilt_correlation: rho,
+        tilt_degrees_of_freedom: None,
         residual_rms_urad: 0.0,
         angle_rms_deg: 0.0,
         positions: 2,
@@ -542,7 +558,7 @@ pub fn axis_direction_two_positions(
     let (p, q) = perpendicular_pair(&e);
     let tilt = |d: &Vector3<f64>| [p.dot(d), q.dot(d)];
     let candidate_u = |sign: f64| -> Result<[f64; 2], CentrelineError> {
-        let at_k = propagate(&n3v, &n4v, sigma, &e, |a, b| solve(a, b, sign, Some(k)))?;
+        let (at_k, _) = propagate(&n3v, &n4v, sigma, &e, |a, b| solve(a, b, sign, Some(k)))?;
         let t = tilt(&solve(&n3v, &n4v, sign, Some(k))?);
         let lo = tilt(&solve(&n3v, &n4v, sign, Some(k_lo))?);
         let hi = tilt(&solve(&n3v, &n4v, sign, Some(k_wide))?);
@@ -576,8 +592,9 @@ fn normal_sigma(normal_std_urad: f64) -> Result<f64, CentrelineError> {
 }
 
 /// Standard uncertainty (µrad) of the two tilt components (about the pair perpendicular to the
-/// nominal `e`) of a direction `f(a, b)` computed from two unit normals, each with two
-/// independent tilt components of standard uncertainty `sigma` (rad): central differences
+/// nominal `e`) of a direction `f(a, b)` computed from two unit normals, and their correlation
+/// coefficient; each normal has two independent tilt components of standard uncertainty
+/// `sigma` (rad): central differences
 /// with a step of σ itself, so a non-linear method (the square root of a k² near 0) is
 /// followed over the noise's range rather than at a point.
 fn propagate(
@@ -586,13 +603,13 @@ fn propagate(
     sigma: f64,
     e: &Unit<Vector3<f64>>,
     f: impl Fn(&Vector3<f64>, &Vector3<f64>) -> Result<Vector3<f64>, CentrelineError>,
-) -> Result<[f64; 2], CentrelineError> {
+) -> Result<([f64; 2], f64), CentrelineError> {
     if sigma == 0.0 {
-        return Ok([0.0; 2]);
+        return Ok(([0.0; 2], 0.0));
     }
     let (p, q) = perpendicular_pair(e);
     let tilt = |d: Vector3<f64>| [p.dot(&d), q.dot(&d)];
-    let mut var = [0.0f64; 2];
+    let (mut var, mut cov) = ([0.0f64; 2], 0.0);
     for which in 0..2 {
         let n = if which == 0 { a } else { b };
         let (t1, t2) = perpendicular_pair(&Unit::new_normalize(*n));
@@ -602,13 +619,16 @@ fn propagate(
                 if which == 0 { f(&m, b) } else { f(a, &m) }
             };
             let (hi, lo) = (tilt(step(1.0)?), tilt(step(-1.0)?));
-            for (v, (h, l)) in var.iter_mut().zip(hi.iter().zip(lo.iter())) {
-                let dv = (h - l) / 2.0;
-                *v += dv * dv;
+            let dv = [(hi[0] - lo[0]) / 2.0, (hi[1] - lo[1]) / 2.0];
+            for (v, d) in var.iter_mut().zip(dv) {
+                *v += d * d;
             }
+            cov += dv[0] * dv[1];
         }
     }
-    Ok(var.map(|v| crate::num::sqrt(v) * 1e6))
+    let d = crate::num::sqrt(var[0] * var[1]);
+    let rho = if d > 0.0 { cov / d } else { 0.0 };
+    Ok((var.map(|v| crate::num::sqrt(v) * 1e6), rho))
 }
 
 /// Signed angle (rad) from `a` to `b` about unit `d`, after projecting both onto the plane
@@ -699,6 +719,8 @@ pub fn axis_direction_lsq(
             sol.std_uncertainty[0] / scale * 1e6,
             sol.std_uncertainty[1] / scale * 1e6,
         ],
+        tilt_correlation: sol.correlation(0, 1),
+        tilt_degrees_of_freedom: Some(sol.rows.saturating_sub(3)),
         residual_rms_urad: if redundant {
             sol.residual_rms / scale * 1e6
         } else {
@@ -722,14 +744,58 @@ fn in_plane_rotation(axis: NominalAxis, theta_rad: f64) -> [[f64; 2]; 2] {
     }
 }
 
+impl AxisCentre {
+    /// The centre as a point of the axis line (mm, machine coordinates): its in-plane
+    /// coordinates, and the out-of-plane one where the plane through `vertex_mm` (the vertex
+    /// at any of its positions, machine coordinates) perpendicular to the axis `direction`
+    /// meets the line, `(vertex − point)·direction = 0`. `axis` is the nominal axis of the
+    /// fit. Error when the direction is more than 60° from the nominal or a value is not
+    /// finite.
+    pub fn point_on_axis(
+        &self,
+        axis: NominalAxis,
+        direction: [f64; 3],
+        vertex_mm: [f64; 3],
+    ) -> Result<[f64; 3], CentrelineError> {
+        if !(crate::num::all_finite(&direction) && crate::num::all_finite(&vertex_mm)) {
+            return Err(CentrelineError::NonFinite);
+        }
+        // (in-plane indices, out-of-plane index) in the order of `NominalAxis`
+        let ([i, j], k) = match axis {
+            NominalAxis::X => ([1, 2], 0),
+            NominalAxis::Y => ([0, 2], 1),
+            NominalAxis::Z => ([0, 1], 2),
+        };
+        let at = |v: &[f64; 3], n: usize| v.get(n).copied().unwrap_or(0.0);
+        let (d, v) = (direction, vertex_mm);
+        let dk = at(&d, k);
+        if !(libm::fabs(dk) >= 0.5 * v3(d).norm()) {
+            return Err(CentrelineError::FarFromNominal);
+        }
+        let [ci, cj] = self.centre_mm;
+        let mut p = [0.0; 3];
+        let out = at(&v, k) + ((at(&v, i) - ci) * at(&d, i) + (at(&v, j) - cj) * at(&d, j)) / dk;
+        for (n, value) in [(i, ci), (j, cj), (k, out)] {
+            if let Some(slot) = p.get_mut(n) {
+                *slot = value;
+            }
+        }
+        Ok(p)
+    }
+}
+
 /// Axis centre from one physical vertex measured at ≥ 2 axis positions (seed 004 §3.2, §3.4;
 /// eqs 4 and 8 are the two-position cases): least squares on `p_i = c + R(θ_i − θ_0)·r`,
 /// unknowns c (centre) and r (vertex − centre at the first position), `θ` physical (via
 /// `sense`). Two positions: exact; more: residual and uncertainty.
 ///
-/// The measured points are taken in the plane perpendicular to the nominal axis; an axis tilt
-/// τ changes the centre by O(τ²·radius) (a half turn is exact: the mid-point lies on the axis).
-/// All positions must show the **same physical vertex** (D.11).
+/// The measured points are taken in the plane perpendicular to the nominal axis. The fitted
+/// centre is the projection of the vertex circle's centre, which lies on the axis in the plane
+/// through the vertex perpendicular to the **actual** axis: on an axis tilted by τ, that is
+/// τ·radius away from the vertex's own height, and taking the centre at the vertex's height
+/// misplaces the line by τ²·radius (0.2 µm at 1.6 mrad and 80 mm).
+/// [`AxisCentre::point_on_axis`] places it from the identified direction. All positions must
+/// show the **same physical vertex** (D.11).
 pub fn axis_centre(
     positions: &[PointAtAngle],
     axis: NominalAxis,
@@ -773,6 +839,12 @@ pub fn axis_centre(
     Ok(AxisCentre {
         centre_mm: [sol.x[0] + origin[0], sol.x[1] + origin[1]],
         centre_uncertainty_um: [sol.std_uncertainty[0] * 1e3, sol.std_uncertainty[1] * 1e3],
+        centre_correlation: if redundant {
+            sol.correlation(0, 1)
+        } else {
+            0.0
+        },
+        centre_degrees_of_freedom: sol.rows.saturating_sub(4),
         radius_mm: crate::num::hypot(sol.x[2], sol.x[3]),
         residual_rms_um: if redundant {
             sol.residual_rms * 1e3

@@ -61,6 +61,31 @@ pub struct LsqSolution<const N: usize> {
     pub right_singular_vectors: [[f64; N]; N],
 }
 
+impl<const N: usize> LsqSolution<N> {
+    /// Correlation coefficient of the errors of unknowns `i` and `j`, from the same
+    /// `(AᵀA)⁻¹` as [`Self::std_uncertainty`] (over the resolved singular values); 0 when
+    /// either has no variance or an index is out of range.
+    pub fn correlation(&self, i: usize, j: usize) -> f64 {
+        let (mut cij, mut cii, mut cjj) = (0.0, 0.0, 0.0);
+        for (sigma, v) in self
+            .singular_values
+            .iter()
+            .zip(self.right_singular_vectors.iter())
+            .take(self.rank)
+        {
+            let (Some(vi), Some(vj)) = (v.get(i), v.get(j)) else {
+                return 0.0;
+            };
+            let w = 1.0 / (sigma * sigma);
+            cij += vi * vj * w;
+            cii += vi * vi * w;
+            cjj += vj * vj * w;
+        }
+        let d = crate::num::sqrt(cii * cjj);
+        if d > 0.0 { cij / d } else { 0.0 }
+    }
+}
+
 /// Default relative tolerance for the numerical rank: a singular value below
 /// `1e-10 · σ_max` counts as zero (f64 carries ~16 digits; identification Jacobians mix mm and
 /// µrad scales of ~1e6 at most, so true rank deficiency sits many decades below this).

@@ -3,7 +3,8 @@
 //! (`cargo ncgen -- correct PROGRAM SETUP RESULTS`, [`correct_program`]) and for seed 004's
 //! estimated rotary-axis centrelines (`cargo ncgen -- correct-centrelines PROGRAM CENTRELINES`,
 //! [`correct_program_centrelines`]). Both rewrite the program the same way
-//! ([`rewrite_points`]); only the corrected point differs.
+//! ([`rewrite_points`]); only the corrected point differs. With the centrelines' standard
+//! uncertainties (`[uncertainty]`), each corrected block also states the u of its X, Y, Z.
 //!
 //! Seed 002:
 //! Every `G0`/`G1` block's X, Y, Z become the core's corrected command
@@ -23,7 +24,7 @@ use ballpod::identify::multitasking::compensation::{CompensationMode, compensate
 use ballpod::identify::multitasking::patterns::NcBlock;
 use ballpod::identify::multitasking::{Deviations, Parameter, arcsec_to_urad};
 
-use super::{NcError, num};
+use super::{NcError, WORD_RESOLUTION_MM, num};
 
 /// The squareness deviations the ball-bar procedure does not identify (the pod's results
 /// table has no entry for them): left 0.
@@ -120,11 +121,14 @@ pub fn correct_program(
         };
         let c = compensate(&block, dev, CompensationMode::Once)
             .map_err(|e| format!("not compensated: {e:?}"))?;
-        Ok([
-            c.x_mm + origin_mm[0],
-            c.y_mm + origin_mm[1],
-            c.z_mm + origin_mm[2],
-        ])
+        Ok((
+            [
+                c.x_mm + origin_mm[0],
+                c.y_mm + origin_mm[1],
+                c.z_mm + origin_mm[2],
+            ],
+            None,
+        ))
     };
     rewrite_points(program, ['B', 'C'], &header, &correct)
 }
@@ -145,6 +149,152 @@ pub struct CentrelinesFile {
     /// Rotation sense of A and B.
     #[serde(default)]
     pub sense: Option<Senses>,
+    /// Standard uncertainties of `actual`.
+    #[serde(default)]
+    pub uncertainty: Option<CentrelineUncertainty>,
+}
+
+/// `[uncertainty]`: the standard uncertainties of the estimated centrelines and their
+/// correlations, as the core's identification states them (`AxisDirection`:
+/// `tilt_uncertainty_urad`, `tilt_correlation`; `AxisCentre`: `centre_uncertainty_um`,
+/// `centre_correlation`), in the core's component order. The four pairs are taken as
+/// independent of each other (the directions come from face normals, the points from
+/// vertices: separate readings).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CentrelineUncertainty {
+    /// A's direction (nominally ∥ Z): its tilt towards X and towards Y, µrad.
+    pub a_tilt_urad: [f64; 2],
+    /// Correlation of A's two tilt components (default 0).
+    #[serde(default)]
+    pub a_tilt_correlation: f64,
+    /// Degrees of freedom of `a_tilt_*` (the core's `tilt_degrees_of_freedom`; default:
+    /// infinite, a u from a stated noise).
+    #[serde(default)]
+    pub a_tilt_dof: Option<u32>,
+    /// A's point across the axis: X and Y, µm.
+    pub a_point_um: [f64; 2],
+    /// Correlation of A's two point components (default 0).
+    #[serde(default)]
+    pub a_point_correlation: f64,
+    /// Degrees of freedom of `a_point_*` (the core's `centre_degrees_of_freedom`; default:
+    /// infinite, a u from a stated noise).
+    #[serde(default)]
+    pub a_point_dof: Option<u32>,
+    /// B's direction (nominally ∥ Y): its tilt towards X and towards −Z, µrad.
+    pub b_tilt_urad: [f64; 2],
+    /// Correlation of B's two tilt components (default 0).
+    #[serde(default)]
+    pub b_tilt_correlation: f64,
+    /// Degrees of freedom of `b_tilt_*` (the core's `tilt_degrees_of_freedom`; default:
+    /// infinite, a u from a stated noise).
+    #[serde(default)]
+    pub b_tilt_dof: Option<u32>,
+    /// B's point across the axis: X and Z, µm.
+    pub b_point_um: [f64; 2],
+    /// Correlation of B's two point components (default 0).
+    #[serde(default)]
+    pub b_point_correlation: f64,
+    /// Degrees of freedom of `b_point_*` (the core's `centre_degrees_of_freedom`; default:
+    /// infinite, a u from a stated noise).
+    #[serde(default)]
+    pub b_point_dof: Option<u32>,
+}
+
+/// One input pair of [`CentrelineUncertainty`].
+struct UncertainPair {
+    /// The file's key of the standard uncertainties.
+    key: &'static str,
+    /// The file's key of the correlation.
+    correlation_key: &'static str,
+    /// The line (A: the table).
+    line: Line,
+    /// The machine directions the two components move along (signed unit vectors).
+    along: [[f64; 3]; 2],
+    /// Their standard uncertainties, µrad (a tilt) or µm (a point).
+    u: [f64; 2],
+    /// Their correlation coefficient.
+    correlation: f64,
+    /// Their degrees of freedom (`None`: infinite).
+    dof: Option<u32>,
+    /// Whether it tilts the direction (else it moves the point).
+    tilt: bool,
+}
+
+impl CentrelineUncertainty {
+    /// The four input pairs.
+    fn pairs(&self) -> [UncertainPair; 4] {
+        const X: [f64; 3] = [1.0, 0.0, 0.0];
+        const Y: [f64; 3] = [0.0, 1.0, 0.0];
+        const Z: [f64; 3] = [0.0, 0.0, 1.0];
+        const MINUS_Z: [f64; 3] = [0.0, 0.0, -1.0];
+        let pair = |key, correlation_key, line, along, u, (correlation, dof), tilt| UncertainPair {
+            key,
+            correlation_key,
+            line,
+            along,
+            u,
+            correlation,
+            dof,
+            tilt,
+        };
+        [
+            pair(
+                "uncertainty.a_tilt_urad",
+                "uncertainty.a_tilt_correlation",
+                Line::A,
+                [X, Y],
+                self.a_tilt_urad,
+                (self.a_tilt_correlation, self.a_tilt_dof),
+                true,
+            ),
+            pair(
+                "uncertainty.a_point_um",
+                "uncertainty.a_point_correlation",
+                Line::A,
+                [X, Y],
+                self.a_point_um,
+                (self.a_point_correlation, self.a_point_dof),
+                false,
+            ),
+            pair(
+                "uncertainty.b_tilt_urad",
+                "uncertainty.b_tilt_correlation",
+                Line::B,
+                [X, MINUS_Z],
+                self.b_tilt_urad,
+                (self.b_tilt_correlation, self.b_tilt_dof),
+                true,
+            ),
+            pair(
+                "uncertainty.b_point_um",
+                "uncertainty.b_point_correlation",
+                Line::B,
+                [X, Z],
+                self.b_point_um,
+                (self.b_point_correlation, self.b_point_dof),
+                false,
+            ),
+        ]
+    }
+}
+
+/// One of the two centrelines.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Line {
+    /// The rotary table A.
+    A,
+    /// The tilting axis B.
+    B,
+}
+
+impl Line {
+    fn of(self, axes: &mut TableAxes) -> &mut AxisLine {
+        match self {
+            Self::A => &mut axes.table,
+            Self::B => &mut axes.tilt,
+        }
+    }
 }
 
 /// The two axis lines, machine coordinates: directions of any length, points in mm.
@@ -216,6 +366,27 @@ pub fn centrelines_from_toml(text: &str) -> Result<CentrelinesFile, NcError> {
             });
         }
     }
+    for p in f.uncertainty.iter().flat_map(CentrelineUncertainty::pairs) {
+        let bad = |what: String| NcError {
+            field: "CENTRELINES",
+            what,
+        };
+        if !p.u.iter().all(|v| v.is_finite() && *v >= 0.0) {
+            return Err(bad(format!(
+                "{}: a standard uncertainty is ≥ 0 and finite",
+                p.key
+            )));
+        }
+        if !(-1.0..=1.0).contains(&p.correlation) {
+            return Err(bad(format!("{}: within −1 … 1", p.correlation_key)));
+        }
+        if p.dof == Some(0) {
+            return Err(bad(format!(
+                "{}: 0 degrees of freedom (no redundancy): its u is not evaluated",
+                p.key
+            )));
+        }
+    }
     Ok(f)
 }
 
@@ -250,22 +421,105 @@ pub fn correct_program_centrelines(
         "each block's X Y Z moved to the work point turned about the estimated centrelines; A and B as programmed"
             .into(),
     ];
+    let stated = [
+        "u: standard uncertainty from the centrelines' u; U: k times u for 95.45 percent, k from Student's t at the Welch-Satterthwaite degrees of freedom, GUM G.4"
+            .to_string(),
+    ];
+    let header = if lines.uncertainty.is_some() {
+        [header.as_slice(), &stated].concat()
+    } else {
+        header.to_vec()
+    };
     let correct = |[x, y, z, a_deg, b_deg]: [f64; 5]| {
-        nc_command_correction(
-            &actual,
-            &nominal,
-            [x, y, z],
-            sa.physical_deg(a_deg),
-            sb.physical_deg(b_deg),
-        )
-        .map(|c| c.corrected_command_mm)
-        .map_err(|e| format!("not corrected: {e:?}"))
+        let at = |actual: &TableAxes| {
+            nc_command_correction(
+                actual,
+                &nominal,
+                [x, y, z],
+                sa.physical_deg(a_deg),
+                sb.physical_deg(b_deg),
+            )
+            .map(|c| c.corrected_command_mm)
+            .map_err(|e| format!("not corrected: {e:?}"))
+        };
+        let point = at(&actual)?;
+        let Some(budget) = &lines.uncertainty else {
+            return Ok((point, None));
+        };
+        // each input moved by its u (a secant: the correction is linear in them far beyond
+        // their size); the corrected point's changes c₁, c₂ of a pair with correlation r add
+        // c₁² + c₂² + 2r·c₁c₂ to its variance (GUM 5.2.2)
+        // the four pairs, then the written word's rounding: uniform over one resolution step,
+        // (step)²/12, known exactly (GUM F.2.2.1)
+        let rounding = (WORD_RESOLUTION_MM * 1e3).powi(2) / 12.0;
+        let mut var_um2 = [[
+            (0.0f64, None),
+            (0.0, None),
+            (0.0, None),
+            (0.0, None),
+            (rounding, None),
+        ]; 3];
+        for (i, pair) in budget.pairs().into_iter().enumerate() {
+            let mut change = [[0.0f64; 3]; 2];
+            for ((c, dir), u) in change.iter_mut().zip(pair.along).zip(pair.u) {
+                let mut moved = actual;
+                let line = pair.line.of(&mut moved);
+                let (v, step) = if pair.tilt {
+                    let step = u * 1e-6 * norm(line.direction);
+                    (&mut line.direction, step)
+                } else {
+                    (&mut line.point_mm, u * 1e-3)
+                };
+                v.iter_mut().zip(dir).for_each(|(v, d)| *v += step * d);
+                let p = at(&moved)?;
+                for ((c, a), b) in c.iter_mut().zip(p).zip(point) {
+                    *c = (a - b) * 1e3;
+                }
+            }
+            let [c1, c2] = change;
+            for ((v, a), b) in var_um2.iter_mut().zip(c1).zip(c2) {
+                if let Some(v) = v.get_mut(i) {
+                    *v = (a * a + b * b + 2.0 * pair.correlation * a * b, pair.dof);
+                }
+            }
+        }
+        Ok((point, Some(var_um2.map(|v| PointUncertainty::of(&v)))))
     };
     rewrite_points(program, ['A', 'B'], &header, &correct)
 }
 
-/// The corrected X Y Z (mm) of a point X Y Z (mm) R1 R2 (deg, the machine's two rotary axes).
-type Corrector<'a> = dyn Fn([f64; 5]) -> Result<[f64; 3], String> + 'a;
+/// |d| of a direction (the file's directions may have any length).
+fn norm(d: [f64; 3]) -> f64 {
+    d.iter().map(|v| v * v).sum::<f64>().sqrt()
+}
+
+/// The uncertainty of one coordinate of a corrected point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PointUncertainty {
+    /// Standard uncertainty, µm.
+    pub u_um: f64,
+    /// Expanded uncertainty for 95.45 %, µm: k from Student's t at the Welch–Satterthwaite
+    /// degrees of freedom (k = 2 when every input's are infinite).
+    pub expanded_um: f64,
+}
+
+impl PointUncertainty {
+    /// From its variance contributions (µm²) and their degrees of freedom.
+    fn of(contributions: &[(f64, Option<u32>)]) -> Self {
+        let u_um = contributions.iter().map(|(v, _)| v).sum::<f64>().sqrt();
+        // every ν ≥ 1 (refused otherwise), so ν_eff ≥ 1 and k exists
+        let k = crate::gum::coverage_factor(crate::gum::effective_dof(contributions));
+        Self {
+            u_um,
+            expanded_um: k.map_or(f64::NAN, |k| k * u_um),
+        }
+    }
+}
+
+/// The corrected X Y Z (mm) of a point X Y Z (mm) R1 R2 (deg, the machine's two rotary axes),
+/// with the uncertainty of each when the corrections state one.
+type Corrector<'a> =
+    dyn Fn([f64; 5]) -> Result<([f64; 3], Option<[PointUncertainty; 3]>), String> + 'a;
 
 /// `program` with every linear block's X Y Z replaced by `correct` of its point, the machine's
 /// rotary axes being `rotary` (another rotary word is refused), `header` written as comments
@@ -275,7 +529,7 @@ type Corrector<'a> = dyn Fn([f64; 5]) -> Result<[f64; 3], String> + 'a;
 pub fn rewrite_points(
     program: &str,
     rotary: [char; 2],
-    header: &[String; 2],
+    header: &[String],
     correct: &Corrector,
 ) -> Result<String, NcError> {
     let bad = |line: usize, what: String| NcError {
@@ -385,7 +639,7 @@ pub fn rewrite_points(
             ));
         }
         let [x, y, z, _, _] = pos;
-        let xyz = correct(pos).map_err(|e| bad(i, e))?;
+        let (xyz, u_um) = correct(pos).map_err(|e| bad(i, e))?;
         // the block again: its words before the first axis word, X Y Z corrected (all three:
         // a word the block left modal may move too), then its other words
         let xyz_words = format!(" X{} Y{} Z{}", num(xyz[0]), num(xyz[1]), num(xyz[2]));
@@ -402,12 +656,20 @@ pub fn rewrite_points(
             }
         }
         let um = |d: f64| format!("{:+.2}", d * 1e3);
-        let moved = note(format!(
+        let mut moved = format!(
             "moved X {} Y {} Z {} um",
             um(xyz[0] - x),
             um(xyz[1] - y),
             um(xyz[2] - z)
-        ));
+        );
+        if let Some([x, y, z]) = u_um {
+            let _ = write!(
+                moved,
+                "; u X {:.2} Y {:.2} Z {:.2} um, U X {:.2} Y {:.2} Z {:.2} um",
+                x.u_um, y.u_um, z.u_um, x.expanded_um, y.expanded_um, z.expanded_um
+            );
+        }
+        let moved = note(moved);
         let _ = writeln!(out, "{} ({moved}){}", text.trim_start(), comment);
     }
     Ok(out)

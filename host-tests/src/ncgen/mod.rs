@@ -27,8 +27,9 @@ mod travel;
 mod two_step;
 
 pub use correct::{
-    CentrelinePair, CentrelinesFile, Senses, centrelines_from_toml, correct_program,
-    correct_program_centrelines, deviations_from_results, rewrite_points,
+    CentrelinePair, CentrelineUncertainty, CentrelinesFile, PointUncertainty, Senses,
+    centrelines_from_toml, correct_program, correct_program_centrelines, deviations_from_results,
+    rewrite_points,
 };
 pub use dialect::Dialect;
 pub use pattern::PatternTest;
@@ -327,6 +328,9 @@ impl CircleTest {
         let _ = writeln!(out, "{g} {} {}", self.words(to_deg, r_mm), centre.join(" "));
     }
 }
+
+/// The resolution of the coordinates the programs write ([`num`]), mm.
+pub const WORD_RESOLUTION_MM: f64 = 1e-4;
 
 /// A coordinate as the programs write it: 4 decimals (0.1 µm), `-0` as `0`.
 pub fn num(x: f64) -> String {

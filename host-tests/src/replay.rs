@@ -73,6 +73,55 @@ pub struct Report {
     /// Results of the host-only methods (seed 003 R-test, seed 004 dial gauge), when replayed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub host: Vec<Figure>,
+    /// The covariance of the seed 002 model mode's deviations, when the procedure is complete
+    /// (what `ncgen correct` propagates into each corrected point).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub seed002_covariance: Option<DeviationCovariance>,
+}
+
+/// The covariance of the seed 002 model mode's identified deviations
+/// (`ballpod::app::seed002::Procedure::model_covariance`), in their results' units: its
+/// diagonal is the square of each result's u.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DeviationCovariance {
+    /// The deviations by result name (`dx_BT` … `beta_CZ`), the rows' and columns' order.
+    pub names: Vec<String>,
+    /// Their units (`um`, `arcsec`).
+    pub units: Vec<String>,
+    /// The covariance, the product of the row's and the column's units.
+    pub matrix: Vec<Vec<f64>>,
+}
+
+impl DeviationCovariance {
+    /// The covariance of the procedure on `app`, if it is complete.
+    pub fn of(app: &App) -> Option<Self> {
+        use ballpod::identify::multitasking::model_lsq::ModelLsq;
+        use ballpod::identify::multitasking::urad_to_arcsec;
+        let bar = ballpod::metrology::bar_budget::BarBudget::from_config(app.config());
+        let cov = app.seed002()?.model_covariance(&bar).ok()?;
+        let params: Vec<_> = ModelLsq::without_squareness().free_parameters().collect();
+        // µrad → arcsec on an angular row or column
+        let unit = |p: &ballpod::identify::multitasking::Parameter| {
+            if p.is_positional() {
+                ("um", 1.0)
+            } else {
+                ("arcsec", urad_to_arcsec(1.0))
+            }
+        };
+        Some(Self {
+            names: params.iter().map(|p| p.name().to_string()).collect(),
+            units: params.iter().map(|p| unit(p).0.to_string()).collect(),
+            matrix: params
+                .iter()
+                .map(|p| {
+                    params
+                        .iter()
+                        .map(|q| cov[p.index()][q.index()] * unit(p).1 * unit(q).1)
+                        .collect()
+                })
+                .collect(),
+        })
+    }
 }
 
 impl Report {
@@ -105,6 +154,7 @@ impl Report {
     /// Takes the final results table of `app`.
     pub fn finish(&mut self, app: &App) {
         self.results = figures(app, ResultId::ALL);
+        self.seed002_covariance = DeviationCovariance::of(app);
     }
 
     /// The value of result `name`, if valid.

@@ -493,6 +493,23 @@ impl Procedure {
         })
     }
 
+    /// The full covariance of the model mode's deviations (µm², µm·µrad, µrad²; rows and
+    /// columns in [`crate::identify::multitasking::Parameter::ALL`] order) from the same inputs
+    /// as [`Self::identify`]'s u: what a compensation of several deviations needs (the host's
+    /// part programs; the pod reports each deviation's u).
+    pub fn model_covariance(&self, bar: &BarBudget) -> Result<[[f64; 13]; 13], SessionError> {
+        let steps = self.identify(bar)?.steps;
+        let (_, _, cov) = ModelLsq::without_squareness()
+            .identify_covariance(
+                &self.measurements(&steps),
+                &steps.map(|s| s.u_e_um),
+                &self.setup.mounting,
+                bar,
+            )
+            .map_err(SessionError::Model)?;
+        Ok(cov)
+    }
+
     fn measurements(&self, steps: &[StepEccentricity; 5]) -> [PatternMeasurement; 5] {
         let mut m = [PatternMeasurement {
             pattern: ModelPattern::Bx,

@@ -30,24 +30,61 @@ use super::{NcError, WORD_RESOLUTION_MM, num};
 /// table has no entry for them): left 0.
 const NOT_IDENTIFIED: [Parameter; 3] = [Parameter::GammaXy, Parameter::AlphaYz, Parameter::BetaYz];
 
+/// What `ncgen correct` takes from a results file: the identified deviations and, when the
+/// file has one, their covariance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IdentifiedDeviations {
+    /// The model mode's deviations (µm, µrad; [`NOT_IDENTIFIED`] 0).
+    pub deviations: Deviations,
+    /// Their covariance (µm², µm·µrad, µrad²; [`Parameter::ALL`] order), from the file's
+    /// `seed002_covariance`.
+    pub covariance: Option<[[f64; 13]; 13]>,
+}
+
+impl From<Deviations> for IdentifiedDeviations {
+    fn from(deviations: Deviations) -> Self {
+        Self {
+            deviations,
+            covariance: None,
+        }
+    }
+}
+
 /// The identified deviations of a results file (`{"results": [{"name", "value", …}]}`: µm and
 /// arc-seconds); every one the procedure identifies (all but [`NOT_IDENTIFIED`]) must be there
-/// and finite.
-pub fn deviations_from_results(json: &str) -> Result<Deviations, NcError> {
+/// and finite. With `seed002_covariance` (`names`, `units`, `matrix`, as `cargo sim` and
+/// `cargo replay` write it) their covariance too: square, symmetric, finite, a non-negative
+/// diagonal, every name a deviation.
+pub fn deviations_from_results(json: &str) -> Result<IdentifiedDeviations, NcError> {
     #[derive(serde::Deserialize)]
     struct Entry {
         name: String,
         value: Option<f64>,
     }
     #[derive(serde::Deserialize)]
+    struct Covariance {
+        names: Vec<String>,
+        matrix: Vec<Vec<f64>>,
+    }
+    #[derive(serde::Deserialize)]
     struct File {
         results: Vec<Entry>,
+        #[serde(default)]
+        seed002_covariance: Option<Covariance>,
     }
     let bad = |what: String| NcError {
         field: "RESULTS",
         what,
     };
     let file: File = serde_json::from_str(json).map_err(|e| bad(e.to_string()))?;
+    // a value in the results' unit (µm or arc-seconds) in the model's (µm or µrad)
+    let model_unit = |p: Parameter, v: f64| {
+        if p.is_positional() {
+            v
+        } else {
+            arcsec_to_urad(v)
+        }
+    };
     let mut a = [0.0; 13];
     for p in Parameter::ALL {
         if NOT_IDENTIFIED.contains(&p) {
@@ -61,14 +98,47 @@ pub fn deviations_from_results(json: &str) -> Result<Deviations, NcError> {
             .filter(|v| v.is_finite())
             .ok_or_else(|| bad(format!("{} not identified", p.name())))?;
         if let Some(slot) = a.get_mut(p.index()) {
-            *slot = if p.is_positional() {
-                v
-            } else {
-                arcsec_to_urad(v)
-            };
+            *slot = model_unit(p, v);
         }
     }
-    Ok(Deviations::from_array(&a))
+    let covariance = match file.seed002_covariance {
+        None => None,
+        Some(c) => {
+            let bad_cov = |what: &str| bad(format!("seed002_covariance: {what}"));
+            let params = c
+                .names
+                .iter()
+                .map(|n| {
+                    Parameter::ALL
+                        .into_iter()
+                        .find(|p| p.name() == n && !NOT_IDENTIFIED.contains(p))
+                        .ok_or_else(|| bad_cov(&format!("{n} is not an identified deviation")))
+                })
+                .collect::<Result<Vec<_>, _>>()?;
+            let n = params.len();
+            if c.matrix.len() != n || c.matrix.iter().any(|r| r.len() != n) {
+                return Err(bad_cov("the matrix is not square over the names"));
+            }
+            let mut cov = [[0.0f64; 13]; 13];
+            for (i, (p, row)) in params.iter().zip(&c.matrix).enumerate() {
+                for (j, (q, v)) in params.iter().zip(row).enumerate() {
+                    let w = c.matrix[j][i];
+                    if !v.is_finite() || (v - w).abs() > 1e-9 * (v.abs() + w.abs()) {
+                        return Err(bad_cov("not finite or not symmetric"));
+                    }
+                    if i == j && *v < 0.0 {
+                        return Err(bad_cov("a negative variance"));
+                    }
+                    cov[p.index()][q.index()] = model_unit(*q, model_unit(*p, *v));
+                }
+            }
+            Some(cov)
+        }
+    };
+    Ok(IdentifiedDeviations {
+        deviations: Deviations::from_array(&a),
+        covariance,
+    })
 }
 
 /// The words of a block: letter and number, in order; a parenthesised comment kept aside.
@@ -97,21 +167,29 @@ pub(super) fn words(code: &str) -> Result<Vec<(char, String)>, String> {
 }
 
 /// `program` with every linear block corrected for `dev`, the model frame's origin at
-/// `origin_mm` (machine coordinates); `source` names the results in the header comment.
+/// `origin_mm` (machine coordinates); `source` names the results in the header comment. With
+/// the deviations' covariance, every block states u and U = 2u of its X, Y, Z: each deviation's
+/// sensitivity by a secant of its own u, `u² = J C Jᵀ` (GUM 5.2.2), plus the word's rounding.
 pub fn correct_program(
     program: &str,
     origin_mm: [f64; 3],
-    dev: &Deviations,
+    dev: &IdentifiedDeviations,
     source: &str,
 ) -> Result<String, NcError> {
-    let header = [
+    let mut header = vec![
         format!(
             "corrected by ballpod ncgen for the deviations of {source}: seed 002 ch. 3, applied once"
         ),
         "each block's X Y Z moved by the compensation, minus the error; B and C as programmed"
             .into(),
     ];
-    let correct = |[x, y, z, b_deg, c_deg]: [f64; 5]| {
+    if dev.covariance.is_some() {
+        header.push(
+            "u: standard uncertainty from the deviations' covariance; U: 2u, as the pod's results"
+                .into(),
+        );
+    }
+    let command = |d: &Deviations, [x, y, z, b_deg, c_deg]: [f64; 5]| {
         let block = NcBlock {
             x_mm: x - origin_mm[0],
             y_mm: y - origin_mm[1],
@@ -119,16 +197,45 @@ pub fn correct_program(
             b_deg,
             c_deg,
         };
-        let c = compensate(&block, dev, CompensationMode::Once)
+        let c = compensate(&block, d, CompensationMode::Once)
             .map_err(|e| format!("not compensated: {e:?}"))?;
-        Ok((
-            [
-                c.x_mm + origin_mm[0],
-                c.y_mm + origin_mm[1],
-                c.z_mm + origin_mm[2],
-            ],
-            None,
-        ))
+        Ok::<_, String>([
+            c.x_mm + origin_mm[0],
+            c.y_mm + origin_mm[1],
+            c.z_mm + origin_mm[2],
+        ])
+    };
+    let correct = |point: [f64; 5]| {
+        let corrected = command(&dev.deviations, point)?;
+        let Some(cov) = &dev.covariance else {
+            return Ok((corrected, None));
+        };
+        // J: the corrected point's change per unit of each deviation (mm per µm or µrad)
+        let x = dev.deviations.to_array();
+        let mut jac = [[0.0f64; 13]; 3];
+        for (j, row) in cov.iter().enumerate() {
+            let h = row.get(j).copied().unwrap_or(0.0).sqrt();
+            if h.is_nan() || h <= 0.0 {
+                continue;
+            }
+            let mut moved = x;
+            moved[j] += h;
+            let p = command(&Deviations::from_array(&moved), point)?;
+            for ((jk, a), b) in jac.iter_mut().zip(p).zip(corrected) {
+                jk[j] = (a - b) / h;
+            }
+        }
+        let rounding = (WORD_RESOLUTION_MM * 1e3).powi(2) / 12.0;
+        let u = jac.map(|jk| {
+            let mut v = rounding;
+            for (ji, row) in jk.iter().zip(cov) {
+                for (jj, c) in jk.iter().zip(row) {
+                    v += ji * c * jj * 1e6;
+                }
+            }
+            PointUncertainty::of(&[(v, None)])
+        });
+        Ok((corrected, Some(u)))
     };
     rewrite_points(program, ['B', 'C'], &header, &correct)
 }

@@ -27,9 +27,9 @@ mod travel;
 mod two_step;
 
 pub use correct::{
-    CentrelinePair, CentrelineUncertainty, CentrelinesFile, PointUncertainty, Senses,
-    centrelines_from_toml, correct_program, correct_program_centrelines, deviations_from_results,
-    rewrite_points,
+    CentrelinePair, CentrelineUncertainty, CentrelinesFile, IdentifiedDeviations, PointUncertainty,
+    Senses, centrelines_from_toml, correct_program, correct_program_centrelines,
+    deviations_from_results, rewrite_points,
 };
 pub use dialect::Dialect;
 pub use pattern::PatternTest;

@@ -540,6 +540,43 @@ impl ModelLsq {
         budget: &MountingUncertainty,
         bar: &BarBudget,
     ) -> Result<(ModelLsqResult, DeviationUncertainty), ModelLsqError> {
+        self.propagated::<false>(m, u_um, budget, bar, None)
+    }
+
+    /// [`Self::identify_propagated`] with the full covariance of the deviations (µm², µm·µrad,
+    /// µrad²; rows and columns in [`Parameter::ALL`] order, 0 for fixed deviations): every
+    /// input's response `Δx` adds `Δx Δxᵀ`, so its diagonal is the square of
+    /// [`DeviationUncertainty::combined`]. What a compensation of several deviations needs:
+    /// their errors are correlated (a tilt and the offset it moves).
+    pub fn identify_covariance(
+        &self,
+        m: &[PatternMeasurement],
+        u_um: &[[f64; 2]],
+        budget: &MountingUncertainty,
+        bar: &BarBudget,
+    ) -> Result<(ModelLsqResult, DeviationUncertainty, [[f64; 13]; 13]), ModelLsqError> {
+        let mut cov = [[0.0f64; 13]; 13];
+        let (result, u) = self.propagated::<true>(m, u_um, budget, bar, Some(&mut cov))?;
+        for (row, fi) in cov.iter_mut().zip(self.free) {
+            for (c, fj) in row.iter_mut().zip(self.free) {
+                if !(fi && fj) {
+                    *c = 0.0;
+                }
+            }
+        }
+        Ok((result, u, cov))
+    }
+
+    /// The body of both: with `COV`, every input's response also goes into `cov` (one copy of
+    /// the loop each; the firmware's, without, has no code for it).
+    fn propagated<const COV: bool>(
+        &self,
+        m: &[PatternMeasurement],
+        u_um: &[[f64; 2]],
+        budget: &MountingUncertainty,
+        bar: &BarBudget,
+        mut cov: Option<&mut [[f64; 13]; 13]>,
+    ) -> Result<(ModelLsqResult, DeviationUncertainty), ModelLsqError> {
         if u_um.len() != m.len() {
             return Err(ModelLsqError::BadMeasurement {
                 index: m.len().min(u_um.len()),
@@ -620,6 +657,9 @@ impl ModelLsq {
                 if let Some(v) = var.get_mut(source) {
                     v.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
                 }
+                if COV {
+                    add_outer(&mut cov, &dx);
+                }
             }
         }
         if u_scale > 0.0 {
@@ -630,6 +670,9 @@ impl ModelLsq {
             let dx = response(m, &jac, &b);
             if let Some(v) = var.get_mut(3) {
                 v.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
+            }
+            if COV {
+                add_outer(&mut cov, &dx);
             }
         }
         let mut out = DeviationUncertainty::default();
@@ -769,6 +812,17 @@ impl Jacobian {
 enum Differences {
     Forward,
     Central,
+}
+
+/// `cov += dx dxᵀ` (nothing without a `cov`).
+fn add_outer(cov: &mut Option<&mut [[f64; 13]; 13]>, dx: &[f64; 13]) {
+    if let Some(cov) = cov.as_deref_mut() {
+        for (row, di) in cov.iter_mut().zip(dx.iter()) {
+            row.iter_mut()
+                .zip(dx.iter())
+                .for_each(|(c, dj)| *c += di * dj);
+        }
+    }
 }
 
 /// The deviations' response ∂x/∂e · b to eccentricity changes `b` (µm): the least-squares

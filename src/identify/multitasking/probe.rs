@@ -165,9 +165,9 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
 /// (three significant digits are all an uncertainty needs; f64 here is soft-float on the pod
 /// and cost 1.6 KB of flash).
 ///
-/// The centres' variances: stated (× Birge² of the mismatch) or from the mismatch. The
-/// midpoints' difference has per-component variance Σ u_k²/4 over the four centres (σ² for
-/// equal u), so |diff|²/3 estimates σ² from its three components.
+/// The centres' variances: stated (× Birge² of the mismatch, the plane's and Z's apart) or
+/// from the mismatch. The midpoints' difference has per-component variance Σ u_k²/4 over the
+/// four centres (σ² for equal u), so |diff|²/3 estimates σ² from its three components.
 #[inline(never)] // inlined into the application's `execute`, its code doubles
 fn c_axis_uncertainty(
     u_um: &[[f64; 3]; 4],
@@ -184,9 +184,14 @@ fn c_axis_uncertainty(
     let [dx, dy, dz] = diff_mm.map(|v| f(v * 1e3));
     let stated = u_um.iter().flatten().all(|u| *u > 0.0);
     let (sum_x, sum_y, z13, z24) = if stated {
-        let chi2 = 4.0 * (dx * dx / sx + dy * dy / sy + dz * dz / (z13 + z24));
-        let b2 = if chi2 > 3.0 { chi2 / 3.0 } else { 1.0 };
-        (sx * b2, sy * b2, z13 * b2, z24 * b2)
+        // a Birge ratio each for the plane and for Z: the C axis stopping off its positions
+        // shifts the spheres across (the plane's mismatch), never their Z, so it must not
+        // raise the tilts' u (which come from Z alone)
+        let chi2_xy = 2.0 * (dx * dx / sx + dy * dy / sy);
+        let b2_xy = if chi2_xy > 1.0 { chi2_xy } else { 1.0 };
+        let chi2_z = 4.0 * dz * dz / (z13 + z24);
+        let b2_z = if chi2_z > 1.0 { chi2_z } else { 1.0 };
+        (sx * b2_xy, sy * b2_xy, z13 * b2_z, z24 * b2_z)
     } else {
         let v = (dx * dx + dy * dy + dz * dz) / 3.0;
         (4.0 * v, 4.0 * v, 2.0 * v, 2.0 * v)

@@ -339,6 +339,20 @@ fn c_axis_machine_positioned(r: &mut fwd::Rng, c_error_rad: [f64; 4]) -> ([[f64;
     (centres, [asec(d[11]), asec(d[12]), d[9], d[10]])
 }
 
+/// The corrected C-axis outputs (α_CZ ″, β_CZ ″, δx_CZ µm, δy_CZ µm) of `centres` on the test
+/// machine's set-up ([`c_axis_machine`]) and their u, the fits' `sigma_um` stated.
+fn c_axis_outputs(centres: [[f64; 3]; 4], sigma_um: [[f64; 3]; 4]) -> ([f64; 4], [f64; 4]) {
+    let input = CAxisProbe {
+        centres_mm: centres,
+        nominal_axis_xy_mm: [-490.0, 0.0],
+        z_c_mm: 64.838,
+        centres_std_uncertainty_um: sigma_um,
+    };
+    let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
+    let got = [c.alpha_cz_arcsec, c.beta_cz_arcsec, c.dx_cz_um, c.dy_cz_um];
+    (got, c.std_uncertainty)
+}
+
 /// Monte Carlo of the C-axis uncertainty: centres from the literal HTM chain plus Gaussian
 /// noise of a different σ per centre and coordinate (0.2–1.5 µm). With the σ stated, U = 2u
 /// covers the truth in 95–99 % (u is the propagated σ, raised by the Birge ratio of the
@@ -363,17 +377,10 @@ fn c_axis_uncertainty_covers_the_truth() {
                     *x += *si * 1e-3 * noise.normal();
                 }
             }
-            let input = CAxisProbe {
-                centres_mm: centres,
-                nominal_axis_xy_mm: [-490.0, 0.0],
-                z_c_mm: 64.838,
-                centres_std_uncertainty_um: if stated { sigma } else { [[0.0; 3]; 4] },
-            };
-            let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
-            let got = [c.alpha_cz_arcsec, c.beta_cz_arcsec, c.dx_cz_um, c.dy_cz_um];
+            let (got, us) = c_axis_outputs(centres, if stated { sigma } else { [[0.0; 3]; 4] });
             for k in 0..4 {
                 let e = got[k] - truth[k];
-                let u = c.std_uncertainty[k];
+                let u = us[k];
                 assert!(u.is_finite() && u > 0.0, "{u}");
                 covered[k] += usize::from(e.abs() <= 2.0 * u);
                 err2[k] += e * e;
@@ -424,17 +431,10 @@ fn c_axis_positioning_errors_are_covered() {
                     *x += 0.5e-3 * noise.normal();
                 }
             }
-            let input = CAxisProbe {
-                centres_mm: centres,
-                nominal_axis_xy_mm: [-490.0, 0.0],
-                z_c_mm: 64.838,
-                centres_std_uncertainty_um: [[0.5; 3]; 4],
-            };
-            let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
-            let got = [c.alpha_cz_arcsec, c.beta_cz_arcsec, c.dx_cz_um, c.dy_cz_um];
+            let (got, us) = c_axis_outputs(centres, [[0.5; 3]; 4]);
             for k in 0..4 {
                 let e = got[k] - truth[k];
-                let u = c.std_uncertainty[k];
+                let u = us[k];
                 covered[k] += usize::from(e.abs() <= 2.0 * u);
                 err2[k] += e * e;
                 u2[k] += u * u;

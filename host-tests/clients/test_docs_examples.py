@@ -53,7 +53,14 @@ def test_scpi_examples(pod):
     assert unit == "UM" and abs(float(value) + s[0]) <= 3 * float(u), lines[2]
     g, u_g, unit = lines[3].split(",")  # G and its u (the noise's, a few hundredths of a µm)
     assert unit == "UM" and float(g) > 0 and 0 < float(u_g) < 0.1, lines[3]
-    assert len(lines[4].split(",")) == 11, lines[4]
+    # r0's budget: u, then the largest contributors, the bar's offset (its length's default
+    # 0.5 µm and temperature's 0.2 K × 150 mm × 11.5 ppm/K in quadrature) first
+    budget = lines[4].split(",")
+    shares = dict(zip(budget[1::2], map(float, budget[2::2])))
+    assert list(shares)[0] == "BAR_OFFSET", lines[4]
+    assert abs(shares["BAR_OFFSET"] - (0.5**2 + (150 * 11.5 * 0.2e-3) ** 2) ** 0.5) < 1e-3, lines[4]
+    assert abs(sum(v * v for v in shares.values()) ** 0.5 - float(budget[0])) < 2e-4, lines[4]
+    assert len(lines[5].split(",")) == 11, lines[5]
     # pyserial on the same pod, after the PyVISA session
     (line,) = run_example(pyserial.replace("USB_PORT", str(pod["usb_port"])), "technician.md")
     assert re.fullmatch(r'DONE;-?\d+\.\d{4},\d+\.\d{4},UM;0,"No error"', line), line

@@ -109,6 +109,28 @@ def test_pyvisa_circle_session(pod, eds):
             # less than its stated u twice over (metrology/extremes.rs)
             assert 0.0 < u < 0.1 and unit == "UM", (name, u)
             assert v == pytest.approx(iso[name], abs=2 * u), name
+        # the budget: u, then the largest contributors with their shares, largest first; the
+        # bar's shares computed here from the configuration: the LVDT's scale |value| times
+        # lvdt_u_scale, and for a radial figure (r0) the bar's offset, its length's u and its
+        # temperature's (L · CTE · u_T) in quadrature; a shape figure (G) has no offset share
+        cfg = {f: float(q(f"CONF:{f.upper()}?")) for f in
+               ("bar_length", "bar_cte", "bar_u_length", "bar_u_temp", "lvdt_u_scale")}
+        offset = math.hypot(cfg["bar_u_length"], cfg["bar_length"] * cfg["bar_cte"] * cfg["bar_u_temp"] * 1e-3)
+        for name in ("r0", "G_cw"):
+            v, u, _ = cw[name]
+            f = q(f"FETC:RES:BUDG? {name}").split(",")
+            shares = dict(zip(f[1::2], map(float, f[2::2])))
+            assert float(f[0]) == pytest.approx(u, abs=1e-4), f
+            assert list(shares.values()) == sorted(shares.values(), reverse=True), f
+            assert math.hypot(*shares.values()) == pytest.approx(u, abs=2e-4), f
+            assert shares["LVDT_SCALE"] == pytest.approx(abs(v) * cfg["lvdt_u_scale"] * 1e-6, abs=1e-4), f
+            assert "TYPE_A" in shares, f
+            if name == "r0":
+                assert shares["BAR_OFFSET"] == pytest.approx(offset, abs=1e-4), f
+            else:
+                assert "BAR_OFFSET" not in shares, f
+        w("FETC:RES:BUDG? G_bidir_x")
+        assert error(q)[0] == -224
         # the same numbers over CANopen
         net, node = connect(pod, eds)
         try:

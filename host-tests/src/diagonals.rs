@@ -454,6 +454,7 @@ pub fn vector(path: &Path, e: &VectorEntry) -> Result<Output, LogError> {
                 .u(&[(prop.squareness_row() + k, 1.0)])
                 .map(|u| u as f32),
             unit: "urad".into(),
+            contributors: Vec::new(),
         });
     }
     out.figures.push(Figure {
@@ -461,6 +462,7 @@ pub fn vector(path: &Path, e: &VectorEntry) -> Result<Output, LogError> {
         value: prop.sigma.unwrap_or(f64::NAN) as f32,
         u: None,
         unit: "um".into(),
+        contributors: Vec::new(),
     });
     out.figures.retain(|f| f.value.is_finite());
 
@@ -685,6 +687,7 @@ pub fn body_diagonals(path: &Path, e: &BodyDiagonalsEntry) -> Result<Output, Log
         value: value as f32,
         u: None,
         unit: "um".into(),
+        contributors: Vec::new(),
     };
     let mut figures: Vec<Figure> = DIAGONALS
         .iter()

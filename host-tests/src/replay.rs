@@ -21,6 +21,19 @@ pub struct Figure {
     pub u: Option<f32>,
     /// Unit.
     pub unit: String,
+    /// Its (up to) three largest contributors to `u`, largest first (the pod's budget,
+    /// `ballpod::app::Contributor`; empty for a host method's figure).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub contributors: Vec<Share>,
+}
+
+/// One contributor's share of a figure's standard uncertainty.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Share {
+    /// `type_a`, `bar_offset`, `lvdt_scale`, `w_ball`, `t_ball` (`ballpod::app::CONTRIBUTORS`).
+    pub name: String,
+    /// The standard uncertainty it gives, the figure's unit.
+    pub u: f32,
 }
 
 /// The valid figures among `ids`, in catalogue order.
@@ -33,6 +46,15 @@ pub fn figures(app: &App, ids: &[ResultId]) -> Vec<Figure> {
                 value: e.value,
                 u: (!e.std_uncertainty.is_nan()).then_some(e.std_uncertainty),
                 unit: id.info().unit.to_string(),
+                contributors: e
+                    .largest_contributors()
+                    .into_iter()
+                    .flatten()
+                    .map(|(c, u)| Share {
+                        name: c.name().to_string(),
+                        u,
+                    })
+                    .collect(),
             })
         })
         .collect()

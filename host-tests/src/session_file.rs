@@ -471,6 +471,7 @@ pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
             value: *v as f32,
             u: Some(*u as f32),
             unit: (*unit).into(),
+            contributors: Vec::new(),
         })
         .collect())
 }
@@ -536,12 +537,14 @@ pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
             value: (est.direction[0] * 1e6) as f32,
             u: Some(est.tilt_uncertainty_urad[0] as f32),
             unit: "urad".into(),
+            contributors: Vec::new(),
         },
         Figure {
             name: "dial_tilt_z".into(),
             value: (est.direction[2] * 1e6) as f32,
             u: Some(est.tilt_uncertainty_urad[1] as f32),
             unit: "urad".into(),
+            contributors: Vec::new(),
         },
     ])
 }

@@ -72,8 +72,23 @@ fn corrected_programs_reach_the_ideal_points() {
         .expect("the covariance");
     assert_eq!(cov.names.len(), 10);
     for (k, name) in cov.names.iter().enumerate() {
-        let u = f64::from(sim.report.result(name).unwrap().u.unwrap());
+        let figure = sim.report.result(name).unwrap();
+        let u = f64::from(figure.u.unwrap());
         assert!((cov.matrix[k][k].sqrt() - u).abs() <= 1e-5 * u, "{name}");
+        // its largest contributors: the model mode's sources, at most all of u
+        let shares = &figure.contributors;
+        assert!(
+            !shares.is_empty() && shares.len() <= 3,
+            "{name}: {shares:?}"
+        );
+        let sum2: f64 = shares.iter().map(|s| f64::from(s.u).powi(2)).sum();
+        assert!(sum2.sqrt() <= u * (1.0 + 1e-5), "{name}: {shares:?}");
+        for s in shares {
+            assert!(
+                ["type_a", "lvdt_scale", "w_ball", "t_ball"].contains(&s.name.as_str()),
+                "{name}: {shares:?}"
+            );
+        }
     }
     let cfg = {
         let mut c = ballpod::config::Config::default();

@@ -47,7 +47,10 @@ pub use device::{DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, DeviceCounter, DeviceCou
 pub use live::{LIVE, LIVE_COUNT, Live, LiveValues, StatusWord};
 pub use pattern::{Direction, Pattern};
 pub use record::{Recorder, RunEnd, RunMeta, Touch};
-pub use results::{RESULT_COUNT, RESULTS, ResultEntry, ResultId, Results};
+pub use results::{
+    CONTRIBUTOR_COUNT, CONTRIBUTORS, Contributor, RESULT_COUNT, RESULTS, ResultEntry, ResultId,
+    Results,
+};
 pub use run::{AbortReason, RunCounters, RunLimits};
 
 use crate::acquisition::lvdt::{BlockReading, DemodError, LvdtReading};
@@ -928,17 +931,20 @@ impl App {
         ];
         for (p, id, corr) in MODEL {
             let i = p.index();
-            let (v, u) = (
-                x.get(i).copied().unwrap_or(f64::NAN),
-                m.uncertainty.combined.get(i).copied().unwrap_or(f64::NAN),
-            );
-            let (v, u) = if p.is_positional() {
-                (v, u)
+            let unit = if p.is_positional() {
+                1.0
             } else {
-                (urad_to_arcsec(v), urad_to_arcsec(u))
+                urad_to_arcsec(1.0)
             };
-            r.set(id, v, u);
-            r.set(corr, -v, u);
+            let v = x.get(i).copied().unwrap_or(f64::NAN) * unit;
+            // by_source: the eccentricities, the W-ball, the T-ball, the LVDT's scale
+            let [ecc, w, t, scale] = m
+                .uncertainty
+                .by_source
+                .map(|s| (s.get(i).copied().unwrap_or(f64::NAN) * unit) as f32);
+            let shares = [ecc, 0.0, scale, w, t];
+            r.set_budget(id, v, shares);
+            r.set_budget(corr, -v, shares);
         }
         r.set(
             ResultId::ModelResidualRms,

@@ -179,13 +179,58 @@ impl ResultId {
     }
 }
 
+/// What a result's standard uncertainty comes from: the inputs of its budget, grouped as the
+/// pod states them (the discriminant indexes [`CONTRIBUTORS`] and [`ResultEntry::shares`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u8)]
+pub enum Contributor {
+    /// Type A: the fit residuals, the repeat scatter, the noise of the readings.
+    TypeA = 0,
+    /// The bar's calibrated length and its temperature (a constant offset of every ΔL).
+    BarOffset = 1,
+    /// The LVDT's scale (calibration and linearity).
+    LvdtScale = 2,
+    /// The W-ball's clamping shifts (seed 002).
+    WBall = 3,
+    /// The T-ball's centring and axial offsets (seed 002).
+    TBall = 4,
+}
+
+/// Number of [`Contributor`]s.
+pub const CONTRIBUTOR_COUNT: usize = 5;
+
+/// The names of the [`Contributor`]s, in discriminant order (SCPI `FETCh:RESult:BUDGet?`, the
+/// replay's `results.json`).
+pub const CONTRIBUTORS: [&str; CONTRIBUTOR_COUNT] =
+    ["type_a", "bar_offset", "lvdt_scale", "w_ball", "t_ball"];
+
+impl Contributor {
+    /// Every contributor, in discriminant order.
+    pub const ALL: [Contributor; CONTRIBUTOR_COUNT] = [
+        Self::TypeA,
+        Self::BarOffset,
+        Self::LvdtScale,
+        Self::WBall,
+        Self::TBall,
+    ];
+
+    /// Its name in [`CONTRIBUTORS`].
+    pub fn name(self) -> &'static str {
+        CONTRIBUTORS.get(self as usize).copied().unwrap_or("")
+    }
+}
+
 /// One result with its quality.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ResultEntry {
     /// The value in the unit of [`RESULTS`] (NaN while invalid).
     pub value: f32,
-    /// Its standard uncertainty, same unit (NaN: not evaluated).
+    /// Its standard uncertainty, same unit (NaN: not evaluated): the root sum of squares of
+    /// [`Self::shares`].
     pub std_uncertainty: f32,
+    /// The standard uncertainty each [`Contributor`] gives it, same unit, by discriminant
+    /// (independent inputs: they add in quadrature).
+    pub shares: [f32; CONTRIBUTOR_COUNT],
     /// True once computed from the present runs.
     pub valid: bool,
 }
@@ -195,8 +240,33 @@ impl ResultEntry {
     pub const INVALID: Self = Self {
         value: f32::NAN,
         std_uncertainty: f32::NAN,
+        shares: [f32::NAN; CONTRIBUTOR_COUNT],
         valid: false,
     };
+
+    /// The (up to) three largest contributors to the standard uncertainty, largest first, with
+    /// their shares; `None` past the last one that gives a share above 0. None at all while the
+    /// uncertainty is not evaluated.
+    pub fn largest_contributors(&self) -> [Option<(Contributor, f32)>; 3] {
+        let mut top = [None; 3];
+        let mut taken = [false; CONTRIBUTOR_COUNT];
+        for slot in top.iter_mut() {
+            // the largest share not taken yet (ties: the first contributor)
+            let mut best: Option<(usize, f32)> = None;
+            for (k, (&share, &t)) in self.shares.iter().zip(taken.iter()).enumerate() {
+                if share > 0.0 && !t && best.is_none_or(|(_, b)| share > b) {
+                    best = Some((k, share));
+                }
+            }
+            if let Some((k, share)) = best
+                && let (Some(t), Some(c)) = (taken.get_mut(k), Contributor::ALL.get(k))
+            {
+                *t = true;
+                *slot = Some((*c, share));
+            }
+        }
+        top
+    }
 }
 
 impl Default for ResultEntry {
@@ -235,16 +305,25 @@ impl Results {
         &self.entries
     }
 
-    /// Sets `id` to `value` ± `u` (standard uncertainty, NaN if not evaluated); a value that
-    /// is not finite leaves the entry invalid.
+    /// Sets `id` to `value` ± `u` (standard uncertainty, NaN if not evaluated), all of it
+    /// [`Contributor::TypeA`]; a value that is not finite leaves the entry invalid.
+    pub fn set(&mut self, id: ResultId, value: f64, u: f64) {
+        self.set_budget(id, value, [u as f32, 0.0, 0.0, 0.0, 0.0]);
+    }
+
+    /// Sets `id` to `value` with the standard uncertainty each [`Contributor`] gives it
+    /// (`shares`, by discriminant, same unit; NaN: not evaluated); u is their root sum of
+    /// squares. A value that is not finite leaves the entry invalid.
     // one copy, not one per result the application sets (flash: ~1.5 KiB)
     #[inline(never)]
-    pub fn set(&mut self, id: ResultId, value: f64, u: f64) {
+    pub fn set_budget(&mut self, id: ResultId, value: f64, shares: [f32; CONTRIBUTOR_COUNT]) {
         if let Some(e) = self.entries.get_mut(id.index()) {
             *e = if value.is_finite() {
+                let u2: f32 = shares.iter().map(|s| s * s).sum();
                 ResultEntry {
                     value: value as f32,
-                    std_uncertainty: u as f32,
+                    std_uncertainty: crate::num::sqrtf(u2),
+                    shares: shares.map(libm::fabsf),
                     valid: true,
                 }
             } else {
@@ -254,7 +333,7 @@ impl Results {
     }
 
     /// Sets `id` to a figure computed from ΔL: `value` ± its own (Type A) standard uncertainty
-    /// `u_a`, combined with the bar's share of a figure of `kind` ([`BarBudget::combined`]).
+    /// `u_a`, with the bar's shares of a figure of `kind` ([`BarBudget::shares`]).
     #[inline(never)] // one copy for every figure the bar enters
     pub fn set_with_bar(
         &mut self,
@@ -264,8 +343,8 @@ impl Results {
         bar: &BarBudget,
         kind: FigureKind,
     ) {
-        let u = bar.combined(kind, value, u_a);
-        self.set(id, f64::from(value), f64::from(u));
+        let [offset, scale] = bar.shares(kind, value);
+        self.set_budget(id, f64::from(value), [u_a, offset, scale, 0.0, 0.0]);
     }
 
     /// Invalidates the results from `first` to `last` (inclusive, in [`RESULTS`] order).

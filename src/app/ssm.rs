@@ -7,7 +7,7 @@
 //! the rotation — give the seed 000 two-step orientation errors of the configured machine type
 //! (`ts_machine`, exact inversion, [`crate::identify::two_step`]).
 
-use super::results::{ResultId, Results};
+use super::results::{CONTRIBUTOR_COUNT, ResultId, Results};
 use crate::acquisition::Sample;
 use crate::config::{Field, TestSetup, TwoStepMachine, required, required3};
 use crate::identify::two_step::{
@@ -64,20 +64,32 @@ pub struct SsmMeasurement {
 }
 
 impl SsmMeasurement {
-    /// Standard uncertainty of each component of E, µm (NaN where not observable): the
-    /// stations' covariance and, with `bar`, the bar's offset and scale in quadrature
-    /// ([`BarBudget::NONE`] leaves the stations' share alone).
-    pub fn u_e_um(&self, bar: &BarBudget) -> [f64; 3] {
+    /// The shares of each component of E's standard uncertainty, µm, by
+    /// [`super::results::Contributor`]:
+    /// the stations' covariance (Type A) and, with `bar`, the bar's offset and scale (NaN where
+    /// the component is not observable).
+    pub fn shares_um(&self, bar: &BarBudget) -> [[f32; CONTRIBUTOR_COUNT]; 3] {
         let c = &self.covariance_um2;
-        let mut u = [c.a00, c.a11, c.a22];
-        for ((u, e), b) in u.iter_mut().zip(self.solution.e_um).zip(self.bar.u_um(bar)) {
-            *u = if e.is_some() {
-                crate::num::sqrt(*u + f64::from(b * b))
-            } else {
-                f64::NAN
-            };
+        let mut out = [[f32::NAN; CONTRIBUTOR_COUNT]; 3];
+        for (((o, var), e), [off, scale]) in out
+            .iter_mut()
+            .zip([c.a00, c.a11, c.a22])
+            .zip(self.solution.e_um)
+            .zip(self.bar.shares_um(bar))
+        {
+            if e.is_some() {
+                *o = [crate::num::sqrt(var) as f32, off, scale, 0.0, 0.0];
+            }
         }
-        u
+        out
+    }
+
+    /// Standard uncertainty of each component of E, µm (NaN where not observable): the
+    /// [`Self::shares_um`] in quadrature ([`BarBudget::NONE`] leaves the stations' share
+    /// alone).
+    pub fn u_e_um(&self, bar: &BarBudget) -> [f64; 3] {
+        self.shares_um(bar)
+            .map(|s| f64::from(crate::num::sqrtf(s.iter().map(|v| v * v).sum())))
     }
 }
 
@@ -158,13 +170,13 @@ impl SsmRun {
 /// Writes an SSM measurement into the results, E with the bar's share (`bar`) in its u.
 pub fn publish(m: &SsmMeasurement, bar: &BarBudget, results: &mut Results) {
     let [ex, ey, ez] = m.solution.e_um;
-    let [ux, uy, uz] = m.u_e_um(bar);
+    let [ux, uy, uz] = m.shares_um(bar);
     for (id, e, u) in [
         (ResultId::SsmEx, ex, ux),
         (ResultId::SsmEy, ey, uy),
         (ResultId::SsmEz, ez, uz),
     ] {
-        results.set(id, e.unwrap_or(f64::NAN), u);
+        results.set_budget(id, e.unwrap_or(f64::NAN), u);
     }
     results.set(ResultId::SsmCond, m.solution.cond, f64::NAN);
     results.set(
@@ -280,8 +292,13 @@ impl TwoStep {
                 by_offset += dot(j, run.bar.per_offset.map(f64::from));
                 by_scale += dot(j, run.bar.per_scale_um.map(f64::from));
             }
-            let (o, k) = (by_offset * u_offset, by_scale * u_scale);
-            results.set(id, value, crate::num::sqrt(var + o * o + k * k));
+            let shares = [
+                crate::num::sqrt(var),
+                by_offset * u_offset,
+                by_scale * u_scale,
+            ];
+            let [a, o, k] = shares.map(|v| v as f32);
+            results.set_budget(id, value, [a, o, k, 0.0, 0.0]);
         }
         Ok(true)
     }

@@ -62,15 +62,15 @@ impl BarBudget {
         }
     }
 
-    /// The combined standard uncertainty of a figure of kind `kind` and value `value` whose
-    /// own (Type A) standard uncertainty is `u_a` (same unit as the value; a radial figure in
-    /// µm): √(u_a² + (value·u_k)² [+ u_offset²]).
-    pub fn combined(&self, kind: FigureKind, value: f32, u_a: f32) -> f32 {
-        let scale = value * self.scale;
+    /// The bar's shares of the standard uncertainty of a figure of kind `kind` and value
+    /// `value` (same unit as the value; a radial figure in µm): [the offset's, u_offset for a
+    /// radial figure, else 0; the scale's, |value|·u_k]. The figure's combined u is
+    /// √(u_a² + both²), u_a its own (Type A).
+    pub fn shares(&self, kind: FigureKind, value: f32) -> [f32; 2] {
         let offset = match kind {
             FigureKind::Radial => self.offset_um,
             FigureKind::Shape => 0.0,
         };
-        crate::num::sqrtf(u_a * u_a + scale * scale + offset * offset)
+        [offset, libm::fabsf(value * self.scale)]
     }
 }

@@ -192,13 +192,12 @@ pub struct BarSensitivity {
 }
 
 impl BarSensitivity {
-    /// The bar's standard uncertainty of each component of E, µm: the offset's and the
-    /// scale's shares in quadrature.
-    pub fn u_um(&self, bar: &BarBudget) -> [f32; 3] {
-        let mut u = [0.0; 3];
+    /// The bar's shares of the standard uncertainty of each component of E, µm: [the
+    /// offset's, the scale's] (they add in quadrature).
+    pub fn shares_um(&self, bar: &BarBudget) -> [[f32; 2]; 3] {
+        let mut u = [[0.0; 2]; 3];
         for ((u, o), s) in u.iter_mut().zip(self.per_offset).zip(self.per_scale_um) {
-            let (a, b) = (o * bar.offset_um, s * bar.scale);
-            *u = crate::num::sqrtf(a * a + b * b);
+            *u = [libm::fabsf(o * bar.offset_um), libm::fabsf(s * bar.scale)];
         }
         u
     }

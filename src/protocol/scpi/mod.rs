@@ -396,6 +396,7 @@ enum Command {
     MeasAll,
     MeasValid,
     FetchResult,
+    FetchBudget,
     FetchCatalog,
     FetchTouch,
     FetchTouchCount,
@@ -409,7 +410,9 @@ const fn forms(c: Command) -> (bool, bool) {
     match c {
         Idn | Esr | Stb | SystErr | SystVersion | SystCount | SessState | SessReason
         | SessCount | SessNote | StatPod | MeasDl | MeasAll | MeasValid | FetchResult
-        | FetchCatalog | FetchTouch | FetchTouchCount | DataLogCount | DataLog => (true, false),
+        | FetchBudget | FetchCatalog | FetchTouch | FetchTouchCount | DataLogCount | DataLog => {
+            (true, false)
+        }
         Rst | Cls | Wai | Sav | ConfUnlock | SessArm | SessStart | SessStop | SessAbort
         | SessClear => (false, true),
         Opc | Ese | Sre | ConfLock | ConfField(..) | ConfAxisName(_) | AxisPosition(_)
@@ -523,6 +526,7 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
         [m, x] if m.is("MEASure") && x.is("VALid") => Command::MeasValid,
         [f, r] if f.is("FETCh") && r.is("RESult") => Command::FetchResult,
         [f, r, c] if f.is("FETCh") && r.is("RESult") && c.is("CATalog") => Command::FetchCatalog,
+        [f, r, b] if f.is("FETCh") && r.is("RESult") && b.is("BUDGet") => Command::FetchBudget,
         [f, t] if f.is("FETCh") && t.is("TOUCh") => Command::FetchTouch,
         [f, t, c] if f.is("FETCh") && t.is("TOUCh") && c.is("COUNt") => Command::FetchTouchCount,
         [d, l] if d.is("DATA") && l.is("LOG") => Command::DataLog,
@@ -1100,7 +1104,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                     }
                 }
             }
-            Command::FetchResult => {
+            Command::FetchResult | Command::FetchBudget => {
                 let arg = match p {
                     [] => return Err(ScpiError::new(code::MISSING_PARAMETER)),
                     [a] => *a,
@@ -1132,12 +1136,25 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                         " has no valid value",
                     ));
                 }
-                fixed(&mut r, entry.value);
-                push_bytes(&mut r, b",");
-                fixed(&mut r, entry.std_uncertainty);
-                push_bytes(&mut r, b",");
-                for c in unit.bytes() {
-                    push_bytes(&mut r, &[c.to_ascii_uppercase()]);
+                if matches!(cmd, Command::FetchBudget) {
+                    // u, then the largest contributors and their shares, largest first
+                    fixed(&mut r, entry.std_uncertainty);
+                    for (c, share) in entry.largest_contributors().into_iter().flatten() {
+                        push_bytes(&mut r, b",");
+                        for b in c.name().bytes() {
+                            push_bytes(&mut r, &[b.to_ascii_uppercase()]);
+                        }
+                        push_bytes(&mut r, b",");
+                        fixed(&mut r, share);
+                    }
+                } else {
+                    fixed(&mut r, entry.value);
+                    push_bytes(&mut r, b",");
+                    fixed(&mut r, entry.std_uncertainty);
+                    push_bytes(&mut r, b",");
+                    for c in unit.bytes() {
+                        push_bytes(&mut r, &[c.to_ascii_uppercase()]);
+                    }
                 }
             }
             Command::FetchCatalog => {

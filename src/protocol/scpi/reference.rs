@@ -27,7 +27,7 @@ const CONF_FIELD: Command = match FIELDS.first() {
 };
 
 /// Every command the server resolves, in the reference's order.
-const ALL: [Command; 39] = {
+const ALL: [Command; 40] = {
     use Command::*;
     [
         Idn,
@@ -61,6 +61,7 @@ const ALL: [Command; 39] = {
         MeasValid,
         StatPod,
         FetchResult,
+        FetchBudget,
         FetchCatalog,
         FetchTouchCount,
         FetchTouch,
@@ -236,6 +237,11 @@ const fn doc(c: Command) -> CommandDoc {
             "FETCh:RESult? <name|index>",
             "`value,std_uncertainty,UNIT` (4 decimals; an uncertainty not evaluated reads `9.91E+37`) of a [result](results.md) by name or index (CANopen sub-index − 1); an invalid result sends no response and queues -230",
             "FETC:RES? ecc_u",
+        ),
+        FetchBudget => d(
+            "FETCh:RESult:BUDGet? <name|index>",
+            "`std_uncertainty` of a [result](results.md), then its (up to) three largest contributors, largest first, each `NAME,share` (the standard uncertainty it gives, the result's unit; they add in quadrature): `TYPE_A` (fit residuals, repeat scatter, reading noise), `BAR_OFFSET` (the bar's length and temperature), `LVDT_SCALE`, `W_BALL`, `T_BALL` (seed 002's ball mounting); none while u is not evaluated; an invalid result queues -230",
+            "FETC:RES:BUDG? G_ccw",
         ),
         FetchCatalog => d(
             "FETCh:RESult:CATalog?",

@@ -69,8 +69,12 @@ def test_a_usb_client_that_never_reads_holds_up_nothing(pod, eds):
             times.append(time.monotonic() - t)
             time.sleep(0.1)
         # the round trip through python-can and the SLCAN socket: ≈ 0.6 ms median, 1.1 ms
-        # at most on the development machine (2026-11-25)
-        assert max(times) < 0.010, f"median {statistics.median(times)}, {times}"
+        # at most on the development machine (2026-11-25); 2.2 ms median with outliers of 29 ms
+        # on a loaded two-core CI runner (2026-11-27: the scheduler, not the pod). A server
+        # held up by the unread download would answer none of them for the whole download:
+        # the median says "at once", the bound on the slowest says "never held up"
+        med = statistics.median(times)
+        assert med < 0.010 and max(times) < 0.100, f"median {med}, {times}"
         usb.close()
     finally:
         net.disconnect()

@@ -100,6 +100,43 @@ fn identified_deviations_match_the_truth_within_their_uncertainty() {
     }
 }
 
+/// Thesis mode's results carry the LVDT's scale: its eqs 4.10–4.18 are linear in the
+/// eccentricities without a constant term, so the scale's share is |value| × `lvdt_u_scale`
+/// (computed here from the default, 1000 ppm), beside the eccentricities' own (type_a);
+/// th_dz_BT_setting is ex_BX itself, with e_BX_x's u.
+#[test]
+fn thesis_mode_carries_the_lvdt_scale() {
+    let s = session(5, 8000.0);
+    let r = &s.report;
+    for name in [
+        "th_alpha_CZ",
+        "th_beta_CZ",
+        "th_alpha_XB",
+        "th_beta_XB",
+        "th_gamma_XB",
+        "th_alpha_BT",
+        "th_dx_CZ_minus_dx_BT",
+        "th_dy_CZ",
+        "th_dz_BT_setting",
+    ] {
+        let f = figure(r, name);
+        let scale = f.value.abs() * 1e-3;
+        let share = |c: &str| f.contributors.iter().find(|s| s.name == c).map(|s| s.u);
+        assert!(
+            (share("lvdt_scale").unwrap() - scale).abs() <= 1e-6 * scale.max(1.0),
+            "{name}: {f:?}"
+        );
+        let u = f.u.expect("u evaluated");
+        let a = share("type_a").unwrap();
+        assert!(
+            ((a * a + scale * scale).sqrt() - u).abs() <= 1e-5 * u,
+            "{name}: {f:?}"
+        );
+    }
+    let (th, bx) = (figure(r, "th_dz_BT_setting"), figure(r, "e_BX_x"));
+    assert_eq!((th.value, th.u), (bx.value, bx.u));
+}
+
 #[test]
 fn an_incomplete_procedure_reports_no_identification() {
     let s = session(3, 8000.0);

@@ -967,10 +967,18 @@ impl App {
                     u.dx_cz_minus_dx_bt_um,
                 ),
                 (ResultId::ThDyCz, d.dy_cz_um, u.dy_cz_um),
+                // ex_BX itself, with the step's u
+                (
+                    ResultId::ThDzBtSetting,
+                    t.dz_bt_setting_um,
+                    id.steps.first().map_or(f64::NAN, |bx| bx.u_e_um[0]),
+                ),
             ] {
-                r.set(id, v, uu);
+                // eqs 4.10–4.18 are linear in the eccentricities without a constant term: the
+                // LVDT's scale error k moves every result by k times itself
+                let scale = libm::fabs(v) * f64::from(bar.scale);
+                r.set_budget(id, v, [uu as f32, 0.0, scale as f32, 0.0, 0.0]);
             }
-            r.set(ResultId::ThDzBtSetting, t.dz_bt_setting_um, f64::NAN);
         }
         true
     }

@@ -65,9 +65,8 @@ pub struct SsmMeasurement {
 
 impl SsmMeasurement {
     /// The shares of each component of E's standard uncertainty, µm, by
-    /// [`super::results::Contributor`]:
-    /// the stations' covariance (Type A) and, with `bar`, the bar's offset and scale (NaN where
-    /// the component is not observable).
+    /// [`super::results::Contributor`]: the stations' covariance (Type A) and, with `bar`, the
+    /// bar's offset and scale (NaN where the component is not observable).
     pub fn shares_um(&self, bar: &BarBudget) -> [[f32; CONTRIBUTOR_COUNT]; 3] {
         let c = &self.covariance_um2;
         let mut out = [[f32::NAN; CONTRIBUTOR_COUNT]; 3];

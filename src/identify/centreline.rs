@@ -594,9 +594,8 @@ fn normal_sigma(normal_std_urad: f64) -> Result<f64, CentrelineError> {
 /// Standard uncertainty (µrad) of the two tilt components (about the pair perpendicular to the
 /// nominal `e`) of a direction `f(a, b)` computed from two unit normals, and their correlation
 /// coefficient; each normal has two independent tilt components of standard uncertainty
-/// `sigma` (rad): central differences
-/// with a step of σ itself, so a non-linear method (the square root of a k² near 0) is
-/// followed over the noise's range rather than at a point.
+/// `sigma` (rad): central differences with a step of σ itself, so a non-linear method (the
+/// square root of a k² near 0) is followed over the noise's range rather than at a point.
 fn propagate(
     a: &Vector3<f64>,
     b: &Vector3<f64>,

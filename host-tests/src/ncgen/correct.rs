@@ -3,8 +3,9 @@
 //! (`cargo ncgen -- correct PROGRAM SETUP RESULTS`, [`correct_program`]) and for seed 004's
 //! estimated rotary-axis centrelines (`cargo ncgen -- correct-centrelines PROGRAM CENTRELINES`,
 //! [`correct_program_centrelines`]). Both rewrite the program the same way
-//! ([`rewrite_points`]); only the corrected point differs. With the centrelines' standard
-//! uncertainties (`[uncertainty]`), each corrected block also states the u of its X, Y, Z.
+//! ([`rewrite_points`]); only the corrected point differs. With the deviations' covariance
+//! (`seed002_covariance` of the results) or the centrelines' standard uncertainties
+//! (`[uncertainty]`), each corrected block also states u and U of its X, Y, Z.
 //!
 //! Seed 002:
 //! Every `G0`/`G1` block's X, Y, Z become the core's corrected command

@@ -353,6 +353,35 @@ fn c_axis_outputs(centres: [[f64; 3]; 4], sigma_um: [[f64; 3]; 4]) -> ([f64; 4],
     (got, c.std_uncertainty)
 }
 
+/// Per C-axis output over the trials: how often U = 2u covered the error, Σ error², Σ u².
+#[derive(Default)]
+struct Tally {
+    covered: [usize; 4],
+    err2: [f64; 4],
+    u2: [f64; 4],
+}
+
+impl Tally {
+    /// Adds one trial's outputs `got` against `truth` with their u.
+    fn add(&mut self, got: [f64; 4], truth: [f64; 4], u: [f64; 4]) {
+        for k in 0..4 {
+            let e = got[k] - truth[k];
+            self.covered[k] += usize::from(e.abs() <= 2.0 * u[k]);
+            self.err2[k] += e * e;
+            self.u2[k] += u[k] * u[k];
+        }
+    }
+
+    /// Output `k`'s coverage, rms u / rms error and rms error over `trials`.
+    fn of(&self, k: usize, trials: usize) -> (f64, f64, f64) {
+        (
+            self.covered[k] as f64 / trials as f64,
+            (self.u2[k] / self.err2[k]).sqrt(),
+            (self.err2[k] / trials as f64).sqrt(),
+        )
+    }
+}
+
 /// Monte Carlo of the C-axis uncertainty: centres from the literal HTM chain plus Gaussian
 /// noise of a different σ per centre and coordinate (0.2–1.5 µm). With the σ stated, U = 2u
 /// covers the truth in 95–99 % (u is the propagated σ, raised by the Birge ratio of the
@@ -365,9 +394,7 @@ fn c_axis_uncertainty_covers_the_truth() {
     let mut noise = ballpod_host::rng::Rng::new(0xc_0a_u64);
     const TRIALS: usize = 4000;
     for stated in [true, false] {
-        let mut covered = [0usize; 4];
-        let mut err2 = [0.0f64; 4];
-        let mut u2 = [0.0f64; 4];
+        let mut tally = Tally::default();
         for _ in 0..TRIALS {
             let (mut centres, truth) = c_axis_machine(&mut r);
             let mut sigma = [[0.0; 3]; 4];
@@ -378,18 +405,11 @@ fn c_axis_uncertainty_covers_the_truth() {
                 }
             }
             let (got, us) = c_axis_outputs(centres, if stated { sigma } else { [[0.0; 3]; 4] });
-            for k in 0..4 {
-                let e = got[k] - truth[k];
-                let u = us[k];
-                assert!(u.is_finite() && u > 0.0, "{u}");
-                covered[k] += usize::from(e.abs() <= 2.0 * u);
-                err2[k] += e * e;
-                u2[k] += u * u;
-            }
+            assert!(us.iter().all(|u| u.is_finite() && *u > 0.0), "{us:?}");
+            tally.add(got, truth, us);
         }
         for k in 0..4 {
-            let coverage = covered[k] as f64 / TRIALS as f64;
-            let ratio = (u2[k] / err2[k]).sqrt();
+            let (coverage, ratio, _) = tally.of(k, TRIALS);
             if stated {
                 // the Birge factor only ever raises u (by E[max(1, χ²₃/3)] ≈ 1.3 in u²)
                 assert!(
@@ -421,8 +441,7 @@ fn c_axis_positioning_errors_are_covered() {
     let mut noise = ballpod_host::rng::Rng::new(0xc_906);
     const TRIALS: usize = 4000;
     for u_c_arcsec in [0.0, 2.0, 5.0, 10.0] {
-        let mut covered = [0usize; 4];
-        let (mut err2, mut u2) = ([0.0f64; 4], [0.0f64; 4]);
+        let mut tally = Tally::default();
         for _ in 0..TRIALS {
             let dc = [0; 4].map(|_| u_c_arcsec / AS * noise.normal());
             let (mut centres, truth) = c_axis_machine_positioned(&mut r, dc);
@@ -432,18 +451,10 @@ fn c_axis_positioning_errors_are_covered() {
                 }
             }
             let (got, us) = c_axis_outputs(centres, [[0.5; 3]; 4]);
-            for k in 0..4 {
-                let e = got[k] - truth[k];
-                let u = us[k];
-                covered[k] += usize::from(e.abs() <= 2.0 * u);
-                err2[k] += e * e;
-                u2[k] += u * u;
-            }
+            tally.add(got, truth, us);
         }
         for k in 0..4 {
-            let coverage = covered[k] as f64 / TRIALS as f64;
-            let ratio = (u2[k] / err2[k]).sqrt();
-            let rms = (err2[k] / TRIALS as f64).sqrt();
+            let (coverage, ratio, rms) = tally.of(k, TRIALS);
             println!(
                 "u_C {u_c_arcsec}\", output {k}: coverage {coverage:.3}, rms u / rms error {ratio:.2}, rms error {rms:.3}"
             );

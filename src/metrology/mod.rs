@@ -7,7 +7,7 @@
 //! - [`angle`]: quadrant + polynomial angle for binning (no atan2);
 //! - [`bar_budget`]: the ball bar's own Type B uncertainty (length, temperature, LVDT scale);
 //! - [`compensated`]: the Kahan-compensated f32 sum the running fits accumulate with;
-//! - [`point_fit`]: circle and sphere from touch points (Taubin + Gauss–Newton);
+//! - [`point_fit`]: circle and sphere from touch points (Kåsa start, Gauss–Newton);
 //! - [`ssm`]: SSM position errors (seed 000 eq 1), station and streaming modes;
 //! - [`solve3`]: hand-written 3×3 symmetric Cholesky solve, inverse, condition number.
 //!

@@ -463,7 +463,7 @@ pub struct SphereFit {
 }
 
 /// Geometric least-squares sphere fit: minimises Σ(|p_i − c| − R)² with the metrology core's
-/// point fit ([`crate::metrology::point_fit::fit_sphere`]: centred Taubin start, then
+/// point fit ([`crate::metrology::point_fit::fit_sphere`]: centred Kåsa start, then
 /// Gauss–Newton), plus the standard uncertainties of centre and radius from one Givens pass over
 /// the Jacobian at the solution (residual variance × (JᵀJ)⁻¹).
 pub fn fit_sphere(points_mm: &[[f64; 3]]) -> Result<SphereFit, SphereFitError> {

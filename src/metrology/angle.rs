@@ -28,13 +28,15 @@ fn atan_pos(a: f32, b: f32) -> f32 {
 /// signs of u and v alone, so samples never land on the wrong side of an axis crossing.
 #[inline]
 pub fn quadrant_angle(u: f32, v: f32) -> (u8, f32) {
-    if v >= 0.0 && u > 0.0 {
-        (0, atan_pos(v, u))
+    // one atan after the branch: four inlined copies were 0.2 KB of flash
+    let (q, a, b) = if v >= 0.0 && u > 0.0 {
+        (0, v, u)
     } else if u <= 0.0 && v > 0.0 {
-        (1, atan_pos(-u, v))
+        (1, -u, v)
     } else if v <= 0.0 && u < 0.0 {
-        (2, atan_pos(-v, -u))
+        (2, -v, -u)
     } else {
-        (3, atan_pos(u, -v))
-    }
+        (3, u, -v)
+    };
+    (q, atan_pos(a, b))
 }

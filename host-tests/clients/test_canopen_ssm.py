@@ -1,11 +1,13 @@
-"""An SSM (single socket method) run over CANopen: the live position error E arrives by TPDO on
-SYNC with its validity bit, and is checked against the served machine's truth (truth.ssm_error_um)
-within the uncertainty a numpy least-squares fit of the streamed samples of the pod's
-neighbourhood gives it; the run's station result against the truth within its stated
-uncertainty."""
+"""An SSM (single socket method) run over CANopen: the live position error E and its standard
+uncertainty arrive by TPDO on SYNC with their validity bits. E is checked against a numpy
+least-squares fit of the streamed samples of the pod's neighbourhood, its u against that fit's
+(the residual's Type A and the bar's shares from the configuration the pod reports), and E
+against the served machine's truth (truth.ssm_error_um) within the pod's u; the run's station
+result against the truth within its stated uncertainty."""
 import math
 
 import numpy as np
+import pytest
 
 from podlib import (COMMAND, PATTERN, STATUS_RUNNING, StreamCapture, assert_invalid, connect, result,
                     tpdo_snapshots, wait_until)
@@ -16,6 +18,11 @@ WINDOW = 256
 # A direction counts as unobservable below this eigenvalue ratio of UᵀU (src/metrology/ssm):
 # for numpy's lstsq, singular values below √ of it × the largest.
 EIG_RATIO = 1e-9
+# The live E's u is refreshed at every sample whose counter is a multiple of this
+# (src/app/ssm.rs LIVE_U_EVERY), from at least this many residual degrees of freedom
+# (src/metrology/ssm/streaming.rs LIVE_MIN_DOF), with this floor on the scatter (q/√12 of the
+# 0.1 µm resolution, LIVE_SIGMA_FLOOR_UM).
+LIVE_U_EVERY, LIVE_MIN_DOF, SIGMA_FLOOR_UM = 32, 30, 0.1 / math.sqrt(12)
 
 
 def window_starts(points, radius_mm):
@@ -30,10 +37,26 @@ def window_starts(points, radius_mm):
     return starts
 
 
+def neighbourhood_fit(r, starts, i, socket, bar_mm):
+    """numpy's least squares u·E = y over the neighbourhood that ends at sample i (u the unit
+    vector socket → ball, y = ΔL + L − |P − socket|, seed 000 eq 1): E, the Type A covariance
+    σ̂² (UᵀU)⁺ with σ̂² = RSS/(n − rank), E's response to y ≡ 1, and n − rank."""
+    points = np.column_stack([r.col(c) for c in ("x_mm", "y_mm", "z_mm")])[starts[i]: i + 1]
+    d = points - socket
+    rho = np.linalg.norm(d, axis=1)
+    uu = d / rho[:, None]
+    y = r.col("dl_um")[starts[i]: i + 1] + (bar_mm - rho) * 1e3
+    e, _, rank, _ = np.linalg.lstsq(uu, y, rcond=math.sqrt(EIG_RATIO))
+    dof = len(y) - rank
+    sigma2 = max(SIGMA_FLOOR_UM ** 2, float(np.sum((y - uu @ e) ** 2)) / max(dof, 1))
+    cov = sigma2 * np.linalg.pinv(uu.T @ uu, rcond=EIG_RATIO)
+    offset, *_ = np.linalg.lstsq(uu, np.ones(len(y)), rcond=math.sqrt(EIG_RATIO))
+    return e, cov, offset, dof
+
+
 def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
     truth = pod["truth"]
     e_true = truth["ssm_error_um"]
-    noise = truth["machine"]["instrument"]["bar_noise_um"]
     stream = StreamCapture(pod["stream_port"])
     net, node = connect(pod, eds)
     sdo = node.sdo
@@ -42,12 +65,24 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
             assert_invalid(sdo, k)
         for k in "xyz":
             sdo[f"ssm_socket_{k}"].raw = 0.0
-        # TPDO4 (E_x, E_y) is disabled by default: enable it (CiA 301 §7.5.2.35 procedure)
+        # the bar's inputs to u: the offset's (length, and temperature through the CTE) and the
+        # LVDT scale's, as the pod's configuration states them
+        bar_mm = sdo["bar_length"].raw
+        thermal_um = bar_mm * sdo["bar_cte"].raw * sdo["bar_u_temp"].raw * 1e-3
+        u_offset = math.hypot(sdo["bar_u_length"].raw, thermal_um)
+        u_scale = sdo["lvdt_u_scale"].raw * 1e-6
+        # TPDO4 (E_x, E_y) is disabled by default: enable it (CiA 301 §7.5.2.35 procedure); map
+        # their u onto TPDO2 (e_u, e_v by default, invalid in an SSM run)
         node.tpdo.read()
         node.tpdo[4].enabled = True
         node.tpdo[4].save()
         assert [v.name for v in node.tpdo[4].map] == ["live_values.ssm_ex", "live_values.ssm_ey"]
-        snaps = tpdo_snapshots(node, (3, 4))
+        node.tpdo[2].clear()
+        node.tpdo[2].add_variable("live_values", "u_ssm_ex")
+        node.tpdo[2].add_variable("live_values", "u_ssm_ey")
+        node.tpdo[2].enabled = True
+        node.tpdo[2].save()
+        snaps = tpdo_snapshots(node, (2, 3, 4))
         sdo["pattern"].raw = PATTERN["SSM"]
         sdo["session_command"].raw = COMMAND["arm"]
         node.nmt.state = "OPERATIONAL"
@@ -66,37 +101,53 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
         assert np.all(r.col("flags") == 0)
         points = np.column_stack([r.col(c) for c in ("x_mm", "y_mm", "z_mm")])
         socket = np.array([float(r.meta[f"ssm_socket_{k}"]) for k in "xyz"])
-        bar_mm, radius = float(r.meta["bar_length"]), float(r.meta["ssm_window_radius"])
-        starts = window_starts(points, radius)
+        assert float(r.meta["bar_length"]) == bar_mm
+        starts = window_starts(points, float(r.meta["ssm_window_radius"]))
         frames = [s for s in snaps if int(s["sample_counter"]) in seqs and "live_values.ssm_ey" in s]
         assert len(frames) >= 20, len(snaps)
-        checked = 0
+        checked = checked_u = 0
         for s in frames:
             assert s["status_word"] & STATUS_RUNNING
+            counter = int(s["sample_counter"])
             for bit, name in ((1, "ssm_ex"), (2, "ssm_ey")):
-                value = s[f"live_values.{name}"]
-                # the validity bit and the value agree: invalid is NaN, never a number
+                value, u = s[f"live_values.{name}"], s[f"live_values.u_{name}"]
+                # the validity bits and the values agree: invalid is NaN, never a number
                 assert (s["live_valid"] >> bit & 1) == (not math.isnan(value)), s
+                assert (s["live_valid"] >> (bit + 7) & 1) == (not math.isnan(u)), s
                 if math.isnan(value):
+                    assert math.isnan(u), s
                     continue
-                # numpy: u·E = y over the neighbourhood's samples, u the unit vector socket → ball,
-                # y = ΔL + L − |P − socket| (seed 000 eq 1)
-                i = seqs[int(s["sample_counter"])]
-                a = starts[i]
-                d = points[a: i + 1] - socket
-                rho = np.linalg.norm(d, axis=1)
-                uu = d / rho[:, None]
-                y = r.col("dl_um")[a: i + 1] + (bar_mm - rho) * 1e3
-                e, *_ = np.linalg.lstsq(uu, y, rcond=math.sqrt(EIG_RATIO))
-                sigma = max(noise, float(np.sqrt(np.mean((y - uu @ e) ** 2))))
-                u = sigma * math.sqrt(np.linalg.pinv(uu.T @ uu, rcond=EIG_RATIO)[bit - 1, bit - 1])
+                e, cov, offset, dof = neighbourhood_fit(r, starts, seqs[counter], socket, bar_mm)
+                u_a = math.sqrt(cov[bit - 1, bit - 1])
                 # the pod's estimate is the fit of these samples (its f32 positions and ΔL
                 # limit it to a few 10 nm × the condition number: 0.1 u here)
-                assert abs(value - e[bit - 1]) <= 0.1 * u + 0.02, (name, value, e, u)
-                # k = 4: dozens of frames, each a new draw
-                assert abs(value - e_true[bit - 1]) <= 4 * u, (name, value, e_true, u)
+                assert abs(value - e[bit - 1]) <= 0.1 * u_a + 0.02, (name, value, e, u_a)
+                # and the truth is within 4 u of this neighbourhood (dozens of frames, each a
+                # new draw): Type A and the bar's shares, offset through the fit of y ≡ 1,
+                # scale |E|·u_k
+                u_now = math.hypot(u_a, offset[bit - 1] * u_offset, value * u_scale)
+                assert abs(value - e_true[bit - 1]) <= 4 * u_now, (name, value, e_true, u_now)
                 checked += 1
-        assert checked >= 3, f"{checked} valid live E components in {len(frames)} frames"
+                # the pod's u is the same as of the last refresh (up to LIVE_U_EVERY − 1
+                # samples before: a neighbourhood whose conditioning changes fast outgrows it)
+                refreshed = counter - counter % LIVE_U_EVERY
+                if refreshed not in seqs:
+                    continue
+                e0, cov0, offset0, dof0 = neighbourhood_fit(r, starts, seqs[refreshed], socket,
+                                                            bar_mm)
+                if dof0 < LIVE_MIN_DOF:
+                    assert math.isnan(u), (name, dof0, u)
+                    continue
+                if math.isnan(u):
+                    # E was not valid at some sample since the refresh (the frames do not show
+                    # every sample): no u until the next
+                    continue
+                want = math.hypot(math.sqrt(cov0[bit - 1, bit - 1]), offset0[bit - 1] * u_offset,
+                                  e0[bit - 1] * u_scale)
+                assert u == pytest.approx(want, rel=0.02), (name, counter, u, want)
+                checked_u += 1
+        assert checked >= 3 and checked_u >= 3, \
+            f"{checked} valid live E components, {checked_u} with u, in {len(frames)} frames"
     finally:
         net.disconnect()
         stream.close()

@@ -72,13 +72,15 @@ def test_pyvisa_circle_session(pod, eds):
         w("CONF:BAR_LENGTH 20")
         assert error(q) == (-222, "Data out of range;bar_length out of range")
         assert float(q("CONF:BAR_LENGTH?")) == truth["radius_mm"]
-        # the live values: counter, 8 values (9.91E+37 where invalid), status word, validity mask
+        # the live values: counter, 11 values (9.91E+37 where invalid), status word, validity mask
         w("SESS:PATT CIRCLE;DIR CCW;:SESS:ARM;STAR")
         assert q("SESS:STAT?") == "RUNNING"
         for _ in range(5):
             f = q("MEAS:ALL?").split(",")
             assert len(f) == 1 + len(LIVE) + 2
-            values, status, mask = [scpi_nan(float(v)) for v in f[1:9]], int(f[9]), int(f[10])
+            n = len(LIVE)
+            values = [scpi_nan(float(v)) for v in f[1:1 + n]]
+            status, mask = int(f[1 + n]), int(f[2 + n])
             assert status & 1 << 9  # running
             names = [n.strip('"') for n in q("MEAS:VAL?").split(",") if n]
             for k, name in enumerate(LIVE):

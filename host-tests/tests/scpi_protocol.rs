@@ -901,10 +901,10 @@ fn a_full_circle_session_from_set_up_to_results() {
         b.send("MEAS:VAL?"),
         "\"delta_l\",\"ecc_u\",\"ecc_v\",\"r0\",\"temp\""
     );
-    // MEAS:ALL?: counter, the 8 live values (NaN = 9.91E+37), status word, validity mask.
+    // MEAS:ALL?: counter, the 11 live values (NaN = 9.91E+37), status word, validity mask.
     let all = b.send("MEAS:ALL?");
     let f: Vec<&str> = all.split(',').collect();
-    assert_eq!(f.len(), 11, "{all}");
+    assert_eq!(f.len(), 14, "{all}");
     assert_eq!(f[0], (b.seq - 1).to_string());
     assert!(
         near(f[1], f64::from(circle_sample(STEPS).delta_l_um), 0.0),
@@ -915,10 +915,11 @@ fn a_full_circle_session_from_set_up_to_results() {
     assert!(near(f[6], E_UM[1], 1e-3), "e_v {all}");
     assert!(near(f[7], R0_UM, 1e-3), "r0 {all}");
     assert_eq!(f[8], "20.0000");
+    assert_eq!(&f[9..12], ["9.91E+37"; 3], "no SSM E, no u of it");
     // status: bit 9 running + bit 12 live valid; mask: bits 0, 4, 5, 6, 7
-    assert_eq!(f[9], ((1 << 9) | (1 << 12)).to_string());
-    assert_eq!(f[10], (1 | 1 << 4 | 1 << 5 | 1 << 6 | 1 << 7).to_string());
-    assert_eq!(b.send("STAT:POD?"), f[9]);
+    assert_eq!(f[12], ((1 << 9) | (1 << 12)).to_string());
+    assert_eq!(f[13], (1 | 1 << 4 | 1 << 5 | 1 << 6 | 1 << 7).to_string());
+    assert_eq!(b.send("STAT:POD?"), f[12]);
     assert_eq!(b.send("SESS:STOP;STAT?;REAS?"), "DONE;NONE");
     // every sample seen was used (seen, used, 5 skip counters, lost, temperature, overrun)
     let n = STEPS + 1;
@@ -1069,7 +1070,7 @@ fn live_values_print_in_fixed_point_with_0_1_nm_resolution() {
     assert_eq!(
         b.send("MEAS:ALL?"),
         format!(
-            "{},1.5000,{nan},{nan},{nan},{nan},{nan},{nan},20.2500,8,{}",
+            "{},1.5000,{nan},{nan},{nan},{nan},{nan},{nan},20.2500,{nan},{nan},{nan},8,{}",
             b.seq - 1,
             1 | 1 << 7
         )
@@ -1085,7 +1086,7 @@ fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
     assert_eq!(b.send("MEAS:VAL?"), "");
     let all = b.send("MEAS:ALL?");
     assert!(all.ends_with(",0,0"), "{all}");
-    assert_eq!(all.matches("9.91E+37").count(), 8, "{all}");
+    assert_eq!(all.matches("9.91E+37").count(), 11, "{all}");
     // LVDT open: ΔL invalid (a fault: status bit 1 and bit 15)
     b.feed(Sample {
         delta_l_um: 0.0,
@@ -1099,8 +1100,8 @@ fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
     let f: Vec<&str> = all.split(',').collect();
     assert_eq!(f[1], "9.91E+37");
     assert_eq!(f[8], "21.0000");
-    assert_eq!(f[9], (1 << 1 | 1 << 15).to_string());
-    assert_eq!(f[10], (1 << 7).to_string());
+    assert_eq!(f[12], (1 << 1 | 1 << 15).to_string());
+    assert_eq!(f[13], (1 << 7).to_string());
     // a thermistor fault: the temperature is invalid
     b.feed(Sample {
         delta_l_um: 2.0,

@@ -17,10 +17,13 @@ pub const LIVE: [(&str, &str); LIVE_COUNT] = [
     ("ecc_v", "um"),
     ("r0", "um"),
     ("temp", "degC"),
+    ("u_ssm_ex", "um"),
+    ("u_ssm_ey", "um"),
+    ("u_ssm_ez", "um"),
 ];
 
 /// Number of live REAL32 values.
-pub const LIVE_COUNT: usize = 8;
+pub const LIVE_COUNT: usize = 11;
 
 /// Index of each live value in [`LIVE`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -42,6 +45,14 @@ pub enum Live {
     R0 = 6,
     /// Bar temperature, °C.
     Temp = 7,
+    /// Standard uncertainty of the live E_x (Type A from the neighbourhood's residual, the
+    /// bar's length, temperature and scale; refreshed every
+    /// [`super::ssm::LIVE_U_EVERY`] samples), µm; U = 2u.
+    USsmEx = 8,
+    /// Standard uncertainty of the live E_y, µm.
+    USsmEy = 9,
+    /// Standard uncertainty of the live E_z, µm.
+    USsmEz = 10,
 }
 
 /// The live values of the latest sample.
@@ -92,6 +103,18 @@ impl LiveValues {
             self.values.get(i).copied()
         } else {
             None
+        }
+    }
+
+    /// Marks the values of `mask` ([`Self::mask`]) invalid (NaN).
+    pub fn invalidate(&mut self, mask: u16) {
+        if self.valid & mask != 0 {
+            for (k, v) in self.values.iter_mut().enumerate() {
+                if mask & (1 << k) != 0 {
+                    *v = f32::NAN;
+                }
+            }
+            self.valid &= !mask;
         }
     }
 

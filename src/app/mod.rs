@@ -67,6 +67,22 @@ use seed002::{Procedure, Setup};
 use ssm::{SsmRun, TwoStep};
 use trigger::{ArcTrigger, TriggerEvent};
 
+/// The live values of a running circle fit (CIRCLE and the seed 002 steps).
+const LIVE_FIT: u16 = LiveValues::mask(&[Live::EccU, Live::EccV, Live::R0]);
+/// The live SSM E.
+const LIVE_SSM_E: u16 = LiveValues::mask(&[Live::SsmEx, Live::SsmEy, Live::SsmEz]);
+/// From the bit of a component of the live E to that of its u.
+const LIVE_U_SHIFT: u16 = Live::USsmEx as u16 - Live::SsmEx as u16;
+/// The live values of a running SSM: E and its u.
+const LIVE_SSM: u16 = LiveValues::mask(&[
+    Live::SsmEx,
+    Live::SsmEy,
+    Live::SsmEz,
+    Live::USsmEx,
+    Live::USsmEy,
+    Live::USsmEz,
+]);
+
 /// Session state (DESIGN §7a: configure → arm → run → results).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 #[repr(u8)]
@@ -690,7 +706,11 @@ impl App {
                 self.circle.begin_run(g, self.direction);
                 RunEstimator::Circle
             }
-            Pattern::Ssm => match self.ssm.restart(&setup, self.config.bar_length_mm) {
+            Pattern::Ssm => match self.ssm.restart(
+                &setup,
+                self.config.bar_length_mm,
+                BarBudget::from_config(&self.config),
+            ) {
                 Ok(()) => RunEstimator::Ssm,
                 Err(f) => return self.refuse(CommandError::Missing(f)),
             },
@@ -1217,33 +1237,45 @@ impl App {
 
     fn refresh_live(&mut self) {
         let running = self.session == SessionState::Running;
-        let fit = match (&self.estimator, running) {
-            (RunEstimator::Circle, true) => self.circle.live(self.direction).ok(),
-            (RunEstimator::Step(_, f), true) => f.live().ok(),
-            _ => None,
-        };
-        let e = match (&self.estimator, running) {
-            (RunEstimator::Ssm, true) => self.ssm.live(),
-            _ => [None; 3],
+        let (fit, ssm) = match (&self.estimator, running) {
+            (RunEstimator::Circle, true) => (Some(self.circle.live(self.direction).ok()), None),
+            (RunEstimator::Step(_, f), true) => (Some(f.live().ok()), None),
+            (RunEstimator::Ssm, true) => (None, Some(self.ssm.live(self.live.sample_counter))),
+            _ => (None, None),
         };
         let live = &mut self.live;
-        live.set(Live::EccU, fit.map(|[_, eu, _]| eu));
-        live.set(Live::EccV, fit.map(|[_, _, ev]| ev));
-        live.set(Live::R0, fit.map(|[r0, _, _]| r0));
-        let [ex, ey, ez] = e;
-        live.set(Live::SsmEx, ex);
-        live.set(Live::SsmEy, ey);
-        live.set(Live::SsmEz, ez);
+        let mut kept = 0;
+        if let Some(fit) = fit {
+            live.set(Live::EccU, fit.map(|[_, eu, _]| eu));
+            live.set(Live::EccV, fit.map(|[_, _, ev]| ev));
+            live.set(Live::R0, fit.map(|[r0, _, _]| r0));
+            kept = LIVE_FIT;
+        }
+        if let Some(([ex, ey, ez], u)) = ssm {
+            live.set(Live::SsmEx, ex);
+            live.set(Live::SsmEy, ey);
+            live.set(Live::SsmEz, ez);
+            match u {
+                Some([ux, uy, uz]) => {
+                    live.set(Live::USsmEx, ux);
+                    live.set(Live::USsmEy, uy);
+                    live.set(Live::USsmEz, uz);
+                }
+                // held from the last refresh, but not where E is not valid
+                None => live.invalidate((!live.valid & LIVE_SSM_E) << LIVE_U_SHIFT),
+            }
+            kept = LIVE_SSM;
+        }
+        // the values of no running estimator: invalid (a test of the mask on most samples)
+        live.invalidate((LIVE_FIT | LIVE_SSM) & !kept);
     }
 
     fn update_status(&mut self) {
-        const SSM_E: u16 = LiveValues::mask(&[Live::SsmEx, Live::SsmEy, Live::SsmEz]);
-        const FIT: u16 = LiveValues::mask(&[Live::EccU, Live::EccV, Live::R0]);
         let live_valid = match self.pattern {
             _ if self.session != SessionState::Running => false,
-            Pattern::Ssm => self.live.all_valid(SSM_E),
+            Pattern::Ssm => self.live.all_valid(LIVE_SSM_E),
             Pattern::Probe => false,
-            _ => self.live.all_valid(FIT),
+            _ => self.live.all_valid(LIVE_FIT),
         };
         let fault = self
             .last_flags

@@ -41,12 +41,21 @@ pub const REFINE_ITERATIONS: u32 = 10;
 /// block (up to ≈ 0.12 µm), and the encoders count 0.1 µm.
 pub const FIXED_POSITION_U_UM: f64 = 0.1;
 
+/// Samples between two refreshes of the live E's u: at every sample whose counter is a
+/// multiple of this (computed every sample it would take the SSM pipeline past its 2 500
+/// instructions); held between while E is valid, invalid where E is not. A window whose
+/// conditioning changes fast (the machine slowing into a dwell) can outgrow the held u
+/// before the next refresh.
+pub const LIVE_U_EVERY: u32 = 32;
+
 /// An SSM run in progress (state ≈ 7.6 KiB).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SsmRun {
     geometry: SsmGeometry,
     stream: StreamingSsm<SSM_WINDOW>,
     stations: StationCollector<MAX_STATIONS>,
+    /// The bar's inputs to the live E's u (the configuration's at the run's start).
+    bar: BarBudget,
 }
 
 /// E from the stations of an SSM run.
@@ -102,17 +111,23 @@ impl SsmRun {
     /// No run yet, built in place in `slot` (the 7.8 KiB state never passes through the
     /// stack); [`SsmRun::restart`] starts one.
     pub fn init<'a>(slot: &'a mut MaybeUninit<Self>, t: &TestSetup) -> &'a mut Self {
-        Self::init_with(slot, NO_RUN, t)
+        Self::init_with(slot, NO_RUN, t, BarBudget::NONE)
     }
 
-    /// Starts a run in place on the set-up's socket with a bar of `bar_length_mm`, or returns
-    /// the first field the set-up lacks (the socket position; the state is then unchanged).
-    pub fn restart(&mut self, t: &TestSetup, bar_length_mm: f32) -> Result<(), Field> {
+    /// Starts a run in place on the set-up's socket with a bar of `bar_length_mm` whose
+    /// uncertainty is `bar`, or returns the first field the set-up lacks (the socket position;
+    /// the state is then unchanged).
+    pub fn restart(
+        &mut self,
+        t: &TestSetup,
+        bar_length_mm: f32,
+        bar: BarBudget,
+    ) -> Result<(), Field> {
         let geometry = SsmGeometry {
             socket_mm: required3(t.ssm_socket_mm, Field::SsmSocketMm)?,
             bar_length_mm: f64::from(bar_length_mm),
         };
-        in_place::reinit(self, |s| Self::init_with(s, geometry, t));
+        in_place::reinit(self, |s| Self::init_with(s, geometry, t, bar));
         Ok(())
     }
 
@@ -120,9 +135,11 @@ impl SsmRun {
         slot: &'a mut MaybeUninit<Self>,
         geometry: SsmGeometry,
         t: &TestSetup,
+        bar: BarBudget,
     ) -> &'a mut Self {
         init_in_place!(slot, Self {
             geometry: geometry,
+            bar: bar,
             stations: StationCollector::new(DwellConfig {
                 max_speed_mm_per_s: t.ssm_dwell_speed_mm_per_s,
                 max_rotary_speed_deg_per_s: DWELL_ROTARY_SPEED_DEG_PER_S,
@@ -144,10 +161,26 @@ impl SsmRun {
         self.stations.update(s);
     }
 
-    /// E at the current point from its neighbourhood: each component, or `None` where it is not
-    /// observable (yet).
-    pub fn live(&self) -> [Option<f32>; 3] {
-        self.stream.live().unwrap_or([None; 3])
+    /// E at the current point from its neighbourhood, µm, for the sample numbered
+    /// `sample_counter`: each component, or `None` where it is not observable (yet); and at
+    /// every [`LIVE_U_EVERY`]th sample its standard uncertainty with the bar's shares, µm
+    /// (`None` where not stated: [`StreamingSsm::live_with_uncertainty`]).
+    pub fn live(&self, sample_counter: u32) -> ([Option<f32>; 3], Option<[Option<f32>; 3]>) {
+        if sample_counter.is_multiple_of(LIVE_U_EVERY) {
+            self.live_with_u()
+        } else {
+            (self.stream.live().unwrap_or([None; 3]), None)
+        }
+    }
+
+    #[inline(never)] // off the per-sample path: it runs one sample in [`LIVE_U_EVERY`]
+    fn live_with_u(&self) -> ([Option<f32>; 3], Option<[Option<f32>; 3]>) {
+        let mut u = [None; 3];
+        let e = self
+            .stream
+            .live_with_uncertainty(&self.bar, &mut u)
+            .unwrap_or([None; 3]);
+        (e, Some(u))
     }
 
     /// Ends the run: the stations' E, refined.

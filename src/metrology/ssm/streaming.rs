@@ -15,9 +15,11 @@
 //! directions — which decides what E the path can see — and their covariance with y.
 //!
 //! Two solves of the same sums:
-//! - [`StreamingSsm::live`], every sample (≈ 495 instructions, f32 on the FPU): the live E,
+//! - [`StreamingSsm::live`], every sample (≈ 515 instructions, f32 on the FPU): the live E,
 //!   solved on the window's mean and scatter (below), with the observability rule of
-//!   [`super::solve_normal`];
+//!   [`super::solve_normal`]; [`StreamingSsm::live_with_uncertainty`] adds each component's
+//!   standard uncertainty (the window's residual and the bar), from the same solve and one
+//!   more exact sum, Σ y/16;
 //! - [`StreamingSsm::estimate`] (f64, soft-float on the M4, with the full observability
 //!   analysis of G) and [`StreamingSsm::estimate_refined`] on the exact sphere equation.
 //!
@@ -38,6 +40,7 @@ use super::{
 };
 use crate::acquisition::Sample;
 use crate::in_place::{self, init_in_place};
+use crate::metrology::bar_budget::BarBudget;
 use crate::metrology::solve3::Sym3;
 use core::mem::MaybeUninit;
 
@@ -94,6 +97,10 @@ struct Sums {
     y: i64,
     /// Σ (y/16)².
     yy: i64,
+    /// Σ y/16 (Q12 µm): the same truncated y as `yy`, so that n Σ(y/16)² − (Σ y/16)² is
+    /// n² times the variance of y exactly (the live E's residual,
+    /// [`StreamingSsm::live_with_uncertainty`]).
+    y16: i64,
     /// Σ d.
     d: [i64; 3],
 }
@@ -137,6 +144,7 @@ impl Sums {
         mac(b1, s1, y);
         mac(b2, s2, y);
         mac(&mut self.yy, sy8, y8);
+        add(&mut self.y16, sy8);
         add(&mut self.y, sy);
         // written out: an array loop here is an out-of-line iterator call at opt-level "z"
         let [t0, t1, t2] = &mut self.v;
@@ -156,6 +164,7 @@ impl Sums {
         Self {
             y: i64::from(e.y),
             yy: i64::from(y8) * i64::from(y8),
+            y16: i64::from(y8),
             d: [i64::from(d0), i64::from(d1), i64::from(d2)],
             ..Self::default()
         }
@@ -219,6 +228,48 @@ pub struct StreamingEstimate {
     pub solution: SsmSolution,
     /// Mean nominal point of the window (where E applies), mm.
     pub centroid_mm: [f64; 3],
+}
+
+/// Smallest eigenvalue of the live solve's tangent-plane matrix, relative to its largest,
+/// that f32 resolves (128 ε: the matrix is a few f32 products of the directions' covariance,
+/// each rounded); a direction below it is not observable in the live E.
+pub const LIVE_EIG_RESOLUTION: f32 = 128.0 * f32::EPSILON;
+
+/// Fewest residual degrees of freedom (samples less the components the path sees) for which
+/// the live E states a Type A u: below, the scatter's own estimate is too loose for U = 2u to
+/// cover 95 % (Student's t at 30 dof is 2.04).
+pub const LIVE_MIN_DOF: u32 = 30;
+/// Smallest per-sample scatter the live E's Type A u assumes, µm: the 0.1 µm resolution of the
+/// readings (q/√12). A window that fits better than that is not believed to.
+pub const LIVE_SIGMA_FLOOR_UM: f32 = 0.028_867_513;
+
+/// The parts of a live solve that the live E's u needs (f32, as the solve has them).
+#[derive(Debug, Clone, Copy, Default)]
+struct LiveParts {
+    /// Covariance of the window's directions.
+    cov: [[f32; 3]; 3],
+    /// Covariance of the directions with y, µm.
+    cy: [f32; 3],
+    /// Mean y, µm.
+    ybar: f32,
+    /// The basis (t₁, t₂, m̂).
+    basis: [[f32; 3]; 3],
+    /// |m|, the mean direction's length.
+    mm: f32,
+    /// |m|² + C_mm.
+    den: f32,
+    /// The coupling (C_t₁m, C_t₂m)/den.
+    b: [f32; 2],
+    /// The tangent plane's Schur complement (00, 01, 11).
+    schur: [f32; 3],
+    /// Its larger eigenvalue.
+    l_max: f32,
+    /// E in the axes (every component, seen or not), µm.
+    e: [f32; 3],
+    /// Which components the path sees.
+    seen: [bool; 3],
+    /// The unseen tangent direction (−q, p), if any.
+    null: Option<[f32; 2]>,
 }
 
 /// Streaming SSM over a fixed window of `W` samples (4 ≤ W ≤ 2048).
@@ -505,9 +556,37 @@ impl<const W: usize> StreamingSsm<W> {
     /// The live E of the current neighbourhood, µm: each component, or `None` where the path
     /// cannot see it; f32 on the FPU (see the module doc). The same errors and observability
     /// rule ([`UNOBSERVABLE_EIG_RATIO`], [`OBSERVABLE_AXIS_TOL`]) as [`estimate`](Self::estimate),
-    /// whose f64 values it matches to a few nm on the host tests' paths.
-    #[inline(never)] // one copy in flash (the application task's poll would inline it)
+    /// whose f64 values it matches to a few nm on the host tests' paths, except that a
+    /// direction f32 cannot resolve (below [`LIVE_EIG_RESOLUTION`] of the largest eigenvalue
+    /// across the mean direction: a ratio beyond ≈ 7·10⁴) is not observable here.
     pub fn live(&self) -> Result<[Option<f32>; 3], SsmError> {
+        self.solve_live(None)
+    }
+
+    /// [`live`](Self::live), and into `u` the standard uncertainty of each component, µm,
+    /// with the bar's shares `bar` (`None` where E_k is not observable or the window has fewer
+    /// than [`LIVE_MIN_DOF`] degrees of freedom). Type A: σ̂ √((G⁻¹)_kk), σ̂² the window's
+    /// residual sum of squares over its degrees of freedom, at least [`LIVE_SIGMA_FLOOR_UM`]²;
+    /// the bar (GUM first order): a constant offset of every y moves E_k by the least squares
+    /// of the window with y ≡ 1 (times `bar.offset_um`), the scale by E_k·`bar.scale`. About
+    /// 300 instructions more than [`live`](Self::live): the pod refreshes it every
+    /// [`crate::app::ssm::LIVE_U_EVERY`] samples.
+    pub fn live_with_uncertainty(
+        &self,
+        bar: &BarBudget,
+        u: &mut [Option<f32>; 3],
+    ) -> Result<[Option<f32>; 3], SsmError> {
+        let mut parts = LiveParts::default();
+        *u = [None; 3];
+        let e = self.solve_live(Some(&mut parts))?;
+        *u = self.live_u(&parts, bar);
+        Ok(e)
+    }
+
+    /// The live solve; with `parts`, what [`Self::live_u`] needs of it, stored where each is
+    /// computed (kept live to the end, they would make the per-sample path spill).
+    #[inline(never)] // one copy in flash (the application task's poll would inline it)
+    fn solve_live(&self, mut parts: Option<&mut LiveParts>) -> Result<[Option<f32>; 3], SsmError> {
         let n = self.len as u32;
         if n < 3 {
             return Err(SsmError::TooFewObservations { have: n, need: 3 });
@@ -600,6 +679,11 @@ impl<const W: usize> StreamingSsm<W> {
                 [w0 * k - a * ybar, w1 * k - b * ybar, w2 * k - c * ybar],
             )
         };
+        if let Some(p) = parts.as_deref_mut() {
+            p.cov = cov;
+            p.cy = cy;
+            p.ybar = ybar;
+        }
         let [u0, u1, u2] = self.u_ref;
         let m = [u0 as f32 * U + a, u1 as f32 * U + b, u2 as f32 * U + c];
         let mm = crate::num::sqrtf(dot(m, m));
@@ -625,11 +709,23 @@ impl<const W: usize> StreamingSsm<W> {
         let h = 0.5 * (s00 - s11);
         let l_max = 0.5 * (s00 + s11) + crate::num::sqrtf(h * h + s01 * s01);
         let l_min = (s00 * s11 - s01 * s01) / l_max;
+        if let Some(p) = parts.as_deref_mut() {
+            p.basis = [t1, t2, mh];
+            p.mm = mm;
+            p.den = den;
+            p.b = [b1, b2];
+            p.schur = [s00, s01, s11];
+            p.l_max = l_max;
+        }
         let ratio = UNOBSERVABLE_EIG_RATIO as f32 * den;
         if !(l_max > ratio) {
             return Err(SsmError::Degenerate);
         }
-        let (e1, e2, null) = if l_min > ratio {
+        // S comes from f32 products of C with a few roundings each: an eigenvalue below
+        // LIVE_EIG_RESOLUTION × λ_max is rounding, not the path (a wide planar arc read its
+        // zero across-plane eigenvalue as 10⁻⁸ and solved E_z from it)
+        let resolved = l_max * LIVE_EIG_RESOLUTION;
+        let (e1, e2, null) = if l_min > ratio && l_min > resolved {
             let det = s00 * s11 - s01 * s01;
             (
                 (s11 * r1 - s01 * r2) / det,
@@ -664,11 +760,76 @@ impl<const W: usize> StreamingSsm<W> {
             None => true,
         };
         let [s0, s1, s2] = [seen(t10, t20), seen(t11, t21), seen(t12, t22)];
+        if let Some(p) = parts {
+            p.e = [c0, c1, c2];
+            p.seen = [s0, s1, s2];
+            p.null = null;
+        }
         Ok([
             (s0 && c0.is_finite()).then_some(c0),
             (s1 && c1.is_finite()).then_some(c1),
             (s2 && c2.is_finite()).then_some(c2),
         ])
+    }
+
+    /// The live E's u from the parts of its solve (see [`Self::live_with_uncertainty`]).
+    #[inline(never)] // off the per-sample path
+    fn live_u(&self, p: &LiveParts, bar: &BarBudget) -> [Option<f32>; 3] {
+        let mut out = [None; 3];
+        let n = self.len as u32;
+        let s = &self.sums;
+        let dof = n.saturating_sub(if p.null.is_some() { 2 } else { 3 });
+        let nf = n as f32;
+        // var(y) from the exact n² var(y) in Q24 µm² (mod 2⁶⁴: in range while n Σ(y/16)² is)
+        if !(dof >= LIVE_MIN_DOF && f32_of(s.yy) * nf < 9.2e18) {
+            return out;
+        }
+        let nn = i64::from(n);
+        let vq =
+            s.yy.wrapping_mul(nn)
+                .wrapping_sub(s.y16.wrapping_mul(s.y16));
+        let inv_n = 1.0 / nf;
+        let var_y = f32_of(vq) * (inv_n * inv_n * (1.0 / 16_777_216.0));
+        let [t1, t2, mh] = p.basis;
+        let e = p.e;
+        // RSS/n = var(y) − 2 cᵀE + Eᵀ C E + (ȳ − mᵀE)², m = |m| m̂
+        let d = p.ybar - p.mm * dot(mh, e);
+        let rss = var_y - 2.0 * dot(p.cy, e) + dot(e, times(&p.cov, e)) + d * d;
+        let floor = LIVE_SIGMA_FLOOR_UM * LIVE_SIGMA_FLOOR_UM;
+        let sigma2 = rss * nf / dof as f32;
+        let kv = if sigma2 > floor { sigma2 } else { floor } * inv_n;
+        // cov(E) = σ²/n (G/n)⁺ and E's response to ȳ = 1, c = 0 (a constant offset of every
+        // y), in the basis (t₁, t₂, m̂) where the solve is the block inverse
+        // M = [[P, −P b], [−bᵀP, 1/den + bᵀ P b]] of G/n, P the tangent plane's S⁻¹, or
+        // v vᵀ/λ_max along the eigenvector v = (p, q) of λ_max where the path does not see the
+        // other direction: var(E_k) = σ²/n wᵀ M w and ∂E_k/∂δ = |m| (M w)₃, w = (t₁ₖ, t₂ₖ, m̂ₖ).
+        let [s00, s01, s11] = p.schur;
+        let [p00, p01, p11] = match p.null {
+            None => {
+                let k = 1.0 / (s00 * s11 - s01 * s01);
+                [s11 * k, -s01 * k, s00 * k]
+            }
+            Some([nq, pv]) => {
+                let k = 1.0 / p.l_max;
+                [pv * pv * k, -pv * nq * k, nq * nq * k]
+            }
+        };
+        let [b1, b2] = p.b;
+        let (pb0, pb1) = (p00 * b1 + p01 * b2, p01 * b1 + p11 * b2);
+        let m22 = 1.0 / p.den + b1 * pb0 + b2 * pb1;
+        for (k, o) in out.iter_mut().enumerate() {
+            let at = |v: [f32; 3]| v.get(k).copied().unwrap_or(f32::NAN);
+            let (w0, w1, w2, ek) = (at(t1), at(t2), at(mh), at(e));
+            let mw2 = m22 * w2 - pb0 * w0 - pb1 * w1;
+            let g = w0 * (p00 * w0 + p01 * w1 - pb0 * w2)
+                + w1 * (p01 * w0 + p11 * w1 - pb1 * w2)
+                + w2 * mw2;
+            let (off, scale) = (p.mm * mw2 * bar.offset_um, ek * bar.scale);
+            let u = crate::num::sqrtf(kv * g + off * off + scale * scale);
+            let seen = p.seen.get(k).copied().unwrap_or(false);
+            *o = (seen && u.is_finite()).then_some(u);
+        }
+        out
     }
 
     /// E for the current neighbourhood, with condition number and observability.

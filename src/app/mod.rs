@@ -74,14 +74,7 @@ const LIVE_SSM_E: u16 = LiveValues::mask(&[Live::SsmEx, Live::SsmEy, Live::SsmEz
 /// From the bit of a component of the live E to that of its u.
 const LIVE_U_SHIFT: u16 = Live::USsmEx as u16 - Live::SsmEx as u16;
 /// The live values of a running SSM: E and its u.
-const LIVE_SSM: u16 = LiveValues::mask(&[
-    Live::SsmEx,
-    Live::SsmEy,
-    Live::SsmEz,
-    Live::USsmEx,
-    Live::USsmEy,
-    Live::USsmEz,
-]);
+const LIVE_SSM: u16 = LIVE_SSM_E | LIVE_SSM_E << LIVE_U_SHIFT;
 
 /// Session state (DESIGN §7a: configure → arm → run → results).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -995,9 +988,8 @@ impl App {
                 ),
             ] {
                 // eqs 4.10–4.18 are linear in the eccentricities without a constant term: the
-                // LVDT's scale error k moves every result by k times itself
-                let scale = libm::fabs(v) * f64::from(bar.scale);
-                r.set_budget(id, v, [uu as f32, 0.0, scale as f32, 0.0, 0.0]);
+                // LVDT's scale error k moves every result by k times itself, as a shape figure
+                r.set_with_bar(id, v as f32, uu as f32, &bar, FigureKind::Shape);
             }
         }
         true

@@ -290,6 +290,10 @@ pub struct TestSetup {
     /// Seed 002: standard uncertainty of the T-ball's axial offset (its tool length), µm
     /// ([`MountingUncertainty::t_axial_um`]; added in encoding version 5).
     pub s002_u_t_axial_um: f32,
+    /// Seed 002: standard uncertainty of each of R_C and Z_C as entered, µm
+    /// ([`MountingUncertainty::r_c_um`], [`MountingUncertainty::z_c_um`]; added in encoding
+    /// version 7).
+    pub s002_u_r_c_z_c_um: f32,
 }
 
 /// The pod's configuration (see the module doc; fields listed with unit, default and range in
@@ -454,6 +458,9 @@ pub enum Field {
     BarUTempK,
     /// [`Config::lvdt_u_scale_ppm`] (added in encoding version 6).
     LvdtUScalePpm,
+    /// [`TestSetup::s002_u_r_c_z_c_um`] (added in encoding version 7; the last object below
+    /// the enumerated ones at 0x2040).
+    S002URcZcUm,
     /// A pod sample is not a whole number of excitation periods within the ADC ring
     /// (`excitation / sample_rate` ∉ 1…[`MAX_PERIODS_PER_SAMPLE`]).
     PeriodsPerSample,
@@ -846,6 +853,7 @@ pub const FIELDS: &[FieldInfo] = &[
     real(Field::BarULengthUm, "bar_u_length", "um", 0.0, 100.0),
     real(Field::BarUTempK, "bar_u_temp", "K", 0.0, 10.0),
     real(Field::LvdtUScalePpm, "lvdt_u_scale", "ppm", 0.0, 100_000.0),
+    real(Field::S002URcZcUm, "s002_u_r_c_z_c", "um", 0.0, 1000.0),
 ];
 
 /// Why a configuration was rejected.
@@ -935,6 +943,7 @@ impl TestSetup {
             s002_u_w_clamp_um: MountingUncertainty::SEED002.w_clamp_um as f32,
             s002_u_t_centring_um: MountingUncertainty::SEED002.t_centring_um as f32,
             s002_u_t_axial_um: MountingUncertainty::SEED002.t_axial_um as f32,
+            s002_u_r_c_z_c_um: MountingUncertainty::SEED002.r_c_um as f32,
         }
     };
 }
@@ -1062,6 +1071,7 @@ impl Config {
                 s002_u_w_clamp_um: 0.0,
                 s002_u_t_centring_um: 0.0,
                 s002_u_t_axial_um: 0.0,
+                s002_u_r_c_z_c_um: 0.0,
             },
             bar_u_length_um: 0.0,
             bar_u_temp_k: 0.0,
@@ -1198,6 +1208,9 @@ impl Field {
             }
             Field::LvdtUScalePpm => {
                 "Uncertainty budget: the LVDT's scale (calibration, linearity), relative standard uncertainty of ΔL (default: 0.1 %)"
+            }
+            Field::S002URcZcUm => {
+                "Seed 002 uncertainty budget: R_C and Z_C as entered, standard uncertainty of each one's difference from the value the steps ran with (default: Z_C by dial gauge, R_C the X the W-ball was docked at)"
             }
             Field::PeriodsPerSample => {
                 "Cross-field rule: excitation / sample_rate must be a whole 1 … 5 periods"
@@ -1404,6 +1417,7 @@ impl Config {
             Field::BarULengthUm => f64::from(self.bar_u_length_um),
             Field::BarUTempK => f64::from(self.bar_u_temp_k),
             Field::LvdtUScalePpm => f64::from(self.lvdt_u_scale_ppm),
+            Field::S002URcZcUm => f64::from(s.s002_u_r_c_z_c_um),
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => return None,
         })
     }
@@ -1501,6 +1515,7 @@ impl Config {
             Field::BarULengthUm => self.bar_u_length_um = x,
             Field::BarUTempK => self.bar_u_temp_k = x,
             Field::LvdtUScalePpm => self.lvdt_u_scale_ppm = x,
+            Field::S002URcZcUm => s.s002_u_r_c_z_c_um = x,
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => {}
         }
     }
@@ -1546,13 +1561,14 @@ impl Config {
 
 /// Magic at the start of an encoded configuration.
 pub const MAGIC: [u8; 4] = *b"BPOD";
-/// Current encoding version (6: version 5 plus the bar's uncertainty budget `bar_u_length`,
+/// Current encoding version (7: version 6 plus the seed 002 budget's `s002_u_r_c_z_c`; 6:
+/// version 5 plus the bar's uncertainty budget `bar_u_length`,
 /// `bar_u_temp`, `lvdt_u_scale`; 5: version 4 plus the seed 002 mounting uncertainties
 /// `s002_u_w_clamp`, `s002_u_t_centring`, `s002_u_t_axial`; 4: version 3 plus `run_trigger`
-/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2 to 5 encodings are read
+/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2 to 6 encodings are read
 /// and migrated (the fields added since keep their defaults); version 1 records are not read:
 /// the pod boots on the defaults and says so.
-pub const ENCODING_VERSION: u16 = 6;
+pub const ENCODING_VERSION: u16 = 7;
 /// Oldest encoding version read.
 pub const OLDEST_ENCODING_VERSION: u16 = 2;
 
@@ -1564,6 +1580,7 @@ const fn added_in(f: Field) -> u16 {
         Field::RunTrigger | Field::CircleArcDeg => 4,
         Field::S002UWClampUm | Field::S002UTCentringUm | Field::S002UTAxialUm => 5,
         Field::BarULengthUm | Field::BarUTempK | Field::LvdtUScalePpm => 6,
+        Field::S002URcZcUm => 7,
         _ => 2,
     }
 }
@@ -1604,11 +1621,12 @@ const PAYLOAD: usize = payload_len(ENCODING_VERSION);
 /// Total encoded size: magic, version u16, payload length u16, payload, CRC-32.
 pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD + 4;
 /// Total size of each encoding read, oldest first (read and migrated; only the last written).
-pub const ENCODED_LENS: [usize; 5] = [
+pub const ENCODED_LENS: [usize; 6] = [
     12 + payload_len(2),
     12 + payload_len(3),
     12 + payload_len(4),
     12 + payload_len(5),
+    12 + payload_len(6),
     12 + payload_len(ENCODING_VERSION),
 ];
 
@@ -1693,7 +1711,7 @@ impl Config {
 
     /// Decodes and validates an encoding. Every check (length, magic, version, CRC, enum
     /// bytes, ranges) must pass; otherwise the error says which failed and nothing is returned.
-    /// An older encoding (versions 2 to 5, [`ENCODED_LENS`]) is read too: the fields added
+    /// An older encoding (versions 2 to 6, [`ENCODED_LENS`]) is read too: the fields added
     /// since keep their defaults.
     pub fn decode(bytes: &[u8]) -> Result<Config, ConfigError> {
         let mut r = Reader { buf: bytes, pos: 0 };

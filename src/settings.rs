@@ -179,8 +179,8 @@ pub struct SlotScan {
 
 impl SlotScan {
     /// The valid record with the highest sequence number, and its slot.
-    pub fn newest(&self) -> Option<(Slot, Record)> {
-        match (self.a, self.b) {
+    pub fn newest(&self) -> Option<(Slot, &Record)> {
+        match (&self.a, &self.b) {
             (Ok(a), Ok(b)) if b.sequence > a.sequence => Some((Slot::B, b)),
             (Ok(a), _) => Some((Slot::A, a)),
             (Err(_), Ok(b)) => Some((Slot::B, b)),
@@ -226,10 +226,10 @@ impl Loaded {
     /// other slot's settings or the defaults are in use, and the pod says so at boot
     /// (`protocol::report_rejected_settings`).
     pub fn rejected(&self) -> Option<ConfigError> {
-        [self.scan.a, self.scan.b]
+        [&self.scan.a, &self.scan.b]
             .into_iter()
             .find_map(|s| match s {
-                Err(SlotError::Config(e)) => Some(e),
+                Err(SlotError::Config(e)) => Some(*e),
                 _ => None,
             })
     }

@@ -380,3 +380,26 @@ fn a_settings_record_of_encoding_version_5_is_read_and_migrated() {
     now_cfg.lvdt_u_scale_ppm = 2500.0;
     resaved_as_current_version(&now_cfg, 34);
 }
+
+#[test]
+fn a_settings_record_of_encoding_version_6_is_read_and_migrated() {
+    let got = read_fixture(include_str!("data/settings_record_v6.hex"), 45, 90);
+    // what the file's header says it holds; the fields version 7 added keep their defaults,
+    // the seed 002 budget's 10 µm for R_C and Z_C as entered
+    let mut want = Config {
+        bar_length_mm: 120.5,
+        can_node_id: 42,
+        bar_u_length_um: 0.8,
+        lvdt_u_scale_ppm: 2500.0,
+        ..Config::default()
+    };
+    want.setup.s002_u_w_clamp_um = 30.0;
+    want.axes[1].name = AxisName::Z;
+    want.axes[2].name = AxisName::Y;
+    assert!(same(&got, &want), "{got:?}");
+    assert_eq!(got.setup.s002_u_r_c_z_c_um, 10.0);
+    // the next save writes the current version with the new fields, and reads back
+    let mut now_cfg = got;
+    now_cfg.setup.s002_u_r_c_z_c_um = 50.0;
+    resaved_as_current_version(&now_cfg, 46);
+}

@@ -570,6 +570,7 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::BarULengthUm => g(c.bar_u_length_um),
         Field::BarUTempK => g(c.bar_u_temp_k),
         Field::LvdtUScalePpm => g(c.lvdt_u_scale_ppm),
+        Field::S002URcZcUm => g(s.s002_u_r_c_z_c_um),
         Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => unreachable!(),
     }
 }

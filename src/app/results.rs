@@ -190,7 +190,7 @@ pub enum Contributor {
     BarOffset = 1,
     /// The LVDT's scale (calibration and linearity).
     LvdtScale = 2,
-    /// The W-ball's clamping shifts (seed 002).
+    /// The W-ball: its clamping shifts and R_C, Z_C as entered (seed 002).
     WBall = 3,
     /// The T-ball's centring and axial offsets (seed 002).
     TBall = 4,

@@ -84,7 +84,8 @@ pub struct Setup {
     pub x_t_mm: f64,
     /// Offset of the machine coordinates from the model frame (mm).
     pub offset: NcOffset,
-    /// The balls' mounting uncertainties (Type B inputs of the model mode's budget, µm).
+    /// The Type B inputs of the model mode's budget: the balls' mounting, R_C and Z_C as
+    /// entered (µm).
     pub mounting: MountingUncertainty,
 }
 
@@ -131,6 +132,8 @@ impl Setup {
                 w_clamp_um: f64::from(t.s002_u_w_clamp_um),
                 t_centring_um: f64::from(t.s002_u_t_centring_um),
                 t_axial_um: f64::from(t.s002_u_t_axial_um),
+                r_c_um: f64::from(t.s002_u_r_c_z_c_um),
+                z_c_um: f64::from(t.s002_u_r_c_z_c_um),
             },
         })
     }
@@ -153,6 +156,8 @@ impl Setup {
         t.s002_u_w_clamp_um = self.mounting.w_clamp_um as f32;
         t.s002_u_t_centring_um = self.mounting.t_centring_um as f32;
         t.s002_u_t_axial_um = self.mounting.t_axial_um as f32;
+        // R_C and Z_C share one field: the larger of their u
+        t.s002_u_r_c_z_c_um = self.mounting.r_c_um.max(self.mounting.z_c_um) as f32;
     }
 
     /// Whether `other` describes the same measurement: every length and the origin. The

@@ -119,6 +119,10 @@ pub enum MountingInput {
     TCentring,
     /// [`MountingUncertainty::t_axial_um`].
     TAxial,
+    /// [`MountingUncertainty::r_c_um`].
+    RC,
+    /// [`MountingUncertainty::z_c_um`].
+    ZC,
 }
 
 /// Type B inputs of the seed 002 set-up: the standard uncertainty of each Cartesian component
@@ -138,6 +142,10 @@ pub enum MountingInput {
 /// order is budgeted. Another tool length's offset is an error of first order: the pair of
 /// tool lengths separates δx_BT and the tilts over R′_B − R_B, so a re-centring difference of
 /// 1 µm moves α_BT and β_XB by about 1/(R′_B − R_B) = 20 µrad at 50 mm.
+///
+/// The W-ball's position as entered (R_C, Z_C) is the same for every step: a difference
+/// between the value entered and the one the runs were made with moves every step's model at
+/// once (a lever-arm error, second order: δR/R of what is read over R).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MountingUncertainty {
     /// W-ball clamping shift, each clamping, per component of the C frame (µm).
@@ -147,6 +155,12 @@ pub struct MountingUncertainty {
     /// T-ball axial offset z_T (the error of the tool length as entered), each tool length
     /// (µm).
     pub t_axial_um: f64,
+    /// R_C as entered: standard uncertainty of its difference from the R_C the C steps were
+    /// run with (µm).
+    pub r_c_um: f64,
+    /// Z_C as entered: standard uncertainty of its difference from the Z_C every step was run
+    /// with (µm).
+    pub z_c_um: f64,
 }
 
 impl MountingUncertainty {
@@ -158,11 +172,16 @@ impl MountingUncertainty {
     ///   the spindle turns, an offset uniform in a disc of 1 µm radius (rms per component
     ///   1/2 µm);
     /// - T-ball axial 22 µm: the T-ball's clamping shift along the spindle, taken as the
-    ///   W-ball's (the dummy sphere, not the T-ball, sets R_B).
+    ///   W-ball's (the dummy sphere, not the T-ball, sets R_B);
+    /// - R_C and Z_C 10 µm: Z_C transferred with a dial gauge (§5.2 item 4: two readings of
+    ///   a 1 µm gauge, the sphere's top found by hand, its diameter from its certificate), R_C
+    ///   the X at which the W-ball is docked to the dummy sphere; a few µm each, taken as 10.
     pub const SEED002: Self = Self {
         w_clamp_um: 22.0,
         t_centring_um: 0.5,
         t_axial_um: 22.0,
+        r_c_um: 10.0,
+        z_c_um: 10.0,
     };
 
     /// No mounting uncertainty: the eccentricities' u alone.
@@ -170,6 +189,8 @@ impl MountingUncertainty {
         w_clamp_um: 0.0,
         t_centring_um: 0.0,
         t_axial_um: 0.0,
+        r_c_um: 0.0,
+        z_c_um: 0.0,
     };
 
     /// Every input finite and ≥ 0, or the first one that is not.
@@ -178,6 +199,8 @@ impl MountingUncertainty {
             (self.w_clamp_um, MountingInput::WClamp),
             (self.t_centring_um, MountingInput::TCentring),
             (self.t_axial_um, MountingInput::TAxial),
+            (self.r_c_um, MountingInput::RC),
+            (self.z_c_um, MountingInput::ZC),
         ] {
             if !(v >= 0.0 && v.is_finite()) {
                 return Err(input);
@@ -194,7 +217,8 @@ pub struct DeviationUncertainty {
     /// Combined: the root sum of squares of the sources.
     pub combined: [f64; 13],
     /// By source: `[0]` the eccentricities' standard uncertainties (Type A: bar noise, fit
-    /// residuals, repeat scatter); `[1]` the W-ball clamping shifts (Type B, second order);
+    /// residuals, repeat scatter); `[1]` the W-ball: its clamping shifts and its position as
+    /// entered, R_C and Z_C (Type B, second order);
     /// `[2]` the T-ball offsets beyond what the identified deviations absorb (Type B); `[3]`
     /// the LVDT's scale (Type B).
     pub by_source: [[f64; 13]; 4],
@@ -529,6 +553,9 @@ impl ModelLsq {
     /// - from the balls' mounting offsets (Type B, [`MountingUncertainty`]): see
     ///   [`MountingUncertainty`] for which measurements share a clamping or a centring and
     ///   what the identified deviations absorb;
+    /// - from R_C and Z_C as entered (Type B, [`MountingUncertainty::r_c_um`],
+    ///   [`MountingUncertainty::z_c_um`]): each moved by its u in every measurement's model at
+    ///   once (a secant at the identified deviations), in the W-ball's share;
     /// - from the LVDT's scale (Type B, [`BarBudget::scale`]): an eccentricity is a shape
     ///   figure of ΔL, so a scale error k moves every measured eccentricity by k times itself —
     ///   all at once (one LVDT), one input; the bar's length and temperature move none.
@@ -662,13 +689,30 @@ impl ModelLsq {
                 }
             }
         }
-        if u_scale > 0.0 {
+        // Inputs every step shares: the LVDT's scale (every eccentricity k times itself) and
+        // R_C, Z_C as entered (every step's model moved by its u: a secant).
+        for (input, u) in [(0, u_scale), (1, budget.r_c_um), (2, budget.z_c_um)] {
+            if u == 0.0 {
+                continue; // validated: ≥ 0 and finite
+            }
             let mut b = [[0.0f64; 2]; MAX_MEASUREMENTS];
-            for (dst, p) in b.iter_mut().zip(m.iter()) {
-                *dst = [p.e1_um * u_scale, p.e2_um * u_scale];
+            for (index, ((q, dst), base)) in m.iter().zip(b.iter_mut()).zip(pred.iter()).enumerate()
+            {
+                *dst = if input == 0 {
+                    [q.e1_um * u, q.e2_um * u]
+                } else {
+                    let mut q = *q;
+                    if input == 1 {
+                        q.geometry.r_c_mm += u * 1e-3;
+                    } else {
+                        q.geometry.z_c_mm += u * 1e-3;
+                    }
+                    let e = predict_with(index, &q, &x, &Mounting::default())?;
+                    [e[0] - base[0], e[1] - base[1]]
+                };
             }
             let dx = response(m, &jac, &b);
-            if let Some(v) = var.get_mut(3) {
+            if let Some(v) = var.get_mut(if input == 0 { 3 } else { 1 }) {
                 v.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
             }
             if COV {

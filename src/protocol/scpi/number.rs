@@ -43,6 +43,13 @@ pub fn push_bytes<const C: usize>(buf: &mut Text<C>, bytes: &[u8]) -> bool {
 /// Appends an unsigned integer in decimal.
 pub fn push_u64<const C: usize>(buf: &mut Text<C>, v: u64) -> bool {
     let mut digits = [0u8; 20];
+    let i = decimal_digits(v, &mut digits);
+    digits.get(i..).is_some_and(|d| push_bytes(buf, d))
+}
+
+/// Writes `v`'s decimal digits right-aligned into `digits`; returns where they start. One body
+/// for every [`push_u64`] buffer size (flash).
+fn decimal_digits(v: u64, digits: &mut [u8; 20]) -> usize {
     let mut n = v;
     let mut i = digits.len();
     loop {
@@ -52,10 +59,9 @@ pub fn push_u64<const C: usize>(buf: &mut Text<C>, v: u64) -> bool {
         }
         n /= 10;
         if n == 0 || i == 0 {
-            break;
+            return i;
         }
     }
-    digits.get(i..).is_some_and(|d| push_bytes(buf, d))
 }
 
 /// Appends a signed integer in decimal.

@@ -22,7 +22,8 @@ pub struct Figure {
     /// Unit.
     pub unit: String,
     /// Its (up to) three largest contributors to `u`, largest first (the pod's budget,
-    /// `ballpod::app::Contributor`; empty for a host method's figure).
+    /// `ballpod::app::Contributor`; for the R-test and the dial gauge their Type A and the
+    /// instrument's calibration; empty for the other host methods' figures).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub contributors: Vec<Share>,
 }
@@ -30,7 +31,8 @@ pub struct Figure {
 /// One contributor's share of a figure's standard uncertainty.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Share {
-    /// `type_a`, `bar_offset`, `lvdt_scale`, `w_ball`, `t_ball` (`ballpod::app::CONTRIBUTORS`).
+    /// `type_a`, `bar_offset`, `lvdt_scale`, `w_ball`, `t_ball` (`ballpod::app::CONTRIBUTORS`);
+    /// for the host's R-test `type_a`, `head_scale` and dial gauge `type_a`, `gauge_scale`.
     pub name: String,
     /// The standard uncertainty it gives, the figure's unit.
     pub u: f32,

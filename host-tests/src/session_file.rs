@@ -44,7 +44,7 @@ use ballpod::app::{Direction, Pattern, RunMeta};
 use ballpod::config::Config;
 
 use crate::recording::{LogError, RecordedRun, excerpt, parse_plain, parse_runs, pattern_names};
-use crate::replay::Figure;
+use crate::replay::{Figure, Share};
 
 /// A value of the `[setup]` table: a number or a code's name.
 #[derive(Clone, Debug, PartialEq, Deserialize)]
@@ -83,6 +83,10 @@ pub struct RtestEntry {
     /// `absolute` (default) or `first_pose`.
     #[serde(default)]
     pub zero: Option<String>,
+    /// The head's calibration: relative standard uncertainty of each axis's reading scale, ppm
+    /// (default `ballpod::identify::rtest::U_READING_SCALE`, 5000 ppm).
+    #[serde(default)]
+    pub u_reading_scale_ppm: Option<f64>,
 }
 
 /// `[dial]`: the seed 004 dial-gauge centreline (host only).
@@ -100,6 +104,10 @@ pub struct DialEntry {
     /// `primed` (default, seed 004's table axis) or `right_handed`.
     #[serde(default)]
     pub sense: Option<String>,
+    /// The gauge's calibration: its scale's relative standard uncertainty, ppm (default
+    /// `ballpod::identify::centreline::U_GAUGE_SCALE`, 10 000 ppm).
+    #[serde(default)]
+    pub u_gauge_scale_ppm: Option<f64>,
 }
 
 /// A session file.
@@ -404,10 +412,40 @@ fn read_table(file: &Path, names: &[&str]) -> Result<Vec<Vec<f64>>, LogError> {
     Ok(rows)
 }
 
+/// A relative standard uncertainty given in ppm as `field` (µ = 1e-6; `default` when absent),
+/// refused with the field named when negative or not finite.
+fn relative_u(path: &Path, field: &str, ppm: Option<f64>, default: f64) -> Result<f64, LogError> {
+    match ppm {
+        None => Ok(default),
+        Some(v) if v.is_finite() && v >= 0.0 => Ok(v * 1e-6),
+        Some(v) => Err(LogError {
+            field: Some(field.into()),
+            ..whole(path, format!("{v} (a standard uncertainty: finite, ≥ 0)"))
+        }),
+    }
+}
+
+/// A host figure's two shares, largest first: its Type A and the instrument's calibration
+/// (`name`).
+fn shares(type_a: f64, name: &str, instrument: f64) -> Vec<Share> {
+    let mut s = vec![
+        Share {
+            name: "type_a".into(),
+            u: type_a as f32,
+        },
+        Share {
+            name: name.into(),
+            u: instrument as f32,
+        },
+    ];
+    s.sort_by(|a, b| b.u.total_cmp(&a.u));
+    s
+}
+
 /// The seed 003 R-test of `[rtest]`: the 11 location and ball errors.
 pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
     use ballpod::identify::rtest::{
-        ReadingZero, RtestConfig, RtestGeometry, RtestSample, identify,
+        ReadingZero, RtestConfig, RtestGeometry, RtestSample, U_READING_SCALE, identify,
     };
     let file = path.parent().unwrap_or(Path::new(".")).join(&e.readings);
     let rows = read_table(&file, &["a_deg", "c_deg", "dx_um", "dy_um", "dz_um"])?;
@@ -440,8 +478,15 @@ pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
             });
         }
     };
+    let u_reading_scale = relative_u(
+        path,
+        "rtest.u_reading_scale_ppm",
+        e.u_reading_scale_ppm,
+        U_READING_SCALE,
+    )?;
     let cfg = RtestConfig {
         zero,
+        u_reading_scale,
         ..RtestConfig::default()
     };
     let r = identify(&geometry, &samples, &cfg)
@@ -460,18 +505,19 @@ pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
         ("BOC", "arcsec"),
     ];
     let (v, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
+    let (type_a, scale) = (r.u_type_a.to_array(), r.u_reading_scale.to_array());
     // a parameter the path does not determine (fixed, or only in a combination with fixed
     // ones) is NaN: not reported, like an invalid result
     Ok(NAMES
         .iter()
-        .zip(v.iter().zip(u.iter()))
-        .filter(|(_, (v, _))| v.is_finite())
-        .map(|((n, unit), (v, u))| Figure {
+        .enumerate()
+        .filter(|&(j, _)| v[j].is_finite())
+        .map(|(j, (n, unit))| Figure {
             name: format!("rtest_{n}"),
-            value: *v as f32,
-            u: Some(*u as f32),
+            value: v[j] as f32,
+            u: Some(u[j] as f32),
             unit: (*unit).into(),
-            contributors: Vec::new(),
+            contributors: shares(type_a[j], "head_scale", scale[j]),
         })
         .collect())
 }
@@ -479,7 +525,8 @@ pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
 /// The seed 004 dial-gauge axis direction of `[dial]`: the tilts of the axis.
 pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
     use ballpod::identify::centreline::{
-        DialPoint, GaugeFrame, NormalAtAngle, RotationSense, axis_direction_lsq, plane_normal,
+        DialPoint, GaugeFrame, NormalAtAngle, RotationSense, U_GAUGE_SCALE, axis_direction_lsq,
+        plane_normal,
     };
     let file = path.parent().unwrap_or(Path::new(".")).join(&e.readings);
     let rows = read_table(&file, &["b_deg", "u_mm", "v_mm", "reading_um"])?;
@@ -529,23 +576,31 @@ pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
             normal: pn.normal,
         });
     }
+    let u_scale = relative_u(
+        path,
+        "dial.u_gauge_scale_ppm",
+        e.u_gauge_scale_ppm,
+        U_GAUGE_SCALE,
+    )?;
     let est = axis_direction_lsq(&positions, sense, axis)
         .map_err(|x| whole(&file, format!("axis direction: {x:?}")))?;
+    let gauge = est
+        .gauge_scale_share_urad(axis, u_scale)
+        .map_err(|x| whole(&file, format!("axis direction: {x:?}")))?;
+    // the tilt components (p, q) of the nominal axis: X and −Z for the default +Y
+    let figure = |name: &str, value: f64, k: usize| {
+        let type_a = est.tilt_uncertainty_urad[k];
+        Figure {
+            name: name.into(),
+            value: (value * 1e6) as f32,
+            u: Some(type_a.hypot(gauge[k]) as f32),
+            unit: "urad".into(),
+            contributors: shares(type_a, "gauge_scale", gauge[k]),
+        }
+    };
     Ok(vec![
-        Figure {
-            name: "dial_tilt_x".into(),
-            value: (est.direction[0] * 1e6) as f32,
-            u: Some(est.tilt_uncertainty_urad[0] as f32),
-            unit: "urad".into(),
-            contributors: Vec::new(),
-        },
-        Figure {
-            name: "dial_tilt_z".into(),
-            value: (est.direction[2] * 1e6) as f32,
-            u: Some(est.tilt_uncertainty_urad[1] as f32),
-            unit: "urad".into(),
-            contributors: Vec::new(),
-        },
+        figure("dial_tilt_x", est.direction[0], 0),
+        figure("dial_tilt_z", est.direction[2], 1),
     ])
 }
 

@@ -704,3 +704,26 @@ fn a_readings_file_is_checked_on_its_own_lines() {
     let e = read("a_deg,c_deg,dx_um,dy_um,dz_um\n# nothing measured\n");
     assert!(e.what.contains("no readings"), "{e}");
 }
+
+/// The R-test head's calibration budget is a standard uncertainty: a negative one is refused with
+/// the field named.
+#[test]
+fn a_negative_head_calibration_u_is_refused_by_name() {
+    let dir = temp_dir("rtest-budget");
+    let session = dir.join("session.toml");
+    std::fs::write(
+        &session,
+        "[rtest]\nreadings = \"rtest.csv\"\nu_reading_scale_ppm = -5.0\n",
+    )
+    .unwrap();
+    let rows: String = (0..8)
+        .map(|i| format!("{},{},1,2,3\n", -10.0 * f64::from(i), 45.0 * f64::from(i)))
+        .collect();
+    std::fs::write(
+        dir.join("rtest.csv"),
+        format!("a_deg,c_deg,dx_um,dy_um,dz_um\n{rows}"),
+    )
+    .unwrap();
+    let e = read_inputs(std::slice::from_ref(&session)).expect_err("rejected");
+    assert_eq!(e.field.as_deref(), Some("rtest.u_reading_scale_ppm"), "{e}");
+}

@@ -346,6 +346,34 @@ fn unit(v: Vector3<f64>) -> Result<Unit<Vector3<f64>>, CentrelineError> {
     Ok(Unit::new_unchecked(v / n))
 }
 
+/// Default relative standard uncertainty of a dial gauge's scale (its calibration, Type B):
+/// 1 % of the reading. A dial test indicator's error of indication over the small strokes of
+/// seed 004 (a few µm on a face) and its cosine error (the stylus a few degrees off the
+/// square: 1 − cos 8° = 1 %) are each about that; seed 004 names neither.
+pub const U_GAUGE_SCALE: f64 = 0.01;
+
+impl AxisDirection {
+    /// The gauge's calibration share of each tilt component's u, same components as
+    /// [`Self::tilt_uncertainty_urad`] (µrad, Type B): the readings give the faces' slopes,
+    /// the slopes the normals and the normals the axis, each step linear and homogeneous, so
+    /// a scale error k of the gauge moves each tilt by k times itself. `nominal` is the
+    /// nominal axis the tilts are taken from (unit), `u_scale` the gauge scale's relative
+    /// standard uncertainty (1 = 100 %, [`U_GAUGE_SCALE`]).
+    pub fn gauge_scale_share_urad(
+        &self,
+        nominal: [f64; 3],
+        u_scale: f64,
+    ) -> Result<[f64; 2], CentrelineError> {
+        if !(u_scale.is_finite() && u_scale >= 0.0) {
+            return Err(CentrelineError::BadUncertainty { field: "u_scale" });
+        }
+        let e = unit(Vector3::from(nominal))?;
+        let (p, q) = perpendicular_pair(&e);
+        let d = Vector3::from(self.direction);
+        Ok([p, q].map(|a| libm::fabs(d.dot(&a)) * 1e6 * u_scale))
+    }
+}
+
 /// Two unit vectors perpendicular to `e` (unit) forming a right-handed triad (p, q, e).
 fn perpendicular_pair(e: &Unit<Vector3<f64>>) -> (Vector3<f64>, Vector3<f64>) {
     // Pick the machine axis least parallel to e as seed.

@@ -637,7 +637,15 @@ pub struct RtestConfig {
     /// Relative singular-value tolerance of the rank check, with columns in µm and arc-seconds
     /// (spec C6: 1e-9).
     pub rank_tol: f64,
+    /// The head's calibration (Type B): relative standard uncertainty of each axis's reading
+    /// scale (ΔX_p, ΔY_p, ΔZ_p independent), 1 = 100 %. Default [`U_READING_SCALE`].
+    pub u_reading_scale: f64,
 }
+
+/// Default [`RtestConfig::u_reading_scale`]: 0.5 % of the reading. Seed 003 says nothing of
+/// the head's calibration (spec A10); a nest calibrated by moving a reference sphere through
+/// ±0.2 mm against a 1 µm reference leaves about 1/200 of the reading per axis.
+pub const U_READING_SCALE: f64 = 0.005;
 
 impl Default for RtestConfig {
     fn default() -> Self {
@@ -648,6 +656,7 @@ impl Default for RtestConfig {
             estimation_order: [Aoc, Boc, Boa, Coa, Yoc, Xoc, Yoa, Zoa, Xow, Yow, Zow],
             fixed_values: LocationErrors::default(),
             rank_tol: 1e-9,
+            u_reading_scale: U_READING_SCALE,
         }
     }
 }
@@ -680,8 +689,8 @@ pub enum RtestError {
         /// Zero-based index of the sample.
         sample: usize,
     },
-    /// The geometry, the configuration (rank tolerance ≤ 0, fixed values) or the given errors
-    /// held a NaN, an infinity or an out-of-range value.
+    /// The geometry, the configuration (rank tolerance ≤ 0, fixed values, a reading scale's u
+    /// below 0) or the given errors held a NaN, an infinity or an out-of-range value.
     BadParameter,
     /// Not enough samples: the reduced model needs at least 4 poses (12 equations ≥ 11).
     TooFewSamples {
@@ -717,9 +726,14 @@ pub struct RtestIdentification {
     /// Estimated location and ball errors (µm / arc-seconds); NaN where the path does not
     /// determine the parameter: the fixed ones and those in [`Self::combined`].
     pub errors: LocationErrors,
-    /// Standard uncertainty of each estimate (µm / arc-seconds) from the residual variance;
-    /// NaN where `errors` is NaN.
+    /// Standard uncertainty of each estimate (µm / arc-seconds): the root sum of squares of
+    /// [`Self::u_type_a`] and [`Self::u_reading_scale`]; NaN where `errors` is NaN.
     pub std_uncertainty: LocationErrors,
+    /// Its Type A share, from the residual variance (µm / arc-seconds).
+    pub u_type_a: LocationErrors,
+    /// Its share from the head's calibration, [`RtestConfig::u_reading_scale`]: each axis's
+    /// readings scaled by 1 + u through the same least squares (µm / arc-seconds).
+    pub u_reading_scale: LocationErrors,
     /// Parameters fixed because the path cannot separate them (empty when rank = 11).
     pub fixed: ParamSet,
     /// Free parameters whose estimate moves with the fixed values: the path sees them only in
@@ -822,14 +836,27 @@ fn build(
     fixed: &ParamSet,
     fixed_values: &[f64; 11],
 ) -> Result<GivensLsq<11>, RtestError> {
+    build_scaled(g, samples, zero, fixed, fixed_values, [1.0; 3])
+}
+
+/// [`build`] with each axis's readings multiplied by `scale` (ΔX_p, ΔY_p, ΔZ_p; for
+/// `FirstPose` their mean too, so the centred readings scale alike).
+fn build_scaled(
+    g: &RtestGeometry,
+    samples: &[RtestSample],
+    zero: ReadingZero,
+    fixed: &ParamSet,
+    fixed_values: &[f64; 11],
+    scale: [f64; 3],
+) -> Result<GivensLsq<11>, RtestError> {
     let mut lsq = GivensLsq::<11>::new();
     let Some(mean) = mean_rows(g, samples) else {
         return Ok(lsq);
     };
     for s in samples {
         let (h, q) = sample_rows(g, s, &mean, zero);
-        for (row, &b) in h.iter().zip(q.iter()) {
-            lsq.add_row(row, b, 1.0)?;
+        for ((row, &b), k) in h.iter().zip(q.iter()).zip(scale) {
+            lsq.add_row(row, b * k, 1.0)?;
         }
     }
     // A fixed parameter's column lies in the span of the free ones, so the data do not care
@@ -869,7 +896,9 @@ pub fn identify(
     check_inputs(g, samples)?;
     if !(cfg.rank_tol.is_finite()
         && cfg.rank_tol > 0.0
-        && crate::num::all_finite(&cfg.fixed_values.to_array()))
+        && crate::num::all_finite(&cfg.fixed_values.to_array())
+        && cfg.u_reading_scale.is_finite()
+        && cfg.u_reading_scale >= 0.0)
     {
         return Err(RtestError::BadParameter);
     }
@@ -946,6 +975,27 @@ pub fn identify(
         let scale = crate::num::sqrt(dof / (dof - 3.0));
         u.iter_mut().for_each(|v| *v *= scale);
     }
+    // The head's calibration: each axis's readings scaled by 1 + u through the same least
+    // squares (linear in the readings: the response is exact), the axes independent.
+    let mut u_scale = [0.0f64; 11];
+    if cfg.u_reading_scale > 0.0 {
+        for axis in 0..3 {
+            let mut scale = [1.0; 3];
+            if let Some(k) = scale.get_mut(axis) {
+                *k += cfg.u_reading_scale;
+            }
+            let moved = build_scaled(g, samples, cfg.zero, &fixed, &fixed_values, scale)?
+                .solve_full_rank(cfg.rank_tol)?;
+            for ((v, a), b) in u_scale.iter_mut().zip(moved.x).zip(x) {
+                *v += (a - b) * (a - b);
+            }
+        }
+        u_scale.iter_mut().for_each(|v| *v = crate::num::sqrt(*v));
+    }
+    let mut u_type_a = u;
+    for ((v, a), b) in u.iter_mut().zip(u_type_a).zip(u_scale) {
+        *v = crate::num::sqrt(a * a + b * b);
+    }
     for p in RtestParam::ALL {
         if fixed.contains(p)
             && let Some(xi) = x.get_mut(p.index())
@@ -973,16 +1023,19 @@ pub fn identify(
         }
     }
     for p in RtestParam::ALL {
-        if (fixed.contains(p) || combined.contains(p))
-            && let (Some(xi), Some(ui)) = (x.get_mut(p.index()), u.get_mut(p.index()))
-        {
-            *xi = f64::NAN;
-            *ui = f64::NAN;
+        if fixed.contains(p) || combined.contains(p) {
+            for v in [&mut x, &mut u, &mut u_type_a, &mut u_scale] {
+                if let Some(v) = v.get_mut(p.index()) {
+                    *v = f64::NAN;
+                }
+            }
         }
     }
     Ok(RtestIdentification {
         errors: LocationErrors::from_array(x),
         std_uncertainty: LocationErrors::from_array(u),
+        u_type_a: LocationErrors::from_array(u_type_a),
+        u_reading_scale: LocationErrors::from_array(u_scale),
         fixed,
         combined,
         path_model,

@@ -12,8 +12,9 @@ from podlib import (ABORT_TOO_LOW, COMMAND, DIRECTION, PATTERN, SEED002_DEVIATIO
                     assert_refused, connect, run, wait_until)
 
 STEPS = ["BX", "BY", "CR", "CA", "CR2"]
-# the seed 002 budget's mounting inputs and their defaults (µm; Configuration fields)
-MOUNTING_DEFAULTS = {"s002_u_w_clamp": 22.0, "s002_u_t_centring": 0.5, "s002_u_t_axial": 22.0}
+# the seed 002 budget's set-up inputs and their defaults (µm; Configuration fields)
+MOUNTING_DEFAULTS = {"s002_u_w_clamp": 22.0, "s002_u_t_centring": 0.5, "s002_u_t_axial": 22.0,
+                     "s002_u_r_c_z_c": 10.0}
 
 
 @pytest.mark.sim_args("--speed", "40")
@@ -30,10 +31,11 @@ def test_seed002_procedure_identifies_the_truth(pod, eds):
             sdo[name].raw = value
         for i, step in enumerate(STEPS):
             if step == "BY":
-                # the uncertainty budget's mounting inputs (µm) default to the procedure's (the
-                # W-ball's 10-60 µm clamping shifts, the T-ball centred within 1 µm); the simulated
-                # machine's balls are mounted without offsets, so this CNC states none, and u is
-                # the bar noise's. Written mid-procedure: BX's runs stay and count.
+                # the uncertainty budget's set-up inputs (µm) default to the procedure's (the
+                # W-ball's 10-60 µm clamping shifts, the T-ball centred within 1 µm, R_C and Z_C
+                # known to 10 µm); the simulated machine's balls are mounted without offsets at
+                # the R_C and Z_C entered, so this CNC states none, and u is the bar noise's.
+                # Written mid-procedure: BX's runs stay and count.
                 for name, default in MOUNTING_DEFAULTS.items():
                     assert sdo[name].raw == pytest.approx(default)
                     assert abort_code(lambda: setattr(sdo[name], "raw", -1.0)) == ABORT_TOO_LOW

@@ -294,6 +294,11 @@ pub struct TestSetup {
     /// ([`MountingUncertainty::r_c_um`], [`MountingUncertainty::z_c_um`]; added in encoding
     /// version 7).
     pub s002_u_r_c_z_c_um: f32,
+    /// PROBE: standard uncertainty of each component of the touch probe's lobing, µm — its
+    /// three-lobe pre-travel across the stylus (each harmonic's two components, the higher
+    /// harmonics in proportion) and the difference of its pre-travel along the stylus from
+    /// across it ([`crate::identify::multitasking::lobing`]; added in encoding version 8).
+    pub probe_u_lobing_um: f32,
 }
 
 /// The pod's configuration (see the module doc; fields listed with unit, default and range in
@@ -461,6 +466,9 @@ pub enum Field {
     /// [`TestSetup::s002_u_r_c_z_c_um`] (added in encoding version 7; the last object below
     /// the enumerated ones at 0x2040).
     S002URcZcUm,
+    /// [`TestSetup::probe_u_lobing_um`] (added in encoding version 8; the first object after
+    /// the enumerated ones, 0x2044).
+    ProbeULobingUm,
     /// A pod sample is not a whole number of excitation periods within the ADC ring
     /// (`excitation / sample_rate` ∉ 1…[`MAX_PERIODS_PER_SAMPLE`]).
     PeriodsPerSample,
@@ -577,8 +585,9 @@ const fn code(field: Field, name: &'static str, choices: &'static [&'static str]
 pub const POS_MM: f64 = 10_000.0;
 
 /// Every numeric configuration field with unit, type and range: the single table that
-/// validation, the binary encoding, the CANopen objects (0x2000 + row), SCPI `CONFigure`, the
-/// EDS and the documentation share. Append new rows at the end (the row is the CANopen index).
+/// validation, the binary encoding, the CANopen objects
+/// ([`crate::protocol::canopen::od::config_index`] of the row), SCPI `CONFigure`, the EDS and
+/// the documentation share. Append new rows at the end (the row gives the CANopen index).
 pub const FIELDS: &[FieldInfo] = &[
     real(Field::BarLengthMm, "bar_length", "mm", 50.0, 600.0),
     real(Field::BarCtePpmPerK, "bar_cte", "ppm/K", -5.0, 30.0),
@@ -830,7 +839,7 @@ pub const FIELDS: &[FieldInfo] = &[
         -360.0,
         360.0,
     )),
-    // new fields go last: a field's CANopen index is 0x2000 + its row, and the version 2
+    // new fields go last: a field's CANopen index follows from its row, and the version 2
     // encoding is this table's prefix
     unset(real(
         Field::ProbeLengthMm,
@@ -854,6 +863,7 @@ pub const FIELDS: &[FieldInfo] = &[
     real(Field::BarUTempK, "bar_u_temp", "K", 0.0, 10.0),
     real(Field::LvdtUScalePpm, "lvdt_u_scale", "ppm", 0.0, 100_000.0),
     real(Field::S002URcZcUm, "s002_u_r_c_z_c", "um", 0.0, 1000.0),
+    real(Field::ProbeULobingUm, "probe_u_lobing", "um", 0.0, 100.0),
 ];
 
 /// Why a configuration was rejected.
@@ -944,6 +954,7 @@ impl TestSetup {
             s002_u_t_centring_um: MountingUncertainty::SEED002.t_centring_um as f32,
             s002_u_t_axial_um: MountingUncertainty::SEED002.t_axial_um as f32,
             s002_u_r_c_z_c_um: MountingUncertainty::SEED002.r_c_um as f32,
+            probe_u_lobing_um: crate::identify::multitasking::lobing::U_LOBING_UM as f32,
         }
     };
 }
@@ -1072,6 +1083,7 @@ impl Config {
                 s002_u_t_centring_um: 0.0,
                 s002_u_t_axial_um: 0.0,
                 s002_u_r_c_z_c_um: 0.0,
+                probe_u_lobing_um: 0.0,
             },
             bar_u_length_um: 0.0,
             bar_u_temp_k: 0.0,
@@ -1211,6 +1223,9 @@ impl Field {
             }
             Field::S002URcZcUm => {
                 "Seed 002 uncertainty budget: R_C and Z_C as entered, standard uncertainty of each one's difference from the value the steps ran with (default: Z_C by dial gauge, R_C the X the W-ball was docked at)"
+            }
+            Field::ProbeULobingUm => {
+                "Touch-probe uncertainty budget: the probe's lobing (pre-travel varying with the direction of approach), standard uncertainty of each component of its three-lobe pattern across the stylus (the higher harmonics in proportion) and of its pre-travel along the stylus less across (default: a kinematic probe's ±1–2 µm 2D/3D lobing)"
             }
             Field::PeriodsPerSample => {
                 "Cross-field rule: excitation / sample_rate must be a whole 1 … 5 periods"
@@ -1418,6 +1433,7 @@ impl Config {
             Field::BarUTempK => f64::from(self.bar_u_temp_k),
             Field::LvdtUScalePpm => f64::from(self.lvdt_u_scale_ppm),
             Field::S002URcZcUm => f64::from(s.s002_u_r_c_z_c_um),
+            Field::ProbeULobingUm => f64::from(s.probe_u_lobing_um),
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => return None,
         })
     }
@@ -1516,6 +1532,7 @@ impl Config {
             Field::BarUTempK => self.bar_u_temp_k = x,
             Field::LvdtUScalePpm => self.lvdt_u_scale_ppm = x,
             Field::S002URcZcUm => s.s002_u_r_c_z_c_um = x,
+            Field::ProbeULobingUm => s.probe_u_lobing_um = x,
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => {}
         }
     }
@@ -1561,14 +1578,15 @@ impl Config {
 
 /// Magic at the start of an encoded configuration.
 pub const MAGIC: [u8; 4] = *b"BPOD";
-/// Current encoding version (7: version 6 plus the seed 002 budget's `s002_u_r_c_z_c`; 6:
+/// Current encoding version (8: version 7 plus the touch probe's `probe_u_lobing`; 7: version
+/// 6 plus the seed 002 budget's `s002_u_r_c_z_c`; 6:
 /// version 5 plus the bar's uncertainty budget `bar_u_length`,
 /// `bar_u_temp`, `lvdt_u_scale`; 5: version 4 plus the seed 002 mounting uncertainties
 /// `s002_u_w_clamp`, `s002_u_t_centring`, `s002_u_t_axial`; 4: version 3 plus `run_trigger`
-/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2 to 6 encodings are read
+/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2 to 7 encodings are read
 /// and migrated (the fields added since keep their defaults); version 1 records are not read:
 /// the pod boots on the defaults and says so.
-pub const ENCODING_VERSION: u16 = 7;
+pub const ENCODING_VERSION: u16 = 8;
 /// Oldest encoding version read.
 pub const OLDEST_ENCODING_VERSION: u16 = 2;
 
@@ -1581,6 +1599,7 @@ const fn added_in(f: Field) -> u16 {
         Field::S002UWClampUm | Field::S002UTCentringUm | Field::S002UTAxialUm => 5,
         Field::BarULengthUm | Field::BarUTempK | Field::LvdtUScalePpm => 6,
         Field::S002URcZcUm => 7,
+        Field::ProbeULobingUm => 8,
         _ => 2,
     }
 }
@@ -1621,12 +1640,13 @@ const PAYLOAD: usize = payload_len(ENCODING_VERSION);
 /// Total encoded size: magic, version u16, payload length u16, payload, CRC-32.
 pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD + 4;
 /// Total size of each encoding read, oldest first (read and migrated; only the last written).
-pub const ENCODED_LENS: [usize; 6] = [
+pub const ENCODED_LENS: [usize; 7] = [
     12 + payload_len(2),
     12 + payload_len(3),
     12 + payload_len(4),
     12 + payload_len(5),
     12 + payload_len(6),
+    12 + payload_len(7),
     12 + payload_len(ENCODING_VERSION),
 ];
 
@@ -1711,7 +1731,7 @@ impl Config {
 
     /// Decodes and validates an encoding. Every check (length, magic, version, CRC, enum
     /// bytes, ranges) must pass; otherwise the error says which failed and nothing is returned.
-    /// An older encoding (versions 2 to 6, [`ENCODED_LENS`]) is read too: the fields added
+    /// An older encoding (versions 2 to 7, [`ENCODED_LENS`]) is read too: the fields added
     /// since keep their defaults.
     pub fn decode(bytes: &[u8]) -> Result<Config, ConfigError> {
         let mut r = Reader { buf: bytes, pos: 0 };

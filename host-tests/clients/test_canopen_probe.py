@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from podlib import assert_invalid, connect, result, run
+from podlib import ABORT_TOO_LOW, abort_code, assert_invalid, connect, result, run
 
 ORIGIN = (-490.0, 0.0, -536.838)  # seed 002 origin O_M (spec seed-002 §6.5 set-up), mm
 R_B, R_B2 = 382.95, 433.062  # the thesis's two styli (Table 5.2 conditions), mm
@@ -53,6 +53,13 @@ def test_probe_procedure_identifies_the_c_and_b_axes(pod, eds):
         for k, v in zip("xyz", ORIGIN):
             sdo[f"s002_origin_{k}"].raw = v
         sdo["s002_z_c"].raw = z_c
+        # the probe's lobing (object 0x2044, the first configuration field after the enumerated
+        # objects): 1 µm per component by default, a negative u refused; the served probe has
+        # none, so this CNC states none and u is the touches' scatter
+        assert sdo["probe_u_lobing"].index == 0x2044
+        assert sdo["probe_u_lobing"].raw == pytest.approx(1.0)
+        assert abort_code(lambda: setattr(sdo["probe_u_lobing"], "raw", -1.0)) == ABORT_TOO_LOW
+        sdo["probe_u_lobing"].raw = 0.0
         for n in range(8):
             if n in (4, 6):
                 sdo["probe_length"].raw = R_B if n == 4 else R_B2

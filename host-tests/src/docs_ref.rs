@@ -103,7 +103,7 @@ fn configuration_fields() -> String {
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|---|");
     for (row, i) in FIELDS.iter().enumerate() {
-        let index = od::CONFIG_BASE + row as u16;
+        let index = od::config_index(row);
         let canopen = match i.elements {
             0 => format!("0x{index:04X}"),
             n => format!("0x{index:04X}:1–{n}"),
@@ -303,7 +303,7 @@ fn canopen_objects() -> String {
         "Every entry of the pod's object dictionary (`ballpod::protocol::canopen::od`), as the SDO server \
          answers it and as `ballpod.eds` (CiA 306, generated from the same table) lists it. Defaults are \
          those of a pod with the default configuration; COB-IDs relative to the node-ID are written as in the EDS, `$NODEID+0x…`. The \
-         configuration objects 0x2000 + i are listed with their unit, default and range under \
+         configuration objects 0x2000–0x203F and 0x2044 on are listed with their unit, default and range under \
          [Configuration fields](configuration-fields.md), the result arrays' sub-entries under \
          [Results](results.md). How the CNC uses them: [The CNC's side](../cnc.md).\n"
     );
@@ -316,7 +316,7 @@ fn canopen_objects() -> String {
         let Some(obj) = od::object(index) else {
             continue;
         };
-        let config = (od::CONFIG_BASE..od::CONFIG_ENUMS).contains(&index);
+        let config = od::config_row(index).is_some();
         let result = (od::RESULT_VALUES..=od::RESULT_VALUES + 2).contains(&index);
         if config || result {
             let n = if obj.max_sub == 0 {

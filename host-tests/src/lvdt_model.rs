@@ -41,7 +41,8 @@ impl LvdtModel {
     pub fn sample(&self, x_um: f64, k: usize, period: usize) -> (f64, f64) {
         let (a, b) = self.amplitudes(x_um);
         let ph = 2.0 * std::f64::consts::PI * k as f64 / period as f64 + self.phase_rad;
-        (self.offset + a * ph.sin(), self.offset + b * ph.sin())
+        let s = ph.sin();
+        (self.offset + a * s, self.offset + b * s)
     }
 
     /// A block of `periods` excitation periods as f32 values (noise-free, not quantised).
@@ -53,7 +54,7 @@ impl LvdtModel {
     }
 
     /// A block as 12-bit ADC codes with Gaussian noise `sigma` counts per sample (rounded,
-    /// clamped to 0…4095).
+    /// clamped to 0…4095; `sigma` 0 draws nothing from `rng`).
     pub fn block_adc(
         &self,
         x_um: f64,
@@ -63,9 +64,17 @@ impl LvdtModel {
         rng: &mut crate::rng::Rng,
     ) -> (Vec<u16>, Vec<u16>) {
         let q = |v: f64| v.round().clamp(0.0, 4095.0) as u16;
+        // one period's samples, each computed once (the sines are most of the simulator's
+        // time); the same values as `sample` gives
+        let one: Vec<(f64, f64)> = (0..period).map(|k| self.sample(x_um, k, period)).collect();
+        if sigma == 0.0 {
+            // noiseless: every period alike, no draws (the simulator's time is in them)
+            let codes: Vec<(u16, u16)> = one.iter().map(|&(a, b)| (q(a), q(b))).collect();
+            return (0..periods).flat_map(|_| codes.iter().copied()).unzip();
+        }
         (0..period * periods)
             .map(|k| {
-                let (a, b) = self.sample(x_um, k % period, period);
+                let (a, b) = one.get(k % period).copied().unwrap_or_default();
                 (q(a + sigma * rng.normal()), q(b + sigma * rng.normal()))
             })
             .unzip()

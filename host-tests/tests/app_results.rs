@@ -8,7 +8,7 @@ use ballpod::metrology::bar_budget::{BarBudget, FigureKind};
 fn u_is_the_shares_in_quadrature_and_the_largest_three_come_first() {
     let mut r = Results::new();
     // 0.3² + 0.4² + 1.2² = 1.69
-    r.set_budget(ResultId::DxBt, 12.0, [0.3, 0.0, 0.4, 1.2, 0.0]);
+    r.set_budget(ResultId::DxBt, 12.0, [0.3, 0.0, 0.4, 1.2, 0.0, 0.0]);
     let e = r.get(ResultId::DxBt);
     assert!((e.std_uncertainty - 1.3).abs() < 1e-6, "{e:?}");
     assert_eq!(
@@ -19,8 +19,8 @@ fn u_is_the_shares_in_quadrature_and_the_largest_three_come_first() {
             Some((Contributor::TypeA, 0.3)),
         ]
     );
-    // four contributors: the smallest is not among the three; equal shares keep their order
-    r.set_budget(ResultId::DzBt, 1.0, [0.1, 0.5, 0.5, 0.05, 0.2]);
+    // five contributors: the smallest two are not among the three; equal shares keep their order
+    r.set_budget(ResultId::DzBt, 1.0, [0.1, 0.5, 0.5, 0.05, 0.2, 0.15]);
     assert_eq!(
         r.get(ResultId::DzBt).largest_contributors(),
         [
@@ -30,7 +30,7 @@ fn u_is_the_shares_in_quadrature_and_the_largest_three_come_first() {
         ]
     );
     // one contributor; a negative share counts by its size
-    r.set_budget(ResultId::R0, -3.0, [-0.2, 0.0, 0.0, 0.0, 0.0]);
+    r.set_budget(ResultId::R0, -3.0, [-0.2, 0.0, 0.0, 0.0, 0.0, 0.0]);
     let e = r.get(ResultId::R0);
     assert_eq!(e.std_uncertainty, 0.2);
     assert_eq!(
@@ -48,7 +48,7 @@ fn u_is_the_shares_in_quadrature_and_the_largest_three_come_first() {
     assert!(e.valid && e.std_uncertainty.is_nan());
     assert_eq!(e.largest_contributors(), [None; 3]);
     // a value that is not finite: invalid, whatever its budget
-    r.set_budget(ResultId::EccV, f64::NAN, [1.0; 5]);
+    r.set_budget(ResultId::EccV, f64::NAN, [1.0; 6]);
     assert!(!r.get(ResultId::EccV).valid);
 }
 

@@ -11,9 +11,12 @@ use ballpod_host::rng::Rng;
 
 const NODE: u8 = 16;
 
-/// The configuration object of field `name` (0x2000 + its row of `config::FIELDS`).
+/// The configuration object of field `name` (`od::config_index` of its row of
+/// `config::FIELDS`; the layout is checked against the EDS in canopen_eds.rs).
 fn obj(name: &str) -> u16 {
-    0x2000 + FIELDS.iter().position(|f| f.name == name).unwrap() as u16
+    ballpod::protocol::canopen::od::config_index(
+        FIELDS.iter().position(|f| f.name == name).unwrap(),
+    )
 }
 
 /// The configuration, compared as text (a set-up field that is not set is NaN, which `==`

@@ -295,9 +295,10 @@ fn field_index(name: &str) -> u16 {
         .unwrap_or_else(|| panic!("no field {name}")) as u16
 }
 
-/// The configuration object of field `name` (0x2000 + its row).
+/// The configuration object of field `name` (`od::config_index` of its row; the layout is
+/// checked against the EDS in canopen_eds.rs).
 fn obj(name: &str) -> u16 {
-    0x2000 + field_index(name)
+    ballpod::protocol::canopen::od::config_index(usize::from(field_index(name)))
 }
 
 /// Sub-index of a result in 0x4000–0x4002 (k + 1 for the k-th entry of the catalogue).

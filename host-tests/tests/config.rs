@@ -403,3 +403,26 @@ fn a_settings_record_of_encoding_version_6_is_read_and_migrated() {
     now_cfg.setup.s002_u_r_c_z_c_um = 50.0;
     resaved_as_current_version(&now_cfg, 46);
 }
+
+#[test]
+fn a_settings_record_of_encoding_version_7_is_read_and_migrated() {
+    let got = read_fixture(include_str!("data/settings_record_v7.hex"), 57, 100);
+    // what the file's header says it holds; the field version 8 added keeps its default, the
+    // touch probe's 1 µm lobing
+    let mut want = Config {
+        bar_length_mm: 175.25,
+        can_node_id: 12,
+        lvdt_u_scale_ppm: 1500.0,
+        ..Config::default()
+    };
+    want.setup.probe_length_mm = 382.95;
+    want.setup.s002_u_r_c_z_c_um = 25.0;
+    want.axes[0].name = AxisName::Y;
+    want.axes[1].name = AxisName::X;
+    assert!(same(&got, &want), "{got:?}");
+    assert_eq!(got.setup.probe_u_lobing_um, 1.0);
+    // the next save writes the current version with the new field, and reads back
+    let mut now_cfg = got;
+    now_cfg.setup.probe_u_lobing_um = 0.4;
+    resaved_as_current_version(&now_cfg, 58);
+}

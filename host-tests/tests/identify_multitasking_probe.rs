@@ -1,6 +1,7 @@
 //! Seed 002 chapter 5 touch-probe method (`identify::multitasking::probe`): TV-12 (eqs 5.1–5.19
 //! on the Table 5.2 averages, spec §6.6/§8.2) in paper mode, and round trips through the
 //! independent literal HTM chain of `ballpod_host::forward_seed002` in corrected mode.
+use ballpod::identify::multitasking::lobing::LOBING_COMPONENTS;
 use ballpod::identify::multitasking::probe::{
     BAxisProbe, CAxisProbe, ProbeError, ProbeMode, SphereFitError, fit_sphere, identify_b_axis,
     identify_c_axis,
@@ -25,6 +26,7 @@ fn tv12_c_axis_formula_outputs() {
         centres_mm: C_AVG,
         nominal_axis_xy_mm: [-490.0, 0.0],
         z_c_mm: 64.838,
+        std_uncertainty_dof: 0.0,
         centres_std_uncertainty_um: [[0.0; 3]; 4],
     };
     let p = identify_c_axis(&input, ProbeMode::Paper).unwrap();
@@ -75,6 +77,8 @@ fn tv12_b_axis_formula_outputs() {
         ],
         nominal_mm: [[-490.0, 0.0, -472.0]; 4],
         measured_std_uncertainty_um: [[0.0; 3]; 4],
+        lobing_shift_um: [[[0.0; 3]; LOBING_COMPONENTS]; 4],
+        std_uncertainty_dof: 0.0,
         r_b_mm: 382.950,
         r_b2_mm: 433.062,
         x_t_mm: 490.0,
@@ -131,6 +135,8 @@ fn b_axis_corrected_round_trip() {
             measured_mm: [m0, m90, n0, n90],
             nominal_mm: [sphere; 4],
             measured_std_uncertainty_um: [[0.0; 3]; 4],
+            lobing_shift_um: [[[0.0; 3]; LOBING_COMPONENTS]; 4],
+            std_uncertainty_dof: 0.0,
             r_b_mm: rb,
             r_b2_mm: rb2,
             x_t_mm: 490.0,
@@ -169,6 +175,8 @@ fn b_axis_redundancy_shows_in_residual() {
         measured_mm: [m0, m90, n0, n90],
         nominal_mm: [sphere; 4],
         measured_std_uncertainty_um: [[0.0; 3]; 4],
+        lobing_shift_um: [[[0.0; 3]; LOBING_COMPONENTS]; 4],
+        std_uncertainty_dof: 0.0,
         r_b_mm: 380.0,
         r_b2_mm: 430.0,
         x_t_mm: 490.0,
@@ -206,6 +214,8 @@ fn b_axis_monte_carlo(sigma_um: [f64; 3], known: bool) -> [(f64, f64); 5] {
             measured_mm: m,
             nominal_mm: [sphere; 4],
             measured_std_uncertainty_um: [if known { sigma_um } else { [0.0; 3] }; 4],
+            lobing_shift_um: [[[0.0; 3]; LOBING_COMPONENTS]; 4],
+            std_uncertainty_dof: 0.0,
             r_b_mm: rb,
             r_b2_mm: rb2,
             x_t_mm: 490.0,
@@ -287,6 +297,7 @@ fn c_axis_corrected_round_trip() {
             centres_mm: centres,
             nominal_axis_xy_mm: [-490.0, 0.0],
             z_c_mm: 64.838,
+            std_uncertainty_dof: 0.0,
             centres_std_uncertainty_um: [[0.0; 3]; 4],
         };
         let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
@@ -346,6 +357,7 @@ fn c_axis_outputs(centres: [[f64; 3]; 4], sigma_um: [[f64; 3]; 4]) -> ([f64; 4],
         centres_mm: centres,
         nominal_axis_xy_mm: [-490.0, 0.0],
         z_c_mm: 64.838,
+        std_uncertainty_dof: 0.0,
         centres_std_uncertainty_um: sigma_um,
     };
     let c = identify_c_axis(&input, ProbeMode::Corrected).unwrap();
@@ -479,6 +491,7 @@ fn bad_input_is_typed() {
         centres_mm: [[1.0, 2.0, 3.0]; 4],
         nominal_axis_xy_mm: [0.0, 0.0],
         z_c_mm: 60.0,
+        std_uncertainty_dof: 0.0,
         centres_std_uncertainty_um: [[0.0; 3]; 4],
     };
     assert_eq!(
@@ -519,6 +532,8 @@ fn bad_input_is_typed() {
         measured_mm: [[0.0; 3]; 4],
         nominal_mm: [[0.0; 3]; 4],
         measured_std_uncertainty_um: [[0.0; 3]; 4],
+        lobing_shift_um: [[[0.0; 3]; LOBING_COMPONENTS]; 4],
+        std_uncertainty_dof: 0.0,
         r_b_mm: 380.0,
         r_b2_mm: 380.0,
         x_t_mm: 490.0,
@@ -563,7 +578,7 @@ fn bad_input_is_typed() {
 #[test]
 fn tv13_sphere_fit_of_fig_5_13() {
     let pts = ballpod_host::forward_seed002::FIG_5_13;
-    let f = fit_sphere(&pts).unwrap();
+    let f = fit_sphere(&pts, 0.0).unwrap();
     let exp = [-390.2175, -0.0005, -472.4176];
     for (a, b) in f.centre_mm.iter().zip(exp) {
         assert!((a - b).abs() < 5e-5 + 1e-9, "{:?}", f.centre_mm);
@@ -593,14 +608,14 @@ fn sphere_fit_round_trip_and_bad_input() {
                 ]
             })
             .collect();
-        let f = fit_sphere(&pts).unwrap();
+        let f = fit_sphere(&pts, 0.0).unwrap();
         for i in 0..3 {
             assert!((f.centre_mm[i] - c[i]).abs() < 1e-9);
         }
         assert!((f.radius_mm - rad).abs() < 1e-9 && f.residual_rms_um < 1e-6);
     }
     assert_eq!(
-        fit_sphere(&[[0.0; 3]; 3]),
+        fit_sphere(&[[0.0; 3]; 3], 0.0),
         Err(SphereFitError::TooFewPoints { points: 3 })
     );
     let plane = [
@@ -610,9 +625,9 @@ fn sphere_fit_round_trip_and_bad_input() {
         [1.0, 1.0, 0.0],
         [2.0, 0.5, 0.0],
     ];
-    assert_eq!(fit_sphere(&plane), Err(SphereFitError::Degenerate));
+    assert_eq!(fit_sphere(&plane, 0.0), Err(SphereFitError::Degenerate));
     assert_eq!(
-        fit_sphere(&[[0.0, 0.0, f64::NAN]; 5]),
+        fit_sphere(&[[0.0, 0.0, f64::NAN]; 5], 0.0),
         Err(SphereFitError::NonFinite)
     );
 }

@@ -11,7 +11,7 @@
 use ballpod::app::{Direction, Pattern, ResultId, SessionState};
 use ballpod::config::{FIELDS, FieldType};
 use ballpod::protocol::canopen::CanFrame;
-use ballpod::protocol::canopen::od::CONFIG_BASE;
+use ballpod::protocol::canopen::od::config_index;
 use ballpod_host::app_state::snapshot as state;
 use ballpod_host::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
@@ -113,7 +113,7 @@ impl Shell for Cnc {
                     .position(|f| f.name == name && f.elements == 0)
                     .unwrap();
                 assert_eq!(FIELDS[i].ty, FieldType::F32, "{name} is REAL32");
-                self.download(CONFIG_BASE + i as u16, &v.to_le_bytes())
+                self.download(config_index(i), &v.to_le_bytes())
             }
             Pattern(code) => self.download(0x3000, &[code]),
             Dir(d) => self.download(0x3001, &[d as u8]),

@@ -571,6 +571,7 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::BarUTempK => g(c.bar_u_temp_k),
         Field::LvdtUScalePpm => g(c.lvdt_u_scale_ppm),
         Field::S002URcZcUm => g(s.s002_u_r_c_z_c_um),
+        Field::ProbeULobingUm => g(s.probe_u_lobing_um),
         Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => unreachable!(),
     }
 }

@@ -942,8 +942,11 @@ fn power_lost_during_a_settings_save_boots_with_the_previous_settings() {
     // complete the pod boots with 200 mm, afterwards with 250 mm — never the defaults
     // (150 mm), never a mix. A cut during the read-back leaves the new record complete but the
     // save reported as failed: the pod then boots with the new settings.
+    use ballpod::settings::RECORD_LEN;
+    // the whole save: the page erase, the record's bytes, a margin for the read-back
+    let save_steps = 2048 + RECORD_LEN + 64;
     let mut new_from = None;
-    for k in (0..2400).step_by(7) {
+    for k in (0..save_steps).step_by(7) {
         let mut b = Bench::idle();
         assert_eq!(b.scpi("CONF:UNL;:CONF:BAR_LENGTH 200"), "");
         assert_eq!(b.scpi("*SAV 0"), "");
@@ -984,8 +987,9 @@ fn power_lost_during_a_settings_save_boots_with_the_previous_settings() {
         assert_eq!(f32::from_bits(after.read(0x2000, 0)), got);
     }
     let new_from = new_from.expect("a long enough budget completes the save");
+    // complete once the erase and the record's last byte (its CRC) are done
     assert!(
-        (2048..2400).contains(&new_from),
+        (2048 + RECORD_LEN - 8..2048 + RECORD_LEN + 7).contains(&new_from),
         "complete after {new_from} steps"
     );
 }

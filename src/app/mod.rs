@@ -955,7 +955,7 @@ impl App {
                 .uncertainty
                 .by_source
                 .map(|s| (s.get(i).copied().unwrap_or(f64::NAN) * unit) as f32);
-            let shares = [ecc, 0.0, scale, w, t];
+            let shares = [ecc, 0.0, scale, w, t, 0.0];
             r.set_budget(id, v, shares);
             r.set_budget(corr, -v, shares);
         }

@@ -15,9 +15,14 @@
 //!   the seed 002 origin raised by Z_C (the sphere on the C centreline at the C-axis sphere's
 //!   height; the thesis's "standard position", which it does not state: spec seed-002 §6.6).
 //!   A third tool length replaces the length probed less recently.
+//!
+//! Each result's u has two shares: Type A from the sphere fits (and the method's own
+//! redundancy), and the probe's lobing (`probe_u_lobing`), moved through the method by
+//! [`lobing_share`] from each filed sphere's response to it ([`SphereFit::lobing_um_per_um`]).
 
 use super::results::{ResultId, Results};
 use crate::config::{Field, TestSetup, required, required3};
+use crate::identify::multitasking::lobing::{LOBING_COMPONENTS, lobing_share};
 use crate::identify::multitasking::probe::{
     BAxisProbe, CAxisProbe, ProbeError, ProbeMode, SphereFit, SphereFitError, fit_sphere,
     identify_b_axis, identify_c_axis,
@@ -112,7 +117,7 @@ impl ProbeRun {
     /// The fitted sphere.
     #[inline(never)] // flash: 0.2 KB smaller than inlined into the application task
     pub fn finish(&self) -> Result<SphereFit, SphereFitError> {
-        fit_sphere(self.points())
+        fit_sphere(self.points(), self.rotary_deg().0)
     }
 }
 
@@ -142,20 +147,72 @@ pub enum ProbeFailure {
     BAxis(ProbeError),
 }
 
+/// A sphere filed for a method.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct Filed {
+    /// Fitted centre, mm.
+    centre_mm: [f64; 3],
+    /// Its standard uncertainties (X, Y, Z), µm.
+    u_um: [f64; 3],
+    /// Its centre's shift per µm of each lobing component ([`SphereFit::lobing_um_per_um`]).
+    lobing: [[f32; 3]; LOBING_COMPONENTS],
+    /// The fit's residuals |p − c| − R at its touches, in touch order, µm.
+    residual_um: [f32; MAX_TOUCHES],
+    /// Its touches.
+    touches: usize,
+}
+
+/// Rescales the Type A u of the spheres in `groups` to the touch scatter their residuals do not
+/// share. The spheres of a group are touched along the same directions of the probe (the C
+/// spheres; a B position's two styli), so a pre-travel that varies with direction (lobing)
+/// leaves the same residuals in each: a fit's own residual counts it as scatter, though it does
+/// not vary from sphere to sphere — the lobing's share, which moves the centres alike, is
+/// budgeted apart ([`lobing_share`]). The pooled variance of the residuals about their
+/// per-touch mean over the group, Σ(r − r̄)² / ((K − 1)(m − 4)), is the touches' scatter alone.
+/// Groups whose spheres differ in their number of touches, or have no more than four, are left
+/// as fitted. Returns the pooled degrees of freedom (0: left as fitted).
+fn pool_type_a(groups: &mut [&mut [Filed]]) -> usize {
+    let (mut ss, mut dof) = (0.0f32, 0usize);
+    for g in groups.iter() {
+        let m = g.first().map_or(0, |f| f.touches);
+        if m <= 4 || g.iter().any(|f| f.touches != m) {
+            return 0;
+        }
+        for i in 0..m {
+            let r = |f: &Filed| f.residual_um.get(i).copied().unwrap_or(0.0);
+            let mean = g.iter().map(r).sum::<f32>() / g.len() as f32;
+            ss += g.iter().map(|f| (r(f) - mean) * (r(f) - mean)).sum::<f32>();
+        }
+        dof += (g.len() - 1) * (m - 4);
+    }
+    if dof == 0 {
+        return 0;
+    }
+    let pooled = ss / dof as f32;
+    for f in groups.iter_mut().flat_map(|g| g.iter_mut()) {
+        let own = f.residual_um.iter().map(|r| r * r).sum::<f32>() / (f.touches - 4) as f32;
+        if own > 0.0 {
+            let k = f64::from(crate::num::sqrtf(pooled / own));
+            f.u_um = f.u_um.map(|u| u * k);
+        }
+    }
+    dof
+}
+
 /// B = 0° and 90° sphere centres probed with one tool length.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct BSet {
     /// Tool length R, mm (0: the set is empty; a configured length is ≥ 1 mm).
     length_mm: f64,
-    /// Centres at B = 0° and B = 90° (mm) with their standard uncertainties (X, Y, Z, µm).
-    centres_mm: [Option<([f64; 3], [f64; 3])>; 2],
+    /// The spheres at B = 0° and B = 90°.
+    centres_mm: [Option<Filed>; 2],
 }
 
 /// The spheres of the chapter 5 probe methods.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Spheres {
-    /// C-axis centres at C = 0, 90, 180, 270° (mm) with their standard uncertainties (µm).
-    c_mm: [Option<([f64; 3], [f64; 3])>; 4],
+    /// C-axis spheres at C = 0, 90, 180, 270°.
+    c_mm: [Option<Filed>; 4],
     /// B-axis centres for two tool lengths.
     b: [BSet; 2],
     /// The B set filed last.
@@ -197,7 +254,19 @@ impl Spheres {
             None
         };
         let [ux, uy, uz, _] = fit.std_uncertainty_um;
-        let centre = (fit.centre_mm, [ux, uy, uz]);
+        let mut residual_um = [0.0f32; MAX_TOUCHES];
+        let [cx, cy, cz] = fit.centre_mm;
+        for (r, [px, py, pz]) in residual_um.iter_mut().zip(run.points()) {
+            let (dx, dy, dz) = (px - cx, py - cy, pz - cz);
+            *r = ((crate::num::sqrt(dx * dx + dy * dy + dz * dz) - fit.radius_mm) * 1e3) as f32;
+        }
+        let centre = Filed {
+            centre_mm: fit.centre_mm,
+            u_um: [ux, uy, uz],
+            lobing: fit.lobing_um_per_um,
+            residual_um,
+            touches: run.points().len(),
+        };
         if let Some(slot) = b_slot {
             if run.length_mm.is_nan() {
                 return Err(ProbeFailure::Missing(Field::ProbeLengthMm));
@@ -214,7 +283,7 @@ impl Spheres {
         self.identify_c(t, results)
     }
 
-    fn file_b(&mut self, length_mm: f64, slot: usize, centre: ([f64; 3], [f64; 3])) {
+    fn file_b(&mut self, length_mm: f64, slot: usize, centre: Filed) {
         let i = self
             .b
             .iter()
@@ -239,23 +308,48 @@ impl Spheres {
         let [Some(p1), Some(p2), Some(p3), Some(p4)] = self.c_mm else {
             return Ok(false);
         };
+        let mut spheres = [p1, p2, p3, p4];
+        let dof = pool_type_a(&mut [&mut spheres]);
+        // by reference from here: a sphere is 0.3 KB
+        let spheres = spheres.each_ref();
         // a fit of exactly four touches states no uncertainty (0): the C method then takes
         // its uncertainties from the diagonals' mismatch alone
         let input = CAxisProbe {
-            centres_mm: [p1.0, p2.0, p3.0, p4.0],
-            centres_std_uncertainty_um: [p1.1, p2.1, p3.1, p4.1],
+            centres_mm: spheres.map(|p| p.centre_mm),
+            centres_std_uncertainty_um: spheres.map(|p| p.u_um),
             nominal_axis_xy_mm: [
                 required(t.s002_origin_mm[0], Field::S002OriginMm(0))?,
                 required(t.s002_origin_mm[1], Field::S002OriginMm(1))?,
             ],
             z_c_mm: required(t.s002_z_c_mm, Field::S002ZcMm)?,
+            std_uncertainty_dof: dof as f64,
         };
         let r = identify_c_axis(&input, ProbeMode::Corrected).map_err(ProbeFailure::CAxis)?;
-        let [u_alpha, u_beta, u_dx, u_dy] = r.std_uncertainty;
-        results.set(ResultId::ProbeAlphaCz, r.alpha_cz_arcsec, u_alpha);
-        results.set(ResultId::ProbeBetaCz, r.beta_cz_arcsec, u_beta);
-        results.set(ResultId::ProbeDxCz, r.dx_cz_um, u_dx);
-        results.set(ResultId::ProbeDyCz, r.dy_cz_um, u_dy);
+        let value = [r.alpha_cz_arcsec, r.beta_cz_arcsec, r.dx_cz_um, r.dy_cz_um];
+        let lobing = lobing_share(
+            &input.centres_mm,
+            &spheres.map(|p| p.lobing),
+            f64::from(t.probe_u_lobing_um),
+            &|c: &[[f64; 3]; 4]| {
+                let mut moved = input;
+                moved.centres_mm = *c;
+                let r = identify_c_axis(&moved, ProbeMode::Corrected).ok()?;
+                Some([
+                    r.alpha_cz_arcsec,
+                    r.beta_cz_arcsec,
+                    r.dx_cz_um,
+                    r.dy_cz_um,
+                    0.0,
+                ])
+            },
+        );
+        let ids = [
+            ResultId::ProbeAlphaCz,
+            ResultId::ProbeBetaCz,
+            ResultId::ProbeDxCz,
+            ResultId::ProbeDyCz,
+        ];
+        publish_probe(results, &ids, &value, &r.std_uncertainty, &lobing);
         Ok(true)
     }
 
@@ -273,38 +367,77 @@ impl Spheres {
         else {
             return Ok(false);
         };
+        let u_lobing = f64::from(t.probe_u_lobing_um);
+        // each B position's two styli touch along the same directions of the probe
+        let (mut at_0, mut at_90) = ([a0, b0], [a90, b90]);
+        let dof = pool_type_a(&mut [&mut at_0, &mut at_90]);
+        let ([a0, b0], [a90, b90]) = (at_0.each_ref(), at_90.each_ref());
+        let spheres = [a0, a90, b0, b90];
         let [ox, oy, oz] = required3(t.s002_origin_mm, Field::S002OriginMm)?;
         let nominal = [ox, oy, oz + required(t.s002_z_c_mm, Field::S002ZcMm)?];
         // a fit of exactly four touches states no uncertainty (0): the B method then takes
         // its uncertainties from its own residual alone
         let input = BAxisProbe {
-            measured_mm: [a0.0, a90.0, b0.0, b90.0],
+            measured_mm: spheres.map(|p| p.centre_mm),
             nominal_mm: [nominal; 4],
-            measured_std_uncertainty_um: [a0.1, a90.1, b0.1, b90.1],
+            measured_std_uncertainty_um: spheres.map(|p| p.u_um),
+            lobing_shift_um: spheres.map(|p| p.lobing.map(|c| c.map(|v| f64::from(v) * u_lobing))),
+            std_uncertainty_dof: dof as f64,
             r_b_mm: r1,
             r_b2_mm: r2,
             // X_T (paper mode's lever only): the sphere's nominal X
             x_t_mm: nominal[0],
         };
         let r = identify_b_axis(&input, ProbeMode::Corrected).map_err(ProbeFailure::BAxis)?;
+        // (β_XB, δx_BT, δz_BT, α_BT + α_XB, α_BT − γ_XB), in the order of the uncertainties
+        let outputs = |r: &crate::identify::multitasking::probe::BAxisResult| {
+            let or_nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
+            [
+                r.beta_xb_arcsec,
+                r.dx_bt_um,
+                r.dz_bt_um,
+                or_nan(r.alpha_bt_plus_alpha_xb_arcsec),
+                or_nan(r.alpha_bt_minus_gamma_xb_arcsec),
+            ]
+        };
+        let lobing = lobing_share(
+            &input.measured_mm,
+            &spheres.map(|p| p.lobing),
+            u_lobing,
+            &|c: &[[f64; 3]; 4]| {
+                let mut moved = input;
+                moved.measured_mm = *c;
+                Some(outputs(
+                    &identify_b_axis(&moved, ProbeMode::Corrected).ok()?,
+                ))
+            },
+        );
         let [u_beta, u_dx, u_dz] = r.std_uncertainty;
         let [u_sum, u_diff] = r.std_uncertainty_y;
-        let or_nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
-        results.set(ResultId::ProbeDxBt, r.dx_bt_um, u_dx);
-        results.set(ResultId::ProbeDzBt, r.dz_bt_um, u_dz);
-        results.set(ResultId::ProbeBetaXb, r.beta_xb_arcsec, u_beta);
-        results.set(
+        let ids = [
+            ResultId::ProbeBetaXb,
+            ResultId::ProbeDxBt,
+            ResultId::ProbeDzBt,
             ResultId::ProbeAlphaBtPlusAlphaXb,
-            or_nan(r.alpha_bt_plus_alpha_xb_arcsec),
-            u_sum,
-        );
-        results.set(
             ResultId::ProbeAlphaBtMinusGammaXb,
-            or_nan(r.alpha_bt_minus_gamma_xb_arcsec),
-            u_diff,
-        );
+        ];
+        let u = [u_beta, u_dx, u_dz, u_sum, u_diff];
+        publish_probe(results, &ids, &outputs(&r), &u, &lobing);
         results.set(ResultId::ProbeBResidualRms, r.residual_rms_um, f64::NAN);
         Ok(true)
+    }
+}
+
+/// Writes a method's results: each value with its Type A u and its lobing share.
+fn publish_probe(
+    results: &mut Results,
+    ids: &[ResultId],
+    value: &[f64],
+    u_a: &[f64],
+    lobing: &[f64],
+) {
+    for (((id, v), a), l) in ids.iter().zip(value).zip(u_a).zip(lobing) {
+        results.set_budget(*id, *v, [*a as f32, 0.0, 0.0, 0.0, 0.0, *l as f32]);
     }
 }
 

@@ -194,15 +194,24 @@ pub enum Contributor {
     WBall = 3,
     /// The T-ball's centring and axial offsets (seed 002).
     TBall = 4,
+    /// The touch probe's lobing: its pre-travel varying with the direction of approach
+    /// (seed 002 chapter 5).
+    ProbeLobing = 5,
 }
 
 /// Number of [`Contributor`]s.
-pub const CONTRIBUTOR_COUNT: usize = 5;
+pub const CONTRIBUTOR_COUNT: usize = 6;
 
 /// The names of the [`Contributor`]s, in discriminant order (SCPI `FETCh:RESult:BUDGet?`, the
 /// replay's `results.json`).
-pub const CONTRIBUTORS: [&str; CONTRIBUTOR_COUNT] =
-    ["type_a", "bar_offset", "lvdt_scale", "w_ball", "t_ball"];
+pub const CONTRIBUTORS: [&str; CONTRIBUTOR_COUNT] = [
+    "type_a",
+    "bar_offset",
+    "lvdt_scale",
+    "w_ball",
+    "t_ball",
+    "probe_lobing",
+];
 
 impl Contributor {
     /// Every contributor, in discriminant order.
@@ -212,6 +221,7 @@ impl Contributor {
         Self::LvdtScale,
         Self::WBall,
         Self::TBall,
+        Self::ProbeLobing,
     ];
 
     /// Its name in [`CONTRIBUTORS`].
@@ -308,7 +318,7 @@ impl Results {
     /// Sets `id` to `value` ± `u` (standard uncertainty, NaN if not evaluated), all of it
     /// [`Contributor::TypeA`]; a value that is not finite leaves the entry invalid.
     pub fn set(&mut self, id: ResultId, value: f64, u: f64) {
-        self.set_budget(id, value, [u as f32, 0.0, 0.0, 0.0, 0.0]);
+        self.set_budget(id, value, [u as f32, 0.0, 0.0, 0.0, 0.0, 0.0]);
     }
 
     /// Sets `id` to `value` with the standard uncertainty each [`Contributor`] gives it
@@ -344,7 +354,7 @@ impl Results {
         kind: FigureKind,
     ) {
         let [offset, scale] = bar.shares(kind, value);
-        self.set_budget(id, f64::from(value), [u_a, offset, scale, 0.0, 0.0]);
+        self.set_budget(id, f64::from(value), [u_a, offset, scale, 0.0, 0.0, 0.0]);
     }
 
     /// Invalidates the results from `first` to `last` (inclusive, in [`RESULTS`] order).

@@ -86,7 +86,7 @@ impl SsmMeasurement {
             .zip(self.bar.shares_um(bar))
         {
             if e.is_some() {
-                *o = [crate::num::sqrt(var) as f32, off, scale, 0.0, 0.0];
+                *o = [crate::num::sqrt(var) as f32, off, scale, 0.0, 0.0, 0.0];
             }
         }
         out
@@ -330,7 +330,7 @@ impl TwoStep {
                 by_scale * u_scale,
             ];
             let [a, o, k] = shares.map(|v| v as f32);
-            results.set_budget(id, value, [a, o, k, 0.0, 0.0]);
+            results.set_budget(id, value, [a, o, k, 0.0, 0.0, 0.0]);
         }
         Ok(true)
     }

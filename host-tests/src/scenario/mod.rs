@@ -93,6 +93,10 @@ pub struct Scenario {
     /// Two-step RTTTR table (α): see [`RtttrTable`].
     #[serde(default)]
     pub rtttr_table: Option<RtttrTable>,
+    /// Touch probe: the lobing's standard uncertainty the pod is told (configuration field
+    /// `probe_u_lobing`, µm; default: the pod's default).
+    #[serde(default)]
+    pub probe_u_lobing_um: Option<f64>,
     /// Expected outcome.
     pub expect: Expect,
 }
@@ -196,6 +200,9 @@ pub struct Check {
     pub u: f64,
     /// Unit: `um`, `arcsec`, `urad` or `relative`.
     pub unit: &'static str,
+    /// The pod's share of `u` from each contributor (`ballpod::app::CONTRIBUTORS` order), for a
+    /// figure the pod's results table holds with its budget.
+    pub shares: Option<[f32; ballpod::app::CONTRIBUTOR_COUNT]>,
 }
 
 impl Check {
@@ -293,6 +300,7 @@ fn seed002_ballbar(s: &Scenario) -> Result<Vec<Check>, String> {
             got: f64::from(v.value),
             u: v.u.map_or(0.0, f64::from),
             unit,
+            shares: None,
         });
     }
     if out.len() != 10 {
@@ -343,6 +351,7 @@ fn iso230_4(s: &Scenario) -> Result<Vec<Check>, String> {
                 got: f64::from(got.value),
                 u: 0.0,
                 unit: "relative",
+                shares: None,
             });
         }
     }
@@ -385,6 +394,9 @@ fn seed002_probe(s: &Scenario, runs: std::ops::Range<u32>) -> Result<Vec<Check>,
                 c.setup.s002_origin_mm = origin.map(|v| v as f32);
                 c.setup.s002_z_c_mm = zc as f32;
                 c.setup.probe_length_mm = length as f32;
+                if let Some(u) = s.probe_u_lobing_um {
+                    c.setup.probe_u_lobing_um = u as f32;
+                }
             })
             .map_err(|e| format!("set-up: {:?}", e.text()))?;
         let (centre, rotary) = probe_target(&da, origin, [rc, zc], length, run);
@@ -418,6 +430,7 @@ fn seed002_probe(s: &Scenario, runs: std::ops::Range<u32>) -> Result<Vec<Check>,
             got: f64::from(e.value),
             u: if u.is_nan() { 0.0 } else { u },
             unit,
+            shares: Some(e.shares),
         })
     };
     let asec = urad_to_arcsec;
@@ -471,6 +484,7 @@ fn seed002_probe(s: &Scenario, runs: std::ops::Range<u32>) -> Result<Vec<Check>,
         got: radius_dev_um.iter().sum::<f64>() / radius_dev_um.len() as f64,
         u: 0.0,
         unit: "um",
+        shares: None,
     });
     Ok(out)
 }
@@ -513,6 +527,7 @@ fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {
                 got: f64::from(f.value),
                 u: f.u.map_or(0.0, f64::from),
                 unit: if f.unit == "arcsec" { "arcsec" } else { "um" },
+                shares: None,
             })
         })
         .collect()
@@ -571,6 +586,7 @@ fn seed004_dial_gauge(s: &Scenario) -> Result<Vec<Check>, String> {
             got: f64::from(f.value),
             u: f.u.map_or(0.0, f64::from),
             unit: "urad",
+            shares: None,
         })
     };
     Ok(vec![
@@ -600,6 +616,7 @@ fn urad_check(name: &str, truth: f64, got: f64, u: f64) -> Check {
         got,
         u,
         unit: "urad",
+        shares: None,
     }
 }
 

@@ -8,7 +8,8 @@
 //!
 //! A constant pre-travel shrinks the fitted radius by the pre-travel and leaves the centre
 //! where it is (every point moves along its own normal by the same amount) — the reason the
-//! chapter 5 method uses sphere centres, not single touches.
+//! chapter 5 method uses sphere centres, not single touches. A pre-travel that varies with the
+//! direction of approach (lobing, `Instrument::probe_pretravel_at`) moves the centre too.
 
 use ballpod::acquisition::MAX_AXES;
 use ballpod::acquisition::probe::TriggerOutcome;
@@ -104,7 +105,7 @@ impl ProbeRig {
             // clear of the sphere, then the approach along −n
             self.move_to(axes(on(n, contact + RETRACT_MM)), RETRACT_FEED_MM_PER_MIN);
             self.move_to(axes(on(n, contact + APPROACH_MM)), RETRACT_FEED_MM_PER_MIN);
-            let trigger_r = contact - self.inst.probe_pretravel_um * 1e-3
+            let trigger_r = contact - self.inst.probe_pretravel_at(n, rotary_deg[0]) * 1e-3
                 + self.inst.probe_repeatability_um * 1e-3 * self.rng.normal();
             self.move_to(axes(on(n, trigger_r)), PROBING_FEED_MM_PER_MIN);
             match self.pod.probe_edge_at(&axes(on(n, trigger_r))) {

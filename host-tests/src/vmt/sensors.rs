@@ -47,6 +47,16 @@ pub struct Instrument {
     pub probe_repeatability_um: f64,
     /// Contact-bounce edges after each trigger (within the debounce time).
     pub probe_bounces: u32,
+    /// Touch-probe lobing across the stylus, µm: the amplitude of the three-lobe (cos 3φ)
+    /// harmonic of a kinematic probe's pre-travel, which grows as 1/cos of the direction's
+    /// angle from the middle of its lobe (three seats: 1 to 2 times its least, harmonics
+    /// 3, 6, 9, … in the ratio 1 : 0.38 : 0.20 : 0.12 …), weighted by sin²θ (θ from the
+    /// stylus); [`Instrument::probe_pretravel_at`].
+    pub probe_lobing_um: f64,
+    /// Orientation of the lobes about the stylus: φ of the least pre-travel, degrees.
+    pub probe_lobing_deg: f64,
+    /// Touch-probe pre-travel along the stylus less its mean across, µm (weighted by cos²θ).
+    pub probe_axial_um: f64,
 }
 
 impl Default for Instrument {
@@ -62,7 +72,31 @@ impl Default for Instrument {
             probe_pretravel_um: 0.0,
             probe_repeatability_um: 0.0,
             probe_bounces: 0,
+            probe_lobing_um: 0.0,
+            probe_lobing_deg: 0.0,
+            probe_axial_um: 0.0,
         }
+    }
+}
+
+impl Instrument {
+    /// The touch probe's pre-travel, µm, for a touch at the surface whose outward normal is
+    /// `n` (machine frame, unit), the probe turned by B = `b_deg` about Y (the stylus along −Z
+    /// at B = 0): [`Self::probe_pretravel_um`] plus the lobing ([`Self::probe_lobing_um`],
+    /// [`Self::probe_axial_um`]) in the probe's frame.
+    pub fn probe_pretravel_at(&self, n: [f64; 3], b_deg: f64) -> f64 {
+        let (sb, cb) = b_deg.to_radians().sin_cos();
+        // the normal in the probe's frame (z up the stylus)
+        let (x, y, z) = (cb * n[0] - sb * n[2], n[1], sb * n[0] + cb * n[2]);
+        let (sin2, cos2) = (x * x + y * y, z * z);
+        // the kinematic lobe 1/cos ψ, ψ within ±60° of the nearest lobe's middle, less its
+        // mean (3/π·ln(2 + √3)), scaled to its 3rd harmonic's amplitude (0.346 for 1/cos ψ)
+        let third = 120f64.to_radians();
+        let phi = y.atan2(x) - self.probe_lobing_deg.to_radians();
+        let psi = (phi + third / 2.0).rem_euclid(third) - third / 2.0;
+        let (mean, a3) = (1.257_602_154_8, 0.346_013_313_7);
+        let lobe = (1.0 / psi.cos() - mean) / a3;
+        self.probe_pretravel_um + self.probe_lobing_um * lobe * sin2 + self.probe_axial_um * cos2
     }
 }
 

@@ -10,7 +10,8 @@
 //! - [`model_lsq`]: model-based least-squares identification on the literal model, with its
 //!   identifiability report;
 //! - [`compensation`]: chapter 3 NC-program compensation (eqs 3.4–3.13);
-//! - [`probe`]: chapter 5 touch-probe method (eqs 5.1–5.19) with sign fixes and paper mode.
+//! - [`probe`]: chapter 5 touch-probe method (eqs 5.1–5.19) with sign fixes and paper mode;
+//! - [`lobing`]: the touch probe's lobing in the chapter 5 methods' budget.
 //!
 //! Units: lengths in mm, positional deviations and eccentricities in µm, angular deviations
 //! in µrad (model) or arc-seconds (thesis tables). Error = actual − nominal.
@@ -22,6 +23,7 @@
 
 pub mod ballbar;
 pub mod compensation;
+pub mod lobing;
 pub mod model;
 pub mod model_lsq;
 pub mod patterns;

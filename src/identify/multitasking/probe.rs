@@ -21,7 +21,9 @@
 use nalgebra::Vector3;
 
 use super::ARCSEC_PER_RAD;
+use super::lobing::LOBING_COMPONENTS;
 use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError};
+use crate::metrology::solve3::cholesky_solve;
 
 /// Corrected (literal-model signs) or paper (formulas as printed) evaluation.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -66,6 +68,13 @@ pub struct CAxisProbe {
     /// where it is larger (Birge ratio); otherwise (e.g. all 0, not known) from the mismatch
     /// alone (the one redundancy of four points on a circle: 3 degrees of freedom).
     pub centres_std_uncertainty_um: [[f64; 3]; 4],
+    /// Degrees of freedom behind the stated uncertainties (e.g. the sphere fits' residuals,
+    /// pooled): the Z mismatch's scatter, which only the touches' scatter makes, is pooled with
+    /// them for the tilts, `k² = (ν + χ²)/(ν + 1)` (larger than they say raises u, smaller
+    /// lowers it). 0: the stated u taken as they are, raised by the Birge ratio where the Z
+    /// mismatch is larger. The plane's mismatch, which also shows the C axis stopping off its
+    /// positions, always raises δx's and δy's u as a Birge ratio where it is larger.
+    pub std_uncertainty_dof: f64,
 }
 
 /// C-axis result.
@@ -132,6 +141,7 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
     let mismatch = crate::num::sqrt(diff.norm_squared()) * 1e3;
     let u = c_axis_uncertainty(
         &input.centres_std_uncertainty_um,
+        input.std_uncertainty_dof,
         [diff.x, diff.y, diff.z],
         [d13.x, d13.y, d13.z],
         [d24.x, d24.y, d24.z],
@@ -160,6 +170,17 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
     })
 }
 
+/// The factor on stated variances from a method's reduced χ² (`reduced`, over `nu_m` degrees of
+/// freedom): with `nu` degrees of freedom behind the stated u, the two estimates of the scatter
+/// pooled, `(ν + ν_m·χ²/ν_m)/(ν + ν_m)`; with none, the Birge ratio² where above 1.
+fn variance_factor(reduced: f64, nu_m: f64, nu: f64) -> f64 {
+    if nu > 0.0 {
+        (nu + nu_m * reduced) / (nu + nu_m)
+    } else {
+        reduced.max(1.0)
+    }
+}
+
 /// [`CAxisResult::std_uncertainty`] from the centres' stated uncertainties `u_um`, the
 /// diagonals' midpoint difference `diff_mm`, the diagonals `d13_mm`, `d24_mm` and Z_C. In f32
 /// (three significant digits are all an uncertainty needs; f64 here is soft-float on the pod
@@ -171,6 +192,7 @@ pub fn identify_c_axis(input: &CAxisProbe, mode: ProbeMode) -> Result<CAxisResul
 #[inline(never)] // inlined into the application's `execute`, its code doubles
 fn c_axis_uncertainty(
     u_um: &[[f64; 3]; 4],
+    dof: f64,
     diff_mm: [f64; 3],
     d13_mm: [f64; 3],
     d24_mm: [f64; 3],
@@ -184,13 +206,14 @@ fn c_axis_uncertainty(
     let [dx, dy, dz] = diff_mm.map(|v| f(v * 1e3));
     let stated = u_um.iter().flatten().all(|u| *u > 0.0);
     let (sum_x, sum_y, z13, z24) = if stated {
-        // a Birge ratio each for the plane and for Z: the C axis stopping off its positions
-        // shifts the spheres across (the plane's mismatch), never their Z, so it must not
-        // raise the tilts' u (which come from Z alone)
+        // the plane and Z apart: the C axis stopping off its positions shifts the spheres
+        // across (the plane's mismatch: a Birge ratio where larger), never their Z, so it must
+        // not raise the tilts' u (which come from Z alone; its mismatch is the touches' scatter,
+        // pooled with the stated u's degrees of freedom)
         let chi2_xy = 2.0 * (dx * dx / sx + dy * dy / sy);
-        let b2_xy = if chi2_xy > 1.0 { chi2_xy } else { 1.0 };
+        let b2_xy = variance_factor(f64::from(chi2_xy), 2.0, 0.0) as f32;
         let chi2_z = 4.0 * dz * dz / (z13 + z24);
-        let b2_z = if chi2_z > 1.0 { chi2_z } else { 1.0 };
+        let b2_z = variance_factor(f64::from(chi2_z), 1.0, dof) as f32;
         (sx * b2_xy, sy * b2_xy, z13 * b2_z, z24 * b2_z)
     } else {
         let v = (dx * dx + dy * dy + dz * dz) / 3.0;
@@ -235,6 +258,16 @@ pub struct BAxisProbe {
     /// uncertainties propagated from them, scaled up by the residual where it is larger
     /// (Birge ratio); otherwise (e.g. all 0, not known) from the residual alone.
     pub measured_std_uncertainty_um: [[f64; 3]; 4],
+    /// The measured centres' shifts (X, Y, Z in µm, same order) for one standard uncertainty
+    /// of each of the probe's lobing components ([`super::lobing`]; 0: none). Counted
+    /// only where the residual is weighed against the stated uncertainties (the Birge ratio):
+    /// the lobing moves the spheres of a B position alike but the B = 0° and 90° spheres
+    /// differently, so it leaves a residual. Its share of the result is the caller's
+    /// ([`super::lobing::lobing_share`]).
+    pub lobing_shift_um: [[[f64; 3]; LOBING_COMPONENTS]; 4],
+    /// Degrees of freedom behind the stated uncertainties, pooled with the residual's as
+    /// [`CAxisProbe::std_uncertainty_dof`] says (0: the Birge ratio where larger).
+    pub std_uncertainty_dof: f64,
     /// R_B: B origin → probe sphere along Z (mm), short stylus.
     pub r_b_mm: f64,
     /// R'_B: same with the long stylus (mm).
@@ -332,6 +365,8 @@ pub fn identify_b_axis(input: &BAxisProbe, mode: ProbeMode) -> Result<BAxisResul
         ProbeMode::Corrected => Ok(corrected_b_axis(
             &d,
             &input.measured_std_uncertainty_um,
+            &input.lobing_shift_um,
+            input.std_uncertainty_dof,
             [rb, rb2],
         )),
     }
@@ -369,6 +404,28 @@ impl LineSums {
     }
 }
 
+/// The sums and solution of [`b_fit`].
+struct BFit {
+    /// The straight line in the lever l (ΔX1 and −ΔZ2).
+    line: LineSums,
+    /// The δz_BT readings (−ΔZ1, −ΔX2).
+    dz: LineSums,
+    /// The two Y combinations' readings.
+    ys: [LineSums; 2],
+    /// The line's determinant.
+    det: f64,
+    /// β_XB, µrad (the line's slope).
+    beta_urad: f64,
+    /// The line's intercept (−δx_BT), µm.
+    c0: f64,
+    /// δz_BT, µm.
+    dz_bt: f64,
+    /// α_BT + α_XB and α_BT − γ_XB, µrad.
+    a: [f64; 2],
+    /// Weighted residual sums of squares (X/Z, Y).
+    rss: [f64; 2],
+}
+
 /// Corrected-mode B-axis least squares (module doc) in closed form. The eight X/Z equations
 /// separate into δz_BT (ΔZ1 = ΔX2 = −δz_BT: a weighted mean of four readings) and a straight
 /// line in the lever l = R·1e-3 (ΔX1 = −δx_BT + l·β_XB and −ΔZ2 = the same: intercept −δx_BT,
@@ -376,8 +433,7 @@ impl LineSums {
 /// (ΔY2 = −l·a), weighted means of ΔY/(−l) — so no general solver is needed on the pod.
 /// Weights 1/u² of the readings when all are known (> 0), else 1; the residual variance pools
 /// the X/Z (8 − 3) and Y (4 − 2) degrees of freedom separately, as the full least squares does.
-fn corrected_b_axis(d: &[[f64; 3]; 4], sig: &[[f64; 3]; 4], r_mm: [f64; 2]) -> BAxisResult {
-    let known = sig.iter().flatten().all(|u| *u > 0.0);
+fn b_fit(d: &[[f64; 3]; 4], sig: &[[f64; 3]; 4], known: bool, r_mm: [f64; 2]) -> BFit {
     let w = |u: f64| if known { 1.0 / (u * u) } else { 1.0 };
     let [mut line, mut dz] = [LineSums::default(); 2];
     let mut ys = [LineSums::default(); 2];
@@ -402,34 +458,78 @@ fn corrected_b_axis(d: &[[f64; 3]; 4], sig: &[[f64; 3]; 4], r_mm: [f64; 2]) -> B
     let det = line.w * line.wll - line.wl * line.wl;
     let beta_urad = (line.w * line.wly - line.wl * line.wy) / det;
     let c0 = (line.wll * line.wy - line.wl * line.wly) / det;
-    let (dx_bt, dz_bt) = (-c0, dz.wy / dz.w);
-    let [a1, a2] = ys.map(|s| s.wy / s.w);
+    let dz_bt = dz.wy / dz.w;
+    let a = ys.map(|s| s.wy / s.w);
     let [y1, y2] = ys;
-    // known σ: the propagated u, times the Birge ratio where the residual says the σ were too
-    // small; σ not known: the residual's alone
-    let scale = |rss: f64, dof: f64| {
-        let s = crate::num::sqrt(rss.max(0.0) / dof);
-        if known { s.max(1.0) } else { s }
+    let [a1, a2] = a;
+    BFit {
+        line,
+        dz,
+        ys,
+        det,
+        beta_urad,
+        c0,
+        dz_bt,
+        a,
+        rss: [
+            line.rss(c0, beta_urad) + dz.rss(dz_bt, 0.0),
+            y1.rss(a1, 0.0) + y2.rss(a2, 0.0),
+        ],
+    }
+}
+
+/// [`b_fit`] with its uncertainties. With known u the residual is weighed ([`variance_factor`])
+/// against what the readings' u and the lobing (`lob`: each sphere's shift for one standard uncertainty
+/// of each component) leave in it on average: the degrees of freedom plus the weighted residual
+/// sum of squares of each component's shifts (every fit here is linear in its readings).
+fn corrected_b_axis(
+    d: &[[f64; 3]; 4],
+    sig: &[[f64; 3]; 4],
+    lob: &[[[f64; 3]; LOBING_COMPONENTS]; 4],
+    dof: f64,
+    r_mm: [f64; 2],
+) -> BAxisResult {
+    let known = sig.iter().flatten().all(|u| *u > 0.0);
+    let f = b_fit(d, sig, known, r_mm);
+    let mut expected = [5.0, 2.0];
+    if known {
+        for j in 0..LOBING_COMPONENTS {
+            let shift = lob.map(|s| s.get(j).copied().unwrap_or([0.0; 3]));
+            for (e, r) in expected.iter_mut().zip(b_fit(&shift, sig, known, r_mm).rss) {
+                *e += r;
+            }
+        }
+    }
+    // known σ: the propagated u, with the residual's scatter pooled or as a Birge ratio
+    // (`variance_factor`); σ not known: the residual's alone
+    let scale = |rss: f64, expected: f64, nu_m: f64| {
+        let reduced = rss.max(0.0) / expected;
+        crate::num::sqrt(if known {
+            variance_factor(reduced, nu_m, dof)
+        } else {
+            reduced
+        })
     };
-    let rss_xz = line.rss(c0, beta_urad) + dz.rss(dz_bt, 0.0);
-    let k_xz = scale(rss_xz, 5.0);
-    let k_y = scale(y1.rss(a1, 0.0) + y2.rss(a2, 0.0), 2.0);
+    let [rss_xz, rss_y] = f.rss;
+    let k_xz = scale(rss_xz, expected[0], 5.0);
+    let k_y = scale(rss_y, expected[1], 2.0);
     let asec = |urad: f64| urad * 1e-6 * ARCSEC_PER_RAD;
+    let [a1, a2] = f.a;
     BAxisResult {
-        beta_xb_arcsec: asec(beta_urad),
-        dx_bt_um: dx_bt,
-        dz_bt_um: dz_bt,
+        beta_xb_arcsec: asec(f.beta_urad),
+        dx_bt_um: -f.c0,
+        dz_bt_um: f.dz_bt,
         alpha_xb_arcsec: None,
         gamma_xb_arcsec: None,
         alpha_bt_plus_alpha_xb_arcsec: Some(asec(a1)),
         alpha_bt_minus_gamma_xb_arcsec: Some(asec(a2)),
         std_uncertainty: [
-            asec(k_xz * crate::num::sqrt(line.w / det)),
-            k_xz * crate::num::sqrt(line.wll / det),
-            k_xz * crate::num::sqrt(1.0 / dz.w),
+            asec(k_xz * crate::num::sqrt(f.line.w / f.det)),
+            k_xz * crate::num::sqrt(f.line.wll / f.det),
+            k_xz * crate::num::sqrt(1.0 / f.dz.w),
         ],
-        std_uncertainty_y: ys.map(|s| asec(k_y * crate::num::sqrt(1.0 / s.w))),
-        residual_rms_um: crate::num::sqrt(rss_xz.max(0.0) / (line.w + dz.w)),
+        std_uncertainty_y: f.ys.map(|s| asec(k_y * crate::num::sqrt(1.0 / s.w))),
+        residual_rms_um: crate::num::sqrt(rss_xz.max(0.0) / (f.line.w + f.dz.w)),
     }
 }
 
@@ -460,13 +560,18 @@ pub struct SphereFit {
     pub residual_rms_um: f64,
     /// Standard uncertainties of (centre x, y, z, radius) (µm; 0 with exactly 4 points).
     pub std_uncertainty_um: [f64; 4],
+    /// Row j: the centre's shift (X, Y, Z, µm) per µm of component j of the probe's lobing
+    /// ([`super::lobing`]), first order, for these touches at this B.
+    pub lobing_um_per_um: [[f32; 3]; LOBING_COMPONENTS],
 }
 
 /// Geometric least-squares sphere fit: minimises Σ(|p_i − c| − R)² with the metrology core's
 /// point fit ([`crate::metrology::point_fit::fit_sphere`]: centred Kåsa start, then
 /// Gauss–Newton), plus the standard uncertainties of centre and radius from one Givens pass over
-/// the Jacobian at the solution (residual variance × (JᵀJ)⁻¹).
-pub fn fit_sphere(points_mm: &[[f64; 3]]) -> Result<SphereFit, SphereFitError> {
+/// the Jacobian at the solution (residual variance × (JᵀJ)⁻¹), and from the same (JᵀJ)⁻¹ the
+/// centre's response to the probe's lobing for touches made at B = `probe_b_deg` (NaN: no B
+/// axis, 0; [`super::lobing`]).
+pub fn fit_sphere(points_mm: &[[f64; 3]], probe_b_deg: f64) -> Result<SphereFit, SphereFitError> {
     use crate::metrology::point_fit::{self, PointFitError};
     let fit = point_fit::fit_sphere(points_mm).map_err(|e| match e {
         PointFitError::TooFewPoints { have, .. } => SphereFitError::TooFewPoints { points: have },
@@ -475,7 +580,18 @@ pub fn fit_sphere(points_mm: &[[f64; 3]]) -> Result<SphereFit, SphereFitError> {
         PointFitError::NotConverged => SphereFitError::NoConvergence,
     })?;
     let c = Vector3::from(fit.centre_mm);
+    let b = if probe_b_deg.is_nan() {
+        0.0
+    } else {
+        probe_b_deg
+    };
+    let (sin_b, cos_b) = crate::num::sin_cos(b.to_radians());
     let mut j = GivensLsq::<4>::new();
+    // the parameters' shift per lobing component g (a latched point lies g inside the
+    // surface): the least squares J x ≈ g, x = (JᵀJ)⁻¹Jᵀg, by its normal equations (J's
+    // columns are unit normals and 1: well conditioned)
+    let mut jtj = [[0.0f64; 4]; 4];
+    let mut jtg = [[0.0f64; 4]; LOBING_COMPONENTS];
     for p in points_mm {
         let d = Vector3::from(*p) - c;
         let n = crate::num::sqrt(d.norm_squared());
@@ -483,21 +599,34 @@ pub fn fit_sphere(points_mm: &[[f64; 3]]) -> Result<SphereFit, SphereFitError> {
             return Err(SphereFitError::Degenerate);
         }
         // residual n − r; ∂/∂c = −d/n, ∂/∂r = −1
-        j.add_row(
-            &[-d.x / n, -d.y / n, -d.z / n, -1.0],
-            -(n - fit.radius_mm),
-            1.0,
-        )
-        .map_err(|_| SphereFitError::NonFinite)?;
+        let row = [-d.x / n, -d.y / n, -d.z / n, -1.0];
+        j.add_row(&row, -(n - fit.radius_mm), 1.0)
+            .map_err(|_| SphereFitError::NonFinite)?;
+        let g = super::lobing::lobing_basis([d.x / n, d.y / n, d.z / n], sin_b, cos_b);
+        for (m, a) in jtj.iter_mut().zip(row) {
+            for (v, b) in m.iter_mut().zip(row) {
+                *v += a * b;
+            }
+        }
+        for (acc, gk) in jtg.iter_mut().zip(g) {
+            for (v, a) in acc.iter_mut().zip(row) {
+                *v += a * f64::from(gk);
+            }
+        }
     }
     let st = j
         .solve_full_rank(DEFAULT_RANK_TOL)
         .map_err(|_| SphereFitError::Degenerate)?;
     let [u0, u1, u2, u3] = st.std_uncertainty;
+    let lobing_um_per_um = jtg.map(|h| match cholesky_solve(jtj, h) {
+        Some([dx, dy, dz, _]) => [dx as f32, dy as f32, dz as f32],
+        None => [f32::NAN; 3],
+    });
     Ok(SphereFit {
         centre_mm: fit.centre_mm,
         radius_mm: fit.radius_mm,
         residual_rms_um: fit.residual_rms_um,
         std_uncertainty_um: [u0 * 1e3, u1 * 1e3, u2 * 1e3, u3 * 1e3],
+        lobing_um_per_um,
     })
 }

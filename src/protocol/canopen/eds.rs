@@ -43,7 +43,7 @@ fn write_value(w: &mut impl Write, e: &Entry, bytes: &[u8]) -> fmt::Result {
 }
 
 /// What object `index` is, for the EDS's `; what:` lines and the book's object reference (the
-/// configuration objects 0x2000 + i are described by [`crate::config::Field::meaning`], the
+/// configuration objects ([`super::od::config_index`]) are described by [`crate::config::Field::meaning`], the
 /// results by [`RESULT_MEANINGS`]). Empty for an index that is not an object.
 pub const fn object_meaning(index: u16) -> &'static str {
     match index {

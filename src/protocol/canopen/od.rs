@@ -15,7 +15,8 @@
 //! - 0x1000–0x1A03: communication profile area (CiA 301 §7.5.2);
 //! - 0x2000 + i: configuration field `FIELDS[i]` in the field's unit and type (REAL32, or
 //!   UNSIGNED8/16/32 for integers and codes; rw, range checked, written only in
-//!   pre-operational); 0x2040–0x2043: the enumerated configuration fields;
+//!   pre-operational) for the first 64 rows; 0x2040–0x2043: the enumerated configuration
+//!   fields; 0x2044 + (i − 64): the rows after the first 64 ([`config_index`]);
 //! - 0x2100–0x2103: live process values (REAL32 µm / °C, NaN while invalid), sample counter,
 //!   status word, live-value validity mask; PDO mappable; 0x2110: the device counters
 //!   (`app::device`);
@@ -67,11 +68,40 @@ pub const DEFAULT_EMCY_INHIBIT_100US: u16 = 1000;
 /// Default heartbeat producer time 0x1017, ms.
 pub const DEFAULT_HEARTBEAT_MS: u16 = 1000;
 
-/// Index of the first configuration object (`FIELDS[i]` is at `CONFIG_BASE + i`).
+/// Index of the first configuration object (`FIELDS[i]` is at [`config_index`]`(i)`).
 pub const CONFIG_BASE: u16 = 0x2000;
 /// Index of the first enumerated configuration object (0x2040 lvdt_input … 0x2043
 /// axis_reversed).
 pub const CONFIG_ENUMS: u16 = 0x2040;
+/// Index of the configuration field after the first 64 (the block below the enumerated
+/// objects is full; the rows after it follow the enumerated objects).
+pub const CONFIG_AFTER_ENUMS: u16 = CONFIG_ENUMS + 4;
+
+/// The object index of configuration field `FIELDS[row]`: 0x2000 + row below the enumerated
+/// objects, [`CONFIG_AFTER_ENUMS`] + (row − 64) after them (up to 0x20FF; 0x2100 is the live
+/// values).
+pub const fn config_index(row: usize) -> u16 {
+    let first = (CONFIG_ENUMS - CONFIG_BASE) as usize;
+    if row < first {
+        CONFIG_BASE + row as u16
+    } else {
+        CONFIG_AFTER_ENUMS + (row - first) as u16
+    }
+}
+
+/// The [`FIELDS`] row of configuration object `index`, if it is one ([`config_index`]'s
+/// inverse).
+pub fn config_row(index: u16) -> Option<usize> {
+    let row = match index {
+        CONFIG_BASE..CONFIG_ENUMS => index - CONFIG_BASE,
+        CONFIG_AFTER_ENUMS..LIVE_VALUES => {
+            index - CONFIG_AFTER_ENUMS + (CONFIG_ENUMS - CONFIG_BASE)
+        }
+        _ => return None,
+    };
+    let row = usize::from(row);
+    (row < FIELDS.len()).then_some(row)
+}
 /// Index of the live REAL32 values (0x2100:1 ΔL … 0x2100:8 temperature).
 pub const LIVE_VALUES: u16 = 0x2100;
 /// Index of the results' values (sub-index k+1 = `RESULTS[k]`).
@@ -381,8 +411,9 @@ pub fn indices() -> impl Iterator<Item = u16> {
         .chain([0x1200])
         .chain(0x1800..0x1800 + TPDO_COUNT as u16)
         .chain(0x1A00..0x1A00 + TPDO_COUNT as u16)
-        .chain((0..FIELDS.len() as u16).map(|i| CONFIG_BASE + i))
-        .chain(CONFIG_ENUMS..CONFIG_ENUMS + 4)
+        .chain((CONFIG_BASE..LIVE_VALUES).filter(|&i| {
+            config_row(i).is_some() || (CONFIG_ENUMS..CONFIG_AFTER_ENUMS).contains(&i)
+        }))
         .chain(0x2100..=0x2103)
         .chain(core::iter::once(0x2110))
         .chain(0x3000..=0x300C)
@@ -466,8 +497,8 @@ pub fn object(index: u16) -> Option<Object> {
         0x4000 => o("result_value", Array, RESULT_COUNT as u8),
         0x4001 => o("result_uncertainty", Array, RESULT_COUNT as u8),
         0x4002 => o("result_valid", Array, RESULT_COUNT as u8),
-        i if i >= CONFIG_BASE && usize::from(i - CONFIG_BASE) < FIELDS.len() => {
-            let info = FIELDS.get(usize::from(i - CONFIG_BASE))?;
+        i if config_row(i).is_some() => {
+            let info = FIELDS.get(config_row(i)?)?;
             match info.elements {
                 0 => o(info.name, V, 0),
                 n => o(info.name, Array, n),
@@ -779,8 +810,8 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
             }
         },
         _ => {
-            let info = FIELDS
-                .get(usize::from(index.wrapping_sub(CONFIG_BASE)))
+            let info = config_row(index)
+                .and_then(|row| FIELDS.get(row))
                 .ok_or(SdoAbort::NoObject)?;
             let base = |sub, f, name| {
                 e(index, sub, name, field_type(info.ty), Rw, Var::Config(f))

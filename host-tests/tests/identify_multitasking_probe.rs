@@ -631,3 +631,53 @@ fn sphere_fit_round_trip_and_bad_input() {
         Err(SphereFitError::NonFinite)
     );
 }
+
+/// The sphere fit's response to the probe's lobing (`SphereFit::lobing_um_per_um`, row j per µm
+/// of component j: `identify::multitasking::lobing`) against a refit: nine touches on a sphere,
+/// each moved inward by 1 µm of one component computed here from θ and φ (acos, atan2, cos,
+/// sin in the probe's frame: stylus up (sin B, 0, cos B), x (cos B, 0, −sin B)) and refitted.
+#[test]
+fn the_fits_lobing_response_is_a_refit_of_the_moved_touches() {
+    use ballpod_host::vmt::motion::probing_directions;
+    // harmonics 3k, k = 1…6, relative to the third's (the kinematic 1/cos law), then d
+    const RATIO: [f64; 6] = [1.0, 0.379, 0.195, 0.118, 0.078, 0.056];
+    let (centre, r) = ([12.0, -3.0, 40.0], 15.0);
+    let dot = |a: [f64; 3], b: [f64; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    for b_deg in [0.0, 90.0, 35.0] {
+        let b = f64::to_radians(b_deg);
+        let (x_axis, z_axis) = ([b.cos(), 0.0, -b.sin()], [b.sin(), 0.0, b.cos()]);
+        let on =
+            |n: [f64; 3], rr: f64| -> [f64; 3] { std::array::from_fn(|i| centre[i] + rr * n[i]) };
+        let pts: Vec<[f64; 3]> = probing_directions().iter().map(|n| on(*n, r)).collect();
+        let fit = fit_sphere(&pts, b_deg).unwrap();
+        for j in 0..LOBING_COMPONENTS {
+            let g = |n: [f64; 3]| {
+                let (x, y, z) = (dot(n, x_axis), n[1], dot(n, z_axis));
+                let (theta, phi) = (z.clamp(-1.0, 1.0).acos(), y.atan2(x));
+                if j == LOBING_COMPONENTS - 1 {
+                    return z * z;
+                }
+                let k = 3.0 * (j / 2 + 1) as f64;
+                let wave = if j % 2 == 0 {
+                    (k * phi).cos()
+                } else {
+                    (k * phi).sin()
+                };
+                RATIO[j / 2] * theta.sin().powi(2) * wave
+            };
+            let moved: Vec<[f64; 3]> = probing_directions()
+                .iter()
+                .map(|n| on(*n, r - 1e-3 * g(*n)))
+                .collect();
+            let refit = fit_sphere(&moved, b_deg).unwrap();
+            for axis in 0..3 {
+                let want = (refit.centre_mm[axis] - fit.centre_mm[axis]) * 1e3;
+                let got = f64::from(fit.lobing_um_per_um[j][axis]);
+                assert!(
+                    (got - want).abs() < 1e-3,
+                    "B {b_deg}°, component {j}, axis {axis}: {got} vs refit {want}"
+                );
+            }
+        }
+    }
+}

@@ -52,6 +52,8 @@ fn procedure(method: &str, k: usize, u_um: f64) -> Scenario {
     // the bar is off the machine while probing: its LVDT channel noiseless (the ADC noise's
     // draws are most of the simulator's time)
     i.adc_noise_counts = 0.0;
+    // the pod is told the u the lobing is drawn with (its default)
+    s.probe_u_lobing_um = Some(U_LOBING_UM);
     s.method = method.to_string();
     s.seed = 1000 + k as u64;
     s.noise_um = REPEATABILITY_UM;

@@ -169,8 +169,10 @@ struct Filed {
 /// not vary from sphere to sphere — the lobing's share, which moves the centres alike, is
 /// budgeted apart ([`lobing_share`]). The pooled variance of the residuals about their
 /// per-touch mean over the group, Σ(r − r̄)² / ((K − 1)(m − 4)), is the touches' scatter alone.
-/// Groups whose spheres differ in their number of touches, or have no more than four, are left
-/// as fitted. Returns the pooled degrees of freedom (0: left as fitted).
+/// The touches are matched by their order (the same part program for every sphere: the
+/// directions themselves are not compared). If the spheres of any group differ in their number
+/// of touches, or have no more than four, no sphere is rescaled: all are left as fitted.
+/// Returns the pooled degrees of freedom (0: left as fitted).
 fn pool_type_a(groups: &mut [&mut [Filed]]) -> usize {
     let (mut ss, mut dof) = (0.0f32, 0usize);
     for g in groups.iter() {
@@ -381,7 +383,18 @@ impl Spheres {
             measured_mm: spheres.map(|p| p.centre_mm),
             nominal_mm: [nominal; 4],
             measured_std_uncertainty_um: spheres.map(|p| p.u_um),
-            lobing_shift_um: spheres.map(|p| p.lobing.map(|c| c.map(|v| f64::from(v) * u_lobing))),
+            // 0 when the lobing is stated 0, whatever the response (NaN if not known)
+            lobing_shift_um: spheres.map(|p| {
+                p.lobing.map(|c| {
+                    c.map(|v| {
+                        if u_lobing == 0.0 {
+                            0.0
+                        } else {
+                            f64::from(v) * u_lobing
+                        }
+                    })
+                })
+            }),
             std_uncertainty_dof: dof as f64,
             r_b_mm: r1,
             r_b2_mm: r2,

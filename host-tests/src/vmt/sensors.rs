@@ -90,7 +90,8 @@ impl Instrument {
         let (x, y, z) = (cb * n[0] - sb * n[2], n[1], sb * n[0] + cb * n[2]);
         let (sin2, cos2) = (x * x + y * y, z * z);
         // the kinematic lobe 1/cos ψ, ψ within ±60° of the nearest lobe's middle, less its
-        // mean (3/π·ln(2 + √3)), scaled to its 3rd harmonic's amplitude (0.346 for 1/cos ψ)
+        // mean (3/π·ln(2 + √3)), scaled by its 3rd harmonic's amplitude (|−0.346| for 1/cos ψ:
+        // the least pre-travel at ψ = 0, so this lobe is −cos 3ψ times `probe_lobing_um`)
         let third = 120f64.to_radians();
         let phi = y.atan2(x) - self.probe_lobing_deg.to_radians();
         let psi = (phi + third / 2.0).rem_euclid(third) - third / 2.0;

@@ -87,14 +87,18 @@ pub type Identify<'a> = dyn Fn(&[[f64; 3]; 4]) -> Option<[f64; LOBING_OUTPUTS]> 
 /// The standard uncertainty each output of `identify` takes from the probe's lobing: the four
 /// sphere centres `centres_mm` (mm) moved together by `u_um` of one lobing component at a
 /// time, through each sphere's [`SphereFit::lobing_um_per_um`] in `sensitivity`; the
-/// components' secants add in quadrature. NaN where `identify` fails on the moved centres. Up
-/// to [`LOBING_OUTPUTS`] outputs (one copy of this for every method: flash).
+/// components' secants add in quadrature. 0 when `u_um` is 0 (whatever the sensitivities);
+/// NaN where a sensitivity is not known or `identify` fails on the moved centres. Up to
+/// [`LOBING_OUTPUTS`] outputs (one copy of this for every method: flash).
 pub fn lobing_share(
     centres_mm: &[[f64; 3]; 4],
     sensitivity: &[[[f32; 3]; LOBING_COMPONENTS]; 4],
     u_um: f64,
     identify: &Identify<'_>,
 ) -> [f64; LOBING_OUTPUTS] {
+    if u_um == 0.0 {
+        return [0.0; LOBING_OUTPUTS];
+    }
     let Some(at) = identify(centres_mm) else {
         return [f64::NAN; LOBING_OUTPUTS];
     };

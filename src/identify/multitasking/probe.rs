@@ -64,8 +64,8 @@ pub struct CAxisProbe {
     /// Z_C: sphere centre height above the C table (mm), the lever of (5.7).
     pub z_c_mm: f64,
     /// Standard uncertainties of P1…P4 (X, Y, Z in µm; e.g. the sphere fits'). All > 0: the
-    /// result's uncertainties are propagated from them, scaled up by the diagonals' mismatch
-    /// where it is larger (Birge ratio); otherwise (e.g. all 0, not known) from the mismatch
+    /// result's uncertainties are propagated from them, with the diagonals' mismatch as
+    /// [`Self::std_uncertainty_dof`] says; otherwise (e.g. all 0, not known) from the mismatch
     /// alone (the one redundancy of four points on a circle: 3 degrees of freedom).
     pub centres_std_uncertainty_um: [[f64; 3]; 4],
     /// Degrees of freedom behind the stated uncertainties (e.g. the sphere fits' residuals,
@@ -255,8 +255,9 @@ pub struct BAxisProbe {
     pub nominal_mm: [[f64; 3]; 4],
     /// Standard uncertainties of the measured centres (X, Y, Z in µm, same order; e.g. the
     /// sphere fits'). All > 0: corrected mode weights the equations by them and states
-    /// uncertainties propagated from them, scaled up by the residual where it is larger
-    /// (Birge ratio); otherwise (e.g. all 0, not known) from the residual alone.
+    /// uncertainties propagated from them, with the residual's scatter pooled
+    /// ([`Self::std_uncertainty_dof`]) or as a Birge ratio where it is larger; otherwise (e.g.
+    /// all 0, not known) from the residual alone (which then holds the lobing too).
     pub measured_std_uncertainty_um: [[f64; 3]; 4],
     /// The measured centres' shifts (X, Y, Z in µm, same order) for one standard uncertainty
     /// of each of the probe's lobing components ([`super::lobing`]; 0: none). Counted
@@ -496,7 +497,11 @@ fn corrected_b_axis(
         for j in 0..LOBING_COMPONENTS {
             let shift = lob.map(|s| s.get(j).copied().unwrap_or([0.0; 3]));
             for (e, r) in expected.iter_mut().zip(b_fit(&shift, sig, known, r_mm).rss) {
-                *e += r;
+                // a shift not known (NaN) adds nothing: the residual is then weighed against
+                // the readings' u alone
+                if r.is_finite() {
+                    *e += r;
+                }
             }
         }
     }

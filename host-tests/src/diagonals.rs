@@ -453,6 +453,7 @@ pub fn vector(path: &Path, e: &VectorEntry) -> Result<Output, LogError> {
             u: prop
                 .u(&[(prop.squareness_row() + k, 1.0)])
                 .map(|u| u as f32),
+            dof: None,
             unit: "urad".into(),
             contributors: Vec::new(),
         });
@@ -461,6 +462,7 @@ pub fn vector(path: &Path, e: &VectorEntry) -> Result<Output, LogError> {
         name: "vector_reading_std".into(),
         value: prop.sigma.unwrap_or(f64::NAN) as f32,
         u: None,
+        dof: None,
         unit: "um".into(),
         contributors: Vec::new(),
     });
@@ -686,6 +688,7 @@ pub fn body_diagonals(path: &Path, e: &BodyDiagonalsEntry) -> Result<Output, Log
         name,
         value: value as f32,
         u: None,
+        dof: None,
         unit: "um".into(),
         contributors: Vec::new(),
     };

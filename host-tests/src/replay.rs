@@ -19,11 +19,18 @@ pub struct Figure {
     pub value: f32,
     /// Standard uncertainty (`null`: not evaluated).
     pub u: Option<f32>,
+    /// Effective degrees of freedom of `u` (Welch–Satterthwaite, GUM G.4) for the dial gauge's
+    /// and an axis centre's figures whose u has a Type A part from the fit's residual (absent:
+    /// not evaluated, or a u from stated inputs only, for which k = 2). The expanded U for 95.45 % is k·u, k from Student's t at it
+    /// (`ballpod_host::gum::coverage_factor`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub dof: Option<u32>,
     /// Unit.
     pub unit: String,
     /// Its (up to) three largest contributors to `u`, largest first (the pod's budget,
     /// `ballpod::app::Contributor`; for the R-test and the dial gauge their Type A and the
-    /// instrument's calibration; empty for the other host methods' figures).
+    /// instrument's calibration, for an axis centre the touches' and the touch-off's; empty
+    /// for the other host methods' figures).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub contributors: Vec<Share>,
 }
@@ -32,7 +39,8 @@ pub struct Figure {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Share {
     /// `type_a`, `bar_offset`, `lvdt_scale`, `w_ball`, `t_ball` (`ballpod::app::CONTRIBUTORS`);
-    /// for the host's R-test `type_a`, `head_scale` and dial gauge `type_a`, `gauge_scale`.
+    /// for the host's R-test `type_a`, `head_scale`, dial gauge `type_a`, `gauge_scale` and
+    /// axis centre `touch` or `type_a`, `touch_offset`.
     pub name: String,
     /// The standard uncertainty it gives, the figure's unit.
     pub u: f32,
@@ -47,6 +55,7 @@ pub fn figures(app: &App, ids: &[ResultId]) -> Vec<Figure> {
                 name: id.info().name.to_string(),
                 value: e.value,
                 u: (!e.std_uncertainty.is_nan()).then_some(e.std_uncertainty),
+                dof: None,
                 unit: id.info().unit.to_string(),
                 contributors: e
                     .largest_contributors()

@@ -1,7 +1,7 @@
 //! Replay's input: recorded runs in the pod's CSV text ([`crate::recording`]) given directly,
 //! or a session file (TOML or JSON) that lists logs — the pod's own files or plain logs of one
 //! run from elsewhere — with the set-up they need, and the inputs of the host-only methods
-//! (seed 003 R-test readings, seed 004 dial-gauge readings).
+//! (seed 003 R-test readings, seed 004 dial-gauge readings and vertex touch-offs).
 //!
 //! ```toml
 //! [setup]                  # configuration fields by name (config::FIELDS); they override
@@ -23,6 +23,10 @@
 //!
 //! [dial]                   # seed 004 dial gauge (host only): rows b_deg,u_mm,v_mm,reading_um
 //! readings = "dial.csv"
+//!
+//! [vertex]                 # seed 004 axis centre (host only): rows angle_deg,u_mm,v_mm
+//! readings = "vertex.csv"
+//! axis = "z"
 //!
 //! [vector]                 # seed 001 vector diagonal method (host only, crate::diagonals)
 //! readings = "vector.csv"  # rows diagonal,axis,deviation_um: each diagonal's stops in order
@@ -110,6 +114,29 @@ pub struct DialEntry {
     pub u_gauge_scale_ppm: Option<f64>,
 }
 
+/// `[vertex]`: the seed 004 axis centre from one block vertex (host only).
+#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VertexEntry {
+    /// Readings file: `angle_deg,u_mm,v_mm`, the vertex's in-plane machine coordinates at
+    /// each commanded angle ((Y, Z) about X, (X, Z) about Y, (X, Y) about Z).
+    pub readings: String,
+    /// The nominal axis: `x`, `y` (default) or `z`.
+    #[serde(default)]
+    pub axis: Option<String>,
+    /// `primed` (default, seed 004's table axes) or `right_handed`.
+    #[serde(default)]
+    pub sense: Option<String>,
+    /// One touched coordinate's repeatability, µm (default
+    /// `ballpod::identify::centreline::U_TOUCH_UM`).
+    #[serde(default)]
+    pub u_touch_um: Option<f64>,
+    /// The touch-off's offset (reference tool and block), µm (default
+    /// `ballpod::identify::centreline::U_TOUCH_OFFSET_UM`).
+    #[serde(default)]
+    pub u_touch_offset_um: Option<f64>,
+}
+
 /// A session file.
 #[derive(Clone, Debug, Default, PartialEq, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -126,6 +153,9 @@ pub struct SessionFile {
     /// The seed 004 dial gauge.
     #[serde(default)]
     pub dial: Option<DialEntry>,
+    /// The seed 004 axis centre from a vertex.
+    #[serde(default)]
+    pub vertex: Option<VertexEntry>,
     /// The seed 001 vector (sequential-step) diagonal method.
     #[serde(default)]
     pub vector: Option<crate::diagonals::VectorEntry>,
@@ -143,6 +173,7 @@ impl SessionFile {
         self.runs.is_empty()
             && self.rtest.is_none()
             && self.dial.is_none()
+            && self.vertex.is_none()
             && self.vector.is_none()
             && self.body_diagonals.is_none()
     }
@@ -185,7 +216,7 @@ pub fn parse_session(path: &Path, text: &str) -> Result<SessionFile, LogError> {
     if s.is_empty() {
         return Err(whole(
             path,
-            "nothing to replay: no runs, no [rtest], [dial], [vector] or [body_diagonals]".into(),
+            "nothing to replay: no runs, no [rtest], [dial], [vertex], [vector] or [body_diagonals]".into(),
         ));
     }
     check_runs(path, text, &s)?;
@@ -425,19 +456,15 @@ fn relative_u(path: &Path, field: &str, ppm: Option<f64>, default: f64) -> Resul
     }
 }
 
-/// A host figure's two shares, largest first: its Type A and the instrument's calibration
-/// (`name`).
-fn shares(type_a: f64, name: &str, instrument: f64) -> Vec<Share> {
-    let mut s = vec![
-        Share {
-            name: "type_a".into(),
-            u: type_a as f32,
-        },
-        Share {
+/// A host figure's shares (name, standard uncertainty in the figure's unit), largest first.
+fn shares(parts: &[(&str, f64)]) -> Vec<Share> {
+    let mut s: Vec<Share> = parts
+        .iter()
+        .map(|&(name, u)| Share {
             name: name.into(),
-            u: instrument as f32,
-        },
-    ];
+            u: u as f32,
+        })
+        .collect();
     s.sort_by(|a, b| b.u.total_cmp(&a.u));
     s
 }
@@ -516,10 +543,28 @@ pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
             name: format!("rtest_{n}"),
             value: v[j] as f32,
             u: Some(u[j] as f32),
+            dof: None,
             unit: (*unit).into(),
-            contributors: shares(type_a[j], "head_scale", scale[j]),
+            contributors: shares(&[("type_a", type_a[j]), ("head_scale", scale[j])]),
         })
         .collect())
+}
+
+/// A seed 004 table's `sense`: `primed` (default, seed 004's table axes) or `right_handed`.
+fn rotation_sense(
+    path: &Path,
+    field: &str,
+    sense: Option<&str>,
+) -> Result<ballpod::identify::centreline::RotationSense, LogError> {
+    use ballpod::identify::centreline::RotationSense;
+    match sense {
+        None | Some("primed") => Ok(RotationSense::Primed),
+        Some("right_handed") => Ok(RotationSense::RightHanded),
+        Some(s) => Err(LogError {
+            field: Some(field.into()),
+            ..whole(path, format!("{} (primed or right_handed)", excerpt(s)))
+        }),
+    }
 }
 
 /// The seed 004 dial-gauge axis direction of `[dial]`: the tilts of the axis.
@@ -532,16 +577,7 @@ pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
     let rows = read_table(&file, &["b_deg", "u_mm", "v_mm", "reading_um"])?;
     let axis = e.axis.unwrap_or([0.0, 1.0, 0.0]);
     let w0 = e.reading_dir.unwrap_or([0.0, 0.0, 1.0]);
-    let sense = match e.sense.as_deref() {
-        None | Some("primed") => RotationSense::Primed,
-        Some("right_handed") => RotationSense::RightHanded,
-        Some(s) => {
-            return Err(LogError {
-                field: Some("dial.sense".into()),
-                ..whole(path, format!("{} (primed or right_handed)", excerpt(s)))
-            });
-        }
-    };
+    let sense = rotation_sense(path, "dial.sense", e.sense.as_deref())?;
     use crate::forward_seed004 as fw;
     let mut angles: Vec<f64> = rows.iter().map(|r| r[0]).collect();
     angles.dedup();
@@ -594,14 +630,92 @@ pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
             name: name.into(),
             value: (value * 1e6) as f32,
             u: Some(type_a.hypot(gauge[k]) as f32),
+            dof: crate::gum::effective_dof(&[
+                (type_a * type_a, est.tilt_degrees_of_freedom),
+                (gauge[k] * gauge[k], None),
+            ])
+            .map(|nu| nu as u32),
             unit: "urad".into(),
-            contributors: shares(type_a, "gauge_scale", gauge[k]),
+            contributors: shares(&[("type_a", type_a), ("gauge_scale", gauge[k])]),
         }
     };
     Ok(vec![
         figure("dial_tilt_x", est.direction[0], 0),
         figure("dial_tilt_z", est.direction[2], 1),
     ])
+}
+
+/// The seed 004 axis centre of `[vertex]`: one block vertex touched off at each axis
+/// position (`ballpod::identify::centreline::axis_centre_budget`).
+pub fn vertex(path: &Path, e: &VertexEntry) -> Result<Vec<Figure>, LogError> {
+    use ballpod::identify::centreline::{
+        NominalAxis, PointAtAngle, TouchUncertainty, U_TOUCH_OFFSET_UM, U_TOUCH_UM,
+        axis_centre_budget,
+    };
+    let file = path.parent().unwrap_or(Path::new(".")).join(&e.readings);
+    let rows = read_table(&file, &["angle_deg", "u_mm", "v_mm"])?;
+    let bad = |field: &str, what: String| LogError {
+        field: Some(field.into()),
+        ..whole(path, what)
+    };
+    // the in-plane coordinates' letters in the order of `NominalAxis`
+    let (axis, letters) = match e.axis.as_deref() {
+        Some("x") => (NominalAxis::X, ["y", "z"]),
+        None | Some("y") => (NominalAxis::Y, ["x", "z"]),
+        Some("z") => (NominalAxis::Z, ["x", "y"]),
+        Some(s) => return Err(bad("vertex.axis", format!("{} (x, y or z)", excerpt(s)))),
+    };
+    let sense = rotation_sense(path, "vertex.sense", e.sense.as_deref())?;
+    let mut touch = TouchUncertainty::default();
+    for (slot, value, field, default) in [
+        (
+            &mut touch.repeatability_um,
+            e.u_touch_um,
+            "vertex.u_touch_um",
+            U_TOUCH_UM,
+        ),
+        (
+            &mut touch.offset_um,
+            e.u_touch_offset_um,
+            "vertex.u_touch_offset_um",
+            U_TOUCH_OFFSET_UM,
+        ),
+    ] {
+        *slot = match value {
+            None => default,
+            Some(v) if v.is_finite() && v >= 0.0 => v,
+            Some(v) => {
+                return Err(bad(
+                    field,
+                    format!("{v} (a standard uncertainty: finite, ≥ 0)"),
+                ));
+            }
+        };
+    }
+    let positions: Vec<PointAtAngle> = rows
+        .iter()
+        .map(|r| PointAtAngle {
+            commanded_deg: r[0],
+            point_mm: [r[1], r[2]],
+        })
+        .collect();
+    let b = axis_centre_budget(&positions, axis, sense, touch)
+        .map_err(|x| whole(&file, format!("axis centre: {x:?}")))?;
+    let random = if b.random_is_type_a {
+        "type_a"
+    } else {
+        "touch"
+    };
+    Ok((0..2)
+        .map(|k| Figure {
+            name: format!("vertex_centre_{}", letters[k]),
+            value: (b.centre.centre_mm[k] * 1e3) as f32,
+            u: Some(b.u_um[k] as f32),
+            dof: b.degrees_of_freedom[k],
+            unit: "um".into(),
+            contributors: shares(&[(random, b.random_um[k]), ("touch_offset", b.offset_um[k])]),
+        })
+        .collect())
 }
 
 /// What replay reads.
@@ -633,6 +747,9 @@ pub fn read_inputs(files: &[PathBuf]) -> Result<Inputs, LogError> {
             }
             if let Some(d) = &s.dial {
                 host.extend(dial(f, d)?);
+            }
+            if let Some(v) = &s.vertex {
+                host.extend(vertex(f, v)?);
             }
             for o in [
                 s.vector.as_ref().map(|v| crate::diagonals::vector(f, v)),

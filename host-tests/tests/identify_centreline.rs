@@ -5,9 +5,9 @@
 //! independent forward model `ballpod_host::forward_seed004`.
 use ballpod::identify::centreline::{
     AxisCentre, AxisLine, CentrelineError, DialPoint, GaugeFrame, NominalAxis, NormalAtAngle,
-    PointAtAngle, RotationSense, TableAxes, axis_centre, axis_direction_half_turn,
-    axis_direction_lsq, axis_direction_two_positions, nc_command_correction, nc_correction, paper,
-    plane_normal,
+    PointAtAngle, RotationSense, TableAxes, axis_centre, axis_centre_budget,
+    axis_direction_half_turn, axis_direction_lsq, axis_direction_two_positions,
+    nc_command_correction, nc_correction, paper, plane_normal,
 };
 use ballpod_host::forward_seed004 as fw;
 
@@ -978,4 +978,313 @@ fn pos_of_any_axis() -> Vec<NormalAtAngle> {
             normal: fw::mul(fw::rodrigues(d, -b.to_radians()), n0),
         })
         .collect()
+}
+
+/// One procedure of seed 004 §3.2/§3.4 on an independent forward model: a block whose corner
+/// (`corner_signs` from the block's middle, half-sizes `half_mm`, the middle `middle_mm` near
+/// the axis) is touched off at each commanded angle, the block turned about the actual axis
+/// line (`direction`, through `point_mm`, `sense`). Each in-plane machine axis is touched on
+/// the face whose turned outward normal points most along it; the touch stops `offset_um` (0:
+/// across the spindle, X and Y; 1: along it, Z) further out along that normal, plus `noise`.
+/// Returns the touched points in the plane of `axis` and the true centre there: the foot of
+/// the corner on the line.
+#[allow(clippy::too_many_arguments)]
+fn touch_off_corner(
+    axis: NominalAxis,
+    sense: RotationSense,
+    direction: [f64; 3],
+    point_mm: [f64; 3],
+    middle_mm: [f64; 3],
+    half_mm: [f64; 3],
+    corner_signs: [f64; 3],
+    angles_deg: &[f64],
+    offset_um: [f64; 2],
+    noise: &mut dyn FnMut() -> f64,
+) -> (Vec<PointAtAngle>, [f64; 2]) {
+    let plane = match axis {
+        NominalAxis::X => [1, 2],
+        NominalAxis::Y => [0, 2],
+        NominalAxis::Z => [0, 1],
+    };
+    let corner: [f64; 3] = std::array::from_fn(|i| middle_mm[i] + corner_signs[i] * half_mm[i]);
+    let normals: [[f64; 3]; 3] = std::array::from_fn(|i| {
+        let mut n = [0.0; 3];
+        n[i] = corner_signs[i];
+        n
+    });
+    let d = fw::normalize(direction);
+    let mut points = Vec::new();
+    for &commanded in angles_deg {
+        let t = sense.physical_deg(commanded).to_radians();
+        let v = fw::rotate_about_line(d, point_mm, t, corner);
+        let turned = normals.map(|n| fw::mul(fw::rodrigues(d, t), n));
+        let mut p = [0.0; 2];
+        for (slot, &m) in p.iter_mut().zip(&plane) {
+            let face = turned
+                .iter()
+                .max_by(|a, b| a[m].abs().total_cmp(&b[m].abs()))
+                .unwrap();
+            let eps = offset_um[usize::from(m == 2)];
+            *slot = v[m] + (eps * face[m].signum() + noise()) * 1e-3;
+        }
+        points.push(PointAtAngle {
+            commanded_deg: commanded,
+            point_mm: p,
+        });
+    }
+    let foot = fw::add(
+        point_mm,
+        fw::scale(fw::dot(fw::sub(corner, point_mm), d), d),
+    );
+    (points, plane.map(|m| foot[m]))
+}
+
+/// Issue 14: the centre's touch-offs. Seed 004's own procedures on the forward model above,
+/// 1 000 times each: a table axis (Z) by half turn (eq 4) and at four quarter turns, a tilting
+/// axis (Y, primed) at B0 and B90 (eq 8). Each run draws the axis (tilt ±0.5 mrad, centre
+/// ±0.1 mm), the block (its middle ±10 mm off the axis, 30–50 mm half-sizes, any corner), the
+/// touch-off's two offsets N(0, 2 µm) and each touch's noise N(0, 2 µm). `axis_centre_budget`
+/// with the defaults: U (k from Student's t at the stated degrees of freedom) covers each
+/// centre component in 95 % ± 3 % of the runs and u matches the scatter within 20 %. Without
+/// the offset's share the quarter turn of B covers far fewer; the table axis has none (its
+/// touches are all across the spindle, and the offset turns with the faces).
+#[test]
+fn the_touch_offs_are_in_the_centres_u() {
+    use ballpod::identify::centreline::{TouchUncertainty, U_TOUCH_UM};
+    use ballpod_host::gum::coverage_factor;
+    let cases: [(&str, NominalAxis, RotationSense, &[f64]); 3] = [
+        (
+            "A half turn",
+            NominalAxis::Z,
+            RotationSense::RightHanded,
+            &[0.0, 180.0],
+        ),
+        (
+            "A quarter turns",
+            NominalAxis::Z,
+            RotationSense::RightHanded,
+            &[0.0, 90.0, 180.0, 270.0],
+        ),
+        (
+            "B0/B90",
+            NominalAxis::Y,
+            RotationSense::Primed,
+            &[0.0, 90.0],
+        ),
+    ];
+    const RUNS: usize = 1000;
+    let mut rng = fw::SplitMix(3004);
+    for (name, axis, sense, angles) in cases {
+        let (mut covered, mut covered_random) = ([0usize; 2], [0usize; 2]);
+        let (mut e2, mut u2, mut offset_max) = ([0.0f64; 2], [0.0f64; 2], 0.0f64);
+        for _ in 0..RUNS {
+            let tilt = [rng.range(-5e-4, 5e-4), rng.range(-5e-4, 5e-4)];
+            let (direction, point_mm) = match axis {
+                NominalAxis::Z => (
+                    [tilt[0], tilt[1], 1.0],
+                    [rng.range(-0.1, 0.1), rng.range(-0.1, 0.1), 0.0],
+                ),
+                _ => (
+                    [tilt[0], 1.0, tilt[1]],
+                    [rng.range(-0.1, 0.1), 0.0, rng.range(-0.1, 0.1)],
+                ),
+            };
+            let middle = [0, 1, 2].map(|_| rng.range(-10.0, 10.0));
+            let half = [0, 1, 2].map(|_| rng.range(30.0, 50.0));
+            let signs = [0, 1, 2].map(|_| {
+                if rng.range(-1.0, 1.0) < 0.0 {
+                    -1.0
+                } else {
+                    1.0
+                }
+            });
+            let offset = [rng.normal() * 2.0, rng.normal() * 2.0];
+            let (points, truth) = touch_off_corner(
+                axis,
+                sense,
+                direction,
+                point_mm,
+                middle,
+                half,
+                signs,
+                angles,
+                offset,
+                &mut || 2.0 * rng.normal(),
+            );
+            let b = axis_centre_budget(&points, axis, sense, TouchUncertainty::default()).unwrap();
+            for k in 0..2 {
+                let err = (b.centre.centre_mm[k] - truth[k]) * 1e3;
+                let dof = b.degrees_of_freedom[k].map(f64::from);
+                let kf = coverage_factor(dof).unwrap();
+                covered[k] += usize::from(err.abs() <= kf * b.u_um[k]);
+                covered_random[k] += usize::from(err.abs() <= kf * b.random_um[k]);
+                e2[k] += err * err;
+                u2[k] += b.u_um[k] * b.u_um[k];
+                offset_max = offset_max.max(b.offset_um[k]);
+            }
+            assert_eq!(b.random_is_type_a, angles.len() > 2);
+        }
+        for k in 0..2 {
+            let coverage = covered[k] as f64 / RUNS as f64;
+            let alone = covered_random[k] as f64 / RUNS as f64;
+            let ratio = (u2[k] / e2[k]).sqrt();
+            println!(
+                "{name} component {k}: coverage {coverage:.3} (random share alone {alone:.3}), \
+                 rms u / rms error {ratio:.2}, largest offset share {offset_max:.3} µm"
+            );
+            assert!((0.92..=0.98).contains(&coverage), "{name} {k}: {coverage}");
+            assert!((0.8..=1.2).contains(&ratio), "{name} {k}: {ratio}");
+            if axis == NominalAxis::Z {
+                assert!(offset_max < 1e-6, "{name}: {offset_max}");
+            } else {
+                assert!(alone < 0.88, "{name} {k}: {alone}");
+            }
+        }
+    }
+    // the half turn's stated u is the repeatability over √2 (c = (p1 + p2)/2), not 0
+    let half_turn = [(0.0, [40.0, 30.0]), (180.0, [-39.838, -29.988])].map(|(a, p)| PointAtAngle {
+        commanded_deg: a,
+        point_mm: p,
+    });
+    let b = axis_centre_budget(
+        &half_turn,
+        NominalAxis::Z,
+        RotationSense::RightHanded,
+        TouchUncertainty::default(),
+    )
+    .unwrap();
+    assert_close(&b.u_um, &[U_TOUCH_UM / 2f64.sqrt(); 2], 1e-9, "half-turn u");
+    assert_eq!(b.degrees_of_freedom, [None, None]);
+    // a negative or non-finite input u is refused by name
+    for (touch, field) in [
+        (
+            TouchUncertainty {
+                repeatability_um: -1.0,
+                ..TouchUncertainty::default()
+            },
+            "repeatability_um",
+        ),
+        (
+            TouchUncertainty {
+                offset_um: f64::NAN,
+                ..TouchUncertainty::default()
+            },
+            "offset_um",
+        ),
+    ] {
+        assert_eq!(
+            axis_centre_budget(
+                &half_turn,
+                NominalAxis::Z,
+                RotationSense::RightHanded,
+                touch
+            ),
+            Err(CentrelineError::BadUncertainty { field })
+        );
+    }
+}
+
+/// The book's `[vertex]` example (docs/src/methods/centreline.md, C16) verbatim through
+/// `replay`'s session reader: the centre is eq 8's closed form of the readings, X =
+/// ½(X1 + X2 + Z1 − Z2), Z = ½(−X1 + X2 + Z1 + Z2); its u is the quarter turn's in closed form,
+/// c = (I − R)⁻¹(p2 − R·p1): the touch's 2 µm once per component (each row of (I − R)⁻¹ and of
+/// (I − R)⁻¹R has norm² ½), and along Z the difference of the two 2 µm offsets (the corner's
+/// faces +X, +Z at B0 are touched along Z and −X at B90). The page prints what replay reports.
+#[test]
+fn the_books_vertex_example_replays_eq8_with_its_u() {
+    use ballpod_host::docs::{block_after, from};
+    let marker = "C16 as a session";
+    let dir = std::env::temp_dir().join(format!("ballpod-vertex-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let csv = block_after(marker, "csv");
+    std::fs::write(dir.join("vertex.csv"), &csv).unwrap();
+    std::fs::write(dir.join("session.toml"), block_after(marker, "toml")).unwrap();
+    let read = ballpod_host::session_file::read_inputs(&[dir.join("session.toml")]);
+    let _ = std::fs::remove_dir_all(&dir);
+    let host = read.unwrap().host;
+    let rows: Vec<Vec<f64>> = csv
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').map(|v| v.parse().unwrap()).collect())
+        .collect();
+    let ([x1, z1], [x2, z2]) = ([rows[0][1], rows[0][2]], [rows[1][1], rows[1][2]]);
+    let want = [
+        ("vertex_centre_x", 0.5 * (x1 + x2 + z1 - z2), 2.0f64, 0.0f64),
+        (
+            "vertex_centre_z",
+            0.5 * (-x1 + x2 + z1 + z2),
+            2.0,
+            2.0 * 2f64.sqrt(),
+        ),
+    ];
+    let page = from(marker);
+    for (name, centre_mm, touch, offset) in want {
+        let f = host.iter().find(|f| f.name == name).unwrap();
+        let u = touch.hypot(offset);
+        assert!(
+            (f64::from(f.value) - centre_mm * 1e3).abs() < 1e-3,
+            "{name}: {f:?}"
+        );
+        assert!((f64::from(f.u.unwrap()) - u).abs() < 1e-5, "{name}: {f:?}");
+        assert_eq!(f.dof, None);
+        let share = |n: &str| f.contributors.iter().find(|s| s.name == n).unwrap().u;
+        assert!((f64::from(share("touch")) - touch).abs() < 1e-5, "{name}");
+        assert!(
+            (f64::from(share("touch_offset")) - offset).abs() < 1e-5,
+            "{name}"
+        );
+        let printed = format!(
+            "| `{name}` (µm) | {:.0} | {:.1} ± {:.2} (",
+            centre_mm * 1e3,
+            f.value,
+            u
+        );
+        assert!(page.contains(&printed), "the page should print {printed}");
+    }
+}
+
+/// `[vertex]` refuses a bad key by name: an unknown axis, a negative or non-finite u.
+#[test]
+fn the_vertex_table_refuses_bad_input_by_name() {
+    let dir = std::env::temp_dir().join(format!("ballpod-vertex-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("v.csv"),
+        "angle_deg,u_mm,v_mm\n0,40,30\n180,-39.838,-29.988\n",
+    )
+    .unwrap();
+    let cases = [
+        ("axis = \"w\"", "vertex.axis"),
+        ("u_touch_um = -1.0", "vertex.u_touch_um"),
+        ("u_touch_offset_um = nan", "vertex.u_touch_offset_um"),
+    ];
+    for (line, field) in cases {
+        let session = dir.join("s.toml");
+        std::fs::write(
+            &session,
+            format!("[vertex]\nreadings = \"v.csv\"\n{line}\n"),
+        )
+        .unwrap();
+        let err = ballpod_host::session_file::read_inputs(&[session]).unwrap_err();
+        assert_eq!(err.field.as_deref(), Some(field), "{line}: {err:?}");
+    }
+    // the same readings about Z by half turn: C15's centre (81, 6) µm, u = 2 µm / √2
+    let session = dir.join("s.toml");
+    std::fs::write(
+        &session,
+        "[vertex]\nreadings = \"v.csv\"\naxis = \"z\"\nsense = \"right_handed\"\n",
+    )
+    .unwrap();
+    let host = ballpod_host::session_file::read_inputs(&[session])
+        .unwrap()
+        .host;
+    let _ = std::fs::remove_dir_all(&dir);
+    for (name, want) in [("vertex_centre_x", 81.0), ("vertex_centre_y", 6.0)] {
+        let f = host.iter().find(|f| f.name == name).unwrap();
+        assert!((f64::from(f.value) - want).abs() < 1e-3, "{f:?}");
+        assert!(
+            (f64::from(f.u.unwrap()) - 2f64.sqrt()).abs() < 1e-5,
+            "{f:?}"
+        );
+    }
 }

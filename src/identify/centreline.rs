@@ -266,7 +266,8 @@ pub struct PointAtAngle {
 pub struct AxisCentre {
     /// Centre, mm, in-plane coordinates in the order of [`NominalAxis`].
     pub centre_mm: [f64; 2],
-    /// Standard uncertainty of the centre coordinates, µm (0 without redundancy).
+    /// Standard uncertainty of the centre coordinates from the residual, µm (Type A; 0
+    /// without redundancy: [`axis_centre_budget`] states the touches' u for two positions).
     pub centre_uncertainty_um: [f64; 2],
     /// Correlation coefficient of the two centre coordinates' errors (−1 … 1; 0 without
     /// redundancy).
@@ -828,40 +829,12 @@ pub fn axis_centre(
     axis: NominalAxis,
     sense: RotationSense,
 ) -> Result<AxisCentre, CentrelineError> {
-    if positions.len() < 2 {
-        return Err(CentrelineError::TooFewInputs {
-            given: positions.len(),
-            needed: 2,
-        });
-    }
-    if positions
-        .iter()
-        .any(|p| !(p.commanded_deg.is_finite() && crate::num::all_finite(&p.point_mm)))
-    {
-        return Err(CentrelineError::NonFinite);
-    }
-    let theta0 = positions
-        .first()
-        .map(|p| sense.physical_deg(p.commanded_deg))
-        .unwrap_or(0.0);
-    // Centre the data on the first point for conditioning.
     let origin = positions.first().map(|p| p.point_mm).unwrap_or([0.0; 2]);
-    let mut lsq = GivensLsq::<4>::new();
-    for pos in positions {
-        let m = in_plane_rotation(
-            axis,
-            (sense.physical_deg(pos.commanded_deg) - theta0).to_radians(),
-        );
-        let d = [pos.point_mm[0] - origin[0], pos.point_mm[1] - origin[1]];
-        // p = c + M r  ->  [1, 0, m00, m01]·x = p0 ; [0, 1, m10, m11]·x = p1
-        lsq.add_row(&[1.0, 0.0, m[0][0], m[0][1]], d[0], 1.0)?;
-        lsq.add_row(&[0.0, 1.0, m[1][0], m[1][1]], d[1], 1.0)?;
-    }
-    let sol = match lsq.solve_full_rank(DEFAULT_RANK_TOL) {
-        Ok(s) => s,
-        Err(LsqError::RankDeficient { .. }) => return Err(CentrelineError::NoRotation),
-        Err(err) => return Err(err.into()),
-    };
+    // the data centred on the first point, for conditioning
+    let lsq = centre_rows(positions, axis, sense, |p, k| {
+        p.point_mm.get(k).copied().unwrap_or(0.0) - origin.get(k).copied().unwrap_or(0.0)
+    })?;
+    let sol = solve_centre(&lsq)?;
     let redundant = positions.len() > 2;
     Ok(AxisCentre {
         centre_mm: [sol.x[0] + origin[0], sol.x[1] + origin[1]],
@@ -879,6 +852,197 @@ pub fn axis_centre(
             0.0
         },
         positions: positions.len(),
+    })
+}
+
+/// The rows of [`axis_centre`]'s least squares `p_i = c + R(θ_i − θ_0)·r`, unknowns
+/// (c, r), with the right-hand side `rhs(position, component)`. Refuses fewer than two
+/// positions and values that are not finite.
+fn centre_rows(
+    positions: &[PointAtAngle],
+    axis: NominalAxis,
+    sense: RotationSense,
+    rhs: impl Fn(&PointAtAngle, usize) -> f64,
+) -> Result<GivensLsq<4>, CentrelineError> {
+    if positions.len() < 2 {
+        return Err(CentrelineError::TooFewInputs {
+            given: positions.len(),
+            needed: 2,
+        });
+    }
+    if positions
+        .iter()
+        .any(|p| !(p.commanded_deg.is_finite() && crate::num::all_finite(&p.point_mm)))
+    {
+        return Err(CentrelineError::NonFinite);
+    }
+    let theta0 = positions
+        .first()
+        .map(|p| sense.physical_deg(p.commanded_deg))
+        .unwrap_or(0.0);
+    let mut lsq = GivensLsq::<4>::new();
+    for pos in positions {
+        let m = in_plane_rotation(
+            axis,
+            (sense.physical_deg(pos.commanded_deg) - theta0).to_radians(),
+        );
+        // p = c + M r  ->  [1, 0, m00, m01]·x = p0 ; [0, 1, m10, m11]·x = p1
+        lsq.add_row(&[1.0, 0.0, m[0][0], m[0][1]], rhs(pos, 0), 1.0)?;
+        lsq.add_row(&[0.0, 1.0, m[1][0], m[1][1]], rhs(pos, 1), 1.0)?;
+    }
+    Ok(lsq)
+}
+
+/// Solves [`centre_rows`]; positions that do not turn the vertex are `NoRotation`.
+fn solve_centre(lsq: &GivensLsq<4>) -> Result<super::lsq::LsqSolution<4>, CentrelineError> {
+    match lsq.solve_full_rank(DEFAULT_RANK_TOL) {
+        Ok(s) => Ok(s),
+        Err(LsqError::RankDeficient { .. }) => Err(CentrelineError::NoRotation),
+        Err(err) => Err(err.into()),
+    }
+}
+
+/// Default standard uncertainty of one vertex coordinate as touched off (µm, Type B, random
+/// from position to position): seed 004 §3.2 reads the vertex "with a reference tool and
+/// reference block", jogging the tool until the block just slides; that feel, at a 1 µm
+/// handwheel step, repeats to about 2 µm. Seed 004 states no figure.
+pub const U_TOUCH_UM: f64 = 2.0;
+
+/// Default standard uncertainty of the touch-off's offset (µm, Type B, the same at every
+/// position): what the reference tool's radius (across the spindle) or its length (along
+/// it) and the reference block's thickness add to each touched coordinate, each known to
+/// about 2 µm from the tool's certificate, its run-out in the spindle and the tool setter.
+pub const U_TOUCH_OFFSET_UM: f64 = 2.0;
+
+/// The standard uncertainties of reading a vertex by touching it off (µm): the inputs of
+/// [`axis_centre_budget`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TouchUncertainty {
+    /// One touched coordinate's random error, µm ([`U_TOUCH_UM`]).
+    pub repeatability_um: f64,
+    /// The touch-off's offset, µm, one for the touches across the spindle (the tool's radius)
+    /// and one, independent, for those along it (its length) ([`U_TOUCH_OFFSET_UM`]).
+    pub offset_um: f64,
+}
+
+impl Default for TouchUncertainty {
+    fn default() -> Self {
+        Self {
+            repeatability_um: U_TOUCH_UM,
+            offset_um: U_TOUCH_OFFSET_UM,
+        }
+    }
+}
+
+/// An axis centre with its uncertainty budget (µm, the centre's in-plane components in the
+/// order of [`NominalAxis`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CentreBudget {
+    /// The fit ([`axis_centre`]).
+    pub centre: AxisCentre,
+    /// Combined standard uncertainty of each centre component, µm.
+    pub u_um: [f64; 2],
+    /// The touches' random share, µm: Type A from the fit's residual when the positions are
+    /// redundant (`random_is_type_a`), else the stated repeatability propagated.
+    pub random_um: [f64; 2],
+    /// Whether `random_um` is the residual's Type A (else the stated repeatability).
+    pub random_is_type_a: bool,
+    /// The touch-off offset's share, µm (Type B).
+    pub offset_um: [f64; 2],
+    /// Effective degrees of freedom of each `u_um` (Welch–Satterthwaite, GUM G.4; `None`:
+    /// infinite, the u is all Type B).
+    pub degrees_of_freedom: [Option<u32>; 2],
+}
+
+/// [`axis_centre`] with its uncertainty budget (seed 004 §3.2, §3.4; the touches as
+/// [`TouchUncertainty`]).
+///
+/// - **Random:** redundant positions (three or more) give the centre's Type A from the
+///   residual, with 2·positions − 4 degrees of freedom. Two positions (eqs 4 and 8) have no
+///   residual; the stated repeatability is propagated through the fit instead
+///   (`u·√((AᵀA)⁻¹)`: u/√2 per component for a half turn) rather than a u of 0.
+/// - **Offset:** a touch-off that stops ε further out along the touched face's outward
+///   normal moves each coordinate by ±ε. Across the spindle (X, Y on seed 004's vertical
+///   spindle) one ε serves both coordinates (the tool's radius), along it (Z) another (its
+///   length). The faces turn with the block, so an ε that turns with them is absorbed by the
+///   fitted vertex offset r: a table axis about Z, touched across the spindle only, has no
+///   offset share. A B axis at B0 and B90 is touched along Z on the face it touched along X
+///   before, and the difference of the two ε moves the centre. Each face is taken to face
+///   away from the axis: the touched coordinate's sign is that of the vertex about the
+///   fitted centre (the vertex is the apex of a block near the axis, seed 004 Fig. 3).
+pub fn axis_centre_budget(
+    positions: &[PointAtAngle],
+    axis: NominalAxis,
+    sense: RotationSense,
+    touch: TouchUncertainty,
+) -> Result<CentreBudget, CentrelineError> {
+    for (u, field) in [
+        (touch.repeatability_um, "repeatability_um"),
+        (touch.offset_um, "offset_um"),
+    ] {
+        if !(u.is_finite() && u >= 0.0) {
+            return Err(CentrelineError::BadUncertainty { field });
+        }
+    }
+    let centre = axis_centre(positions, axis, sense)?;
+    let random_is_type_a = centre.centre_degrees_of_freedom > 0;
+    let random_um = if random_is_type_a {
+        centre.centre_uncertainty_um
+    } else {
+        let sol = solve_centre(&centre_rows(positions, axis, sense, |_, _| 0.0)?)?;
+        [0, 1].map(|k| touch.repeatability_um * crate::num::sqrt(sol.cofactor(k, k)))
+    };
+    // the in-plane component read along the spindle (Z), if any
+    let along_spindle = match axis {
+        NominalAxis::Z => None,
+        NominalAxis::X | NominalAxis::Y => Some(1),
+    };
+    let mut offset_sq = [0.0; 2];
+    for class_along in [false, true] {
+        let lsq = centre_rows(positions, axis, sense, |p, k| {
+            let outward = p.point_mm.get(k).copied().unwrap_or(0.0)
+                - centre.centre_mm.get(k).copied().unwrap_or(0.0);
+            if (along_spindle == Some(k)) == class_along {
+                libm::copysign(touch.offset_um, outward)
+            } else {
+                0.0
+            }
+        })?;
+        let shift = solve_centre(&lsq)?.x;
+        for (sq, s) in offset_sq.iter_mut().zip(shift) {
+            *sq += s * s;
+        }
+    }
+    let offset_um = offset_sq.map(crate::num::sqrt);
+    let mut u_um = [0.0; 2];
+    let mut degrees_of_freedom = [None; 2];
+    for k in 0..2 {
+        let (a, b) = (
+            random_um.get(k).copied().unwrap_or(0.0),
+            offset_um.get(k).copied().unwrap_or(0.0),
+        );
+        let u = crate::num::hypot(a, b);
+        if let Some(slot) = u_um.get_mut(k) {
+            *slot = u;
+        }
+        if random_is_type_a && let Some(slot) = degrees_of_freedom.get_mut(k) {
+            // GUM G.4: ν_eff = u⁴ / (u_A⁴ / ν_A), the Type B share's ν infinite
+            let nu_a = f64::from(centre.centre_degrees_of_freedom);
+            let a4 = a * a * a * a;
+            *slot = if a4 > 0.0 {
+                Some(libm::fmin(u * u * u * u * nu_a / a4, f64::from(u32::MAX)) as u32)
+            } else {
+                None
+            };
+        }
+    }
+    Ok(CentreBudget {
+        centre,
+        u_um,
+        random_um,
+        random_is_type_a,
+        offset_um,
+        degrees_of_freedom,
     })
 }
 

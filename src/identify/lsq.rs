@@ -66,7 +66,19 @@ impl<const N: usize> LsqSolution<N> {
     /// `(AᵀA)⁻¹` as [`Self::std_uncertainty`] (over the resolved singular values); 0 when
     /// either has no variance or an index is out of range.
     pub fn correlation(&self, i: usize, j: usize) -> f64 {
-        let (mut cij, mut cii, mut cjj) = (0.0, 0.0, 0.0);
+        let d = crate::num::sqrt(self.cofactor(i, i) * self.cofactor(j, j));
+        if d > 0.0 {
+            self.cofactor(i, j) / d
+        } else {
+            0.0
+        }
+    }
+
+    /// Element (i, j) of `(AᵀA)⁻¹` over the resolved singular values, in (unit of x)² per
+    /// (unit of b)²: the covariance of unknowns i and j per unit variance of each row's b
+    /// (weighted rows: per unit variance at weight 1). 0 when an index is out of range.
+    pub fn cofactor(&self, i: usize, j: usize) -> f64 {
+        let mut c = 0.0;
         for (sigma, v) in self
             .singular_values
             .iter()
@@ -76,13 +88,9 @@ impl<const N: usize> LsqSolution<N> {
             let (Some(vi), Some(vj)) = (v.get(i), v.get(j)) else {
                 return 0.0;
             };
-            let w = 1.0 / (sigma * sigma);
-            cij += vi * vj * w;
-            cii += vi * vi * w;
-            cjj += vj * vj * w;
+            c += vi * vj / (sigma * sigma);
         }
-        let d = crate::num::sqrt(cii * cjj);
-        if d > 0.0 { cij / d } else { 0.0 }
+        c
     }
 }
 

@@ -19,7 +19,7 @@ DIRECTION = {"CCW": 0, "CW": 1}
 COMMAND = {"arm": 1, "start": 2, "stop": 3, "abort": 4, "clear": 5, "reset": 6, "store": 7,
            "restore": 8}
 LIVE = ["delta_l", "ssm_ex", "ssm_ey", "ssm_ez", "ecc_u", "ecc_v", "r0", "temp", "u_ssm_ex", "u_ssm_ey",
-        "u_ssm_ez"]  # 0x2100:k+1
+        "u_ssm_ez", "u_ecc_u", "u_ecc_v", "u_r0"]  # 0x2100:k+1
 STATUS_RUNNING, STATUS_RESULTS_READY, STATUS_IDENTIFYING = 1 << 9, 1 << 10, 1 << 13
 
 # CiA 301 table 22 abort codes

@@ -7,6 +7,7 @@ import math
 import pathlib
 import re
 import subprocess
+import time
 
 import numpy as np
 import pytest
@@ -72,7 +73,7 @@ def test_pyvisa_circle_session(pod, eds):
         w("CONF:BAR_LENGTH 20")
         assert error(q) == (-222, "Data out of range;bar_length out of range")
         assert float(q("CONF:BAR_LENGTH?")) == truth["radius_mm"]
-        # the live values: counter, 11 values (9.91E+37 where invalid), status word, validity mask
+        # the live values: counter, 14 values (9.91E+37 where invalid), status word, validity mask
         w("SESS:PATT CIRCLE;DIR CCW;:SESS:ARM;STAR")
         assert q("SESS:STAT?") == "RUNNING"
         for _ in range(5):
@@ -86,11 +87,27 @@ def test_pyvisa_circle_session(pod, eds):
             for k, name in enumerate(LIVE):
                 assert (mask >> k & 1) == (not math.isnan(values[k])), f
             assert set(names) <= set(LIVE) and "delta_l" in names
-        wait_until(lambda: q("SESS:STAT?") != "RUNNING", 30, "the CCW run's end")
+        # the live fit's u (u_ecc_u, u_ecc_v, u_r0): invalid until e is, then what the results
+        # would state for the samples so far; the last before the run's end against the results
+        live_u, deadline = None, time.monotonic() + 30
+        while q("SESS:STAT?") == "RUNNING":
+            assert time.monotonic() < deadline, "the CCW run's end"
+            v = [scpi_nan(float(x)) for x in q("MEAS:ALL?").split(",")[1:1 + len(LIVE)]]
+            live = dict(zip(LIVE, v))
+            for name in ("ecc_u", "ecc_v", "r0"):
+                assert not (math.isnan(live[name]) and not math.isnan(live[f"u_{name}"])), live
+            if not math.isnan(live["u_ecc_u"]):
+                live_u = live
         assert q("SESS:STAT?") == "DONE"
         w("FETC:RES? G_bidir")
         assert error(q)[0] == -230  # needs the CW run
         ccw = {n: scpi_result(q, n) for n in ("ecc_u", "ecc_v", "r0", "G_ccw")}
+        assert live_u is not None, "no valid live u during the run"
+        for name in ("ecc_u", "ecc_v", "r0"):
+            # fewer samples and the noise as of up to 1024 samples before: no smaller, a little
+            # larger
+            u_end = ccw[name][1]
+            assert u_end * (1 - 1e-3) <= live_u[f"u_{name}"] < 1.3 * u_end, (name, live_u, u_end)
         run_circle(q, w, "CW")
         cw = {n: scpi_result(q, n) for n in ("ecc_u", "ecc_v", "r0", "G_cw", "G_bidir", "H")}
         fits = [fit_run(r) for r in stream.runs(2)]

@@ -231,12 +231,14 @@ fn every_config_field_has_its_object_with_the_table_type_and_range() {
 #[test]
 fn session_live_and_result_objects_are_declared_with_their_types() {
     let ini = parse_ini(&generated());
-    // live values: ARRAY of 11 REAL32 (8 values, the live SSM E's u), PDO mappable; counter,
-    // status word, validity mask
+    // live values: ARRAY of 14 REAL32 (8 values, the live SSM E's u, the live fit's u), PDO
+    // mappable; counter, status word, validity mask
     assert_eq!(ini["2100"]["ObjectType"], "0x8");
-    assert_eq!(ini["2100"]["SubNumber"], "12");
+    assert_eq!(ini["2100"]["SubNumber"], "15");
     assert_eq!(ini["2100SUB9"]["ParameterName"], "u_ssm_ex");
-    for k in 1..=11 {
+    assert_eq!(ini["2100SUBC"]["ParameterName"], "u_ecc_u");
+    assert_eq!(ini["2100SUBE"]["ParameterName"], "u_r0");
+    for k in 1..=14 {
         let e = &ini[&format!("2100SUB{k:X}")];
         assert_eq!(e["DataType"], "0x0008");
         assert_eq!(e["PDOMapping"], "1");

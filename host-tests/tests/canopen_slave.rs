@@ -65,6 +65,8 @@ const LIVE_ECC_U: u16 = 1 << 4;
 const LIVE_ECC_V: u16 = 1 << 5;
 const LIVE_R0: u16 = 1 << 6;
 const LIVE_TEMP: u16 = 1 << 7;
+/// The live fit's u (u_ecc_u, u_ecc_v, u_r0: 0x2100:12–14).
+const LIVE_FIT_U: u16 = 1 << 11 | 1 << 12 | 1 << 13;
 
 /// Forward model of the circle run: the ball bar (nominal length = radius 150 mm) about a socket
 /// at the origin of the XY plane, the machine's trajectory off-centre by E_UM and longer by R0_UM,
@@ -1031,8 +1033,8 @@ fn touch_points_of_a_probe_run() {
 #[test]
 fn invalid_live_values_read_nan_with_their_valid_bit_clear() {
     let mut b = Bench::new();
-    assert_eq!(b.upload(0x2100, 0).unwrap(), [11]);
-    for k in 1..=11 {
+    assert_eq!(b.upload(0x2100, 0).unwrap(), [14]);
+    for k in 1..=14 {
         assert!(b.read_f32(0x2100, k).is_nan(), "2100:{k} before any sample");
     }
     assert_eq!(b.upload(0x2103, 0).unwrap(), [0, 0], "UNSIGNED16 mask");
@@ -1044,7 +1046,7 @@ fn invalid_live_values_read_nan_with_their_valid_bit_clear() {
     });
     assert_eq!(b.read_f32(0x2100, 1), 1.5);
     assert_eq!(b.read_f32(0x2100, 8), 20.25);
-    for k in (2..=7).chain(9..=11) {
+    for k in (2..=7).chain(9..=14) {
         assert!(b.read_f32(0x2100, k).is_nan(), "2100:{k}");
     }
     assert_eq!(b.read_u32(0x2103, 0), u32::from(LIVE_DL | LIVE_TEMP));
@@ -1083,13 +1085,18 @@ fn invalid_live_values_read_nan_with_their_valid_bit_clear() {
     for k in STEPS / 2 + 1..=STEPS {
         b.feed(circle_sample(k));
     }
+    // the fit and, refreshed every 32 samples since it became observable, its u
     assert_eq!(
         b.read_u32(0x2103, 0) as u16,
-        LIVE_DL | LIVE_ECC_U | LIVE_ECC_V | LIVE_R0 | LIVE_TEMP
+        LIVE_DL | LIVE_ECC_U | LIVE_ECC_V | LIVE_R0 | LIVE_TEMP | LIVE_FIT_U
     );
     close(b.read_f32(0x2100, 5), E_UM[0], 1e-3, "e_u");
     close(b.read_f32(0x2100, 6), E_UM[1], 1e-3, "e_v");
     close(b.read_f32(0x2100, 7), R0_UM, 1e-3, "r0");
+    for k in 12..=14 {
+        let u = b.read_f32(0x2100, k);
+        assert!(u.is_finite() && u >= 0.0, "2100:{k} = {u}");
+    }
     for k in (2..=4).chain(9..=11) {
         assert!(b.read_f32(0x2100, k).is_nan(), "SSM 2100:{k}");
     }
@@ -1141,7 +1148,7 @@ fn default_tpdos_on_sync_carry_the_live_values() {
     );
     assert_eq!(
         &p[6..8],
-        &(LIVE_DL | LIVE_ECC_U | LIVE_ECC_V | LIVE_R0 | LIVE_TEMP).to_le_bytes()
+        &(LIVE_DL | LIVE_ECC_U | LIVE_ECC_V | LIVE_R0 | LIVE_TEMP | LIVE_FIT_U).to_le_bytes()
     );
     // The same values by SDO.
     let tpdo2 = out[1].payload().to_vec();

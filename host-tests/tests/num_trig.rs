@@ -1,6 +1,7 @@
 //! `ballpod::num::sin_cos` (the pod's own f64 sine/cosine, written to keep libm's general
 //! argument reduction out of flash) against the host's libm (`f64::sin_cos` of std, an
-//! independent implementation) over the angles the pod meets and beyond.
+//! independent implementation) over the angles the pod meets and beyond; and the pod's own
+//! selection `ballpod::num::select_f32` against std's sort.
 
 use ballpod::num::{SIN_COS_MAX_RAD, cos, sin, sin_cos};
 
@@ -120,4 +121,39 @@ fn sqrt_matches_std_within_one_ulp() {
     assert_eq!(sqrt(-0.0).to_bits(), (-0.0f64).to_bits());
     assert_eq!(sqrt(f64::INFINITY), f64::INFINITY);
     assert!(sqrt(-1e-300).is_nan() && sqrt(f64::NAN).is_nan() && sqrt(f64::NEG_INFINITY).is_nan());
+}
+
+/// `select_f32` against a full sort (std's): every rank of random, duplicated, sorted,
+/// reversed and constant slices, NaNs included (ordered last by `total_cmp`), and `None` out
+/// of range.
+#[test]
+fn select_f32_is_the_sorted_slices_kth_value() {
+    use ballpod::num::select_f32;
+    let mut rng = ballpod_host::rng::Rng(77);
+    let mut cases: Vec<Vec<f32>> = vec![
+        vec![],
+        vec![1.0],
+        vec![0.0; 360],
+        (0..300).map(|i| i as f32).collect(),
+        (0..300).rev().map(|i| i as f32).collect(),
+        vec![2.0, f32::NAN, -1.0, f32::NAN, 0.5],
+    ];
+    for n in [2, 3, 7, 64, 359] {
+        cases.push((0..n).map(|_| rng.normal() as f32).collect());
+        cases.push(
+            (0..n)
+                .map(|_| (rng.range(0.0, 4.0) as i32) as f32)
+                .collect(),
+        );
+    }
+    for case in cases {
+        let mut sorted = case.clone();
+        sorted.sort_by(f32::total_cmp);
+        for k in 0..case.len() {
+            let mut v = case.clone();
+            let got = select_f32(&mut v, k).unwrap();
+            assert_eq!(got.to_bits(), sorted[k].to_bits(), "rank {k} of {case:?}");
+        }
+        assert_eq!(select_f32(&mut case.clone(), case.len()), None);
+    }
 }

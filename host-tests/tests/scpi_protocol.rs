@@ -901,12 +901,12 @@ fn a_full_circle_session_from_set_up_to_results() {
     b.feed_circle(STEPS / 2 + 1..=STEPS);
     assert_eq!(
         b.send("MEAS:VAL?"),
-        "\"delta_l\",\"ecc_u\",\"ecc_v\",\"r0\",\"temp\""
+        "\"delta_l\",\"ecc_u\",\"ecc_v\",\"r0\",\"temp\",\"u_ecc_u\",\"u_ecc_v\",\"u_r0\""
     );
-    // MEAS:ALL?: counter, the 11 live values (NaN = 9.91E+37), status word, validity mask.
+    // MEAS:ALL?: counter, the 14 live values (NaN = 9.91E+37), status word, validity mask.
     let all = b.send("MEAS:ALL?");
     let f: Vec<&str> = all.split(',').collect();
-    assert_eq!(f.len(), 14, "{all}");
+    assert_eq!(f.len(), 17, "{all}");
     assert_eq!(f[0], (b.seq - 1).to_string());
     assert!(
         near(f[1], f64::from(circle_sample(STEPS).delta_l_um), 0.0),
@@ -918,21 +918,36 @@ fn a_full_circle_session_from_set_up_to_results() {
     assert!(near(f[7], R0_UM, 1e-3), "r0 {all}");
     assert_eq!(f[8], "20.0000");
     assert_eq!(&f[9..12], ["9.91E+37"; 3], "no SSM E, no u of it");
-    // status: bit 9 running + bit 12 live valid; mask: bits 0, 4, 5, 6, 7
-    assert_eq!(f[12], ((1 << 9) | (1 << 12)).to_string());
-    assert_eq!(f[13], (1 | 1 << 4 | 1 << 5 | 1 << 6 | 1 << 7).to_string());
-    assert_eq!(b.send("STAT:POD?"), f[12]);
+    // the live fit's u (refreshed at sample 704, the last multiple of 32): checked against the
+    // results' after the stop below
+    let live_u: Vec<f64> = f[12..15].iter().map(|v| v.parse().unwrap()).collect();
+    // status: bit 9 running + bit 12 live valid; mask: bits 0, 4, 5, 6, 7, 11, 12, 13
+    assert_eq!(f[15], ((1 << 9) | (1 << 12)).to_string());
+    assert_eq!(
+        f[16],
+        (1 | 1 << 4 | 1 << 5 | 1 << 6 | 1 << 7 | 1 << 11 | 1 << 12 | 1 << 13).to_string()
+    );
+    assert_eq!(b.send("STAT:POD?"), f[15]);
     assert_eq!(b.send("SESS:STOP;STAT?;REAS?"), "DONE;NONE");
     // every sample seen was used (seen, used, 5 skip counters, lost, temperature, overrun)
     let n = STEPS + 1;
     assert_eq!(b.send("SESS:COUN?"), format!("{n},{n},0,0,0,0,0,0,0,0"));
     // the run's fit: the model's eccentricity and radius change, in µm
-    for (name, want) in [("ecc_u", E_UM[0]), ("ecc_v", E_UM[1]), ("r0", R0_UM)] {
+    for (k, (name, want)) in [("ecc_u", E_UM[0]), ("ecc_v", E_UM[1]), ("r0", R0_UM)]
+        .into_iter()
+        .enumerate()
+    {
         let r = b.send(&format!("FETC:RES? {name}"));
         let p: Vec<&str> = r.split(',').collect();
         assert_eq!(p.len(), 3, "{r}");
         assert!(near(p[0], want, 1e-3), "{name}: {r}");
-        assert!(p[1].parse::<f64>().unwrap() >= 0.0, "{name}: {r}");
+        let u: f64 = p[1].parse().unwrap();
+        assert!(u >= 0.0, "{name}: {r}");
+        // the noiseless circle's u is the bar's share, as the live u 16 samples before
+        assert!(
+            (live_u[k] - u).abs() <= 1e-3 * u + 1e-4,
+            "{name}: live u {live_u:?} vs {r}"
+        );
         assert_eq!(p[2], "UM");
     }
     let arc = b.send("FETC:RES? arc");
@@ -1072,7 +1087,7 @@ fn live_values_print_in_fixed_point_with_0_1_nm_resolution() {
     assert_eq!(
         b.send("MEAS:ALL?"),
         format!(
-            "{},1.5000,{nan},{nan},{nan},{nan},{nan},{nan},20.2500,{nan},{nan},{nan},8,{}",
+            "{},1.5000,{nan},{nan},{nan},{nan},{nan},{nan},20.2500,{nan},{nan},{nan},{nan},{nan},{nan},8,{}",
             b.seq - 1,
             1 | 1 << 7
         )
@@ -1088,7 +1103,7 @@ fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
     assert_eq!(b.send("MEAS:VAL?"), "");
     let all = b.send("MEAS:ALL?");
     assert!(all.ends_with(",0,0"), "{all}");
-    assert_eq!(all.matches("9.91E+37").count(), 11, "{all}");
+    assert_eq!(all.matches("9.91E+37").count(), 14, "{all}");
     // LVDT open: ΔL invalid (a fault: status bit 1 and bit 15)
     b.feed(Sample {
         delta_l_um: 0.0,
@@ -1102,8 +1117,8 @@ fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
     let f: Vec<&str> = all.split(',').collect();
     assert_eq!(f[1], "9.91E+37");
     assert_eq!(f[8], "21.0000");
-    assert_eq!(f[12], (1 << 1 | 1 << 15).to_string());
-    assert_eq!(f[13], (1 << 7).to_string());
+    assert_eq!(f[15], (1 << 1 | 1 << 15).to_string());
+    assert_eq!(f[16], (1 << 7).to_string());
     // a thermistor fault: the temperature is invalid
     b.feed(Sample {
         delta_l_um: 2.0,

@@ -96,7 +96,18 @@ pub struct CircleTest {
     test: CircularTest<ISO_BINS>,
     /// A completed run (with a fit) of each direction, CCW and CW.
     complete: [bool; 2],
+    /// One sample's ΔL noise of the running direction as of the last refresh, µm, for the
+    /// live u ([`Self::refresh_live_noise`]; NaN before the first, or when the profile is too
+    /// short to tell).
+    live_noise_um: f32,
 }
+
+/// Samples between two refreshes of the sample noise the live u of a CIRCLE run takes (the
+/// profile's third differences, as the run's results: 62 058 instructions on the bench's
+/// profile, 61 per sample at this interval, 1 s at 1 kHz; the noise is the instrument's and
+/// the machine's and moves slowly). A multiple of [`super::LIVE_U_EVERY`], at whose refreshes
+/// the fit's part follows the arc.
+pub const LIVE_NOISE_EVERY: u32 = 1024;
 
 /// The fit the state holds before the first run (never fed: the test has no geometry).
 const NO_TEST: CircleFitConfig = CircleFitConfig {
@@ -115,6 +126,7 @@ impl CircleTest {
         init_in_place!(slot, Self {
             geometry: None,
             complete: [false; 2],
+            live_noise_um: f32::NAN,
         } in place {
             test: |s| CircularTest::init(s, NO_TEST, f32::NAN),
         })
@@ -128,6 +140,7 @@ impl CircleTest {
     /// A run of direction `d` begins with `geometry`: a new geometry starts a new test (in
     /// place), else the direction's previous run is forgotten.
     pub fn begin_run(&mut self, geometry: CircleGeometry, d: Direction) {
+        self.live_noise_um = f32::NAN;
         if self.geometry != Some(geometry) {
             self.geometry = Some(geometry);
             self.test.restart(geometry.fit, geometry.radius_mm);
@@ -150,11 +163,29 @@ impl CircleTest {
         self.test.fit(d).arc_deg()
     }
 
-    /// The live (r0, e_u, e_v) of direction `d`, µm ([`CircleFit::live`]).
-    ///
-    /// [`CircleFit::live`]: crate::metrology::circle_fit::CircleFit::live
-    pub fn live(&self, d: Direction) -> Result<[f32; 3], CircleFitError> {
-        self.test.fit(d).live()
+    /// The live (r0, e_u, e_v) of the run of direction `d` at the sample numbered `counter`,
+    /// µm, and at every [`super::LIVE_U_EVERY`]th their u with the bar's shares (as the
+    /// seed 002 steps' live fit). The u takes one sample's noise from the profile, as
+    /// [`CircularTest::fit_estimate`] does at the run's end, refreshed every
+    /// [`LIVE_NOISE_EVERY`]th sample (the residual's until the profile tells it).
+    pub fn live(
+        &mut self,
+        d: Direction,
+        counter: u32,
+        config: &crate::config::Config,
+    ) -> (Option<[f32; 3]>, Option<[f32; 3]>) {
+        if counter.is_multiple_of(LIVE_NOISE_EVERY) {
+            self.refresh_live_noise(d);
+        }
+        let with_u = counter.is_multiple_of(super::LIVE_U_EVERY);
+        super::live_fit(self.test.fit(d), self.live_noise_um, with_u, config)
+    }
+
+    /// Takes the sample noise of the run of direction `d` from its profile
+    /// ([`CircularTest::noise_um`]).
+    #[inline(never)] // off the per-sample path: one sample in [`LIVE_NOISE_EVERY`]
+    fn refresh_live_noise(&mut self, d: Direction) {
+        self.live_noise_um = self.test.noise_um(d);
     }
 
     /// Ends the run of direction `d`: its results, and the bi-directional ones when both

@@ -6,6 +6,13 @@
 use super::SessionState;
 use crate::acquisition::SampleFlags;
 
+/// Samples between two refreshes of a live u (the live E's and the live circle fit's): at
+/// every sample whose counter is a multiple of this (computed every sample it would take
+/// the SSM pipeline past its 2 500 instructions); held between while its value is valid,
+/// invalid where the value is not. A window whose conditioning changes fast (the machine
+/// slowing into a dwell) can outgrow the held u before the next refresh.
+pub const LIVE_U_EVERY: u32 = 32;
+
 /// Names and units of the live REAL32 values, in CANopen sub-index order (0x2100:k+1) and bit
 /// order of [`LiveValues::valid`].
 pub const LIVE: [(&str, &str); LIVE_COUNT] = [
@@ -20,10 +27,13 @@ pub const LIVE: [(&str, &str); LIVE_COUNT] = [
     ("u_ssm_ex", "um"),
     ("u_ssm_ey", "um"),
     ("u_ssm_ez", "um"),
+    ("u_ecc_u", "um"),
+    ("u_ecc_v", "um"),
+    ("u_r0", "um"),
 ];
 
 /// Number of live REAL32 values.
-pub const LIVE_COUNT: usize = 11;
+pub const LIVE_COUNT: usize = 14;
 
 /// Index of each live value in [`LIVE`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -46,13 +56,22 @@ pub enum Live {
     /// Bar temperature, °C.
     Temp = 7,
     /// Standard uncertainty of the live E_x (Type A from the neighbourhood's residual, the
-    /// bar's length, temperature and scale; refreshed every
-    /// [`super::ssm::LIVE_U_EVERY`] samples), µm; U = 2u.
+    /// bar's length, temperature and scale; refreshed every [`LIVE_U_EVERY`] samples), µm;
+    /// U = 2u.
     USsmEx = 8,
     /// Standard uncertainty of the live E_y, µm.
     USsmEy = 9,
     /// Standard uncertainty of the live E_z, µm.
     USsmEz = 10,
+    /// Standard uncertainty of the live e_u (Type A: a CIRCLE run's from its profile's noise,
+    /// a seed 002 step's from the fit's residual; the LVDT's scale: the run's result's u if
+    /// the run ended at the refresh; refreshed every [`LIVE_U_EVERY`] samples), µm; U = 2u.
+    UEccU = 11,
+    /// Standard uncertainty of the live e_v, µm.
+    UEccV = 12,
+    /// Standard uncertainty of the live r0 (as e's, with the bar's length and temperature),
+    /// µm.
+    UR0 = 13,
 }
 
 /// The live values of the latest sample.

@@ -44,7 +44,7 @@ pub mod ssm;
 pub mod trigger;
 
 pub use device::{DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, DeviceCounter, DeviceCounters};
-pub use live::{LIVE, LIVE_COUNT, Live, LiveValues, StatusWord};
+pub use live::{LIVE, LIVE_COUNT, LIVE_U_EVERY, Live, LiveValues, StatusWord};
 pub use pattern::{Direction, Pattern};
 pub use record::{Recorder, RunEnd, RunMeta, Touch};
 pub use results::{
@@ -69,12 +69,72 @@ use trigger::{ArcTrigger, TriggerEvent};
 
 /// The live values of a running circle fit (CIRCLE and the seed 002 steps).
 const LIVE_FIT: u16 = LiveValues::mask(&[Live::EccU, Live::EccV, Live::R0]);
+/// From the bit of a live circle-fit value to that of its u.
+const LIVE_FIT_U_SHIFT: u16 = Live::UEccU as u16 - Live::EccU as u16;
+/// The live values of a running circle fit with their u.
+const LIVE_FIT_ALL: u16 = LIVE_FIT | LIVE_FIT << LIVE_FIT_U_SHIFT;
 /// The live SSM E.
 const LIVE_SSM_E: u16 = LiveValues::mask(&[Live::SsmEx, Live::SsmEy, Live::SsmEz]);
 /// From the bit of a component of the live E to that of its u.
 const LIVE_U_SHIFT: u16 = Live::USsmEx as u16 - Live::SsmEx as u16;
 /// The live values of a running SSM: E and its u.
 const LIVE_SSM: u16 = LIVE_SSM_E | LIVE_SSM_E << LIVE_U_SHIFT;
+
+/// The live (r0, e_u, e_v) of a running circle fit, µm (`None` while not observable), and
+/// when `with_u` their standard uncertainties as the run's results would state them: the
+/// fit's Type A ([`CircleFit::live_with_uncertainty`], σ = `sample_noise_um` or the
+/// residual's where NaN) with the bar's shares (`None` when not refreshed at this sample or
+/// not observable).
+pub(crate) fn live_fit(
+    fit: &CircleFit,
+    sample_noise_um: f32,
+    with_u: bool,
+    config: &Config,
+) -> (Option<[f32; 3]>, Option<[f32; 3]>) {
+    if with_u {
+        live_fit_with_u(fit, sample_noise_um, config)
+    } else {
+        (fit.live().ok(), None)
+    }
+}
+
+/// Sets the live values of a running circle fit (`fit`: r0, e_u, e_v) and, when refreshed,
+/// their u (held otherwise, but not where the fit is not valid); the bits it keeps.
+fn set_live_fit(live: &mut LiveValues, fit: Option<[f32; 3]>, u: Option<[f32; 3]>) -> u16 {
+    live.set(Live::EccU, fit.map(|[_, eu, _]| eu));
+    live.set(Live::EccV, fit.map(|[_, _, ev]| ev));
+    live.set(Live::R0, fit.map(|[r0, _, _]| r0));
+    match u {
+        Some([u_r0, u_eu, u_ev]) => {
+            live.set(Live::UEccU, Some(u_eu));
+            live.set(Live::UEccV, Some(u_ev));
+            live.set(Live::UR0, Some(u_r0));
+        }
+        None => live.invalidate((!live.valid & LIVE_FIT) << LIVE_FIT_U_SHIFT),
+    }
+    LIVE_FIT_ALL
+}
+
+/// [`live_fit`] at a refresh of the u.
+#[inline(never)] // off the per-sample path: one sample in [`LIVE_U_EVERY`]
+fn live_fit_with_u(
+    fit: &CircleFit,
+    sample_noise_um: f32,
+    config: &Config,
+) -> (Option<[f32; 3]>, Option<[f32; 3]>) {
+    match fit.live_with_uncertainty(sample_noise_um) {
+        Ok(([r0, eu, ev], [u_r0, u_eu, u_ev])) => {
+            let bar = BarBudget::from_config(config);
+            let u = [
+                bar.combined(FigureKind::Radial, r0, u_r0),
+                bar.combined(FigureKind::Shape, eu, u_eu),
+                bar.combined(FigureKind::Shape, ev, u_ev),
+            ];
+            (Some([r0, eu, ev]), Some(u))
+        }
+        Err(_) => (None, None),
+    }
+}
 
 /// Session state (DESIGN §7a: configure → arm → run → results).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -1229,37 +1289,40 @@ impl App {
 
     fn refresh_live(&mut self) {
         let running = self.session == SessionState::Running;
-        let (fit, ssm) = match (&self.estimator, running) {
-            (RunEstimator::Circle, true) => (Some(self.circle.live(self.direction).ok()), None),
-            (RunEstimator::Step(_, f), true) => (Some(f.live().ok()), None),
-            (RunEstimator::Ssm, true) => (None, Some(self.ssm.live(self.live.sample_counter))),
-            _ => (None, None),
+        let counter = self.live.sample_counter;
+        let kept = match (&self.estimator, running) {
+            (RunEstimator::Circle, true) => {
+                let (fit, u) = self.circle.live(self.direction, counter, &self.config);
+                set_live_fit(&mut self.live, fit, u)
+            }
+            // a seed 002 step's result takes the residual's u: no noise is given
+            (RunEstimator::Step(_, f), true) => {
+                let with_u = counter.is_multiple_of(LIVE_U_EVERY);
+                let (fit, u) = live_fit(f, f32::NAN, with_u, &self.config);
+                set_live_fit(&mut self.live, fit, u)
+            }
+            (RunEstimator::Ssm, true) => {
+                let ([ex, ey, ez], u) = self.ssm.live(counter);
+                let live = &mut self.live;
+                live.set(Live::SsmEx, ex);
+                live.set(Live::SsmEy, ey);
+                live.set(Live::SsmEz, ez);
+                match u {
+                    Some([ux, uy, uz]) => {
+                        live.set(Live::USsmEx, ux);
+                        live.set(Live::USsmEy, uy);
+                        live.set(Live::USsmEz, uz);
+                    }
+                    // held from the last refresh, but not where E is not valid
+                    None => live.invalidate((!live.valid & LIVE_SSM_E) << LIVE_U_SHIFT),
+                }
+                LIVE_SSM
+            }
+            _ => 0,
         };
         let live = &mut self.live;
-        let mut kept = 0;
-        if let Some(fit) = fit {
-            live.set(Live::EccU, fit.map(|[_, eu, _]| eu));
-            live.set(Live::EccV, fit.map(|[_, _, ev]| ev));
-            live.set(Live::R0, fit.map(|[r0, _, _]| r0));
-            kept = LIVE_FIT;
-        }
-        if let Some(([ex, ey, ez], u)) = ssm {
-            live.set(Live::SsmEx, ex);
-            live.set(Live::SsmEy, ey);
-            live.set(Live::SsmEz, ez);
-            match u {
-                Some([ux, uy, uz]) => {
-                    live.set(Live::USsmEx, ux);
-                    live.set(Live::USsmEy, uy);
-                    live.set(Live::USsmEz, uz);
-                }
-                // held from the last refresh, but not where E is not valid
-                None => live.invalidate((!live.valid & LIVE_SSM_E) << LIVE_U_SHIFT),
-            }
-            kept = LIVE_SSM;
-        }
         // the values of no running estimator: invalid (a test of the mask on most samples)
-        live.invalidate((LIVE_FIT | LIVE_SSM) & !kept);
+        live.invalidate((LIVE_FIT_ALL | LIVE_SSM) & !kept);
     }
 
     fn update_status(&mut self) {

@@ -7,6 +7,7 @@
 //! the rotation — give the seed 000 two-step orientation errors of the configured machine type
 //! (`ts_machine`, exact inversion, [`crate::identify::two_step`]).
 
+use super::live::LIVE_U_EVERY;
 use super::results::{CONTRIBUTOR_COUNT, ResultId, Results};
 use crate::acquisition::Sample;
 use crate::config::{Field, TestSetup, TwoStepMachine, required, required3};
@@ -40,13 +41,6 @@ pub const REFINE_ITERATIONS: u32 = 10;
 /// position the 12-bit quantisation of the LVDT secondaries gives the same error in every
 /// block (up to ≈ 0.12 µm), and the encoders count 0.1 µm.
 pub const FIXED_POSITION_U_UM: f64 = 0.1;
-
-/// Samples between two refreshes of the live E's u: at every sample whose counter is a
-/// multiple of this (computed every sample it would take the SSM pipeline past its 2 500
-/// instructions); held between while E is valid, invalid where E is not. A window whose
-/// conditioning changes fast (the machine slowing into a dwell) can outgrow the held u
-/// before the next refresh.
-pub const LIVE_U_EVERY: u32 = 32;
 
 /// An SSM run in progress (state ≈ 7.6 KiB).
 #[derive(Clone, Copy, Debug, PartialEq)]

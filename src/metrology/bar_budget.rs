@@ -73,4 +73,12 @@ impl BarBudget {
         };
         [offset, libm::fabsf(value * self.scale)]
     }
+
+    /// The combined standard uncertainty of a figure of kind `kind` and value `value` whose
+    /// own (Type A) standard uncertainty is `u_a`: √(u_a² + both [`shares`](Self::shares)²),
+    /// the figure's unit.
+    pub fn combined(&self, kind: FigureKind, value: f32, u_a: f32) -> f32 {
+        let [offset, scale] = self.shares(kind, value);
+        crate::num::sqrtf(u_a * u_a + offset * offset + scale * scale)
+    }
 }

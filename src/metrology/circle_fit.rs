@@ -320,6 +320,58 @@ impl CircleFit {
     /// centring costs ≈ 9 bits on a 60° arc, so e is within a few nm of the f64 solve there and
     /// well under 1 nm on a full circle (host tests).
     pub fn live(&self) -> Result<[f32; 3], CircleFitError> {
+        self.live_solve().map(|l| l.value)
+    }
+
+    /// [`live`](Self::live) and the Type A standard uncertainties of (r0, e_u, e_v), µm, from
+    /// the same sums (for a refresh every few samples), with one sample's noise σ =
+    /// `sample_noise_um` (the rule of `CircularTest::fit_estimate`: about 100 instructions) or,
+    /// where that is NaN, from the residual as [`estimate`](Self::estimate) does (σ² =
+    /// SSR/(N − 3)). Then u(e)² = σ²·(C⁻¹)_kk/N and u(r0)² = σ²·(1 + mᵀC⁻¹m)/N, the blocks of
+    /// σ²(AᵀA)⁻¹ in the centred form.
+    ///
+    /// The residual is SSR(x) = Σy² − 2xᵀb + xᵀ(AᵀA)x in f64 from the sums' f64 values at
+    /// the live solution x (a few thousand soft-float instructions): it cancels to 1e-6 of Σy²
+    /// at e = 100 µm and 0.05 µm of noise, which f32 cannot hold, and an error δ of x moves it
+    /// by δᵀ(AᵀA)δ only, second order.
+    pub fn live_with_uncertainty(
+        &self,
+        sample_noise_um: f32,
+    ) -> Result<([f32; 3], [f32; 3]), CircleFitError> {
+        let l = self.live_solve()?;
+        let [_, eu, ev] = l.value;
+        let sigma2_per_n = if sample_noise_um.is_finite() {
+            sample_noise_um * sample_noise_um * l.inv_n
+        } else {
+            let m = self.moments();
+            let a = m.normal_matrix();
+            // x with r0 from the first sample's ΔL, as the sums' y
+            let x = [l.y - l.mu * eu - l.mv * ev, eu, ev].map(f64::from);
+            let ax = [
+                a.a00 * x[0] + a.a01 * x[1] + a.a02 * x[2],
+                a.a01 * x[0] + a.a11 * x[1] + a.a12 * x[2],
+                a.a02 * x[0] + a.a12 * x[1] + a.a22 * x[2],
+            ];
+            let ssr = m.yy
+                + x[0] * (ax[0] - 2.0 * m.y)
+                + x[1] * (ax[1] - 2.0 * m.y_u)
+                + x[2] * (ax[2] - 2.0 * m.y_v);
+            // rounding can leave a noiseless fit's SSR slightly negative: 0
+            if ssr > 0.0 {
+                (ssr / (m.n * (m.n - 3.0))) as f32
+            } else {
+                0.0
+            }
+        };
+        let (ciuu, ciuv, civv) = (l.cvv * l.inv_det, -l.cuv * l.inv_det, l.cuu * l.inv_det);
+        let m_ci_m = l.mu * l.mu * ciuu + 2.0 * l.mu * l.mv * ciuv + l.mv * l.mv * civv;
+        let u = |c: f32| crate::num::sqrtf(sigma2_per_n * c);
+        Ok((l.value, [u(1.0 + m_ci_m), u(ciuu), u(civv)]))
+    }
+
+    /// The centred live solve of [`live`](Self::live), with what its uncertainty needs.
+    #[inline(never)] // one copy for `live` (every sample) and the u (every few)
+    fn live_solve(&self) -> Result<LiveSolve, CircleFitError> {
         self.observable()?;
         let s = &self.sums;
         let inv_n = 1.0 / self.used as f32;
@@ -341,8 +393,37 @@ impl CircleFit {
         let ev = (cuu * dv - cuv * du) * inv_det;
         // finite sums and a regular matrix give finite values (the live table also refuses
         // any non-finite value)
-        Ok([y - mu * eu - mv * ev + self.y_ref_um, eu, ev])
+        Ok(LiveSolve {
+            value: [y - mu * eu - mv * ev + self.y_ref_um, eu, ev],
+            inv_n,
+            mu,
+            mv,
+            y,
+            cuu,
+            cuv,
+            cvv,
+            inv_det,
+        })
     }
+}
+
+/// The centred live solve (f32, means over the used samples; see [`CircleFit::live`]).
+struct LiveSolve {
+    /// (r0, e_u, e_v), µm.
+    value: [f32; 3],
+    /// 1/N.
+    inv_n: f32,
+    /// Mean sensitive direction m = (mu, mv).
+    mu: f32,
+    mv: f32,
+    /// Mean y (ΔL less the first sample's), µm.
+    y: f32,
+    /// Centred normal matrix C.
+    cuu: f32,
+    cuv: f32,
+    cvv: f32,
+    /// 1/det C.
+    inv_det: f32,
 }
 
 impl Moments {

@@ -51,8 +51,13 @@ pub fn sample_noise_um(
     scratch: &mut [f32],
 ) -> Option<f32> {
     let mut k = 0;
+    // the last four bins, each read once (a bin's mean costs a division)
+    let [mut a, mut b, mut c] = [0, 1, 2].map(&bin);
     for i in 3..len {
-        let [a, b, c, d] = [bin(i - 3), bin(i - 2), bin(i - 1), bin(i)];
+        let d = bin(i);
+        let window = [a, b, c, d];
+        [a, b, c] = [b, c, d];
+        let [a, b, c, d] = window;
         if a.n == 0 || b.n == 0 || c.n == 0 || d.n == 0 {
             continue;
         }
@@ -67,9 +72,7 @@ pub fn sample_noise_um(
     if k < 8 {
         return None;
     }
-    let z = scratch.get_mut(..k)?;
-    crate::num::sort_f32(z);
-    let median = z.get(k / 2).copied()?;
+    let median = crate::num::select_f32(scratch.get_mut(..k)?, k / 2)?;
     let floor = RESOLUTION_UM * RESOLUTION_UM / 12.0;
     Some(crate::num::sqrtf((median / CHI2_1_MEDIAN).max(floor)))
 }

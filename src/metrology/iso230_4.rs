@@ -354,6 +354,12 @@ impl<const BINS: usize> CircularTest<BINS> {
         Ok(est)
     }
 
+    /// One sample's ΔL noise of the run in direction `d`, µm, from its profile's third
+    /// differences ([`extremes::sample_noise_um`]); NaN while the profile is too short to tell.
+    pub fn noise_um(&self, d: Direction) -> f32 {
+        self.run(d).noise_um()
+    }
+
     /// Feeds one sample of the run in direction `d` (O(1): the fit update, a polynomial atan
     /// for the bin, 3 adds).
     pub fn update(&mut self, sample: &Sample, d: Direction) -> super::circle_fit::SampleUse {

@@ -576,6 +576,16 @@ fn main() -> ! {
         n as f64 / 170e3,
         dg.is_ok()
     );
+    // One sample's noise from the bin profile (the third differences' median): what the live
+    // u of a CIRCLE run takes every app::circle::LIVE_NOISE_EVERY samples.
+    let (noise, n) = measure_long(|| iso.noise_um(Direction::Ccw));
+    hprintln!(
+        "| ISO 230-4 profile noise of one direction (CircularTest::noise_um, the live u's σ) | query | {} | — | — | — | — | every {} samples: {:.1} a sample, σ = {:.3} µm |",
+        n,
+        ballpod::app::circle::LIVE_NOISE_EVERY,
+        n as f64 / f64::from(ballpod::app::circle::LIVE_NOISE_EVERY),
+        noise
+    );
     // The figures of one direction at the end of its run: G and F with their u, from the noise
     // of the bin profile and the bootstrap of its extremes (metrology/extremes.rs).
     let lo = stack::paint(top);

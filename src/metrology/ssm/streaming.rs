@@ -570,7 +570,7 @@ impl<const W: usize> StreamingSsm<W> {
     /// the bar (GUM first order): a constant offset of every y moves E_k by the least squares
     /// of the window with y ≡ 1 (times `bar.offset_um`), the scale by E_k·`bar.scale`. About
     /// 300 instructions more than [`live`](Self::live): the pod refreshes it every
-    /// [`crate::app::ssm::LIVE_U_EVERY`] samples.
+    /// [`crate::app::live::LIVE_U_EVERY`] samples.
     pub fn live_with_uncertainty(
         &self,
         bar: &BarBudget,

@@ -219,7 +219,7 @@ const fn doc(c: Command) -> CommandDoc {
         ),
         MeasAll => d(
             "MEASure:ALL?",
-            "`sample_counter,delta_l_um,ssm_ex_um,ssm_ey_um,ssm_ez_um,ecc_u_um,ecc_v_um,r0_um,temp_degC,u_ssm_ex_um,u_ssm_ey_um,u_ssm_ez_um,status_word,valid_mask` (CANopen 0x2100–0x2103); an invalid live value reads `9.91E+37`",
+            "`sample_counter,delta_l_um,ssm_ex_um,ssm_ey_um,ssm_ez_um,ecc_u_um,ecc_v_um,r0_um,temp_degC,u_ssm_ex_um,u_ssm_ey_um,u_ssm_ez_um,u_ecc_u_um,u_ecc_v_um,u_r0_um,status_word,valid_mask` (CANopen 0x2100–0x2103); an invalid live value reads `9.91E+37`",
             "MEAS:ALL?",
         ),
         MeasDl => d("MEASure:DL?", "the live ΔL, µm", "MEAS:DL?"),

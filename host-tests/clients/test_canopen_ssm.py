@@ -19,7 +19,7 @@ WINDOW = 256
 # for numpy's lstsq, singular values below √ of it × the largest.
 EIG_RATIO = 1e-9
 # The live E's u is refreshed at every sample whose counter is a multiple of this
-# (src/app/ssm.rs LIVE_U_EVERY), from at least this many residual degrees of freedom
+# (src/app/live.rs LIVE_U_EVERY), from at least this many residual degrees of freedom
 # (src/metrology/ssm/streaming.rs LIVE_MIN_DOF), with this floor on the scatter (q/√12 of the
 # 0.1 µm resolution, LIVE_SIGMA_FLOOR_UM).
 LIVE_U_EVERY, LIVE_MIN_DOF, SIGMA_FLOOR_UM = 32, 30, 0.1 / math.sqrt(12)

@@ -104,10 +104,10 @@ def test_pyvisa_circle_session(pod, eds):
         ccw = {n: scpi_result(q, n) for n in ("ecc_u", "ecc_v", "r0", "G_ccw")}
         assert live_u is not None, "no valid live u during the run"
         for name in ("ecc_u", "ecc_v", "r0"):
-            # fewer samples and the noise as of up to 1024 samples before: no smaller, a little
-            # larger
+            # fewer samples (u ∝ 1/√N) and the noise as told by the profile up to 1 024 samples
+            # before, which scatters by some percent about the end's
             u_end = ccw[name][1]
-            assert u_end * (1 - 1e-3) <= live_u[f"u_{name}"] < 1.3 * u_end, (name, live_u, u_end)
+            assert 0.8 * u_end <= live_u[f"u_{name}"] < 1.3 * u_end, (name, live_u, u_end)
         run_circle(q, w, "CW")
         cw = {n: scpi_result(q, n) for n in ("ecc_u", "ecc_v", "r0", "G_cw", "G_bidir", "H")}
         fits = [fit_run(r) for r in stream.runs(2)]

@@ -710,7 +710,8 @@ pub fn vertex(path: &Path, e: &VertexEntry) -> Result<Vec<Figure>, LogError> {
         .map(|k| Figure {
             name: format!("vertex_centre_{}", letters[k]),
             value: (b.centre.centre_mm[k] * 1e3) as f32,
-            u: Some(b.u_um[k] as f32),
+            // not evaluated (positions not quarter turns apart): null, not a number
+            u: b.u_um[k].is_finite().then_some(b.u_um[k] as f32),
             dof: b.degrees_of_freedom[k],
             unit: "um".into(),
             contributors: shares(&[(random, b.random_um[k]), ("touch_offset", b.offset_um[k])]),

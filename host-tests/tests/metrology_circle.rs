@@ -545,8 +545,8 @@ fn the_live_u_is_the_f64_fits_u() {
 }
 
 /// The pod's live u of e and r0 (CANopen 0x2100:12–14, SCPI `MEAS:ALL?`) through the `App`:
-/// NaN until the fit is observable and a refresh came, then at the sample a run stops on (a
-/// multiple of the noise's refresh interval) the u its results state — a CIRCLE run's from
+/// NaN until the fit is observable and a refresh came, then at the sample a run stops on (one
+/// at which the noise and the u are both refreshed) the u its results state — a CIRCLE run's from
 /// the profile's noise, a seed 002 CR step's from the residual — and against the forward
 /// model: a full circle of N samples with ΔL noise σ gives u(e) = σ·√(2/N), u(r0) = σ/√N (the
 /// bar's shares set to 0 here), within 20 % (a CIRCLE run's σ is the median of some 360 bins'
@@ -554,11 +554,13 @@ fn the_live_u_is_the_f64_fits_u() {
 #[test]
 fn the_pods_live_u_is_what_its_results_state() {
     use ballpod::acquisition::MAX_AXES;
-    use ballpod::app::circle::LIVE_NOISE_EVERY;
+    use ballpod::app::circle::{LIVE_NOISE_EVERY, LIVE_NOISE_RETRY};
     use ballpod::app::seed002::Setup;
     use ballpod::app::{App, Command, Direction, Live, Pattern, ResultId, SessionState};
     use ballpod::config::Config;
-    const N: u32 = 2 * LIVE_NOISE_EVERY; // 2048 samples, 0.176° each
+    // the noise is first told at LIVE_NOISE_RETRY samples, then refreshed every
+    // LIVE_NOISE_EVERY: the run's last sample takes it, and the u (2304 samples, 0.156° each)
+    const N: u32 = LIVE_NOISE_RETRY + 2 * LIVE_NOISE_EVERY;
     let sigma = 0.3;
     let mut rng = Rng::new(0x1_1FE);
     let mut cfg = Config {
@@ -579,7 +581,7 @@ fn the_pods_live_u_is_what_its_results_state() {
         app.execute(Command::Arm).expect("arm");
         app.execute(Command::Start).expect("start");
         let mut first_u = None;
-        for i in 0..=N {
+        for i in 0..N {
             let th = 2.0 * std::f64::consts::PI * f64::from(i) / f64::from(N);
             let (s, c) = th.sin_cos();
             let e = [3.0e-3, -1.5e-3]; // mm
@@ -619,7 +621,7 @@ fn the_pods_live_u_is_what_its_results_state() {
         app.execute(Command::Stop).expect("stop");
         assert_eq!(app.session(), SessionState::Done, "{pattern:?}");
         assert!(first_u.is_some(), "{pattern:?}: no live u");
-        let n = f64::from(N + 1);
+        let n = f64::from(N);
         for (value, u, id, oracle) in [
             (
                 Live::EccU,

@@ -7,7 +7,9 @@
 //! forward model of the ball bar.
 use ballpod::acquisition::{MAX_AXES, Sample, SampleFlags};
 use ballpod::app::log::SampleLog;
-use ballpod::app::{App, Direction, Pattern, RESULTS, SessionState, SettingsRequest, Touch};
+use ballpod::app::{
+    App, Direction, Live, Pattern, RESULTS, ResultId, SessionState, SettingsRequest, Touch,
+};
 use ballpod::config::{AxisName, Config, FIELDS, Field};
 use ballpod::protocol::scpi::status::ERROR_QUEUE_DEPTH;
 use ballpod::protocol::scpi::{LINE_CAPACITY, ScpiServer, number};
@@ -918,9 +920,12 @@ fn a_full_circle_session_from_set_up_to_results() {
     assert!(near(f[7], R0_UM, 1e-3), "r0 {all}");
     assert_eq!(f[8], "20.0000");
     assert_eq!(&f[9..12], ["9.91E+37"; 3], "no SSM E, no u of it");
-    // the live fit's u (refreshed at sample 704, the last multiple of 32): checked against the
-    // results' after the stop below
-    let live_u: Vec<f64> = f[12..15].iter().map(|v| v.parse().unwrap()).collect();
+    // the live fit's u (refreshed at the run's 704th sample, the last multiple of 32), as
+    // printed and unrounded: checked against the results' after the stop below
+    for v in &f[12..15] {
+        assert!(v.parse::<f64>().unwrap() > 0.0, "{all}");
+    }
+    let live_u = [Live::UEccU, Live::UEccV, Live::UR0].map(|k| b.app.live().get(k).unwrap());
     // status: bit 9 running + bit 12 live valid; mask: bits 0, 4, 5, 6, 7, 11, 12, 13
     assert_eq!(f[15], ((1 << 9) | (1 << 12)).to_string());
     assert_eq!(
@@ -933,21 +938,26 @@ fn a_full_circle_session_from_set_up_to_results() {
     let n = STEPS + 1;
     assert_eq!(b.send("SESS:COUN?"), format!("{n},{n},0,0,0,0,0,0,0,0"));
     // the run's fit: the model's eccentricity and radius change, in µm
-    for (k, (name, want)) in [("ecc_u", E_UM[0]), ("ecc_v", E_UM[1]), ("r0", R0_UM)]
-        .into_iter()
-        .enumerate()
+    for (k, (name, id, want)) in [
+        ("ecc_u", ResultId::EccU, E_UM[0]),
+        ("ecc_v", ResultId::EccV, E_UM[1]),
+        ("r0", ResultId::R0, R0_UM),
+    ]
+    .into_iter()
+    .enumerate()
     {
         let r = b.send(&format!("FETC:RES? {name}"));
         let p: Vec<&str> = r.split(',').collect();
         assert_eq!(p.len(), 3, "{r}");
         assert!(near(p[0], want, 1e-3), "{name}: {r}");
-        let u: f64 = p[1].parse().unwrap();
-        assert!(u >= 0.0, "{name}: {r}");
-        // the noiseless circle's u is the bar's share, as the live u 16 samples before
+        // the live u of 17 samples before: the same noise (at its floor, q/√12: the circle is
+        // noiseless) and bar shares, the Type A part over 704 samples instead of 721
+        let u_end = b.app.result(id).std_uncertainty;
         assert!(
-            (live_u[k] - u).abs() <= 1e-3 * u + 1e-4,
-            "{name}: live u {live_u:?} vs {r}"
+            (live_u[k] / u_end - 1.0).abs() < 2e-3,
+            "{name}: live u {live_u:?} vs {u_end} ({r})"
         );
+        assert!(near(p[1], f64::from(u_end), 1e-4), "{r}");
         assert_eq!(p[2], "UM");
     }
     let arc = b.send("FETC:RES? arc");

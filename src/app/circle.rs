@@ -100,14 +100,23 @@ pub struct CircleTest {
     /// live u ([`Self::refresh_live_noise`]; NaN before the first, or when the profile is too
     /// short to tell).
     live_noise_um: f32,
+    /// The count of used samples of the running direction's run at which the noise is next
+    /// taken from its profile.
+    next_noise_at: u32,
 }
 
 /// Samples between two refreshes of the sample noise the live u of a CIRCLE run takes (the
 /// profile's third differences, as the run's results: 62 058 instructions on the bench's
 /// profile, 61 per sample at this interval, 1 s at 1 kHz; the noise is the instrument's and
-/// the machine's and moves slowly). A multiple of [`super::LIVE_U_EVERY`], at whose refreshes
-/// the fit's part follows the arc.
+/// the machine's and moves slowly). While the profile is too short to tell it, the noise is
+/// tried every [`LIVE_NOISE_RETRY`] samples instead. Counted from the run's start.
 pub const LIVE_NOISE_EVERY: u32 = 1024;
+
+/// Samples between two tries of the noise while the profile is too short to tell it (eight
+/// runs of four filled 1° bins): the live u takes the residual's σ until then, which the
+/// results never do once the profile tells the noise, so the profile is tried often enough
+/// to tell it before e is observable (the minimum arc is at least 10°).
+pub const LIVE_NOISE_RETRY: u32 = 256;
 
 /// The fit the state holds before the first run (never fed: the test has no geometry).
 const NO_TEST: CircleFitConfig = CircleFitConfig {
@@ -127,6 +136,7 @@ impl CircleTest {
             geometry: None,
             complete: [false; 2],
             live_noise_um: f32::NAN,
+            next_noise_at: 0,
         } in place {
             test: |s| CircularTest::init(s, NO_TEST, f32::NAN),
         })
@@ -141,6 +151,7 @@ impl CircleTest {
     /// place), else the direction's previous run is forgotten.
     pub fn begin_run(&mut self, geometry: CircleGeometry, d: Direction) {
         self.live_noise_um = f32::NAN;
+        self.next_noise_at = LIVE_NOISE_RETRY;
         if self.geometry != Some(geometry) {
             self.geometry = Some(geometry);
             self.test.restart(geometry.fit, geometry.radius_mm);
@@ -163,29 +174,36 @@ impl CircleTest {
         self.test.fit(d).arc_deg()
     }
 
-    /// The live (r0, e_u, e_v) of the run of direction `d` at the sample numbered `counter`,
-    /// µm, and at every [`super::LIVE_U_EVERY`]th their u with the bar's shares (as the
-    /// seed 002 steps' live fit). The u takes one sample's noise from the profile, as
-    /// [`CircularTest::fit_estimate`] does at the run's end, refreshed every
-    /// [`LIVE_NOISE_EVERY`]th sample (the residual's until the profile tells it).
+    /// The live (r0, e_u, e_v) of the run of direction `d`, µm, and at every
+    /// [`super::LIVE_U_EVERY`]th used sample of the run their u with the bar's shares (as the
+    /// seed 002 steps' live fit). The u takes one sample's noise from the
+    /// profile, as [`CircularTest::fit_estimate`] does at the run's end, every
+    /// [`LIVE_NOISE_EVERY`] used samples (every [`LIVE_NOISE_RETRY`] while the profile is too
+    /// short to tell it, and the residual's σ meanwhile).
     pub fn live(
         &mut self,
         d: Direction,
-        counter: u32,
         config: &crate::config::Config,
     ) -> (Option<[f32; 3]>, Option<[f32; 3]>) {
-        if counter.is_multiple_of(LIVE_NOISE_EVERY) {
-            self.refresh_live_noise(d);
+        let used = self.test.fit(d).samples();
+        if used >= self.next_noise_at {
+            self.refresh_live_noise(d, used);
         }
-        let with_u = counter.is_multiple_of(super::LIVE_U_EVERY);
+        let with_u = used.is_multiple_of(super::LIVE_U_EVERY);
         super::live_fit(self.test.fit(d), self.live_noise_um, with_u, config)
     }
 
     /// Takes the sample noise of the run of direction `d` from its profile
-    /// ([`CircularTest::noise_um`]).
+    /// ([`CircularTest::noise_um`]) at `used` samples, and when to take it next.
     #[inline(never)] // off the per-sample path: one sample in [`LIVE_NOISE_EVERY`]
-    fn refresh_live_noise(&mut self, d: Direction) {
+    fn refresh_live_noise(&mut self, d: Direction, used: u32) {
         self.live_noise_um = self.test.noise_um(d);
+        let every = if self.live_noise_um.is_nan() {
+            LIVE_NOISE_RETRY
+        } else {
+            LIVE_NOISE_EVERY
+        };
+        self.next_noise_at = used.saturating_add(every);
     }
 
     /// Ends the run of direction `d`: its results, and the bi-directional ones when both

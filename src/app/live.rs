@@ -6,10 +6,10 @@
 use super::SessionState;
 use crate::acquisition::SampleFlags;
 
-/// Samples between two refreshes of a live u (the live E's and the live circle fit's): at
-/// every sample whose counter is a multiple of this (computed every sample it would take
-/// the SSM pipeline past its 2 500 instructions); held between while its value is valid,
-/// invalid where the value is not. A window whose conditioning changes fast (the machine
+/// Samples between two refreshes of a live u: the live E's at every sample whose counter is
+/// a multiple of this, the live circle fit's at every this many used samples of the run
+/// (computed every sample it would take the SSM pipeline past its 2 500 instructions); held
+/// between while its value is valid, invalid where the value is not. A window whose conditioning changes fast (the machine
 /// slowing into a dwell) can outgrow the held u before the next refresh.
 pub const LIVE_U_EVERY: u32 = 32;
 

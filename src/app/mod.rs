@@ -99,24 +99,23 @@ pub(crate) fn live_fit(
 }
 
 /// Sets the live values of a running circle fit (`fit`: r0, e_u, e_v) and, when refreshed,
-/// their u (held otherwise, but not where the fit is not valid); the bits it keeps.
+/// their u (held otherwise, but never where its value is not valid); the bits it keeps.
 fn set_live_fit(live: &mut LiveValues, fit: Option<[f32; 3]>, u: Option<[f32; 3]>) -> u16 {
     live.set(Live::EccU, fit.map(|[_, eu, _]| eu));
     live.set(Live::EccV, fit.map(|[_, _, ev]| ev));
     live.set(Live::R0, fit.map(|[r0, _, _]| r0));
-    match u {
-        Some([u_r0, u_eu, u_ev]) => {
-            live.set(Live::UEccU, Some(u_eu));
-            live.set(Live::UEccV, Some(u_ev));
-            live.set(Live::UR0, Some(u_r0));
-        }
-        None => live.invalidate((!live.valid & LIVE_FIT) << LIVE_FIT_U_SHIFT),
+    if let Some([u_r0, u_eu, u_ev]) = u {
+        live.set(Live::UEccU, Some(u_eu));
+        live.set(Live::UEccV, Some(u_ev));
+        live.set(Live::UR0, Some(u_r0));
     }
+    // a u is never valid where its value is not
+    live.invalidate((!live.valid & LIVE_FIT) << LIVE_FIT_U_SHIFT);
     LIVE_FIT_ALL
 }
 
 /// [`live_fit`] at a refresh of the u.
-#[inline(never)] // off the per-sample path: one sample in [`LIVE_U_EVERY`]
+#[inline(never)] // off the per-sample path: one used sample in [`LIVE_U_EVERY`]
 fn live_fit_with_u(
     fit: &CircleFit,
     sample_noise_um: f32,
@@ -1292,12 +1291,12 @@ impl App {
         let counter = self.live.sample_counter;
         let kept = match (&self.estimator, running) {
             (RunEstimator::Circle, true) => {
-                let (fit, u) = self.circle.live(self.direction, counter, &self.config);
+                let (fit, u) = self.circle.live(self.direction, &self.config);
                 set_live_fit(&mut self.live, fit, u)
             }
             // a seed 002 step's result takes the residual's u: no noise is given
             (RunEstimator::Step(_, f), true) => {
-                let with_u = counter.is_multiple_of(LIVE_U_EVERY);
+                let with_u = f.samples().is_multiple_of(LIVE_U_EVERY);
                 let (fit, u) = live_fit(f, f32::NAN, with_u, &self.config);
                 set_live_fit(&mut self.live, fit, u)
             }

@@ -383,18 +383,9 @@ impl Spheres {
             measured_mm: spheres.map(|p| p.centre_mm),
             nominal_mm: [nominal; 4],
             measured_std_uncertainty_um: spheres.map(|p| p.u_um),
-            // 0 when the lobing is stated 0, whatever the response (NaN if not known)
-            lobing_shift_um: spheres.map(|p| {
-                p.lobing.map(|c| {
-                    c.map(|v| {
-                        if u_lobing == 0.0 {
-                            0.0
-                        } else {
-                            f64::from(v) * u_lobing
-                        }
-                    })
-                })
-            }),
+            // NaN where the response is not known (also × 0): the B residual's weighing
+            // skips it, as it skips a shift of 0
+            lobing_shift_um: spheres.map(|p| p.lobing.map(|c| c.map(|v| f64::from(v) * u_lobing))),
             std_uncertainty_dof: dof as f64,
             r_b_mm: r1,
             r_b2_mm: r2,

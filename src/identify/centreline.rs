@@ -947,8 +947,12 @@ pub struct CentreBudget {
     pub random_um: [f64; 2],
     /// Whether `random_um` is the residual's Type A (else the stated repeatability).
     pub random_is_type_a: bool,
-    /// The touch-off offset's share, µm (Type B).
+    /// The touch-off offset's share, µm (Type B; NaN, and so `u_um`, where the positions are
+    /// not quarter turns apart: the model does not hold there).
     pub offset_um: [f64; 2],
+    /// Correlation coefficient of the two components' errors, both shares together (−1 … 1;
+    /// 0 where a u is 0): with `u_um`, what `ncgen correct-centrelines` takes.
+    pub correlation: f64,
     /// Effective degrees of freedom of each `u_um` (Welch–Satterthwaite, GUM G.4; `None`:
     /// infinite, the u is all Type B).
     pub degrees_of_freedom: [Option<u32>; 2],
@@ -964,12 +968,18 @@ pub struct CentreBudget {
 /// - **Offset:** a touch-off that stops ε further out along the touched face's outward
 ///   normal moves each coordinate by ±ε. Across the spindle (X, Y on seed 004's vertical
 ///   spindle) one ε serves both coordinates (the tool's radius), along it (Z) another (its
-///   length). The faces turn with the block, so an ε that turns with them is absorbed by the
-///   fitted vertex offset r: a table axis about Z, touched across the spindle only, has no
-///   offset share. A B axis at B0 and B90 is touched along Z on the face it touched along X
-///   before, and the difference of the two ε moves the centre. Each face is taken to face
-///   away from the axis: the touched coordinate's sign is that of the vertex about the
-///   fitted centre (the vertex is the apex of a block near the axis, seed 004 Fig. 3).
+///   length), taken as independent (the block's thickness is common to both and cancels in
+///   their difference: independence errs large). The faces turn with the block, so an ε that
+///   turns with them is absorbed by the fitted vertex offset r: a table axis about Z, touched
+///   across the spindle only, has no offset share. A B axis at B0 and B90 is touched along Z
+///   on the face it touched along X before, and the difference of the two ε moves the centre
+///   (along Z where the corner's X and Z signs agree, along X where they differ). Each face is
+///   taken to face away from the axis: the touched coordinate's sign is that of the vertex
+///   about the fitted centre (the vertex is the apex of a block near the axis, seed 004
+///   Fig. 3), and square to a machine axis: the positions must be quarter turns apart (to
+///   0.5°), else the offset's share and u are NaN (not evaluated). With three or more
+///   positions the part of the offset the fit does not absorb also shows in the residual,
+///   so it counts twice (u errs large).
 pub fn axis_centre_budget(
     positions: &[PointAtAngle],
     axis: NominalAxis,
@@ -986,18 +996,32 @@ pub fn axis_centre_budget(
     }
     let centre = axis_centre(positions, axis, sense)?;
     let random_is_type_a = centre.centre_degrees_of_freedom > 0;
-    let random_um = if random_is_type_a {
-        centre.centre_uncertainty_um
+    let (random_um, random_cov) = if random_is_type_a {
+        let [a, b] = centre.centre_uncertainty_um;
+        ([a, b], centre.centre_correlation * a * b)
     } else {
         let sol = solve_centre(&centre_rows(positions, axis, sense, |_, _| 0.0)?)?;
-        [0, 1].map(|k| touch.repeatability_um * crate::num::sqrt(sol.cofactor(k, k)))
+        let u2 = touch.repeatability_um * touch.repeatability_um;
+        (
+            [0, 1].map(|k| crate::num::sqrt(u2 * sol.cofactor(k, k))),
+            u2 * sol.cofactor(0, 1),
+        )
     };
+    // the faces square to the machine axes at every position: quarter turns from the first
+    let theta0 = positions
+        .first()
+        .map(|p| sense.physical_deg(p.commanded_deg))
+        .unwrap_or(0.0);
+    let quarter_turns = positions.iter().all(|p| {
+        let turn = (sense.physical_deg(p.commanded_deg) - theta0) / 90.0;
+        libm::fabs(turn - libm::round(turn)) * 90.0 <= 0.5
+    });
     // the in-plane component read along the spindle (Z), if any
     let along_spindle = match axis {
         NominalAxis::Z => None,
         NominalAxis::X | NominalAxis::Y => Some(1),
     };
-    let mut offset_sq = [0.0; 2];
+    let (mut offset_sq, mut offset_cov) = ([0.0; 2], 0.0);
     for class_along in [false, true] {
         let lsq = centre_rows(positions, axis, sense, |p, k| {
             let outward = p.point_mm.get(k).copied().unwrap_or(0.0)
@@ -1012,8 +1036,13 @@ pub fn axis_centre_budget(
         for (sq, s) in offset_sq.iter_mut().zip(shift) {
             *sq += s * s;
         }
+        offset_cov += shift[0] * shift[1];
     }
-    let offset_um = offset_sq.map(crate::num::sqrt);
+    let offset_um = if quarter_turns {
+        offset_sq.map(crate::num::sqrt)
+    } else {
+        [f64::NAN; 2]
+    };
     let mut u_um = [0.0; 2];
     let mut degrees_of_freedom = [None; 2];
     for k in 0..2 {
@@ -1036,12 +1065,19 @@ pub fn axis_centre_budget(
             };
         }
     }
+    let [u0, u1] = u_um;
+    let correlation = if u0 > 0.0 && u1 > 0.0 {
+        (random_cov + offset_cov) / (u0 * u1)
+    } else {
+        0.0
+    };
     Ok(CentreBudget {
         centre,
         u_um,
         random_um,
         random_is_type_a,
         offset_um,
+        correlation,
         degrees_of_freedom,
     })
 }

@@ -356,8 +356,8 @@ impl CircleFit {
                 + x[0] * (ax[0] - 2.0 * m.y)
                 + x[1] * (ax[1] - 2.0 * m.y_u)
                 + x[2] * (ax[2] - 2.0 * m.y_v);
-            // rounding can leave a noiseless fit's SSR slightly negative: 0
-            if ssr > 0.0 {
+            // rounding can leave a noiseless fit's SSR slightly negative: 0; NaN stays NaN
+            if ssr.is_nan() || ssr > 0.0 {
                 (ssr / (m.n * (m.n - 3.0))) as f32
             } else {
                 0.0

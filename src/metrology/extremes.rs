@@ -50,6 +50,9 @@ pub fn sample_noise_um(
     bin: impl Fn(usize) -> BinMean,
     scratch: &mut [f32],
 ) -> Option<f32> {
+    if len < 4 {
+        return None;
+    }
     let mut k = 0;
     // the last four bins, each read once (a bin's mean costs a division)
     let [mut a, mut b, mut c] = [0, 1, 2].map(&bin);

@@ -264,8 +264,9 @@ pub struct CentrelinesFile {
 
 /// `[uncertainty]`: the standard uncertainties of the estimated centrelines and their
 /// correlations, as the core's identification states them (`AxisDirection`:
-/// `tilt_uncertainty_urad`, `tilt_correlation`; `AxisCentre`: `centre_uncertainty_um`,
-/// `centre_correlation`), in the core's component order. The four pairs are taken as
+/// `tilt_uncertainty_urad`, `tilt_correlation`; `CentreBudget` of `axis_centre_budget` or
+/// replay's `[vertex]`: `u_um`, `correlation`, `degrees_of_freedom`), in the core's component
+/// order. The four pairs are taken as
 /// independent of each other (the directions come from face normals, the points from
 /// vertices: separate readings).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Deserialize)]

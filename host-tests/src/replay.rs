@@ -21,8 +21,8 @@ pub struct Figure {
     pub u: Option<f32>,
     /// Effective degrees of freedom of `u` (Welch–Satterthwaite, GUM G.4) for the dial gauge's
     /// and an axis centre's figures whose u has a Type A part from the fit's residual (absent:
-    /// not evaluated, or a u from stated inputs only, for which k = 2). The expanded U for 95.45 % is k·u, k from Student's t at it
-    /// (`ballpod_host::gum::coverage_factor`).
+    /// not evaluated, or a u from stated inputs only, for which k = 2). The expanded U for
+    /// 95.45 % is k·u, k from Student's t at it (`ballpod_host::gum::coverage_factor`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub dof: Option<u32>,
     /// Unit.

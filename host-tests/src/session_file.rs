@@ -26,7 +26,7 @@
 //!
 //! [vertex]                 # seed 004 axis centre (host only): rows angle_deg,u_mm,v_mm
 //! readings = "vertex.csv"
-//! axis = "z"
+//! axis = [0.0, 0.0, 1.0]
 //!
 //! [vector]                 # seed 001 vector diagonal method (host only, crate::diagonals)
 //! readings = "vector.csv"  # rows diagonal,axis,deviation_um: each diagonal's stops in order
@@ -121,9 +121,10 @@ pub struct VertexEntry {
     /// Readings file: `angle_deg,u_mm,v_mm`, the vertex's in-plane machine coordinates at
     /// each commanded angle ((Y, Z) about X, (X, Z) about Y, (X, Y) about Z).
     pub readings: String,
-    /// The nominal axis: `x`, `y` (default) or `z`.
+    /// Nominal axis direction, a machine axis: `[1, 0, 0]`, `[0, 1, 0]` (default) or
+    /// `[0, 0, 1]` (as `[dial]`'s).
     #[serde(default)]
-    pub axis: Option<String>,
+    pub axis: Option<[f64; 3]>,
     /// `primed` (default, seed 004's table axes) or `right_handed`.
     #[serde(default)]
     pub sense: Option<String>,
@@ -659,11 +660,16 @@ pub fn vertex(path: &Path, e: &VertexEntry) -> Result<Vec<Figure>, LogError> {
         ..whole(path, what)
     };
     // the in-plane coordinates' letters in the order of `NominalAxis`
-    let (axis, letters) = match e.axis.as_deref() {
-        Some("x") => (NominalAxis::X, ["y", "z"]),
-        None | Some("y") => (NominalAxis::Y, ["x", "z"]),
-        Some("z") => (NominalAxis::Z, ["x", "y"]),
-        Some(s) => return Err(bad("vertex.axis", format!("{} (x, y or z)", excerpt(s)))),
+    let (axis, letters) = match e.axis {
+        Some([1.0, 0.0, 0.0]) => (NominalAxis::X, ["y", "z"]),
+        None | Some([0.0, 1.0, 0.0]) => (NominalAxis::Y, ["x", "z"]),
+        Some([0.0, 0.0, 1.0]) => (NominalAxis::Z, ["x", "y"]),
+        Some(v) => {
+            return Err(bad(
+                "vertex.axis",
+                format!("{v:?} (a machine axis: [1, 0, 0], [0, 1, 0] or [0, 0, 1])"),
+            ));
+        }
     };
     let sense = rotation_sense(path, "vertex.sense", e.sense.as_deref())?;
     let mut touch = TouchUncertainty::default();

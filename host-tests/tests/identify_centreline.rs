@@ -1288,7 +1288,7 @@ fn the_vertex_table_refuses_bad_input_by_name() {
     )
     .unwrap();
     let cases = [
-        ("axis = \"w\"", "vertex.axis"),
+        ("axis = [0.0, 0.6, 0.8]", "vertex.axis"),
         ("u_touch_um = -1.0", "vertex.u_touch_um"),
         ("u_touch_offset_um = nan", "vertex.u_touch_offset_um"),
     ];
@@ -1306,7 +1306,7 @@ fn the_vertex_table_refuses_bad_input_by_name() {
     let session = dir.join("s.toml");
     std::fs::write(
         &session,
-        "[vertex]\nreadings = \"v.csv\"\naxis = \"z\"\nsense = \"right_handed\"\n",
+        "[vertex]\nreadings = \"v.csv\"\naxis = [0.0, 0.0, 1.0]\nsense = \"right_handed\"\n",
     )
     .unwrap();
     let host = ballpod_host::session_file::read_inputs(&[session])

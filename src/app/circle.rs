@@ -176,7 +176,7 @@ impl CircleTest {
 
     /// The live (r0, e_u, e_v) of the run of direction `d`, µm, and at every
     /// [`super::LIVE_U_EVERY`]th used sample of the run their u with the bar's shares (as the
-    /// seed 002 steps' live fit). The u takes one sample's noise from the
+    /// seed 002 steps' live fit; `last_u_at`: the count of the last refresh). The u takes one sample's noise from the
     /// profile, as [`CircularTest::fit_estimate`] does at the run's end, every
     /// [`LIVE_NOISE_EVERY`] used samples (every [`LIVE_NOISE_RETRY`] while the profile is too
     /// short to tell it, and the residual's σ meanwhile).
@@ -184,12 +184,13 @@ impl CircleTest {
         &mut self,
         d: Direction,
         config: &crate::config::Config,
+        last_u_at: &mut u32,
     ) -> (Option<[f32; 3]>, Option<[f32; 3]>) {
         let used = self.test.fit(d).samples();
         if used >= self.next_noise_at {
             self.refresh_live_noise(d, used);
         }
-        let with_u = used.is_multiple_of(super::LIVE_U_EVERY);
+        let with_u = super::live_u_due(used, last_u_at);
         super::live_fit(self.test.fit(d), self.live_noise_um, with_u, config)
     }
 

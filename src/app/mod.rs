@@ -98,6 +98,17 @@ pub(crate) fn live_fit(
     }
 }
 
+/// Whether the live u of a circle fit is due at `used` samples of its run: at every
+/// [`LIVE_U_EVERY`]th, once (samples the fit does not use, e.g. flagged ones, do not refresh it
+/// again); `last` is the count of the last refresh.
+pub(crate) fn live_u_due(used: u32, last: &mut u32) -> bool {
+    let due = used.is_multiple_of(LIVE_U_EVERY) && used != *last;
+    if due {
+        *last = used;
+    }
+    due
+}
+
 /// Sets the live values of a running circle fit (`fit`: r0, e_u, e_v) and, when refreshed,
 /// their u (held otherwise, but never where its value is not valid); the bits it keeps.
 fn set_live_fit(live: &mut LiveValues, fit: Option<[f32; 3]>, u: Option<[f32; 3]>) -> u16 {
@@ -371,6 +382,9 @@ pub struct App {
     probe_event: bool,
     last_touch: Option<Touch>,
     live: LiveValues,
+    /// The used samples of the running circle fit at the last refresh of its live u
+    /// ([`live_u_due`]).
+    live_u_at: u32,
     results: Results,
     pending: heapless::Deque<Pending, 4>,
     refusal: Option<CommandError>,
@@ -432,6 +446,7 @@ impl App {
             probe_event: false,
             last_touch: None,
             live: LiveValues::default(),
+            live_u_at: u32::MAX,
             results: Results::new(),
             pending: heapless::Deque::new(),
             refusal: None,
@@ -756,6 +771,7 @@ impl App {
                     trigger = Some(ArcTrigger::new(&g, self.direction, setup.circle_arc_deg));
                 }
                 self.circle.begin_run(g, self.direction);
+                self.live_u_at = u32::MAX;
                 RunEstimator::Circle
             }
             Pattern::Ssm => match self.ssm.restart(
@@ -786,6 +802,7 @@ impl App {
                     Some(p) => p.run_fit(step),
                     None => return self.refuse(CommandError::WrongState("no procedure")),
                 };
+                self.live_u_at = u32::MAX;
                 RunEstimator::Step(step, fit)
             }
         };
@@ -1291,12 +1308,14 @@ impl App {
         let counter = self.live.sample_counter;
         let kept = match (&self.estimator, running) {
             (RunEstimator::Circle, true) => {
-                let (fit, u) = self.circle.live(self.direction, &self.config);
+                let (fit, u) = self
+                    .circle
+                    .live(self.direction, &self.config, &mut self.live_u_at);
                 set_live_fit(&mut self.live, fit, u)
             }
             // a seed 002 step's result takes the residual's u: no noise is given
             (RunEstimator::Step(_, f), true) => {
-                let with_u = f.samples().is_multiple_of(LIVE_U_EVERY);
+                let with_u = live_u_due(f.samples(), &mut self.live_u_at);
                 let (fit, u) = live_fit(f, f32::NAN, with_u, &self.config);
                 set_live_fit(&mut self.live, fit, u)
             }

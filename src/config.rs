@@ -299,6 +299,15 @@ pub struct TestSetup {
     /// harmonics in proportion) and the difference of its pre-travel along the stylus from
     /// across it ([`crate::identify::multitasking::lobing`]; added in encoding version 8).
     pub probe_u_lobing_um: f32,
+    /// SSM: standard uncertainty of each coordinate of the socket's centre as entered
+    /// (`ssm_socket`) against its true centre, µm: it moves E one to one
+    /// ([`crate::app::ssm::U_SOCKET_UM`]; added in encoding version 9).
+    pub ssm_u_socket_um: f32,
+    /// CIRCLE: standard uncertainty of each in-plane coordinate of the circle's centre as
+    /// entered (`circle_centre`) against the centre the part program circles about, µm: it
+    /// turns each sample's direction, and so e and r0 through the profile
+    /// ([`crate::app::circle::U_CENTRE_UM`]; added in encoding version 9).
+    pub circle_u_centre_um: f32,
 }
 
 /// The pod's configuration (see the module doc; fields listed with unit, default and range in
@@ -469,6 +478,10 @@ pub enum Field {
     /// [`TestSetup::probe_u_lobing_um`] (added in encoding version 8; the first object after
     /// the enumerated ones, 0x2044).
     ProbeULobingUm,
+    /// [`TestSetup::ssm_u_socket_um`] (added in encoding version 9, 0x2045).
+    SsmUSocketUm,
+    /// [`TestSetup::circle_u_centre_um`] (added in encoding version 9, 0x2046).
+    CircleUCentreUm,
     /// A pod sample is not a whole number of excitation periods within the ADC ring
     /// (`excitation / sample_rate` ∉ 1…[`MAX_PERIODS_PER_SAMPLE`]).
     PeriodsPerSample,
@@ -864,6 +877,8 @@ pub const FIELDS: &[FieldInfo] = &[
     real(Field::LvdtUScalePpm, "lvdt_u_scale", "ppm", 0.0, 100_000.0),
     real(Field::S002URcZcUm, "s002_u_r_c_z_c", "um", 0.0, 1000.0),
     real(Field::ProbeULobingUm, "probe_u_lobing", "um", 0.0, 100.0),
+    real(Field::SsmUSocketUm, "ssm_u_socket", "um", 0.0, 1000.0),
+    real(Field::CircleUCentreUm, "circle_u_centre", "um", 0.0, 1000.0),
 ];
 
 /// Why a configuration was rejected.
@@ -955,6 +970,8 @@ impl TestSetup {
             s002_u_t_axial_um: MountingUncertainty::SEED002.t_axial_um as f32,
             s002_u_r_c_z_c_um: MountingUncertainty::SEED002.r_c_um as f32,
             probe_u_lobing_um: crate::identify::multitasking::lobing::U_LOBING_UM as f32,
+            ssm_u_socket_um: crate::app::ssm::U_SOCKET_UM as f32,
+            circle_u_centre_um: crate::app::circle::U_CENTRE_UM as f32,
         }
     };
 }
@@ -1084,6 +1101,8 @@ impl Config {
                 s002_u_t_axial_um: 0.0,
                 s002_u_r_c_z_c_um: 0.0,
                 probe_u_lobing_um: 0.0,
+                ssm_u_socket_um: 0.0,
+                circle_u_centre_um: 0.0,
             },
             bar_u_length_um: 0.0,
             bar_u_temp_k: 0.0,
@@ -1226,6 +1245,12 @@ impl Field {
             }
             Field::ProbeULobingUm => {
                 "Touch-probe uncertainty budget: the probe's lobing (pre-travel varying with the direction of approach), standard uncertainty of each component of its three-lobe pattern across the stylus (the higher harmonics in proportion) and of its pre-travel along the stylus less across (default: a kinematic probe's ±1–2 µm 2D/3D lobing)"
+            }
+            Field::SsmUSocketUm => {
+                "SSM uncertainty budget: the socket's centre as entered (ssm_socket), standard uncertainty of each coordinate's difference from its true centre; it moves E one to one (default: the spindle's setting cup docked on the socket's ball)"
+            }
+            Field::CircleUCentreUm => {
+                "Circle uncertainty budget: the circle's centre as entered (circle_centre), standard uncertainty of each in-plane coordinate's difference from the centre the part program circles about; it turns each sample's direction, moving e and r0 through the profile's shape (default: the program's centre entered to the micrometre; the socket's own offset shows in e)"
             }
             Field::PeriodsPerSample => {
                 "Cross-field rule: excitation / sample_rate must be a whole 1 … 5 periods"
@@ -1434,6 +1459,8 @@ impl Config {
             Field::LvdtUScalePpm => f64::from(self.lvdt_u_scale_ppm),
             Field::S002URcZcUm => f64::from(s.s002_u_r_c_z_c_um),
             Field::ProbeULobingUm => f64::from(s.probe_u_lobing_um),
+            Field::SsmUSocketUm => f64::from(s.ssm_u_socket_um),
+            Field::CircleUCentreUm => f64::from(s.circle_u_centre_um),
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => return None,
         })
     }
@@ -1533,6 +1560,8 @@ impl Config {
             Field::LvdtUScalePpm => self.lvdt_u_scale_ppm = x,
             Field::S002URcZcUm => s.s002_u_r_c_z_c_um = x,
             Field::ProbeULobingUm => s.probe_u_lobing_um = x,
+            Field::SsmUSocketUm => s.ssm_u_socket_um = x,
+            Field::CircleUCentreUm => s.circle_u_centre_um = x,
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => {}
         }
     }
@@ -1578,15 +1607,17 @@ impl Config {
 
 /// Magic at the start of an encoded configuration.
 pub const MAGIC: [u8; 4] = *b"BPOD";
-/// Current encoding version (8: version 7 plus the touch probe's `probe_u_lobing`; 7: version
+/// Current encoding version (9: version 8 plus the set-up's `ssm_u_socket` and
+/// `circle_u_centre`; 8: version 7
+/// plus the touch probe's `probe_u_lobing`; 7: version
 /// 6 plus the seed 002 budget's `s002_u_r_c_z_c`; 6:
 /// version 5 plus the bar's uncertainty budget `bar_u_length`,
 /// `bar_u_temp`, `lvdt_u_scale`; 5: version 4 plus the seed 002 mounting uncertainties
 /// `s002_u_w_clamp`, `s002_u_t_centring`, `s002_u_t_axial`; 4: version 3 plus `run_trigger`
-/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2 to 7 encodings are read
+/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2 to 8 encodings are read
 /// and migrated (the fields added since keep their defaults); version 1 records are not read:
 /// the pod boots on the defaults and says so.
-pub const ENCODING_VERSION: u16 = 8;
+pub const ENCODING_VERSION: u16 = 9;
 /// Oldest encoding version read.
 pub const OLDEST_ENCODING_VERSION: u16 = 2;
 
@@ -1600,6 +1631,7 @@ const fn added_in(f: Field) -> u16 {
         Field::BarULengthUm | Field::BarUTempK | Field::LvdtUScalePpm => 6,
         Field::S002URcZcUm => 7,
         Field::ProbeULobingUm => 8,
+        Field::SsmUSocketUm | Field::CircleUCentreUm => 9,
         _ => 2,
     }
 }
@@ -1640,13 +1672,14 @@ const PAYLOAD: usize = payload_len(ENCODING_VERSION);
 /// Total encoded size: magic, version u16, payload length u16, payload, CRC-32.
 pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD + 4;
 /// Total size of each encoding read, oldest first (read and migrated; only the last written).
-pub const ENCODED_LENS: [usize; 7] = [
+pub const ENCODED_LENS: [usize; 8] = [
     12 + payload_len(2),
     12 + payload_len(3),
     12 + payload_len(4),
     12 + payload_len(5),
     12 + payload_len(6),
     12 + payload_len(7),
+    12 + payload_len(8),
     12 + payload_len(ENCODING_VERSION),
 ];
 
@@ -1731,7 +1764,7 @@ impl Config {
 
     /// Decodes and validates an encoding. Every check (length, magic, version, CRC, enum
     /// bytes, ranges) must pass; otherwise the error says which failed and nothing is returned.
-    /// An older encoding (versions 2 to 7, [`ENCODED_LENS`]) is read too: the fields added
+    /// An older encoding (versions 2 to 8, [`ENCODED_LENS`]) is read too: the fields added
     /// since keep their defaults.
     pub fn decode(bytes: &[u8]) -> Result<Config, ConfigError> {
         let mut r = Reader { buf: bytes, pos: 0 };

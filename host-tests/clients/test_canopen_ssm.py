@@ -1,7 +1,8 @@
 """An SSM (single socket method) run over CANopen: the live position error E and its standard
 uncertainty arrive by TPDO on SYNC with their validity bits. E is checked against a numpy
 least-squares fit of the streamed samples of the pod's neighbourhood, its u against that fit's
-(the residual's Type A and the bar's shares from the configuration the pod reports), and E
+(the residual's Type A, the bar's and the socket's shares from the configuration the pod
+reports), and E
 against the served machine's truth (truth.ssm_error_um) within the pod's u; the run's station
 result against the truth within its stated uncertainty."""
 import math
@@ -9,8 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from podlib import (COMMAND, PATTERN, STATUS_RUNNING, StreamCapture, assert_invalid, connect, result,
-                    tpdo_snapshots, wait_until)
+from podlib import (ABORT_TOO_LOW, COMMAND, PATTERN, STATUS_RUNNING, StreamCapture, abort_code,
+                    assert_invalid, connect, result, tpdo_snapshots, wait_until)
 
 # The pod's streaming neighbourhood holds at most this many samples (src/app/ssm.rs SSM_WINDOW);
 # samples farther than ssm_window_radius from the current point leave it, oldest first.
@@ -71,6 +72,15 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
         thermal_um = bar_mm * sdo["bar_cte"].raw * sdo["bar_u_temp"].raw * 1e-3
         u_offset = math.hypot(sdo["bar_u_length"].raw, thermal_um)
         u_scale = sdo["lvdt_u_scale"].raw * 1e-6
+        # and the socket's as entered, one to one in each component (per coordinate, µm; the
+        # served machine's socket is where it is entered: a small u, so that the fit's Type A
+        # still shows in the comparison below)
+        assert sdo["ssm_u_socket"].index == 0x2045
+        assert sdo["ssm_u_socket"].raw == pytest.approx(1.0)
+        assert abort_code(lambda: setattr(sdo["ssm_u_socket"], "raw", -1.0)) == ABORT_TOO_LOW
+        sdo["ssm_u_socket"].raw = 0.3
+        u_socket = sdo["ssm_u_socket"].raw
+        assert u_socket == pytest.approx(0.3)
         # TPDO4 (E_x, E_y) is disabled by default: enable it (CiA 301 §7.5.2.35 procedure); map
         # their u onto TPDO2 (e_u, e_v by default, invalid in an SSM run)
         node.tpdo.read()
@@ -124,8 +134,8 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
                 assert abs(value - e[bit - 1]) <= 0.1 * u_a + 0.02, (name, value, e, u_a)
                 # and the truth is within 4 u of this neighbourhood (dozens of frames, each a
                 # new draw): Type A and the bar's shares, offset through the fit of y ≡ 1,
-                # scale |E|·u_k
-                u_now = math.hypot(u_a, offset[bit - 1] * u_offset, value * u_scale)
+                # scale |E|·u_k; and the socket's
+                u_now = math.hypot(u_a, offset[bit - 1] * u_offset, value * u_scale, u_socket)
                 assert abs(value - e_true[bit - 1]) <= 4 * u_now, (name, value, e_true, u_now)
                 checked += 1
                 # the pod's u is the same as of the last refresh (up to LIVE_U_EVERY − 1
@@ -143,7 +153,7 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
                     # every sample): no u until the next
                     continue
                 want = math.hypot(math.sqrt(cov0[bit - 1, bit - 1]), offset0[bit - 1] * u_offset,
-                                  e0[bit - 1] * u_scale)
+                                  e0[bit - 1] * u_scale, u_socket)
                 assert u == pytest.approx(want, rel=0.02), (name, counter, u, want)
                 checked_u += 1
         assert checked >= 3 and checked_u >= 3, \

@@ -38,7 +38,8 @@ pub struct Figure {
 /// One contributor's share of a figure's standard uncertainty.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Share {
-    /// `type_a`, `bar_offset`, `lvdt_scale`, `w_ball`, `t_ball` (`ballpod::app::CONTRIBUTORS`);
+    /// `type_a`, `bar_offset`, `lvdt_scale`, `w_ball`, `t_ball`, `probe_lobing`, `socket`
+    /// (`ballpod::app::CONTRIBUTORS`);
     /// for the host's R-test `type_a`, `head_scale`, dial gauge `type_a`, `gauge_scale` and
     /// axis centre `touch` or `type_a`, `touch_offset`.
     pub name: String,

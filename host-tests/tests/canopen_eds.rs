@@ -159,10 +159,12 @@ fn every_config_field_has_its_object_with_the_table_type_and_range() {
         }
     };
     assert!(index(FIELDS.len() - 1) < 0x2100, "{} rows", FIELDS.len());
+    assert_eq!(index(0x40), 0x2044, "probe_u_lobing is the first after");
+    assert_eq!(FIELDS[0x40].name, "probe_u_lobing");
     assert_eq!(
-        index(FIELDS.len() - 1),
-        0x2044,
-        "probe_u_lobing is the first after"
+        (index(FIELDS.len() - 1), FIELDS[FIELDS.len() - 1].name),
+        (0x2046, "circle_u_centre"),
+        "the last row"
     );
     for (i, f) in FIELDS.iter().enumerate() {
         let sec = format!("{:04X}", index(i));

@@ -426,3 +426,30 @@ fn a_settings_record_of_encoding_version_7_is_read_and_migrated() {
     now_cfg.setup.probe_u_lobing_um = 0.4;
     resaved_as_current_version(&now_cfg, 58);
 }
+
+#[test]
+fn a_settings_record_of_encoding_version_8_is_read_and_migrated() {
+    let got = read_fixture(include_str!("data/settings_record_v8.hex"), 61, 100);
+    // what the file's header says it holds; the fields version 9 added keep their defaults,
+    // the SSM socket's and the circle centre's 1 µm
+    let mut want = Config {
+        bar_length_mm: 162.5,
+        can_node_id: 9,
+        bar_u_length_um: 0.8,
+        ..Config::default()
+    };
+    want.setup.s002_u_r_c_z_c_um = 12.0;
+    want.setup.probe_u_lobing_um = 1.5;
+    want.axes[0].name = AxisName::Y;
+    want.axes[1].name = AxisName::X;
+    assert!(same(&got, &want), "{got:?}");
+    assert_eq!(
+        (got.setup.ssm_u_socket_um, got.setup.circle_u_centre_um),
+        (1.0, 1.0)
+    );
+    // the next save writes the current version with the new field, and reads back
+    let mut now_cfg = got;
+    now_cfg.setup.ssm_u_socket_um = 2.5;
+    now_cfg.setup.circle_u_centre_um = 40.0;
+    resaved_as_current_version(&now_cfg, 62);
+}

@@ -2,8 +2,8 @@
 //! models of the ball bar: station mode, dwell detection, streaming mode, bad input.
 
 use ballpod::acquisition::{Sample, SampleFlags};
-use ballpod::app::ssm::{FIXED_POSITION_U_UM, SsmMeasurement, TwoStep};
-use ballpod::app::{ResultId, Results};
+use ballpod::app::ssm::{FIXED_POSITION_U_UM, SsmMeasurement, TwoStep, U_SOCKET_UM};
+use ballpod::app::{Contributor, ResultId, Results};
 use ballpod::config::{TestSetup, TwoStepMachine};
 use ballpod::metrology::bar_budget::BarBudget;
 use ballpod::metrology::ssm::station::{
@@ -804,11 +804,19 @@ fn draw_bar(rng: &mut Rng) -> (f64, f64) {
     )
 }
 
-/// Issue 14: E carries the bar's own errors. 400 simulated SSM runs (as above), each read by a
-/// bar whose length is off by δ ~ N(0, 0.6 µm) and whose LVDT scale is off by k ~ N(0, 0.5 %)
-/// — the forward model reads ΔL·(1 + k) + δ at every station: U = 2u of each component of E
-/// (stations and bar) covers the truth in 95 % ± 3 %, and u matches the scatter within 20 %.
-/// With the stations' share alone the bar's offset, common to every station, is missed.
+/// Draws where the socket is entered: the true socket `p0` off by N(0, `U_SOCKET_UM`) in each
+/// coordinate, mm.
+fn entered_socket(rng: &mut Rng, p0: [f64; 3]) -> [f64; 3] {
+    p0.map(|x| x + U_SOCKET_UM * 1e-3 * rng.normal())
+}
+
+/// Issue 14: E carries the bar's own errors and the socket's as entered. 400 simulated SSM
+/// runs (as above), each read by a bar whose length is off by δ ~ N(0, 0.6 µm) and whose LVDT
+/// scale is off by k ~ N(0, 0.5 %) — the forward model reads ΔL·(1 + k) + δ at every station
+/// — and told a socket off by N(0, 1 µm) per coordinate (the pod's default `ssm_u_socket`):
+/// U = 2u of each component of E (stations, bar and socket) covers the truth in 95 % ± 3 %,
+/// and u matches the scatter within 20 %. With the stations' share alone the bar's offset and
+/// the socket, common to every station, are missed.
 /// The stations sit within 20 µm of the bar's sphere, as the pod's station set puts them
 /// (`ncgen` SSM). Far off the sphere the LVDT's scale error also shows in the stations'
 /// scatter, which the Birge ratio then counts a second time: at ±0.2 mm and 0.5 % u came out
@@ -842,9 +850,24 @@ fn the_bar_errors_move_e_and_its_u_covers_them() {
                 e_mm,
                 bar,
             );
-            let m = measure(&st, &geom);
-            let u = m.u_e_um(&BAR);
-            let u_a = m.u_e_um(&BarBudget::NONE);
+            let entered = SsmGeometry {
+                socket_mm: entered_socket(&mut rng, p0),
+                ..geom
+            };
+            let m = measure(&st, &entered);
+            let u = m.u_e_um(&BAR, U_SOCKET_UM as f32);
+            let u_a = m.u_e_um(&BarBudget::NONE, 0.0);
+            // the results the pod publishes: the socket's share in each component's budget
+            let mut results = Results::new();
+            ballpod::app::ssm::publish(&m, &BAR, U_SOCKET_UM as f32, &mut results);
+            for (k, id) in [ResultId::SsmEx, ResultId::SsmEy, ResultId::SsmEz]
+                .into_iter()
+                .enumerate()
+            {
+                let r = results.get(id);
+                assert_eq!(r.shares[Contributor::Socket as usize], U_SOCKET_UM as f32);
+                assert!((f64::from(r.std_uncertainty) - u[k]).abs() < 1e-6 * u[k]);
+            }
             for k in 0..3 {
                 let err = m.solution.e_um[k].unwrap() - e_mm[k] * 1e3;
                 covered[k] += usize::from(err.abs() <= 2.0 * u[k]);
@@ -867,12 +890,15 @@ fn the_bar_errors_move_e_and_its_u_covers_them() {
                 "{what}"
             );
         }
-        // along the cone's axis the offset moves E by δ / cos(half angle)
-        let coverage_a = covered_a[2] as f64 / RUNS as f64;
-        assert!(
-            coverage_a < 0.8,
-            "the stations' u alone covers E_z in {coverage_a:.3}"
-        );
+        // along the cone's axis the offset moves E by δ / cos(half angle); the socket moves
+        // every component more than the stations' noise does
+        for k in 0..3 {
+            let coverage_a = covered_a[k] as f64 / RUNS as f64;
+            assert!(
+                coverage_a < 0.5,
+                "the stations' u alone covers E[{k}] in {coverage_a:.3}"
+            );
+        }
     }
 }
 
@@ -932,10 +958,12 @@ fn rrttt_head() -> TwoStepMachineCase {
 /// on an RTTTR table (Δα) and an RRTTT head (Δα, Δβ). One bar measures both runs, so its
 /// errors move ΔV1 and ΔV2 together. 1 000 pairs per machine with random angle errors (±200
 /// µrad), random E after the translation (±20 µm), each run's stations on a cone of random
-/// half-angle (30–60°: the bar's offset moves the two runs differently, so it does not cancel)
-/// and one bar error per pair: U = 2u of each angle covers the truth in 95 % ± 3 %, and u
-/// matches the scatter within 20 % (the runs' full covariances are propagated, not each run's
-/// largest component).
+/// half-angle (30–60°: the bar's offset moves the two runs differently, so it does not cancel),
+/// one bar error per pair and one socket entered off by N(0, 1 µm) per coordinate for both
+/// runs (one socket: its error moves ΔV1 and ΔV2 alike and cancels in the exact mode, so the
+/// angles are those of the same stations read about the true socket within 1 % of u): U = 2u
+/// of each angle covers the truth in 95 % ± 3 %, and u matches the scatter within 20 % (the
+/// runs' full covariances are propagated, not each run's largest component).
 #[test]
 fn two_step_u_covers_one_bar_measuring_both_runs() {
     let p0 = [0.0, 0.0, 0.0];
@@ -956,9 +984,15 @@ fn two_step_u_covers_one_bar_measuring_both_runs() {
             let dv2_mm = (machine.dv2_mm)(e1_mm, d_rad);
             let (offset, k) = draw_bar(&mut rng);
             let bar = |dl: f64| dl * (1.0 + k) + offset;
+            let entered = SsmGeometry {
+                socket_mm: entered_socket(&mut rng, p0),
+                ..geom
+            };
             let mut pair = TwoStep::default();
             let mut results = Results::new();
             let mut stations_only = Results::new();
+            // the same stations read about the true socket: the angles must not move
+            let (mut true_socket, mut about_true) = (TwoStep::default(), Results::new());
             for (i, e_mm) in [e1_mm, dv2_mm].into_iter().enumerate() {
                 let cone = Cone {
                     p0,
@@ -967,7 +1001,16 @@ fn two_step_u_covers_one_bar_measuring_both_runs() {
                     half_angle_deg: rng.range(30.0, 60.0),
                     off_sphere_mm: 0.02,
                 };
-                let m = measure(&dwell_stations(&mut rng, &cone, e_mm, bar), &geom);
+                let stations = dwell_stations(&mut rng, &cone, e_mm, bar);
+                let m = measure(&stations, &entered);
+                true_socket
+                    .on_measurement(
+                        &machine.setup,
+                        &measure(&stations, &geom),
+                        &BAR,
+                        &mut about_true,
+                    )
+                    .unwrap();
                 let mut alone = pair;
                 let done = pair
                     .on_measurement(&machine.setup, &m, &BAR, &mut results)
@@ -989,6 +1032,11 @@ fn two_step_u_covers_one_bar_measuring_both_runs() {
                 u2[j] += u * u;
                 let u_a = f64::from(stations_only.get(id).std_uncertainty);
                 u_bar_share[j] += (u * u - u_a * u_a).max(0.0) / (u * u);
+                let moved = f64::from(r.value - about_true.get(id).value);
+                assert!(
+                    moved.abs() < 0.01 * u,
+                    "the socket moved {id:?} by {moved} µrad"
+                );
             }
         }
         for (j, id) in machine.angles.iter().enumerate() {
@@ -1103,11 +1151,12 @@ fn live_oracle(samples: &[Sample], p0: [f64; 3], l: f64) -> LiveOracle {
 /// Issue 14, the live E per sample: 400 windows of the pod's size (256 samples) on two paths —
 /// a zigzag on the bar's sphere that sees all three components, and an arc in the socket's
 /// plane that does not see the one across it — each with a constant E, i.i.d. noise of
-/// 0.1–0.5 µm and a bar off by δ ~ N(0, 0.6 µm) in length and k ~ N(0, 0.5 %) in scale. The
-/// live E's Type A u (within 1 %) and its response to a constant offset (within 0.01 µm/µm)
-/// agree with an f64 eigen-solve of the same samples; U = 2u of each seen component (with the
-/// bar's shares) covers the truth in 95 % ± 3 %, and u matches the scatter within 20 %. A
-/// window of fewer than 30 degrees of freedom states E but no u.
+/// 0.1–0.5 µm, a bar off by δ ~ N(0, 0.6 µm) in length and k ~ N(0, 0.5 %) in scale, and the
+/// socket entered off by N(0, 1 µm) per coordinate. The live E's Type A u (within 1 %) and
+/// its response to a constant offset (within 0.01 µm/µm) agree with an f64 eigen-solve of the
+/// same samples about the entered socket; U = 2u of each seen component (with the bar's and
+/// the socket's shares) covers the truth in 95 % ± 3 %, and u matches the scatter within
+/// 20 %. A window of fewer than 30 degrees of freedom states E but no u.
 #[test]
 fn the_live_e_states_a_u_that_covers_the_truth() {
     use ballpod::metrology::ssm::streaming::LIVE_MIN_DOF;
@@ -1124,6 +1173,8 @@ fn the_live_e_states_a_u_that_covers_the_truth() {
     const RUNS: usize = 400;
     for zigzag in [true, false] {
         let mut rng = Rng::new(1414 + u64::from(zigzag));
+        // the socket's entry errors from a stream of their own: the other draws stay as they were
+        let mut socket = Rng::new(1416 + u64::from(zigzag));
         let (mut covered, mut e2, mut u2) = ([0usize; 3], [0.0f64; 3], [0.0f64; 3]);
         let (mut worst_a, mut worst_s): (f64, f64) = (0.0, 0.0);
         for _ in 0..RUNS {
@@ -1131,7 +1182,14 @@ fn the_live_e_states_a_u_that_covers_the_truth() {
             let noise = rng.range(0.1, 0.5);
             let (offset, k) = draw_bar(&mut rng);
             let start = rng.range(0.0, 360.0);
-            let mut ssm = StreamingSsm::<256>::new(config);
+            let entered = entered_socket(&mut socket, p0);
+            let mut ssm = StreamingSsm::<256>::new(StreamingConfig {
+                geometry: SsmGeometry {
+                    socket_mm: entered,
+                    ..config.geometry
+                },
+                ..config
+            });
             let mut fed = Vec::new();
             for i in 0..256 {
                 let t = i as f64 / 256.0;
@@ -1158,29 +1216,31 @@ fn the_live_e_states_a_u_that_covers_the_truth() {
                 if n == seen + LIVE_MIN_DOF - 1 {
                     // E, but one degree of freedom too few for its u
                     let mut u = [Some(1.0); 3];
-                    let e = ssm.live_with_uncertainty(&BAR, &mut u).unwrap();
+                    let e = ssm.live_with_uncertainty(&BAR, 0.0, &mut u).unwrap();
                     assert!(e[0].is_some() && u == [None; 3]);
                 }
                 if n == seen + LIVE_MIN_DOF {
                     let mut u = [None; 3];
-                    let e = ssm.live_with_uncertainty(&BAR, &mut u).unwrap();
+                    let e = ssm.live_with_uncertainty(&BAR, 0.0, &mut u).unwrap();
                     assert_eq!(u.map(|c| c.is_some()), e.map(|c| c.is_some()));
                 }
             }
             // Type A alone (no bar), with a 1 µm offset alone (its share is the sensitivity),
             // and with the bar of the runs
-            let with = |bar: &BarBudget| {
+            let with = |bar: &BarBudget, u_socket_um: f64| {
                 let mut u = [None; 3];
-                let e = ssm.live_with_uncertainty(bar, &mut u).unwrap();
+                let e = ssm
+                    .live_with_uncertainty(bar, u_socket_um as f32, &mut u)
+                    .unwrap();
                 (e, u)
             };
-            let (e, u_a) = with(&BarBudget::NONE);
+            let (e, u_a) = with(&BarBudget::NONE, 0.0);
             let unit_offset = BarBudget {
                 offset_um: 1.0,
                 scale: 0.0,
             };
-            let (_, u_1) = with(&unit_offset);
-            let (_, combined) = with(&BAR);
+            let (_, u_1) = with(&unit_offset, 0.0);
+            let (_, combined) = with(&BAR, U_SOCKET_UM);
             assert_eq!(e, ssm.live().unwrap());
             assert_eq!(
                 e.map(|c| c.is_some()),
@@ -1189,7 +1249,7 @@ fn the_live_e_states_a_u_that_covers_the_truth() {
                 ssm.estimate(),
                 fed.last()
             );
-            let oracle = live_oracle(&fed, p0, l);
+            let oracle = live_oracle(&fed, entered, l);
             for c in 0..3 {
                 let Some(v) = e[c] else {
                     assert!(u_a[c].is_none() && combined[c].is_none());

@@ -574,6 +574,8 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::LvdtUScalePpm => g(c.lvdt_u_scale_ppm),
         Field::S002URcZcUm => g(s.s002_u_r_c_z_c_um),
         Field::ProbeULobingUm => g(s.probe_u_lobing_um),
+        Field::SsmUSocketUm => g(s.ssm_u_socket_um),
+        Field::CircleUCentreUm => g(s.circle_u_centre_um),
         Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => unreachable!(),
     }
 }

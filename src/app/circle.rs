@@ -19,6 +19,13 @@ use crate::metrology::iso230_4::{self, CircularTest, IsoError};
 use crate::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
 use core::mem::MaybeUninit;
 
+/// Default standard uncertainty of each in-plane coordinate of the circle's centre as entered
+/// (`circle_centre`) against the centre the part program circles about (`circle_u_centre`),
+/// µm: the program's centre entered to the micrometre (`ncgen circle` writes both from one
+/// set-up). Where the socket truly is does not enter: the path's centre relative to the
+/// socket's ball is what e measures.
+pub const U_CENTRE_UM: f64 = 1.0;
+
 /// Angular bins of the ISO 230-4 profile (1° each; 11.8 KiB of state).
 pub const ISO_BINS: usize = 360;
 
@@ -103,6 +110,10 @@ pub struct CircleTest {
     /// The count of used samples of the running direction's run at which the noise is next
     /// taken from its profile.
     next_noise_at: u32,
+    /// The centre's shares (contributor `socket`) of the running direction's (r0, e_u, e_v)
+    /// as of the last noise refresh ([`CircularTest::centre_shares`]; 0 before the first),
+    /// µm.
+    live_centre_um: [f32; 3],
 }
 
 /// Samples between two refreshes of the sample noise the live u of a CIRCLE run takes (the
@@ -137,6 +148,7 @@ impl CircleTest {
             complete: [false; 2],
             live_noise_um: f32::NAN,
             next_noise_at: 0,
+            live_centre_um: [0.0; 3],
         } in place {
             test: |s| CircularTest::init(s, NO_TEST, f32::NAN),
         })
@@ -152,6 +164,7 @@ impl CircleTest {
     pub fn begin_run(&mut self, geometry: CircleGeometry, d: Direction) {
         self.live_noise_um = f32::NAN;
         self.next_noise_at = LIVE_NOISE_RETRY;
+        self.live_centre_um = [0.0; 3];
         if self.geometry != Some(geometry) {
             self.geometry = Some(geometry);
             self.test.restart(geometry.fit, geometry.radius_mm);
@@ -179,7 +192,8 @@ impl CircleTest {
     /// seed 002 steps' live fit; `last_u_at`: the count of the last refresh). The u takes one sample's noise from the
     /// profile, as [`CircularTest::fit_estimate`] does at the run's end, every
     /// [`LIVE_NOISE_EVERY`] used samples (every [`LIVE_NOISE_RETRY`] while the profile is too
-    /// short to tell it, and the residual's σ meanwhile).
+    /// short to tell it, and the residual's σ meanwhile), and the centre's share
+    /// (`circle_u_centre`) through the profile as of the same refresh.
     pub fn live(
         &mut self,
         d: Direction,
@@ -188,17 +202,23 @@ impl CircleTest {
     ) -> (Option<[f32; 3]>, Option<[f32; 3]>) {
         let used = self.test.fit(d).samples();
         if used >= self.next_noise_at {
-            self.refresh_live_noise(d, used);
+            self.refresh_live_noise(d, used, config.setup.circle_u_centre_um);
         }
         let with_u = super::live_u_due(used, last_u_at);
-        super::live_fit(self.test.fit(d), self.live_noise_um, with_u, config)
+        let (noise, socket) = (self.live_noise_um, self.live_centre_um);
+        super::live_fit(self.test.fit(d), noise, socket, with_u, config)
     }
 
     /// Takes the sample noise of the run of direction `d` from its profile
-    /// ([`CircularTest::noise_um`]) at `used` samples, and when to take it next.
+    /// ([`CircularTest::noise_um`]) and the centre's shares for `u_centre_um`
+    /// ([`CircularTest::centre_shares`]; the last ones kept while the fit is not available)
+    /// at `used` samples, and when to take them next.
     #[inline(never)] // off the per-sample path: one sample in [`LIVE_NOISE_EVERY`]
-    fn refresh_live_noise(&mut self, d: Direction, used: u32) {
+    fn refresh_live_noise(&mut self, d: Direction, used: u32, u_centre_um: f32) {
         self.live_noise_um = self.test.noise_um(d);
+        if let Ok(s) = self.test.centre_shares(d, u_centre_um) {
+            self.live_centre_um = s;
+        }
         let every = if self.live_noise_um.is_nan() {
             LIVE_NOISE_RETRY
         } else {
@@ -208,14 +228,17 @@ impl CircleTest {
     }
 
     /// Ends the run of direction `d`: its results, and the bi-directional ones when both
-    /// directions are complete, each u with the bar's share `bar` (`metrology::bar_budget`).
-    /// `Err` if the run has no fit (too short an arc, too few samples).
+    /// directions are complete, each u with the bar's share `bar` (`metrology::bar_budget`);
+    /// and the fit with the centre's shares of its (r0, e_u, e_v) for `u_centre_um`
+    /// ([`CircularTest::centre_shares`]). `Err` if the run has no fit (too short an arc, too
+    /// few samples).
     pub fn finish_run(
         &mut self,
         d: Direction,
         results: &mut Results,
         bar: &BarBudget,
-    ) -> Result<CircleEstimate, CircleFitError> {
+        u_centre_um: f32,
+    ) -> Result<(CircleEstimate, [f32; 3]), CircleFitError> {
         results.clear(ResultId::GBidir, ResultId::ServoMismatch);
         let (g, fmax, fmin) = match d {
             Direction::Ccw => (ResultId::GCcw, ResultId::FMaxCcw, ResultId::FMinCcw),
@@ -225,6 +248,7 @@ impl CircleTest {
             results.clear(id, id);
         }
         let est = self.test.fit_estimate(d)?;
+        let socket = self.test.centre_shares(d, u_centre_um)?;
         if let Some(c) = self.complete.get_mut(dir_index(d)) {
             *c = true;
         }
@@ -234,13 +258,13 @@ impl CircleTest {
                 (fmax, f.radial_deviation_f_max_um, Radial),
                 (fmin, f.radial_deviation_f_min_um, Radial),
             ] {
-                results.set_with_bar(id, v.value, v.std_uncertainty, bar, kind);
+                results.set_with_bar(id, v.value, [v.std_uncertainty, 0.0], bar, kind);
             }
         }
         if self.complete == [true, true] {
             self.bidirectional(results, bar);
         }
-        Ok(est)
+        Ok((est, socket))
     }
 
     fn bidirectional(&self, results: &mut Results, bar: &BarBudget) {
@@ -258,7 +282,7 @@ impl CircleTest {
                     Radial,
                 ),
             ] {
-                results.set_with_bar(id, v.value, v.std_uncertainty, bar, kind);
+                results.set_with_bar(id, v.value, [v.std_uncertainty, 0.0], bar, kind);
             }
         }
         let diag = |d| self.test.diagnostics(d);
@@ -274,7 +298,7 @@ impl CircleTest {
             (ResultId::ReversalV, m.reversal_step_v_um),
             (ResultId::CyclicAmplitude, m.cyclic_amplitude_um),
         ] {
-            results.set_with_bar(id, v.value, v.std_uncertainty, bar, Shape);
+            results.set_with_bar(id, v.value, [v.std_uncertainty, 0.0], bar, Shape);
         }
         // 0: no harmonic of order 3–16 is significant (none named)
         let order = m.named_cyclic_order().unwrap_or(0);
@@ -289,7 +313,13 @@ impl CircleTest {
         });
         if let Some((t, u)) = tau {
             // a difference of squareness: a shape figure
-            results.set_with_bar(ResultId::ServoMismatch, t as f32, u as f32, bar, Shape);
+            results.set_with_bar(
+                ResultId::ServoMismatch,
+                t as f32,
+                [u as f32, 0.0],
+                bar,
+                Shape,
+            );
         }
     }
 

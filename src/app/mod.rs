@@ -83,16 +83,17 @@ const LIVE_SSM: u16 = LIVE_SSM_E | LIVE_SSM_E << LIVE_U_SHIFT;
 /// The live (r0, e_u, e_v) of a running circle fit, µm (`None` while not observable), and
 /// when `with_u` their standard uncertainties as the run's results would state them: the
 /// fit's Type A ([`CircleFit::live_with_uncertainty`], σ = `sample_noise_um` or the
-/// residual's where NaN) with the bar's shares (`None` when not refreshed at this sample or
-/// not observable).
+/// residual's where NaN) with the bar's shares and the centre's (`socket_um`, µm, for r0,
+/// e_u, e_v) (`None` when not refreshed at this sample or not observable).
 pub(crate) fn live_fit(
     fit: &CircleFit,
     sample_noise_um: f32,
+    socket_um: [f32; 3],
     with_u: bool,
     config: &Config,
 ) -> (Option<[f32; 3]>, Option<[f32; 3]>) {
     if with_u {
-        live_fit_with_u(fit, sample_noise_um, config)
+        live_fit_with_u(fit, sample_noise_um, socket_um, config)
     } else {
         (fit.live().ok(), None)
     }
@@ -130,15 +131,20 @@ fn set_live_fit(live: &mut LiveValues, fit: Option<[f32; 3]>, u: Option<[f32; 3]
 fn live_fit_with_u(
     fit: &CircleFit,
     sample_noise_um: f32,
+    [s_r0, s_eu, s_ev]: [f32; 3],
     config: &Config,
 ) -> (Option<[f32; 3]>, Option<[f32; 3]>) {
     match fit.live_with_uncertainty(sample_noise_um) {
         Ok(([r0, eu, ev], [u_r0, u_eu, u_ev])) => {
             let bar = BarBudget::from_config(config);
+            let with = |kind, v, u: f32, s: f32| {
+                let b = bar.combined(kind, v, u);
+                crate::num::sqrtf(b * b + s * s)
+            };
             let u = [
-                bar.combined(FigureKind::Radial, r0, u_r0),
-                bar.combined(FigureKind::Shape, eu, u_eu),
-                bar.combined(FigureKind::Shape, ev, u_ev),
+                with(FigureKind::Radial, r0, u_r0, s_r0),
+                with(FigureKind::Shape, eu, u_eu, s_eu),
+                with(FigureKind::Shape, ev, u_ev, s_ev),
             ];
             (Some([r0, eu, ev]), Some(u))
         }
@@ -856,15 +862,35 @@ impl App {
         self.end_run(Some(reason));
     }
 
-    /// Publishes a run's limaçon fit; each u with the bar's share `bar`.
-    fn publish_run_fit(&mut self, e: &CircleEstimate, arc_deg: f32, bar: &BarBudget) {
+    /// Publishes a run's circle fit with the bar's shares and the centre's (µm, for r0, e_u,
+    /// e_v: [`circle::CircleTest::finish_run`]; zero for a seed 002 step, whose centre's inputs
+    /// are in the procedure's budget).
+    fn publish_run_fit(
+        &mut self,
+        e: &CircleEstimate,
+        arc_deg: f32,
+        bar: &BarBudget,
+        [s_r0, s_eu, s_ev]: [f32; 3],
+    ) {
         let r = &mut self.results;
-        for (id, v, u, kind) in [
-            (ResultId::EccU, e.e_um[0], e.u_e_um[0], FigureKind::Shape),
-            (ResultId::EccV, e.e_um[1], e.u_e_um[1], FigureKind::Shape),
-            (ResultId::R0, e.r0_um, e.u_r0_um, FigureKind::Radial),
+        for (id, v, u, kind, socket) in [
+            (
+                ResultId::EccU,
+                e.e_um[0],
+                e.u_e_um[0],
+                FigureKind::Shape,
+                s_eu,
+            ),
+            (
+                ResultId::EccV,
+                e.e_um[1],
+                e.u_e_um[1],
+                FigureKind::Shape,
+                s_ev,
+            ),
+            (ResultId::R0, e.r0_um, e.u_r0_um, FigureKind::Radial, s_r0),
         ] {
-            r.set_with_bar(id, v, u, bar, kind);
+            r.set_with_bar(id, v, [u, socket], bar, kind);
         }
         r.set(
             ResultId::ResidualRms,
@@ -886,19 +912,24 @@ impl App {
         self.procedure_note = None;
         let ok = match &mut self.estimator {
             RunEstimator::None => false,
-            RunEstimator::Circle => match self.circle.finish_run(d, &mut self.results, &bar) {
-                Ok(e) => {
-                    let arc = self.circle.arc_deg(d);
-                    self.publish_run_fit(&e, arc, &bar);
-                    true
+            RunEstimator::Circle => {
+                match self
+                    .circle
+                    .finish_run(d, &mut self.results, &bar, setup.circle_u_centre_um)
+                {
+                    Ok((e, socket)) => {
+                        let arc = self.circle.arc_deg(d);
+                        self.publish_run_fit(&e, arc, &bar, socket);
+                        true
+                    }
+                    Err(_) => false,
                 }
-                Err(_) => false,
-            },
+            }
             RunEstimator::Step(step, fit) => {
                 let (step, fit) = (*step, *fit);
                 match fit.estimate() {
                     Ok(e) => {
-                        self.publish_run_fit(&e, fit.arc_deg(), &bar);
+                        self.publish_run_fit(&e, fit.arc_deg(), &bar, [0.0; 3]);
                         self.record_step(step, d, e, &bar);
                         true
                     }
@@ -907,7 +938,7 @@ impl App {
             }
             RunEstimator::Ssm => match self.ssm.finish() {
                 Ok(m) => {
-                    ssm::publish(&m, &bar, &mut self.results);
+                    ssm::publish(&m, &bar, setup.ssm_u_socket_um, &mut self.results);
                     match self
                         .two_step
                         .on_measurement(&setup, &m, &bar, &mut self.results)
@@ -977,7 +1008,7 @@ impl App {
                 for (id, e, u) in [(a, se.e_um[0], se.u_e_um[0]), (b, se.e_um[1], se.u_e_um[1])] {
                     let shape = FigureKind::Shape;
                     self.results
-                        .set_with_bar(id, e as f32, u as f32, bar, shape);
+                        .set_with_bar(id, e as f32, [u as f32, 0.0], bar, shape);
                 }
             }
         }
@@ -1031,7 +1062,7 @@ impl App {
                 .uncertainty
                 .by_source
                 .map(|s| (s.get(i).copied().unwrap_or(f64::NAN) * unit) as f32);
-            let shares = [ecc, 0.0, scale, w, t, 0.0];
+            let shares = [ecc, 0.0, scale, w, t, 0.0, 0.0];
             r.set_budget(id, v, shares);
             r.set_budget(corr, -v, shares);
         }
@@ -1065,7 +1096,7 @@ impl App {
             ] {
                 // eqs 4.10–4.18 are linear in the eccentricities without a constant term: the
                 // LVDT's scale error k moves every result by k times itself, as a shape figure
-                r.set_with_bar(id, v as f32, uu as f32, &bar, FigureKind::Shape);
+                r.set_with_bar(id, v as f32, [uu as f32, 0.0], &bar, FigureKind::Shape);
             }
         }
         true
@@ -1316,7 +1347,7 @@ impl App {
             // a seed 002 step's result takes the residual's u: no noise is given
             (RunEstimator::Step(_, f), true) => {
                 let with_u = live_u_due(f.samples(), &mut self.live_u_at);
-                let (fit, u) = live_fit(f, f32::NAN, with_u, &self.config);
+                let (fit, u) = live_fit(f, f32::NAN, [0.0; 3], with_u, &self.config);
                 set_live_fit(&mut self.live, fit, u)
             }
             (RunEstimator::Ssm, true) => {

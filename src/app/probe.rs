@@ -441,7 +441,7 @@ fn publish_probe(
     lobing: &[f64],
 ) {
     for (((id, v), a), l) in ids.iter().zip(value).zip(u_a).zip(lobing) {
-        results.set_budget(*id, *v, [*a as f32, 0.0, 0.0, 0.0, 0.0, *l as f32]);
+        results.set_budget(*id, *v, [*a as f32, 0.0, 0.0, 0.0, 0.0, *l as f32, 0.0]);
     }
 }
 

@@ -197,10 +197,14 @@ pub enum Contributor {
     /// The touch probe's lobing: its pre-travel varying with the direction of approach
     /// (seed 002 chapter 5).
     ProbeLobing = 5,
+    /// The socket's centre as entered: SSM's P0 against the true socket (it moves E one to
+    /// one), a circle's centre against the one the part program circles about (it turns each
+    /// sample's direction).
+    Socket = 6,
 }
 
 /// Number of [`Contributor`]s.
-pub const CONTRIBUTOR_COUNT: usize = 6;
+pub const CONTRIBUTOR_COUNT: usize = 7;
 
 /// The names of the [`Contributor`]s, in discriminant order (SCPI `FETCh:RESult:BUDGet?`, the
 /// replay's `results.json`).
@@ -211,6 +215,7 @@ pub const CONTRIBUTORS: [&str; CONTRIBUTOR_COUNT] = [
     "w_ball",
     "t_ball",
     "probe_lobing",
+    "socket",
 ];
 
 impl Contributor {
@@ -222,6 +227,7 @@ impl Contributor {
         Self::WBall,
         Self::TBall,
         Self::ProbeLobing,
+        Self::Socket,
     ];
 
     /// Its name in [`CONTRIBUTORS`].
@@ -318,7 +324,7 @@ impl Results {
     /// Sets `id` to `value` ± `u` (standard uncertainty, NaN if not evaluated), all of it
     /// [`Contributor::TypeA`]; a value that is not finite leaves the entry invalid.
     pub fn set(&mut self, id: ResultId, value: f64, u: f64) {
-        self.set_budget(id, value, [u as f32, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        self.set_budget(id, value, [u as f32, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
     }
 
     /// Sets `id` to `value` with the standard uncertainty each [`Contributor`] gives it
@@ -343,18 +349,23 @@ impl Results {
     }
 
     /// Sets `id` to a figure computed from ΔL: `value` ± its own (Type A) standard uncertainty
-    /// `u_a`, with the bar's shares of a figure of `kind` ([`BarBudget::shares`]).
+    /// `u_a`, with the bar's shares of a figure of `kind` ([`BarBudget::shares`]) and the
+    /// socket's `socket` as entered (0 for a figure the budget gives none).
     #[inline(never)] // one copy for every figure the bar enters
     pub fn set_with_bar(
         &mut self,
         id: ResultId,
         value: f32,
-        u_a: f32,
+        [u_a, socket]: [f32; 2],
         bar: &BarBudget,
         kind: FigureKind,
     ) {
         let [offset, scale] = bar.shares(kind, value);
-        self.set_budget(id, f64::from(value), [u_a, offset, scale, 0.0, 0.0, 0.0]);
+        self.set_budget(
+            id,
+            f64::from(value),
+            [u_a, offset, scale, 0.0, 0.0, 0.0, socket],
+        );
     }
 
     /// Invalidates the results from `first` to `last` (inclusive, in [`RESULTS`] order).

@@ -41,6 +41,13 @@ pub const REFINE_ITERATIONS: u32 = 10;
 /// position the 12-bit quantisation of the LVDT secondaries gives the same error in every
 /// block (up to ≈ 0.12 µm), and the encoders count 0.1 µm.
 pub const FIXED_POSITION_U_UM: f64 = 0.1;
+/// Default standard uncertainty of each coordinate of the socket's centre as entered
+/// (`ssm_socket`) against its true centre (`ssm_u_socket`), µm: the socket found by docking
+/// the spindle's setting cup on its ball, which seats within about 1 µm. E is read against P0
+/// as entered (seed 000 B.2 item 5: an error of P0 is a common offset of every E), so this
+/// moves each component of E one to one. What the machine's own error at the docking pose
+/// adds is the reference E is read against (the socket side), not an uncertainty.
+pub const U_SOCKET_UM: f64 = 1.0;
 
 /// An SSM run in progress (state ≈ 7.6 KiB).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,6 +57,9 @@ pub struct SsmRun {
     stations: StationCollector<MAX_STATIONS>,
     /// The bar's inputs to the live E's u (the configuration's at the run's start).
     bar: BarBudget,
+    /// The socket's standard uncertainty per coordinate as entered, µm (the configuration's
+    /// at the run's start; E moves with it one to one: seed 000 B.2 item 5).
+    u_socket_um: f32,
 }
 
 /// E from the stations of an SSM run.
@@ -68,9 +78,11 @@ pub struct SsmMeasurement {
 
 impl SsmMeasurement {
     /// The shares of each component of E's standard uncertainty, µm, by
-    /// [`super::results::Contributor`]: the stations' covariance (Type A) and, with `bar`, the
-    /// bar's offset and scale (NaN where the component is not observable).
-    pub fn shares_um(&self, bar: &BarBudget) -> [[f32; CONTRIBUTOR_COUNT]; 3] {
+    /// [`super::results::Contributor`]: the stations' covariance (Type A), with `bar` the
+    /// bar's offset and scale, and the socket's `u_socket_um` per coordinate as entered, which
+    /// moves every observable component one to one (the least squares reproduces a common
+    /// shift of the rows exactly; NaN where the component is not observable).
+    pub fn shares_um(&self, bar: &BarBudget, u_socket_um: f32) -> [[f32; CONTRIBUTOR_COUNT]; 3] {
         let c = &self.covariance_um2;
         let mut out = [[f32::NAN; CONTRIBUTOR_COUNT]; 3];
         for (((o, var), e), [off, scale]) in out
@@ -80,17 +92,18 @@ impl SsmMeasurement {
             .zip(self.bar.shares_um(bar))
         {
             if e.is_some() {
-                *o = [crate::num::sqrt(var) as f32, off, scale, 0.0, 0.0, 0.0];
+                let a = crate::num::sqrt(var) as f32;
+                *o = [a, off, scale, 0.0, 0.0, 0.0, u_socket_um];
             }
         }
         out
     }
 
     /// Standard uncertainty of each component of E, µm (NaN where not observable): the
-    /// [`Self::shares_um`] in quadrature ([`BarBudget::NONE`] leaves the stations' share
-    /// alone).
-    pub fn u_e_um(&self, bar: &BarBudget) -> [f64; 3] {
-        self.shares_um(bar)
+    /// [`Self::shares_um`] in quadrature ([`BarBudget::NONE`] and a `u_socket_um` of 0 leave
+    /// the stations' share alone).
+    pub fn u_e_um(&self, bar: &BarBudget, u_socket_um: f32) -> [f64; 3] {
+        self.shares_um(bar, u_socket_um)
             .map(|s| f64::from(crate::num::sqrtf(s.iter().map(|v| v * v).sum())))
     }
 }
@@ -134,6 +147,7 @@ impl SsmRun {
         init_in_place!(slot, Self {
             geometry: geometry,
             bar: bar,
+            u_socket_um: t.ssm_u_socket_um,
             stations: StationCollector::new(DwellConfig {
                 max_speed_mm_per_s: t.ssm_dwell_speed_mm_per_s,
                 max_rotary_speed_deg_per_s: DWELL_ROTARY_SPEED_DEG_PER_S,
@@ -157,8 +171,10 @@ impl SsmRun {
 
     /// E at the current point from its neighbourhood, µm, for the sample numbered
     /// `sample_counter`: each component, or `None` where it is not observable (yet); and at
-    /// every [`LIVE_U_EVERY`]th sample its standard uncertainty with the bar's shares, µm
-    /// (`None` where not stated: [`StreamingSsm::live_with_uncertainty`]).
+    /// every [`LIVE_U_EVERY`]th sample its standard uncertainty with the bar's and the
+    /// socket's shares, µm (`None` where not stated:
+    /// [`StreamingSsm::live_with_uncertainty`]; the socket's moves a stated component one to
+    /// one, as the stations').
     pub fn live(&self, sample_counter: u32) -> ([Option<f32>; 3], Option<[Option<f32>; 3]>) {
         if sample_counter.is_multiple_of(LIVE_U_EVERY) {
             self.live_with_u()
@@ -172,7 +188,7 @@ impl SsmRun {
         let mut u = [None; 3];
         let e = self
             .stream
-            .live_with_uncertainty(&self.bar, &mut u)
+            .live_with_uncertainty(&self.bar, self.u_socket_um, &mut u)
             .unwrap_or([None; 3]);
         (e, Some(u))
     }
@@ -193,10 +209,11 @@ impl SsmRun {
     }
 }
 
-/// Writes an SSM measurement into the results, E with the bar's share (`bar`) in its u.
-pub fn publish(m: &SsmMeasurement, bar: &BarBudget, results: &mut Results) {
+/// Writes an SSM measurement into the results, E with the bar's (`bar`) and the socket's
+/// (`u_socket_um` per coordinate, µm) shares in its u.
+pub fn publish(m: &SsmMeasurement, bar: &BarBudget, u_socket_um: f32, results: &mut Results) {
     let [ex, ey, ez] = m.solution.e_um;
-    let [ux, uy, uz] = m.shares_um(bar);
+    let [ux, uy, uz] = m.shares_um(bar, u_socket_um);
     for (id, e, u) in [
         (ResultId::SsmEx, ex, ux),
         (ResultId::SsmEy, ey, uy),
@@ -267,7 +284,10 @@ impl TwoStep {
     /// covariance Σᵣ (the runs independent), and the bar's. One bar measures both runs, so its
     /// offset and scale errors move ΔV1 and ΔV2 together — fully correlated, Σᵣ jᵣ·bᵣ before
     /// squaring (bᵣ the run's [`BarSensitivity`]): an offset cancels where the two runs'
-    /// station layouts match.
+    /// station layouts match. The socket as entered has no share: one socket serves both runs
+    /// (run 2's `ssm_socket` is run 1's plus a nominal offset, as `ncgen two-step` writes
+    /// them: one entry error), so its error moves ΔV1 and ΔV2 alike, and the exact mode reads
+    /// ΔV2 − ΔV1 only.
     #[inline(never)] // flash (32 B); and the Jacobian on the stack only while a pair ends
     pub fn on_measurement(
         &mut self,
@@ -324,7 +344,7 @@ impl TwoStep {
                 by_scale * u_scale,
             ];
             let [a, o, k] = shares.map(|v| v as f32);
-            results.set_budget(id, value, [a, o, k, 0.0, 0.0, 0.0]);
+            results.set_budget(id, value, [a, o, k, 0.0, 0.0, 0.0, 0.0]);
         }
         Ok(true)
     }

@@ -45,6 +45,7 @@
 use super::angle::quadrant_angle;
 use super::circle_fit::{CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, Moments};
 use super::extremes;
+use super::pattern::Sensitivity;
 use super::solve3::cholesky_solve;
 use crate::acquisition::Sample;
 use crate::in_place::{self, init_in_place};
@@ -352,6 +353,68 @@ impl<const BINS: usize> CircularTest<BINS> {
             est.u_e_um = [u(inv.a11), u(inv.a22)];
         }
         Ok(est)
+    }
+
+    /// The centre's shares of the limaçon fit of direction `d`, (r0, e_u, e_v) in µm, for a
+    /// centre entered with standard uncertainty `u_centre_um` in each in-plane coordinate
+    /// against the centre the path circles about: first order (GUM §5.1.2, analytic),
+    /// u_centre·|∂x/∂(δ_u, δ_v)|.
+    ///
+    /// The pod takes from the centre as entered only each sample's direction n about it
+    /// ([`super::pattern::PatternGeometry::direction`]). Entered δ off, n moves by
+    /// dn = −s (δ − (δ·n) n) / R (s the pattern's sign, R the radius), so the rows (1, n) of
+    /// the least squares move by (0, dn), and x = (r0, e) by
+    /// dx = (AᵀA)⁻¹ Σ [(0, dn) r − (1, n)(dn·e)], r each sample's residual. The sums run over
+    /// the 1° bins (each bin's mean ΔL, mean n and count): the profile's shape (its ovality:
+    /// squareness, scale mismatch) gives e its share, e itself gives r0 one (δ·e / 2R on a full
+    /// circle). The coordinate across the plane does not turn n (second order). `Err` where
+    /// the fit is not available.
+    pub fn centre_shares(
+        &self,
+        d: Direction,
+        u_centre_um: f32,
+    ) -> Result<[f32; 3], CircleFitError> {
+        let run = self.run(d);
+        let m = run.fit.moments();
+        let chol = m
+            .normal_matrix()
+            .cholesky()
+            .map_err(|_| CircleFitError::IllConditioned)?;
+        // the fit (r0 relative to the moments' reference, added back below)
+        let [x0, x1, x2] = chol.solve([m.y, m.y_u, m.y_v]);
+        let s = match run.fit.config().geometry.sensitivity {
+            Sensitivity::Outward => 1.0,
+            Sensitivity::Inward => -1.0,
+        };
+        let k = -s / (self.radius_mm * 1e3);
+        let [r0, eu, ev] = [x0 + m.y_ref_um, x1, x2].map(|v| v as f32);
+        // Σ over the bins, per δ direction (u, v): the right-hand side of dx
+        let mut g = [[0.0f32; 3]; 2];
+        for b in &run.bins {
+            let Some((dl, nu, nv)) = b.mean() else {
+                continue;
+            };
+            let w = b.n as f32;
+            let r = dl - (r0 + eu * nu + ev * nv);
+            // dn for δ along u, then along v: k (δ − (δ·n) n)
+            let cross = -k * nu * nv;
+            for (g, (dnu, dnv)) in g
+                .iter_mut()
+                .zip([(k * (1.0 - nu * nu), cross), (cross, k * (1.0 - nv * nv))])
+            {
+                let de = dnu * eu + dnv * ev;
+                g[0] -= w * de;
+                g[1] += w * (dnu * r - nu * de);
+                g[2] += w * (dnv * r - nv * de);
+            }
+        }
+        let [su, sv] = g.map(|g| chol.solve(g.map(f64::from)));
+        let mut out = [0.0; 3];
+        for ((o, a), b) in out.iter_mut().zip(su).zip(sv) {
+            let (a, b) = (a as f32, b as f32);
+            *o = u_centre_um * crate::num::sqrtf(a * a + b * b);
+        }
+        Ok(out)
     }
 
     /// One sample's ΔL noise of the run in direction `d`, µm, from its profile's third

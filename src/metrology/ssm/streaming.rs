@@ -564,22 +564,25 @@ impl<const W: usize> StreamingSsm<W> {
     }
 
     /// [`live`](Self::live), and into `u` the standard uncertainty of each component, µm,
-    /// with the bar's shares `bar` (`None` where E_k is not observable or the window has fewer
-    /// than [`LIVE_MIN_DOF`] degrees of freedom). Type A: σ̂ √((G⁻¹)_kk), σ̂² the window's
-    /// residual sum of squares over its degrees of freedom, at least [`LIVE_SIGMA_FLOOR_UM`]²;
-    /// the bar (GUM first order): a constant offset of every y moves E_k by the least squares
-    /// of the window with y ≡ 1 (times `bar.offset_um`), the scale by E_k·`bar.scale`. About
+    /// with the bar's shares `bar` and the socket's `u_socket_um` (`None` where E_k is not
+    /// observable or the window has fewer than [`LIVE_MIN_DOF`] degrees of freedom). Type A:
+    /// σ̂ √((G⁻¹)_kk), σ̂² the window's residual sum of squares over its degrees of freedom, at
+    /// least [`LIVE_SIGMA_FLOOR_UM`]²; the bar (GUM first order): a constant offset of every y
+    /// moves E_k by the least squares of the window with y ≡ 1 (times `bar.offset_um`), the
+    /// scale by E_k·`bar.scale`; the socket as entered, off by δ, changes every y by u·δ, which
+    /// the least squares reproduces: E_k by δ_k whole (each coordinate's `u_socket_um`). About
     /// 300 instructions more than [`live`](Self::live): the pod refreshes it every
     /// [`crate::app::live::LIVE_U_EVERY`] samples.
     pub fn live_with_uncertainty(
         &self,
         bar: &BarBudget,
+        u_socket_um: f32,
         u: &mut [Option<f32>; 3],
     ) -> Result<[Option<f32>; 3], SsmError> {
         let mut parts = LiveParts::default();
         *u = [None; 3];
         let e = self.solve_live(Some(&mut parts))?;
-        *u = self.live_u(&parts, bar);
+        *u = self.live_u(&parts, bar, u_socket_um);
         Ok(e)
     }
 
@@ -774,7 +777,7 @@ impl<const W: usize> StreamingSsm<W> {
 
     /// The live E's u from the parts of its solve (see [`Self::live_with_uncertainty`]).
     #[inline(never)] // off the per-sample path
-    fn live_u(&self, p: &LiveParts, bar: &BarBudget) -> [Option<f32>; 3] {
+    fn live_u(&self, p: &LiveParts, bar: &BarBudget, u_socket_um: f32) -> [Option<f32>; 3] {
         let mut out = [None; 3];
         let n = self.len as u32;
         let s = &self.sums;
@@ -825,7 +828,8 @@ impl<const W: usize> StreamingSsm<W> {
                 + w1 * (p01 * w0 + p11 * w1 - pb1 * w2)
                 + w2 * mw2;
             let (off, scale) = (p.mm * mw2 * bar.offset_um, ek * bar.scale);
-            let u = crate::num::sqrtf(kv * g + off * off + scale * scale);
+            let socket = u_socket_um * u_socket_um;
+            let u = crate::num::sqrtf(kv * g + off * off + scale * scale + socket);
             let seen = p.seen.get(k).copied().unwrap_or(false);
             *o = (seen && u.is_finite()).then_some(u);
         }

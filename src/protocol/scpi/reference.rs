@@ -240,7 +240,7 @@ const fn doc(c: Command) -> CommandDoc {
         ),
         FetchBudget => d(
             "FETCh:RESult:BUDGet? <name|index>",
-            "`std_uncertainty` of a [result](results.md), then its (up to) three largest contributors, largest first, each `NAME,share` (the standard uncertainty it gives, the result's unit; they add in quadrature): `TYPE_A` (fit residuals, repeat scatter, reading noise), `BAR_OFFSET` (the bar's length and temperature), `LVDT_SCALE`, `W_BALL`, `T_BALL` (seed 002's ball mounting), `PROBE_LOBING` (the touch probe's lobing); none while u is not evaluated; an invalid result queues -230",
+            "`std_uncertainty` of a [result](results.md), then its (up to) three largest contributors, largest first, each `NAME,share` (the standard uncertainty it gives, the result's unit; they add in quadrature): `TYPE_A` (fit residuals, repeat scatter, reading noise), `BAR_OFFSET` (the bar's length and temperature), `LVDT_SCALE`, `W_BALL`, `T_BALL` (seed 002's ball mounting), `PROBE_LOBING` (the touch probe's lobing), `SOCKET` (SSM's socket and a circle's centre as entered); none while u is not evaluated; an invalid result queues -230",
             "FETC:RES:BUDG? G_ccw",
         ),
         FetchCatalog => d(

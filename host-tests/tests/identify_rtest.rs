@@ -42,6 +42,15 @@ fn g3() -> RtestGeometry {
     RtestGeometry::SEED003_TABLE3
 }
 
+/// The paper's identification: one linear pass with the gains of the ball as entered, which
+/// reproduces readings made with those gains (the printed Table 2) exactly.
+fn paper() -> RtestConfig {
+    RtestConfig {
+        refine_ball: false,
+        ..RtestConfig::default()
+    }
+}
+
 fn kin3() -> fw::Kin {
     ballpod_host::vmt::rtest_rig::seed003_table3_kinematics()
 }
@@ -574,7 +583,7 @@ fn c4_exact_chain_vs_first_order_model_within_3nm() {
 #[test]
 fn c5_k4a_round_trip_recovers_table4() {
     let s = samples(&k4a(), |a, c| table2_reading_um(a, c, TABLE4));
-    let r = identify(&g3(), &s, &RtestConfig::default()).unwrap();
+    let r = identify(&g3(), &s, &paper()).unwrap();
     assert_eq!(r.rank, 11);
     assert_eq!(r.fixed.count(), 0);
     let got = r.errors.to_array();
@@ -644,7 +653,7 @@ fn round_trip_random_deviations_linear_and_exact_chain() {
         });
         // linear (printed Table 2) readings: recovered to 1e-9 relative
         let s = samples(&k4a(), |a, c| table2_reading_um(a, c, truth));
-        let r = identify(&g3(), &s, &RtestConfig::default()).unwrap();
+        let r = identify(&g3(), &s, &paper()).unwrap();
         let got = r.errors.to_array();
         let scale = truth.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         for j in 0..11 {
@@ -685,7 +694,7 @@ fn c6_ranks_of_k1_k2_k4_absolute_and_zeroed() {
     let data = |p: &[(f64, f64)]| samples(p, |a, c| table2_reading_um(a, c, truth));
     let zeroed = RtestConfig {
         zero: ReadingZero::FirstPose,
-        ..RtestConfig::default()
+        ..paper()
     };
     let k1k2: Vec<(f64, f64)> = k1().into_iter().chain(k2()).collect();
     for (name, path, abs_rank, zero_rank) in [
@@ -695,7 +704,7 @@ fn c6_ranks_of_k1_k2_k4_absolute_and_zeroed() {
         ("K1+K2", k1k2, 11, 8),
     ] {
         let s = data(&path);
-        let r = identify(&g3(), &s, &RtestConfig::default()).unwrap();
+        let r = identify(&g3(), &s, &paper()).unwrap();
         assert_eq!(r.rank, abs_rank, "{name} absolute");
         assert_eq!(r.fixed.count(), 11 - abs_rank, "{name} absolute fixed");
         let z = identify(&g3(), &s, &zeroed).unwrap();
@@ -717,7 +726,7 @@ fn zeroed_readings_fix_xoc_yoa_zoa_and_recover_the_rest() {
     });
     let cfg = RtestConfig {
         zero: ReadingZero::FirstPose,
-        ..RtestConfig::default()
+        ..paper()
     };
     let r = identify(&g3(), &s, &cfg).unwrap();
     let fixed: Vec<&str> = (0..11)
@@ -1212,4 +1221,92 @@ fn the_heads_calibration_is_in_u() {
     }
     let worst = run(0.0).into_iter().map(|(c, _)| c).fold(1.0f64, f64::min);
     assert!(worst < 0.8, "{worst}");
+}
+
+/// Issue 14, the ball's position as entered: estimated, not budgeted. 300 K4 runs on the
+/// literal HTM chain (`forward_seed003`), the ball up to ±0.5 mm from where it is entered
+/// (XOW, YOW, ZOW) and the other errors up to 3× Table 4, 0.3 µm of noise per axis, the head
+/// exact (`u_reading_scale` 0): U = 2u covers every parameter in 95 % ± 3 % of the runs and u
+/// matches the scatter within 20 % when the gains are taken again at the identified ball
+/// (the default; 0.019 at most without noise); the paper's one pass with the gains of the
+/// ball as entered errs by up to 0.25 (µm or ″) without noise, and covers some parameter in
+/// under 90 %.
+#[test]
+fn the_ball_as_entered_is_estimated_not_budgeted() {
+    let k = kin3();
+    let path = k4a();
+    const RUNS: usize = 300;
+    let run = |refine_ball: bool| {
+        let cfg = RtestConfig {
+            u_reading_scale: 0.0,
+            refine_ball,
+            ..RtestConfig::default()
+        };
+        let mut rng = SplitMix(503);
+        let (mut covered, mut e2, mut u2) = ([0usize; 11], [0.0f64; 11], [0.0f64; 11]);
+        let mut worst_clean = 0.0f64;
+        for _ in 0..RUNS {
+            let truth: [f64; 11] = core::array::from_fn(|j| {
+                if j < 3 {
+                    rng.range(-500.0, 500.0)
+                } else {
+                    TABLE4[j] * rng.range(-3.0, 3.0)
+                }
+            });
+            let p = si(truth);
+            let clean = samples(&path, |a, c| {
+                fw::exact_reduced_reading_um(&k, &p, a.to_radians(), c.to_radians())
+            });
+            let r = identify(&g3(), &clean, &cfg).unwrap();
+            for (g, t) in r.errors.to_array().iter().zip(truth) {
+                worst_clean = worst_clean.max((g - t).abs());
+            }
+            let noisy: Vec<RtestSample> = clean
+                .into_iter()
+                .map(|mut s| {
+                    s.reading_um
+                        .iter_mut()
+                        .for_each(|v| *v += 0.3 * rng.normal());
+                    s
+                })
+                .collect();
+            let r = identify(&g3(), &noisy, &cfg).unwrap();
+            let (got, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
+            for j in 0..11 {
+                let e = got[j] - truth[j];
+                covered[j] += usize::from(e.abs() <= 2.0 * u[j]);
+                e2[j] += e * e;
+                u2[j] += u[j] * u[j];
+            }
+        }
+        let stats: Vec<(f64, f64)> = (0..11)
+            .map(|j| {
+                let coverage = covered[j] as f64 / RUNS as f64;
+                let ratio = (u2[j] / e2[j]).sqrt();
+                println!(
+                    "{} (refine_ball {refine_ball}): coverage {coverage:.3}, rms u / rms error {ratio:.2}",
+                    NAMES11[j]
+                );
+                (coverage, ratio)
+            })
+            .collect();
+        println!("refine_ball {refine_ball}: worst error without noise {worst_clean:.4}");
+        (stats, worst_clean)
+    };
+    let (refined, worst) = run(true);
+    assert!(worst < 0.02, "refined, without noise: {worst}");
+    for (j, (coverage, ratio)) in refined.into_iter().enumerate() {
+        assert!(
+            (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
+            "{}: coverage {coverage:.3}, rms u / rms error {ratio:.3}",
+            NAMES11[j]
+        );
+    }
+    let (paper, worst) = run(false);
+    assert!(worst > 0.1, "the paper's pass, without noise: {worst}");
+    let least = paper.iter().map(|(c, _)| *c).fold(1.0f64, f64::min);
+    assert!(
+        least < 0.9,
+        "the paper's pass covers every parameter in {least:.3} or more"
+    );
 }

@@ -754,8 +754,14 @@ pub struct RtestIdentification {
     /// Condition number of the 11-column problem (columns in µm / arc-seconds); infinite when
     /// rank-deficient.
     pub condition: f64,
-    /// Fit residuals (measured − predicted) on the identification path.
+    /// Fit residuals (measured − predicted) on the identification path, with the gains of
+    /// [`Self::gains_geometry`].
     pub residuals: Residuals,
+    /// The geometry the gains were taken at: the one entered, or with
+    /// [`RtestConfig::refine_ball`] the ball and the C-frame origin moved by the first pass's
+    /// XOW, YOW, ZOW, XOC, YOC ([`identify`]). [`verify`] and [`predict_um`] with
+    /// [`Self::path_model`] take it.
+    pub gains_geometry: RtestGeometry,
 }
 
 /// Measured − predicted statistics over a path (µm).
@@ -888,15 +894,17 @@ const COMBINED_TOL: f64 = 1e-6;
 /// (seed 003 §3, `q = H·a + e`, A8), with a rank check (C6) that fixes — or, with
 /// [`RankPolicy::Refuse`], refuses on — the parameters the path cannot separate.
 ///
-/// The ball's position as entered is not budgeted but estimated (issue 14): the gains are the
-/// lever arms of the ball as entered, and its error XOW, YOW, ZOW is identified with them. The
-/// identification is then taken again with the gains of the ball where the readings put it
-/// (one Gauss–Newton step: the Jacobian at the first estimate; the ball errors are still
-/// read against the ball as entered):
-/// with the ball up to 0.5 mm off and the other errors up to 3× seed 003's Table 4, the first
-/// pass erred by up to 0.25 (µm or ″) on the exact chain and the second by 0.019
-/// (`identify_rtest.rs`), against a u of 0.06–0.23 at 0.3 µm of noise. A ball error the path
-/// does not determine moves nothing.
+/// The ball's and the C axis's positions as entered are not budgeted but estimated (issue
+/// 14): the gains are the lever arms of the ball and the C-frame origin as entered, and their
+/// errors XOW, YOW, ZOW and XOC, YOC are identified with them. The identification is then
+/// taken again with the gains where the readings put them (the angular columns' lever arms at
+/// the first estimate; the readings still hold the whole offsets, so the second pass reads
+/// them against the geometry as entered again, and
+/// [`RtestIdentification::gains_geometry`] says where the gains were taken). With the ball up
+/// to 0.5 mm and the C axis up to 0.3 mm off and the other errors up to 3× seed 003's Table 4,
+/// the first pass erred by up to 0.23 (µm or ″) on the exact chain and the second by 0.009
+/// (`identify_rtest.rs`), against a u of 0.06–0.23 at 0.3 µm of noise. An offset the path does
+/// not determine moves nothing.
 ///
 /// Unweighted (every reading 1 µm σ), Givens QR (not the normal equations). Which parameters
 /// are fixed is decided greedily in `cfg.estimation_order`: each parameter is estimated if its
@@ -913,18 +921,22 @@ pub fn identify(
         return Ok(first);
     }
     let e = &first.errors;
-    let [dx, dy, dz] =
-        [e.xow_um, e.yow_um, e.zow_um].map(|v| if v.is_finite() { v * 1e-3 } else { 0.0 });
-    let ball = RtestGeometry {
-        x_w_mm: g.x_w_mm + dx,
-        y_w_mm: g.y_w_mm + dy,
-        z_w_mm: g.z_w_mm + dz,
-        ..*g
+    let mm = |v: f64| if v.is_finite() { v * 1e-3 } else { 0.0 };
+    let at = RtestGeometry {
+        x_w_mm: g.x_w_mm + mm(e.xow_um),
+        y_w_mm: g.y_w_mm + mm(e.yow_um),
+        z_w_mm: g.z_w_mm + mm(e.zow_um),
+        x_c_mm: g.x_c_mm + mm(e.xoc_um),
+        y_c_mm: g.y_c_mm + mm(e.yoc_um),
+        z_c_mm: g.z_c_mm,
     };
-    // the readings still hold the whole ball error (the head follows the ball as entered), so
-    // the second pass reads XOW, YOW, ZOW against the ball as entered again, with the angular
-    // errors' lever arms taken where the ball is
-    identify_about(&ball, samples, cfg)
+    if !at.is_finite() {
+        return Ok(first);
+    }
+    // the readings still hold the whole offsets (the head follows the ball as entered), so the
+    // second pass reads them against the geometry as entered again, with the angular errors'
+    // lever arms taken where the ball and the C axis are
+    identify_about(&at, samples, cfg)
 }
 
 /// [`identify`] with the gains of the ball at `g`: one pass of the linear least squares, its
@@ -1083,6 +1095,7 @@ fn identify_about(
         rank,
         condition,
         residuals,
+        gains_geometry: *g,
     })
 }
 

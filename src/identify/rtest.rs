@@ -640,9 +640,10 @@ pub struct RtestConfig {
     /// The head's calibration (Type B): relative standard uncertainty of each axis's reading
     /// scale (ΔX_p, ΔY_p, ΔZ_p independent), 1 = 100 %. Default [`U_READING_SCALE`].
     pub u_reading_scale: f64,
-    /// Take the gains again at the ball where the readings put it ([`identify`]; default
-    /// true). False: the paper's one linear pass with the gains of the ball as entered, which
-    /// reproduces readings made with those gains (seed 003 Table 2) exactly.
+    /// Take the gains again at the ball and the C-frame origin where the readings put them
+    /// ([`identify`]; default true). False: the paper's one linear pass with the gains of the
+    /// geometry as entered, which reproduces readings made with those gains (seed 003 Table 2)
+    /// exactly.
     pub refine_ball: bool,
 }
 

@@ -1099,6 +1099,56 @@ fn seed004_half_turn_on_the_c_table_measures_the_c_line_of_axis_lines() {
     }
 }
 
+/// Coverage of the 11 parameters over Monte Carlo runs: how often U = 2u covers the truth and
+/// the rms u against the rms error (issue 14's criteria: 95 % ± 3 %, within 20 %).
+#[derive(Default)]
+struct Coverage {
+    runs: usize,
+    covered: [usize; 11],
+    e2: [f64; 11],
+    u2: [f64; 11],
+}
+
+impl Coverage {
+    /// Adds one run's estimates `got` with their u against `truth`, for the parameters in `which`.
+    fn add(
+        &mut self,
+        got: [f64; 11],
+        u: [f64; 11],
+        truth: [f64; 11],
+        which: impl Fn(usize) -> bool,
+    ) {
+        self.runs += 1;
+        for j in (0..11).filter(|&j| which(j)) {
+            let e = got[j] - truth[j];
+            self.covered[j] += usize::from(e.abs() <= 2.0 * u[j]);
+            self.e2[j] += e * e;
+            self.u2[j] += u[j] * u[j];
+        }
+    }
+
+    /// Parameter `j`'s (coverage, rms u / rms error), printed with `label`.
+    fn stats(&self, j: usize, label: &str) -> (f64, f64) {
+        let coverage = self.covered[j] as f64 / self.runs as f64;
+        let ratio = (self.u2[j] / self.e2[j]).sqrt();
+        println!(
+            "{} ({label}): coverage {coverage:.3}, rms u / rms error {ratio:.2}",
+            NAMES11[j]
+        );
+        (coverage, ratio)
+    }
+
+    /// Asserts issue 14's criteria for parameter `j`.
+    fn assert_honest(&self, j: usize, label: &str) {
+        let (coverage, ratio) = self.stats(j, label);
+        assert!(
+            (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
+            "{}: coverage {coverage:.3}, rms u / rms error {ratio:.3}",
+            NAMES11[j]
+        );
+    }
+}
+
 /// Issue 14: readings zeroed at the first pose. 300 noisy K4 runs (1 µm per axis) with an
 /// unknown sensor zero: U = 2u covers Table 4 in 95 % ± 3 % of the estimates of each free
 /// parameter, and u matches the scatter within 20 % (differencing against the first pose made u
@@ -1114,9 +1164,7 @@ fn first_pose_zeroing_states_an_honest_u() {
     let path: Vec<(f64, f64)> = k4a().into_iter().step_by(4).collect();
     let mut rng = SplitMix(14);
     const RUNS: usize = 300;
-    let mut covered = [0usize; 11];
-    let mut e2 = [0.0f64; 11];
-    let mut u2 = [0.0f64; 11];
+    let mut cov = Coverage::default();
     let mut fixed = None;
     for _ in 0..RUNS {
         let zero = [
@@ -1137,23 +1185,12 @@ fn first_pose_zeroing_states_an_honest_u() {
         let r = identify(&g3(), &s, &cfg).unwrap();
         fixed = Some(r.fixed);
         let (got, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
-        for j in (0..11).filter(|&j| !r.fixed.0[j]) {
-            let e = got[j] - TABLE4[j];
-            covered[j] += usize::from(e.abs() <= 2.0 * u[j]);
-            e2[j] += e * e;
-            u2[j] += u[j] * u[j];
-        }
+        cov.add(got, u, TABLE4, |j| !r.fixed.0[j]);
     }
     let fixed = fixed.unwrap();
     assert_eq!(fixed.count(), 3);
     for j in (0..11).filter(|&j| !fixed.0[j]) {
-        let coverage = covered[j] as f64 / RUNS as f64;
-        let ratio = (u2[j] / e2[j]).sqrt();
-        assert!(
-            (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
-            "{}: coverage {coverage:.3}, rms u / rms error {ratio:.3}",
-            NAMES11[j]
-        );
+        cov.assert_honest(j, "first-pose zero");
     }
 }
 
@@ -1173,9 +1210,7 @@ fn the_heads_calibration_is_in_u() {
         };
         let mut rng = SplitMix(31);
         const RUNS: usize = 1000;
-        let mut covered = [0usize; 11];
-        let mut e2 = [0.0f64; 11];
-        let mut u2 = [0.0f64; 11];
+        let mut cov = Coverage::default();
         for _ in 0..RUNS {
             let truth: [f64; 11] = core::array::from_fn(|j| TABLE4[j] * rng.range(-3.0, 3.0));
             let scale: [f64; 3] = core::array::from_fn(|_| 1.0 + 0.01 * rng.normal());
@@ -1193,34 +1228,23 @@ fn the_heads_calibration_is_in_u() {
             .collect::<Vec<_>>();
             let r = identify(&g3(), &s, &cfg).unwrap();
             assert_eq!(r.fixed.count(), 0);
-            let (got, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
-            for j in 0..11 {
-                let e = got[j] - truth[j];
-                covered[j] += usize::from(e.abs() <= 2.0 * u[j]);
-                e2[j] += e * e;
-                u2[j] += u[j] * u[j];
-            }
+            cov.add(
+                r.errors.to_array(),
+                r.std_uncertainty.to_array(),
+                truth,
+                |_| true,
+            );
         }
-        (0..11)
-            .map(|j| {
-                let coverage = covered[j] as f64 / RUNS as f64;
-                let ratio = (u2[j] / e2[j]).sqrt();
-                println!(
-                    "{} (u_reading_scale {u_reading_scale}): coverage {coverage:.3}, rms u / rms error {ratio:.2}",
-                    NAMES11[j]
-                );
-                (coverage, ratio)
-            })
-            .collect::<Vec<_>>()
+        cov
     };
-    for (j, (coverage, ratio)) in run(0.01).into_iter().enumerate() {
-        assert!(
-            (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
-            "{}: coverage {coverage:.3}, rms u / rms error {ratio:.3}",
-            NAMES11[j]
-        );
+    let cov = run(0.01);
+    for j in 0..11 {
+        cov.assert_honest(j, "u_reading_scale 0.01");
     }
-    let worst = run(0.0).into_iter().map(|(c, _)| c).fold(1.0f64, f64::min);
+    let cov = run(0.0);
+    let worst = (0..11)
+        .map(|j| cov.stats(j, "u_reading_scale 0").0)
+        .fold(1.0f64, f64::min);
     assert!(worst < 0.8, "{worst}");
 }
 
@@ -1244,7 +1268,7 @@ fn the_ball_as_entered_is_estimated_not_budgeted() {
             ..RtestConfig::default()
         };
         let mut rng = SplitMix(503);
-        let (mut covered, mut e2, mut u2) = ([0usize; 11], [0.0f64; 11], [0.0f64; 11]);
+        let mut cov = Coverage::default();
         let mut worst_clean = 0.0f64;
         for _ in 0..RUNS {
             // the ball (XOW, YOW, ZOW) up to 0.5 mm and the C axis (XOC, YOC) up to 0.3 mm from
@@ -1272,40 +1296,26 @@ fn the_ball_as_entered_is_estimated_not_budgeted() {
                 })
                 .collect();
             let r = identify(&g3(), &noisy, &cfg).unwrap();
-            let (got, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
-            for j in 0..11 {
-                let e = got[j] - truth[j];
-                covered[j] += usize::from(e.abs() <= 2.0 * u[j]);
-                e2[j] += e * e;
-                u2[j] += u[j] * u[j];
-            }
+            cov.add(
+                r.errors.to_array(),
+                r.std_uncertainty.to_array(),
+                truth,
+                |_| true,
+            );
         }
-        let stats: Vec<(f64, f64)> = (0..11)
-            .map(|j| {
-                let coverage = covered[j] as f64 / RUNS as f64;
-                let ratio = (u2[j] / e2[j]).sqrt();
-                println!(
-                    "{} (refine_ball {refine_ball}): coverage {coverage:.3}, rms u / rms error {ratio:.2}",
-                    NAMES11[j]
-                );
-                (coverage, ratio)
-            })
-            .collect();
         println!("refine_ball {refine_ball}: worst error without noise {worst_clean:.4}");
-        (stats, worst_clean)
+        (cov, worst_clean)
     };
     let (refined, worst) = run(true);
     assert!(worst < 0.02, "refined, without noise: {worst}");
-    for (j, (coverage, ratio)) in refined.into_iter().enumerate() {
-        assert!(
-            (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
-            "{}: coverage {coverage:.3}, rms u / rms error {ratio:.3}",
-            NAMES11[j]
-        );
+    for j in 0..11 {
+        refined.assert_honest(j, "refine_ball true");
     }
     let (paper, worst) = run(false);
     assert!(worst > 0.1, "the paper's pass, without noise: {worst}");
-    let least = paper.iter().map(|(c, _)| *c).fold(1.0f64, f64::min);
+    let least = (0..11)
+        .map(|j| paper.stats(j, "refine_ball false").0)
+        .fold(1.0f64, f64::min);
     assert!(
         least < 0.9,
         "the paper's pass covers every parameter in {least:.3} or more"

@@ -26,27 +26,41 @@ EIG_RATIO = 1e-9
 LIVE_U_EVERY, LIVE_MIN_DOF, SIGMA_FLOOR_UM = 32, 30, 0.1 / math.sqrt(12)
 
 
-def window_starts(points, radius_mm):
-    """For each sample i, the first sample of the neighbourhood that ends at i: as each sample
-    enters, the oldest leave while they lie beyond the radius from it, then one more if full."""
+def windows(r, radius_mm, dwell_speed_mm_per_s):
+    """For each sample, the indices of the samples of the pod's live window at it. As each sample
+    enters, the oldest leave while they lie beyond the radius from it, then one more if full; a
+    sample still within the dwell speed of the one before empties the window and does not enter
+    it (src/app/ssm.rs SsmRun::update): the window restarts with the next move."""
+    points = np.column_stack([r.col(c) for c in ("x_mm", "y_mm", "z_mm")])
+    t_s = r.col("t_s")
     starts, a = [], 0
     for i, p in enumerate(points):
+        still_within = dwell_speed_mm_per_s * (t_s[i] - t_s[i - 1])
+        if i > 0 and np.sum((p - points[i - 1]) ** 2) <= still_within ** 2:
+            a = i + 1
+            starts.append(a)
+            continue
         while a < i and np.sum((p - points[a]) ** 2) > radius_mm ** 2:
             a += 1
         a = max(a, i - WINDOW + 1)
         starts.append(a)
-    return starts
+    return lambda i: np.arange(starts[i], i + 1)
 
 
-def neighbourhood_fit(r, starts, i, socket, bar_mm):
-    """numpy's least squares u·E = y over the neighbourhood that ends at sample i (u the unit
-    vector socket → ball, y = ΔL + L − |P − socket|, seed 000 eq 1): E, the Type A covariance
-    σ̂² (UᵀU)⁺ with σ̂² = RSS/(n − rank), E's response to y ≡ 1, and n − rank."""
-    points = np.column_stack([r.col(c) for c in ("x_mm", "y_mm", "z_mm")])[starts[i]: i + 1]
+def neighbourhood_fit(r, window, i, socket, bar_mm):
+    """numpy's least squares u·E = y over the pod's window at sample i (`window`, see
+    `windows`; u the unit vector socket → ball, y = ΔL + L − |P − socket|, seed 000 eq 1): E,
+    the Type A covariance σ̂² (UᵀU)⁺ with σ̂² = RSS/(n − rank), E's response to y ≡ 1, and
+    n − rank."""
+    idx = window(i)
+    if len(idx) < 3:
+        # an emptied window (the machine still): nothing to fit
+        return np.full(3, np.nan), np.full((3, 3), np.nan), np.full(3, np.nan), 0
+    points = np.column_stack([r.col(c) for c in ("x_mm", "y_mm", "z_mm")])[idx]
     d = points - socket
     rho = np.linalg.norm(d, axis=1)
     uu = d / rho[:, None]
-    y = r.col("dl_um")[starts[i]: i + 1] + (bar_mm - rho) * 1e3
+    y = r.col("dl_um")[idx] + (bar_mm - rho) * 1e3
     e, _, rank, _ = np.linalg.lstsq(uu, y, rcond=math.sqrt(EIG_RATIO))
     dof = len(y) - rank
     sigma2 = max(SIGMA_FLOOR_UM ** 2, float(np.sum((y - uu @ e) ** 2)) / max(dof, 1))
@@ -109,10 +123,9 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
         assert r.meta["pattern"] == "SSM" and int(r.end["stream_dropped"]) == 0
         seqs = {int(s): i for i, s in enumerate(r.col("seq"))}
         assert np.all(r.col("flags") == 0)
-        points = np.column_stack([r.col(c) for c in ("x_mm", "y_mm", "z_mm")])
         socket = np.array([float(r.meta[f"ssm_socket_{k}"]) for k in "xyz"])
         assert float(r.meta["bar_length"]) == bar_mm
-        starts = window_starts(points, float(r.meta["ssm_window_radius"]))
+        window = windows(r, float(r.meta["ssm_window_radius"]), float(r.meta["ssm_dwell_speed"]))
         frames = [s for s in snaps if int(s["sample_counter"]) in seqs and "live_values.ssm_ey" in s]
         assert len(frames) >= 20, len(snaps)
         checked = checked_u = 0
@@ -127,23 +140,24 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
                 if math.isnan(value):
                     assert math.isnan(u), s
                     continue
-                e, cov, offset, dof = neighbourhood_fit(r, starts, seqs[counter], socket, bar_mm)
+                e, cov, offset, dof = neighbourhood_fit(r, window, seqs[counter], socket, bar_mm)
                 u_a = math.sqrt(cov[bit - 1, bit - 1])
                 # the pod's estimate is the fit of these samples (its f32 positions and ΔL
                 # limit it to a few 10 nm × the condition number: 0.1 u here)
                 assert abs(value - e[bit - 1]) <= 0.1 * u_a + 0.02, (name, value, e, u_a)
                 # and the truth is within 4 u of this neighbourhood (dozens of frames, each a
-                # new draw): Type A and the bar's shares, offset through the fit of y ≡ 1,
-                # scale |E|·u_k; and the socket's
+                # new draw; the coverage itself is metrology_ssm.rs's, on the served path):
+                # Type A and the bar's shares, offset through the fit of y ≡ 1, scale |E|·u_k;
+                # and the socket's
                 u_now = math.hypot(u_a, offset[bit - 1] * u_offset, value * u_scale, u_socket)
                 assert abs(value - e_true[bit - 1]) <= 4 * u_now, (name, value, e_true, u_now)
                 checked += 1
                 # the pod's u is the same as of the last refresh (up to LIVE_U_EVERY − 1
-                # samples before: a neighbourhood whose conditioning changes fast outgrows it)
+                # samples before)
                 refreshed = counter - counter % LIVE_U_EVERY
                 if refreshed not in seqs:
                     continue
-                e0, cov0, offset0, dof0 = neighbourhood_fit(r, starts, seqs[refreshed], socket,
+                e0, cov0, offset0, dof0 = neighbourhood_fit(r, window, seqs[refreshed], socket,
                                                             bar_mm)
                 if dof0 < LIVE_MIN_DOF:
                     assert math.isnan(u), (name, dof0, u)

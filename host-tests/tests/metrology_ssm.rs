@@ -1326,3 +1326,93 @@ fn a_wide_planar_arc_is_not_read_as_seeing_across_the_plane() {
     }
     assert_eq!(checked, 360);
 }
+
+/// Issue 14, the live E on the pod: SSM runs of the served machine's path (three dwells of
+/// 0.4 s on the bar's sphere, great-circle arcs between them at 2000 mm/min) through the virtual
+/// pod's sensors (the LVDT's 12-bit ADC blocks, 0.2 µm of bar noise) and the application, E
+/// drawn up to ±5 µm per component, the socket where it is entered (`ssm_u_socket` 0). Where
+/// the pod states a component of the live E with its u, U = 2u covers the truth in 95 % ± 3 %
+/// and rms(error / u) is 1 within 20 %: at every sample, and within 256 samples of a still one
+/// both at the refreshed u and between refreshes (the u held). A still sample empties the live
+/// window (`SsmRun::update`). When still samples entered it, near dwells the refreshed u
+/// covered 92.5 % (1 / rms(error / u) 0.89) and the held u 89.7 % (0.66); kept out but with the
+/// window held across the dwell, the held u covered 93.6 % (0.52): the window turned from the
+/// approach's arc to the departure's faster than the u was refreshed.
+#[test]
+fn the_live_e_on_the_pod_covers_the_truth_around_dwells() {
+    use ballpod::app::{Command, Live, LiveValues, Pattern};
+    use ballpod_host::vmt::motion::ssm_path;
+    use ballpod_host::vmt::ssm_rig::SsmRig;
+    const RUNS: u64 = 64;
+    // [covered, stated, Σ(error / u)²]: every sample, within 256 samples of a still one at a
+    // refreshed u, and there between refreshes
+    let mut tally = [[0.0f64; 3]; 3];
+    let mut rng = Rng::new(1414);
+    for seed in 0..RUNS {
+        let mut rig = SsmRig::new(0.2, seed);
+        let e_um: [f64; 3] = core::array::from_fn(|_| rng.range(-5.0, 5.0));
+        let socket = [100.0, 50.0, -200.0];
+        let pod = &mut rig.pod;
+        pod.app
+            .configure(|c| {
+                c.setup.ssm_socket_mm = socket.map(|v| v as f32);
+                c.setup.ssm_u_socket_um = 0.0;
+            })
+            .unwrap();
+        let path = ssm_path(e_um, pod.app.config()).unwrap();
+        pod.home(&path[0].axes);
+        pod.app.set_pattern(Pattern::Ssm).unwrap();
+        pod.execute(Command::Arm).unwrap();
+        pod.execute(Command::Start).unwrap();
+        let mut since_still = usize::MAX;
+        let mut prev_u = [f32::NAN; 3];
+        for (i, s) in path.iter().enumerate() {
+            let still = i > 0 && s.axes == path[i - 1].axes;
+            since_still = if still {
+                0
+            } else {
+                since_still.saturating_add(1)
+            };
+            pod.sample_at(s.dl_um, &s.axes);
+            let live: &LiveValues = pod.app.live();
+            for (k, (ek, uk)) in [
+                (Live::SsmEx, Live::USsmEx),
+                (Live::SsmEy, Live::USsmEy),
+                (Live::SsmEz, Live::USsmEz),
+            ]
+            .into_iter()
+            .enumerate()
+            {
+                let (Some(e), Some(u)) = (live.get(ek), live.get(uk)) else {
+                    continue;
+                };
+                // a u just refreshed (the pod holds it for LIVE_U_EVERY samples)
+                let fresh = u != prev_u[k];
+                prev_u[k] = u;
+                let (d, u) = (f64::from(e) - e_um[k], f64::from(u));
+                let near = since_still <= 256;
+                for (t, counts) in tally.iter_mut().zip([true, near && fresh, near && !fresh]) {
+                    if counts {
+                        t[0] += f64::from(u8::from(d.abs() <= 2.0 * u));
+                        t[1] += 1.0;
+                        t[2] += (d / u) * (d / u);
+                    }
+                }
+            }
+        }
+    }
+    let [all, near, held] = tally.map(|[c, n, z2]| (c / n, (n / z2).sqrt(), n));
+    for (what, (coverage, ratio, n)) in [
+        ("every sample", all),
+        ("within 256 samples of a still one, refreshed", near),
+        ("within 256 samples of a still one, held", held),
+    ] {
+        // u against the error in each window: rms(error / u) is 1 for an honest u
+        println!("{what}: {n} stated, coverage {coverage:.3}, 1 / rms(error / u) {ratio:.2}");
+        assert!(n > 300.0, "{what}: {n}");
+        assert!(
+            (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
+            "{what}: coverage {coverage:.3}, 1 / rms(error / u) {ratio:.3}"
+        );
+    }
+}

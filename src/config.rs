@@ -253,7 +253,8 @@ pub struct TestSetup {
     pub ssm_socket_mm: [f32; 3],
     /// SSM streaming: neighbourhood radius, mm.
     pub ssm_window_radius_mm: f32,
-    /// SSM stations: linear speed below which the machine dwells, mm/s.
+    /// SSM: linear speed below which the machine dwells, mm/s: the stations are averaged there,
+    /// and a still sample empties the live E's window ([`crate::app::ssm::SsmRun::update`]).
     pub ssm_dwell_speed_mm_per_s: f32,
     /// SSM stations: settling time before a dwell is averaged, ms.
     pub ssm_settle_ms: f32,
@@ -1194,7 +1195,9 @@ impl Field {
             Field::SsmWindowRadiusMm => {
                 "SSM streaming: radius of the neighbourhood whose samples share one E"
             }
-            Field::SsmDwellSpeed => "SSM stations: linear speed below which the machine dwells",
+            Field::SsmDwellSpeed => {
+                "SSM: linear speed below which the machine dwells (a station; the live E's window restarts)"
+            }
             Field::SsmSettleMs => "SSM stations: settling time before a dwell is averaged",
             Field::SsmMinDwellSamples => {
                 "SSM stations: fewest averaged samples for a dwell to count as a station"

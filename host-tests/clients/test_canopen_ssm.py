@@ -24,19 +24,28 @@ EIG_RATIO = 1e-9
 # (src/metrology/ssm/streaming.rs LIVE_MIN_DOF), with this floor on the scatter (q/√12 of the
 # 0.1 µm resolution, LIVE_SIGMA_FLOOR_UM).
 LIVE_U_EVERY, LIVE_MIN_DOF, SIGMA_FLOOR_UM = 32, 30, 0.1 / math.sqrt(12)
+# Rotary speed below which the dwell detection counts a rotary axis still, °/s
+# (src/app/ssm.rs DWELL_ROTARY_SPEED_DEG_PER_S).
+DWELL_ROTARY_SPEED = 0.1
 
 
 def windows(r, radius_mm, dwell_speed_mm_per_s):
     """For each sample, the indices of the samples of the pod's live window at it. As each sample
     enters, the oldest leave while they lie beyond the radius from it, then one more if full; a
-    sample still within the dwell speed of the one before empties the window and does not enter
-    it (src/app/ssm.rs SsmRun::update): the window restarts with the next move."""
+    still sample empties the window and does not enter it (src/app/ssm.rs SsmRun::update): the
+    window restarts with the next move. Still, as the pod's dwell detection has it: later than
+    the sample before, within the dwell speed of it and each rotary axis within
+    DWELL_ROTARY_SPEED of it. The rotary axes stand still in this run (asserted), so the
+    window's emptying at a rotary move does not arise."""
     points = np.column_stack([r.col(c) for c in ("x_mm", "y_mm", "z_mm")])
+    rotary = np.column_stack([r.col(c) for c in r.cols if c.endswith("_deg")])
+    assert np.all(rotary == rotary[0])
     t_s = r.col("t_s")
     starts, a = [], 0
     for i, p in enumerate(points):
-        still_within = dwell_speed_mm_per_s * (t_s[i] - t_s[i - 1])
-        if i > 0 and np.sum((p - points[i - 1]) ** 2) <= still_within ** 2:
+        dt = t_s[i] - t_s[i - 1] if i > 0 else 0.0
+        if dt > 0 and np.sum((p - points[i - 1]) ** 2) <= (dwell_speed_mm_per_s * dt) ** 2 \
+                and np.all(np.abs(rotary[i] - rotary[i - 1]) <= DWELL_ROTARY_SPEED * dt):
             a = i + 1
             starts.append(a)
             continue

@@ -1327,24 +1327,27 @@ fn a_wide_planar_arc_is_not_read_as_seeing_across_the_plane() {
     assert_eq!(checked, 360);
 }
 
-/// Issue 14, the live E on the pod: SSM runs of the served machine's path (three dwells of
+/// Issue 14, the live E on the pod: 160 SSM runs of the served machine's path (three dwells of
 /// 0.4 s on the bar's sphere, great-circle arcs between them at 2000 mm/min) through the virtual
 /// pod's sensors (the LVDT's 12-bit ADC blocks, 0.2 µm of bar noise) and the application, E
 /// drawn up to ±5 µm per component, the socket where it is entered (`ssm_u_socket` 0). Where
 /// the pod states a component of the live E with its u, U = 2u covers the truth in 95 % ± 3 %
-/// and rms(error / u) is 1 within 20 %: at every sample, and within 256 samples of a still one
-/// both at the refreshed u and between refreshes (the u held). A still sample empties the live
-/// window (`SsmRun::update`). When still samples entered it, near dwells the refreshed u
-/// covered 92.5 % (1 / rms(error / u) 0.89) and the held u 89.7 % (0.66); kept out but with the
-/// window held across the dwell, the held u covered 93.6 % (0.52): the window turned from the
-/// approach's arc to the departure's faster than the u was refreshed.
+/// and rms(error / u) is 1 within 20 %: at every sample, and at the refreshed u while the window
+/// grows back after a dwell (its first 150 samples); the u held between refreshes there errs
+/// high, bounded below. A still sample empties the live window (`SsmRun::update`). When still
+/// samples entered it, the refreshed u covered 91.3 % there (rms(error / u) 1.16); kept out but
+/// with the window held across the dwell, the held u covered 93.1 % (rms 2.0): the window
+/// turned from the approach's arc to the departure's faster than the u was refreshed.
 #[test]
 fn the_live_e_on_the_pod_covers_the_truth_around_dwells() {
     use ballpod::app::{Command, Live, LiveValues, Pattern};
     use ballpod_host::vmt::motion::ssm_path;
     use ballpod_host::vmt::ssm_rig::SsmRig;
-    const RUNS: u64 = 64;
-    // [covered, stated, Σ(error / u)²]: every sample, within 256 samples of a still one at a
+    const RUNS: u64 = 160;
+    // samples after a still one while the window grows back: the 5 mm radius at 2000 mm/min
+    // (33 µm a sample) holds 150
+    const REGROWING: usize = 150;
+    // [covered, stated, Σ(error / u)²]: every sample, the window regrowing after a dwell at a
     // refreshed u, and there between refreshes
     let mut tally = [[0.0f64; 3]; 3];
     let mut rng = Rng::new(1414);
@@ -1390,7 +1393,7 @@ fn the_live_e_on_the_pod_covers_the_truth_around_dwells() {
                 let fresh = u != prev_u[k];
                 prev_u[k] = u;
                 let (d, u) = (f64::from(e) - e_um[k], f64::from(u));
-                let near = since_still <= 256;
+                let near = since_still <= REGROWING;
                 for (t, counts) in tally.iter_mut().zip([true, near && fresh, near && !fresh]) {
                     if counts {
                         t[0] += f64::from(u8::from(d.abs() <= 2.0 * u));
@@ -1401,18 +1404,31 @@ fn the_live_e_on_the_pod_covers_the_truth_around_dwells() {
             }
         }
     }
-    let [all, near, held] = tally.map(|[c, n, z2]| (c / n, (n / z2).sqrt(), n));
-    for (what, (coverage, ratio, n)) in [
-        ("every sample", all),
-        ("within 256 samples of a still one, refreshed", near),
-        ("within 256 samples of a still one, held", held),
+    let [all, near, held] = tally.map(|[c, n, z2]| (c / n, (z2 / n).sqrt(), n));
+    // u against the error in each window: rms(error / u) is 1 for an honest u; within 20 % of
+    // it is u within 20 % of the scatter. While the window grows back after a dwell its u falls
+    // from one refresh to the next, so the u held in between is high: bounded at a third high
+    // (rms 0.75), and U must still cover 92 %.
+    for (what, (coverage, rms, n), cover, spread) in [
+        ("every sample", all, 0.92..=0.98, 1.0 / 1.2..=1.0 / 0.8),
+        (
+            "regrowing after a dwell, refreshed",
+            near,
+            0.92..=0.98,
+            1.0 / 1.2..=1.0 / 0.8,
+        ),
+        (
+            "regrowing after a dwell, held",
+            held,
+            0.92..=0.99,
+            0.75..=1.0 / 0.8,
+        ),
     ] {
-        // u against the error in each window: rms(error / u) is 1 for an honest u
-        println!("{what}: {n} stated, coverage {coverage:.3}, 1 / rms(error / u) {ratio:.2}");
+        println!("{what}: {n} stated, coverage {coverage:.3}, rms(error / u) {rms:.2}");
         assert!(n > 300.0, "{what}: {n}");
         assert!(
-            (0.92..=0.98).contains(&coverage) && (0.8..=1.2).contains(&ratio),
-            "{what}: coverage {coverage:.3}, 1 / rms(error / u) {ratio:.3}"
+            cover.contains(&coverage) && spread.contains(&rms),
+            "{what}: coverage {coverage:.3}, rms(error / u) {rms:.3}"
         );
     }
 }

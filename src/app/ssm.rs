@@ -172,9 +172,9 @@ impl SsmRun {
     /// residual would count as if it averaged over each of them; and a window kept across a
     /// dwell turns from the approach's arc to the departure's faster than its u is refreshed
     /// ([`LIVE_U_EVERY`]). Restarted, the window only grows for a while after a dwell and the u
-    /// held between refreshes errs on the safe side (`metrology_ssm.rs`: near dwells the held
-    /// u covered 89.7 % with dwell samples in the window, 93.6 % with the window held across
-    /// the dwell, 97.3 % restarted).
+    /// held between refreshes errs high (`metrology_ssm.rs`, the 150 samples after a dwell: the
+    /// refreshed u covered 91.3 % with dwell samples in the window; the held u 93.1 % with the
+    /// window held across the dwell, rms(error / u) 2.0; restarted 95.4 % and 98.5 %).
     pub fn update(&mut self, s: &Sample) {
         let still = matches!(
             self.stations.update(s),

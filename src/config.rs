@@ -16,6 +16,7 @@
 use crate::acquisition::MAX_AXES;
 use crate::identify::multitasking::model_lsq::MountingUncertainty;
 use crate::metrology::bar_budget::{DEFAULT_U_LENGTH_UM, DEFAULT_U_SCALE_PPM, DEFAULT_U_TEMP_K};
+use crate::units::Unit;
 
 /// Names of the axes the encoder inputs can be assigned to.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -309,6 +310,10 @@ pub struct TestSetup {
     /// turns each sample's direction, and so e and r0 through the profile
     /// ([`crate::app::circle::U_CENTRE_UM`]; added in encoding version 9).
     pub circle_u_centre_um: f32,
+    /// Seed 002: standard uncertainty of each of the tool lengths R_B and R′_B as entered
+    /// against the ones the steps ran with, µm ([`MountingUncertainty::r_b_um`]; added in
+    /// encoding version 10).
+    pub s002_u_r_b_um: f32,
 }
 
 /// The pod's configuration (see the module doc; fields listed with unit, default and range in
@@ -483,6 +488,8 @@ pub enum Field {
     SsmUSocketUm,
     /// [`TestSetup::circle_u_centre_um`] (added in encoding version 9, 0x2046).
     CircleUCentreUm,
+    /// [`TestSetup::s002_u_r_b_um`] (added in encoding version 10, 0x2047).
+    S002URbUm,
     /// A pod sample is not a whole number of excitation periods within the ADC ring
     /// (`excitation / sample_rate` ∉ 1…[`MAX_PERIODS_PER_SAMPLE`]).
     PeriodsPerSample,
@@ -513,7 +520,7 @@ pub struct FieldInfo {
     /// Its name as users see it (SCPI / CANopen / docs).
     pub name: &'static str,
     /// Its unit.
-    pub unit: &'static str,
+    pub unit: Unit,
     /// Storage type.
     pub ty: FieldType,
     /// Smallest allowed value (inclusive).
@@ -526,8 +533,6 @@ pub struct FieldInfo {
     /// the pod cannot know). Once written it can only return to "not set" by restoring the
     /// defaults.
     pub optional: bool,
-    /// For a code field ([`FieldType::U8`]): the name of each code, in code order.
-    pub choices: &'static [&'static str],
 }
 
 /// Points of the excitation table per period: the pod's DAC table and the demodulation's (the
@@ -545,13 +550,7 @@ pub const AT_RESET: [Field; 3] = [
     Field::SampleRateHz,
 ];
 
-const fn real(
-    field: Field,
-    name: &'static str,
-    unit: &'static str,
-    min: f64,
-    max: f64,
-) -> FieldInfo {
+const fn real(field: Field, name: &'static str, unit: Unit, min: f64, max: f64) -> FieldInfo {
     FieldInfo {
         field,
         name,
@@ -561,7 +560,6 @@ const fn real(
         max,
         elements: 0,
         optional: false,
-        choices: &[],
     }
 }
 
@@ -580,18 +578,20 @@ const fn indexed(mut f: FieldInfo, elements: u8) -> FieldInfo {
     f
 }
 
-const fn code(field: Field, name: &'static str, choices: &'static [&'static str]) -> FieldInfo {
-    FieldInfo {
+/// A code field: codes 0 … the last of [`FieldInfo::choices`].
+const fn code(field: Field, name: &'static str) -> FieldInfo {
+    let mut f = FieldInfo {
         field,
         name,
-        unit: "1",
+        unit: Unit::One,
         ty: FieldType::U8,
         min: 0.0,
-        max: choices.len() as f64 - 1.0,
+        max: 0.0,
         elements: 0,
         optional: false,
-        choices,
-    }
+    };
+    f.max = f.choices().len() as f64 - 1.0;
+    f
 }
 
 /// Largest |coordinate| of a set-up position or an axis reference, mm (degrees for a rotary
@@ -603,41 +603,47 @@ pub const POS_MM: f64 = 10_000.0;
 /// ([`crate::protocol::canopen::od::config_index`] of the row), SCPI `CONFigure`, the EDS and
 /// the documentation share. Append new rows at the end (the row gives the CANopen index).
 pub const FIELDS: &[FieldInfo] = &[
-    real(Field::BarLengthMm, "bar_length", "mm", 50.0, 600.0),
-    real(Field::BarCtePpmPerK, "bar_cte", "ppm/K", -5.0, 30.0),
+    real(Field::BarLengthMm, "bar_length", Unit::Mm, 50.0, 600.0),
+    real(Field::BarCtePpmPerK, "bar_cte", Unit::PpmPerK, -5.0, 30.0),
     indexed(
-        real(Field::LvdtPolyUm(0), "lvdt_poly", "um", -1.0e5, 1.0e5),
+        real(Field::LvdtPolyUm(0), "lvdt_poly", Unit::Um, -1.0e5, 1.0e5),
         4,
     ),
-    real(Field::LvdtMaxAbsRatio, "lvdt_max_ratio", "1", 0.01, 1.0),
+    real(
+        Field::LvdtMaxAbsRatio,
+        "lvdt_max_ratio",
+        Unit::One,
+        0.01,
+        1.0,
+    ),
     real(
         Field::LvdtMinSignal,
         "lvdt_min_signal",
-        "counts or V",
+        Unit::CountsOrV,
         1.0e-3,
         4095.0,
     ),
-    real(Field::LvdtDcZeroV, "lvdt_dc_zero", "V", -10.0, 10.0),
-    real(Field::LvdtDcSpanV, "lvdt_dc_span", "V", 0.01, 20.0),
-    real(Field::ExcitationHz, "excitation", "Hz", 1000.0, 20000.0),
+    real(Field::LvdtDcZeroV, "lvdt_dc_zero", Unit::V, -10.0, 10.0),
+    real(Field::LvdtDcSpanV, "lvdt_dc_span", Unit::V, 0.01, 20.0),
+    real(Field::ExcitationHz, "excitation", Unit::Hz, 1000.0, 20000.0),
     typed(
         real(
             Field::SamplesPerPeriod,
             "samples_per_period",
-            "1",
+            Unit::One,
             EXCITATION_POINTS as f64,
             EXCITATION_POINTS as f64,
         ),
         FieldType::U16,
     ),
     // 200 Hz: five periods of the slowest excitation (MAX_PERIODS_PER_SAMPLE)
-    real(Field::SampleRateHz, "sample_rate", "Hz", 200.0, 10000.0),
+    real(Field::SampleRateHz, "sample_rate", Unit::Hz, 200.0, 10000.0),
     indexed(
         typed(
             real(
                 Field::AxisCountsPerUnit(0),
                 "axis_counts",
-                "counts/mm or counts/deg",
+                Unit::CountsPerMmOrDeg,
                 0.1,
                 1.0e8,
             ),
@@ -649,18 +655,18 @@ pub const FIELDS: &[FieldInfo] = &[
         real(
             Field::AxisMaxSpeed(0),
             "axis_max_speed",
-            "mm/s or deg/s",
+            Unit::MmOrDegPerS,
             1.0,
             10000.0,
         ),
         MAX_AXES as u8,
     ),
-    real(Field::ThermistorR25Ohm, "ntc_r25", "ohm", 100.0, 1.0e6),
-    real(Field::ThermistorBetaK, "ntc_beta", "K", 1000.0, 10000.0),
+    real(Field::ThermistorR25Ohm, "ntc_r25", Unit::Ohm, 100.0, 1.0e6),
+    real(Field::ThermistorBetaK, "ntc_beta", Unit::K, 1000.0, 10000.0),
     real(
         Field::ThermistorRFixedOhm,
         "ntc_r_fixed",
-        "ohm",
+        Unit::Ohm,
         100.0,
         1.0e6,
     ),
@@ -668,188 +674,218 @@ pub const FIELDS: &[FieldInfo] = &[
         real(
             Field::ProbeDebounceUs,
             "probe_debounce",
-            "us",
+            Unit::Us,
             0.0,
             100_000.0,
         ),
         FieldType::U32,
     ),
     typed(
-        real(Field::ProbeReseatUs, "probe_reseat", "us", 0.0, 5_000_000.0),
+        real(
+            Field::ProbeReseatUs,
+            "probe_reseat",
+            Unit::Us,
+            0.0,
+            5_000_000.0,
+        ),
         FieldType::U32,
     ),
     typed(
-        real(Field::CanNodeId, "can_node_id", "1", 1.0, 127.0),
+        real(Field::CanNodeId, "can_node_id", Unit::One, 1.0, 127.0),
         FieldType::U8,
     ),
-    code(Field::CirclePlane, "circle_plane", &CirclePlane::NAMES),
+    code(Field::CirclePlane, "circle_plane"),
     unset(real(
         Field::CircleCentreMm(0),
         "circle_centre_x",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::CircleCentreMm(1),
         "circle_centre_y",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::CircleCentreMm(2),
         "circle_centre_z",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::CircleRadiusMm,
         "circle_radius",
-        "mm",
+        Unit::Mm,
         1.0,
         2000.0,
     )),
     unset(real(
         Field::CircleFeed,
         "circle_feed",
-        "mm/min",
+        Unit::MmPerMin,
         1.0,
         100_000.0,
     )),
-    real(Field::CircleMinArcDeg, "circle_min_arc", "deg", 10.0, 360.0),
-    unset(real(Field::S002LbMm, "s002_l_b", "mm", 10.0, 2000.0)),
-    unset(real(Field::S002RbMm, "s002_r_b", "mm", 1.0, POS_MM)),
-    unset(real(Field::S002Rb2Mm, "s002_r_b2", "mm", 1.0, POS_MM)),
-    unset(real(Field::S002RcMm, "s002_r_c", "mm", 1.0, POS_MM)),
-    unset(real(Field::S002ZcMm, "s002_z_c", "mm", -POS_MM, POS_MM)),
-    unset(real(Field::S002ZtMm, "s002_z_t", "mm", -POS_MM, POS_MM)),
-    unset(real(Field::S002Zt2Mm, "s002_z_t2", "mm", -POS_MM, POS_MM)),
-    unset(real(Field::S002XtMm, "s002_x_t", "mm", -POS_MM, POS_MM)),
+    real(
+        Field::CircleMinArcDeg,
+        "circle_min_arc",
+        Unit::Deg,
+        10.0,
+        360.0,
+    ),
+    unset(real(Field::S002LbMm, "s002_l_b", Unit::Mm, 10.0, 2000.0)),
+    unset(real(Field::S002RbMm, "s002_r_b", Unit::Mm, 1.0, POS_MM)),
+    unset(real(Field::S002Rb2Mm, "s002_r_b2", Unit::Mm, 1.0, POS_MM)),
+    unset(real(Field::S002RcMm, "s002_r_c", Unit::Mm, 1.0, POS_MM)),
+    unset(real(Field::S002ZcMm, "s002_z_c", Unit::Mm, -POS_MM, POS_MM)),
+    unset(real(Field::S002ZtMm, "s002_z_t", Unit::Mm, -POS_MM, POS_MM)),
+    unset(real(
+        Field::S002Zt2Mm,
+        "s002_z_t2",
+        Unit::Mm,
+        -POS_MM,
+        POS_MM,
+    )),
+    unset(real(Field::S002XtMm, "s002_x_t", Unit::Mm, -POS_MM, POS_MM)),
     unset(real(
         Field::S002OriginMm(0),
         "s002_origin_x",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::S002OriginMm(1),
         "s002_origin_y",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::S002OriginMm(2),
         "s002_origin_z",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::SsmSocketMm(0),
         "ssm_socket_x",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::SsmSocketMm(1),
         "ssm_socket_y",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::SsmSocketMm(2),
         "ssm_socket_z",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     real(
         Field::SsmWindowRadiusMm,
         "ssm_window_radius",
-        "mm",
+        Unit::Mm,
         0.1,
         1000.0,
     ),
-    real(Field::SsmDwellSpeed, "ssm_dwell_speed", "mm/s", 0.01, 100.0),
-    real(Field::SsmSettleMs, "ssm_settle", "ms", 0.0, 10_000.0),
+    real(
+        Field::SsmDwellSpeed,
+        "ssm_dwell_speed",
+        Unit::MmPerS,
+        0.01,
+        100.0,
+    ),
+    real(Field::SsmSettleMs, "ssm_settle", Unit::Ms, 0.0, 10_000.0),
     typed(
         real(
             Field::SsmMinDwellSamples,
             "ssm_min_dwell",
-            "samples",
+            Unit::Samples,
             3.0,
             1.0e6,
         ),
         FieldType::U32,
     ),
-    code(Field::TsMachine, "ts_machine", &TwoStepMachine::NAMES),
-    unset(real(Field::TsToolZMm, "ts_tool_z", "mm", -POS_MM, POS_MM)),
+    code(Field::TsMachine, "ts_machine"),
+    unset(real(
+        Field::TsToolZMm,
+        "ts_tool_z",
+        Unit::Mm,
+        -POS_MM,
+        POS_MM,
+    )),
     unset(real(
         Field::TsZAlphaGammaMm,
         "ts_z_alpha_gamma",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::TsReferenceMm(0),
         "ts_reference_x",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::TsReferenceMm(1),
         "ts_reference_y",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::TsReferenceMm(2),
         "ts_reference_z",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::TsOriginMm(0),
         "ts_origin_x",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::TsOriginMm(1),
         "ts_origin_y",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::TsOriginMm(2),
         "ts_origin_z",
-        "mm",
+        Unit::Mm,
         -POS_MM,
         POS_MM,
     )),
     unset(real(
         Field::TsAngleDeg(0),
         "ts_angle_1",
-        "deg",
+        Unit::Deg,
         -360.0,
         360.0,
     )),
     unset(real(
         Field::TsAngleDeg(1),
         "ts_angle_2",
-        "deg",
+        Unit::Deg,
         -360.0,
         360.0,
     )),
@@ -858,28 +894,65 @@ pub const FIELDS: &[FieldInfo] = &[
     unset(real(
         Field::ProbeLengthMm,
         "probe_length",
-        "mm",
+        Unit::Mm,
         1.0,
         POS_MM,
     )),
-    code(Field::RunTrigger, "run_trigger", &RunTrigger::NAMES),
-    unset(real(Field::CircleArcDeg, "circle_arc", "deg", 10.0, 360.0)),
-    real(Field::S002UWClampUm, "s002_u_w_clamp", "um", 0.0, 1000.0),
+    code(Field::RunTrigger, "run_trigger"),
+    unset(real(
+        Field::CircleArcDeg,
+        "circle_arc",
+        Unit::Deg,
+        10.0,
+        360.0,
+    )),
     real(
-        Field::S002UTCentringUm,
-        "s002_u_t_centring",
-        "um",
+        Field::S002UWClampUm,
+        "s002_u_w_clamp",
+        Unit::Um,
         0.0,
         1000.0,
     ),
-    real(Field::S002UTAxialUm, "s002_u_t_axial", "um", 0.0, 1000.0),
-    real(Field::BarULengthUm, "bar_u_length", "um", 0.0, 100.0),
-    real(Field::BarUTempK, "bar_u_temp", "K", 0.0, 10.0),
-    real(Field::LvdtUScalePpm, "lvdt_u_scale", "ppm", 0.0, 100_000.0),
-    real(Field::S002URcZcUm, "s002_u_r_c_z_c", "um", 0.0, 1000.0),
-    real(Field::ProbeULobingUm, "probe_u_lobing", "um", 0.0, 100.0),
-    real(Field::SsmUSocketUm, "ssm_u_socket", "um", 0.0, 1000.0),
-    real(Field::CircleUCentreUm, "circle_u_centre", "um", 0.0, 1000.0),
+    real(
+        Field::S002UTCentringUm,
+        "s002_u_t_centring",
+        Unit::Um,
+        0.0,
+        1000.0,
+    ),
+    real(
+        Field::S002UTAxialUm,
+        "s002_u_t_axial",
+        Unit::Um,
+        0.0,
+        1000.0,
+    ),
+    real(Field::BarULengthUm, "bar_u_length", Unit::Um, 0.0, 100.0),
+    real(Field::BarUTempK, "bar_u_temp", Unit::K, 0.0, 10.0),
+    real(
+        Field::LvdtUScalePpm,
+        "lvdt_u_scale",
+        Unit::Ppm,
+        0.0,
+        100_000.0,
+    ),
+    real(Field::S002URcZcUm, "s002_u_r_c_z_c", Unit::Um, 0.0, 1000.0),
+    real(
+        Field::ProbeULobingUm,
+        "probe_u_lobing",
+        Unit::Um,
+        0.0,
+        100.0,
+    ),
+    real(Field::SsmUSocketUm, "ssm_u_socket", Unit::Um, 0.0, 1000.0),
+    real(
+        Field::CircleUCentreUm,
+        "circle_u_centre",
+        Unit::Um,
+        0.0,
+        1000.0,
+    ),
+    real(Field::S002URbUm, "s002_u_r_b", Unit::Um, 0.0, 1000.0),
 ];
 
 /// Why a configuration was rejected.
@@ -973,6 +1046,7 @@ impl TestSetup {
             probe_u_lobing_um: crate::identify::multitasking::lobing::U_LOBING_UM as f32,
             ssm_u_socket_um: crate::app::ssm::U_SOCKET_UM as f32,
             circle_u_centre_um: crate::app::circle::U_CENTRE_UM as f32,
+            s002_u_r_b_um: MountingUncertainty::SEED002.r_b_um as f32,
         }
     };
 }
@@ -1104,6 +1178,7 @@ impl Config {
                 probe_u_lobing_um: 0.0,
                 ssm_u_socket_um: 0.0,
                 circle_u_centre_um: 0.0,
+                s002_u_r_b_um: 0.0,
             },
             bar_u_length_um: 0.0,
             bar_u_temp_k: 0.0,
@@ -1253,7 +1328,10 @@ impl Field {
                 "SSM uncertainty budget: the socket's centre as entered (ssm_socket), standard uncertainty of each coordinate's difference from its true centre; it moves E one to one (default: the spindle's setting cup docked on the socket's ball)"
             }
             Field::CircleUCentreUm => {
-                "Circle uncertainty budget: the circle's centre as entered (circle_centre), standard uncertainty of each in-plane coordinate's difference from the centre the part program circles about; it turns each sample's direction, moving e and r0 through the profile's shape (default: the program's centre entered to the micrometre; the socket's own offset shows in e)"
+                "Circle uncertainty budget: the circle's centre as entered (circle_centre), standard uncertainty of each in-plane coordinate's difference from the centre the part program circles about; it turns each sample's direction, moving e and r0 through the profile's shape, and moves each sample along the profile into another bin, moving G, F, G(b) and the diagnoses (default: the program's centre entered to the micrometre; the socket's own offset shows in e)"
+            }
+            Field::S002URbUm => {
+                "Seed 002 uncertainty budget: the tool lengths R_B and R′_B as entered, standard uncertainty of each one's difference from the length the steps ran with (default: a tool length measured to a few µm)"
             }
             Field::PeriodsPerSample => {
                 "Cross-field rule: excitation / sample_rate must be a whole 1 … 5 periods"
@@ -1287,9 +1365,21 @@ impl FieldInfo {
         matches!(self.ty, FieldType::U8 | FieldType::U16 | FieldType::U32)
     }
 
+    /// For a code field ([`FieldType::U8`] with named codes): the name of each code, in code
+    /// order; empty for any other field. A match on the field, not a slice in every row of
+    /// [`FIELDS`] (three code fields among about 80 rows: 0.6 KB of flash).
+    pub const fn choices(&self) -> &'static [&'static str] {
+        match self.field {
+            Field::CirclePlane => &CirclePlane::NAMES,
+            Field::TsMachine => &TwoStepMachine::NAMES,
+            Field::RunTrigger => &RunTrigger::NAMES,
+            _ => &[],
+        }
+    }
+
     /// The code of choice `name` (case-insensitive) of a code field.
     pub fn choice(&self, name: &[u8]) -> Option<u8> {
-        self.choices
+        self.choices()
             .iter()
             .position(|c| c.as_bytes().eq_ignore_ascii_case(name))
             .map(|i| i as u8)
@@ -1464,6 +1554,7 @@ impl Config {
             Field::ProbeULobingUm => f64::from(s.probe_u_lobing_um),
             Field::SsmUSocketUm => f64::from(s.ssm_u_socket_um),
             Field::CircleUCentreUm => f64::from(s.circle_u_centre_um),
+            Field::S002URbUm => f64::from(s.s002_u_r_b_um),
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => return None,
         })
     }
@@ -1565,6 +1656,7 @@ impl Config {
             Field::ProbeULobingUm => s.probe_u_lobing_um = x,
             Field::SsmUSocketUm => s.ssm_u_socket_um = x,
             Field::CircleUCentreUm => s.circle_u_centre_um = x,
+            Field::S002URbUm => s.s002_u_r_b_um = x,
             Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => {}
         }
     }
@@ -1610,17 +1702,18 @@ impl Config {
 
 /// Magic at the start of an encoded configuration.
 pub const MAGIC: [u8; 4] = *b"BPOD";
-/// Current encoding version (9: version 8 plus the set-up's `ssm_u_socket` and
+/// Current encoding version (10: version 9 plus the seed 002 budget's `s002_u_r_b`; 9:
+/// version 8 plus the set-up's `ssm_u_socket` and
 /// `circle_u_centre`; 8: version 7
 /// plus the touch probe's `probe_u_lobing`; 7: version
 /// 6 plus the seed 002 budget's `s002_u_r_c_z_c`; 6:
 /// version 5 plus the bar's uncertainty budget `bar_u_length`,
 /// `bar_u_temp`, `lvdt_u_scale`; 5: version 4 plus the seed 002 mounting uncertainties
 /// `s002_u_w_clamp`, `s002_u_t_centring`, `s002_u_t_axial`; 4: version 3 plus `run_trigger`
-/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2 to 8 encodings are read
+/// and `circle_arc`; 3: version 2 plus `probe_length`). Version 2 to 9 encodings are read
 /// and migrated (the fields added since keep their defaults); version 1 records are not read:
 /// the pod boots on the defaults and says so.
-pub const ENCODING_VERSION: u16 = 9;
+pub const ENCODING_VERSION: u16 = 10;
 /// Oldest encoding version read.
 pub const OLDEST_ENCODING_VERSION: u16 = 2;
 
@@ -1635,6 +1728,7 @@ const fn added_in(f: Field) -> u16 {
         Field::S002URcZcUm => 7,
         Field::ProbeULobingUm => 8,
         Field::SsmUSocketUm | Field::CircleUCentreUm => 9,
+        Field::S002URbUm => 10,
         _ => 2,
     }
 }
@@ -1675,7 +1769,7 @@ const PAYLOAD: usize = payload_len(ENCODING_VERSION);
 /// Total encoded size: magic, version u16, payload length u16, payload, CRC-32.
 pub const ENCODED_LEN: usize = 4 + 2 + 2 + PAYLOAD + 4;
 /// Total size of each encoding read, oldest first (read and migrated; only the last written).
-pub const ENCODED_LENS: [usize; 8] = [
+pub const ENCODED_LENS: [usize; 9] = [
     12 + payload_len(2),
     12 + payload_len(3),
     12 + payload_len(4),
@@ -1683,6 +1777,7 @@ pub const ENCODED_LENS: [usize; 8] = [
     12 + payload_len(6),
     12 + payload_len(7),
     12 + payload_len(8),
+    12 + payload_len(9),
     12 + payload_len(ENCODING_VERSION),
 ];
 
@@ -1767,7 +1862,7 @@ impl Config {
 
     /// Decodes and validates an encoding. Every check (length, magic, version, CRC, enum
     /// bytes, ranges) must pass; otherwise the error says which failed and nothing is returned.
-    /// An older encoding (versions 2 to 8, [`ENCODED_LENS`]) is read too: the fields added
+    /// An older encoding (versions 2 to 9, [`ENCODED_LENS`]) is read too: the fields added
     /// since keep their defaults.
     pub fn decode(bytes: &[u8]) -> Result<Config, ConfigError> {
         let mut r = Reader { buf: bytes, pos: 0 };
@@ -1816,7 +1911,7 @@ impl Config {
                     FieldType::U16 => f64::from(u16::from_le_bytes(r.take())),
                     FieldType::U32 => f64::from(u32::from_le_bytes(r.take())),
                 };
-                if !row.choices.is_empty() && !(v <= row.max) {
+                if !row.choices().is_empty() && !(v <= row.max) {
                     return Err(ConfigError::BadEnum { offset: at });
                 }
                 c.set_field(f, v);

@@ -17,7 +17,8 @@
 //! - [`protocol`]: the CANopen and SCPI state machines: bytes and frames ↔ reads of the `app`
 //!   and its commands;
 //! - [`settings`]: the configuration in two power-safe flash slots;
-//! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC).
+//! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC);
+//! - [`units`]: the units of the configuration fields and the results (one name table).
 #![no_std]
 #![deny(missing_docs)]
 #![deny(
@@ -43,3 +44,4 @@ pub mod metrology;
 pub mod num;
 pub mod protocol;
 pub mod settings;
+pub mod units;

@@ -14,7 +14,7 @@ from podlib import (ABORT_TOO_LOW, COMMAND, DIRECTION, PATTERN, SEED002_DEVIATIO
 STEPS = ["BX", "BY", "CR", "CA", "CR2"]
 # the seed 002 budget's set-up inputs and their defaults (µm; Configuration fields)
 MOUNTING_DEFAULTS = {"s002_u_w_clamp": 22.0, "s002_u_t_centring": 0.5, "s002_u_t_axial": 22.0,
-                     "s002_u_r_c_z_c": 10.0}
+                     "s002_u_r_c_z_c": 10.0, "s002_u_r_b": 10.0}
 
 
 @pytest.mark.sim_args("--speed", "40")

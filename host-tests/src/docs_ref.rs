@@ -108,9 +108,9 @@ fn configuration_fields() -> String {
             0 => format!("0x{index:04X}"),
             n => format!("0x{index:04X}:1–{n}"),
         };
-        let show = |v: Option<f64>| match (v, i.choices.is_empty()) {
+        let show = |v: Option<f64>| match (v, i.choices().is_empty()) {
             (Some(v), false) => i
-                .choices
+                .choices()
                 .get(v as usize)
                 .map_or_else(|| num(v), |c| (*c).to_string()),
             // an f32 field as the f32 it is (0.55, not 0.550000011920929)
@@ -125,10 +125,10 @@ fn configuration_fields() -> String {
             .map(|f| show(cfg.field_value(f)))
             .collect::<Vec<_>>()
             .join(", ");
-        let mut range = if i.choices.is_empty() {
+        let mut range = if i.choices().is_empty() {
             format!("{} … {}", num(i.min), num(i.max))
         } else {
-            i.choices.join(", ")
+            i.choices().join(", ")
         };
         if i.optional {
             range.push_str("; optional");
@@ -146,7 +146,7 @@ fn configuration_fields() -> String {
             "| `{}` | {canopen} | `{}` | {} | {} | {} | {}{} |",
             i.name,
             scpi_name(i),
-            i.unit,
+            i.unit.as_str(),
             default,
             cell(&range),
             cell(i.field.meaning()),
@@ -439,7 +439,13 @@ fn results() -> String {
     let _ = writeln!(s, "| k | name | unit | what |");
     let _ = writeln!(s, "|---|---|---|---|");
     for (k, (r, what)) in RESULTS.iter().zip(RESULT_MEANINGS).enumerate() {
-        let _ = writeln!(s, "| {k} | `{}` | {} | {} |", r.name, r.unit, cell(what));
+        let _ = writeln!(
+            s,
+            "| {k} | `{}` | {} | {} |",
+            r.name,
+            r.unit.as_str(),
+            cell(what)
+        );
     }
     s
 }

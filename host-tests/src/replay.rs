@@ -57,7 +57,7 @@ pub fn figures(app: &App, ids: &[ResultId]) -> Vec<Figure> {
                 value: e.value,
                 u: (!e.std_uncertainty.is_nan()).then_some(e.std_uncertainty),
                 dof: None,
-                unit: id.info().unit.to_string(),
+                unit: id.info().unit.as_str().to_string(),
                 contributors: e
                     .largest_contributors()
                     .into_iter()

@@ -315,7 +315,7 @@ fn apply_setup(
             SetupValue::Text(t) => f64::from(info.choice(t.as_bytes()).ok_or(bad(format!(
                 "{} is not one of {:?}",
                 excerpt(t),
-                info.choices
+                info.choices()
             )))?),
         };
         c.set(f, x).map_err(|e| bad(format!("refused: {e:?}")))?;

@@ -106,7 +106,7 @@ fn out_of_range_is_rejected_naming_field_and_range_and_changes_nothing() {
     assert_eq!(c.bar_length_mm, 300.0);
     // units are documented in the table
     let i = Config::field_info(Field::BarLengthMm).unwrap();
-    assert_eq!((i.name, i.unit), ("bar_length", "mm"));
+    assert_eq!((i.name, i.unit.as_str()), ("bar_length", "mm"));
 }
 
 #[test]
@@ -452,4 +452,28 @@ fn a_settings_record_of_encoding_version_8_is_read_and_migrated() {
     now_cfg.setup.ssm_u_socket_um = 2.5;
     now_cfg.setup.circle_u_centre_um = 40.0;
     resaved_as_current_version(&now_cfg, 62);
+}
+
+#[test]
+fn a_settings_record_of_encoding_version_9_is_read_and_migrated() {
+    let got = read_fixture(include_str!("data/settings_record_v9.hex"), 73, 100);
+    // what the file's header says it holds; the field version 10 added keeps its default,
+    // the seed 002 budget's 10 µm for R_B and R′_B as entered
+    let mut want = Config {
+        bar_length_mm: 140.25,
+        can_node_id: 17,
+        lvdt_u_scale_ppm: 800.0,
+        ..Config::default()
+    };
+    want.setup.s002_u_r_c_z_c_um = 30.0;
+    want.setup.ssm_u_socket_um = 3.0;
+    want.setup.circle_u_centre_um = 20.0;
+    want.axes[0].name = AxisName::Y;
+    want.axes[1].name = AxisName::X;
+    assert!(same(&got, &want), "{got:?}");
+    assert_eq!(got.setup.s002_u_r_b_um, 10.0);
+    // the next save writes the current version with the new field, and reads back
+    let mut now_cfg = got;
+    now_cfg.setup.s002_u_r_b_um = 150.0;
+    resaved_as_current_version(&now_cfg, 74);
 }

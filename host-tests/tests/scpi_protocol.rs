@@ -576,6 +576,7 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::ProbeULobingUm => g(s.probe_u_lobing_um),
         Field::SsmUSocketUm => g(s.ssm_u_socket_um),
         Field::CircleUCentreUm => g(s.circle_u_centre_um),
+        Field::S002URbUm => g(s.s002_u_r_b_um),
         Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => unreachable!(),
     }
 }
@@ -600,17 +601,17 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
     for (h, f) in &headers {
         let i = info(*f);
         // a code field takes and answers the names of its codes
-        let cases: Vec<(f64, String)> = if i.choices.is_empty() {
+        let cases: Vec<(f64, String)> = if i.choices().is_empty() {
             vec![
                 (i.min, format!("{}", i.min)),
                 (i.max, format!("{:e}", i.max)),
             ]
         } else {
-            let last = i.choices.len() - 1;
+            let last = i.choices().len() - 1;
             assert_eq!(i.max, last as f64, "{h}");
             vec![
-                (0.0, i.choices[0].to_lowercase()),
-                (i.max, i.choices[last].to_string()),
+                (0.0, i.choices()[0].to_lowercase()),
+                (i.max, i.choices()[last].to_string()),
             ]
         };
         for (v, text) in cases {
@@ -628,11 +629,11 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
             assert_eq!(b.send(&format!("{h} {text}")), "", "{h} {text}");
             assert!(close(read(b.app.config(), *f), v), "{h} {text}");
             let back = b.send(&format!("{h}?"));
-            if i.choices.is_empty() {
+            if i.choices().is_empty() {
                 let back: f64 = back.parse().unwrap();
                 assert!(close(back, v), "{h}? = {back}, set {v}");
             } else {
-                assert_eq!(back, i.choices[v as usize], "{h}?");
+                assert_eq!(back, i.choices()[v as usize], "{h}?");
             }
             // the other fields did not move
             for (gh, g) in &headers {

@@ -228,10 +228,12 @@ impl CircleTest {
     }
 
     /// Ends the run of direction `d`: its results, and the bi-directional ones when both
-    /// directions are complete, each u with the bar's share `bar` (`metrology::bar_budget`);
-    /// and the fit with the centre's shares of its (r0, e_u, e_v) for `u_centre_um`
-    /// ([`CircularTest::centre_shares`]). `Err` if the run has no fit (too short an arc, too
-    /// few samples).
+    /// directions are complete, each u with the bar's share `bar` (`metrology::bar_budget`)
+    /// and the centre's for `u_centre_um` (each figure's and diagnosis's
+    /// `Diagnosed::centre_um`; H takes none, nor does the servo mismatch, a difference of the
+    /// two directions' squareness); and the fit with the
+    /// centre's shares of its (r0, e_u, e_v) ([`CircularTest::centre_shares`]). `Err` if the
+    /// run has no fit (too short an arc, too few samples).
     pub fn finish_run(
         &mut self,
         d: Direction,
@@ -252,23 +254,23 @@ impl CircleTest {
         if let Some(c) = self.complete.get_mut(dir_index(d)) {
             *c = true;
         }
-        if let Ok(f) = self.test.direction_figures(d) {
+        if let Ok(f) = self.test.direction_figures(d, u_centre_um) {
             for (id, v, kind) in [
                 (g, f.circular_deviation_g_um, Shape),
                 (fmax, f.radial_deviation_f_max_um, Radial),
                 (fmin, f.radial_deviation_f_min_um, Radial),
             ] {
-                results.set_with_bar(id, v.value, [v.std_uncertainty, 0.0], bar, kind);
+                results.set_with_bar(id, v.value, [v.std_uncertainty, v.centre_um], bar, kind);
             }
         }
         if self.complete == [true, true] {
-            self.bidirectional(results, bar);
+            self.bidirectional(results, bar, u_centre_um);
         }
         Ok((est, socket))
     }
 
-    fn bidirectional(&self, results: &mut Results, bar: &BarBudget) {
-        if let Ok(b) = self.test.bidirectional_figures() {
+    fn bidirectional(&self, results: &mut Results, bar: &BarBudget, u_centre_um: f32) {
+        if let Ok(b) = self.test.bidirectional_figures(u_centre_um) {
             for (id, v, kind) in [
                 (
                     ResultId::GBidir,
@@ -282,10 +284,10 @@ impl CircleTest {
                     Radial,
                 ),
             ] {
-                results.set_with_bar(id, v.value, [v.std_uncertainty, 0.0], bar, kind);
+                results.set_with_bar(id, v.value, [v.std_uncertainty, v.centre_um], bar, kind);
             }
         }
-        let diag = |d| self.test.diagnostics(d);
+        let diag = |d| self.test.diagnostics(d, u_centre_um);
         let (Ok(ccw), Ok(cw)) = (diag(Direction::Ccw), diag(Direction::Cw)) else {
             // a partial arc: no diagnoses (IsoError::NotFullCircle)
             return;
@@ -298,7 +300,7 @@ impl CircleTest {
             (ResultId::ReversalV, m.reversal_step_v_um),
             (ResultId::CyclicAmplitude, m.cyclic_amplitude_um),
         ] {
-            results.set_with_bar(id, v.value, [v.std_uncertainty, 0.0], bar, Shape);
+            results.set_with_bar(id, v.value, [v.std_uncertainty, v.centre_um], bar, Shape);
         }
         // 0: no harmonic of order 3–16 is significant (none named)
         let order = m.named_cyclic_order().unwrap_or(0);
@@ -325,7 +327,7 @@ impl CircleTest {
 
     /// Why the diagnoses of direction `d` are not available (e.g. a partial arc).
     pub fn diagnostics_error(&self, d: Direction) -> Option<IsoError> {
-        self.test.diagnostics(d).err()
+        self.test.diagnostics(d, 0.0).err()
     }
 }
 

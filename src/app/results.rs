@@ -9,18 +9,19 @@
 //! A standard uncertainty of NaN means "not evaluated" (the method does not state one yet).
 
 use crate::metrology::bar_budget::{BarBudget, FigureKind};
+use crate::units::Unit;
 
 /// Name and unit of a result.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ResultInfo {
     /// Name (CANopen sub-entry name, SCPI `FETCh:RESult? <name>`).
     pub name: &'static str,
-    /// Unit (`um`, `urad`, `arcsec`, `mm`, `deg`, `um/m`, `ms`, `1`).
-    pub unit: &'static str,
+    /// Unit (µm, µrad, arc-seconds, mm, degrees, µm/m, ms or a number).
+    pub unit: Unit,
 }
 
 macro_rules! results {
-    ($($id:ident => ($name:literal, $unit:literal, $what:literal),)*) => {
+    ($($id:ident => ($name:literal, $unit:ident, $what:literal),)*) => {
         /// A result of the table (the discriminant is its index: CANopen sub-index − 1).
         #[derive(Clone, Copy, Debug, PartialEq, Eq)]
         #[repr(u8)]
@@ -29,7 +30,7 @@ macro_rules! results {
             $(#[doc = $what] $id,)*
         }
         /// Name and unit of every result, in [`ResultId`] order.
-        pub const RESULTS: &[ResultInfo] = &[$(ResultInfo { name: $name, unit: $unit },)*];
+        pub const RESULTS: &[ResultInfo] = &[$(ResultInfo { name: $name, unit: Unit::$unit },)*];
         /// What each result is, in [`ResultId`] order (for the EDS and the docs: kept apart from
         /// [`RESULTS`] so the firmware does not carry the text).
         pub const RESULT_MEANINGS: &[&str] = &[$($what,)*];
@@ -41,92 +42,92 @@ macro_rules! results {
 }
 
 results! {
-    EccU => ("ecc_u", "um", "Last circular run (CIRCLE or seed 002 step): eccentricity along the pattern plane's first axis (limaçon fit; seed 002 §3.5)"),
-    EccV => ("ecc_v", "um", "Last circular run: eccentricity along the pattern plane's second axis"),
-    R0 => ("r0", "um", "Last circular run: radius change r0 (mean ΔL of the fit)"),
-    ResidualRms => ("residual_rms", "um", "Last circular run: RMS of the fit residuals"),
-    Arc => ("arc", "deg", "Last circular run: arc turned"),
-    GCcw => ("G_ccw", "um", "ISO 230-4 circular deviation G (2022: circular error), CCW"),
-    GCw => ("G_cw", "um", "ISO 230-4 circular deviation G, CW"),
-    FMaxCcw => ("F_max_ccw", "um", "ISO 230-4 radial deviation F_max about the socket, CCW"),
-    FMinCcw => ("F_min_ccw", "um", "ISO 230-4 radial deviation F_min about the socket, CCW"),
-    FMaxCw => ("F_max_cw", "um", "ISO 230-4 radial deviation F_max about the socket, CW"),
-    FMinCw => ("F_min_cw", "um", "ISO 230-4 radial deviation F_min about the socket, CW"),
-    GBidir => ("G_bidir", "um", "ISO 230-4 bi-directional circular deviation G(b) (latest CCW and CW runs)"),
-    H => ("H", "um", "ISO 230-4 circular hysteresis H (latest CCW and CW runs)"),
-    RadialBidir => ("radial_bidir", "um", "ISO 230-4 mean bi-directional radial deviation"),
-    Squareness => ("squareness", "urad", "Ball-bar diagnosis: out-of-squareness of the plane's axes (mean of CCW and CW; both arcs with samples in all four quadrants)"),
-    ScaleMismatch => ("scale_mismatch", "um/m", "Ball-bar diagnosis: scale mismatch k_u − k_v"),
-    ReversalU => ("reversal_u", "um", "Ball-bar diagnosis: reversal step (backlash) of the first axis"),
-    ReversalV => ("reversal_v", "um", "Ball-bar diagnosis: reversal step (backlash) of the second axis"),
-    CyclicAmplitude => ("cyclic_amplitude", "um", "Ball-bar diagnosis: amplitude of the cyclic error, the harmonic of order 3–16 that, fitted jointly with the other diagnoses, explains most of the profile"),
-    CyclicOrder => ("cyclic_order", "1", "Ball-bar diagnosis: order of that harmonic (cycles per revolution) when its amplitude is at least 4 standard uncertainties; 0: no cyclic error named"),
-    ServoMismatch => ("servo_mismatch", "ms", "Ball-bar diagnosis: servo mismatch τ_u − τ_v (needs circle_feed)"),
-    EBxX => ("e_BX_x", "um", "Seed 002 step BX: eccentricity ex (mean of CW/CCW over the repeats)"),
-    EBxZ => ("e_BX_z", "um", "Seed 002 step BX: eccentricity ez"),
-    EByX => ("e_BY_x", "um", "Seed 002 step BY: eccentricity ex"),
-    EByZ => ("e_BY_z", "um", "Seed 002 step BY: eccentricity ez"),
-    ECrX => ("e_CR_x", "um", "Seed 002 step CR: eccentricity ex"),
-    ECrY => ("e_CR_y", "um", "Seed 002 step CR: eccentricity ey"),
-    ECaX => ("e_CA_x", "um", "Seed 002 step CA: eccentricity ex"),
-    ECaY => ("e_CA_y", "um", "Seed 002 step CA: eccentricity ey"),
-    ECr2X => ("e_CR2_x", "um", "Seed 002 step CR2 (CR′): eccentricity ex"),
-    ECr2Y => ("e_CR2_y", "um", "Seed 002 step CR2 (CR′): eccentricity ey"),
-    DxBt => ("dx_BT", "um", "Seed 002 model mode (literal HTM model): δx_BT"),
-    DzBt => ("dz_BT", "um", "Seed 002 model mode: δz_BT"),
-    AlphaBt => ("alpha_BT", "arcsec", "Seed 002 model mode: α_BT"),
-    AlphaXb => ("alpha_XB", "arcsec", "Seed 002 model mode: α_XB"),
-    BetaXb => ("beta_XB", "arcsec", "Seed 002 model mode: β_XB"),
-    GammaXb => ("gamma_XB", "arcsec", "Seed 002 model mode: γ_XB"),
-    DxCz => ("dx_CZ", "um", "Seed 002 model mode: δx_CZ"),
-    DyCz => ("dy_CZ", "um", "Seed 002 model mode: δy_CZ"),
-    AlphaCz => ("alpha_CZ", "arcsec", "Seed 002 model mode: α_CZ"),
-    BetaCz => ("beta_CZ", "arcsec", "Seed 002 model mode: β_CZ"),
-    ModelResidualRms => ("model_residual_rms", "um", "Seed 002 model mode: RMS of the eccentricity residuals"),
-    ModelCondition => ("model_condition", "1", "Seed 002 model mode: condition number of the last Gauss–Newton step"),
-    ThAlphaCz => ("th_alpha_CZ", "arcsec", "Seed 002 thesis mode (eqs 4.10–4.18): α_CZ"),
-    ThBetaCz => ("th_beta_CZ", "arcsec", "Seed 002 thesis mode: β_CZ"),
-    ThAlphaXb => ("th_alpha_XB", "arcsec", "Seed 002 thesis mode: α_XB"),
-    ThBetaXb => ("th_beta_XB", "arcsec", "Seed 002 thesis mode: β_XB"),
-    ThGammaXb => ("th_gamma_XB", "arcsec", "Seed 002 thesis mode: γ_XB"),
-    ThAlphaBt => ("th_alpha_BT", "arcsec", "Seed 002 thesis mode: α_BT"),
-    ThDxCzMinusDxBt => ("th_dx_CZ_minus_dx_BT", "um", "Seed 002 thesis mode: δx_CZ − δx_BT"),
-    ThDyCz => ("th_dy_CZ", "um", "Seed 002 thesis mode: δy_CZ"),
-    ThDzBtSetting => ("th_dz_BT_setting", "um", "Seed 002 thesis mode: the δz_BT (tool-length) setting ex_BX"),
-    CorrDxBt => ("corr_dx_BT", "um", "Seed 002 correction (compensation = −error) of δx_BT"),
-    CorrDzBt => ("corr_dz_BT", "um", "Seed 002 correction of δz_BT"),
-    CorrAlphaBt => ("corr_alpha_BT", "arcsec", "Seed 002 correction of α_BT"),
-    CorrAlphaXb => ("corr_alpha_XB", "arcsec", "Seed 002 correction of α_XB"),
-    CorrBetaXb => ("corr_beta_XB", "arcsec", "Seed 002 correction of β_XB"),
-    CorrGammaXb => ("corr_gamma_XB", "arcsec", "Seed 002 correction of γ_XB"),
-    CorrDxCz => ("corr_dx_CZ", "um", "Seed 002 correction of δx_CZ"),
-    CorrDyCz => ("corr_dy_CZ", "um", "Seed 002 correction of δy_CZ"),
-    CorrAlphaCz => ("corr_alpha_CZ", "arcsec", "Seed 002 correction of α_CZ"),
-    CorrBetaCz => ("corr_beta_CZ", "arcsec", "Seed 002 correction of β_CZ"),
-    SsmEx => ("ssm_ex", "um", "SSM run: position error E_x from the dwell stations (seed 000 eq 1, Gauss–Newton refined)"),
-    SsmEy => ("ssm_ey", "um", "SSM run: position error E_y"),
-    SsmEz => ("ssm_ez", "um", "SSM run: position error E_z"),
-    SsmCond => ("ssm_cond", "1", "SSM run: condition number of the station directions"),
-    SsmResidualRms => ("ssm_residual_rms", "um", "SSM run: RMS residual of the station equations (0 for exactly three)"),
-    SsmStations => ("ssm_stations", "1", "SSM run: dwell stations used"),
-    TsDeltaAlpha => ("ts_d_alpha", "urad", "Seed 000 two-step: Δα (RRTTT, TTTRR, RTTTR table)"),
-    TsDeltaBeta => ("ts_d_beta", "urad", "Seed 000 two-step: Δβ (RRTTT, RTTTR spindle)"),
-    TsDeltaGamma => ("ts_d_gamma", "urad", "Seed 000 two-step: Δγ (TTTRR)"),
-    SphereX => ("sphere_x", "mm", "PROBE run: fitted sphere centre X (stylus-ball centre path)"),
-    SphereY => ("sphere_y", "mm", "PROBE run: fitted sphere centre Y"),
-    SphereZ => ("sphere_z", "mm", "PROBE run: fitted sphere centre Z"),
-    SphereRadius => ("sphere_radius", "mm", "PROBE run: fitted radius (sphere + stylus ball − pre-travel)"),
-    SphereResidualRms => ("sphere_residual_rms", "um", "PROBE run: RMS residual of the touch points"),
-    ProbeAlphaCz => ("probe_alpha_CZ", "arcsec", "Seed 002 chapter 5 touch-probe C axis (spheres at C = 0/90/180/270°, B = 0): α_CZ"),
-    ProbeBetaCz => ("probe_beta_CZ", "arcsec", "Touch-probe C axis: β_CZ"),
-    ProbeDxCz => ("probe_dx_CZ", "um", "Touch-probe C axis: δx_CZ"),
-    ProbeDyCz => ("probe_dy_CZ", "um", "Touch-probe C axis: δy_CZ"),
-    ProbeDxBt => ("probe_dx_BT", "um", "Seed 002 chapter 5 touch-probe B axis (sphere on the C centreline at B = 0/90° with two tool lengths, probe_length): δx_BT"),
-    ProbeDzBt => ("probe_dz_BT", "um", "Touch-probe B axis: δz_BT"),
-    ProbeBetaXb => ("probe_beta_XB", "arcsec", "Touch-probe B axis: β_XB"),
-    ProbeAlphaBtPlusAlphaXb => ("probe_alpha_BT_plus_alpha_XB", "arcsec", "Touch-probe B axis: α_BT + α_XB (not separable with B = 0/90° alone)"),
-    ProbeAlphaBtMinusGammaXb => ("probe_alpha_BT_minus_gamma_XB", "arcsec", "Touch-probe B axis: α_BT − γ_XB"),
-    ProbeBResidualRms => ("probe_B_residual_rms", "um", "Touch-probe B axis: RMS residual of the X/Z equations (8 equations, 3 unknowns)"),
+    EccU => ("ecc_u", Um, "Last circular run (CIRCLE or seed 002 step): eccentricity along the pattern plane's first axis (limaçon fit; seed 002 §3.5)"),
+    EccV => ("ecc_v", Um, "Last circular run: eccentricity along the pattern plane's second axis"),
+    R0 => ("r0", Um, "Last circular run: radius change r0 (mean ΔL of the fit)"),
+    ResidualRms => ("residual_rms", Um, "Last circular run: RMS of the fit residuals"),
+    Arc => ("arc", Deg, "Last circular run: arc turned"),
+    GCcw => ("G_ccw", Um, "ISO 230-4 circular deviation G (2022: circular error), CCW"),
+    GCw => ("G_cw", Um, "ISO 230-4 circular deviation G, CW"),
+    FMaxCcw => ("F_max_ccw", Um, "ISO 230-4 radial deviation F_max about the socket, CCW"),
+    FMinCcw => ("F_min_ccw", Um, "ISO 230-4 radial deviation F_min about the socket, CCW"),
+    FMaxCw => ("F_max_cw", Um, "ISO 230-4 radial deviation F_max about the socket, CW"),
+    FMinCw => ("F_min_cw", Um, "ISO 230-4 radial deviation F_min about the socket, CW"),
+    GBidir => ("G_bidir", Um, "ISO 230-4 bi-directional circular deviation G(b) (latest CCW and CW runs)"),
+    H => ("H", Um, "ISO 230-4 circular hysteresis H (latest CCW and CW runs)"),
+    RadialBidir => ("radial_bidir", Um, "ISO 230-4 mean bi-directional radial deviation"),
+    Squareness => ("squareness", Urad, "Ball-bar diagnosis: out-of-squareness of the plane's axes (mean of CCW and CW; both arcs with samples in all four quadrants)"),
+    ScaleMismatch => ("scale_mismatch", UmPerM, "Ball-bar diagnosis: scale mismatch k_u − k_v"),
+    ReversalU => ("reversal_u", Um, "Ball-bar diagnosis: reversal step (backlash) of the first axis"),
+    ReversalV => ("reversal_v", Um, "Ball-bar diagnosis: reversal step (backlash) of the second axis"),
+    CyclicAmplitude => ("cyclic_amplitude", Um, "Ball-bar diagnosis: amplitude of the cyclic error, the harmonic of order 3–16 that, fitted jointly with the other diagnoses, explains most of the profile"),
+    CyclicOrder => ("cyclic_order", One, "Ball-bar diagnosis: order of that harmonic (cycles per revolution) when its amplitude is at least 4 standard uncertainties; 0: no cyclic error named"),
+    ServoMismatch => ("servo_mismatch", Ms, "Ball-bar diagnosis: servo mismatch τ_u − τ_v (needs circle_feed)"),
+    EBxX => ("e_BX_x", Um, "Seed 002 step BX: eccentricity ex (mean of CW/CCW over the repeats)"),
+    EBxZ => ("e_BX_z", Um, "Seed 002 step BX: eccentricity ez"),
+    EByX => ("e_BY_x", Um, "Seed 002 step BY: eccentricity ex"),
+    EByZ => ("e_BY_z", Um, "Seed 002 step BY: eccentricity ez"),
+    ECrX => ("e_CR_x", Um, "Seed 002 step CR: eccentricity ex"),
+    ECrY => ("e_CR_y", Um, "Seed 002 step CR: eccentricity ey"),
+    ECaX => ("e_CA_x", Um, "Seed 002 step CA: eccentricity ex"),
+    ECaY => ("e_CA_y", Um, "Seed 002 step CA: eccentricity ey"),
+    ECr2X => ("e_CR2_x", Um, "Seed 002 step CR2 (CR′): eccentricity ex"),
+    ECr2Y => ("e_CR2_y", Um, "Seed 002 step CR2 (CR′): eccentricity ey"),
+    DxBt => ("dx_BT", Um, "Seed 002 model mode (literal HTM model): δx_BT"),
+    DzBt => ("dz_BT", Um, "Seed 002 model mode: δz_BT"),
+    AlphaBt => ("alpha_BT", Arcsec, "Seed 002 model mode: α_BT"),
+    AlphaXb => ("alpha_XB", Arcsec, "Seed 002 model mode: α_XB"),
+    BetaXb => ("beta_XB", Arcsec, "Seed 002 model mode: β_XB"),
+    GammaXb => ("gamma_XB", Arcsec, "Seed 002 model mode: γ_XB"),
+    DxCz => ("dx_CZ", Um, "Seed 002 model mode: δx_CZ"),
+    DyCz => ("dy_CZ", Um, "Seed 002 model mode: δy_CZ"),
+    AlphaCz => ("alpha_CZ", Arcsec, "Seed 002 model mode: α_CZ"),
+    BetaCz => ("beta_CZ", Arcsec, "Seed 002 model mode: β_CZ"),
+    ModelResidualRms => ("model_residual_rms", Um, "Seed 002 model mode: RMS of the eccentricity residuals"),
+    ModelCondition => ("model_condition", One, "Seed 002 model mode: condition number of the last Gauss–Newton step"),
+    ThAlphaCz => ("th_alpha_CZ", Arcsec, "Seed 002 thesis mode (eqs 4.10–4.18): α_CZ"),
+    ThBetaCz => ("th_beta_CZ", Arcsec, "Seed 002 thesis mode: β_CZ"),
+    ThAlphaXb => ("th_alpha_XB", Arcsec, "Seed 002 thesis mode: α_XB"),
+    ThBetaXb => ("th_beta_XB", Arcsec, "Seed 002 thesis mode: β_XB"),
+    ThGammaXb => ("th_gamma_XB", Arcsec, "Seed 002 thesis mode: γ_XB"),
+    ThAlphaBt => ("th_alpha_BT", Arcsec, "Seed 002 thesis mode: α_BT"),
+    ThDxCzMinusDxBt => ("th_dx_CZ_minus_dx_BT", Um, "Seed 002 thesis mode: δx_CZ − δx_BT"),
+    ThDyCz => ("th_dy_CZ", Um, "Seed 002 thesis mode: δy_CZ"),
+    ThDzBtSetting => ("th_dz_BT_setting", Um, "Seed 002 thesis mode: the δz_BT (tool-length) setting ex_BX"),
+    CorrDxBt => ("corr_dx_BT", Um, "Seed 002 correction (compensation = −error) of δx_BT"),
+    CorrDzBt => ("corr_dz_BT", Um, "Seed 002 correction of δz_BT"),
+    CorrAlphaBt => ("corr_alpha_BT", Arcsec, "Seed 002 correction of α_BT"),
+    CorrAlphaXb => ("corr_alpha_XB", Arcsec, "Seed 002 correction of α_XB"),
+    CorrBetaXb => ("corr_beta_XB", Arcsec, "Seed 002 correction of β_XB"),
+    CorrGammaXb => ("corr_gamma_XB", Arcsec, "Seed 002 correction of γ_XB"),
+    CorrDxCz => ("corr_dx_CZ", Um, "Seed 002 correction of δx_CZ"),
+    CorrDyCz => ("corr_dy_CZ", Um, "Seed 002 correction of δy_CZ"),
+    CorrAlphaCz => ("corr_alpha_CZ", Arcsec, "Seed 002 correction of α_CZ"),
+    CorrBetaCz => ("corr_beta_CZ", Arcsec, "Seed 002 correction of β_CZ"),
+    SsmEx => ("ssm_ex", Um, "SSM run: position error E_x from the dwell stations (seed 000 eq 1, Gauss–Newton refined)"),
+    SsmEy => ("ssm_ey", Um, "SSM run: position error E_y"),
+    SsmEz => ("ssm_ez", Um, "SSM run: position error E_z"),
+    SsmCond => ("ssm_cond", One, "SSM run: condition number of the station directions"),
+    SsmResidualRms => ("ssm_residual_rms", Um, "SSM run: RMS residual of the station equations (0 for exactly three)"),
+    SsmStations => ("ssm_stations", One, "SSM run: dwell stations used"),
+    TsDeltaAlpha => ("ts_d_alpha", Urad, "Seed 000 two-step: Δα (RRTTT, TTTRR, RTTTR table)"),
+    TsDeltaBeta => ("ts_d_beta", Urad, "Seed 000 two-step: Δβ (RRTTT, RTTTR spindle)"),
+    TsDeltaGamma => ("ts_d_gamma", Urad, "Seed 000 two-step: Δγ (TTTRR)"),
+    SphereX => ("sphere_x", Mm, "PROBE run: fitted sphere centre X (stylus-ball centre path)"),
+    SphereY => ("sphere_y", Mm, "PROBE run: fitted sphere centre Y"),
+    SphereZ => ("sphere_z", Mm, "PROBE run: fitted sphere centre Z"),
+    SphereRadius => ("sphere_radius", Mm, "PROBE run: fitted radius (sphere + stylus ball − pre-travel)"),
+    SphereResidualRms => ("sphere_residual_rms", Um, "PROBE run: RMS residual of the touch points"),
+    ProbeAlphaCz => ("probe_alpha_CZ", Arcsec, "Seed 002 chapter 5 touch-probe C axis (spheres at C = 0/90/180/270°, B = 0): α_CZ"),
+    ProbeBetaCz => ("probe_beta_CZ", Arcsec, "Touch-probe C axis: β_CZ"),
+    ProbeDxCz => ("probe_dx_CZ", Um, "Touch-probe C axis: δx_CZ"),
+    ProbeDyCz => ("probe_dy_CZ", Um, "Touch-probe C axis: δy_CZ"),
+    ProbeDxBt => ("probe_dx_BT", Um, "Seed 002 chapter 5 touch-probe B axis (sphere on the C centreline at B = 0/90° with two tool lengths, probe_length): δx_BT"),
+    ProbeDzBt => ("probe_dz_BT", Um, "Touch-probe B axis: δz_BT"),
+    ProbeBetaXb => ("probe_beta_XB", Arcsec, "Touch-probe B axis: β_XB"),
+    ProbeAlphaBtPlusAlphaXb => ("probe_alpha_BT_plus_alpha_XB", Arcsec, "Touch-probe B axis: α_BT + α_XB (not separable with B = 0/90° alone)"),
+    ProbeAlphaBtMinusGammaXb => ("probe_alpha_BT_minus_gamma_XB", Arcsec, "Touch-probe B axis: α_BT − γ_XB"),
+    ProbeBResidualRms => ("probe_B_residual_rms", Um, "Touch-probe B axis: RMS residual of the X/Z equations (8 equations, 3 unknowns)"),
 }
 
 /// Number of results.
@@ -140,10 +141,10 @@ impl ResultId {
 
     /// Its name and unit.
     pub fn info(self) -> ResultInfo {
-        RESULTS
-            .get(self.index())
-            .copied()
-            .unwrap_or(ResultInfo { name: "", unit: "" })
+        RESULTS.get(self.index()).copied().unwrap_or(ResultInfo {
+            name: "",
+            unit: Unit::One,
+        })
     }
 
     /// What it is (docs and EDS).

@@ -134,6 +134,7 @@ impl Setup {
                 t_axial_um: f64::from(t.s002_u_t_axial_um),
                 r_c_um: f64::from(t.s002_u_r_c_z_c_um),
                 z_c_um: f64::from(t.s002_u_r_c_z_c_um),
+                r_b_um: f64::from(t.s002_u_r_b_um),
             },
         })
     }
@@ -158,6 +159,7 @@ impl Setup {
         t.s002_u_t_axial_um = self.mounting.t_axial_um as f32;
         // R_C and Z_C share one field: the larger of their u
         t.s002_u_r_c_z_c_um = self.mounting.r_c_um.max(self.mounting.z_c_um) as f32;
+        t.s002_u_r_b_um = self.mounting.r_b_um as f32;
     }
 
     /// Whether `other` describes the same measurement: every length and the origin. The

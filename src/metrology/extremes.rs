@@ -142,6 +142,7 @@ impl Replicas {
         Diagnosed {
             value: observed - 2.0 * excess,
             std_uncertainty: crate::num::sqrtf(u2),
+            centre_um: 0.0,
         }
     }
 }

@@ -21,8 +21,10 @@
 //! Diagnostics (one weighted least-squares fit per direction on the bin profile about the
 //! least-squares circle, f32) of
 //! ΔL = r0 + e·n + a₂ cos 2θ + b₂ sin 2θ + B_u g_u(θ) + B_v g_v(θ) + a_k cos kθ + b_k sin kθ,
-//! θ from +u towards +v, fitted jointly for each cyclic order k = 3..=`MAX_CYCLIC_ORDER` and the
-//! order with the least residual kept (the step shapes g_u, g_v carry even harmonics, so a
+//! θ from +u towards +v (the socket's offset e also bends the profile by its second-order
+//! term (|e|² − (e·n)²)/2R, a 2θ term of |e|²/4R that is the set-up's, not the machine's: taken
+//! off before the fit, with e from the circle), fitted jointly for each cyclic order
+//! k = 3..=`MAX_CYCLIC_ORDER` and the order with the least residual kept (the step shapes g_u, g_v carry even harmonics, so a
 //! cyclic error fitted after them, from what they leave, leaks into them and into the
 //! squareness: an order-6 error of 1.45 µm read as 19 µrad):
 //! - out-of-squareness (45° ovality) S = 2 b₂ / R, µrad; S > 0 when the angle between +u and +v
@@ -41,7 +43,8 @@
 //! model leaves out (another cyclic order, a fault of another shape), so u grows with it — and at
 //! least the resolution's q²/12 (Type B, `RESOLUTION_UM`). The bar's own uncertainty (length,
 //! temperature, LVDT scale) is added where the results are published ([`super::bar_budget`]);
-//! not yet in the budget: the set-up (issue 14).
+//! the centre as entered (Type B) is each figure's and diagnosis's `Diagnosed::centre_um`
+//! ([`CircularTest::centre_shares`] says how the centre enters).
 use super::angle::quadrant_angle;
 use super::circle_fit::{CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, Moments};
 use super::extremes;
@@ -127,24 +130,28 @@ impl<const BINS: usize> Run<BINS> {
 /// 2³¹ samples).
 const CW_BIN: u32 = 1 << 31;
 
+/// Five profile figures of a test, computed with `shift(i, n)` added to each bin: bin `i` of
+/// `n` samples (the CW profile's n marked with [`CW_BIN`]) moves its mean ΔL by the first
+/// value and its residual about the circle by both.
+type Figures<'a> = &'a dyn Fn(&mut dyn FnMut(usize, u32) -> (f32, f32)) -> [f32; 5];
+
 /// The values `figures` computes, observed (no noise added), and their moments over
 /// [`extremes::REPLICAS`] replicas with normal noise of standard deviation `sigma(n)` added to
 /// each bin of n samples ([`super::extremes`]); `Err(observed)` if the noise is not told (σ
 /// NaN).
 // one copy in flash for both callers (`dyn`), five values each (the bidirectional use four)
-#[allow(clippy::type_complexity)]
 fn bootstrap(
-    figures: &dyn Fn(&mut dyn FnMut(u32) -> f32) -> [f32; 5],
+    figures: Figures,
     sigma: &dyn Fn(u32) -> f32,
 ) -> Result<([f32; 5], [extremes::Replicas; 5]), [f32; 5]> {
-    let observed = figures(&mut |_| 0.0);
+    let observed = figures(&mut |_, _| (0.0, 0.0));
     if sigma(1).is_nan() || sigma(1 | CW_BIN).is_nan() {
         return Err(observed);
     }
     let mut normals = extremes::Normals::default();
     let mut moments = [extremes::Replicas::default(); 5];
     for _ in 0..extremes::REPLICAS {
-        let replica = figures(&mut |n| sigma(n) * normals.draw());
+        let replica = figures(&mut |_, n| (sigma(n) * normals.draw(), 0.0));
         for ((m, v), o) in moments.iter_mut().zip(replica).zip(observed) {
             m.add(v - o);
         }
@@ -152,11 +159,128 @@ fn bootstrap(
     Ok((observed, moments))
 }
 
+/// A least-squares circle's (r0, e_u, e_v) over some bins and their first-order response to
+/// the centre as entered ([`CircularTest::centre_shares`]).
+struct CentreResponse {
+    /// The fit (r0, e_u, e_v), µm.
+    x: [f32; 3],
+    /// ∂(r0, e_u, e_v)/∂δ for the centre moved along u (`[0]`) and along v (`[1]`), µm/µm.
+    per_um: [[f32; 3]; 2],
+    /// −s/R per µm: the turn of a direction n by a centre moved 1 µm across it.
+    k: f32,
+}
+
+impl CentreResponse {
+    /// The moments `m` of the profiles `bins` (one direction's, or both for the joint circle)
+    /// of a test of sensitivity `s` on radius `radius_mm`: the fit and its response,
+    /// dx = (AᵀA)⁻¹ Σ [(0, dn) r − (1, n)(dn·e)] over the bins (module doc of
+    /// [`CircularTest::centre_shares`]).
+    fn of(
+        m: &Moments,
+        bins: &[&[Bin]],
+        s: Sensitivity,
+        radius_mm: f32,
+    ) -> Result<Self, CircleFitError> {
+        let chol = m
+            .normal_matrix()
+            .cholesky()
+            .map_err(|_| CircleFitError::IllConditioned)?;
+        // the fit (r0 relative to the moments' reference, added back below)
+        let [x0, x1, x2] = chol.solve([m.y, m.y_u, m.y_v]);
+        let s = match s {
+            Sensitivity::Outward => 1.0,
+            Sensitivity::Inward => -1.0,
+        };
+        let mut c = CentreResponse {
+            x: [x0 + m.y_ref_um, x1, x2].map(|v| v as f32),
+            per_um: [[0.0; 3]; 2],
+            k: -s / (radius_mm * 1e3),
+        };
+        // Σ over the bins, per δ direction (u, v): the right-hand side of dx
+        let mut g = [[0.0f32; 3]; 2];
+        for b in bins.iter().flat_map(|b| b.iter()) {
+            let Some((dl, nu, nv)) = b.mean() else {
+                continue;
+            };
+            let w = b.n as f32;
+            let [r0, eu, ev] = c.x;
+            let r = dl - (r0 + eu * nu + ev * nv);
+            for (g, [du, dv]) in g.iter_mut().zip([[1.0, 0.0], [0.0, 1.0]]) {
+                // dn = k (δ − (δ·n) n)
+                let along = du * nu + dv * nv;
+                let (dnu, dnv) = (c.k * (du - along * nu), c.k * (dv - along * nv));
+                let de = dnu * eu + dnv * ev;
+                g[0] -= w * de;
+                g[1] += w * (dnu * r - nu * de);
+                g[2] += w * (dnv * r - nv * de);
+            }
+        }
+        for (p, g) in c.per_um.iter_mut().zip(g) {
+            *p = chol.solve(g.map(f64::from)).map(|v| v as f32);
+        }
+        Ok(c)
+    }
+
+    /// The change of bin `i` of the profile `bins` with the centre as entered moved by δ (µm):
+    /// (its mean ΔL, its residual about the circle besides). Each sample's direction turns by
+    /// dn = k (δ − (δ·n) n), so the bin at angle θ holds the samples from dθ = n × dn further
+    /// back along the profile: it gives up that fraction f = dθ/Δ of its width (Δ the bin's)
+    /// and takes as much of its neighbour's, f·(ΔL_neighbour − ΔL) (the profile closed around
+    /// the circle; none beyond an arc's end) — a reversal step's edge as much as the limaçon's
+    /// e·dn; never past the neighbour's value, so an extreme does not overshoot (a secant at δ;
+    /// f at most 1). The circle fitted to the bins moves by dx
+    /// ([`CircularTest::centre_shares`]), the residual by −(dr0 + de·n) more.
+    fn bin_shift(&self, bins: &[Bin], i: usize, [du, dv]: [f32; 2]) -> (f32, f32) {
+        let Some((dl, nu, nv)) = bins.get(i).and_then(Bin::mean) else {
+            return (0.0, 0.0);
+        };
+        let along = du * nu + dv * nv;
+        let turn = self.k * (nu * (dv - along * nv) - nv * (du - along * nu));
+        let f = turn * bins.len() as f32 * (1.0 / core::f32::consts::TAU);
+        // the samples come from before the bin (f > 0) or after it
+        let last = bins.len().saturating_sub(1);
+        let j = match (f > 0.0, i) {
+            (true, 0) => last,
+            (true, _) => i - 1,
+            (false, i) if i == last => 0,
+            (false, _) => i + 1,
+        };
+        let from = bins.get(j).and_then(Bin::mean).map_or(dl, |m| m.0);
+        let [[a0, a1, a2], [b0, b1, b2]] = self.per_um;
+        let fit = (a0 * du + b0 * dv) + (a1 * du + b1 * dv) * nu + (a2 * du + b2 * dv) * nv;
+        (f.abs().min(1.0) * (from - dl), -fit)
+    }
+
+    /// The centre's shares in the values `figures` computes of the profiles `bins` (the CW
+    /// profile's, when the figures mark bins with [`CW_BIN`], second), `u_centre_um` per
+    /// coordinate: each value's change with every bin moved as by the centre moved ±u along u
+    /// and along v ([`Self::bin_shift`]), the root mean square of each pair, in quadrature.
+    fn figure_shares(&self, figures: Figures, bins: [&[Bin]; 2], u_centre_um: f32) -> [f32; 5] {
+        let observed = figures(&mut |_, _| (0.0, 0.0));
+        let mut s2 = [0.0f32; 5];
+        for delta in MOVES.map(|d| d.map(|c| c * u_centre_um)) {
+            let moved = figures(&mut |i, n| {
+                let [ccw, cw] = bins;
+                self.bin_shift(if n & CW_BIN != 0 { cw } else { ccw }, i, delta)
+            });
+            for ((s2, m), o) in s2.iter_mut().zip(moved).zip(observed) {
+                *s2 += (m - o) * (m - o);
+            }
+        }
+        s2.map(|v| crate::num::sqrtf(0.5 * v))
+    }
+}
+
+/// The centre's moves a share is taken over (unit vectors, ±u and ±v): the response is a
+/// secant, not symmetric where it moves a step's edge.
+const MOVES: [[f32; 2]; 4] = [[1.0, 0.0], [-1.0, 0.0], [0.0, 1.0], [0.0, -1.0]];
+
 /// A figure whose u is not evaluated (NaN).
 fn not_evaluated(value: f32) -> Diagnosed {
     Diagnosed {
         value,
         std_uncertainty: f32::NAN,
+        centre_um: 0.0,
     }
 }
 
@@ -199,23 +323,31 @@ pub struct BidirectionalFigures {
     pub joint_e_um: [f32; 2],
 }
 
-/// An ISO 230-4 figure or diagnosis: its value and standard uncertainty, same unit.
+/// An ISO 230-4 figure or diagnosis: its value and standard uncertainties, same unit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Diagnosed {
     /// The estimate.
     pub value: f32,
-    /// Its standard uncertainty (diagnoses: Type A from the residual of the joint fit, the
-    /// resolution's as a floor, the module doc; figures: [`super::extremes`]).
+    /// Its standard uncertainty from the samples' noise (diagnoses: Type A from the residual
+    /// of the joint fit, the resolution's as a floor, the module doc; figures:
+    /// [`super::extremes`]).
     pub std_uncertainty: f32,
+    /// The standard uncertainty the circle's centre as entered gives it (Type B, for the
+    /// `u_centre_um` of the call per in-plane coordinate: the change with the profile moved as
+    /// by the centre moved ±u along each axis; [`CircularTest::centre_shares`] says how the
+    /// centre enters), beside [`Self::std_uncertainty`], not in it; 0 where none is taken (H).
+    pub centre_um: f32,
 }
 
 impl Diagnosed {
-    /// The mean of two independent estimates (CCW and CW): u = √(u₁² + u₂²)/2.
+    /// The mean of two independent estimates (CCW and CW): u = √(u₁² + u₂²)/2; the centre's
+    /// share at most (c₁ + c₂)/2 ([`mean_diagnostics`] takes it from the signed changes).
     pub fn mean(&self, other: &Self) -> Self {
         let (a, b) = (self.std_uncertainty, other.std_uncertainty);
         Self {
             value: (self.value + other.value) * 0.5,
             std_uncertainty: crate::num::sqrtf(a * a + b * b) * 0.5,
+            centre_um: (self.centre_um + other.centre_um) * 0.5,
         }
     }
 
@@ -249,9 +381,34 @@ pub struct Diagnostics {
     pub sample_std_um: f32,
     /// RMS of the bin profile after the diagnostic model, µm.
     pub residual_rms_um: f32,
+    /// The change of (squareness, scale mismatch, reversal u, reversal v, cyclic amplitude),
+    /// in their units, with the centre as entered moved by +u, −u along u, then +u, −u along v
+    /// (u the `u_centre_um` of [`CircularTest::diagnostics`]): what each `centre_um` is made
+    /// of, kept signed so that [`mean_diagnostics`] averages the two directions' changes
+    /// (a reversal step's edge moves the two directions' squareness apart).
+    pub centre_moves: [[f32; 5]; 4],
 }
 
 impl Diagnostics {
+    /// Sets [`Self::centre_moves`] and each diagnosis's `centre_um` from them: the root mean
+    /// square of the ± moves along each axis, in quadrature.
+    fn set_centre_moves(&mut self, moves: [[f32; 5]; 4]) {
+        self.centre_moves = moves;
+        for (k, d) in [
+            &mut self.squareness_urad,
+            &mut self.scale_mismatch_um_per_m,
+            &mut self.reversal_step_u_um,
+            &mut self.reversal_step_v_um,
+            &mut self.cyclic_amplitude_um,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let s2: f32 = moves.iter().map(|m| m.get(k).map_or(0.0, |v| v * v)).sum();
+            d.centre_um = crate::num::sqrtf(0.5 * s2);
+        }
+    }
+
     /// The cyclic error's order if it is significant (amplitude ≥ [`CYCLIC_SIGNIFICANCE`]·u),
     /// else `None`: no cyclic error is named.
     pub fn named_cyclic_order(&self) -> Option<u32> {
@@ -369,52 +526,34 @@ impl<const BINS: usize> CircularTest<BINS> {
     /// squareness, scale mismatch) gives e its share, e itself gives r0 one (δ·e / 2R on a full
     /// circle). The coordinate across the plane does not turn n (second order). `Err` where
     /// the fit is not available.
+    ///
+    /// The profile's figures and the diagnoses take their shares where they are computed
+    /// ([`Self::direction_figures`], [`Self::bidirectional_figures`], [`Self::diagnostics`]):
+    /// with n turned, each bin holds samples from further along the profile as well
+    /// (`CentreResponse::bin_shift`).
     pub fn centre_shares(
         &self,
         d: Direction,
         u_centre_um: f32,
     ) -> Result<[f32; 3], CircleFitError> {
-        let run = self.run(d);
-        let m = run.fit.moments();
-        let chol = m
-            .normal_matrix()
-            .cholesky()
-            .map_err(|_| CircleFitError::IllConditioned)?;
-        // the fit (r0 relative to the moments' reference, added back below)
-        let [x0, x1, x2] = chol.solve([m.y, m.y_u, m.y_v]);
-        let s = match run.fit.config().geometry.sensitivity {
-            Sensitivity::Outward => 1.0,
-            Sensitivity::Inward => -1.0,
-        };
-        let k = -s / (self.radius_mm * 1e3);
-        let [r0, eu, ev] = [x0 + m.y_ref_um, x1, x2].map(|v| v as f32);
-        // Σ over the bins, per δ direction (u, v): the right-hand side of dx
-        let mut g = [[0.0f32; 3]; 2];
-        for b in &run.bins {
-            let Some((dl, nu, nv)) = b.mean() else {
-                continue;
-            };
-            let w = b.n as f32;
-            let r = dl - (r0 + eu * nu + ev * nv);
-            // dn for δ along u, then along v: k (δ − (δ·n) n)
-            let cross = -k * nu * nv;
-            for (g, (dnu, dnv)) in g
-                .iter_mut()
-                .zip([(k * (1.0 - nu * nu), cross), (cross, k * (1.0 - nv * nv))])
-            {
-                let de = dnu * eu + dnv * ev;
-                g[0] -= w * de;
-                g[1] += w * (dnu * r - nu * de);
-                g[2] += w * (dnv * r - nv * de);
-            }
-        }
-        let [su, sv] = g.map(|g| chol.solve(g.map(f64::from)));
+        let c = self.centre_response(d)?;
+        let [a, b] = c.per_um;
         let mut out = [0.0; 3];
-        for ((o, a), b) in out.iter_mut().zip(su).zip(sv) {
-            let (a, b) = (a as f32, b as f32);
+        for ((o, a), b) in out.iter_mut().zip(a).zip(b) {
             *o = u_centre_um * crate::num::sqrtf(a * a + b * b);
         }
         Ok(out)
+    }
+
+    /// [`CentreResponse`] of direction `d`'s circle.
+    fn centre_response(&self, d: Direction) -> Result<CentreResponse, CircleFitError> {
+        let run = self.run(d);
+        CentreResponse::of(
+            &run.fit.moments(),
+            &[&run.bins],
+            run.fit.config().geometry.sensitivity,
+            self.radius_mm,
+        )
     }
 
     /// One sample's ΔL noise of the run in direction `d`, µm, from its profile's third
@@ -445,8 +584,16 @@ impl<const BINS: usize> CircularTest<BINS> {
         super::circle_fit::SampleUse::Used
     }
 
-    /// Figures of one direction.
-    pub fn direction_figures(&self, d: Direction) -> Result<DirectionFigures, IsoError> {
+    /// Figures of one direction, G and F with the centre's share (`Diagnosed::centre_um`) for a
+    /// centre entered with standard uncertainty `u_centre_um` per in-plane coordinate: the
+    /// figures again on the profile moved as by the centre moved ±u along each axis (each bin
+    /// by `CentreResponse::bin_shift`: its samples from further along the profile, and the
+    /// circle G is taken about moved as [`Self::centre_shares`] moves it).
+    pub fn direction_figures(
+        &self,
+        d: Direction,
+        u_centre_um: f32,
+    ) -> Result<DirectionFigures, IsoError> {
         let run = self.run(d);
         let fit = run.fit.estimate().map_err(IsoError::Fit)?;
         let x = run.fit.moments().solve_f64().map_err(IsoError::Fit)?;
@@ -456,13 +603,13 @@ impl<const BINS: usize> CircularTest<BINS> {
         // G and F of the profile with `noise(n)` added to each bin of n samples: F on the same
         // bin-averaged profile as G (single samples' extremes would be the noise's: +4σ at
         // 0.2 µm and 57 000 samples, +0.8 µm), G about the least-squares circle
-        let figures = |noise: &mut dyn FnMut(u32) -> f32| {
+        let figures = |noise: &mut dyn FnMut(usize, u32) -> (f32, f32)| {
             let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
             let (mut f_lo, mut f_hi) = (f32::INFINITY, f32::NEG_INFINITY);
-            for b in &run.bins {
+            for (i, b) in run.bins.iter().enumerate() {
                 if let Some((dl, nu, nv)) = b.mean() {
-                    let p = noise(b.n);
-                    let r = dl - x0 - x1 * nu - x2 * nv + p;
+                    let (p, q) = noise(i, b.n);
+                    let r = dl - x0 - x1 * nu - x2 * nv + p + q;
                     let dl = dl + p;
                     // comparisons, not f32::min/max (library calls on the M4F)
                     lo = if r < lo { r } else { lo };
@@ -473,14 +620,21 @@ impl<const BINS: usize> CircularTest<BINS> {
             }
             [hi - lo, hi, lo, f_hi, f_lo]
         };
-        let [g, f_max, f_min] = match bootstrap(&figures, &|n| s / crate::num::sqrtf(n as f32)) {
-            Ok(([g, _, _, f_hi, f_lo], [rg, rhi, rlo, rf_hi, rf_lo])) => [
-                rg.figure(g, &[rhi.excess(), rlo.excess()]),
-                rf_hi.figure(f_hi, &[rf_hi.excess()]),
-                rf_lo.figure(f_lo, &[rf_lo.excess()]),
-            ],
-            Err([g, _, _, f_hi, f_lo]) => [g, f_hi, f_lo].map(not_evaluated),
-        };
+        let [mut g, mut f_max, mut f_min] =
+            match bootstrap(&figures, &|n| s / crate::num::sqrtf(n as f32)) {
+                Ok(([g, _, _, f_hi, f_lo], [rg, rhi, rlo, rf_hi, rf_lo])) => [
+                    rg.figure(g, &[rhi.excess(), rlo.excess()]),
+                    rf_hi.figure(f_hi, &[rf_hi.excess()]),
+                    rf_lo.figure(f_lo, &[rf_lo.excess()]),
+                ],
+                Err([g, _, _, f_hi, f_lo]) => [g, f_hi, f_lo].map(not_evaluated),
+            };
+        let centre = self.centre_response(d).map_err(IsoError::Fit)?;
+        let [g_c, _, _, f_max_c, f_min_c] =
+            centre.figure_shares(&figures, [&run.bins, &run.bins], u_centre_um);
+        g.centre_um = g_c;
+        f_max.centre_um = f_max_c;
+        f_min.centre_um = f_min_c;
         Ok(DirectionFigures {
             fit,
             circular_deviation_g_um: g,
@@ -491,8 +645,14 @@ impl<const BINS: usize> CircularTest<BINS> {
         })
     }
 
-    /// Figures comparing or combining both directions.
-    pub fn bidirectional_figures(&self) -> Result<BidirectionalFigures, IsoError> {
+    /// Figures comparing or combining both directions; G(b) and the mean radial deviation with
+    /// the centre's shares for a centre entered with standard uncertainty `u_centre_um` per
+    /// in-plane coordinate, as [`Self::direction_figures`] (about the joint circle). H takes
+    /// none: both profiles move alike, and the extremes of their difference lie on its plateaus.
+    pub fn bidirectional_figures(
+        &self,
+        u_centre_um: f32,
+    ) -> Result<BidirectionalFigures, IsoError> {
         let (ccw, cw) = (&self.ccw, &self.cw);
         if ccw.fit.samples() == 0 || cw.fit.samples() == 0 {
             return Err(IsoError::MissingDirection);
@@ -503,14 +663,19 @@ impl<const BINS: usize> CircularTest<BINS> {
         let x = joint.solve_f64().map_err(IsoError::Fit)?;
         let (sa, sb) = (ccw.noise_um(), cw.noise_um());
         let [x0, x1, x2] = [x[0] as f32, x[1] as f32, x[2] as f32];
-        let residual = |b: &Bin| b.mean().map(|(dl, nu, nv)| dl - x0 - x1 * nu - x2 * nv);
         // G(b): both profiles about the joint circle; H: bin by bin |CW − CCW| about it
-        let figures = |noise: &mut dyn FnMut(u32) -> f32| {
+        let figures = |noise: &mut dyn FnMut(usize, u32) -> (f32, f32)| {
             let (mut lo, mut hi, mut h) = (f32::INFINITY, f32::NEG_INFINITY, 0.0f32);
-            for (a, b) in ccw.bins.iter().zip(cw.bins.iter()) {
-                // the noise of a: n > 0; of b: the high bit marks the CW profile
-                let ra = residual(a).map(|r| r + noise(a.n));
-                let rb = residual(b).map(|r| r + noise(b.n | CW_BIN));
+            // the noise of a bin of the CCW profile: n > 0; of the CW: the high bit marks it
+            let mut residual = |i: usize, b: &Bin, cw: u32| {
+                b.mean().map(|(dl, nu, nv)| {
+                    let (p, q) = noise(i, b.n | cw);
+                    dl - x0 - x1 * nu - x2 * nv + p + q
+                })
+            };
+            for (i, (a, b)) in ccw.bins.iter().zip(cw.bins.iter()).enumerate() {
+                let ra = residual(i, a, 0);
+                let rb = residual(i, b, CW_BIN);
                 for r in [ra, rb].into_iter().flatten() {
                     lo = if r < lo { r } else { lo };
                     hi = if r > hi { r } else { hi };
@@ -526,13 +691,24 @@ impl<const BINS: usize> CircularTest<BINS> {
             let s = if n & CW_BIN != 0 { sb } else { sa };
             s / crate::num::sqrtf((n & !CW_BIN) as f32)
         };
-        let [g_b, h] = match bootstrap(&figures, &sigma) {
+        let [mut g_b, h] = match bootstrap(&figures, &sigma) {
             Ok(([g, _, _, h, _], [rg, rhi, rlo, rh, _])) => [
                 rg.figure(g, &[rhi.excess(), rlo.excess()]),
                 rh.figure(h, &[rh.excess()]),
             ],
             Err([g, _, _, h, _]) => [g, h].map(not_evaluated),
         };
+        let centre = CentreResponse::of(
+            &joint,
+            &[&ccw.bins, &cw.bins],
+            ccw.fit.config().geometry.sensitivity,
+            self.radius_mm,
+        )
+        .map_err(IsoError::Fit)?;
+        // H takes none: both profiles move alike, and the extremes of their difference lie on
+        // its plateaus (the bins' exchange there is noise the bootstrap's u holds already)
+        [g_b.centre_um, ..] = centre.figure_shares(&figures, [&ccw.bins, &cw.bins], u_centre_um);
+        let [[r0_u, ..], [r0_v, ..]] = centre.per_um;
         let (na, nb) = (ccw.fit.samples() as f32, cw.fit.samples() as f32);
         let pooled = (na * sa * sa + nb * sb * sb) / (na + nb);
         let a00 = joint
@@ -545,6 +721,7 @@ impl<const BINS: usize> CircularTest<BINS> {
             mean_bidirectional_radial_deviation_um: Diagnosed {
                 value: x0,
                 std_uncertainty: crate::num::sqrtf(pooled * a00),
+                centre_um: u_centre_um * crate::num::sqrtf(r0_u * r0_u + r0_v * r0_v),
             },
             joint_e_um: [x[1] as f32, x[2] as f32],
         })
@@ -553,7 +730,13 @@ impl<const BINS: usize> CircularTest<BINS> {
     /// Ball-bar diagnostics of one direction (needs every quadrant covered and more than
     /// [`DIAGNOSTIC_PARAMETERS`] bins): the joint fit of the module doc for each cyclic order
     /// 3..=[`MAX_CYCLIC_ORDER`], the order that explains most of the profile kept.
-    pub fn diagnostics(&self, d: Direction) -> Result<Diagnostics, IsoError> {
+    ///
+    /// Each diagnosis with the centre's share for a centre entered with standard uncertainty
+    /// `u_centre_um` per in-plane coordinate (`Diagnosed::centre_um`): the fit's response to
+    /// every bin moved as by the centre moved u along u, then along v (its samples come from
+    /// further along the profile: a reversal step's edge moves against the step shapes, the
+    /// limaçon's e·dn is a 2θ term in squareness and scale mismatch; first order).
+    pub fn diagnostics(&self, d: Direction, u_centre_um: f32) -> Result<Diagnostics, IsoError> {
         let run = self.run(d);
         run.fit.estimate().map_err(IsoError::Fit)?;
         // a constant divisor: no division-by-zero check (a panic path) in the bin loops
@@ -577,7 +760,11 @@ impl<const BINS: usize> CircularTest<BINS> {
             Direction::Ccw => 1.0,
             Direction::Cw => -1.0,
         };
-        let ne = |k| normal_equations(&run.bins, per_q, x, dir, k);
+        // the circle's own response to the centre as entered (its k: the geometry's sign and
+        // scale, for the socket's second-order term and the centre's shares below)
+        let centre = self.centre_response(d).map_err(IsoError::Fit)?;
+        let curvature = -0.5 * centre.k;
+        let ne = |k| normal_equations(&run.bins, per_q, x, curvature, dir, k, &|_| 0.0);
         // the order whose joint fit explains most (least residual sum of squares)
         let mut best: Option<(f32, NormalEquations)> = None;
         for k in 3..=MAX_CYCLIC_ORDER {
@@ -609,20 +796,59 @@ impl<const BINS: usize> CircularTest<BINS> {
         let est = |v: f32, var: f32, scale: f32| Diagnosed {
             value: v * scale,
             std_uncertainty: crate::num::sqrtf(var) * scale,
+            centre_um: 0.0,
         };
         let cyclic = est(amp, v_amp, 1.0 / gain);
         // Without a significant cyclic error the other diagnoses come from the model without
         // one: the order picked from noise alone is, for an even one, correlated with the step
         // shapes, and the fit conditioned on it understated the reversal steps' u by 15 %.
-        let fit = if cyclic.significance() >= CYCLIC_SIGNIFICANCE {
-            joint
-        } else {
-            ne(None).fit()?
+        // The centre's shares: each fit's change with every bin moved as by the centre moved u
+        // along u, then along v (the profile's own r0 and e columns take the circle's move).
+        let moved = |order: Option<u32>, p: &[f32; DIAGNOSTIC_PARAMETERS]| {
+            let mut dp = [[0.0f32; DIAGNOSTIC_PARAMETERS]; 4];
+            for (dp, delta) in dp.iter_mut().zip(MOVES.map(|d| d.map(|c| c * u_centre_um))) {
+                let shift = |i| centre.bin_shift(&run.bins, i, delta).0;
+                let m = normal_equations(&run.bins, per_q, x, curvature, dir, order, &shift);
+                let q = cholesky_solve(m.a, m.b).ok_or(IsoError::IllConditioned)?;
+                for ((d, q), p) in dp.iter_mut().zip(q).zip(p) {
+                    *d = q - p;
+                }
+            }
+            Ok::<_, IsoError>(dp)
         };
+        let joint_moved = moved(Some(nk.order), &joint.p)?;
+        let (fit, fit_order) = if cyclic.significance() >= CYCLIC_SIGNIFICANCE {
+            (joint, Some(nk.order))
+        } else {
+            (ne(None).fit()?, None)
+        };
+        let fit_moved = if fit_order.is_some() {
+            joint_moved
+        } else {
+            moved(None, &fit.p)?
+        };
+        // each parameter's share, and the cyclic amplitude's (its change along the harmonic)
+        let [c_cyc, s_cyc] = if amp > 0.0 {
+            [c_k / amp, s_k / amp]
+        } else {
+            [0.0; 2]
+        };
+        let to_urad = 2e3 / self.radius_mm;
+        let mut centre_moves = [[0.0f32; 5]; 4];
+        for ((m, f), j) in centre_moves.iter_mut().zip(fit_moved).zip(joint_moved) {
+            let [_, _, _, d_cos2, d_sin2, d_bu, d_bv, ..] = f;
+            let [.., d_c, d_s] = j;
+            *m = [
+                d_sin2 * to_urad,
+                d_cos2 * to_urad,
+                d_bu,
+                d_bv,
+                (c_cyc * d_c + s_cyc * d_s) / gain,
+            ];
+        }
         let [_, _, _, p_cos2, p_sin2, b_u, b_v, ..] = fit.p;
         let [_, _, _, v_cos2, v_sin2, v_bu, v_bv, ..] = fit.var;
-        let to_urad = 2e3 / self.radius_mm;
-        let out = Diagnostics {
+        let mut out = Diagnostics {
             squareness_urad: est(p_sin2, v_sin2, to_urad),
             scale_mismatch_um_per_m: est(p_cos2, v_cos2, to_urad),
             reversal_step_u_um: est(b_u, v_bu, 1.0),
@@ -631,7 +857,9 @@ impl<const BINS: usize> CircularTest<BINS> {
             cyclic_order: nk.order,
             sample_std_um: crate::num::sqrtf(fit.s2),
             residual_rms_um: crate::num::sqrtf(fit.rss / nk.weight),
+            centre_moves,
         };
+        out.set_centre_moves(centre_moves);
         let finite = [
             out.squareness_urad,
             out.scale_mismatch_um_per_m,
@@ -698,15 +926,18 @@ struct DiagnosticFit {
     s2: f32,
 }
 
-/// The normal equations of `bins` (y: the bin mean about the circle `x`) with cyclic order `k`,
-/// `dir` +1 CCW, −1 CW. The step shapes g_u, g_v are those of the module doc (their signs
+/// The normal equations of `bins` (y: the bin mean about the circle `x` = (r0, e) less the
+/// socket's offset's second-order term `curvature`·(|e|² − (e·n)²), plus `shift(i)` for bin i)
+/// with cyclic order `k`, `dir` +1 CCW, −1 CW. The step shapes g_u, g_v are those of the module doc (their signs
 /// constant per quadrant).
 fn normal_equations(
     bins: &[Bin],
     per_q: usize,
     x: [f32; 3],
+    curvature: f32,
     dir: f32,
     k: Option<u32>,
+    shift: &dyn Fn(usize) -> f32,
 ) -> NormalEquations {
     let mut ne = NormalEquations {
         a: [[0.0; DIAGNOSTIC_PARAMETERS]; DIAGNOSTIC_PARAMETERS],
@@ -722,7 +953,8 @@ fn normal_equations(
         }
         let w = bin.n as f32;
         let (dl, nu, nv) = (bin.dl_um / w, bin.nu / w, bin.nv / w);
-        let y = dl - x[0] - x[1] * nu - x[2] * nv;
+        let en = x[1] * nu + x[2] * nv;
+        let y = dl - x[0] - en - (x[1] * x[1] + x[2] * x[2] - en * en) * curvature + shift(i);
         let rn = crate::num::sqrtf(nu * nu + nv * nv).max(1e-12);
         let (c1, s1) = (nu / rn, nv / rn);
         // cos kθ, sin kθ by the angle-addition recurrence
@@ -814,7 +1046,8 @@ fn dot(a: &[f32], b: &[f32]) -> f32 {
 
 /// Mean of the CW and CCW diagnostics (squareness, scale and cyclic error are common to both
 /// directions; the reversal steps are signed per direction in the model, so they average too),
-/// each with u = √(u₁² + u₂²)/2. The cyclic error is the more significant direction's.
+/// each with u = √(u₁² + u₂²)/2 and the centre's share from the mean of the two directions'
+/// changes (one centre for both). The cyclic error is the more significant direction's.
 pub fn mean_diagnostics(a: &Diagnostics, b: &Diagnostics) -> Diagnostics {
     let cyclic = if a.cyclic_amplitude_um.significance() >= b.cyclic_amplitude_um.significance() {
         a
@@ -822,7 +1055,13 @@ pub fn mean_diagnostics(a: &Diagnostics, b: &Diagnostics) -> Diagnostics {
         b
     };
     let (sa, sb) = (a.sample_std_um, b.sample_std_um);
-    Diagnostics {
+    let mut moves = cyclic.centre_moves;
+    for ((m, ma), mb) in moves.iter_mut().zip(a.centre_moves).zip(b.centre_moves) {
+        for ((v, x), y) in m.iter_mut().zip(ma).zip(mb).take(4) {
+            *v = (x + y) * 0.5;
+        }
+    }
+    let mut mean = Diagnostics {
         squareness_urad: a.squareness_urad.mean(&b.squareness_urad),
         scale_mismatch_um_per_m: a.scale_mismatch_um_per_m.mean(&b.scale_mismatch_um_per_m),
         reversal_step_u_um: a.reversal_step_u_um.mean(&b.reversal_step_u_um),
@@ -831,5 +1070,8 @@ pub fn mean_diagnostics(a: &Diagnostics, b: &Diagnostics) -> Diagnostics {
         cyclic_order: cyclic.cyclic_order,
         sample_std_um: crate::num::sqrtf((sa * sa + sb * sb) * 0.5),
         residual_rms_um: (a.residual_rms_um + b.residual_rms_um) * 0.5,
-    }
+        centre_moves: moves,
+    };
+    mean.set_centre_moves(moves);
+    mean
 }

@@ -121,7 +121,7 @@ pub fn meta_line(index: usize, meta: &RunMeta, line: &mut Line) -> bool {
                 match row.ty {
                     FieldType::F32 => push_exact(line, v, F32_DIGITS, b"nan"),
                     FieldType::F64 => push_exact(line, v, F64_DIGITS, b"nan"),
-                    _ => match row.choices.get(v as usize) {
+                    _ => match row.choices().get(v as usize) {
                         Some(name) => push_bytes(line, name.as_bytes()),
                         None => push_u64(line, v as u64),
                     },

@@ -119,7 +119,7 @@ fn main() {
         }
     );
     if let Some((iso, ssm)) = last {
-        match iso.direction_figures(Direction::Ccw) {
+        match iso.direction_figures(Direction::Ccw, 0.0) {
             Ok(f) => println!(
                 "check: CCW eccentricity ({:.3}, {:.3}) um (truth {:?}), G {:.3} um",
                 f.fit.e_um[0], f.fit.e_um[1], E_UM, f.circular_deviation_g_um.value

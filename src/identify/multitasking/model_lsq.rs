@@ -123,6 +123,8 @@ pub enum MountingInput {
     RC,
     /// [`MountingUncertainty::z_c_um`].
     ZC,
+    /// [`MountingUncertainty::r_b_um`].
+    RB,
 }
 
 /// Type B inputs of the seed 002 set-up: the standard uncertainty of each Cartesian component
@@ -145,7 +147,10 @@ pub enum MountingInput {
 ///
 /// The W-ball's position as entered (R_C, Z_C) is the same for every step: a difference
 /// between the value entered and the one the runs were made with moves every step's model at
-/// once (a lever-arm error, second order: δR/R of what is read over R).
+/// once (a lever-arm error, second order: δR/R of what is read over R). A tool length as
+/// entered (R_B, R′_B) likewise moves the model of every step run with it. (A tool length
+/// *measured* wrong, entered alike in the part program and the pod, is the T-ball's axial
+/// offset instead: the program moves the ball where it is not.)
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MountingUncertainty {
     /// W-ball clamping shift, each clamping, per component of the C frame (µm).
@@ -161,6 +166,9 @@ pub struct MountingUncertainty {
     /// Z_C as entered: standard uncertainty of its difference from the Z_C every step was run
     /// with (µm).
     pub z_c_um: f64,
+    /// R_B and R′_B as entered: standard uncertainty of each one's difference from the tool
+    /// length its steps were run with (µm; the two independent).
+    pub r_b_um: f64,
 }
 
 impl MountingUncertainty {
@@ -175,13 +183,16 @@ impl MountingUncertainty {
     ///   W-ball's (the dummy sphere, not the T-ball, sets R_B);
     /// - R_C and Z_C 10 µm: Z_C transferred with a dial gauge (§5.2 item 4: two readings of
     ///   a 1 µm gauge, the sphere's top found by hand, its diameter from its certificate), R_C
-    ///   the X at which the W-ball is docked to the dummy sphere; a few µm each, taken as 10.
+    ///   the X at which the W-ball is docked to the dummy sphere; a few µm each, taken as 10;
+    /// - R_B and R′_B 10 µm: each tool length from the spindle nose and the dummy sphere's
+    ///   top with a lever dial gauge (§5.2 item 2), as Z_C.
     pub const SEED002: Self = Self {
         w_clamp_um: 22.0,
         t_centring_um: 0.5,
         t_axial_um: 22.0,
         r_c_um: 10.0,
         z_c_um: 10.0,
+        r_b_um: 10.0,
     };
 
     /// No mounting uncertainty: the eccentricities' u alone.
@@ -191,6 +202,7 @@ impl MountingUncertainty {
         t_axial_um: 0.0,
         r_c_um: 0.0,
         z_c_um: 0.0,
+        r_b_um: 0.0,
     };
 
     /// Every input finite and ≥ 0, or the first one that is not.
@@ -201,6 +213,7 @@ impl MountingUncertainty {
             (self.t_axial_um, MountingInput::TAxial),
             (self.r_c_um, MountingInput::RC),
             (self.z_c_um, MountingInput::ZC),
+            (self.r_b_um, MountingInput::RB),
         ] {
             if !(v >= 0.0 && v.is_finite()) {
                 return Err(input);
@@ -219,7 +232,8 @@ pub struct DeviationUncertainty {
     /// By source: `[0]` the eccentricities' standard uncertainties (Type A: bar noise, fit
     /// residuals, repeat scatter); `[1]` the W-ball: its clamping shifts and its position as
     /// entered, R_C and Z_C (Type B, second order);
-    /// `[2]` the T-ball offsets beyond what the identified deviations absorb (Type B); `[3]`
+    /// `[2]` the T-ball: its offsets beyond what the identified deviations absorb and the tool
+    /// lengths as entered, R_B and R′_B (Type B); `[3]`
     /// the LVDT's scale (Type B).
     pub by_source: [[f64; 13]; 4],
 }
@@ -556,6 +570,8 @@ impl ModelLsq {
     /// - from R_C and Z_C as entered (Type B, [`MountingUncertainty::r_c_um`],
     ///   [`MountingUncertainty::z_c_um`]): each moved by its u in every measurement's model at
     ///   once (a secant at the identified deviations), in the W-ball's share;
+    /// - from R_B and R′_B as entered (Type B, [`MountingUncertainty::r_b_um`]): each moved by
+    ///   its u in the model of every measurement run with it, in the T-ball's share;
     /// - from the LVDT's scale (Type B, [`BarBudget::scale`]): an eccentricity is a shape
     ///   figure of ΔL, so a scale error k moves every measured eccentricity by k times itself —
     ///   all at once (one LVDT), one input; the bar's length and temperature move none.
@@ -689,9 +705,18 @@ impl ModelLsq {
                 }
             }
         }
-        // Inputs every step shares: the LVDT's scale (every eccentricity k times itself) and
-        // R_C, Z_C as entered (every step's model moved by its u: a secant).
-        for (input, u) in [(0, u_scale), (1, budget.r_c_um), (2, budget.z_c_um)] {
+        // Inputs many steps share: the LVDT's scale (every eccentricity k times itself), R_C,
+        // Z_C as entered (every step's model moved by its u: a secant) and each tool length as
+        // entered (the model of every step run with it: 3 the first measurement's, 4 the
+        // other).
+        let first_r_b = m.first().map_or(0.0, |p| p.geometry.r_b_mm);
+        for (input, u) in [
+            (0, u_scale),
+            (1, budget.r_c_um),
+            (2, budget.z_c_um),
+            (3, budget.r_b_um),
+            (4, budget.r_b_um),
+        ] {
             if u == 0.0 {
                 continue; // validated: ≥ 0 and finite
             }
@@ -702,17 +727,21 @@ impl ModelLsq {
                     [q.e1_um * u, q.e2_um * u]
                 } else {
                     let mut q = *q;
-                    if input == 1 {
-                        q.geometry.r_c_mm += u * 1e-3;
-                    } else {
-                        q.geometry.z_c_mm += u * 1e-3;
-                    }
+                    let g = &mut q.geometry;
+                    let length = match input {
+                        1 => &mut g.r_c_mm,
+                        2 => &mut g.z_c_mm,
+                        _ if (g.r_b_mm == first_r_b) == (input == 3) => &mut g.r_b_mm,
+                        _ => continue, // the other tool length's step: not moved
+                    };
+                    *length += u * 1e-3;
                     let e = predict_with(index, &q, &x, &Mounting::default())?;
                     [e[0] - base[0], e[1] - base[1]]
                 };
             }
             let dx = response(m, &jac, &b);
-            if let Some(v) = var.get_mut(if input == 0 { 3 } else { 1 }) {
+            // sources: the LVDT's scale, the W-ball (R_C, Z_C), the T-ball (its tool length)
+            if let Some(v) = var.get_mut([3, 1, 1, 2, 2].get(input).copied().unwrap_or(2)) {
                 v.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
             }
             if COV {

@@ -193,9 +193,9 @@ fn write_entry(
         od::Var::Config(f) => {
             writeln!(w, "; what: {}", f.meaning())?;
             if let Some(i) = Config::field_info(f) {
-                if !i.choices.is_empty() {
+                if !i.choices().is_empty() {
                     w.write_str("; codes:")?;
-                    for (code, name) in i.choices.iter().enumerate() {
+                    for (code, name) in i.choices().iter().enumerate() {
                         write!(w, " {code}={name}")?;
                     }
                     writeln!(w)?;

@@ -801,10 +801,10 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
                     .get(usize::from(k - 1))
                     .ok_or(SdoAbort::NoSubIndex)?;
                 Ok(match index {
-                    0x4000 => e(index, k, r.name, Real32, Ro, Var::ResultValue(k - 1)).unit(r.unit),
-                    0x4001 => {
-                        e(index, k, r.name, Real32, Ro, Var::ResultUncertainty(k - 1)).unit(r.unit)
-                    }
+                    0x4000 => e(index, k, r.name, Real32, Ro, Var::ResultValue(k - 1))
+                        .unit(r.unit.as_str()),
+                    0x4001 => e(index, k, r.name, Real32, Ro, Var::ResultUncertainty(k - 1))
+                        .unit(r.unit.as_str()),
                     _ => e(index, k, r.name, Boolean, Ro, Var::ResultValid(k - 1)),
                 })
             }
@@ -816,7 +816,7 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
             let base = |sub, f, name| {
                 e(index, sub, name, field_type(info.ty), Rw, Var::Config(f))
                     .limits(info.min, info.max)
-                    .unit(info.unit)
+                    .unit(info.unit.as_str())
             };
             match (info.elements, sub) {
                 (0, 0) => Ok(base(0, info.field, info.name)),

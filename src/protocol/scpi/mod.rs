@@ -812,7 +812,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 let choice = match character(a) {
                     // a code field given by name: one of its choices, else -224 (a number
                     // is taken as the code itself below)
-                    Ok(name) if !info.choices.is_empty() && !is_keyword_value(name) => {
+                    Ok(name) if !info.choices().is_empty() && !is_keyword_value(name) => {
                         Some(info.choice(name).map(f64::from).ok_or(ScpiError {
                             code: code::ILLEGAL_PARAMETER_VALUE,
                             detail: crate::app::field_name(field),
@@ -986,7 +986,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                     _ => return Err(ScpiError::new(code::PARAMETER_NOT_ALLOWED)),
                 };
                 let v = v.unwrap_or(f64::NAN);
-                match info.choices.get(v as usize).filter(|_| v >= 0.0) {
+                match info.choices().get(v as usize).filter(|_| v >= 0.0) {
                     // a code field answers its code's name
                     Some(name) => {
                         push_bytes(&mut r, name.as_bytes());
@@ -1128,7 +1128,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 };
                 let entry = self.app.result(id);
                 let info = id.info();
-                let unit = info.unit;
+                let unit = info.unit.as_str();
                 if !entry.valid {
                     return Err(ScpiError::with_suffix(
                         code::DATA_CORRUPT_OR_STALE,

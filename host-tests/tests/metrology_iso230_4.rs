@@ -4,6 +4,7 @@
 //! the code under test.
 
 use ballpod::acquisition::{Sample, SampleFlags};
+use ballpod::app::circle::servo_mismatch_ms;
 use ballpod::metrology::circle_fit::{CircleFitConfig, CircleFitError};
 use ballpod::metrology::iso230_4::{
     CircularTest, Diagnosed, Direction, IsoError, mean_diagnostics,
@@ -1130,7 +1131,7 @@ fn a_circle_runs_centre_share_reaches_its_results() {
 /// The socket's offset bends the bar's profile by its second-order term (|e|² − (e·n)²)/2R, a
 /// 2θ term of |e|²/4R that is the set-up's, not the machine's: on a fault-free circle traced
 /// about P0 with the socket 50 µm and −40 µm off (noise-free), squareness and scale mismatch
-/// read 0 within 0.005 (the term read as a fault: 0.09 µrad and 0.09 µm/m).
+/// read 0 within 0.005 (the term read as a fault: 0.09 µrad and 0.02 µm/m).
 #[test]
 fn the_socket_offsets_second_order_term_is_not_read_as_squareness_or_scale() {
     let m = Machine {
@@ -1154,11 +1155,13 @@ fn the_socket_offsets_second_order_term_is_not_read_as_squareness_or_scale() {
 /// per coordinate off it, fitted about a centre entered off by N(0, 0.5 mm) per coordinate, the
 /// pod told so (`u_centre_um` 500). U = 2u of each figure and diagnosis — its Type A and the
 /// centre's share (`Diagnosed::centre_um`) — covers the noise-free figure (or the injected
-/// fault) in 95 % ± 3 % of the circles and u is within 20 % of the scatter; F's scatter is up
-/// to 1.6 u (its change is mostly its samples changing bins around the extreme, noise the share
-/// tracks in size over many circles, not circle by circle). Without the centre's share G, G(b),
-/// the mean radial deviation, squareness, scale mismatch and the reversal steps are covered in
-/// under 80 %.
+/// fault; the servo mismatch of an F1000 circle, 0 here) in 95 % ± 3 % of the circles and u is
+/// within 20 % of the scatter; F's scatter is up to 1.6 u (its change is one bin's, its
+/// extreme's, exchange with a neighbour, which the share follows in size over many circles,
+/// not circle by circle); the cyclic amplitude's errors are not normal (a few circles make its
+/// scatter): covered in more than 92 %, rms u within 20 % of the rms error. Without the
+/// centre's share G, G(b), the mean radial deviation, squareness, scale mismatch, the reversal
+/// steps and the servo mismatch are covered in under 80 %.
 #[test]
 fn every_circle_figure_covers_a_centre_entered_half_a_millimetre_off() {
     const RUNS: usize = 400;
@@ -1168,7 +1171,14 @@ fn every_circle_figure_covers_a_centre_entered_half_a_millimetre_off() {
     let mut entry = Rng::new(4243);
     let names: Vec<&str> = FIGURES
         .into_iter()
-        .chain(["squareness", "scale mismatch", "reversal u", "reversal v"])
+        .chain([
+            "squareness",
+            "scale mismatch",
+            "reversal u",
+            "reversal v",
+            "cyclic amplitude",
+            "servo mismatch",
+        ])
         .collect();
     let (mut err, mut u, mut u_a) = (Vec::new(), Vec::new(), Vec::new());
     for i in 0..RUNS {
@@ -1183,18 +1193,28 @@ fn every_circle_figure_covers_a_centre_entered_half_a_millimetre_off() {
         }
         let (figures, _) = noise_free_figures(&m, N);
         let mut got = published(&t, u_centre_um);
-        let dg = mean_diagnostics(
-            &t.diagnostics(Direction::Ccw, u_centre_um).unwrap(),
-            &t.diagnostics(Direction::Cw, u_centre_um).unwrap(),
+        let (ccw, cw) = (
+            t.diagnostics(Direction::Ccw, u_centre_um).unwrap(),
+            t.diagnostics(Direction::Cw, u_centre_um).unwrap(),
         );
+        let dg = mean_diagnostics(&ccw, &cw);
+        // the servo mismatch of an F1000 circle (the forward model has no lag: truth 0)
+        let (tau, u_tau, centre_tau) = servo_mismatch_ms(&ccw, &cw, R, 1000.0).unwrap();
+        let servo = Diagnosed {
+            value: tau as f32,
+            std_uncertainty: u_tau as f32,
+            centre_um: centre_tau as f32,
+        };
         got.extend([
             dg.squareness_urad,
             dg.scale_mismatch_um_per_m,
             dg.reversal_step_u_um,
             dg.reversal_step_v_um,
+            dg.cyclic_amplitude_um,
+            servo,
         ]);
         let faults = truth(&m);
-        let want = figures.iter().chain(&faults);
+        let want = figures.iter().chain(&faults).chain([&m.cyc_amp_um, &0.0]);
         err.push(
             got.iter()
                 .zip(want)
@@ -1212,9 +1232,10 @@ fn every_circle_figure_covers_a_centre_entered_half_a_millimetre_off() {
                 .collect::<Vec<_>>(),
         );
     }
+    // F and the cyclic amplitude are bounded below, each as it allows
     let failed: Vec<_> = out_of_bounds(&names, &err, &u)
         .into_iter()
-        .filter(|n| !n.starts_with('F'))
+        .filter(|n| !n.starts_with('F') && !n.starts_with("cyclic"))
         .collect();
     assert!(failed.is_empty(), "out of bounds: {failed:?}");
     for (k, name) in names.iter().enumerate() {
@@ -1226,9 +1247,10 @@ fn every_circle_figure_covers_a_centre_entered_half_a_millimetre_off() {
         };
         let (with, without) = (covered(&u), covered(&u_a));
         println!("{name:14} covered in {with} of {RUNS}, by the Type A u alone in {without}");
+        let rms =
+            |v: &[Vec<f64>]| (v.iter().map(|r| r[k] * r[k]).sum::<f64>() / RUNS as f64).sqrt();
         if name.starts_with('F') {
-            let rms =
-                |v: &[Vec<f64>]| (v.iter().map(|r| r[k] * r[k]).sum::<f64>() / RUNS as f64).sqrt();
+            // F's scatter is up to 1.6 u (doc above)
             assert!(
                 (0.92..=0.98).contains(&(with as f64 / RUNS as f64)),
                 "{name}: {with}"
@@ -1240,7 +1262,14 @@ fn every_circle_figure_covers_a_centre_entered_half_a_millimetre_off() {
                 rms(&u)
             );
         }
-        if !["F", "H"].iter().any(|p| name.starts_with(p)) {
+        if name.starts_with("cyclic") {
+            // its errors are not normal (a few circles dominate the scatter): covered in more
+            // than 98 %, its rms u still within 20 % of the rms error
+            assert!(with * 100 >= RUNS * 92, "{name}: {with}");
+            let ratio = rms(&u) / rms(&err);
+            assert!((0.8..=1.2).contains(&ratio), "{name}: u / scatter {ratio}");
+        }
+        if !["F", "H", "cyclic"].iter().any(|p| name.starts_with(p)) {
             assert!(
                 without < RUNS * 8 / 10,
                 "{name}: {without} without the share"

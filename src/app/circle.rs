@@ -230,8 +230,8 @@ impl CircleTest {
     /// Ends the run of direction `d`: its results, and the bi-directional ones when both
     /// directions are complete, each u with the bar's share `bar` (`metrology::bar_budget`)
     /// and the centre's for `u_centre_um` (each figure's and diagnosis's
-    /// `Diagnosed::centre_um`; H takes none, nor does the servo mismatch, a difference of the
-    /// two directions' squareness); and the fit with the
+    /// `Diagnosed::centre_um`, H none; the servo mismatch's from the two directions' signed
+    /// squareness changes, [`servo_mismatch_ms`]); and the fit with the
     /// centre's shares of its (r0, e_u, e_v) ([`CircularTest::centre_shares`]). `Err` if the
     /// run has no fit (too short an arc, too few samples).
     pub fn finish_run(
@@ -313,12 +313,12 @@ impl CircleTest {
                 f64::from(g.feed_mm_per_min),
             )
         });
-        if let Some((t, u)) = tau {
+        if let Some((t, u, centre)) = tau {
             // a difference of squareness: a shape figure
             results.set_with_bar(
                 ResultId::ServoMismatch,
                 t as f32,
-                [u as f32, 0.0],
+                [u as f32, centre as f32],
                 bar,
                 Shape,
             );
@@ -331,9 +331,10 @@ impl CircleTest {
     }
 }
 
-/// Servo mismatch τ_u − τ_v and its standard uncertainty (ms) from the per-direction
-/// squareness of a circular test at `feed_mm_per_min` on radius `radius_mm`; `None` if the feed
-/// or radius is not a positive number.
+/// Servo mismatch τ_u − τ_v, its standard uncertainty from the noise and the centre's share
+/// (ms; from the two directions' signed squareness changes, `Diagnostics::centre_moves`) from
+/// the per-direction squareness of a circular test at `feed_mm_per_min` on radius `radius_mm`;
+/// `None` if the feed or radius is not a positive number.
 ///
 /// An axis that follows its command τ late on a circle at angular speed ω errs by
 /// E_u = ω·τ_u·v (CCW; the sign flips CW), which is an out-of-squareness of ω·(τ_u − τ_v)
@@ -344,7 +345,7 @@ pub fn servo_mismatch_ms(
     cw: &iso230_4::Diagnostics,
     radius_mm: f64,
     feed_mm_per_min: f64,
-) -> Option<(f64, f64)> {
+) -> Option<(f64, f64, f64)> {
     if !(radius_mm > 0.0 && feed_mm_per_min > 0.0) {
         return None;
     }
@@ -355,5 +356,18 @@ pub fn servo_mismatch_ms(
         a.std_uncertainty * a.std_uncertainty + b.std_uncertainty * b.std_uncertainty,
     ));
     let ms_per_urad = 0.5 * 1e-6 / omega_rad_per_s * 1e3;
-    Some((ds_urad * ms_per_urad, u_ds_urad * ms_per_urad))
+    // the difference's change under each of the centre's moves (a step's edge moves the two
+    // directions' squareness apart)
+    let moved: f32 = ccw
+        .centre_moves
+        .iter()
+        .zip(cw.centre_moves)
+        .map(|([a, ..], [b, ..])| (a - b) * (a - b))
+        .sum();
+    let centre_urad = f64::from(crate::num::sqrtf(0.5 * moved));
+    Some((
+        ds_urad * ms_per_urad,
+        u_ds_urad * ms_per_urad,
+        centre_urad * ms_per_urad,
+    ))
 }

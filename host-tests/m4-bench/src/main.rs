@@ -566,9 +566,11 @@ fn main() -> ! {
     });
 
     // The ball-bar diagnoses of one direction at the end of its run (the joint fit for each
-    // cyclic order 3..=16 on the bin profile, with u): once per run, in the application task.
+    // cyclic order 3..=16 on the bin profile, with u and the centre's share at the pod's
+    // default `circle_u_centre`): once per run, in the application task.
+    let u_centre_um = ballpod::app::circle::U_CENTRE_UM as f32;
     let lo = stack::paint(top);
-    let (dg, n) = measure_long(|| iso.diagnostics(Direction::Ccw, 0.0));
+    let (dg, n) = measure_long(|| iso.diagnostics(Direction::Ccw, u_centre_um));
     record_stack("ISO 230-4 diagnostics (CircularTest::diagnostics)", lo);
     hprintln!(
         "| ISO 230-4 diagnoses of one direction (joint fit per cyclic order + u, f32) | run | {} | — | — | — | — | {:.1} ms at 170 MHz (1 insn/cycle), ok = {} |",
@@ -587,9 +589,10 @@ fn main() -> ! {
         noise
     );
     // The figures of one direction at the end of its run: G and F with their u, from the noise
-    // of the bin profile and the bootstrap of its extremes (metrology/extremes.rs).
+    // of the bin profile and the bootstrap of its extremes (metrology/extremes.rs), and the
+    // centre's shares.
     let lo = stack::paint(top);
-    let (fg, n) = measure_long(|| iso.direction_figures(Direction::Ccw, 0.0));
+    let (fg, n) = measure_long(|| iso.direction_figures(Direction::Ccw, u_centre_um));
     record_stack("ISO 230-4 figures (CircularTest::direction_figures)", lo);
     hprintln!(
         "| ISO 230-4 figures of one direction (G, F and their u: noise + bootstrap of {} copies) | run | {} | — | — | — | — | {:.1} ms at 170 MHz (1 insn/cycle), ok = {} |",

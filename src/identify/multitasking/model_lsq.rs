@@ -708,7 +708,8 @@ impl ModelLsq {
         // Inputs many steps share: the LVDT's scale (every eccentricity k times itself), R_C,
         // Z_C as entered (every step's model moved by its u: a secant) and each tool length as
         // entered (the model of every step run with it: 3 the first measurement's, 4 the
-        // other).
+        // other; a procedure's two tool lengths differ, or δx_BT and the tilts are not
+        // separable and `solve` has refused it).
         let first_r_b = m.first().map_or(0.0, |p| p.geometry.r_b_mm);
         for (input, u) in [
             (0, u_scale),

@@ -205,10 +205,8 @@ impl CentreResponse {
             let w = b.n as f32;
             let [r0, eu, ev] = c.x;
             let r = dl - (r0 + eu * nu + ev * nv);
-            for (g, [du, dv]) in g.iter_mut().zip([[1.0, 0.0], [0.0, 1.0]]) {
-                // dn = k (δ − (δ·n) n)
-                let along = du * nu + dv * nv;
-                let (dnu, dnv) = (c.k * (du - along * nu), c.k * (dv - along * nv));
+            for (g, delta) in g.iter_mut().zip([[1.0, 0.0], [0.0, 1.0]]) {
+                let [dnu, dnv] = c.turn(delta, nu, nv);
                 let de = dnu * eu + dnv * ev;
                 g[0] -= w * de;
                 g[1] += w * (dnu * r - nu * de);
@@ -221,6 +219,13 @@ impl CentreResponse {
         Ok(c)
     }
 
+    /// The turn dn = k (δ − (δ·n) n) of the direction n = (n_u, n_v) with the centre as entered
+    /// moved by δ (µm).
+    fn turn(&self, [du, dv]: [f32; 2], nu: f32, nv: f32) -> [f32; 2] {
+        let along = du * nu + dv * nv;
+        [self.k * (du - along * nu), self.k * (dv - along * nv)]
+    }
+
     /// The change of bin `i` of the profile `bins` with the centre as entered moved by δ (µm):
     /// (its mean ΔL, its residual about the circle besides). Each sample's direction turns by
     /// dn = k (δ − (δ·n) n), so the bin at angle θ holds the samples from dθ = n × dn further
@@ -231,12 +236,13 @@ impl CentreResponse {
     /// f at most 1: a centre moved more than a bin's angle, R·Δ — 2.6 mm at R 150 mm, 0.87 mm
     /// at R 50 mm — moves it by one bin only). The circle fitted to the bins moves by dx
     /// ([`CircularTest::centre_shares`]), the residual by −(dr0 + de·n) more.
-    fn bin_shift(&self, bins: &[Bin], i: usize, [du, dv]: [f32; 2]) -> (f32, f32) {
+    fn bin_shift(&self, bins: &[Bin], i: usize, delta: [f32; 2]) -> (f32, f32) {
         let Some((dl, nu, nv)) = bins.get(i).and_then(Bin::mean) else {
             return (0.0, 0.0);
         };
-        let along = du * nu + dv * nv;
-        let turn = self.k * (nu * (dv - along * nv) - nv * (du - along * nu));
+        let [du, dv] = delta;
+        let [dnu, dnv] = self.turn(delta, nu, nv);
+        let turn = nu * dnv - nv * dnu;
         let f = turn * bins.len() as f32 * (1.0 / core::f32::consts::TAU);
         // the samples come from before the bin (f > 0) or after it
         let last = bins.len().saturating_sub(1);

@@ -20,17 +20,21 @@ WINDOW = 256
 # for numpy's lstsq, singular values below √ of it × the largest.
 EIG_RATIO = 1e-9
 # The live E's u is refreshed at every sample whose counter is a multiple of this
-# (src/app/live.rs LIVE_U_EVERY), from at least this many residual degrees of freedom
+# (src/app/live.rs LIVE_U_EVERY), and of the second while the window grows (src/app/ssm.rs
+# LIVE_U_EVERY_GROWING), from at least this many residual degrees of freedom
 # (src/metrology/ssm/streaming.rs LIVE_MIN_DOF), with this floor on the scatter (q/√12 of the
 # 0.1 µm resolution, LIVE_SIGMA_FLOOR_UM).
-LIVE_U_EVERY, LIVE_MIN_DOF, SIGMA_FLOOR_UM = 32, 30, 0.1 / math.sqrt(12)
+LIVE_U_EVERY, LIVE_U_EVERY_GROWING, LIVE_MIN_DOF, SIGMA_FLOOR_UM = 32, 4, 30, 0.1 / math.sqrt(12)
 # Rotary speed below which the dwell detection counts a rotary axis still, °/s
 # (src/app/ssm.rs DWELL_ROTARY_SPEED_DEG_PER_S).
 DWELL_ROTARY_SPEED = 0.1
 
 
 def windows(r, radius_mm, dwell_speed_mm_per_s):
-    """For each sample, the indices of the samples of the pod's live window at it. As each sample
+    """For each sample, the indices of the samples of the pod's live window at it, and whether
+    the pod counts the window as growing there (src/metrology/ssm/streaming.rs `is_growing`:
+    the ring's oldest index at its start, i.e. a multiple of WINDOW samples left since the
+    window started, none while it grows). As each sample
     enters, the oldest leave while they lie beyond the radius from it, then one more if full; a
     still sample empties the window and does not enter it (src/app/ssm.rs SsmRun::update): the
     window restarts with the next move. Still, as the pod's dwell detection has it: later than
@@ -41,19 +45,21 @@ def windows(r, radius_mm, dwell_speed_mm_per_s):
     rotary = np.column_stack([r.col(c) for c in r.cols if c.endswith("_deg")])
     assert np.all(rotary == rotary[0])
     t_s = r.col("t_s")
-    starts, a = [], 0
+    starts, grows, a, first = [], [], 0, 0
     for i, p in enumerate(points):
         dt = t_s[i] - t_s[i - 1] if i > 0 else 0.0
         if dt > 0 and np.sum((p - points[i - 1]) ** 2) <= (dwell_speed_mm_per_s * dt) ** 2 \
                 and np.all(np.abs(rotary[i] - rotary[i - 1]) <= DWELL_ROTARY_SPEED * dt):
-            a = i + 1
+            a = first = i + 1
             starts.append(a)
+            grows.append(True)
             continue
         while a < i and np.sum((p - points[a]) ** 2) > radius_mm ** 2:
             a += 1
         a = max(a, i - WINDOW + 1)
         starts.append(a)
-    return lambda i: np.arange(starts[i], i + 1)
+        grows.append((a - first) % WINDOW == 0)
+    return (lambda i: np.arange(starts[i], i + 1)), grows
 
 
 def neighbourhood_fit(r, window, i, socket, bar_mm):
@@ -134,7 +140,8 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
         assert np.all(r.col("flags") == 0)
         socket = np.array([float(r.meta[f"ssm_socket_{k}"]) for k in "xyz"])
         assert float(r.meta["bar_length"]) == bar_mm
-        window = windows(r, float(r.meta["ssm_window_radius"]), float(r.meta["ssm_dwell_speed"]))
+        window, grows = windows(r, float(r.meta["ssm_window_radius"]),
+                                float(r.meta["ssm_dwell_speed"]))
         frames = [s for s in snaps if int(s["sample_counter"]) in seqs and "live_values.ssm_ey" in s]
         assert len(frames) >= 20, len(snaps)
         checked = checked_u = 0
@@ -161,9 +168,14 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
                 u_now = math.hypot(u_a, offset[bit - 1] * u_offset, value * u_scale, u_socket)
                 assert abs(value - e_true[bit - 1]) <= 4 * u_now, (name, value, e_true, u_now)
                 checked += 1
-                # the pod's u is the same as of the last refresh (up to LIVE_U_EVERY − 1
-                # samples before)
-                refreshed = counter - counter % LIVE_U_EVERY
+                # the pod's u is the same as of the last refresh: the latest sample whose
+                # counter is a multiple of LIVE_U_EVERY, or of LIVE_U_EVERY_GROWING with the
+                # window growing
+                refreshed = next((c for c in range(counter - counter % LIVE_U_EVERY_GROWING,
+                                                   counter - counter % LIVE_U_EVERY - 1,
+                                                   -LIVE_U_EVERY_GROWING)
+                                  if c % LIVE_U_EVERY == 0 or (c in seqs and grows[seqs[c]])),
+                                 None)
                 if refreshed not in seqs:
                     continue
                 e0, cov0, offset0, dof0 = neighbourhood_fit(r, window, seqs[refreshed], socket,

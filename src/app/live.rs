@@ -9,9 +9,8 @@ use crate::acquisition::SampleFlags;
 /// Samples between two refreshes of a live u: the live E's at every sample whose counter is
 /// a multiple of this, the live circle fit's at every this many used samples of the run
 /// (computed every sample it would take the SSM pipeline past its 2 500 instructions); held
-/// between while its value is valid, invalid where the value is not. The SSM window restarts
-/// at a dwell ([`super::ssm::SsmRun::update`]), so that it only grows for a while after one and
-/// the held u errs on the safe side.
+/// between while its value is valid, invalid where the value is not. The live E's is refreshed
+/// more often while its window grows ([`super::ssm::LIVE_U_EVERY_GROWING`]).
 pub const LIVE_U_EVERY: u32 = 32;
 
 /// Names and units of the live REAL32 values, in CANopen sub-index order (0x2100:k+1) and bit

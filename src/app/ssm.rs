@@ -31,6 +31,12 @@ use core::mem::MaybeUninit;
 /// Samples the streaming neighbourhood holds at most (7 KiB: 0.26 s at 1 kHz; a sample that
 /// leaves only because the window is full is counted by the estimator).
 pub const SSM_WINDOW: usize = 256;
+/// Samples between two refreshes of the live E's u while its window grows (from the run's
+/// start, a dwell or a rotary move until the first sample leaves it: 150 samples at 2000
+/// mm/min in the 5 mm radius, [`SSM_WINDOW`] at most). Its u falls fast then, as the arc
+/// lengthens: refreshed every [`LIVE_U_EVERY`] samples, the u held in between was up to a
+/// third high (`metrology_ssm.rs`, around dwells). About 300 instructions a refresh.
+pub const LIVE_U_EVERY_GROWING: u32 = 4;
 /// Dwell stations one SSM run keeps (a dwell beyond is dropped and counted).
 pub const MAX_STATIONS: usize = 8;
 /// Rotary axis movement that empties the streaming neighbourhood, degrees.
@@ -171,10 +177,10 @@ impl SsmRun {
     /// error dwelling does not average away ([`FIXED_POSITION_U_UM`]), which the window's
     /// residual would count as if it averaged over each of them; and a window kept across a
     /// dwell turns from the approach's arc to the departure's faster than its u is refreshed
-    /// ([`LIVE_U_EVERY`]). Restarted, the window only grows for a while after a dwell and the u
-    /// held between refreshes errs high (`metrology_ssm.rs`, the 150 samples after a dwell: the
-    /// refreshed u covered 91.3 % with dwell samples in the window; the held u 93.1 % with the
-    /// window held across the dwell, rms(error / u) 2.0; restarted 95.4 % and 98.5 %).
+    /// ([`LIVE_U_EVERY`]). Restarted, the window grows for a while and its u is refreshed
+    /// more often ([`LIVE_U_EVERY_GROWING`]) (`metrology_ssm.rs`, the 170 samples after a dwell:
+    /// the refreshed u covered 91.3 % with dwell samples in the window; the held u 93.1 % with
+    /// the window held across the dwell, rms(error / u) 2.0; restarted 94.5–95.8 %).
     pub fn update(&mut self, s: &Sample) {
         let still = matches!(
             self.stations.update(s),
@@ -189,12 +195,16 @@ impl SsmRun {
 
     /// E at the current point from its neighbourhood, µm, for the sample numbered
     /// `sample_counter`: each component, or `None` where it is not observable (yet); and at
-    /// every [`LIVE_U_EVERY`]th sample its standard uncertainty with the bar's and the
-    /// socket's shares, µm (`None` where not stated:
+    /// every [`LIVE_U_EVERY`]th sample (every [`LIVE_U_EVERY_GROWING`]th while the window
+    /// grows) its standard uncertainty with the bar's and the socket's shares, µm (`None` where
+    /// not stated:
     /// [`StreamingSsm::live_with_uncertainty`]; the socket's moves a stated component one to
     /// one, as the stations').
     pub fn live(&self, sample_counter: u32) -> ([Option<f32>; 3], Option<[Option<f32>; 3]>) {
-        if sample_counter.is_multiple_of(LIVE_U_EVERY) {
+        // the common sample leaves at the first test
+        let due = sample_counter.is_multiple_of(LIVE_U_EVERY_GROWING)
+            && (sample_counter.is_multiple_of(LIVE_U_EVERY) || self.stream.is_growing());
+        if due {
             self.live_with_u()
         } else {
             (self.stream.live().unwrap_or([None; 3]), None)

@@ -119,7 +119,7 @@ impl Motion {
                     })
                     .collect()
             }
-            Pattern::Ssm => ssm_path(truth.ssm_error_um, cfg)?,
+            Pattern::Ssm => ssm_path(truth.ssm_error_um, cfg, SSM_ACCEL_MM_PER_S2)?,
             Pattern::Probe => probe_path(truth, cfg, probe_runs)?,
             step => {
                 let setup = Setup::from_config(t).map_err(|f| {
@@ -283,11 +283,21 @@ fn in_plane_unused(p: CirclePlane, k: usize) -> bool {
 /// above the horizontal, as seed 000 §3 places the stations around the socket.
 pub const STATION_DIRS: [[f64; 3]; 3] = [[1.0, 0.0, 0.3], [-0.5, 0.866, 0.3], [-0.5, -0.866, 0.3]];
 
+/// Acceleration of the served machine's SSM moves, mm/s² (a machining centre's axes take
+/// 1–10 m/s²; the slow end leaves the most samples bunched in front of a dwell).
+pub const SSM_ACCEL_MM_PER_S2: f64 = 1000.0;
+
 /// Three dwells on the bar's sphere around the configured socket, the tool point E = `e_um`
 /// off its nominal (µm). Between the stations, and to leave the last dwell (5 mm on towards
 /// the first station), the machine moves on the sphere (arcs about the socket at 2000
-/// mm/min), so the bar stays within the LVDT's range as on a real SSM.
-pub fn ssm_path(e_um: [f64; 3], cfg: &Config) -> Result<Vec<MachineStep>, String> {
+/// mm/min, accelerating from and decelerating into each dwell at `accel_mm_per_s2`;
+/// `f64::INFINITY`: at speed from the first sample to the last), so the bar stays within the
+/// LVDT's range as on a real SSM.
+pub fn ssm_path(
+    e_um: [f64; 3],
+    cfg: &Config,
+    accel_mm_per_s2: f64,
+) -> Result<Vec<MachineStep>, String> {
     let s = cfg.setup.ssm_socket_mm;
     if s.iter().any(|v| v.is_nan()) {
         return Err("SSM socket not set".into());
@@ -305,18 +315,16 @@ pub fn ssm_path(e_um: [f64; 3], cfg: &Config) -> Result<Vec<MachineStep>, String
         ((q[0] * q[0] + q[1] * q[1] + q[2] * q[2]).sqrt() - l) * 1e3
     };
     let step = |p: [f64; 3]| MachineStep::at(dl(p), [p[0], p[1], p[2], 0.0, 0.0]);
-    let step_mm = 2000.0 / 60.0 / rate;
     let dwell = (0.4 * rate) as usize;
     let dirs: Vec<[f64; 3]> = STATION_DIRS.iter().map(|u| unit(*u)).collect();
     // the arc from direction a to b (normalised chord points: no antipodal stations here)
     let arc = |a: [f64; 3], b: [f64; 3], to_mm: f64, out: &mut Vec<MachineStep>| {
         let cos = (a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0);
         let theta = cos.acos();
-        let t_end = (to_mm / (l * theta)).min(1.0);
-        let n = (to_mm.min(l * theta) / step_mm).ceil().max(1.0) as usize;
-        for j in 1..=n {
+        let len_mm = to_mm.min(l * theta);
+        for s_mm in move_profile(len_mm, 2000.0 / 60.0, accel_mm_per_s2, rate) {
             // the direction at arc fraction t (spherical interpolation)
-            let t = t_end * j as f64 / n as f64;
+            let t = s_mm / (l * theta);
             let (wa, wb) = (((1.0 - t) * theta).sin(), (t * theta).sin());
             let u = unit([0, 1, 2].map(|i| wa * a[i] + wb * b[i]));
             out.push(step(on_sphere(u)));
@@ -335,6 +343,34 @@ pub fn ssm_path(e_um: [f64; 3], cfg: &Config) -> Result<Vec<MachineStep>, String
         arc(*last, *first, 5.0, &mut out);
     }
     Ok(out)
+}
+
+/// Where along a move of `len_mm` from rest to rest its samples (`rate_hz`) fall, mm, the last
+/// at its end: a trapezoidal speed profile, up to `speed_mm_per_s` at `accel_mm_per_s2`
+/// (`f64::INFINITY`: at speed throughout, the samples evenly spaced).
+fn move_profile(len_mm: f64, speed_mm_per_s: f64, accel_mm_per_s2: f64, rate_hz: f64) -> Vec<f64> {
+    let a = accel_mm_per_s2;
+    // a move too short to reach the speed peaks at √(len·a)
+    let v = speed_mm_per_s.min((len_mm * a).sqrt());
+    let t_acc = v / a;
+    let d_acc = 0.5 * v * t_acc;
+    let total = 2.0 * t_acc + (len_mm - 2.0 * d_acc) / v;
+    let n = (total * rate_hz).ceil().max(1.0) as usize;
+    (1..=n)
+        .map(|j| {
+            let t = total * j as f64 / n as f64;
+            let s = if j == n {
+                len_mm
+            } else if t < t_acc {
+                0.5 * a * t * t
+            } else if t <= total - t_acc {
+                d_acc + v * (t - t_acc)
+            } else {
+                len_mm - 0.5 * a * (total - t) * (total - t)
+            };
+            s.clamp(0.0, len_mm)
+        })
+        .collect()
 }
 
 /// PROBE runs in the seed 002 chapter 5 sequence (then it starts over).

@@ -12,7 +12,7 @@
 
 use ballpod::app::{Command, Pattern, ResultId};
 
-use super::motion::ssm_path;
+use super::motion::{SSM_ACCEL_MM_PER_S2, ssm_path};
 use super::sensors::Instrument;
 use super::virtual_pod::{VirtualPod, VirtualSetup};
 
@@ -72,7 +72,7 @@ impl SsmRig {
             .configure(|c| c.setup.ssm_socket_mm = socket.map(|v| v as f32))
             .map_err(cmd)?;
         // the path of the served pod's SSM (dwells on the sphere about the pod's socket)
-        let path = ssm_path(e_um, self.pod.app.config())?;
+        let path = ssm_path(e_um, self.pod.app.config(), SSM_ACCEL_MM_PER_S2)?;
         let (Some(first), Some(last)) = (path.first(), path.last()) else {
             return Err("SSM: empty path".into());
         };

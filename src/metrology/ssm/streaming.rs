@@ -329,6 +329,15 @@ impl<const W: usize> StreamingSsm<W> {
         self.len
     }
 
+    /// True while the window only grows: no sample has left it since it started (after
+    /// [`Self::clear`], a rotary move, or the estimator's start). Read off the ring's oldest
+    /// index, which stays at the ring's start until a sample leaves (and passes it again for
+    /// one sample in `W`, where this is true by mistake: a test on the per-sample path costs
+    /// nothing more).
+    pub fn is_growing(&self) -> bool {
+        self.tail == 0
+    }
+
     /// Samples skipped as flagged invalid.
     pub fn skipped_flagged(&self) -> u32 {
         self.skipped_flagged

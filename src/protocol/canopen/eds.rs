@@ -91,7 +91,7 @@ pub const fn object_meaning(index: u16) -> &'static str {
             "Counting direction of encoder input k: true if the counter counts down in the axis' positive direction (written only in pre-operational)"
         }
         0x2100 => {
-            "Live values, refreshed every sample: delta_l (µm), ssm_ex, ssm_ey, ssm_ez (µm), ecc_u, ecc_v, r0 (µm), temp (°C), u_ssm_ex, u_ssm_ey, u_ssm_ez (µm: the live E's standard uncertainty), u_ecc_u, u_ecc_v, u_r0 (µm: the live fit's standard uncertainty; each u refreshed every 32 samples, invalid where its value is; U = 2u); NaN while not valid (0x2103)"
+            "Live values, refreshed every sample: delta_l (µm), ssm_ex, ssm_ey, ssm_ez (µm), ecc_u, ecc_v, r0 (µm), temp (°C), u_ssm_ex, u_ssm_ey, u_ssm_ez (µm: the live E's standard uncertainty), u_ecc_u, u_ecc_v, u_r0 (µm: the live fit's standard uncertainty; each u refreshed every 32 samples, the live E's every 4 while its window grows, invalid where its value is; U = 2u); NaN while not valid (0x2103)"
         }
         0x2101 => "Sample counter: every sample the pod produced (a gap is a lost sample)",
         0x2102 => {

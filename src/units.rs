@@ -1,5 +1,5 @@
 //! The units of the configuration fields ([`crate::config::FIELDS`]) and the results
-//! ([`crate::app::RESULTS`]): one name table for SCPI, CANopen, the EDS and the docs. A row
+//! ([`crate::app::ResultInfo::all`]): one name table for SCPI, CANopen, the EDS and the docs. A row
 //! holds a one-byte [`Unit`], not a string: about 170 rows, 1 KB less flash.
 
 /// A unit of a configuration field or a result.

@@ -8,7 +8,7 @@
 use std::fmt::Write;
 
 use ballpod::acquisition::{MAX_AXES, SampleFlags};
-use ballpod::app::results::{RESULT_MEANINGS, RESULTS};
+use ballpod::app::results::{RESULT_MEANINGS, ResultInfo};
 use ballpod::app::run::AbortReason;
 use ballpod::app::{App, Direction, Pattern, SessionState};
 use ballpod::config::{
@@ -438,7 +438,7 @@ fn results() -> String {
     );
     let _ = writeln!(s, "| k | name | unit | what |");
     let _ = writeln!(s, "|---|---|---|---|");
-    for (k, (r, what)) in RESULTS.iter().zip(RESULT_MEANINGS).enumerate() {
+    for (k, (r, what)) in ResultInfo::all().zip(RESULT_MEANINGS).enumerate() {
         let _ = writeln!(
             s,
             "| {k} | `{}` | {} | {} |",

@@ -13,7 +13,7 @@ use crate::recording::{Event, RecordedRun};
 /// One figure of the results table.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Figure {
-    /// Name (`ballpod::app::RESULTS`).
+    /// Name (`ballpod::app::ResultInfo::all`).
     pub name: String,
     /// Value in `unit`.
     pub value: f32,

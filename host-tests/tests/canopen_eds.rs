@@ -268,7 +268,7 @@ fn session_live_and_result_objects_are_declared_with_their_types() {
         assert_eq!(ini[&format!("{index}SUB1")]["DataType"], "0x0008");
     }
     // results: three ARRAYs of RESULT_COUNT entries, named after the catalogue
-    let results = ballpod::app::RESULTS;
+    let results: Vec<_> = ballpod::app::ResultInfo::all().collect();
     assert_eq!(results.len(), ballpod::app::RESULT_COUNT);
     for (index, ty) in [("4000", "0x0008"), ("4001", "0x0008"), ("4002", "0x0001")] {
         assert_eq!(ini[index]["ObjectType"], "0x8");

@@ -6,7 +6,7 @@
 //! tables, the documented codes, a forward model of the ball bar).
 use ballpod::acquisition::{MAX_AXES, Sample, SampleFlags};
 use ballpod::app::log::SampleLog;
-use ballpod::app::{App, Direction, Pattern, RESULTS, SessionState, SettingsRequest, Touch};
+use ballpod::app::{App, Direction, Pattern, ResultInfo, SessionState, SettingsRequest, Touch};
 use ballpod::config::{Config, FIELDS};
 use ballpod::protocol::canopen::{CanFrame, CanOpenNode, NmtState};
 use ballpod::protocol::scpi::ScpiServer;
@@ -305,7 +305,7 @@ fn obj(name: &str) -> u16 {
 
 /// Sub-index of a result in 0x4000–0x4002 (k + 1 for the k-th entry of the catalogue).
 fn result_sub(name: &str) -> u8 {
-    RESULTS.iter().position(|r| r.name == name).unwrap() as u8 + 1
+    ResultInfo::all().position(|r| r.name == name).unwrap() as u8 + 1
 }
 
 fn close(got: f32, want: f64, tol: f64, what: &str) {
@@ -940,8 +940,8 @@ fn a_refusal_over_scpi_is_the_same_text_in_0x3006() {
 #[test]
 fn results_read_only_when_valid() {
     let mut b = Bench::new();
-    let n = RESULTS.len();
-    assert_eq!(n, 86);
+    let n = ResultInfo::all().count();
+    assert_eq!(n, 88);
     for index in [0x4000u16, 0x4001, 0x4002] {
         assert_eq!(b.upload(index, 0).unwrap(), [n as u8], "{index:04X}:0");
         assert_eq!(b.upload(index, n as u8 + 1), Err(NO_SUB));

@@ -876,7 +876,7 @@ fn bar_budget_u_covers_a_miscalibrated_bar_and_a_socket_entered_off_in_95_percen
     }
 }
 
-/// A test restarted in place (the pod restarts its one 11.8 KiB test instead of building a new
+/// A test restarted in place (the pod restarts its one 14.3 KiB test instead of building a new
 /// one on the stack) and a direction reset keep nothing of what they replace: fed the same
 /// samples, they reach the state of tests built fresh, bit for bit, and the same figures.
 #[test]
@@ -1054,7 +1054,9 @@ fn the_centre_share_covers_a_centre_entered_a_millimetre_off() {
 /// 30 µm/m scale mismatch) publishes e_u's, e_v's and r0's `socket` share as
 /// `CircularTest::centre_shares` of the same samples states them, each in its place, and the
 /// live u at the run's last sample (a refresh of the live noise and share) is the result's; G's
-/// and F's as `CircularTest::direction_figures` states them.
+/// and F's as `CircularTest::direction_figures` states them; the traced centre (`centre_du`,
+/// `centre_dv`) covers the offset entered. Run again with the budget at its default 1 µm, the
+/// traced offset contradicts it and G's and F's shares are taken for it.
 #[test]
 fn a_circle_runs_centre_share_reaches_its_results() {
     use ballpod::acquisition::MAX_AXES;
@@ -1075,22 +1077,45 @@ fn a_circle_runs_centre_share_reaches_its_results() {
     cfg.setup.circle_centre_mm = [entered[0] as f32, entered[1] as f32, 88.0];
     cfg.setup.circle_radius_mm = R as f32;
     cfg.setup.circle_u_centre_um = 500.0;
-    let mut app = App::new(cfg, [16; MAX_AXES]);
     // the live noise and share are taken at 256 used samples, then every 1 024: the run ends on
     // one of those refreshes, so the last live u is what the results state
     let samples = run(&m, Direction::Ccw, 256 + 7 * 1024, &mut Rng::new(77));
-    app.set_pattern(Pattern::Circle).unwrap();
-    app.set_direction(Direction::Ccw).unwrap();
-    app.execute(Command::Arm).unwrap();
-    app.execute(Command::Start).unwrap();
     let mut t = test_about(entered, R, cfg.setup.circle_min_arc_deg);
     for s in &samples {
-        app.on_sample(s, &mut ());
         t.update(s, Direction::Ccw);
     }
-    let live_u = [Live::UR0, Live::UEccU, Live::UEccV].map(|v| app.live().get(v));
-    app.execute(Command::Stop).unwrap();
-    assert_eq!(app.session(), SessionState::Done);
+    // a CCW CIRCLE run of `samples` on a pod configured `cfg`, and its live u at the last sample
+    let run_pod = |cfg: Config| {
+        let mut app = App::new(cfg, [16; MAX_AXES]);
+        app.set_pattern(Pattern::Circle).unwrap();
+        app.set_direction(Direction::Ccw).unwrap();
+        app.execute(Command::Arm).unwrap();
+        app.execute(Command::Start).unwrap();
+        for s in &samples {
+            app.on_sample(s, &mut ());
+        }
+        let live_u = [Live::UR0, Live::UEccU, Live::UEccV].map(|v| app.live().get(v));
+        app.execute(Command::Stop).unwrap();
+        assert_eq!(app.session(), SessionState::Done);
+        (app, live_u)
+    };
+    // G's and F's centre shares are `CircularTest::direction_figures`' (`Diagnosed::centre_um`)
+    // for the centre's u `u_centre`
+    let figure_shares_are = |app: &App, u_centre: f32| {
+        let f = t.direction_figures(Direction::Ccw, u_centre).unwrap();
+        for (id, want) in [
+            (ResultId::GCcw, f.circular_deviation_g_um.centre_um),
+            (ResultId::FMaxCcw, f.radial_deviation_f_max_um.centre_um),
+            (ResultId::FMinCcw, f.radial_deviation_f_min_um.centre_um),
+        ] {
+            let got = app.result(id).shares[Contributor::Socket as usize];
+            assert!(
+                want > 0.0 && (got - want).abs() <= 1e-5 * want,
+                "{id:?}: {got} vs {want}"
+            );
+        }
+    };
+    let (app, live_u) = run_pod(cfg);
     let want = t.centre_shares(Direction::Ccw, 500.0).unwrap();
     // e's share is the profile's ovality × δ/R: well above the fit's Type A here
     assert!(want[1] > 0.01 && want[2] > 0.01, "{want:?}");
@@ -1113,19 +1138,35 @@ fn a_circle_runs_centre_share_reaches_its_results() {
             r.std_uncertainty
         );
     }
-    // G and F take theirs too (`Diagnosed::centre_um`)
-    let f = t.direction_figures(Direction::Ccw, 500.0).unwrap();
-    for (id, want) in [
-        (ResultId::GCcw, f.circular_deviation_g_um.centre_um),
-        (ResultId::FMaxCcw, f.radial_deviation_f_max_um.centre_um),
-        (ResultId::FMinCcw, f.radial_deviation_f_min_um.centre_um),
-    ] {
-        let got = app.result(id).shares[Contributor::Socket as usize];
+    // G and F take theirs too
+    figure_shares_are(&app, 500.0);
+    // the traced centre: P0 less the centre as entered (the pod's f32), within its U; within
+    // the budget of 500 µm, which stays
+    let traced = t.traced_centre(Direction::Ccw).unwrap();
+    for (k, id) in [ResultId::CentreDu, ResultId::CentreDv]
+        .into_iter()
+        .enumerate()
+    {
+        let r = app.result(id);
+        let truth = (P0[k] - f64::from(entered[k] as f32)) * 1e3;
         assert!(
-            want > 0.0 && (got - want).abs() <= 1e-5 * want,
-            "{id:?}: {got} vs {want}"
+            (f64::from(r.value) - truth).abs() <= 2.0 * f64::from(r.std_uncertainty),
+            "{id:?}: {} ± {} vs {truth}",
+            r.value,
+            r.std_uncertainty
+        );
+        assert_eq!(
+            (r.value, r.std_uncertainty),
+            (traced.offset_um[k], traced.u_um[k])
         );
     }
+    assert_eq!(traced.centre_u_um(500.0), 500.0);
+    // the same run with the budget left at its default (1 µm): the traced offset contradicts
+    // it, and G's and F's shares are taken for the larger traced coordinate (0.5 mm)
+    cfg.setup.circle_u_centre_um = 1.0;
+    let u_run = traced.centre_u_um(1.0);
+    assert!((u_run - 500.0).abs() < 0.1, "{u_run}");
+    figure_shares_are(&run_pod(cfg).0, u_run);
 }
 
 /// The socket's offset bends the bar's profile by its second-order term (|e|² − (e·n)²)/2R, a
@@ -1276,4 +1317,140 @@ fn every_circle_figure_covers_a_centre_entered_half_a_millimetre_off() {
             );
         }
     }
+}
+
+/// `run`'s samples with each axis position read with normal noise of `sd_um` (the encoders'
+/// and the servo's jitter about the programmed circle).
+fn jittered(samples: Vec<Sample>, sd_um: f64, rng: &mut Rng) -> Vec<Sample> {
+    samples
+        .into_iter()
+        .map(|mut s| {
+            for a in &mut s.axes[..2] {
+                *a += (sd_um * 1e-3 * rng.normal()) as f32;
+            }
+            s
+        })
+        .collect()
+}
+
+/// Issue 14, the centre as entered estimated from the data: 200 random faulty circles (both
+/// directions, 14 400 samples each) programmed about P0, the pod told a centre N(0, 0.5 mm)
+/// per coordinate off it, the axis positions read with 0.5 µm of jitter. The circle the
+/// positions trace puts the program's centre at `traced_centre`: U = 2u covers the offset
+/// P0 − entered in 95 % ± 3 % of the circles per coordinate and direction, u within 20 % of
+/// the scatter; with the positions exact (their f32 rounding only), within 0.05 µm.
+#[test]
+fn the_traced_centre_is_the_programs_against_the_one_entered() {
+    const RUNS: usize = 200;
+    const N: usize = 14_400;
+    let mut rng = Rng::new(5151);
+    let mut entry = Rng::new(5152);
+    let (mut err, mut u) = (Vec::new(), Vec::new());
+    let mut exact_worst = 0.0f64;
+    for i in 0..RUNS {
+        let m = random_machine(i, &mut rng);
+        let entered = P0.map(|p| p + 0.5 * entry.normal());
+        // against the centre the pod holds (f32: 0.03 µm steps at 377 mm)
+        let truth = [0, 1].map(|k| (P0[k] - f64::from(entered[k] as f32)) * 1e3);
+        let mut t = test_about(entered, R, 300.0);
+        let mut exact = test_about(entered, R, 300.0);
+        for dir in [Direction::Ccw, Direction::Cw] {
+            let samples = run(&m, dir, N, &mut rng);
+            for s in &samples {
+                exact.update(s, dir);
+            }
+            for s in jittered(samples, 0.5, &mut rng) {
+                t.update(&s, dir);
+            }
+        }
+        let (mut e_row, mut u_row) = (Vec::new(), Vec::new());
+        for dir in [Direction::Ccw, Direction::Cw] {
+            let c = t.traced_centre(dir).unwrap();
+            let c0 = exact.traced_centre(dir).unwrap();
+            for k in 0..2 {
+                e_row.push(f64::from(c.offset_um[k]) - truth[k]);
+                u_row.push(f64::from(c.u_um[k]));
+                exact_worst = exact_worst.max((f64::from(c0.offset_um[k]) - truth[k]).abs());
+            }
+        }
+        err.push(e_row);
+        u.push(u_row);
+    }
+    let names = ["ccw u", "ccw v", "cw u", "cw v"];
+    let failed = out_of_bounds(&names, &err, &u);
+    assert!(failed.is_empty(), "out of bounds: {failed:?}");
+    println!("positions exact: worst error {exact_worst:.4} µm");
+    assert!(exact_worst < 0.05, "{exact_worst}");
+}
+
+/// Issue 14, a centre entered off its budget: the circles of
+/// [`every_circle_figure_covers_a_centre_entered_half_a_millimetre_off`] (200, 14 400 samples
+/// a direction), the centre entered N(0, 0.5 mm) per coordinate off but its budget left at
+/// the default 1 µm. The traced offset contradicts the budget and the centre's shares take it
+/// (`TracedCentre::centre_u_um`): U covers every figure and diagnosis in at least 92 % of the
+/// circles (95 % − 3 %; a known offset budgeted, not corrected: the diagnoses up to all of
+/// them, F 92.5–95 %, H, which takes no share, 94 %), where the budget as entered covered G in
+/// under 60 %. With the centre entered right the budget stays as entered in every circle.
+#[test]
+fn a_centre_entered_off_its_budget_takes_the_traced_offset() {
+    const RUNS: usize = 200;
+    const N: usize = 14_400;
+    let mut rng = Rng::new(6161);
+    let mut entry = Rng::new(6162);
+    let names: Vec<&str> = FIGURES
+        .into_iter()
+        .chain(["squareness", "scale mismatch", "reversal u", "reversal v"])
+        .collect();
+    let (mut covered, mut covered_entered) = (vec![0usize; names.len()], 0usize);
+    for i in 0..RUNS {
+        let mut m = random_machine(i, &mut rng);
+        m.socket_mm = [0.03 * entry.normal(), 0.03 * entry.normal()];
+        let entered = P0.map(|p| p + 0.5 * entry.normal());
+        let mut t = test_about(entered, R, 300.0);
+        let mut right = test_about(P0, R, 300.0);
+        for dir in [Direction::Ccw, Direction::Cw] {
+            for s in jittered(run(&m, dir, N, &mut rng), 0.5, &mut rng) {
+                t.update(&s, dir);
+                right.update(&s, dir);
+            }
+        }
+        let budget = |t: &CircularTest<360>, d| t.traced_centre(d).unwrap().centre_u_um(1.0);
+        for d in [Direction::Ccw, Direction::Cw] {
+            assert_eq!(
+                budget(&right, d),
+                1.0,
+                "circle {i}: the centre entered right"
+            );
+        }
+        let u_c = budget(&t, Direction::Ccw).max(budget(&t, Direction::Cw));
+        let (figures, _) = noise_free_figures(&m, N);
+        let mut got = published(&t, u_c);
+        let dg = mean_diagnostics(
+            &t.diagnostics(Direction::Ccw, u_c).unwrap(),
+            &t.diagnostics(Direction::Cw, u_c).unwrap(),
+        );
+        got.extend([
+            dg.squareness_urad,
+            dg.scale_mismatch_um_per_m,
+            dg.reversal_step_u_um,
+            dg.reversal_step_v_um,
+        ]);
+        let faults = truth(&m);
+        let want = figures.iter().chain(&faults);
+        for ((c, g), w) in covered.iter_mut().zip(&got).zip(want) {
+            let u = f64::from(g.std_uncertainty).hypot(f64::from(g.centre_um));
+            *c += usize::from((f64::from(g.value) - w).abs() <= 2.0 * u);
+        }
+        let g = published(&t, 1.0)[0];
+        let u = f64::from(g.std_uncertainty).hypot(f64::from(g.centre_um));
+        covered_entered += usize::from((f64::from(g.value) - figures[0]).abs() <= 2.0 * u);
+    }
+    for (name, c) in names.iter().zip(&covered) {
+        println!("{name:14} covered in {c} of {RUNS}");
+    }
+    for (name, c) in names.iter().zip(&covered) {
+        assert!(c * 100 >= RUNS * 92, "{name}: {c}");
+    }
+    println!("G ccw with the budget as entered: covered in {covered_entered} of {RUNS}");
+    assert!(covered_entered * 100 < RUNS * 60, "{covered_entered}");
 }

@@ -14,12 +14,12 @@ fn estimator_state_sizes() {
         (
             "CircularTest<360> (ISO 230-4, CW + CCW, 1° bins)",
             size_of::<CircularTest<360>>(),
-            2 * (16 * 360 + 160),
+            2 * (20 * 360 + 160),
         ),
         (
             "CircularTest<720> (0.5° bins)",
             size_of::<CircularTest<720>>(),
-            2 * (16 * 720 + 160),
+            2 * (20 * 720 + 160),
         ),
         (
             "StationCollector<16>",

@@ -8,7 +8,7 @@
 use ballpod::acquisition::{MAX_AXES, Sample, SampleFlags};
 use ballpod::app::log::SampleLog;
 use ballpod::app::{
-    App, Direction, Live, Pattern, RESULTS, ResultId, SessionState, SettingsRequest, Touch,
+    App, Direction, Live, Pattern, ResultId, ResultInfo, SessionState, SettingsRequest, Touch,
 };
 use ballpod::config::{AxisName, Config, FIELDS, Field};
 use ballpod::protocol::scpi::status::ERROR_QUEUE_DEPTH;
@@ -967,7 +967,7 @@ fn a_full_circle_session_from_set_up_to_results() {
     assert!(arc.ends_with(",DEG"), "{arc}");
     assert!(near(arc.split(',').next().unwrap(), 360.0, 0.01), "{arc}");
     // the same result by its index in the catalogue
-    let k = RESULTS.iter().position(|r| r.name == "ecc_u").unwrap();
+    let k = ResultInfo::all().position(|r| r.name == "ecc_u").unwrap();
     assert_eq!(b.send(&format!("FETC:RES? {k}")), b.send("FETC:RES? ECC_U"));
     assert_eq!(b.errors(), Vec::<i32>::new());
 }
@@ -1146,7 +1146,7 @@ fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
 #[test]
 fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid() {
     let mut b = Bench::with_circle();
-    assert_eq!(RESULTS.len(), 86);
+    assert_eq!(ResultInfo::all().count(), 88);
     // nothing computed yet: -230 naming the result
     b.rejected_with(
         "FETC:RES? ecc_u",
@@ -1161,7 +1161,7 @@ fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid()
     b.send("SESS:ARM;STAR");
     b.feed_circle(0..=STEPS);
     b.send("SESS:STOP");
-    let k = RESULTS.iter().position(|r| r.name == "r0").unwrap();
+    let k = ResultInfo::all().position(|r| r.name == "r0").unwrap();
     let r = b.send("FETC:RES? R0");
     assert_eq!(b.send(&format!("FETCH:RESULT? {k}")), r);
     assert!(near(r.split(',').next().unwrap(), R0_UM, 1e-3), "{r}");
@@ -1171,7 +1171,7 @@ fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid()
         -230,
         "Data corrupt or stale;G_bidir has no valid value",
     );
-    b.rejected("FETC:RES? 86", -222);
+    b.rejected("FETC:RES? 88", -222);
     b.rejected("FETC:RES? -1", -222);
     b.rejected("FETC:RES? 1.5", -222);
     b.rejected("FETC:RES? nonsense", -224);
@@ -1182,7 +1182,7 @@ fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid()
         .split(',')
         .map(|s| s.trim_matches('"').to_string())
         .collect();
-    let expected: Vec<String> = RESULTS.iter().map(|r| r.name.to_string()).collect();
+    let expected: Vec<String> = ResultInfo::all().map(|r| r.name.to_string()).collect();
     assert_eq!(names, expected);
 }
 

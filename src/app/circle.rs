@@ -26,7 +26,8 @@ use core::mem::MaybeUninit;
 /// socket's ball is what e measures.
 pub const U_CENTRE_UM: f64 = 1.0;
 
-/// Angular bins of the ISO 230-4 profile (1° each; 11.8 KiB of state).
+/// Angular bins of the ISO 230-4 profile (1° each; 14.3 KiB of state: each bin its sums of
+/// ΔL, n and the traced radius, and its count).
 pub const ISO_BINS: usize = 360;
 
 /// The geometry of a circular test, from the configuration's set-up.
@@ -241,7 +242,7 @@ impl CircleTest {
         bar: &BarBudget,
         u_centre_um: f32,
     ) -> Result<(CircleEstimate, [f32; 3]), CircleFitError> {
-        results.clear(ResultId::GBidir, ResultId::ServoMismatch);
+        results.clear(ResultId::GBidir, ResultId::CentreDv);
         let (g, fmax, fmin) = match d {
             Direction::Ccw => (ResultId::GCcw, ResultId::FMaxCcw, ResultId::FMinCcw),
             Direction::Cw => (ResultId::GCw, ResultId::FMaxCw, ResultId::FMinCw),
@@ -250,11 +251,26 @@ impl CircleTest {
             results.clear(id, id);
         }
         let est = self.test.fit_estimate(d)?;
-        let socket = self.test.centre_shares(d, u_centre_um)?;
+        // the centre's u for the shares: as entered, or the traced offset where it contradicts
+        // that (`TracedCentre::centre_u_um`); the bidirectional figures take the larger
+        let mut u_dir = [u_centre_um; 2];
+        for (u, dir) in u_dir.iter_mut().zip([Direction::Ccw, Direction::Cw]) {
+            if let Ok(t) = self.test.traced_centre(dir) {
+                *u = t.centre_u_um(u_centre_um);
+                if dir == d {
+                    let ([du, dv], [u_du, u_dv]) = (t.offset_um, t.u_um);
+                    results.set(ResultId::CentreDu, f64::from(du), f64::from(u_du));
+                    results.set(ResultId::CentreDv, f64::from(dv), f64::from(u_dv));
+                }
+            }
+        }
+        let [u_ccw, u_cw] = u_dir;
+        let u_run = if d == Direction::Ccw { u_ccw } else { u_cw };
+        let socket = self.test.centre_shares(d, u_run)?;
         if let Some(c) = self.complete.get_mut(dir_index(d)) {
             *c = true;
         }
-        if let Ok(f) = self.test.direction_figures(d, u_centre_um) {
+        if let Ok(f) = self.test.direction_figures(d, u_run) {
             for (id, v, kind) in [
                 (g, f.circular_deviation_g_um, Shape),
                 (fmax, f.radial_deviation_f_max_um, Radial),
@@ -264,7 +280,7 @@ impl CircleTest {
             }
         }
         if self.complete == [true, true] {
-            self.bidirectional(results, bar, u_centre_um);
+            self.bidirectional(results, bar, if u_ccw > u_cw { u_ccw } else { u_cw });
         }
         Ok((est, socket))
     }

@@ -48,7 +48,7 @@ pub use live::{LIVE, LIVE_COUNT, LIVE_U_EVERY, Live, LiveValues, StatusWord};
 pub use pattern::{Direction, Pattern};
 pub use record::{Recorder, RunEnd, RunMeta, Touch};
 pub use results::{
-    CONTRIBUTOR_COUNT, CONTRIBUTORS, Contributor, RESULT_COUNT, RESULTS, ResultEntry, ResultId,
+    CONTRIBUTOR_COUNT, CONTRIBUTORS, Contributor, RESULT_COUNT, ResultEntry, ResultId, ResultInfo,
     Results,
 };
 pub use run::{AbortReason, RunCounters, RunLimits};

@@ -1,6 +1,6 @@
 //! The results table: every figure the pod computes from its runs, with its unit, standard
 //! uncertainty and validity (CANopen 0x4000–0x4002, SCPI `FETCh:RESult?`). The list below is the
-//! one catalogue: [`ResultId`] names an entry, [`RESULTS`] gives its name and unit and
+//! one catalogue: [`ResultId`] names an entry, [`ResultInfo::all`] gives its name and unit and
 //! [`RESULT_MEANINGS`] its meaning in the same order, and the EDS and the docs are generated
 //! from it.
 //!
@@ -29,10 +29,15 @@ macro_rules! results {
         pub enum ResultId {
             $(#[doc = $what] $id,)*
         }
-        /// Name and unit of every result, in [`ResultId`] order.
-        pub const RESULTS: &[ResultInfo] = &[$(ResultInfo { name: $name, unit: Unit::$unit },)*];
+        /// Every result's name, one after the other in [`ResultId`] order: one string in flash
+        /// (a `&str` in each row took 8 B more a result).
+        const NAMES: &str = concat!($($name,)*);
+        /// Where each name ends in [`NAMES`].
+        const NAME_ENDS: [u16; RESULT_COUNT] = name_ends([$($name.len(),)*]);
+        /// Unit of every result, in [`ResultId`] order.
+        const UNITS: [Unit; RESULT_COUNT] = [$(Unit::$unit,)*];
         /// What each result is, in [`ResultId`] order (for the EDS and the docs: kept apart from
-        /// [`RESULTS`] so the firmware does not carry the text).
+        /// [`ResultInfo::all`] so the firmware does not carry the text).
         pub const RESULT_MEANINGS: &[&str] = &[$($what,)*];
         impl ResultId {
             /// Every result, in order.
@@ -63,6 +68,8 @@ results! {
     CyclicAmplitude => ("cyclic_amplitude", Um, "Ball-bar diagnosis: amplitude of the cyclic error, the harmonic of order 3–16 that, fitted jointly with the other diagnoses, explains most of the profile"),
     CyclicOrder => ("cyclic_order", One, "Ball-bar diagnosis: order of that harmonic (cycles per revolution) when its amplitude is at least 4 standard uncertainties; 0: no cyclic error named"),
     ServoMismatch => ("servo_mismatch", Ms, "Ball-bar diagnosis: servo mismatch τ_u − τ_v (needs circle_feed)"),
+    CentreDu => ("centre_du", Um, "Last CIRCLE run: the centre of the circle the axis positions traced less circle_centre, along the plane's first axis (the first harmonic of their distance from it)"),
+    CentreDv => ("centre_dv", Um, "Last CIRCLE run: the traced centre less circle_centre, along the plane's second axis"),
     EBxX => ("e_BX_x", Um, "Seed 002 step BX: eccentricity ex (mean of CW/CCW over the repeats)"),
     EBxZ => ("e_BX_z", Um, "Seed 002 step BX: eccentricity ez"),
     EByX => ("e_BY_x", Um, "Seed 002 step BY: eccentricity ex"),
@@ -131,20 +138,47 @@ results! {
 }
 
 /// Number of results.
-pub const RESULT_COUNT: usize = RESULTS.len();
+pub const RESULT_COUNT: usize = ResultId::ALL.len();
+
+/// The running sums of `lens` (each name's end in [`NAMES`]).
+// Evaluated at compile time (`NAME_ENDS` only): an index out of bounds is a build error.
+#[allow(clippy::indexing_slicing)]
+const fn name_ends<const N: usize>(lens: [usize; N]) -> [u16; N] {
+    let mut ends = [0u16; N];
+    let (mut k, mut end) = (0, 0);
+    while k < N {
+        end += lens[k];
+        ends[k] = end as u16;
+        k += 1;
+    }
+    ends
+}
+
+impl ResultInfo {
+    /// Name and unit of every result, in [`ResultId`] order (CANopen sub-index k + 1).
+    pub fn all() -> impl Iterator<Item = ResultInfo> {
+        ResultId::ALL.iter().map(|r| r.info())
+    }
+}
 
 impl ResultId {
-    /// Its index in [`RESULTS`].
+    /// Its index in [`ResultId::ALL`] (CANopen sub-index − 1).
     pub const fn index(self) -> usize {
         self as usize
     }
 
     /// Its name and unit.
     pub fn info(self) -> ResultInfo {
-        RESULTS.get(self.index()).copied().unwrap_or(ResultInfo {
-            name: "",
-            unit: Unit::One,
-        })
+        let k = self.index();
+        let end = NAME_ENDS.get(k).map_or(0, |e| usize::from(*e));
+        let start = k
+            .checked_sub(1)
+            .and_then(|j| NAME_ENDS.get(j))
+            .map_or(0, |e| usize::from(*e));
+        ResultInfo {
+            name: NAMES.get(start..end).unwrap_or(""),
+            unit: UNITS.get(k).copied().unwrap_or(Unit::One),
+        }
     }
 
     /// What it is (docs and EDS).
@@ -159,10 +193,10 @@ impl ResultId {
 
     /// The result called `name` (any letter case).
     pub fn from_name(name: &[u8]) -> Option<Self> {
-        RESULTS
+        Self::ALL
             .iter()
-            .position(|r| r.name.as_bytes().eq_ignore_ascii_case(name))
-            .and_then(Self::from_index)
+            .copied()
+            .find(|r| r.info().name.as_bytes().eq_ignore_ascii_case(name))
     }
 }
 
@@ -240,7 +274,7 @@ impl Contributor {
 /// One result with its quality.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ResultEntry {
-    /// The value in the unit of [`RESULTS`] (NaN while invalid).
+    /// The value in the unit of [`ResultInfo::all`] (NaN while invalid).
     pub value: f32,
     /// Its standard uncertainty, same unit (NaN: not evaluated): the root sum of squares of
     /// [`Self::shares`].
@@ -317,7 +351,7 @@ impl Results {
         self.entries.get(id.index()).copied().unwrap_or_default()
     }
 
-    /// Every entry, in [`RESULTS`] order.
+    /// Every entry, in [`ResultInfo::all`] order.
     pub fn entries(&self) -> &[ResultEntry] {
         &self.entries
     }
@@ -369,7 +403,7 @@ impl Results {
         );
     }
 
-    /// Invalidates the results from `first` to `last` (inclusive, in [`RESULTS`] order).
+    /// Invalidates the results from `first` to `last` (inclusive, in [`ResultInfo::all`] order).
     pub fn clear(&mut self, first: ResultId, last: ResultId) {
         for e in self
             .entries

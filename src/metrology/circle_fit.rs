@@ -184,24 +184,25 @@ impl CircleFit {
         }
     }
 
-    /// As [`update`](Self::update), returning the sensitive direction n of a used sample (so
-    /// that callers binning by angle do not compute it twice).
+    /// As [`update`](Self::update), returning the sensitive direction n of a used sample and
+    /// its position's distance from the centre, mm (so that callers binning by angle do not
+    /// compute them twice).
     #[inline]
-    pub fn update_direction(&mut self, sample: &Sample) -> Result<[f32; 2], SampleUse> {
+    pub fn update_direction(&mut self, sample: &Sample) -> Result<([f32; 2], f32), SampleUse> {
         if !sample.flags.is_valid_for_metrology() {
             self.skipped_flagged = self.skipped_flagged.saturating_add(1);
             return Err(SampleUse::SkippedFlagged);
         }
         let dl = sample.delta_l_um;
-        let n = match self.config.geometry.direction(&sample.axes) {
-            Some(n) if dl.is_finite() => n,
+        let (n, r) = match self.config.geometry.direction_and_radius(&sample.axes) {
+            Some(nr) if dl.is_finite() => nr,
             _ => {
                 self.skipped_invalid = self.skipped_invalid.saturating_add(1);
                 return Err(SampleUse::SkippedInvalid);
             }
         };
         self.add(n, dl);
-        Ok(n)
+        Ok((n, r))
     }
 
     /// Accumulates one observation ΔL = `delta_l_um` at sensitive direction `n` (unit, in the

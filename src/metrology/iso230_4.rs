@@ -77,6 +77,8 @@ struct Bin {
     dl_um: f32,
     nu: f32,
     nv: f32,
+    /// Σ of the positions' distance from the centre as entered less the nominal radius, µm.
+    traced_um: f32,
     n: u32,
 }
 
@@ -336,6 +338,74 @@ pub struct BidirectionalFigures {
     pub joint_e_um: [f32; 2],
 }
 
+/// A bin's mean traced radius less the second-order term of the offset `x` (µm; `inv_2r`
+/// 1/2R per µm), its mean n and its samples ([`CircularTest::traced_centre`]); `None` if empty.
+fn traced_bin(b: &Bin, [_, x1, x2]: [f32; 3], inv_2r: f32) -> Option<(f32, f32, f32, f32)> {
+    let (_, nu, nv) = b.mean()?;
+    let along = x1 * nu + x2 * nv;
+    let q = (x1 * x1 + x2 * x2 - along * along) * inv_2r;
+    Some((b.traced_um / b.n as f32 + q, nu, nv, b.n as f32))
+}
+
+/// One pass of [`CircularTest::traced_centre`] with the second-order term of `x` taken off:
+/// the fit (ρ₀, δ_u, δ_v) by the bins' normal matrix `chol`, the bins' sum of squared
+/// residuals and their number.
+#[inline(never)] // one copy for both passes
+fn traced_pass(
+    bins: &[Bin],
+    chol: &super::solve3::Chol3,
+    x: [f32; 3],
+    inv_2r: f32,
+) -> ([f32; 3], f32, u32) {
+    let mut g = [0.0f32; 3];
+    for (t, nu, nv, w) in bins.iter().filter_map(|b| traced_bin(b, x, inv_2r)) {
+        let [g0, g1, g2] = &mut g;
+        *g0 += w * t;
+        *g1 += w * t * nu;
+        *g2 += w * t * nv;
+    }
+    let x = chol.solve(g.map(f64::from)).map(|v| v as f32);
+    let [x0, x1, x2] = x;
+    let (mut ss, mut n) = (0.0f32, 0u32);
+    for (t, nu, nv, _) in bins.iter().filter_map(|b| traced_bin(b, x, inv_2r)) {
+        let r = t - (x0 + x1 * nu + x2 * nv);
+        ss += r * r;
+        n += 1;
+    }
+    (x, ss, n)
+}
+
+/// The centre of the circle a run's axis positions traced, against the centre as entered
+/// ([`CircularTest::traced_centre`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TracedCentre {
+    /// The traced centre less the centre as entered, per in-plane coordinate (u, v), µm.
+    pub offset_um: [f32; 2],
+    /// Its standard uncertainty per coordinate, µm (NaN with fewer than 4 bins).
+    pub u_um: [f32; 2],
+}
+
+impl TracedCentre {
+    /// The standard uncertainty per in-plane coordinate of the centre as entered for the
+    /// figures' centre shares, µm: `u_entered_um` (`circle_u_centre`), unless the traced
+    /// offset contradicts it — a coordinate beyond 3·√(u_entered² + u²) — then that offset
+    /// (the larger coordinate's): the data's word over the budget. The figures stay binned
+    /// about the centre as entered (a bin's samples cannot be moved back afterwards), so the
+    /// offset is not corrected; it is reported for the set-up to be put right.
+    pub fn centre_u_um(&self, u_entered_um: f32) -> f32 {
+        let mut u = u_entered_um;
+        for (o, ut) in self.offset_um.into_iter().zip(self.u_um) {
+            let o = o.abs();
+            let allowed = 3.0 * crate::num::sqrtf(u_entered_um * u_entered_um + ut * ut);
+            // comparisons: false for NaN
+            if o > allowed && o > u {
+                u = o;
+            }
+        }
+        u
+    }
+}
+
 /// An ISO 230-4 figure or diagnosis: its value and standard uncertainties, same unit.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Diagnosed {
@@ -454,7 +524,7 @@ impl<const BINS: usize> CircularTest<BINS> {
         in_place::build(|s| Self::init(s, config, radius_mm))
     }
 
-    /// [`CircularTest::new`] built in place in `slot` (no stack copy of the 11.8 KiB state).
+    /// [`CircularTest::new`] built in place in `slot` (no stack copy of the 14.3 KiB state).
     pub fn init(
         slot: &mut MaybeUninit<Self>,
         config: CircleFitConfig,
@@ -558,6 +628,64 @@ impl<const BINS: usize> CircularTest<BINS> {
         Ok(out)
     }
 
+    /// Where the encoders put the centre of the circle direction `d` traced, against the centre
+    /// as entered: the axis positions follow the part program's circle (the machine's
+    /// geometric errors are between them and the tool, where the bar sees them), so the first
+    /// harmonic of their distance from the centre as entered, ρ ≈ ρ₀ + (c − c_entered)·d̂ (d̂
+    /// the unit vector from it; n = ±d̂), is the program's centre's offset. Fitted over the 1°
+    /// bins (each bin's mean ρ and mean n, weighted by its samples), the second-order term
+    /// taken off in a second pass; u from the bins' scatter about it (servo and reversal
+    /// errors of the positions, the encoders' resolution), each bin one observation. `Err`
+    /// where its bins do not determine it (no samples, an arc of a few bins).
+    #[inline(never)] // called at a run's end only
+    pub fn traced_centre(&self, d: Direction) -> Result<TracedCentre, CircleFitError> {
+        let run = self.run(d);
+        // the bins' normal matrix, not the samples': a bin's mean n is shorter than its
+        // samples' (by Δ²/24 on 1°), its mean ρ holds δ·(mean n) exactly; the samples' matrix
+        // with the bins' right-hand side read δ short by Δ²/12 (0.013 µm at 0.5 mm). f32 sums:
+        // 360 terms.
+        let mut a = [0.0f32; 6];
+        for (_, nu, nv, w) in run.bins.iter().filter_map(|b| traced_bin(b, [0.0; 3], 0.0)) {
+            for (s, v) in a.iter_mut().zip([1.0, nu, nv, nu * nu, nu * nv, nv * nv]) {
+                *s += w * v;
+            }
+        }
+        let [a00, a01, a02, a11, a12, a22] = a.map(f64::from);
+        let chol = super::solve3::Sym3 {
+            a00,
+            a01,
+            a02,
+            a11,
+            a12,
+            a22,
+        }
+        .cholesky()
+        .map_err(|_| CircleFitError::IllConditioned)?;
+        // ρ = δ·d̂ + (R_p − R) − (|δ|² − (δ·d̂)²)/2R + O(δ³/R²) (the exact circle through
+        // the positions, R_p the program's radius): the second-order term from the first pass's
+        // δ taken off in the second (δ 0.5 mm off on R 150 mm: 0.8 µm; 0.006 µm left)
+        let inv_2r = 0.5 / (self.radius_mm * 1e3);
+        let first = traced_pass(&run.bins, &chol, [0.0; 3], inv_2r);
+        let ([_, x1, x2], ss, bins) = traced_pass(&run.bins, &chol, first.0, inv_2r);
+        let inv = chol.inverse();
+        // each bin one observation of variance ss/(bins − 3): (AᵀA)⁻¹ of the bins ≈ that of
+        // the samples × samples / bins
+        let var = if bins > 3 {
+            ss / (bins - 3) as f32 * a[0] / bins as f32
+        } else {
+            f32::NAN
+        };
+        let u = |a: f64| crate::num::sqrtf(var * a as f32);
+        let s = match run.fit.config().geometry.sensitivity {
+            super::pattern::Sensitivity::Outward => 1.0,
+            super::pattern::Sensitivity::Inward => -1.0,
+        };
+        Ok(TracedCentre {
+            offset_um: [s * x1, s * x2],
+            u_um: [u(inv.a11), u(inv.a22)],
+        })
+    }
+
     /// [`CentreResponse`] of direction `d`'s circle.
     fn centre_response(&self, d: Direction) -> Result<CentreResponse, CircleFitError> {
         let run = self.run(d);
@@ -576,11 +704,12 @@ impl<const BINS: usize> CircularTest<BINS> {
     }
 
     /// Feeds one sample of the run in direction `d` (O(1): the fit update, a polynomial atan
-    /// for the bin, 3 adds).
+    /// for the bin, 4 adds).
     pub fn update(&mut self, sample: &Sample, d: Direction) -> super::circle_fit::SampleUse {
+        let radius_mm = self.radius_mm;
         let run = self.run_mut(d);
-        let [nu, nv] = match run.fit.update_direction(sample) {
-            Ok(n) => n,
+        let ([nu, nv], r_mm) = match run.fit.update_direction(sample) {
+            Ok(nr) => nr,
             Err(skipped) => return skipped,
         };
         let dl = sample.delta_l_um;
@@ -592,6 +721,7 @@ impl<const BINS: usize> CircularTest<BINS> {
             bin.dl_um += dl;
             bin.nu += nu;
             bin.nv += nv;
+            bin.traced_um += (r_mm - radius_mm) * 1e3;
             bin.n = bin.n.saturating_add(1);
         }
         super::circle_fit::SampleUse::Used

@@ -123,6 +123,12 @@ impl PatternGeometry {
     /// scaled: f32 keeps n to ~1e-7.
     #[inline]
     pub fn direction(&self, axes: &[f32; MAX_AXES]) -> Option<[f32; 2]> {
+        self.direction_and_radius(axes).map(|(n, _)| n)
+    }
+
+    /// [`Self::direction`] and the position's distance |p − c| from the centre, mm.
+    #[inline]
+    pub fn direction_and_radius(&self, axes: &[f32; MAX_AXES]) -> Option<([f32; 2], f32)> {
         let (u, v) = self.plane.uv(axes);
         let du = u - self.centre_u_mm;
         let dv = v - self.centre_v_mm;
@@ -131,10 +137,11 @@ impl PatternGeometry {
         if !(r2 > 1e-6 && r2 < f32::INFINITY) {
             return None;
         }
+        let r = crate::num::sqrtf(r2);
         let inv = match self.sensitivity {
-            Sensitivity::Outward => 1.0 / crate::num::sqrtf(r2),
-            Sensitivity::Inward => -1.0 / crate::num::sqrtf(r2),
+            Sensitivity::Outward => 1.0 / r,
+            Sensitivity::Inward => -1.0 / r,
         };
-        Some([du * inv, dv * inv])
+        Some(([du * inv, dv * inv], r))
     }
 }

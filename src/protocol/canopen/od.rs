@@ -8,7 +8,7 @@
 //! application ([`App`]: live values, configuration, session, results) and to the node's
 //! [`CommParams`]; a write is a request the application accepts or refuses (the same rules as
 //! over SCPI). Configuration objects are generated from [`crate::config::FIELDS`], the live
-//! values from [`crate::app::LIVE`], the results from [`crate::app::RESULTS`], so a new field,
+//! values from [`crate::app::LIVE`], the results from [`crate::app::ResultInfo::all`], so a new field,
 //! live value or result appears here, in the SDO server and in `ballpod.eds` at once.
 //!
 //! Index map (see the module doc of [`super`] for the full table):
@@ -31,7 +31,7 @@ use crate::acquisition::MAX_AXES;
 use crate::app::probe::MAX_TOUCHES;
 use crate::app::{
     App, Command, CommandError, DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, Direction, LIVE, LIVE_COUNT,
-    Pattern, RESULT_COUNT, RESULTS, RunCounters,
+    Pattern, RESULT_COUNT, ResultId, RunCounters,
 };
 use crate::config::{
     AxisName, CanBitrate, ConfigError, FIELDS, Field, FieldType, LvdtInput, POS_MM,
@@ -104,7 +104,7 @@ pub fn config_row(index: u16) -> Option<usize> {
 }
 /// Index of the live REAL32 values (0x2100:1 ΔL … 0x2100:8 temperature).
 pub const LIVE_VALUES: u16 = 0x2100;
-/// Index of the results' values (sub-index k+1 = `RESULTS[k]`).
+/// Index of the results' values (sub-index k+1 = the k-th of `ResultId::ALL`).
 pub const RESULT_VALUES: u16 = 0x4000;
 
 /// CiA 301 basic data types (§7.1.6, table 44; the EDS `DataType`).
@@ -797,9 +797,9 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
         0x4000..=0x4002 => match sub {
             0 => count(RESULT_COUNT as u8),
             k => {
-                let r = RESULTS
-                    .get(usize::from(k - 1))
-                    .ok_or(SdoAbort::NoSubIndex)?;
+                let r = ResultId::from_index(usize::from(k - 1))
+                    .ok_or(SdoAbort::NoSubIndex)?
+                    .info();
                 Ok(match index {
                     0x4000 => e(index, k, r.name, Real32, Ro, Var::ResultValue(k - 1))
                         .unit(r.unit.as_str()),

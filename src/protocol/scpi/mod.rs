@@ -66,8 +66,8 @@ use crate::acquisition::MAX_AXES;
 use crate::app::device::NOT_MEASURED;
 use crate::app::log::SampleLog;
 use crate::app::{
-    App, Command as AppCommand, CommandError, Direction, LIVE, Pattern, RESULT_COUNT, RESULTS,
-    ResultId, RunMeta, StatusWord,
+    App, Command as AppCommand, CommandError, Direction, LIVE, Pattern, RESULT_COUNT, ResultId,
+    ResultInfo, RunMeta, StatusWord,
 };
 use crate::config::{AxisName, Config, ConfigError, FIELDS, Field, FieldInfo};
 use crate::protocol::download::{CsvCursor, csv_len, write_csv};
@@ -1160,7 +1160,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
             Command::FetchCatalog => {
                 none()?;
                 // one response unit per name: the catalogue is longer than a response buffer
-                for (k, info) in RESULTS.iter().enumerate() {
+                for (k, info) in ResultInfo::all().enumerate() {
                     let mut n = Response::new();
                     if k > 0 {
                         push_bytes(&mut n, b",");

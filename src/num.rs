@@ -5,7 +5,7 @@
 //!   [`fmaf`] likewise `VFMA.F32` (`libm::fmaf` is soft-float through f64).
 //! - [`sin_cos`], [`sin`], [`cos`]: f64 sine and cosine for angles up to ±8·10⁵ rad (fdlibm's
 //!   kernels with a three-part Cody–Waite reduction). Hand-written because `libm::sin`'s
-//!   reduction for any argument (`rem_pio2`, `rem_pio2_large`) is ~6 KB of the 204 KiB flash
+//!   reduction for any argument (`rem_pio2`, `rem_pio2_large`) is ~6 KB of the 206 KiB flash
 //!   budget, and no angle of the pod is beyond a few turns.
 //! - [`acos`]: f64 arc cosine on `atan2` (one inverse-trigonometric family in flash).
 //! - [`crc32`]: CRC-32/ISO-HDLC (the zlib/Ethernet CRC) from the `crc` crate, for encodings.

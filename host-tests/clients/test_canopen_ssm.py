@@ -33,8 +33,9 @@ DWELL_ROTARY_SPEED = 0.1
 def windows(r, radius_mm, dwell_speed_mm_per_s):
     """For each sample, the indices of the samples of the pod's live window at it, and whether
     the pod counts the window as growing there (src/metrology/ssm/streaming.rs `is_growing`:
-    the ring's oldest index at its start, i.e. a multiple of WINDOW samples left since the
-    window started, none while it grows). As each sample
+    the ring's oldest index at the window's first, i.e. a multiple of WINDOW samples left since
+    the window started, none while it grows; a window every sample has left starts anew). As
+    each sample
     enters, the oldest leave while they lie beyond the radius from it, then one more if full; a
     still sample empties the window and does not enter it (src/app/ssm.rs SsmRun::update): the
     window restarts with the next move. Still, as the pod's dwell detection has it: later than
@@ -57,6 +58,8 @@ def windows(r, radius_mm, dwell_speed_mm_per_s):
         while a < i and np.sum((p - points[a]) ** 2) > radius_mm ** 2:
             a += 1
         a = max(a, i - WINDOW + 1)
+        if a == i:
+            first = i
         starts.append(a)
         grows.append((a - first) % WINDOW == 0)
     return (lambda i: np.arange(starts[i], i + 1)), grows

@@ -1436,3 +1436,64 @@ fn live_e_around_dwells(runs: u64, accel: f64, regrowing: usize) {
         );
     }
 }
+
+/// `StreamingSsm::is_growing` (the live E's u is refreshed more often while it holds): true
+/// from the window's first sample until one leaves it — by the radius, or the ring full —
+/// counted here from the positions; again after every sample has left (a jump farther than the
+/// radius), after `clear`; and in steady state only where the ring's oldest index passes the
+/// window's first again (one sample in W).
+#[test]
+fn the_window_grows_until_a_sample_leaves_it() {
+    const W: usize = 64;
+    let p0 = [40.0, -20.0, 10.0];
+    let (l, radius) = (150.0, 5.0);
+    // 0.1° a sample on a 30° cone: 0.13 mm apart, so the 5 mm radius holds 38 samples
+    let path = cone_path(p0, l, 30.0, 3600, 0.0);
+    let mut ssm = StreamingSsm::<W>::new(StreamingConfig {
+        geometry: SsmGeometry {
+            socket_mm: p0,
+            bar_length_mm: l,
+        },
+        radius_mm: radius,
+        rotary_tol_deg: 0.001,
+    });
+    let pos = |s: &Sample| s.axes.map(f64::from);
+    let dist = |a: [f64; 5], b: [f64; 5]| {
+        ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+    };
+    let first = pos(&path.samples[0]);
+    // the first sample farther than the radius from the window's first makes it leave
+    let leaves_at = path
+        .samples
+        .iter()
+        .position(|s| dist(pos(s), first) > f64::from(radius))
+        .unwrap();
+    assert!(leaves_at < W, "{leaves_at}");
+    let mut steady_growing = 0;
+    for (i, s) in path.samples.iter().take(1000).enumerate() {
+        ssm.update(s);
+        if i < leaves_at {
+            assert!(ssm.is_growing(), "sample {i}");
+        } else if i == leaves_at {
+            assert!(!ssm.is_growing(), "sample {i}");
+        } else if ssm.is_growing() {
+            steady_growing += 1;
+        }
+    }
+    // about 1000 − 38 samples have left: the oldest index passed the window's first once
+    // every W of them
+    let passes = (1000 - leaves_at) / W;
+    assert!(
+        (passes - 1..=passes + 1).contains(&steady_growing),
+        "{steady_growing} vs {passes}"
+    );
+    // a jump farther than the radius: every sample leaves, the window starts anew
+    ssm.update(&path.samples[1800]);
+    assert_eq!(ssm.window_len(), 1);
+    assert!(ssm.is_growing());
+    ssm.update(&path.samples[1801]);
+    assert!(ssm.is_growing());
+    ssm.clear();
+    ssm.update(&path.samples[2000]);
+    assert!(ssm.is_growing());
+}

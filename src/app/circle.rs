@@ -194,7 +194,8 @@ impl CircleTest {
     /// profile, as [`CircularTest::fit_estimate`] does at the run's end, every
     /// [`LIVE_NOISE_EVERY`] used samples (every [`LIVE_NOISE_RETRY`] while the profile is too
     /// short to tell it, and the residual's σ meanwhile), and the centre's share
-    /// (`circle_u_centre`) through the profile as of the same refresh.
+    /// (`circle_u_centre`, or the traced offset where it contradicts that, as at the run's
+    /// end) through the profile as of the same refresh.
     pub fn live(
         &mut self,
         d: Direction,
@@ -211,12 +212,17 @@ impl CircleTest {
     }
 
     /// Takes the sample noise of the run of direction `d` from its profile
-    /// ([`CircularTest::noise_um`]) and the centre's shares for `u_centre_um`
+    /// ([`CircularTest::noise_um`]) and the centre's shares for `u_centre_um`, or the traced
+    /// offset where it contradicts that ([`iso230_4::TracedCentre::centre_u_um`])
     /// ([`CircularTest::centre_shares`]; the last ones kept while the fit is not available)
     /// at `used` samples, and when to take them next.
     #[inline(never)] // off the per-sample path: one sample in [`LIVE_NOISE_EVERY`]
     fn refresh_live_noise(&mut self, d: Direction, used: u32, u_centre_um: f32) {
         self.live_noise_um = self.test.noise_um(d);
+        let u_centre_um = self
+            .test
+            .traced_centre(d)
+            .map_or(u_centre_um, |t| t.centre_u_um(u_centre_um));
         if let Ok(s) = self.test.centre_shares(d, u_centre_um) {
             self.live_centre_um = s;
         }
@@ -230,11 +236,14 @@ impl CircleTest {
 
     /// Ends the run of direction `d`: its results, and the bi-directional ones when both
     /// directions are complete, each u with the bar's share `bar` (`metrology::bar_budget`)
-    /// and the centre's for `u_centre_um` (each figure's and diagnosis's
-    /// `Diagnosed::centre_um`, H none; the servo mismatch's from the two directions' signed
-    /// squareness changes, [`servo_mismatch_ms`]); and the fit with the
-    /// centre's shares of its (r0, e_u, e_v) ([`CircularTest::centre_shares`]). `Err` if the
-    /// run has no fit (too short an arc, too few samples).
+    /// and the centre's for `u_centre_um`, or for the offset the run's axis positions traced
+    /// where it contradicts that ([`iso230_4::TracedCentre::centre_u_um`]; the bi-directional
+    /// figures and the diagnoses the larger of the two directions') (each figure's and
+    /// diagnosis's `Diagnosed::centre_um`, H none; the servo mismatch's from the two
+    /// directions' signed squareness changes, [`servo_mismatch_ms`]); the traced offset itself
+    /// (`centre_du`, `centre_dv`); and the fit with the centre's shares of its (r0, e_u, e_v)
+    /// ([`CircularTest::centre_shares`]). `Err` if the run has no fit (too short an arc, too
+    /// few samples).
     pub fn finish_run(
         &mut self,
         d: Direction,

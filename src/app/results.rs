@@ -148,6 +148,7 @@ const fn name_ends<const N: usize>(lens: [usize; N]) -> [u16; N] {
     let (mut k, mut end) = (0, 0);
     while k < N {
         end += lens[k];
+        assert!(end <= u16::MAX as usize, "result names longer than 64 KiB");
         ends[k] = end as u16;
         k += 1;
     }

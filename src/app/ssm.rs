@@ -37,6 +37,8 @@ pub const SSM_WINDOW: usize = 256;
 /// lengthens: refreshed every [`LIVE_U_EVERY`] samples, the u held in between was up to a
 /// third high (`metrology_ssm.rs`, around dwells). About 300 instructions a refresh.
 pub const LIVE_U_EVERY_GROWING: u32 = 4;
+// `SsmRun::live` tests the finer period first: the coarser must be a multiple of it
+const _: () = assert!(LIVE_U_EVERY.is_multiple_of(LIVE_U_EVERY_GROWING));
 /// Dwell stations one SSM run keeps (a dwell beyond is dropped and counted).
 pub const MAX_STATIONS: usize = 8;
 /// Rotary axis movement that empties the streaming neighbourhood, degrees.
@@ -178,9 +180,10 @@ impl SsmRun {
     /// residual would count as if it averaged over each of them; and a window kept across a
     /// dwell turns from the approach's arc to the departure's faster than its u is refreshed
     /// ([`LIVE_U_EVERY`]). Restarted, the window grows for a while and its u is refreshed
-    /// more often ([`LIVE_U_EVERY_GROWING`]) (`metrology_ssm.rs`, the 170 samples after a dwell:
-    /// the refreshed u covered 91.3 % with dwell samples in the window; the held u 93.1 % with
-    /// the window held across the dwell, rms(error / u) 2.0; restarted 94.5–95.8 %).
+    /// more often ([`LIVE_U_EVERY_GROWING`]) (`metrology_ssm.rs`, the samples after a dwell,
+    /// stopping dead: the refreshed u covered 91.3 % with dwell samples in the window; the held
+    /// u 93.1 % with the window held across the dwell, rms(error / u) 2.0; restarted and
+    /// refreshed every 4 samples while it grows 94.5–95.8 %).
     pub fn update(&mut self, s: &Sample) {
         let still = matches!(
             self.stations.update(s),
@@ -211,7 +214,7 @@ impl SsmRun {
         }
     }
 
-    #[inline(never)] // off the per-sample path: it runs one sample in [`LIVE_U_EVERY`]
+    #[inline(never)] // off the per-sample path: one sample in [`LIVE_U_EVERY`] (in 4 while growing)
     fn live_with_u(&self) -> ([Option<f32>; 3], Option<[Option<f32>; 3]>) {
         let mut u = [None; 3];
         let e = self

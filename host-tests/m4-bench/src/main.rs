@@ -122,14 +122,25 @@ fn ssm_pipeline_at_feed(
     b: &[u16; BLOCK],
     table: &ExcitationTable<P>,
     empty: u32,
-) -> f32 {
+) -> (f32, f32) {
     let mut app = started_app(Pattern::Ssm, &data::circle_samples_at_feed(0)[0]);
+    let mut growing = f32::NAN;
     for batch in 0..2 {
         let warm_up = data::circle_samples_at_feed(batch * data::N);
-        pipeline_per_sample(&mut app, &warm_up, a, b, table, empty);
+        if batch == 0 {
+            // the run's first W samples: the window grows (the live E's u every 4 samples)
+            let (first, rest) = warm_up.split_at(W.min(warm_up.len()));
+            growing = pipeline_per_sample(&mut app, first, a, b, table, empty);
+            pipeline_per_sample(&mut app, rest, a, b, table, empty);
+        } else {
+            pipeline_per_sample(&mut app, &warm_up, a, b, table, empty);
+        }
     }
     let measured = data::circle_samples_at_feed(2 * data::N);
-    pipeline_per_sample(&mut app, &measured, a, b, table, empty)
+    (
+        growing,
+        pipeline_per_sample(&mut app, &measured, a, b, table, empty),
+    )
 }
 
 /// Instructions per sample of the whole live pipeline over `samples`: one LVDT block's
@@ -588,6 +599,16 @@ fn main() -> ! {
         n as f64 / f64::from(ballpod::app::circle::LIVE_NOISE_EVERY),
         noise
     );
+    // The centre the axis positions traced (its check of the centre's budget), with each live
+    // noise refresh and at the run's end.
+    let (traced, n) = measure_long(|| iso.traced_centre(Direction::Ccw));
+    hprintln!(
+        "| ISO 230-4 traced centre of one direction (CircularTest::traced_centre) | query | {} | — | — | — | — | every {} samples: {:.1} a sample, ok = {} |",
+        n,
+        ballpod::app::circle::LIVE_NOISE_EVERY,
+        n as f64 / f64::from(ballpod::app::circle::LIVE_NOISE_EVERY),
+        traced.is_ok()
+    );
     // The figures of one direction at the end of its run: G and F with their u, from the noise
     // of the bin profile and the bootstrap of its extremes (metrology/extremes.rs), and the
     // centre's shares.
@@ -698,9 +719,14 @@ fn main() -> ! {
         record_stack(name, lo);
         print(&Row::pipeline(name, per_sample));
     }
+    let (growing, steady) = ssm_pipeline_at_feed(a, b, &table, empty);
     print(&Row::pipeline(
         "**whole live pipeline, SSM at F1000** (steady state)",
-        ssm_pipeline_at_feed(a, b, &table, empty),
+        steady,
+    ));
+    print(&Row::pipeline(
+        "whole live pipeline, SSM at F1000, the window growing (a run's first 256 samples)",
+        growing,
     ));
 
     // ---- identification (per test) ----------------------------------------------------------

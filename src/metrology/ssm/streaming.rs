@@ -284,6 +284,8 @@ pub struct StreamingSsm<const W: usize> {
     /// Index of the oldest entry and number of entries.
     tail: usize,
     len: usize,
+    /// Index of the current window's first entry.
+    start: usize,
     sums: Sums,
     /// The reference direction of the sums, Q24.
     u_ref: [i32; 3],
@@ -313,6 +315,7 @@ impl<const W: usize> StreamingSsm<W> {
             radius2_q: (config.radius_mm * P_SCALE) * (config.radius_mm * P_SCALE),
             tail: 0,
             len: 0,
+            start: 0,
             sums: Sums::default(),
             u_ref: [0; 3],
             rotary_ref_deg: [0.0; 2],
@@ -329,13 +332,13 @@ impl<const W: usize> StreamingSsm<W> {
         self.len
     }
 
-    /// True while the window only grows: no sample has left it since it started (after
-    /// [`Self::clear`], a rotary move, or the estimator's start). Read off the ring's oldest
-    /// index, which stays at the ring's start until a sample leaves (and passes it again for
-    /// one sample in `W`, where this is true by mistake: a test on the per-sample path costs
-    /// nothing more).
+    /// True while the window only grows: no sample has left it since it started (the first
+    /// sample after [`Self::clear`], a rotary move, the estimator's start, or every sample
+    /// having left). Read off the ring's oldest index, which stays at the window's first
+    /// until a sample leaves (and passes it again for one sample in `W`, where this is true by
+    /// mistake: nothing more on the per-sample path).
     pub fn is_growing(&self) -> bool {
-        self.tail == 0
+        self.tail == self.start
     }
 
     /// Samples skipped as flagged invalid.
@@ -443,6 +446,7 @@ impl<const W: usize> StreamingSsm<W> {
                 // one entry with v = 0 (stored, not a reset followed by `apply`: merged, the
                 // two paths made every sum a select and spilled them all, ~65 instructions)
                 self.u_ref = entry.u;
+                self.start = head;
                 self.sums = Sums::first(&entry);
             } else {
                 self.sums.apply::<true>(&entry, &self.u_ref);

@@ -219,10 +219,7 @@ impl CircleTest {
     #[inline(never)] // off the per-sample path: one sample in [`LIVE_NOISE_EVERY`]
     fn refresh_live_noise(&mut self, d: Direction, used: u32, u_centre_um: f32) {
         self.live_noise_um = self.test.noise_um(d);
-        let u_centre_um = self
-            .test
-            .traced_centre(d)
-            .map_or(u_centre_um, |t| t.centre_u_um(u_centre_um));
+        let u_centre_um = self.test.centre_u_um(d, u_centre_um);
         if let Ok(s) = self.test.centre_shares(d, u_centre_um) {
             self.live_centre_um = s;
         }
@@ -260,20 +257,14 @@ impl CircleTest {
             results.clear(id, id);
         }
         let est = self.test.fit_estimate(d)?;
-        // the centre's u for the shares: as entered, or the traced offset where it contradicts
-        // that (`TracedCentre::centre_u_um`); the bidirectional figures take the larger
-        let mut u_dir = [u_centre_um; 2];
-        for (u, dir) in u_dir.iter_mut().zip([Direction::Ccw, Direction::Cw]) {
-            if let Ok(t) = self.test.traced_centre(dir) {
-                *u = t.centre_u_um(u_centre_um);
-                if dir == d {
-                    let ([du, dv], [u_du, u_dv]) = (t.offset_um, t.u_um);
-                    results.set(ResultId::CentreDu, f64::from(du), f64::from(u_du));
-                    results.set(ResultId::CentreDv, f64::from(dv), f64::from(u_dv));
-                }
-            }
+        if let Ok(t) = self.test.traced_centre(d) {
+            let ([du, dv], [u_du, u_dv]) = (t.offset_um, t.u_um);
+            results.set(ResultId::CentreDu, f64::from(du), f64::from(u_du));
+            results.set(ResultId::CentreDv, f64::from(dv), f64::from(u_dv));
         }
-        let [u_ccw, u_cw] = u_dir;
+        // the centre's u for the shares; the bidirectional figures take the larger
+        let [u_ccw, u_cw] =
+            [Direction::Ccw, Direction::Cw].map(|d| self.test.centre_u_um(d, u_centre_um));
         let u_run = if d == Direction::Ccw { u_ccw } else { u_cw };
         let socket = self.test.centre_shares(d, u_run)?;
         if let Some(c) = self.complete.get_mut(dir_index(d)) {

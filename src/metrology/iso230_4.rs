@@ -189,10 +189,7 @@ impl CentreResponse {
             .map_err(|_| CircleFitError::IllConditioned)?;
         // the fit (r0 relative to the moments' reference, added back below)
         let [x0, x1, x2] = chol.solve([m.y, m.y_u, m.y_v]);
-        let s = match s {
-            Sensitivity::Outward => 1.0,
-            Sensitivity::Inward => -1.0,
-        };
+        let s = s.sign();
         let mut c = CentreResponse {
             x: [x0 + m.y_ref_um, x1, x2].map(|v| v as f32),
             per_um: [[0.0; 3]; 2],
@@ -645,9 +642,12 @@ impl<const BINS: usize> CircularTest<BINS> {
         // with the bins' right-hand side read δ short by Δ²/12 (0.013 µm at 0.5 mm). f32 sums:
         // 360 terms.
         let mut a = [0.0f32; 6];
-        for (_, nu, nv, w) in run.bins.iter().filter_map(|b| traced_bin(b, [0.0; 3], 0.0)) {
+        for b in run.bins.iter() {
+            let Some((_, nu, nv)) = b.mean() else {
+                continue;
+            };
             for (s, v) in a.iter_mut().zip([1.0, nu, nv, nu * nu, nu * nv, nv * nv]) {
-                *s += w * v;
+                *s += b.n as f32 * v;
             }
         }
         let [a00, a01, a02, a11, a12, a22] = a.map(f64::from);
@@ -683,14 +683,19 @@ impl<const BINS: usize> CircularTest<BINS> {
             f32::NAN
         };
         let u = |a: f64| crate::num::sqrtf(var * a as f32);
-        let s = match run.fit.config().geometry.sensitivity {
-            super::pattern::Sensitivity::Outward => 1.0,
-            super::pattern::Sensitivity::Inward => -1.0,
-        };
+        let s = run.fit.config().geometry.sensitivity.sign();
         Ok(TracedCentre {
             offset_um: [s * x1, s * x2],
             u_um: [u(inv.a11), u(inv.a22)],
         })
+    }
+
+    /// The centre's u for the shares of direction `d`, µm per in-plane coordinate:
+    /// `u_entered_um`, or the traced offset where it contradicts that
+    /// ([`TracedCentre::centre_u_um`]; as entered where the bins do not tell the offset).
+    pub fn centre_u_um(&self, d: Direction, u_entered_um: f32) -> f32 {
+        self.traced_centre(d)
+            .map_or(u_entered_um, |t| t.centre_u_um(u_entered_um))
     }
 
     /// [`CentreResponse`] of direction `d`'s circle.

@@ -116,6 +116,16 @@ pub struct PatternGeometry {
     pub sensitivity: Sensitivity,
 }
 
+impl Sensitivity {
+    /// +1 outward, −1 inward: n = sign · (p − c)/|p − c|.
+    pub const fn sign(self) -> f32 {
+        match self {
+            Sensitivity::Outward => 1.0,
+            Sensitivity::Inward => -1.0,
+        }
+    }
+}
+
 impl PatternGeometry {
     /// The sensitive unit direction n = ±(p − c)/|p − c| in the pattern plane at the axis
     /// positions `axes` (mm), or `None` if the position is at the centre (|p − c| < 1 µm) or not
@@ -138,10 +148,7 @@ impl PatternGeometry {
             return None;
         }
         let r = crate::num::sqrtf(r2);
-        let inv = match self.sensitivity {
-            Sensitivity::Outward => 1.0 / r,
-            Sensitivity::Inward => -1.0 / r,
-        };
+        let inv = self.sensitivity.sign() / r;
         Some(([du * inv, dv * inv], r))
     }
 }

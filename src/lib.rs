@@ -16,6 +16,8 @@
 //!   replay;
 //! - [`protocol`]: the CANopen and SCPI state machines: bytes and frames ↔ reads of the `app`
 //!   and its commands;
+//! - [`pod`]: the application with its protocol servers, log and stream: the one pod type every
+//!   shell (board, emulated board, simulated pod) drives;
 //! - [`settings`]: the configuration in two power-safe flash slots;
 //! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC);
 //! - [`units`]: the units of the configuration fields and the results (one name table).
@@ -42,6 +44,7 @@ pub mod identify;
 mod in_place;
 pub mod metrology;
 pub mod num;
+pub mod pod;
 pub mod protocol;
 pub mod settings;
 pub mod units;

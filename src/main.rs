@@ -4,12 +4,24 @@
 //! the 24 MHz HSE itself (every offered CAN bit rate exact); ADC clocks from the system clock;
 //! 48 MHz USB from HSI48 with clock recovery.
 //! The tasks are in `board/`; the pin table is in the book (`docs/src/hardware.md`).
+//!
+//! **Priorities** (most urgent first; `board::set_priorities` sets the NVIC):
+//! 1. the probe latch (EXTI4) and the LVDT block latch (ADC1's DMA), then the other peripheral
+//!    interrupts (DMA, FDCAN, USB, the time driver);
+//! 2. the I/O executor (interrupt `UART4`): LVDT demodulation, DAC, thermistor, CAN, USB and
+//!    the watchdog tasks — they only move data, so nothing they serve waits for a computation;
+//! 3. the pod executor (interrupt `UART5`): the application task (`board::compute`): samples,
+//!    commands, protocols;
+//! 4. thread mode: the worker (`board::worker`): the application's jobs (the ISO 230-4
+//!    figures, the seed 002 identification) and settings saves, preempted by all of the above.
 #![no_std]
 #![no_main]
 
 mod board;
 
-use embassy_executor::Spawner;
+use embassy_executor::{InterruptExecutor, Spawner};
+use embassy_stm32::interrupt;
+use embassy_stm32::interrupt::InterruptExt;
 use embassy_stm32::time::Hertz;
 use embassy_stm32::usb::Driver;
 // defmt over RTT; the panic handler is `board::safety::panic` (reason kept across the reset).
@@ -46,6 +58,23 @@ fn clocks() -> embassy_stm32::Config {
     // every DMA channel below the two latches (board::set_priorities)
     config.bdma_interrupt_priority = embassy_stm32::interrupt::Priority::P2;
     config
+}
+
+/// The I/O executor: acquisition, CAN, USB and the watchdog (priority 2 of the module doc).
+static EXECUTOR_IO: InterruptExecutor = InterruptExecutor::new();
+/// The pod executor: the application task (priority 3).
+static EXECUTOR_POD: InterruptExecutor = InterruptExecutor::new();
+
+#[interrupt]
+unsafe fn UART4() {
+    // SAFETY: the interrupt is this executor's alone (no UART4 peripheral is used).
+    unsafe { EXECUTOR_IO.on_interrupt() }
+}
+
+#[interrupt]
+unsafe fn UART5() {
+    // SAFETY: the interrupt is this executor's alone (no UART5 peripheral is used).
+    unsafe { EXECUTOR_POD.on_interrupt() }
 }
 
 #[embassy_executor::main]
@@ -109,19 +138,24 @@ async fn main(spawner: Spawner) {
     let usb = Driver::new(p.USB, board::Irqs, p.PA12, p.PA11);
     board::set_priorities();
 
-    let boot = board::compute::BootReport {
+    let boot = ballpod::pod::BootReport {
         can: can_report,
         usb: usb_report,
         settings_rejected: loaded.rejected(),
     };
-    let pod = board::compute::Pod::new(cfg, device_serial(), boot);
+    let pod = board::compute::PodState::new(cfg, device_serial(), boot);
+    interrupt::UART4.set_priority(board::IO_EXECUTOR_PRIORITY);
+    interrupt::UART5.set_priority(board::POD_EXECUTOR_PRIORITY);
+    let io = EXECUTOR_IO.start(interrupt::UART4);
+    let pod_spawner = EXECUTOR_POD.start(interrupt::UART5);
     spawn(
-        &spawner,
+        &pod_spawner,
         "compute",
-        board::compute::compute_task(pod, encoders, probe_in, flash),
+        board::compute::compute_task(pod, encoders, probe_in),
     );
+    spawn(&spawner, "worker", board::worker::worker_task(flash));
     spawn(
-        &spawner,
+        &io,
         "lvdt",
         board::lvdt::lvdt_task(
             ring_a,
@@ -130,27 +164,45 @@ async fn main(spawner: Spawner) {
             board::lvdt::block_period_us(&cfg),
         ),
     );
-    spawn(&spawner, "dac", board::lvdt::dac_task(dac));
+    spawn(&io, "dac", board::lvdt::dac_task(dac));
     spawn(
-        &spawner,
+        &io,
         "thermistor",
         board::thermistor::thermistor_task(p.ADC3, p.PB0),
     );
-    spawn(&spawner, "can", board::can::can_task(can));
-    spawn(&spawner, "usb", board::usb::usb_task(usb, device_serial()));
-    spawn(&spawner, "watchdog", board::safety::watchdog_task(p.IWDG));
+    spawn(&io, "can", board::can::can_task(can));
+    spawn(&io, "usb", board::usb::usb_task(usb, device_serial()));
+    spawn(&io, "watchdog", board::safety::watchdog_task(p.IWDG));
 }
 
-/// Spawns a task; a task fn only fails when its pool is exhausted, which a single spawn per
-/// task cannot do — logged rather than panicked on all the same.
-fn spawn<S>(
-    spawner: &Spawner,
+/// Spawns a task on an executor (thread mode or interrupt); a task fn only fails when its pool
+/// is exhausted, which a single spawn per task cannot do — logged rather than panicked on all
+/// the same.
+fn spawn<S, E: Spawn<S>>(
+    spawner: &E,
     name: &str,
     token: Result<embassy_executor::SpawnToken<S>, embassy_executor::SpawnError>,
 ) {
     match token {
-        Ok(t) => spawner.spawn(t),
+        Ok(t) => spawner.spawn_token(t),
         Err(_) => defmt::error!("cannot spawn task {}", name),
+    }
+}
+
+/// The two kinds of spawner (thread mode, interrupt executor).
+trait Spawn<S> {
+    fn spawn_token(&self, t: embassy_executor::SpawnToken<S>);
+}
+
+impl<S> Spawn<S> for Spawner {
+    fn spawn_token(&self, t: embassy_executor::SpawnToken<S>) {
+        self.spawn(t);
+    }
+}
+
+impl<S: Send> Spawn<S> for embassy_executor::SendSpawner {
+    fn spawn_token(&self, t: embassy_executor::SpawnToken<S>) {
+        self.spawn(t);
     }
 }
 

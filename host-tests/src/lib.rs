@@ -25,3 +25,16 @@ pub mod session_file;
 pub mod simulate;
 pub mod slcan;
 pub mod vmt;
+
+/// Runs the jobs `app` wants here and now, in a slot of this thread's ([`ballpod::app::job`]:
+/// the figures a run's end left, an identification; the pod runs them at its lowest priority
+/// while it goes on): what a test that drives the application directly does after a STOP
+/// before it reads the results. Returns whether there was one.
+pub fn run_jobs(app: &mut ballpod::app::App) -> bool {
+    use std::cell::RefCell;
+    thread_local! {
+        static SLOT: RefCell<Box<ballpod::app::JobSlot>> =
+            RefCell::new(Box::new(ballpod::app::JobSlot::new()));
+    }
+    SLOT.with(|s| app.run_jobs(&mut s.borrow_mut()))
+}

@@ -101,8 +101,8 @@ pub fn run_poses(
         vp.sample_at(dl, &axes);
     }
     // stopped; a run without results is reported as aborted with its reason
+    // (the pod's jobs run at the end of the turn: the run's figures are there)
     let _ = vp.execute(Command::Stop);
-    while vp.app.run_pending_job() {}
     let run = vp
         .recording
         .runs

@@ -1,7 +1,7 @@
 //! The results table's uncertainty budget (`ballpod::app::Results`): each result keeps the
 //! share of every contributor, u is their root sum of squares, and the three largest are
 //! reported largest first — against values computed here by hand.
-use ballpod::app::{Contributor, ResultId, Results};
+use ballpod::app::{Contributor, ResultId, ResultSink, Results};
 use ballpod::metrology::bar_budget::{BarBudget, FigureKind};
 
 #[test]

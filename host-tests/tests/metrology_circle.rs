@@ -442,6 +442,7 @@ fn seed002_tv7_cr_sign_anchor_through_the_pod() {
                 seq += 1;
             }
             app.execute(Command::Stop).expect("stop");
+            ballpod_host::run_jobs(&mut app);
             assert_eq!(app.session(), SessionState::Done, "{d:?}");
             let (eu, ev) = (app.result(ResultId::EccU), app.result(ResultId::EccV));
             assert!(eu.valid && ev.valid, "{d:?}: {eu:?} {ev:?}");
@@ -619,6 +620,7 @@ fn the_pods_live_u_is_what_its_results_state() {
         }
         let live = *app.live();
         app.execute(Command::Stop).expect("stop");
+        ballpod_host::run_jobs(&mut app);
         assert_eq!(app.session(), SessionState::Done, "{pattern:?}");
         assert!(first_u.is_some(), "{pattern:?}: no live u");
         let n = f64::from(N);

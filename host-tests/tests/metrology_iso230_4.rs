@@ -839,6 +839,7 @@ fn bar_budget_u_covers_a_miscalibrated_bar_and_a_socket_entered_off_in_95_percen
                     a.on_sample(&s, &mut ());
                 }
                 a.execute(Command::Stop).unwrap();
+                ballpod_host::run_jobs(a);
                 assert_eq!(a.session(), SessionState::Done, "{dir:?}");
             }
             seq += N as u32;
@@ -1106,6 +1107,7 @@ fn a_circle_runs_centre_share_reaches_its_results() {
         }
         let live_u = [Live::UR0, Live::UEccU, Live::UEccV].map(|v| app.live().get(v));
         app.execute(Command::Stop).unwrap();
+        ballpod_host::run_jobs(&mut app);
         assert_eq!(app.session(), SessionState::Done);
         (app, live_u)
     };
@@ -1477,4 +1479,145 @@ fn a_centre_entered_off_its_budget_takes_the_traced_offset() {
     }
     println!("G ccw with the budget as entered: covered in {covered_entered} of {RUNS}");
     assert!(covered_entered * 100 < RUNS * 60, "{covered_entered}");
+}
+
+/// A CIRCLE pod about [`P0`] on radius [`R`].
+fn circle_pod() -> ballpod::app::App {
+    use ballpod::acquisition::MAX_AXES;
+    use ballpod::config::Config;
+    let mut cfg = Config {
+        bar_length_mm: R as f32,
+        ..Config::default()
+    };
+    cfg.setup.circle_centre_mm = [P0[0] as f32, P0[1] as f32, 88.0];
+    cfg.setup.circle_radius_mm = R as f32;
+    let mut app = ballpod::app::App::new(cfg, [16; MAX_AXES]);
+    app.set_pattern(ballpod::app::Pattern::Circle).unwrap();
+    app
+}
+
+/// One run of `samples` in direction `d` up to its STOP (the job it wants not run).
+fn circle_run(app: &mut ballpod::app::App, d: Direction, samples: &[Sample]) {
+    use ballpod::app::Command;
+    app.set_direction(d).unwrap();
+    app.execute(Command::Arm).unwrap();
+    app.execute(Command::Start).unwrap();
+    for s in samples {
+        app.on_sample(s, &mut ());
+    }
+    app.execute(Command::Stop).unwrap();
+}
+
+/// The figures of a run's end are a job (app::job): STOP is answered with them invalid, the
+/// status word says COMPUTING and not RESULTS_READY; the application goes on with a run of the
+/// other direction while the job waits and runs; the results it publishes are those of the
+/// runs as they ended, the same as where the job runs at once, bit for bit.
+#[test]
+fn a_circle_stop_leaves_its_figures_to_a_job_while_the_pod_goes_on() {
+    use ballpod::app::{JobSlot, ResultId, SessionState, StatusWord};
+    let m = Machine {
+        squareness: 40e-6,
+        bx: 0.01,
+        noise_um: 0.2,
+        ..Machine::default()
+    };
+    let mut rng = Rng::new(41);
+    let (ccw, cw) = (
+        run(&m, Direction::Ccw, 4000, &mut rng),
+        run(&m, Direction::Cw, 4000, &mut rng),
+    );
+    let ids = [
+        ResultId::GCcw,
+        ResultId::FMaxCcw,
+        ResultId::GCw,
+        ResultId::GBidir,
+        ResultId::H,
+        ResultId::Squareness,
+        ResultId::ReversalU,
+        ResultId::CyclicOrder,
+    ];
+    // where the jobs run at once (the simulated pod, replay)
+    let mut at_once = circle_pod();
+    circle_run(&mut at_once, Direction::Ccw, &ccw);
+    ballpod_host::run_jobs(&mut at_once);
+    circle_run(&mut at_once, Direction::Cw, &cw);
+    ballpod_host::run_jobs(&mut at_once);
+
+    let mut app = circle_pod();
+    let mut slot = Box::new(JobSlot::new());
+    circle_run(&mut app, Direction::Ccw, &ccw);
+    let status = app.live().status.0;
+    assert_eq!(app.session(), SessionState::Done);
+    assert!(status & StatusWord::COMPUTING != 0, "{status:#06x}");
+    assert!(status & StatusWord::RESULTS_READY == 0, "{status:#06x}");
+    assert!(!app.result(ResultId::GCcw).valid, "G before its job");
+    assert!(
+        app.result(ResultId::EccU).valid,
+        "the run's fit is published at STOP"
+    );
+    assert!(app.start_job(&mut slot));
+    // the application goes on while the job waits for the worker: the CW run, to its end
+    circle_run(&mut app, Direction::Cw, &cw);
+    assert!(!app.start_job(&mut slot), "one job at a time");
+    slot.run();
+    app.finish_job(&mut slot);
+    assert!(
+        app.result(ResultId::GCcw).valid,
+        "the CCW figures, published"
+    );
+    assert!(
+        !app.result(ResultId::GBidir).valid,
+        "the CW run's job is still to run"
+    );
+    assert!(app.job_pending());
+    assert!(app.start_job(&mut slot));
+    slot.run();
+    app.finish_job(&mut slot);
+    assert_eq!(slot.patch_overflowed(), 0);
+    let status = app.live().status.0;
+    assert!(status & StatusWord::COMPUTING == 0, "{status:#06x}");
+    assert!(status & StatusWord::RESULTS_READY != 0, "{status:#06x}");
+    for id in ids {
+        let (a, b) = (app.result(id), at_once.result(id));
+        assert!(a.valid, "{id:?}");
+        assert_eq!(a.value.to_bits(), b.value.to_bits(), "{id:?}");
+        assert_eq!(
+            a.std_uncertainty.to_bits(),
+            b.std_uncertainty.to_bits(),
+            "{id:?}"
+        );
+    }
+}
+
+/// A job's figures are of the runs it read: a run of the same direction begun again before
+/// the job ends makes them stale, and they are dropped (the new run's end computes its own);
+/// a run of the other direction does not.
+#[test]
+fn a_figures_job_of_a_replaced_run_publishes_nothing() {
+    use ballpod::app::{Command, JobSlot, ResultId};
+    let m = Machine {
+        noise_um: 0.2,
+        ..Machine::default()
+    };
+    let ccw = run(&m, Direction::Ccw, 2000, &mut Rng::new(5));
+    let mut app = circle_pod();
+    let mut slot = Box::new(JobSlot::new());
+    circle_run(&mut app, Direction::Ccw, &ccw);
+    assert!(app.start_job(&mut slot));
+    // the CW run armed meanwhile: CCW's figures stand
+    app.set_direction(Direction::Cw).unwrap();
+    app.execute(Command::Arm).unwrap();
+    slot.run();
+    app.finish_job(&mut slot);
+    assert!(app.result(ResultId::GCcw).valid);
+    app.execute(Command::Abort).unwrap();
+    // CCW again: the job of the first CCW run is stale when it ends
+    circle_run(&mut app, Direction::Ccw, &ccw);
+    assert!(app.start_job(&mut slot));
+    app.set_direction(Direction::Ccw).unwrap();
+    app.execute(Command::Arm).unwrap();
+    slot.run();
+    app.finish_job(&mut slot);
+    assert!(!app.result(ResultId::GCcw).valid, "a replaced run's G");
+    assert!(!app.job_pending());
 }

@@ -227,6 +227,7 @@ fn partial_arcs_on_the_pod_and_in_replay_match_an_f64_fit_within_1_nm() {
                     app.on_sample(&sample, &mut rec);
                 }
                 app.execute(Command::Stop).expect("stop");
+                ballpod_host::run_jobs(&mut app);
                 app.flush(&mut rec);
                 let what = format!("{plane:?} {arc_deg}° {}", dir.name());
                 assert_eq!(app.session(), SessionState::Done, "{what}");
@@ -308,6 +309,7 @@ fn the_readme_session_file_replays_a_pod_file_and_a_plain_log() {
         app.on_sample(&sample(k, 1.0), &mut rec);
     }
     app.execute(Command::Stop).expect("stop");
+    ballpod_host::run_jobs(&mut app);
     app.flush(&mut rec);
     std::fs::write(dir.join("ccw.csv"), rec.runs[0].to_csv()).expect("ccw.csv");
 

@@ -9,7 +9,7 @@
 //! diagnoses, and the servo mismatch when the feed is set.
 
 use super::pattern::Direction;
-use super::results::{ResultId, Results};
+use super::results::{ResultId, ResultSink, Results};
 use crate::config::{CirclePlane, Field, TestSetup, is_set};
 use crate::in_place::init_in_place;
 use crate::metrology::bar_budget::BarBudget;
@@ -89,7 +89,15 @@ impl PartialEq for CircleGeometry {
     }
 }
 
-const fn dir_index(d: Direction) -> usize {
+/// The results of one direction's figures: G, F_max, F_min.
+const fn figure_ids(d: Direction) -> (ResultId, ResultId, ResultId) {
+    match d {
+        Direction::Ccw => (ResultId::GCcw, ResultId::FMaxCcw, ResultId::FMinCcw),
+        Direction::Cw => (ResultId::GCw, ResultId::FMaxCw, ResultId::FMinCw),
+    }
+}
+
+pub(crate) const fn dir_index(d: Direction) -> usize {
     match d {
         Direction::Ccw => 0,
         Direction::Cw => 1,
@@ -115,6 +123,29 @@ pub struct CircleTest {
     /// as of the last noise refresh ([`CircularTest::centre_shares`]; 0 before the first),
     /// µm.
     live_centre_um: [f32; 3],
+    /// Runs begun in each direction (CCW, CW) since boot, and both at a new test or
+    /// [`CircleTest::clear`]: a [`FiguresRequest`] computes and publishes only while the runs it
+    /// read are still the latest.
+    epochs: [u32; 2],
+}
+
+/// What a run's end leaves to a job ([`super::job`]): the ISO 230-4 figures of the run's
+/// direction (G, F) and, once both directions are complete, the bi-directional figures and the
+/// diagnoses ([`CircleTest::figures`]: 0.1–0.3 s on the pod).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FiguresRequest {
+    /// The run's direction.
+    pub direction: Direction,
+    /// The centre's standard uncertainty for the run's figures, µm
+    /// ([`CircularTest::centre_u_um`]).
+    pub u_centre_um: f32,
+    /// The centre's for the bi-directional figures and the diagnoses (the larger of the two
+    /// directions'), µm; `None` until both directions are complete.
+    pub u_centre_bidir_um: Option<f32>,
+    /// The bar's budget as configured when the run ended.
+    pub bar: BarBudget,
+    /// [`CircleTest`]'s run epochs when the run ended.
+    epochs: [u32; 2],
 }
 
 /// Samples between two refreshes of the sample noise the live u of a CIRCLE run takes (the
@@ -150,6 +181,7 @@ impl CircleTest {
             live_noise_um: f32::NAN,
             next_noise_at: 0,
             live_centre_um: [0.0; 3],
+            epochs: [0; 2],
         } in place {
             test: |s| CircularTest::init(s, NO_TEST, f32::NAN),
         })
@@ -158,6 +190,17 @@ impl CircleTest {
     /// Forgets the test: the next run starts a new one.
     pub fn clear(&mut self) {
         self.geometry = None;
+        self.epochs = self.epochs.map(|e| e.wrapping_add(1));
+    }
+
+    /// Whether the runs `request` read are still this test's latest (no run of theirs begun
+    /// again, no new test since).
+    pub fn current(&self, request: &FiguresRequest) -> bool {
+        let k = dir_index(request.direction);
+        match request.u_centre_bidir_um {
+            Some(_) => self.epochs == request.epochs,
+            None => self.epochs.get(k) == request.epochs.get(k),
+        }
     }
 
     /// A run of direction `d` begins with `geometry`: a new geometry starts a new test (in
@@ -170,10 +213,15 @@ impl CircleTest {
             self.geometry = Some(geometry);
             self.test.restart(geometry.fit, geometry.radius_mm);
             self.complete = [false; 2];
+            self.epochs = self.epochs.map(|e| e.wrapping_add(1));
         } else {
             self.test.reset_direction(d);
-            if let Some(c) = self.complete.get_mut(dir_index(d)) {
+            let k = dir_index(d);
+            if let Some(c) = self.complete.get_mut(k) {
                 *c = false;
+            }
+            if let Some(e) = self.epochs.get_mut(k) {
+                *e = e.wrapping_add(1);
             }
         }
     }
@@ -231,28 +279,23 @@ impl CircleTest {
         self.next_noise_at = used.saturating_add(every);
     }
 
-    /// Ends the run of direction `d`: its results, and the bi-directional ones when both
-    /// directions are complete, each u with the bar's share `bar` (`metrology::bar_budget`)
-    /// and the centre's for `u_centre_um`, or for the offset the run's axis positions traced
-    /// where it contradicts that ([`iso230_4::TracedCentre::centre_u_um`]; the bi-directional
-    /// figures and the diagnoses the larger of the two directions') (each figure's and
-    /// diagnosis's `Diagnosed::centre_um`, H none; the servo mismatch's from the two
-    /// directions' signed squareness changes, [`servo_mismatch_ms`]); the traced offset itself
-    /// (`centre_du`, `centre_dv`); and the fit with the centre's shares of its (r0, e_u, e_v)
-    /// ([`CircularTest::centre_shares`]). `Err` if the run has no fit (too short an arc, too
-    /// few samples).
+    /// Ends the run of direction `d`: the traced offset of the centre (`centre_du`,
+    /// `centre_dv`), the run's fit with the centre's shares of its (r0, e_u, e_v)
+    /// ([`CircularTest::centre_shares`]) for the centre's `u_centre_um`, or for the offset the
+    /// run's axis positions traced where it contradicts that
+    /// ([`iso230_4::TracedCentre::centre_u_um`]), and what is left to a job: the run's figures
+    /// and, when both directions are complete, the bi-directional ones ([`Self::figures`]; their
+    /// results are invalid until it publishes them). `Err` if the run has no fit (too short an
+    /// arc, too few samples).
     pub fn finish_run(
         &mut self,
         d: Direction,
         results: &mut Results,
-        bar: &BarBudget,
         u_centre_um: f32,
-    ) -> Result<(CircleEstimate, [f32; 3]), CircleFitError> {
+        bar: BarBudget,
+    ) -> Result<(CircleEstimate, [f32; 3], FiguresRequest), CircleFitError> {
         results.clear(ResultId::GBidir, ResultId::CentreDv);
-        let (g, fmax, fmin) = match d {
-            Direction::Ccw => (ResultId::GCcw, ResultId::FMaxCcw, ResultId::FMinCcw),
-            Direction::Cw => (ResultId::GCw, ResultId::FMaxCw, ResultId::FMinCw),
-        };
+        let (g, fmax, fmin) = figure_ids(d);
         for id in [g, fmax, fmin] {
             results.clear(id, id);
         }
@@ -270,7 +313,30 @@ impl CircleTest {
         if let Some(c) = self.complete.get_mut(dir_index(d)) {
             *c = true;
         }
-        if let Ok(f) = self.test.direction_figures(d, u_run) {
+        let request = FiguresRequest {
+            direction: d,
+            u_centre_um: u_run,
+            u_centre_bidir_um: (self.complete == [true, true]).then_some(if u_ccw > u_cw {
+                u_ccw
+            } else {
+                u_cw
+            }),
+            bar,
+            epochs: self.epochs,
+        };
+        Ok((est, socket, request))
+    }
+
+    /// The figures a run's end left ([`Self::finish_run`]): G and F of its direction and, when
+    /// both were complete, G(b), H, the radial deviation and the diagnoses, each u with the
+    /// bar's share (the request's, `metrology::bar_budget`) and the centre's (each figure's and
+    /// diagnosis's `Diagnosed::centre_um`, H none; the servo mismatch's from the two
+    /// directions' signed squareness changes, [`servo_mismatch_ms`]), into `results`. 0.1–0.3 s
+    /// on the pod: a job runs it on its own copy of the test ([`super::job`]).
+    pub fn figures(&self, request: &FiguresRequest, results: &mut impl ResultSink) {
+        let (d, bar) = (request.direction, &request.bar);
+        let (g, fmax, fmin) = figure_ids(d);
+        if let Ok(f) = self.test.direction_figures(d, request.u_centre_um) {
             for (id, v, kind) in [
                 (g, f.circular_deviation_g_um, Shape),
                 (fmax, f.radial_deviation_f_max_um, Radial),
@@ -279,13 +345,12 @@ impl CircleTest {
                 results.set_with_bar(id, v.value, [v.std_uncertainty, v.centre_um], bar, kind);
             }
         }
-        if self.complete == [true, true] {
-            self.bidirectional(results, bar, if u_ccw > u_cw { u_ccw } else { u_cw });
+        if let Some(u) = request.u_centre_bidir_um {
+            self.bidirectional(results, bar, u);
         }
-        Ok((est, socket))
     }
 
-    fn bidirectional(&self, results: &mut Results, bar: &BarBudget, u_centre_um: f32) {
+    fn bidirectional(&self, results: &mut impl ResultSink, bar: &BarBudget, u_centre_um: f32) {
         if let Ok(b) = self.test.bidirectional_figures(u_centre_um) {
             for (id, v, kind) in [
                 (

@@ -162,18 +162,24 @@ pub struct StatusWord(pub u16);
 impl StatusWord {
     /// Bits 0–5: the latest sample's [`SampleFlags`] (same bit positions).
     pub const SAMPLE_FLAGS_MASK: u16 = 0x003F;
+    /// Bit 6: a job is wanted or running ([`crate::app::job`]: the ISO 230-4 figures of a
+    /// CIRCLE run that ended, the seed 002 identification); the results it publishes are
+    /// invalid, and [`Self::RESULTS_READY`] is clear, until it has.
+    pub const COMPUTING: u16 = 1 << 6;
     /// Bit 8: a run is armed.
     pub const ARMED: u16 = 1 << 8;
     /// Bit 9: a run is running (samples go into its estimators).
     pub const RUNNING: u16 = 1 << 9;
-    /// Bit 10: the last run ended normally and has valid results.
+    /// Bit 10: the last run ended normally and has valid results (every job it left has
+    /// published them: [`Self::COMPUTING`] is clear).
     pub const RESULTS_READY: u16 = 1 << 10;
     /// Bit 11: the last run was aborted (reason: CANopen 0x3004, SCPI `SESSion:REASon?`).
     pub const ABORTED: u16 = 1 << 11;
     /// Bit 12: every live value of the armed pattern is valid (CIRCLE / seed 002: e and r0;
     /// SSM: all three components of E).
     pub const LIVE_VALID: u16 = 1 << 12;
-    /// Bit 13: an identification is pending (seed 002 procedure complete, computing).
+    /// Bit 13: the seed 002 identification is wanted or running (procedure complete,
+    /// computing; [`Self::COMPUTING`] is set too).
     pub const IDENTIFYING: u16 = 1 << 13;
     /// Bit 14: a field that takes effect at reset ([`crate::config::AT_RESET`]) differs from
     /// the value the pod runs with.

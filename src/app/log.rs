@@ -6,7 +6,7 @@
 //! The log holds one run (a new run clears it). While the run fits, every sample is kept; when
 //! the log is full it keeps every other sample and from then on logs one in two, then one in
 //! four, … (`decimation`, a power of two, counted from the run's first sample number), so it
-//! always spans the whole run: a 57 s circle at 1 kHz in 600 records is logged at 1 kHz / 128.
+//! always spans the whole run: a 57 s circle at 1 kHz in 432 records is logged at 1 kHz / 256.
 //! Touch points are never dropped by the decimation. What could not be kept is counted
 //! ([`SampleLog::overwritten`]). The USB sample stream has every sample; replaying a decimated
 //! log gives the results of the logged samples, not the pod's own.
@@ -25,9 +25,9 @@ use crate::acquisition::{MAX_AXES, Sample, SampleFlags};
 use crate::in_place::{self, init_in_place};
 use core::mem::MaybeUninit;
 
-/// Records the firmware's log holds (36 bytes each: 21.6 KiB, in the 32 KiB CCM SRAM of the
-/// pod, `memory.x`).
-pub const LOG_CAPACITY: usize = 600;
+/// Records the firmware's log holds (36 bytes each: 15.2 KiB, in the 32 KiB CCM SRAM of the
+/// pod, `memory.x`, beside the 16.6 KiB job slot, `app::job`).
+pub const LOG_CAPACITY: usize = 432;
 
 /// Temperature stored when the sample's temperature is not finite or beyond ±327 °C.
 const TEMP_INVALID: i16 = i16::MIN;
@@ -159,6 +159,9 @@ pub struct SampleLog<const N: usize> {
     end_abort: u8,
     end_counters: RunCounters,
     has_end: bool,
+    /// Samples not logged because a download was in progress, since boot
+    /// ([`SampleLog::count_paused`]).
+    paused: u32,
 }
 
 impl<const N: usize> Default for SampleLog<N> {
@@ -187,6 +190,7 @@ impl<const N: usize> SampleLog<N> {
             end_abort: 0,
             end_counters: RunCounters::ZERO,
             has_end: false,
+            paused: 0,
         } in place {
             records: |s| in_place::fill(s, LogRecord::ZERO),
         })
@@ -205,6 +209,17 @@ impl<const N: usize> SampleLog<N> {
     /// True if no record is held.
     pub const fn is_empty(&self) -> bool {
         self.len == 0
+    }
+
+    /// Counts a sample not logged because the log is being downloaded (it must not change
+    /// meanwhile; the stream still has the sample).
+    pub fn count_paused(&mut self) {
+        self.paused = self.paused.saturating_add(1);
+    }
+
+    /// Samples not logged because a download was in progress, since boot.
+    pub const fn paused_samples(&self) -> u32 {
+        self.paused
     }
 
     /// Samples or touch points the log could not keep in this run.

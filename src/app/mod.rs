@@ -26,12 +26,15 @@
 //! | SSM | E_x, E_y, E_z of the neighbourhood (each or none) | E from the dwell stations, u(E) | seed 000 two-step over two SSM runs ([`ssm`]) |
 //! | PROBE | – | the sphere through the touch points | touch-probe C axis over four spheres, B axis over B = 0/90° with two tool lengths ([`probe`]) |
 //!
-//! The seed 002 identification takes seconds on the M4 (f64 in software): [`App::execute`]
-//! only marks it pending (status bit [`StatusWord::IDENTIFYING`]); the shell runs it with
-//! [`App::run_pending_job`] where a long computation does no harm.
+//! What takes long at a run's end — the ISO 230-4 figures, a touch-probe method, the seed 002
+//! identification (seconds on the M4: f64 in software) — is a [`job`]: the command that ends the
+//! run only marks it wanted (status bit [`StatusWord::COMPUTING`]), and the shell runs it on a
+//! copy of its inputs where a long computation does no harm ([`App::start_job`],
+//! [`JobSlot::run`], [`App::finish_job`]).
 
 pub mod circle;
 pub mod device;
+pub mod job;
 pub mod live;
 pub mod log;
 pub mod pattern;
@@ -44,12 +47,13 @@ pub mod ssm;
 pub mod trigger;
 
 pub use device::{DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, DeviceCounter, DeviceCounters};
+pub use job::JobSlot;
 pub use live::{LIVE, LIVE_COUNT, LIVE_U_EVERY, Live, LiveValues, StatusWord};
 pub use pattern::{Direction, Pattern};
 pub use record::{Recorder, RunEnd, RunMeta, Touch};
 pub use results::{
     CONTRIBUTOR_COUNT, CONTRIBUTORS, Contributor, RESULT_COUNT, ResultEntry, ResultId, ResultInfo,
-    Results,
+    ResultPatch, ResultSink, Results,
 };
 pub use run::{AbortReason, RunCounters, RunLimits};
 
@@ -57,11 +61,12 @@ use crate::acquisition::lvdt::{BlockReading, DemodError, LvdtReading};
 use crate::acquisition::probe::{ProbeLatch, TriggerOutcome};
 use crate::acquisition::{Acquisition, AcquisitionCounters, MAX_AXES, Sample, SampleFlags};
 use crate::config::{AxisName, Config, ConfigError, Field, LvdtInput, RunTrigger};
-use crate::identify::multitasking::{Parameter, urad_to_arcsec};
+
 use crate::metrology::bar_budget::{BarBudget, FigureKind};
 use crate::metrology::circle_fit::{CircleEstimate, CircleFit};
-use circle::{CircleGeometry, CircleTest};
-use probe::{ProbeRun, Spheres};
+use circle::{CircleGeometry, CircleTest, FiguresRequest};
+use job::{JobKind, JobOutcome};
+use probe::{ProbeAxis, ProbeRun, Spheres};
 use run::{RunMonitor, Verdict};
 use seed002::{Procedure, Setup};
 use ssm::{SsmRun, TwoStep};
@@ -259,6 +264,18 @@ impl CommandError {
 /// The procedure note of an armed self-triggered run that has not seen the feed-in.
 const WAITING_FOR_FEED_IN: CommandError =
     CommandError::WrongState("FEED_IN: waiting for the feed-in");
+/// The procedure note of a touch-probe method that gave no result.
+fn probe_note(e: probe::ProbeFailure) -> CommandError {
+    match e {
+        probe::ProbeFailure::Missing(f) => CommandError::Missing(f),
+        probe::ProbeFailure::CAxis(_) => CommandError::WrongState("C-axis identification failed"),
+        probe::ProbeFailure::BAxis(_) => CommandError::WrongState("B-axis identification failed"),
+    }
+}
+
+/// The procedure note of a seed 002 identification that failed.
+const IDENTIFICATION_FAILED: CommandError =
+    CommandError::WrongState("seed 002 identification failed");
 /// The procedure note of an armed self-triggered run fed in, before the data arc.
 const WAITING_FOR_DATA_ARC: CommandError =
     CommandError::WrongState("FEED_IN: fed in, waiting for the data arc");
@@ -379,9 +396,25 @@ pub struct App {
     meta: RunMeta,
     circle: CircleTest,
     ssm: SsmRun,
-    seed002: Option<Procedure>,
+    /// The seed 002 procedure (meaningful once `seed002_begun`): in place, never rebuilt on
+    /// the stack (3.3 KiB).
+    seed002: Procedure,
+    /// A seed 002 step was armed since the last `CLEAR`.
+    seed002_begun: bool,
     seed002_runs_not_kept: u32,
+    /// Procedures begun or cleared since boot: an identification publishes only into the
+    /// procedure it identified.
+    seed002_epoch: u32,
     identify_pending: bool,
+    /// The figures each circle direction's last run left to a job (CCW, CW).
+    figures_requests: [Option<FiguresRequest>; 2],
+    /// The touch-probe methods (B, C) whose identification is wanted.
+    probe_requests: [bool; 2],
+    /// Sphere sets cleared since boot: a probe identification publishes only into the set it
+    /// identified.
+    spheres_epoch: u32,
+    /// The job a shell is running ([`App::start_job`] to [`App::finish_job`]).
+    job: Option<JobKind>,
     two_step: TwoStep,
     spheres: Spheres,
     touches_outside_run: u32,
@@ -443,9 +476,15 @@ impl App {
                 config,
                 ..RunMeta::ZERO
             },
-            seed002: None,
+            seed002: Procedure::new(Setup::thesis_table_4_3()),
+            seed002_begun: false,
             seed002_runs_not_kept: 0,
+            seed002_epoch: 0,
             identify_pending: false,
+            figures_requests: [None; 2],
+            probe_requests: [false; 2],
+            spheres_epoch: 0,
+            job: None,
             two_step: TwoStep::default(),
             spheres: Spheres::default(),
             touches_outside_run: 0,
@@ -560,7 +599,7 @@ impl App {
     }
     /// The seed 002 procedure of the present set-up, once a step was armed.
     pub fn seed002(&self) -> Option<&Procedure> {
-        self.seed002.as_ref()
+        self.seed002_begun.then_some(&self.seed002)
     }
     /// The device counters as the shell last set them, with the settings saves that failed
     /// (which the application counts itself from [`settings_stored`](Self::settings_stored)).
@@ -572,10 +611,6 @@ impl App {
     /// The shell's device counters (its queues, watchdog, DMA, masked time, stack).
     pub fn set_device_counters(&mut self, c: DeviceCounters) {
         self.device = c;
-    }
-    /// True while an identification waits for [`run_pending_job`](Self::run_pending_job).
-    pub fn job_pending(&self) -> bool {
-        self.identify_pending
     }
     /// The header of the current / last run.
     pub fn run_meta(&self) -> &RunMeta {
@@ -745,12 +780,16 @@ impl App {
 
     fn clear_procedures(&mut self) {
         self.circle.clear();
-        self.seed002 = None;
+        self.seed002_begun = false;
+        self.seed002_epoch = self.seed002_epoch.wrapping_add(1);
         self.identify_pending = false;
+        self.figures_requests = [None; 2];
         self.two_step.clear();
         self.spheres.clear();
+        self.spheres_epoch = self.spheres_epoch.wrapping_add(1);
+        self.probe_requests = [false; 2];
         self.estimator = RunEstimator::None;
-        self.results = Results::new();
+        self.results.clear_all();
         self.procedure_note = None;
     }
 
@@ -794,17 +833,18 @@ impl App {
                     Ok(s) => s,
                     Err(f) => return self.refuse(CommandError::Missing(f)),
                 };
-                match self.seed002.as_mut() {
+                match self.seed002_begun.then_some(&mut self.seed002) {
                     // a new budget applies to the runs measured so far
                     Some(p) if p.setup().same_measurement(&s) => p.set_mounting(s.mounting),
                     _ => {
                         // a new set-up starts a new procedure
-                        self.seed002 = Some(Procedure::new(s));
+                        self.new_procedure(s);
+                        self.seed002_epoch = self.seed002_epoch.wrapping_add(1);
                         self.identify_pending = false;
                         self.results.clear(ResultId::EBxX, ResultId::CorrBetaCz);
                     }
                 }
-                let fit = match self.seed002.as_ref() {
+                let fit = match self.seed002() {
                     Some(p) => p.run_fit(step),
                     None => return self.refuse(CommandError::WrongState("no procedure")),
                 };
@@ -836,6 +876,12 @@ impl App {
         };
         self.queue(Pending::Begin(self.meta.run));
         Ok(())
+    }
+
+    /// A new seed 002 procedure with set-up `s`, in place.
+    fn new_procedure(&mut self, s: Setup) {
+        self.seed002.restart(s);
+        self.seed002_begun = true;
     }
 
     fn queue(&mut self, p: Pending) {
@@ -915,11 +961,14 @@ impl App {
             RunEstimator::Circle => {
                 match self
                     .circle
-                    .finish_run(d, &mut self.results, &bar, setup.circle_u_centre_um)
+                    .finish_run(d, &mut self.results, setup.circle_u_centre_um, bar)
                 {
-                    Ok((e, socket)) => {
+                    Ok((e, socket, request)) => {
                         let arc = self.circle.arc_deg(d);
                         self.publish_run_fit(&e, arc, &bar, socket);
+                        if let Some(r) = self.figures_requests.get_mut(circle::dir_index(d)) {
+                            *r = Some(request);
+                        }
                         true
                     }
                     Err(_) => false,
@@ -959,19 +1008,17 @@ impl App {
             RunEstimator::Probe(run) => match run.finish() {
                 Ok(fit) => {
                     probe::publish(&fit, &mut self.results);
-                    match self.spheres.on_sphere(run, &fit, &setup, &mut self.results) {
-                        Err(probe::ProbeFailure::Missing(f)) => {
-                            self.procedure_note = Some(CommandError::Missing(f));
+                    match self.spheres.on_sphere(run, &fit, &setup) {
+                        Err(e) => self.procedure_note = Some(probe_note(e)),
+                        Ok(Some(axis)) => {
+                            // the method's results are recomputed: invalid until the job ends
+                            let (first, last) = axis.results();
+                            self.results.clear(first, last);
+                            if let Some(r) = self.probe_requests.get_mut(axis as usize) {
+                                *r = true;
+                            }
                         }
-                        Err(probe::ProbeFailure::CAxis(_)) => {
-                            self.procedure_note =
-                                Some(CommandError::WrongState("C-axis identification failed"));
-                        }
-                        Err(probe::ProbeFailure::BAxis(_)) => {
-                            self.procedure_note =
-                                Some(CommandError::WrongState("B-axis identification failed"));
-                        }
-                        Ok(_) => {}
+                        Ok(None) => {}
                     }
                     true
                 }
@@ -989,7 +1036,7 @@ impl App {
     /// Files a seed 002 step's run; its eccentricity (mean of the step's runs) goes into the
     /// results with the LVDT scale's share of `bar` in its u.
     fn record_step(&mut self, step: Pattern, d: Direction, e: CircleEstimate, bar: &BarBudget) {
-        let Some(p) = self.seed002.as_mut() else {
+        let Some(p) = self.seed002_begun.then_some(&mut self.seed002) else {
             return;
         };
         if p.record(step, d, e).is_err() {
@@ -1017,89 +1064,116 @@ impl App {
         }
     }
 
-    /// Runs a pending identification (the seed 002 procedure once every step has its CW and
-    /// CCW runs: model mode, thesis mode, corrections) into the results. Returns whether there
-    /// was one. Takes seconds on the M4: the shell calls it where that does no harm.
-    pub fn run_pending_job(&mut self) -> bool {
-        if !self.identify_pending {
+    /// True while a job is wanted or running ([`job`]: the ISO 230-4 figures of a run that
+    /// ended, the seed 002 identification): the results it publishes are invalid until then
+    /// (status bit [`StatusWord::COMPUTING`]).
+    pub fn job_pending(&self) -> bool {
+        self.job.is_some()
+            || self.figures_requests.iter().any(Option::is_some)
+            || self.probe_requests.iter().any(|&r| r)
+            || self.identify_pending
+    }
+
+    /// Hands the next wanted job to `slot` (empty: no job of this application is running), with
+    /// a copy of its inputs; returns whether it did. The shell then runs
+    /// [`JobSlot::run`] where a long computation does no harm (the pod: the lowest priority)
+    /// and gives the slot back with [`App::finish_job`]. Shortest first: the figures of a run
+    /// (tenths of a second), a touch-probe method, then the seed 002 identification (seconds).
+    #[inline(never)] // off the command's and the sample's chains of calls (stack)
+    pub fn start_job(&mut self, slot: &mut JobSlot) -> bool {
+        if self.job.is_some() || !slot.is_empty() {
             return false;
         }
-        self.identify_pending = false;
-        self.results.clear(ResultId::DxBt, ResultId::CorrBetaCz);
-        let bar = BarBudget::from_config(&self.config);
-        let Some(id) = self.seed002.as_ref().map(|p| p.identify(&bar)) else {
-            return true;
-        };
-        let Ok(id) = id else {
-            self.procedure_note = Some(CommandError::WrongState("seed 002 identification failed"));
-            return true;
-        };
-        let r = &mut self.results;
-        let m = &id.model;
-        let x = m.result.deviations.to_array();
-        const MODEL: [(Parameter, ResultId, ResultId); 10] = [
-            (Parameter::DxBt, ResultId::DxBt, ResultId::CorrDxBt),
-            (Parameter::DzBt, ResultId::DzBt, ResultId::CorrDzBt),
-            (Parameter::AlphaBt, ResultId::AlphaBt, ResultId::CorrAlphaBt),
-            (Parameter::AlphaXb, ResultId::AlphaXb, ResultId::CorrAlphaXb),
-            (Parameter::BetaXb, ResultId::BetaXb, ResultId::CorrBetaXb),
-            (Parameter::GammaXb, ResultId::GammaXb, ResultId::CorrGammaXb),
-            (Parameter::DxCz, ResultId::DxCz, ResultId::CorrDxCz),
-            (Parameter::DyCz, ResultId::DyCz, ResultId::CorrDyCz),
-            (Parameter::AlphaCz, ResultId::AlphaCz, ResultId::CorrAlphaCz),
-            (Parameter::BetaCz, ResultId::BetaCz, ResultId::CorrBetaCz),
-        ];
-        for (p, id, corr) in MODEL {
-            let i = p.index();
-            let unit = if p.is_positional() {
-                1.0
-            } else {
-                urad_to_arcsec(1.0)
+        for k in 0..self.figures_requests.len() {
+            let Some(request) = self.figures_requests.get_mut(k).and_then(Option::take) else {
+                continue;
             };
-            let v = x.get(i).copied().unwrap_or(f64::NAN) * unit;
-            // by_source: the eccentricities, the W-ball, the T-ball, the LVDT's scale
-            let [ecc, w, t, scale] = m
-                .uncertainty
-                .by_source
-                .map(|s| (s.get(i).copied().unwrap_or(f64::NAN) * unit) as f32);
-            let shares = [ecc, 0.0, scale, w, t, 0.0, 0.0];
-            r.set_budget(id, v, shares);
-            r.set_budget(corr, -v, shares);
-        }
-        r.set(
-            ResultId::ModelResidualRms,
-            m.result.residual_rms_um,
-            f64::NAN,
-        );
-        r.set(ResultId::ModelCondition, m.result.condition, f64::NAN);
-        if let Ok(t) = &id.thesis {
-            let (d, u) = (&t.deviations, &t.std_uncertainty);
-            for (id, v, uu) in [
-                (ResultId::ThAlphaCz, d.alpha_cz_arcsec, u.alpha_cz_arcsec),
-                (ResultId::ThBetaCz, d.beta_cz_arcsec, u.beta_cz_arcsec),
-                (ResultId::ThAlphaXb, d.alpha_xb_arcsec, u.alpha_xb_arcsec),
-                (ResultId::ThBetaXb, d.beta_xb_arcsec, u.beta_xb_arcsec),
-                (ResultId::ThGammaXb, d.gamma_xb_arcsec, u.gamma_xb_arcsec),
-                (ResultId::ThAlphaBt, d.alpha_bt_arcsec, u.alpha_bt_arcsec),
-                (
-                    ResultId::ThDxCzMinusDxBt,
-                    d.dx_cz_minus_dx_bt_um,
-                    u.dx_cz_minus_dx_bt_um,
-                ),
-                (ResultId::ThDyCz, d.dy_cz_um, u.dy_cz_um),
-                // ex_BX itself, with the step's u
-                (
-                    ResultId::ThDzBtSetting,
-                    t.dz_bt_setting_um,
-                    id.steps.first().map_or(f64::NAN, |bx| bx.u_e_um[0]),
-                ),
-            ] {
-                // eqs 4.10–4.18 are linear in the eccentricities without a constant term: the
-                // LVDT's scale error k moves every result by k times itself, as a shape figure
-                r.set_with_bar(id, v as f32, [uu as f32, 0.0], &bar, FigureKind::Shape);
+            // a run begun again since (or a new test) replaced the runs the request read
+            if self.circle.current(&request) {
+                slot.load_figures(&self.circle, request);
+                self.job = Some(JobKind::CircleFigures);
+                self.update_status();
+                return true;
             }
         }
-        true
+        for axis in [ProbeAxis::B, ProbeAxis::C] {
+            if self
+                .probe_requests
+                .get_mut(axis as usize)
+                .is_some_and(core::mem::take)
+            {
+                let epoch = self.spheres_epoch;
+                slot.load_probe(&self.spheres, &self.config.setup, axis, epoch);
+                self.job = Some(JobKind::ProbeIdentification);
+                self.update_status();
+                return true;
+            }
+        }
+        if core::mem::take(&mut self.identify_pending) {
+            let input = self.seed002().map(Procedure::identification_input);
+            self.results.clear(ResultId::DxBt, ResultId::CorrBetaCz);
+            match input {
+                Some(Ok(input)) => {
+                    let bar = BarBudget::from_config(&self.config);
+                    slot.load_identification(input, bar, self.seed002_epoch);
+                    self.job = Some(JobKind::Seed002Identification);
+                    self.update_status();
+                    return true;
+                }
+                _ => self.procedure_note = Some(IDENTIFICATION_FAILED),
+            }
+        }
+        self.update_status();
+        false
+    }
+
+    /// Takes back a slot whose job ran ([`JobSlot::run`]): its results are published if the runs
+    /// they came from are still the latest (a run of the same direction begun again, a new
+    /// test or procedure, `CLEAR` or `RESET` since the job started make them stale: they are
+    /// dropped, and the newer runs' own jobs publish theirs); the slot is empty after. A slot
+    /// whose job has not run is left as it is.
+    #[inline(never)] // off the command's and the sample's chains of calls (stack)
+    pub fn finish_job(&mut self, slot: &mut JobSlot) {
+        let Some(outcome) = slot.take_outcome() else {
+            return;
+        };
+        match outcome {
+            JobOutcome::Figures(request, patch) => {
+                if self.circle.current(&request) {
+                    patch.apply(&mut self.results);
+                }
+            }
+            JobOutcome::Identification(epoch, Ok(patch)) => {
+                if epoch == self.seed002_epoch {
+                    patch.apply(&mut self.results);
+                }
+            }
+            JobOutcome::Identification(epoch, Err(())) => {
+                if epoch == self.seed002_epoch {
+                    self.procedure_note = Some(IDENTIFICATION_FAILED);
+                }
+            }
+            JobOutcome::Probe(epoch, result) if epoch == self.spheres_epoch => match result {
+                Ok(patch) => patch.apply(&mut self.results),
+                Err(e) => self.procedure_note = Some(probe_note(e)),
+            },
+            JobOutcome::Probe(..) => {}
+        }
+        self.job = None;
+        self.update_status();
+    }
+
+    /// Runs every wanted job here and now in `slot` ([`App::start_job`], [`JobSlot::run`],
+    /// [`App::finish_job`]): the host's and replay's way (the pod runs them at the lowest
+    /// priority). Returns whether there was one.
+    pub fn run_jobs(&mut self, slot: &mut JobSlot) -> bool {
+        let mut any = false;
+        while self.start_job(slot) {
+            slot.run();
+            self.finish_job(slot);
+            any = true;
+        }
+        any
     }
 
     // ------------------------------------------------------------------ samples
@@ -1389,8 +1463,11 @@ impl App {
         if live_valid {
             extra |= StatusWord::LIVE_VALID;
         }
-        if self.identify_pending {
+        if self.identify_pending || self.job == Some(JobKind::Seed002Identification) {
             extra |= StatusWord::IDENTIFYING;
+        }
+        if self.job_pending() {
+            extra |= StatusWord::COMPUTING;
         }
         if self.reset_pending() {
             extra |= StatusWord::RESET_PENDING;
@@ -1398,6 +1475,11 @@ impl App {
         if fault {
             extra |= StatusWord::ERROR;
         }
-        self.live.status = StatusWord::new(self.last_flags, self.session, extra);
+        let mut status = StatusWord::new(self.last_flags, self.session, extra);
+        if extra & StatusWord::COMPUTING != 0 {
+            // the results are not all there until the job has published them
+            status.0 &= !StatusWord::RESULTS_READY;
+        }
+        self.live.status = status;
     }
 }

@@ -20,7 +20,7 @@
 //! redundancy), and the probe's lobing (`probe_u_lobing`), moved through the method by
 //! [`lobing_share`] from each filed sphere's response to it ([`SphereFit::lobing_um_per_um`]).
 
-use super::results::{ResultId, Results};
+use super::results::{ResultId, ResultSink, Results};
 use crate::config::{Field, TestSetup, required, required3};
 use crate::identify::multitasking::lobing::{LOBING_COMPONENTS, lobing_share};
 use crate::identify::multitasking::probe::{
@@ -147,6 +147,25 @@ pub enum ProbeFailure {
     BAxis(ProbeError),
 }
 
+/// A touch-probe method: which axis it identifies.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ProbeAxis {
+    /// The B axis (B = 0°/90°, two tool lengths).
+    B,
+    /// The C axis (four spheres at C = 0/90/180/270°).
+    C,
+}
+
+impl ProbeAxis {
+    /// The results the method publishes (first and last, in [`ResultId`] order).
+    pub const fn results(self) -> (ResultId, ResultId) {
+        match self {
+            ProbeAxis::B => (ResultId::ProbeDxBt, ResultId::ProbeBResidualRms),
+            ProbeAxis::C => (ResultId::ProbeAlphaCz, ResultId::ProbeDyCz),
+        }
+    }
+}
+
 /// A sphere filed for a method.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 struct Filed {
@@ -233,16 +252,15 @@ impl Spheres {
         *self = Self::default();
     }
 
-    /// Files a finished PROBE run; once a method has all its spheres, identifies its axis
-    /// into `results`. Returns whether it did.
+    /// Files a finished PROBE run; returns the method that has all its spheres now (its
+    /// identification is a job: [`Spheres::identify`]), if one does.
     #[inline(never)] // flash: 0.2 KB smaller than inlined into the application task
     pub fn on_sphere(
         &mut self,
         run: &ProbeRun,
         fit: &SphereFit,
         t: &TestSetup,
-        results: &mut Results,
-    ) -> Result<bool, ProbeFailure> {
+    ) -> Result<Option<ProbeAxis>, ProbeFailure> {
         let (b, c) = run.rotary_deg();
         let [x, y, _] = fit.centre_mm;
         let [ox, oy, _] = t.s002_origin_mm.map(f64::from);
@@ -274,15 +292,37 @@ impl Spheres {
                 return Err(ProbeFailure::Missing(Field::ProbeLengthMm));
             }
             self.file_b(run.length_mm, slot, centre);
-            return self.identify_b(t, results);
+            let complete = self
+                .b
+                .iter()
+                .all(|s| s.centres_mm.iter().all(Option::is_some));
+            return Ok(complete.then_some(ProbeAxis::B));
         }
         let Some(slot) = c_slot(b, c) else {
-            return Ok(false);
+            return Ok(None);
         };
         if let Some(s) = self.c_mm.get_mut(slot) {
             *s = Some(centre);
         }
-        self.identify_c(t, results)
+        Ok(self
+            .c_mm
+            .iter()
+            .all(Option::is_some)
+            .then_some(ProbeAxis::C))
+    }
+
+    /// Identifies `axis` from the spheres filed (a job: the lobing shares refit the method
+    /// four ways) into `results`; `Ok(false)` if the method lacks a sphere.
+    pub fn identify(
+        &self,
+        axis: ProbeAxis,
+        t: &TestSetup,
+        results: &mut impl ResultSink,
+    ) -> Result<bool, ProbeFailure> {
+        match axis {
+            ProbeAxis::B => self.identify_b(t, results),
+            ProbeAxis::C => self.identify_c(t, results),
+        }
     }
 
     fn file_b(&mut self, length_mm: f64, slot: usize, centre: Filed) {
@@ -306,7 +346,11 @@ impl Spheres {
         }
     }
 
-    fn identify_c(&self, t: &TestSetup, results: &mut Results) -> Result<bool, ProbeFailure> {
+    fn identify_c(
+        &self,
+        t: &TestSetup,
+        results: &mut impl ResultSink,
+    ) -> Result<bool, ProbeFailure> {
         let [Some(p1), Some(p2), Some(p3), Some(p4)] = self.c_mm else {
             return Ok(false);
         };
@@ -355,7 +399,11 @@ impl Spheres {
         Ok(true)
     }
 
-    fn identify_b(&self, t: &TestSetup, results: &mut Results) -> Result<bool, ProbeFailure> {
+    fn identify_b(
+        &self,
+        t: &TestSetup,
+        results: &mut impl ResultSink,
+    ) -> Result<bool, ProbeFailure> {
         let [
             BSet {
                 length_mm: r1,
@@ -434,7 +482,7 @@ impl Spheres {
 
 /// Writes a method's results: each value with its Type A u and its lobing share.
 fn publish_probe(
-    results: &mut Results,
+    results: &mut impl ResultSink,
     ids: &[ResultId],
     value: &[f64],
     u_a: &[f64],

@@ -357,12 +357,6 @@ impl Results {
         &self.entries
     }
 
-    /// Sets `id` to `value` ± `u` (standard uncertainty, NaN if not evaluated), all of it
-    /// [`Contributor::TypeA`]; a value that is not finite leaves the entry invalid.
-    pub fn set(&mut self, id: ResultId, value: f64, u: f64) {
-        self.set_budget(id, value, [u as f32, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
-    }
-
     /// Sets `id` to `value` with the standard uncertainty each [`Contributor`] gives it
     /// (`shares`, by discriminant, same unit; NaN: not evaluated); u is their root sum of
     /// squares. A value that is not finite leaves the entry invalid.
@@ -384,11 +378,47 @@ impl Results {
         }
     }
 
+    /// Invalidates the results from `first` to `last` (inclusive, in [`ResultInfo::all`] order).
+    pub fn clear(&mut self, first: ResultId, last: ResultId) {
+        for e in self
+            .entries
+            .iter_mut()
+            .take(last.index() + 1)
+            .skip(first.index())
+        {
+            *e = ResultEntry::INVALID;
+        }
+    }
+
+    /// Invalidates every result, in place (no 3.5 KiB temporary on the stack).
+    pub fn clear_all(&mut self) {
+        self.entries.fill(ResultEntry::INVALID);
+    }
+
+    /// Number of valid results.
+    pub fn valid_count(&self) -> usize {
+        self.entries.iter().filter(|e| e.valid).count()
+    }
+}
+
+/// Where a computation writes its results: the results table itself, or a [`ResultPatch`] that
+/// a job fills on its own and the application applies to the table when the job ends (the
+/// same [`ResultSink::set_budget`] calls, so the table ends the same either way).
+pub trait ResultSink {
+    /// Sets `id` to `value` with the standard uncertainty each [`Contributor`] gives it
+    /// (`shares`, by discriminant, same unit; NaN: not evaluated) ([`Results::set_budget`]).
+    fn set_budget(&mut self, id: ResultId, value: f64, shares: [f32; CONTRIBUTOR_COUNT]);
+
+    /// Sets `id` to `value` ± `u` (standard uncertainty, NaN if not evaluated), all of it
+    /// [`Contributor::TypeA`]; a value that is not finite leaves the entry invalid.
+    fn set(&mut self, id: ResultId, value: f64, u: f64) {
+        self.set_budget(id, value, [u as f32, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    }
+
     /// Sets `id` to a figure computed from ΔL: `value` ± its own (Type A) standard uncertainty
     /// `u_a`, with the bar's shares of a figure of `kind` ([`BarBudget::shares`]) and the
     /// socket's `socket` as entered (0 for a figure the budget gives none).
-    #[inline(never)] // one copy for every figure the bar enters
-    pub fn set_with_bar(
+    fn set_with_bar(
         &mut self,
         id: ResultId,
         value: f32,
@@ -403,21 +433,59 @@ impl Results {
             [u_a, offset, scale, 0.0, 0.0, 0.0, socket],
         );
     }
+}
 
-    /// Invalidates the results from `first` to `last` (inclusive, in [`ResultInfo::all`] order).
-    pub fn clear(&mut self, first: ResultId, last: ResultId) {
-        for e in self
-            .entries
-            .iter_mut()
-            .take(last.index() + 1)
-            .skip(first.index())
-        {
-            *e = ResultEntry::INVALID;
+impl ResultSink for Results {
+    fn set_budget(&mut self, id: ResultId, value: f64, shares: [f32; CONTRIBUTOR_COUNT]) {
+        Results::set_budget(self, id, value, shares);
+    }
+}
+
+/// Results a job computed, in the order it set them, for [`Results`] when the job ends
+/// ([`ResultPatch::apply`]). Sized for the job that sets the most (the seed 002 identification:
+/// 31); a set beyond it is counted, never dropped silently ([`ResultPatch::overflowed`]).
+#[derive(Clone, Debug, Default)]
+pub struct ResultPatch {
+    sets: heapless::Vec<(ResultId, f64, [f32; CONTRIBUTOR_COUNT]), RESULT_PATCH_LEN>,
+    overflowed: u32,
+}
+
+/// Results one job sets at most ([`ResultPatch`]).
+pub const RESULT_PATCH_LEN: usize = 32;
+
+impl ResultPatch {
+    /// No results.
+    pub const fn new() -> Self {
+        Self {
+            sets: heapless::Vec::new(),
+            overflowed: 0,
         }
     }
 
-    /// Number of valid results.
-    pub fn valid_count(&self) -> usize {
-        self.entries.iter().filter(|e| e.valid).count()
+    /// Forgets every set.
+    pub fn clear(&mut self) {
+        self.sets.clear();
+        self.overflowed = 0;
+    }
+
+    /// Sets that did not fit (0 unless [`RESULT_PATCH_LEN`] is too small: a test holds it).
+    pub fn overflowed(&self) -> u32 {
+        self.overflowed
+    }
+
+    /// Applies every set to `results`, in order, and forgets them.
+    pub fn apply(&mut self, results: &mut Results) {
+        for &(id, v, shares) in self.sets.iter() {
+            results.set_budget(id, v, shares);
+        }
+        self.sets.clear();
+    }
+}
+
+impl ResultSink for ResultPatch {
+    fn set_budget(&mut self, id: ResultId, value: f64, shares: [f32; CONTRIBUTOR_COUNT]) {
+        if self.sets.push((id, value, shares)).is_err() {
+            self.overflowed = self.overflowed.saturating_add(1);
+        }
     }
 }

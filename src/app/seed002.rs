@@ -21,6 +21,7 @@
 //! [`NcOffset`] (linear axes in mm; B and C in degrees, unused by the fits).
 
 use super::pattern::{Direction, Pattern};
+use super::results::{ResultId, ResultSink};
 use crate::acquisition::Sample;
 use crate::config::{Field, TestSetup};
 use crate::identify::multitasking::ballbar::{
@@ -31,7 +32,8 @@ use crate::identify::multitasking::model_lsq::{
     PatternMeasurement,
 };
 use crate::identify::multitasking::patterns::{NcOffset, Pattern as ModelPattern, PatternGeometry};
-use crate::metrology::bar_budget::BarBudget;
+use crate::identify::multitasking::{Parameter, urad_to_arcsec};
+use crate::metrology::bar_budget::{BarBudget, FigureKind};
 use crate::metrology::circle_fit::{
     self, CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, SampleUse,
 };
@@ -292,6 +294,16 @@ const fn dir_index(d: Direction) -> usize {
 }
 
 impl Procedure {
+    /// Starts again, empty, with `setup` (in place).
+    pub fn restart(&mut self, setup: Setup) {
+        self.setup = setup;
+        self.runs
+            .iter_mut()
+            .flatten()
+            .flatten()
+            .for_each(|r| *r = None);
+    }
+
     /// An empty procedure.
     pub const fn new(setup: Setup) -> Self {
         Self {
@@ -467,6 +479,12 @@ impl Procedure {
     /// Identification from a complete procedure, in both modes; `bar` the configured bar's
     /// budget (its LVDT scale enters the model mode's u).
     pub fn identify(&self, bar: &BarBudget) -> Result<Identification, SessionError> {
+        self.identification_input()?.identify(bar)
+    }
+
+    /// What the identification reads of a complete procedure: the set-up and each step's
+    /// eccentricity (cheap: means over the runs), or the first step and direction it lacks.
+    pub fn identification_input(&self) -> Result<IdentificationInput, SessionError> {
         if let Some((step, direction)) = self.missing() {
             return Err(SessionError::Incomplete { step, direction });
         }
@@ -474,6 +492,46 @@ impl Procedure {
         for (dst, &s) in steps.iter_mut().zip(Pattern::SEED002.iter()) {
             *dst = self.step_eccentricity(s)?;
         }
+        Ok(IdentificationInput {
+            setup: self.setup,
+            steps,
+        })
+    }
+
+    /// The full covariance of the model mode's deviations (µm², µm·µrad, µrad²; rows and
+    /// columns in [`crate::identify::multitasking::Parameter::ALL`] order) from the same inputs
+    /// as [`Self::identify`]'s u: what a compensation of several deviations needs (the host's
+    /// part programs; the pod reports each deviation's u).
+    pub fn model_covariance(&self, bar: &BarBudget) -> Result<[[f64; 13]; 13], SessionError> {
+        let input = self.identification_input()?;
+        let (_, _, cov) = ModelLsq::without_squareness()
+            .identify_covariance(
+                &input.measurements(),
+                &input.steps.map(|s| s.u_e_um),
+                &self.setup.mounting,
+                bar,
+            )
+            .map_err(SessionError::Model)?;
+        Ok(cov)
+    }
+}
+
+/// What the seed 002 identification reads of a complete procedure
+/// ([`Procedure::identification_input`]): the set-up and the five steps' eccentricities, 0.6
+/// KiB where the runs are 3.3 KiB — the copy a job takes ([`super::job`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct IdentificationInput {
+    /// The procedure's set-up.
+    pub setup: Setup,
+    /// Eccentricity of each step, in [`Pattern::SEED002`] order.
+    pub steps: [StepEccentricity; 5],
+}
+
+impl IdentificationInput {
+    /// Identification in both modes (seconds of f64 on the pod: a job); `bar` the configured
+    /// bar's budget (its LVDT scale enters the model mode's u).
+    pub fn identify(&self, bar: &BarBudget) -> Result<Identification, SessionError> {
+        let steps = self.steps;
         let [bx, by, cr, ca, cr2] = steps;
         let ecc = |f: fn(&StepEccentricity) -> [f64; 2]| ThesisEccentricities {
             ex_bx_um: f(&bx)[0],
@@ -492,7 +550,7 @@ impl Procedure {
             &self.setup.thesis_geometry(),
             Some(&ecc(|s| s.u_e_um)),
         );
-        let model = self.identify_model(&steps, bar)?;
+        let model = self.identify_model(bar)?;
         Ok(Identification {
             steps,
             thesis,
@@ -500,24 +558,8 @@ impl Procedure {
         })
     }
 
-    /// The full covariance of the model mode's deviations (µm², µm·µrad, µrad²; rows and
-    /// columns in [`crate::identify::multitasking::Parameter::ALL`] order) from the same inputs
-    /// as [`Self::identify`]'s u: what a compensation of several deviations needs (the host's
-    /// part programs; the pod reports each deviation's u).
-    pub fn model_covariance(&self, bar: &BarBudget) -> Result<[[f64; 13]; 13], SessionError> {
-        let steps = self.identify(bar)?.steps;
-        let (_, _, cov) = ModelLsq::without_squareness()
-            .identify_covariance(
-                &self.measurements(&steps),
-                &steps.map(|s| s.u_e_um),
-                &self.setup.mounting,
-                bar,
-            )
-            .map_err(SessionError::Model)?;
-        Ok(cov)
-    }
-
-    fn measurements(&self, steps: &[StepEccentricity; 5]) -> [PatternMeasurement; 5] {
+    fn measurements(&self) -> [PatternMeasurement; 5] {
+        let steps = &self.steps;
         let mut m = [PatternMeasurement {
             pattern: ModelPattern::Bx,
             geometry: self.setup.geometry(Pattern::Bx),
@@ -543,13 +585,10 @@ impl Procedure {
         m
     }
 
-    fn identify_model(
-        &self,
-        steps: &[StepEccentricity; 5],
-        bar: &BarBudget,
-    ) -> Result<ModelIdentification, SessionError> {
+    fn identify_model(&self, bar: &BarBudget) -> Result<ModelIdentification, SessionError> {
+        let steps = &self.steps;
         let lsq = ModelLsq::without_squareness();
-        let m = self.measurements(steps);
+        let m = self.measurements();
         let mut u = [[0.0f64; 2]; 5];
         u.iter_mut()
             .zip(steps.iter())
@@ -561,5 +600,76 @@ impl Procedure {
             result,
             uncertainty,
         })
+    }
+}
+
+/// Publishes a seed 002 identification into `r`: the ten model-mode deviations with their
+/// budgets (by source: the eccentricities, the W-ball, the T-ball, the LVDT's scale) and their
+/// corrections, the model's residual and condition, and the thesis mode's deviations with the
+/// LVDT scale's share of `bar`.
+pub fn publish_identification(id: &Identification, bar: &BarBudget, r: &mut impl ResultSink) {
+    let m = &id.model;
+    let x = m.result.deviations.to_array();
+    const MODEL: [(Parameter, ResultId, ResultId); 10] = [
+        (Parameter::DxBt, ResultId::DxBt, ResultId::CorrDxBt),
+        (Parameter::DzBt, ResultId::DzBt, ResultId::CorrDzBt),
+        (Parameter::AlphaBt, ResultId::AlphaBt, ResultId::CorrAlphaBt),
+        (Parameter::AlphaXb, ResultId::AlphaXb, ResultId::CorrAlphaXb),
+        (Parameter::BetaXb, ResultId::BetaXb, ResultId::CorrBetaXb),
+        (Parameter::GammaXb, ResultId::GammaXb, ResultId::CorrGammaXb),
+        (Parameter::DxCz, ResultId::DxCz, ResultId::CorrDxCz),
+        (Parameter::DyCz, ResultId::DyCz, ResultId::CorrDyCz),
+        (Parameter::AlphaCz, ResultId::AlphaCz, ResultId::CorrAlphaCz),
+        (Parameter::BetaCz, ResultId::BetaCz, ResultId::CorrBetaCz),
+    ];
+    for (p, id, corr) in MODEL {
+        let i = p.index();
+        let unit = if p.is_positional() {
+            1.0
+        } else {
+            urad_to_arcsec(1.0)
+        };
+        let v = x.get(i).copied().unwrap_or(f64::NAN) * unit;
+        // by_source: the eccentricities, the W-ball, the T-ball, the LVDT's scale
+        let [ecc, w, t, scale] = m
+            .uncertainty
+            .by_source
+            .map(|s| (s.get(i).copied().unwrap_or(f64::NAN) * unit) as f32);
+        let shares = [ecc, 0.0, scale, w, t, 0.0, 0.0];
+        r.set_budget(id, v, shares);
+        r.set_budget(corr, -v, shares);
+    }
+    r.set(
+        ResultId::ModelResidualRms,
+        m.result.residual_rms_um,
+        f64::NAN,
+    );
+    r.set(ResultId::ModelCondition, m.result.condition, f64::NAN);
+    if let Ok(t) = &id.thesis {
+        let (d, u) = (&t.deviations, &t.std_uncertainty);
+        for (id, v, uu) in [
+            (ResultId::ThAlphaCz, d.alpha_cz_arcsec, u.alpha_cz_arcsec),
+            (ResultId::ThBetaCz, d.beta_cz_arcsec, u.beta_cz_arcsec),
+            (ResultId::ThAlphaXb, d.alpha_xb_arcsec, u.alpha_xb_arcsec),
+            (ResultId::ThBetaXb, d.beta_xb_arcsec, u.beta_xb_arcsec),
+            (ResultId::ThGammaXb, d.gamma_xb_arcsec, u.gamma_xb_arcsec),
+            (ResultId::ThAlphaBt, d.alpha_bt_arcsec, u.alpha_bt_arcsec),
+            (
+                ResultId::ThDxCzMinusDxBt,
+                d.dx_cz_minus_dx_bt_um,
+                u.dx_cz_minus_dx_bt_um,
+            ),
+            (ResultId::ThDyCz, d.dy_cz_um, u.dy_cz_um),
+            // ex_BX itself, with the step's u
+            (
+                ResultId::ThDzBtSetting,
+                t.dz_bt_setting_um,
+                id.steps.first().map_or(f64::NAN, |bx| bx.u_e_um[0]),
+            ),
+        ] {
+            // eqs 4.10–4.18 are linear in the eccentricities without a constant term: the
+            // LVDT's scale error k moves every result by k times itself, as a shape figure
+            r.set_with_bar(id, v as f32, [uu as f32, 0.0], bar, FigureKind::Shape);
+        }
     }
 }

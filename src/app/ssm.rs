@@ -9,7 +9,7 @@
 //! (`ts_machine`, exact inversion, [`crate::identify::two_step`]).
 
 use super::live::LIVE_U_EVERY;
-use super::results::{CONTRIBUTOR_COUNT, ResultId, Results};
+use super::results::{CONTRIBUTOR_COUNT, ResultId, ResultSink, Results};
 use crate::acquisition::Sample;
 use crate::config::{Field, TestSetup, TwoStepMachine, required, required3};
 use crate::identify::two_step::{

@@ -19,7 +19,7 @@ use ballpod::app::{DeviceCounter, DeviceCounters};
 use cortex_m::peripheral::DWT;
 use embassy_stm32::pac;
 
-use super::{Overruns, compute, lvdt, probe, safety, state, thermistor};
+use super::{Overruns, lvdt, probe, safety, state, thermistor};
 
 /// Core clock, Hz (main.rs: 24 MHz HSE / 6 × 85 / 2).
 pub const SYSCLK_HZ: u32 = 170_000_000;
@@ -77,7 +77,8 @@ fn check_dac_underrun() {
     }
 }
 
-/// Every device counter the board keeps, for the application's table.
+/// Every device counter the board keeps, for the application's table (the pod adds its own:
+/// `Pod::set_device_counters`).
 pub fn device_counters() -> DeviceCounters {
     use DeviceCounter as C;
     check_dac_underrun();
@@ -96,7 +97,6 @@ pub fn device_counters() -> DeviceCounters {
         (C::CanTxDropped, state::CAN_TX_DROPPED.get()),
         (C::UsbRxOverruns, state::USB_RX_OVERRUNS.get()),
         (C::UsbTxOverruns, state::USB_TX_OVERRUNS.get()),
-        (C::LogPausedSamples, compute::LOG_PAUSED_SAMPLES.get()),
         (C::WatchdogMisses, safety::WATCHDOG_MISSES.get()),
         (C::DacUnderruns, DAC_UNDERRUNS.get()),
         (

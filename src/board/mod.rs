@@ -16,6 +16,7 @@ pub mod settings;
 pub mod state;
 pub mod thermistor;
 pub mod usb;
+pub mod worker;
 
 use core::sync::atomic::{AtomicU32, Ordering};
 
@@ -32,11 +33,21 @@ bind_interrupts!(pub struct Irqs {
     USB_LP => stm_usb::InterruptHandler<peripherals::USB>;
 });
 
+/// The I/O executor's interrupt priority (`main`: LVDT, DAC, thermistor, CAN, USB, watchdog):
+/// below every peripheral interrupt, above the pod.
+pub const IO_EXECUTOR_PRIORITY: embassy_stm32::interrupt::Priority =
+    embassy_stm32::interrupt::Priority::P3;
+/// The pod executor's interrupt priority (`main`: the application task): below the I/O, above
+/// the worker in thread mode.
+pub const POD_EXECUTOR_PRIORITY: embassy_stm32::interrupt::Priority =
+    embassy_stm32::interrupt::Priority::P4;
+
 /// Interrupt priorities (NVIC; 0 most urgent, 16 levels on the G474): the probe's EXTI4 at 0 so
 /// a touch is latched within the interrupt entry whatever else runs; ADC1's DMA (the block
 /// latch) at 1; everything else — the other DMA channels, the time driver (TIM15), FDCAN, USB
-/// — at 2. Only a masked section (`diagnostics`: its longest is measured) delays the two
-/// latches beyond their entry.
+/// — at 2; then the two executors ([`IO_EXECUTOR_PRIORITY`], [`POD_EXECUTOR_PRIORITY`]) and
+/// the worker in thread mode. Only a masked section (`diagnostics`: its longest is measured)
+/// delays the two latches beyond their entry.
 pub fn set_priorities() {
     use embassy_stm32::interrupt::{self, InterruptExt, Priority};
     interrupt::EXTI4.set_priority(Priority::P0);

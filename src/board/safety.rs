@@ -4,11 +4,21 @@
 //!
 //! - **Watchdog**: IWDG (LSI clock, runs even if the main clocks fail) with [`WATCHDOG_TIMEOUT_US`].
 //!   Every task calls [`check_in`] as it goes round its loop — compute per sample, LVDT per
-//!   block, thermistor per reading, CAN and USB at least every [`CHECK_IN_MS`] even when their
-//!   bus is silent; [`watchdog_task`] pets the dog every [`PET_PERIOD_MS`] only if all of
-//!   [`Task::ALL`] checked in since its last look. A stuck task, a stopped acquisition (no LVDT
-//!   blocks) or a starved executor therefore resets the MCU; the next boot finds the IWDG reset
-//!   flag (RCC_CSR.IWDGRSTF, RM0440 §7.4.30) and reports it.
+//!   block, thermistor per reading, CAN, USB and the worker at least every [`CHECK_IN_MS`] even
+//!   when they have nothing to do, the worker's running job by its deadline
+//!   ([`super::worker::job_alive`]); [`watchdog_task`] (at the acquisition's priority, above
+//!   every computation) pets the dog every [`PET_PERIOD_MS`] only if all of [`Task::ALL`]
+//!   checked in since its last look. A stuck task, a stopped acquisition (no LVDT blocks), a
+//!   starved executor or a job past its deadline therefore resets the MCU; the next boot
+//!   finds the IWDG reset flag (RCC_CSR.IWDGRSTF, RM0440 §7.4.30) and reports it.
+//!
+//!   The timeout against the LSI's tolerance: the IWDG counts the LSI, 32 kHz nominal and
+//!   29.5–34 kHz over voltage and temperature (STM32G474 datasheet, LSI characteristics), so
+//!   the nominal 500 ms expire after 471–542 ms. A look that finds a task missing leaves the
+//!   dog unpetted and is counted (`WATCHDOG_MISSES`); the next look, 400 ms after the last pet,
+//!   is still inside the shortest timeout, so a task missing at one look only is survived,
+//!   and one missing at two looks in a row resets the pod 471–542 ms after the last pet. A task
+//!   that checks in at least every [`PET_PERIOD_MS`] (200 ms) is never missing.
 //! - **Panic**: [`panic`] writes `file:line: message` (at most [`PANIC_TEXT_BYTES`] bytes) and a
 //!   magic word into a `.uninit` static that the startup code does not zero, logs it over defmt
 //!   and resets. The next boot takes it out ([`take_reset_report`]) and clears the magic.
@@ -23,7 +33,7 @@ use embassy_time::Timer;
 
 use super::Overruns;
 
-/// Watchdog timeout, µs (a save's page erase blocks the executor for ≤ 40 ms).
+/// Watchdog timeout, µs (nominal: 471–542 ms with the LSI's tolerance, module doc).
 pub const WATCHDOG_TIMEOUT_US: u32 = 500_000;
 /// How often the watchdog task looks at the check-ins, ms: twice the thermistor's 100 ms
 /// period, so every look finds its check-in; two looks fit in the timeout.
@@ -48,16 +58,19 @@ pub enum Task {
     Can = 3,
     /// USB (every [`CHECK_IN_MS`]).
     Usb = 4,
+    /// The worker (every [`CHECK_IN_MS`] while it waits; a job by its deadline).
+    Worker = 5,
 }
 
 impl Task {
     /// Every task the watchdog waits for.
-    pub const ALL: [Task; 5] = [
+    pub const ALL: [Task; 6] = [
         Task::Compute,
         Task::Lvdt,
         Task::Thermistor,
         Task::Can,
         Task::Usb,
+        Task::Worker,
     ];
     /// All their bits.
     const ALL_BITS: u32 = (1 << Task::ALL.len()) - 1;
@@ -80,7 +93,11 @@ pub async fn watchdog_task(iwdg: embassy_stm32::Peri<'static, IWDG>) {
     dog.unleash();
     loop {
         Timer::after_millis(PET_PERIOD_MS).await;
-        let seen = CHECK_INS.swap(0, Ordering::Relaxed);
+        let mut seen = CHECK_INS.swap(0, Ordering::Relaxed);
+        if super::worker::job_alive() {
+            // a job is one long computation: its deadline stands for its check-in
+            seen |= 1 << Task::Worker as u32;
+        }
         if seen & Task::ALL_BITS == Task::ALL_BITS {
             dog.pet();
         } else {

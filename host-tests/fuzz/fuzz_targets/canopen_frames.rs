@@ -6,7 +6,7 @@
 
 use arbitrary::{Arbitrary, Unstructured};
 use ballpod::acquisition::{MAX_AXES, Sample, SampleFlags};
-use ballpod::app::App;
+use ballpod::app::{App, JobSlot};
 use ballpod::config::{Config, ENCODED_LEN};
 use ballpod::protocol::canopen::{BusState, CanFrame, CanOpenNode, NmtState};
 use libfuzzer_sys::fuzz_target;
@@ -55,6 +55,7 @@ fuzz_target!(|data: &[u8]| {
     let mut u = Unstructured::new(data);
     let mut node = CanOpenNode::new(NODE, 0x1234_5678);
     let mut app = App::new(Config::default(), [16; MAX_AXES]);
+    let mut jobs = Box::new(JobSlot::new());
     let mut now_us = 0u64;
     let mut seq = 0u32;
     let bus_off = std::cell::Cell::new(false);
@@ -122,6 +123,6 @@ fuzz_target!(|data: &[u8]| {
                 "configuration written in {state:?}"
             );
         }
-        while app.run_pending_job() {}
+        app.run_jobs(&mut jobs);
     }
 });

@@ -6,7 +6,7 @@
 use arbitrary::Unstructured;
 use ballpod::acquisition::{MAX_AXES, Sample, SampleFlags};
 use ballpod::app::log::SampleLog;
-use ballpod::app::{App, Recorder, RunMeta};
+use ballpod::app::{App, JobSlot, Recorder, RunMeta};
 use ballpod::config::{Config, ENCODED_LEN};
 use ballpod::protocol::scpi::ScpiServer;
 use libfuzzer_sys::fuzz_target;
@@ -24,6 +24,7 @@ fuzz_target!(|data: &[u8]| {
     let pull = u.arbitrary::<bool>().unwrap_or(false);
     scpi.set_pull_download(pull);
     let mut app = App::new(Config::default(), [16; MAX_AXES]);
+    let mut jobs = Box::new(JobSlot::new());
     let mut log: SampleLog<8> = SampleLog::new();
     log.begin_run(&RunMeta {
         config: Config::default(),
@@ -64,7 +65,7 @@ fuzz_target!(|data: &[u8]| {
             );
         }
         app.flush(&mut log);
-        while app.run_pending_job() {}
+        app.run_jobs(&mut jobs);
         let mut buf = [0u8; 64];
         let mut guard = 0;
         while scpi.download_pending() {

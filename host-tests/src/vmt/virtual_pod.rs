@@ -18,10 +18,10 @@ use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::acquisition::{MAX_AXES, Sample};
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::{
-    App, Command, CommandError, DeviceCounter, DeviceCounters, Pattern, Recorder, RunEnd, RunMeta,
-    SessionState, SettingsRequest, Touch,
+    App, Command, CommandError, DeviceCounter, DeviceCounters, JobSlot, Pattern, SessionState,
 };
-use ballpod::config::{Config, RunTrigger};
+use ballpod::config::RunTrigger;
+use ballpod::pod::{Block, BootReport, Pod};
 use ballpod::protocol::canopen::{BusState, CanFrame, CanOpenNode};
 use ballpod::protocol::scpi::ScpiServer;
 use ballpod::protocol::stream::SampleStream;
@@ -31,6 +31,20 @@ use super::motion::{Motion, ServeTruth};
 use super::sensors::{Instrument, Sensors};
 use crate::flash_model::FlashModel;
 use crate::recording::Recording;
+
+/// The pod's parts of a [`VirtualPod`] as the core's one pod type, borrowed field by field (so
+/// the host's recording, flash and job slot stay free beside it).
+macro_rules! pod {
+    ($vp:expr) => {
+        Pod {
+            app: &mut $vp.app,
+            node: &mut $vp.node,
+            scpi: &mut $vp.scpi,
+            log: &mut $vp.log,
+            stream: &mut $vp.stream,
+        }
+    };
+}
 
 /// The simulated pod's serial number (CANopen 0x1018:4, `*IDN?`).
 pub const SERIAL: u32 = 0x0BA1_1000;
@@ -59,45 +73,6 @@ impl Default for VirtualSetup {
     }
 }
 
-/// The recorders of the simulated pod: the pod's log and stream, and the host's whole record.
-struct Recorders<'a, const N: usize> {
-    log: &'a mut SampleLog<N>,
-    log_paused: bool,
-    stream: &'a mut SampleStream<STREAM_BYTES>,
-    recording: &'a mut Recording,
-}
-
-impl<const N: usize> Recorder for Recorders<'_, N> {
-    fn begin_run(&mut self, meta: &RunMeta) {
-        if !self.log_paused {
-            self.log.begin_run(meta);
-        }
-        self.stream.begin_run(meta);
-        self.recording.begin_run(meta);
-    }
-    fn sample(&mut self, s: &Sample) {
-        if !self.log_paused {
-            self.log.sample(s);
-        }
-        self.stream.sample(s);
-        self.recording.sample(s);
-    }
-    fn touch(&mut self, t: &Touch) {
-        if !self.log_paused {
-            self.log.touch(t);
-        }
-        self.stream.touch(t);
-        self.recording.touch(t);
-    }
-    fn end_run(&mut self, end: &RunEnd) {
-        if !self.log_paused {
-            self.log.end_run(end);
-        }
-        self.stream.end_run(end);
-        self.recording.end_run(end);
-    }
-}
-
 /// The simulated pod (module doc); its log holds `N` records (the firmware's by default).
 pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     setup: VirtualSetup,
@@ -111,6 +86,8 @@ pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     pub scpi: ScpiServer,
     log: Box<SampleLog<N>>,
     stream: Box<SampleStream<STREAM_BYTES>>,
+    /// Where the pod's jobs run (here at once, after each turn: virtual time stands still).
+    jobs: Box<JobSlot>,
     /// Every run whole, as the host recorded it (the stream's content, never dropped).
     pub recording: Recording,
     /// The two settings pages (`*SAV 0`, CANopen 0x1010); set a power-cut budget here.
@@ -126,8 +103,6 @@ pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     self_triggered: bool,
     /// Sample periods still to lose upstream (queue overrun), from the next step on.
     losing: u32,
-    /// Samples not logged because a download was in progress (`log_paused_samples`).
-    log_paused_samples: u32,
     /// The probe level (seated) the application sees each period.
     probe_seated: bool,
     /// Where the machine is (the encoders' positions), mm / degrees.
@@ -155,21 +130,33 @@ impl<const N: usize> VirtualPod<N> {
             &setup.instrument,
             setup.seed,
         );
-        let app = App::new(config, [16; MAX_AXES]);
+        let mut app = App::new(config, [16; MAX_AXES]);
         let mut scpi = ScpiServer::new();
-        scpi.set_serial(SERIAL);
-        scpi.set_pull_download(true);
         let mut stream = Box::new(SampleStream::new());
         stream.set_enabled(true);
         let mut node = CanOpenNode::new(app.config().can_node_id, SERIAL);
-        ballpod::protocol::report_rejected_settings(boot_settings.rejected(), &mut node, &mut scpi);
+        let mut log = Box::new(SampleLog::new());
+        let boot = BootReport {
+            settings_rejected: boot_settings.rejected(),
+            ..BootReport::default()
+        };
+        Pod::boot(
+            &mut app,
+            &mut node,
+            &mut scpi,
+            &mut *log,
+            &mut *stream,
+            SERIAL,
+            &boot,
+        );
         Self {
             node,
             app,
             sensors,
             scpi,
-            log: Box::new(SampleLog::new()),
+            log,
             stream,
+            jobs: Box::new(JobSlot::new()),
             recording: Recording::default(),
             flash,
             boot_settings,
@@ -178,7 +165,6 @@ impl<const N: usize> VirtualPod<N> {
             serving: false,
             self_triggered: false,
             losing: 0,
-            log_paused_samples: 0,
             probe_seated: true,
             at: [0.0; MAX_AXES],
             last: None,
@@ -232,25 +218,30 @@ impl<const N: usize> VirtualPod<N> {
         r
     }
 
-    /// What the firmware's application task does after the commands of a frame or a line:
-    /// records a run the commands armed or stopped, carries out a settings request.
+    /// The pod's parts as the one pod type of the core.
+    fn pod(&mut self) -> Pod<'_, N, STREAM_BYTES> {
+        pod!(self)
+    }
+
+    /// What the firmware does at the end of a turn (the core's [`Pod::end_of_turn`]): records
+    /// a run the commands armed or stopped, stores the settings asked for, runs the jobs
+    /// wanted (here at once: the firmware runs them at its lowest priority). The log download
+    /// and the stream stay for the host to pull.
     fn after_commands(&mut self) {
-        self.app.flush(&mut Recorders {
-            log_paused: self.scpi.download_pending(),
-            log: &mut self.log,
-            stream: &mut self.stream,
-            recording: &mut self.recording,
-        });
-        let ok = match self.app.take_settings_request() {
-            Some(SettingsRequest::Store) => {
-                settings::store(&mut self.flash, self.app.config()).is_ok()
-            }
-            Some(SettingsRequest::RestoreDefaults) => {
-                settings::store(&mut self.flash, &Config::default()).is_ok()
-            }
-            None => return,
-        };
-        self.app.settings_stored(ok);
+        let mut pod = pod!(self);
+        pod.end_of_turn(
+            &mut self.recording,
+            &mut [],
+            &mut || 0,
+            &mut |_| {},
+            0,
+            &mut |_| {},
+        );
+        if let Some(cfg) = pod.settings_to_store() {
+            let ok = settings::store(&mut self.flash, &cfg).is_ok();
+            pod.app.settings_stored(ok);
+        }
+        pod.app.run_jobs(&mut self.jobs);
     }
 
     // ------------------------------------------------------------------ by hand
@@ -266,13 +257,8 @@ impl<const N: usize> VirtualPod<N> {
     /// edge); an accepted touch of a PROBE run is kept and recorded.
     pub fn probe_edge_at(&mut self, axes: &[f64; MAX_AXES]) -> TriggerOutcome {
         let (t, raw) = self.sensors.probe_edge(axes);
-        let mut rec = Recorders {
-            log_paused: self.scpi.download_pending(),
-            log: &mut self.log,
-            stream: &mut self.stream,
-            recording: &mut self.recording,
-        };
-        self.app.on_probe_edge(t, raw, &mut rec)
+        let mut pod = pod!(self);
+        pod.on_probe_edge(t, raw, &mut self.recording)
     }
 
     /// The probe stylus level from the next sample on (`true` = seated, at rest).
@@ -302,37 +288,28 @@ impl<const N: usize> VirtualPod<N> {
             self.sensors.lose_samples(1);
             self.app.set_device_counters(self.device_counters());
             let now = self.proto_us();
-            self.node.poll(now, &self.app, &mut |f| tx.push(f));
+            self.pod().tick(now, &mut |f| tx.push(f));
             return (None, tx);
         }
         let r = self.sensors.read(dl_um, axes);
-        if let Some(code) = r.thermistor {
-            let _ = self.app.on_thermistor(code);
-        }
-        self.app.on_probe_level(r.t_us, self.probe_seated);
-        if self.scpi.download_pending() {
-            self.log_paused_samples = self.log_paused_samples.wrapping_add(1);
-        }
-        self.app.set_device_counters(self.device_counters());
-        let mut rec = Recorders {
-            log_paused: self.scpi.download_pending(),
-            log: &mut self.log,
-            stream: &mut self.stream,
-            recording: &mut self.recording,
-        };
-        let s = self.app.on_raw_sample(
-            r.t_us,
-            BlockReading::Ac(r.lvdt),
-            r.raw,
-            r.lost_total,
-            &mut rec,
-        );
-        self.last = Some(s);
         let now = self.proto_us();
-        self.node.on_sample(s.flags, now, &mut |f| tx.push(f));
-        self.node.poll(now, &self.app, &mut |f| tx.push(f));
+        let counters = self.device_counters();
+        let mut pod = pod!(self);
+        if let Some(code) = r.thermistor {
+            let _ = pod.on_thermistor(code);
+        }
+        pod.set_device_counters(counters);
+        let block = Block {
+            t_us: r.t_us,
+            reading: BlockReading::Ac(r.lvdt),
+            raw: r.raw,
+            lost_total: r.lost_total,
+            probe_seated: self.probe_seated,
+        };
+        let s = pod.on_block(&block, now, &mut self.recording, &mut |f| tx.push(f));
+        pod.tick(now, &mut |f| tx.push(f));
+        self.last = Some(s);
         self.after_commands();
-        while self.app.run_pending_job() {}
         (Some(s), tx)
     }
 
@@ -347,13 +324,13 @@ impl<const N: usize> VirtualPod<N> {
             DeviceCounter::StreamLinesDropped,
             self.stream.dropped_lines(),
         );
-        c.set(DeviceCounter::LogPausedSamples, self.log_paused_samples);
+        c.set(DeviceCounter::LogPausedSamples, self.log.paused_samples());
         c
     }
 
     /// A thermistor ADC code from the thermistor task (12-bit; 0 = shorted, 4095 = open).
     pub fn thermistor(&mut self, code: u16) {
-        let _ = self.app.on_thermistor(code);
+        let _ = self.pod().on_thermistor(code);
     }
 
     /// Runs the protocols (CANopen timers) on this clock from now on, µs, instead of the
@@ -448,8 +425,7 @@ impl<const N: usize> VirtualPod<N> {
     pub fn can_frame(&mut self, frame: &CanFrame) -> Vec<CanFrame> {
         let mut tx = Vec::new();
         let now = self.proto_us();
-        self.node
-            .on_frame(frame, &mut self.app, now, &mut |f| tx.push(f));
+        self.pod().on_frame(frame, now, &mut |f| tx.push(f));
         self.after_commands();
         tx
     }
@@ -458,7 +434,7 @@ impl<const N: usize> VirtualPod<N> {
     pub fn bus_state(&mut self, state: BusState) -> Vec<CanFrame> {
         let mut tx = Vec::new();
         let now = self.proto_us();
-        self.node.on_bus_state(state, now, &mut |f| tx.push(f));
+        self.pod().on_bus_state(state, now, &mut |f| tx.push(f));
         tx
     }
 
@@ -467,10 +443,8 @@ impl<const N: usize> VirtualPod<N> {
     /// with [`pull_download`](Self::pull_download)).
     pub fn usb(&mut self, bytes: &[u8]) -> Vec<u8> {
         let mut response = Vec::new();
-        self.scpi
-            .feed(bytes, &mut self.app, &*self.log, &mut |b: &[u8]| {
-                response.extend_from_slice(b)
-            });
+        self.pod()
+            .on_usb(bytes, &mut |b: &[u8]| response.extend_from_slice(b));
         let mut header = [0u8; 64];
         while self.scpi.download_header_pending() {
             let n = self.scpi.pull_download(&*self.log, &mut header);
@@ -490,12 +464,12 @@ impl<const N: usize> VirtualPod<N> {
 
     /// The USB host went away from the command port (cable pulled, TCP closed).
     pub fn usb_disconnected(&mut self) {
-        self.scpi.connection_closed();
+        self.pod().usb_closed();
     }
 
     /// A reader opened (`true`) or closed the stream port.
     pub fn stream_reader(&mut self, connected: bool) {
-        self.stream.set_enabled(connected);
+        self.pod().stream_reader(connected);
     }
 
     /// The next at most `max` bytes of the sample stream.

@@ -95,7 +95,7 @@ pub const fn object_meaning(index: u16) -> &'static str {
         }
         0x2101 => "Sample counter: every sample the pod produced (a gap is a lost sample)",
         0x2102 => {
-            "Status word: bits 0–5 the latest sample's flags (1 LVDT over-range, 2 LVDT open, 4 quadrature error, 8 probe, 16 overrun, 32 thermistor fault), 8 armed, 9 running, 10 results ready, 11 aborted, 12 every live value of the pattern valid, 13 identification pending, 14 a field that takes effect at reset changed, 15 error"
+            "Status word: bits 0–5 the latest sample's flags (1 LVDT over-range, 2 LVDT open, 4 quadrature error, 8 probe, 16 overrun, 32 thermistor fault), 6 computing (a job of the last run or procedure runs: the results it publishes are invalid until it ends), 8 armed, 9 running, 10 results ready (the last run is done and every job it left has published), 11 aborted, 12 every live value of the pattern valid, 13 seed 002 identification pending, 14 a field that takes effect at reset changed, 15 error"
         }
         0x2103 => "Validity mask of the live values: bit k−1 set when 0x2100:k is valid",
         0x2110 => "Device counters (refreshed every 100 ms; 0xFFFFFFFF: not measured by this pod)",

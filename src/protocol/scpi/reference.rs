@@ -104,7 +104,7 @@ const fn doc(c: Command) -> CommandDoc {
         ),
         Opc => d(
             "*OPC, *OPC?",
-            "set the operation-complete bit; the query answers 1 (every command completes at once)",
+            "set the operation-complete bit; the query answers 1 (every command completes at once; the figures or identification a run's end leaves to a job are published later: `STAT:POD?` bit 6 says while)",
             "*OPC?",
         ),
         Wai => d(
@@ -230,7 +230,7 @@ const fn doc(c: Command) -> CommandDoc {
         ),
         StatPod => d(
             "STATus:POD?",
-            "the status word (CANopen 0x2102); bit 15 also while the error queue holds an error",
+            "the status word (CANopen 0x2102: bit 6 a job computes the last run's results, bit 10 they are all there); bit 15 also while the error queue holds an error",
             "STAT:POD?",
         ),
         FetchResult => d(
@@ -265,7 +265,7 @@ const fn doc(c: Command) -> CommandDoc {
         ),
         DataLog => d(
             "DATA:LOG?",
-            "the pod's log of the last run (at most 600 records, decimated by powers of two) as a definite-length block `#<n><length><text>` then `\\n`, in the text of the [sample stream](../sample-stream.md); must end its line",
+            "the pod's log of the last run (at most 432 records, decimated by powers of two) as a definite-length block `#<n><length><text>` then `\\n`, in the text of the [sample stream](../sample-stream.md); must end its line",
             "DATA:LOG?",
         ),
         SystCount => d(

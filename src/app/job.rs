@@ -1,0 +1,285 @@
+//! Jobs: the application's long computations, run by the shell apart from samples and
+//! commands.
+//!
+//! | job | wanted when | publishes | on the pod (170 MHz) |
+//! |---|---|---|---|
+//! | circle figures | a CIRCLE run ends | G, F of its direction; once both directions are complete G(b), H, the radial deviation, the diagnoses | 0.1–0.3 s |
+//! | seed 002 identification | every step has its CW and CCW runs | the model mode's deviations and corrections, the thesis mode's | 2.6 s |
+//! | touch-probe identification | a PROBE run files the last sphere of the B or the C method | that axis's deviations with their lobing shares | tens of ms |
+//!
+//! A job never runs inside a command or a sample: the command that ends a run is answered at
+//! once, and the results the job publishes stay invalid, with status bit
+//! [`StatusWord::COMPUTING`](super::StatusWord::COMPUTING) set and
+//! [`StatusWord::RESULTS_READY`](super::StatusWord::RESULTS_READY) clear, until it has. Three
+//! steps, so that the middle one can run at the lowest priority while the application goes
+//! on with samples, frames and bytes:
+//! 1. [`App::start_job`](super::App::start_job) copies the job's inputs into a [`JobSlot`]
+//!    (the circle test, 14.4 KiB; the procedure's eccentricities, 0.6 KiB; the spheres, 2.8
+//!    KiB — one at a time, in one place);
+//! 2. [`JobSlot::run`] computes on that copy into a [`ResultPatch`] and touches nothing of the
+//!    application;
+//! 3. [`App::finish_job`](super::App::finish_job) applies the patch if the runs it came from
+//!    are still the latest.
+//!
+//! The same three steps run on the pod, in the simulated pod and in replay
+//! ([`App::run_jobs`](super::App::run_jobs) runs them back to back), so the results are the
+//! same bit for bit wherever they run.
+
+use super::circle::{CircleTest, FiguresRequest};
+use super::probe::{ProbeAxis, ProbeFailure, Spheres};
+use super::results::ResultPatch;
+use super::seed002::{IdentificationInput, Setup, StepEccentricity, publish_identification};
+use crate::config::TestSetup;
+use crate::in_place::{self, init_in_place};
+use crate::metrology::bar_budget::BarBudget;
+use core::mem::MaybeUninit;
+
+/// Which job a slot holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum JobKind {
+    /// The ISO 230-4 figures of a CIRCLE run ([`CircleTest::figures`]).
+    CircleFigures,
+    /// The seed 002 identification ([`IdentificationInput::identify`]).
+    Seed002Identification,
+    /// A touch-probe method's identification ([`Spheres::identify`]).
+    ProbeIdentification,
+}
+
+/// What a slot's job is about to compute, or computed; the number is the application's count
+/// of procedures begun (or spheres cleared) when it started: its results go only there.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Work {
+    Figures(FiguresRequest),
+    Identification(u32),
+    Probe(ProbeAxis, u32),
+}
+
+/// What [`super::App::finish_job`] takes from a slot whose job ran.
+pub(crate) enum JobOutcome<'a> {
+    Figures(FiguresRequest, &'a mut ResultPatch),
+    Identification(u32, Result<&'a mut ResultPatch, ()>),
+    Probe(u32, Result<&'a mut ResultPatch, ProbeFailure>),
+}
+
+/// Why a job gave no result.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Failure {
+    /// The seed 002 identification failed (the procedure note says so).
+    Identification,
+    /// The touch-probe identification failed.
+    Probe(ProbeFailure),
+}
+
+/// The spheres and the set-up a touch-probe identification reads.
+#[derive(Clone, Copy)]
+struct ProbeInput {
+    spheres: Spheres,
+    setup: TestSetup,
+}
+
+/// A job's copy of its inputs: one job at a time, so one place for all (the circle test is
+/// the largest).
+#[derive(Clone, Copy)]
+union Inputs {
+    circle: CircleTest,
+    identification: IdentificationInput,
+    probe: ProbeInput,
+}
+
+impl Inputs {
+    /// Inputs of no job, built in place.
+    fn init(s: &mut MaybeUninit<Self>) -> &mut Self {
+        let p = s.as_mut_ptr();
+        // SAFETY: `p` comes from a `&mut MaybeUninit<Inputs>`: valid for writes and aligned;
+        // a union's variants start at its start, so writing one initialises the union (its
+        // other bytes are never read: a slot's `work` names the variant in use).
+        unsafe {
+            (&raw mut (*p).identification).write(IdentificationInput {
+                setup: Setup::thesis_table_4_3(),
+                steps: [StepEccentricity::default(); 5],
+            });
+            s.assume_init_mut()
+        }
+    }
+}
+
+/// The place a job runs in: a copy of its inputs and the results it computes (16 KiB: on the
+/// pod a `static` in CCM SRAM beside the sample log, built in place).
+pub struct JobSlot {
+    work: Option<Work>,
+    /// The job ran ([`JobSlot::run`]).
+    ran: bool,
+    /// Why the job gave no result.
+    failed: Option<Failure>,
+    /// The inputs of `work` (the variant `work` names).
+    inputs: Inputs,
+    /// The bar's budget (identification; the figures carry theirs).
+    bar: BarBudget,
+    patch: ResultPatch,
+}
+
+impl JobSlot {
+    /// An empty slot, built in place in `slot` (it never passes through the stack).
+    pub fn init(slot: &mut MaybeUninit<Self>) -> &mut Self {
+        init_in_place!(slot, Self {
+            work: None,
+            ran: false,
+            failed: None,
+            bar: BarBudget::NONE,
+            patch: ResultPatch::new(),
+        } in place {
+            inputs: Inputs::init,
+        })
+    }
+
+    /// An empty slot (host and tests; the pod builds its own in place with [`JobSlot::init`]).
+    pub fn new() -> Self {
+        in_place::build(Self::init)
+    }
+
+    /// True when the slot holds no job.
+    pub fn is_empty(&self) -> bool {
+        self.work.is_none()
+    }
+
+    /// The job the slot holds.
+    pub fn kind(&self) -> Option<JobKind> {
+        self.work.map(|w| match w {
+            Work::Figures(_) => JobKind::CircleFigures,
+            Work::Identification(_) => JobKind::Seed002Identification,
+            Work::Probe(..) => JobKind::ProbeIdentification,
+        })
+    }
+
+    /// Takes a copy of `circle` (the test as its run ended) for `request`'s figures.
+    pub(crate) fn load_figures(&mut self, circle: &CircleTest, request: FiguresRequest) {
+        // a place-to-place copy (memcpy): no temporary of the 14 KiB test on the stack
+        self.inputs.circle = *circle;
+        self.start(Work::Figures(request));
+    }
+
+    /// Takes the identification's inputs, for the procedure of `epoch`.
+    pub(crate) fn load_identification(
+        &mut self,
+        input: IdentificationInput,
+        bar: BarBudget,
+        epoch: u32,
+    ) {
+        self.inputs.identification = input;
+        self.bar = bar;
+        self.start(Work::Identification(epoch));
+    }
+
+    /// Takes a copy of the spheres and the set-up for `axis`'s identification, for the spheres
+    /// of `epoch`.
+    pub(crate) fn load_probe(
+        &mut self,
+        spheres: &Spheres,
+        setup: &TestSetup,
+        axis: ProbeAxis,
+        epoch: u32,
+    ) {
+        self.inputs.probe = ProbeInput {
+            spheres: *spheres,
+            setup: *setup,
+        };
+        self.start(Work::Probe(axis, epoch));
+    }
+
+    fn start(&mut self, work: Work) {
+        self.patch.clear();
+        self.ran = false;
+        self.failed = None;
+        self.work = Some(work);
+    }
+
+    /// Computes the slot's job on its copy of the inputs (the long part; nothing of the
+    /// application is touched). Nothing happens if the slot is empty or its job ran already.
+    pub fn run(&mut self) {
+        if self.ran {
+            return;
+        }
+        // SAFETY (each arm): `work` names the variant of `inputs` its `load_*` wrote.
+        match self.work {
+            None => return,
+            Some(Work::Figures(request)) => {
+                figures(unsafe { &self.inputs.circle }, &request, &mut self.patch);
+            }
+            Some(Work::Identification(_)) => {
+                let input = unsafe { &self.inputs.identification };
+                if !identification(input, &self.bar, &mut self.patch) {
+                    self.failed = Some(Failure::Identification);
+                }
+            }
+            Some(Work::Probe(axis, _)) => {
+                let p = unsafe { &self.inputs.probe };
+                self.failed = probe(p, axis, &mut self.patch).err().map(Failure::Probe);
+            }
+        }
+        self.ran = true;
+    }
+
+    /// The outcome of a job that ran, for the application to publish; the slot is empty after
+    /// (its patch is applied or dropped by the caller before the next job starts).
+    pub(crate) fn take_outcome(&mut self) -> Option<JobOutcome<'_>> {
+        if !self.ran {
+            return None;
+        }
+        self.ran = false;
+        let work = self.work.take()?;
+        let (patch, failed) = (&mut self.patch, self.failed);
+        Some(match work {
+            Work::Figures(request) => JobOutcome::Figures(request, patch),
+            Work::Identification(epoch) => JobOutcome::Identification(
+                epoch,
+                match failed {
+                    None => Ok(patch),
+                    Some(_) => Err(()),
+                },
+            ),
+            Work::Probe(_, epoch) => JobOutcome::Probe(
+                epoch,
+                match failed {
+                    Some(Failure::Probe(e)) => Err(e),
+                    _ => Ok(patch),
+                },
+            ),
+        })
+    }
+
+    /// Results a job set beyond the patch's room (0: a test holds it).
+    pub fn patch_overflowed(&self) -> u32 {
+        self.patch.overflowed()
+    }
+}
+
+// One function per job, out of line: the worker's stack holds the frame of the job that runs,
+// not of all three (`.ci/stack-report`).
+
+#[inline(never)]
+fn figures(circle: &CircleTest, request: &FiguresRequest, patch: &mut ResultPatch) {
+    circle.figures(request, patch);
+}
+
+/// Whether the identification gave a result.
+#[inline(never)]
+fn identification(input: &IdentificationInput, bar: &BarBudget, patch: &mut ResultPatch) -> bool {
+    match input.identify(bar) {
+        Ok(id) => {
+            publish_identification(&id, bar, patch);
+            true
+        }
+        Err(_) => false,
+    }
+}
+
+#[inline(never)]
+fn probe(p: &ProbeInput, axis: ProbeAxis, patch: &mut ResultPatch) -> Result<bool, ProbeFailure> {
+    p.spheres.identify(axis, &p.setup, patch)
+}
+
+impl Default for JobSlot {
+    fn default() -> Self {
+        Self::new()
+    }
+}

@@ -20,6 +20,8 @@
 mod board;
 
 use embassy_executor::{InterruptExecutor, Spawner};
+
+use board::spawn::spawn;
 use embassy_stm32::interrupt;
 use embassy_stm32::interrupt::InterruptExt;
 use embassy_stm32::time::Hertz;
@@ -82,7 +84,7 @@ async fn main(spawner: Spawner) {
     let p = embassy_stm32::init(clocks());
     board::diagnostics::start_cycle_counter();
     // Why the previous run ended (panic text from retained RAM, or a watchdog reset).
-    let report = board::safety::take_reset_report();
+    let report = board::safety::take_reset_report(board::watchdog::take_reset_flag());
     let (can_report, usb_report) = match report {
         Some(board::safety::ResetReport::Panic(text)) => {
             defmt::error!("previous run ended in a {}", text);
@@ -160,8 +162,8 @@ async fn main(spawner: Spawner) {
         board::lvdt::lvdt_task(
             ring_a,
             ring_b,
-            board::lvdt::block_len(&cfg),
-            board::lvdt::block_period_us(&cfg),
+            board::block::block_len(&cfg),
+            board::block::block_period_us(&cfg),
         ),
     );
     spawn(&io, "dac", board::lvdt::dac_task(dac));
@@ -172,38 +174,7 @@ async fn main(spawner: Spawner) {
     );
     spawn(&io, "can", board::can::can_task(can));
     spawn(&io, "usb", board::usb::usb_task(usb, device_serial()));
-    spawn(&io, "watchdog", board::safety::watchdog_task(p.IWDG));
-}
-
-/// Spawns a task on an executor (thread mode or interrupt); a task fn only fails when its pool
-/// is exhausted, which a single spawn per task cannot do — logged rather than panicked on all
-/// the same.
-fn spawn<S, E: Spawn<S>>(
-    spawner: &E,
-    name: &str,
-    token: Result<embassy_executor::SpawnToken<S>, embassy_executor::SpawnError>,
-) {
-    match token {
-        Ok(t) => spawner.spawn_token(t),
-        Err(_) => defmt::error!("cannot spawn task {}", name),
-    }
-}
-
-/// The two kinds of spawner (thread mode, interrupt executor).
-trait Spawn<S> {
-    fn spawn_token(&self, t: embassy_executor::SpawnToken<S>);
-}
-
-impl<S> Spawn<S> for Spawner {
-    fn spawn_token(&self, t: embassy_executor::SpawnToken<S>) {
-        self.spawn(t);
-    }
-}
-
-impl<S: Send> Spawn<S> for embassy_executor::SendSpawner {
-    fn spawn_token(&self, t: embassy_executor::SpawnToken<S>) {
-        self.spawn(t);
-    }
+    spawn(&io, "watchdog", board::watchdog::watchdog_task(p.IWDG));
 }
 
 /// The pod's serial number for CANopen 0x1018:4: a CRC-32 of the STM32's 96-bit unique device ID

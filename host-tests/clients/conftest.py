@@ -7,6 +7,7 @@ truth.machine.circle / .seed002 / .instrument, truth.ssm_error_um, truth.sphere_
 import json
 import os
 import pathlib
+import signal
 import subprocess
 
 import pytest
@@ -28,21 +29,43 @@ def host_binary(name):
 
 def pytest_configure(config):
     config.addinivalue_line("markers", "sim_args(*args): extra options of that test's `sim --serve`")
+    config.addinivalue_line("markers", "needs_motion: the test runs a pattern on the served machine")
+    config.addinivalue_line("markers", "sim_only: a behaviour of sim --serve's TCP server itself")
+
+
+EMU_ELF = ROOT / "host-tests/emu-board/target/thumbv7em-none-eabihf/release/ballpod-emu"
+
+
+def emulated():
+    """True when the tests run against the emulated firmware ($BALLPOD_POD=emu: `emu --serve`,
+    the firmware on QEMU's mps2-an386) instead of the simulated pod."""
+    return os.environ.get("BALLPOD_POD") == "emu"
 
 
 @pytest.fixture()
 def pod(request):
-    """A fresh simulated pod per test (killed after it): its JSON line as a dict."""
+    """A fresh pod per test (killed after it): its JSON line as a dict. The simulated pod
+    (`sim --serve`), or with $BALLPOD_POD=emu the firmware on the emulated board (`emu --serve`;
+    a test marked `needs_motion` is skipped there: its machine stands still)."""
     marker = request.node.get_closest_marker("sim_args")
     extra = list(marker.args) if marker else []
-    proc = subprocess.Popen([host_binary("sim"), "--serve", "--max-seconds", "150", *extra],
-                            stdout=subprocess.PIPE, text=True)
+    if emulated():
+        if request.node.get_closest_marker("needs_motion"):
+            pytest.skip("the emulated board's machine stands still (no virtual CNC yet)")
+        if request.node.get_closest_marker("sim_only"):
+            pytest.skip("a behaviour of sim --serve's own TCP server (QEMU serves the emulated ports)")
+        cmd = [host_binary("emu"), "--serve", "--max-seconds", "150", "--elf", str(EMU_ELF)]
+    else:
+        cmd = [host_binary("sim"), "--serve", "--max-seconds", "150", *extra]
+    # its own process group: killing it kills the emulator the harness started too
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, start_new_session=True)
     try:
         info = json.loads(proc.stdout.readline())
-        assert {"can_port", "usb_port", "stream_port", "node_id", "truth"} <= info.keys(), info
+        assert {"can_port", "usb_port", "stream_port", "node_id"} <= info.keys(), info
+        assert emulated() or "truth" in info, info
         yield info
     finally:
-        proc.kill()
+        os.killpg(proc.pid, signal.SIGKILL)
         proc.wait(timeout=10)
 
 

@@ -187,6 +187,7 @@ def test_refusals_with_the_reason(pod, eds):
         net.disconnect()
 
 
+@pytest.mark.needs_motion
 def test_circle_ccw_then_cw_against_numpy_and_truth(pod, eds):
     """The ISO 230-4 circle CCW then CW: the results read over SDO equal a numpy fit of the
     samples the pod streamed, and the eccentricity is the truth's socket offset turned round;

@@ -87,6 +87,7 @@ def neighbourhood_fit(r, window, i, socket, bar_mm):
     return e, cov, offset, dof
 
 
+@pytest.mark.needs_motion
 def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
     truth = pod["truth"]
     e_true = truth["ssm_error_um"]

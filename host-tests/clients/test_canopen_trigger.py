@@ -33,6 +33,7 @@ def arm_feed_in(sdo, truth):
 
 
 @pytest.mark.sim_args("--speed", "40")
+@pytest.mark.needs_motion
 def test_a_feed_in_run_starts_and_stops_itself_on_the_data_arc(pod, eds):
     truth = pod["truth"]["machine"]["circle"]
     r_mm = truth["radius_mm"]
@@ -66,6 +67,7 @@ def test_a_feed_in_run_starts_and_stops_itself_on_the_data_arc(pod, eds):
 
 
 @pytest.mark.sim_args("--speed", "40", "--machine", NO_FEED_IN)
+@pytest.mark.needs_motion
 def test_a_program_without_a_feed_in_never_starts_and_the_pod_says_why(pod, eds):
     truth = pod["truth"]["machine"]["circle"]
     assert truth["feed_in_mm"] == 0.0

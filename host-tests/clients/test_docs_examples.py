@@ -9,6 +9,8 @@ import re
 import subprocess
 import sys
 
+import pytest
+
 from podlib import LIVE
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -30,6 +32,7 @@ def run_example(code, page):
     return out.stdout.splitlines()
 
 
+@pytest.mark.needs_motion
 def test_canopen_example(pod):
     (code,) = python_blocks("cnc.md")
     assert "net.add_node(16," in code and pod["node_id"] == 16  # the example's node-ID is the pod's
@@ -45,6 +48,7 @@ def test_canopen_example(pod):
     assert lines[5].startswith("G_ccw_um ") and float(lines[5].split()[1]) > 0
 
 
+@pytest.mark.needs_motion
 def test_scpi_examples(pod):
     visa, pyserial = python_blocks("technician.md")
     lines = run_example(visa.replace("USB_PORT", str(pod["usb_port"])), "technician.md")
@@ -69,6 +73,7 @@ def test_scpi_examples(pod):
     assert re.fullmatch(r'DONE;-?\d+\.\d{4},\d+\.\d{4},UM;0,"No error"', line), line
 
 
+@pytest.mark.sim_only
 def test_serve_section_names_the_json_line(pod):
     text = page("serve.md")
     keys = set(pod) | set(pod["truth"]) | set(pod["truth"]["machine"])

@@ -49,6 +49,7 @@ def run_circle(query, write, direction):
     assert query("SESS:STAT?") == "DONE"
 
 
+@pytest.mark.needs_motion
 def test_pyvisa_circle_session(pod, eds):
     truth = pod["truth"]["machine"]["circle"]
     stream = StreamCapture(pod["stream_port"])
@@ -180,6 +181,7 @@ def read_block(port):
     return data.decode()
 
 
+@pytest.mark.needs_motion
 def test_pyserial_ssm_session_and_log_download(pod):
     """A serial client: error queue, an over-long line, an SSM run whose E is the truth's, and the
     log download, whose rows are the streamed rows of the same samples."""
@@ -232,6 +234,7 @@ def test_pyserial_ssm_session_and_log_download(pod):
         stream.close()
 
 
+@pytest.mark.needs_motion
 def test_replay_of_the_stream_gives_the_pods_results(pod, tmp_path):
     """The stream text of a CCW and a CW run, replayed by `replay` into a fresh application, gives
     the results table the pod reports over SCPI — every valid result, and only those."""

@@ -22,6 +22,7 @@ def start_circle(sdo):
 
 
 @pytest.mark.sim_args("--speed", "40")
+@pytest.mark.needs_motion
 def test_heartbeats_keep_real_time_while_a_run_runs_fast(pod, eds):
     net, node = connect(pod, eds)
     sdo = node.sdo
@@ -47,6 +48,7 @@ def test_heartbeats_keep_real_time_while_a_run_runs_fast(pod, eds):
 
 
 @pytest.mark.sim_args("--speed", "40")
+@pytest.mark.needs_motion
 def test_a_usb_client_that_never_reads_holds_up_nothing(pod, eds):
     net, node = connect(pod, eds)
     sdo = node.sdo
@@ -80,6 +82,7 @@ def test_a_usb_client_that_never_reads_holds_up_nothing(pod, eds):
         net.disconnect()
 
 
+@pytest.mark.sim_only
 def test_a_second_client_is_refused_and_the_first_keeps_its_port(pod):
     first = socket.create_connection(("127.0.0.1", pod["usb_port"]))
     first.settimeout(5)

@@ -5,6 +5,7 @@ pub mod cli;
 pub mod diagonals;
 pub mod docs;
 pub mod docs_ref;
+pub mod emu;
 pub mod flash_model;
 pub mod forward_seed000;
 pub mod forward_seed001;

@@ -36,9 +36,9 @@ use std::time::{Duration, Instant};
 use ballpod::app::SessionState;
 use ballpod::protocol::canopen::CanFrame;
 
-use crate::slcan::{LineSplitter, SlcanCommand, SlcanFrame, format_frame};
 use crate::vmt::sensors::Instrument;
 use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
+use ballpod::protocol::slcan::{LineSplitter, SlcanPort};
 
 /// Options of the serve mode.
 #[derive(Clone, Debug)]
@@ -221,26 +221,6 @@ impl Client {
     }
 }
 
-fn to_core(f: &SlcanFrame) -> Option<CanFrame> {
-    if f.extended || f.remote {
-        return None; // the slave uses 11-bit data frames only
-    }
-    CanFrame::new(u16::try_from(f.id).ok()?, f.data.get(..usize::from(f.dlc))?)
-}
-
-fn to_slcan(f: &CanFrame) -> SlcanFrame {
-    let mut data = [0u8; 8];
-    let p = f.payload();
-    data[..p.len()].copy_from_slice(p);
-    SlcanFrame {
-        id: u32::from(f.id),
-        extended: false,
-        remote: false,
-        dlc: p.len() as u8,
-        data,
-    }
-}
-
 /// Runs the serve mode until `max_seconds` of real time have passed.
 pub fn run(opts: ServeOptions) -> io::Result<()> {
     let can_l = TcpListener::bind(("127.0.0.1", opts.can_port))?;
@@ -274,7 +254,7 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
     let (mut can, mut usb) = (Client::new("CAN"), Client::new("USB"));
     let mut stream = Client::new("stream");
     let mut slcan_lines = LineSplitter::default();
-    let mut can_open = false;
+    let mut slcan = SlcanPort::default();
     let start = Instant::now();
     let mut last = Instant::now();
     let mut backlog_us = 0.0f64;
@@ -283,39 +263,21 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
         vp.set_protocol_time(start.elapsed().as_micros() as u64);
         if can.accept(&can_l, b"\x07") {
             slcan_lines = LineSplitter::default();
-            can_open = false;
+            slcan.reset();
         }
         if usb.accept(&usb_l, b"port in use by another client\n") {
             // A new technician session: the configuration lock is back on (USB disconnect).
             vp.scpi.connection_closed();
         }
         let mut tx: Vec<CanFrame> = Vec::new();
-        // CAN side: SLCAN commands and frames
+        // CAN side: SLCAN commands and frames (the core's adapter, as the emulated board's)
         let bytes = can.read();
         let mut replies = Vec::new();
-        for line in slcan_lines.push(&bytes) {
-            match line.parse() {
-                Ok(SlcanCommand::Open) | Ok(SlcanCommand::ListenOnly) => {
-                    can_open = true;
-                    replies.extend_from_slice(b"\r");
-                }
-                Ok(SlcanCommand::Close) => {
-                    can_open = false;
-                    replies.extend_from_slice(b"\r");
-                }
-                Ok(SlcanCommand::Transmit(f)) => {
-                    if let Some(frame) = to_core(&f) {
-                        tx.extend(vp.can_frame(&frame));
-                    }
-                    replies.extend_from_slice(if f.extended { b"Z\r" } else { b"z\r" });
-                }
-                Ok(SlcanCommand::Version) => replies.extend_from_slice(b"V0101\r"),
-                Ok(SlcanCommand::SerialNumber) => replies.extend_from_slice(b"NBP01\r"),
-                Ok(SlcanCommand::Status) => replies.extend_from_slice(b"F00\r"),
-                Ok(_) => replies.extend_from_slice(b"\r"),
-                Err(_) => replies.push(0x07),
+        slcan_lines.push(&bytes, &mut |line| {
+            if let Some(frame) = slcan.on_line(line, &mut |r: &[u8]| replies.extend_from_slice(r)) {
+                tx.extend(vp.can_frame(&frame));
             }
-        }
+        });
         // USB side: SCPI
         let was_open = usb.connected();
         let bytes = usb.read();
@@ -372,9 +334,9 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
             backlog_us -= period_us;
             tx.extend(vp.step());
         }
-        if can_open {
+        if slcan.is_open() {
             for f in &tx {
-                replies.extend_from_slice(format_frame(&to_slcan(f)).as_bytes());
+                replies.extend_from_slice(&SlcanPort::frame_line(f));
             }
         }
         can.send(&replies);

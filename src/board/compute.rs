@@ -7,14 +7,16 @@
 //! the pod records, sends the log download and the stream on, and long work — a job, a
 //! settings save — goes to the worker (`board::worker`), so no command waits for it. It takes
 //! no decision of its own: every one is the core's.
+//!
+//! The emulated board (`host-tests/emu-board`) builds this file as it is, with its own
+//! peripherals behind the same module names (`lvdt`, `probe`, `thermistor`, `encoders`,
+//! `diagnostics`, `state`, `worker`, `safety`).
 
 use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
 use core::sync::atomic::Ordering;
 
 use embassy_futures::select::{Either5, select5};
-use embassy_stm32::exti::ExtiInput;
-use embassy_stm32::mode::Blocking;
 use embassy_time::{Duration, Instant, Ticker};
 use static_cell::StaticCell;
 
@@ -29,7 +31,7 @@ use ballpod::protocol::stream::SampleStream;
 
 use super::state::{self, UsbEvent};
 use super::worker::{self, Done, Work};
-use super::{diagnostics, lvdt, probe, thermistor};
+use super::{block, diagnostics, probe_queue, thermistor};
 
 /// Bytes of the stream's ring (the USB task drains it through `STREAM_TX`).
 const STREAM_RING: usize = 2048;
@@ -110,7 +112,7 @@ impl PodState {
 pub async fn compute_task(
     state: PodState,
     _encoders: super::encoders::Encoders,
-    probe_in: ExtiInput<'static, Blocking>,
+    probe_in: super::probe::ProbeInput,
 ) {
     let PodState { mut pod, jobs } = state;
     // the job slot while the pod holds it (`None`: the worker runs its job)
@@ -133,7 +135,7 @@ pub async fn compute_task(
     loop {
         let now = Instant::now().as_micros();
         match select5(
-            lvdt::BLOCKS.receive(),
+            block::BLOCKS.receive(),
             state::CAN_RX.receive(),
             state::USB_RX.receive(),
             ticker.next(),
@@ -147,7 +149,7 @@ pub async fn compute_task(
                         defmt::warn!("thermistor fault, code {}", code);
                     }
                 }
-                while let Ok(edge) = probe::EDGES.try_receive() {
+                while let Ok(edge) = probe_queue::EDGES.try_receive() {
                     let o = pod.on_probe_edge(edge.t_us, edge.raw, &mut ());
                     if !matches!(o, TriggerOutcome::Accepted(_)) {
                         defmt::debug!("probe edge rejected");
@@ -156,11 +158,10 @@ pub async fn compute_task(
                 let b = Block {
                     t_us: block.t_us,
                     reading: block.reading,
-                    // the encoder counts latched at the block's centre (lvdt::BlockLatchIsr)
+                    // the encoder counts latched at the block's centre
                     raw: block.raw,
                     lost_total: super::lost_upstream(),
-                    // NC contact to ground with pull-up: seated reads low.
-                    probe_seated: probe_in.is_low(),
+                    probe_seated: super::probe::seated(&probe_in),
                 };
                 pod.on_block(&b, now, &mut (), can_out);
                 super::safety::check_in(super::safety::Task::Compute);
@@ -175,7 +176,7 @@ pub async fn compute_task(
             Either5::Fourth(()) => {
                 ticks = ticks.wrapping_add(1);
                 // the LVDT task acquires in the mode the configuration names now
-                lvdt::MODE.store(pod.app.config().lvdt_input as u8, Ordering::Relaxed);
+                block::MODE.store(pod.app.config().lvdt_input as u8, Ordering::Relaxed);
                 if ticks.is_multiple_of(DEVICE_COUNTERS_EVERY_MS) {
                     pod.set_device_counters(diagnostics::device_counters());
                 }
@@ -193,6 +194,8 @@ pub async fn compute_task(
                 storing = false;
             }
         }
+        // (the emulated board shows the virtual CNC the session; nothing on the STM32 board)
+        super::after_turn(&pod);
         pod.end_of_turn(
             &mut (),
             &mut packet,

@@ -19,7 +19,7 @@ use ballpod::app::{DeviceCounter, DeviceCounters};
 use cortex_m::peripheral::DWT;
 use embassy_stm32::pac;
 
-use super::{Overruns, lvdt, probe, safety, state, thermistor};
+use super::Overruns;
 
 /// Core clock, Hz (main.rs: 24 MHz HSE / 6 × 85 / 2).
 pub const SYSCLK_HZ: u32 = 170_000_000;
@@ -83,21 +83,8 @@ pub fn device_counters() -> DeviceCounters {
     use DeviceCounter as C;
     check_dac_underrun();
     let masked_ns = u64::from(masked_cs::max()) * 1_000_000_000 / u64::from(SYSCLK_HZ);
-    let mut c = DeviceCounters::START;
+    let mut c = super::overruns::queue_counters();
     for (k, v) in [
-        (C::AdcBlocksLost, lvdt::ADC_BLOCKS_LOST.get()),
-        (C::BlockQueueOverruns, lvdt::BLOCK_QUEUE_OVERRUNS.get()),
-        (C::ProbeQueueOverruns, probe::PROBE_QUEUE_OVERRUNS.get()),
-        (
-            C::ThermistorQueueOverruns,
-            thermistor::CODE_QUEUE_OVERRUNS.get(),
-        ),
-        (C::CanRxOverruns, state::CAN_RX_OVERRUNS.get()),
-        (C::CanTxOverruns, state::CAN_TX_OVERRUNS.get()),
-        (C::CanTxDropped, state::CAN_TX_DROPPED.get()),
-        (C::UsbRxOverruns, state::USB_RX_OVERRUNS.get()),
-        (C::UsbTxOverruns, state::USB_TX_OVERRUNS.get()),
-        (C::WatchdogMisses, safety::WATCHDOG_MISSES.get()),
         (C::DacUnderruns, DAC_UNDERRUNS.get()),
         (
             C::MaskedMaxNs,

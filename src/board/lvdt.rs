@@ -26,7 +26,7 @@
 //! ([`ballpod::acquisition::periods_lost`]), however the blocks were lost.
 
 use core::cell::Cell;
-use core::sync::atomic::{AtomicU8, AtomicU32, Ordering};
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_stm32::adc::{Adc, AdcChannel, AdcConfig, Exten, RingBufferedAdc, SampleTime};
 use embassy_stm32::dac::{DacChannel, ValueArray};
@@ -34,45 +34,18 @@ use embassy_stm32::mode::Async;
 use embassy_stm32::time::hz;
 use embassy_stm32::timer::low_level::{RoundTo, Timer as LlTimer};
 use embassy_stm32::{Peri, pac, peripherals, triggers};
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::channel::Channel;
 use static_cell::StaticCell;
 
+use super::block::{BLOCK_MAX, BlockPath, P};
 use ballpod::acquisition::MAX_AXES;
-use ballpod::acquisition::lvdt::{
-    ADC12_FULL_SCALE, BlockReading, DcFrontEnd, ExcitationTable, block_mean, demodulate_watched,
-};
-use ballpod::acquisition::periods_lost;
-use ballpod::config::{Config, LvdtInput};
+use ballpod::acquisition::lvdt::{ADC12_FULL_SCALE, ExcitationTable};
+use ballpod::config::Config;
 use embassy_stm32::interrupt::typelevel::{DMA1_CHANNEL2, Handler};
 
-use super::{Irqs, Overruns};
+use super::Irqs;
 
-/// ADC samples per excitation period (the DAC table length; the configuration's
-/// `samples_per_period` can only be this).
-pub const P: usize = ballpod::config::EXCITATION_POINTS as usize;
-/// ADC samples per channel in the longest block (the DMA rings' storage):
-/// [`MAX_PERIODS_PER_SAMPLE`](ballpod::config::MAX_PERIODS_PER_SAMPLE) periods.
-pub const BLOCK_MAX: usize = P * ballpod::config::MAX_PERIODS_PER_SAMPLE as usize;
 /// DAC excitation amplitude, counts (±1000 about mid-scale: 1.6 V peak-to-peak at 3.3 V).
 pub const EXCITATION_AMPLITUDE: u16 = 1000;
-/// DC-input front end: ±10 V conditioner output divided to 0…3.3 V around 1.65 V.
-pub const DC_FRONT_END: DcFrontEnd = DcFrontEnd {
-    volts_per_count: 20.0 / 4095.0,
-    offset_v: -10.0,
-};
-
-/// One demodulated block: the pod's LVDT reading for one sample period.
-#[derive(Clone, Copy)]
-pub struct LvdtBlock {
-    /// Time at the block's centre, µs since boot.
-    pub t_us: u64,
-    /// The hardware encoder counters at the block's centre.
-    pub raw: [u32; MAX_AXES],
-    /// The block's reading in the mode it was acquired in.
-    pub reading: BlockReading,
-}
-
 /// What [`BlockLatchIsr`] latches at a half-ring boundary.
 #[derive(Clone, Copy)]
 struct Latch {
@@ -175,28 +148,8 @@ fn latch(centre: Option<u32>) -> (Latch, u32) {
     (x, newest)
 }
 
-/// LVDT task → compute task.
-pub static BLOCKS: Channel<CriticalSectionRawMutex, LvdtBlock, 4> = Channel::new();
-/// Blocks dropped because the compute task was behind.
-pub static BLOCK_QUEUE_OVERRUNS: Overruns = Overruns::new();
-/// Sample periods lost before demodulation (the LVDT task was behind the ADC DMA), from the
-/// gaps between the blocks' latched times.
-pub static ADC_BLOCKS_LOST: Overruns = Overruns::new();
-
 static RING_A: StaticCell<[u16; BLOCK_MAX]> = StaticCell::new();
 static RING_B: StaticCell<[u16; BLOCK_MAX]> = StaticCell::new();
-
-/// The LVDT input mode the application's configuration names (`LvdtInput as u8`), set by the
-/// application task; the LVDT task reads it per block, so a change takes effect at once.
-pub static MODE: AtomicU8 = AtomicU8::new(0);
-
-/// ADC samples per channel in one block of the running configuration: the excitation table
-/// times the periods in a sample (validated 1…5, so at most [`BLOCK_MAX`]).
-pub fn block_len(cfg: &Config) -> usize {
-    // a whole number in a valid configuration
-    let periods = cfg.periods_per_sample() as usize;
-    (P * periods).clamp(P, BLOCK_MAX)
-}
 
 /// The peripherals the LVDT acquisition owns.
 pub struct LvdtPeripherals {
@@ -222,11 +175,6 @@ pub struct LvdtPeripherals {
     ),
 }
 
-/// The block period, µs: one sample period (1000 µs at 1 kHz).
-pub fn block_period_us(cfg: &Config) -> u32 {
-    (1.0e6 / cfg.sample_rate_hz) as u32
-}
-
 /// Configures DAC, ADCs and TIM6 and starts the sample clock; returns what the two tasks own.
 pub fn start(
     p: LvdtPeripherals,
@@ -244,7 +192,7 @@ pub fn start(
     let adc1 = Adc::new(p.adc_a.0, AdcConfig::default());
     let adc2 = Adc::new(p.adc_b.0, AdcConfig::default());
     // one block per ring: the ring's halves end at the block's centre and end
-    let len = block_len(cfg);
+    let len = super::block::block_len(cfg);
     let ring = |r: &'static mut [u16; BLOCK_MAX]| r.get_mut(..len).unwrap_or(&mut []);
     let mut ring_a = adc1.into_ring_buffered(
         p.adc_a.1,
@@ -312,8 +260,9 @@ pub async fn dac_task(mut dac: DacChannel<'static, Async>) {
 
 /// Reads one block per sample period from both ADC rings (two half-rings each), demodulates
 /// it (AC) or averages it (DC: the application converts the volts with its zero and span) as
-/// [`MODE`] says, and queues the reading with the latch of its centre. `len` is the block
-/// length ([`block_len`]), `period_us` the sample period, for the loss count.
+/// the input mode says, and queues the reading with the latch of its centre
+/// ([`BlockPath`]). `len` is the block length (`block::block_len`), `period_us` the sample
+/// period, for the loss count.
 #[embassy_executor::task]
 pub async fn lvdt_task(
     mut ring_a: RingBufferedAdc<'static, peripherals::ADC1>,
@@ -321,7 +270,6 @@ pub async fn lvdt_task(
     len: usize,
     period_us: u32,
 ) {
-    let table = ExcitationTable::<P>::new();
     // word-aligned: the core's DSP projection reads two codes per load (unaligned blocks take
     // its portable path, which is slower)
     #[repr(align(4))]
@@ -330,7 +278,7 @@ pub async fn lvdt_task(
     // the latch event that ends the next block's first half (event 1 at ring position len/2;
     // None: find it from the newest event)
     let mut centre_seq = Some(1u32);
-    let mut prev_t_us = None;
+    let mut path = BlockPath::new(period_us);
     loop {
         super::safety::check_in(super::safety::Task::Lvdt);
         let (a, b) = (
@@ -352,25 +300,7 @@ pub async fn lvdt_task(
         }
         let (centre, end) = latch(centre_seq);
         centre_seq = Some(end.wrapping_add(1));
-        if let Some(p) = prev_t_us {
-            let lost = periods_lost(p, centre.t_us, period_us);
-            ADC_BLOCKS_LOST.add(lost);
-        }
-        prev_t_us = Some(centre.t_us);
-        let dc = MODE.load(Ordering::Relaxed) == LvdtInput::DcConditioner as u8;
-        let reading = if dc {
-            BlockReading::DcVolts(DC_FRONT_END.volts(block_mean(a)))
-        } else {
-            let tripped = block_watchdog_tripped(centre.seq, end);
-            BlockReading::Ac(demodulate_watched(a, b, &table, tripped))
-        };
-        let block = LvdtBlock {
-            t_us: centre.t_us,
-            raw: centre.raw,
-            reading,
-        };
-        if BLOCKS.try_send(block).is_err() {
-            BLOCK_QUEUE_OVERRUNS.count();
-        }
+        let tripped = block_watchdog_tripped(centre.seq, end);
+        path.on_block(a, b, centre.t_us, centre.raw, tripped);
     }
 }

@@ -5,22 +5,27 @@
 //! The pin table (pins, Nucleo headers, peripherals, wiring notes) is in the book:
 //! `docs/src/hardware.md`.
 
+pub mod block;
 pub mod can;
 pub mod compute;
 pub mod diagnostics;
 pub mod encoders;
 pub mod lvdt;
+pub mod overruns;
 pub mod probe;
+pub mod probe_queue;
 pub mod safety;
 pub mod settings;
+pub mod spawn;
 pub mod state;
 pub mod thermistor;
 pub mod usb;
+pub mod watchdog;
 pub mod worker;
 
-use core::sync::atomic::{AtomicU32, Ordering};
-
 use embassy_stm32::{bind_interrupts, can as stm_can, dma, peripherals, usb as stm_usb};
+
+pub use overruns::{Overruns, lost_upstream};
 
 bind_interrupts!(pub struct Irqs {
     DMA1_CHANNEL1 => dma::InterruptHandler<peripherals::DMA1_CH1>;
@@ -64,36 +69,7 @@ pub fn set_priorities() {
     }
 }
 
-/// An overrun counter of a bounded queue: incremented when a producer finds the queue full
-/// (the item is dropped and counted, never silently).
-pub struct Overruns(AtomicU32);
-
-impl Overruns {
-    /// A counter at zero.
-    pub const fn new() -> Self {
-        Self(AtomicU32::new(0))
-    }
-    /// Counts one lost item.
-    pub fn count(&self) {
-        self.0.fetch_add(1, Ordering::Relaxed);
-    }
-    /// Counts `n` lost items.
-    pub fn add(&self, n: u32) {
-        if n != 0 {
-            self.0.fetch_add(n, Ordering::Relaxed);
-        }
-    }
-    /// Items lost so far.
-    pub fn get(&self) -> u32 {
-        self.0.load(Ordering::Relaxed)
-    }
-}
-
-/// Samples lost by the queues feeding them (ADC DMA ring, LVDT block queue): the application
-/// task hands this total to the core, which flags the next sample `OVERRUN` and numbers it past
-/// the lost ones. (A dropped probe edge is no lost sample: `probe::PROBE_QUEUE_OVERRUNS`.)
-pub fn lost_upstream() -> u32 {
-    lvdt::ADC_BLOCKS_LOST
-        .get()
-        .wrapping_add(lvdt::BLOCK_QUEUE_OVERRUNS.get())
-}
+/// The end of the application task's turn: nothing to show on this board (the emulated board
+/// shows its virtual CNC the session here).
+#[inline(always)]
+pub fn after_turn<const L: usize, const S: usize>(_pod: &ballpod::pod::Pod<'_, L, S>) {}

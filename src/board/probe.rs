@@ -7,26 +7,8 @@ use embassy_stm32::gpio::Pull;
 use embassy_stm32::interrupt::typelevel::{EXTI4, Handler};
 use embassy_stm32::mode::Blocking;
 use embassy_stm32::{Peri, pac, peripherals};
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::channel::Channel;
 
-use ballpod::acquisition::MAX_AXES;
-
-use super::Overruns;
-
-/// A probe edge as latched in the interrupt.
-#[derive(Clone, Copy)]
-pub struct ProbeEdge {
-    /// Time of the edge, µs since boot.
-    pub t_us: u64,
-    /// The hardware encoder counters at the edge.
-    pub raw: [u32; MAX_AXES],
-}
-
-/// Probe interrupt → compute task.
-pub static EDGES: Channel<CriticalSectionRawMutex, ProbeEdge, 8> = Channel::new();
-/// Edges dropped because the queue was full.
-pub static PROBE_QUEUE_OVERRUNS: Overruns = Overruns::new();
+use super::probe_queue::ProbeEdge;
 
 /// EXTI line 4 interrupt: latch, clear, queue.
 pub struct ProbeEdgeIsr;
@@ -37,11 +19,17 @@ impl Handler<EXTI4> for ProbeEdgeIsr {
         let t_us = embassy_time::Instant::now().as_micros();
         if pac::EXTI.pr(0).read().0 & (1 << 4) != 0 {
             pac::EXTI.pr(0).write_value(pac::exti::regs::Lines(1 << 4));
-            if EDGES.try_send(ProbeEdge { t_us, raw }).is_err() {
-                PROBE_QUEUE_OVERRUNS.count();
-            }
+            super::probe_queue::queue(ProbeEdge { t_us, raw });
         }
     }
+}
+
+/// The probe's contact input (PB4).
+pub type ProbeInput = ExtiInput<'static, Blocking>;
+
+/// The stylus is seated (at rest): the NC contact to ground with pull-up reads low.
+pub fn seated(input: &ProbeInput) -> bool {
+    input.is_low()
 }
 
 /// Configures PB4 with pull-up and a rising-edge interrupt (NC probe contact opening).

@@ -6,9 +6,9 @@
 //!   Every task calls [`check_in`] as it goes round its loop — compute per sample, LVDT per
 //!   block, thermistor per reading, CAN, USB and the worker at least every [`CHECK_IN_MS`] even
 //!   when they have nothing to do, the worker's running job by its deadline
-//!   ([`super::worker::job_alive`]); [`watchdog_task`] (at the acquisition's priority, above
-//!   every computation) pets the dog every [`PET_PERIOD_MS`] only if all of [`Task::ALL`]
-//!   checked in since its last look. A stuck task, a stopped acquisition (no LVDT blocks), a
+//!   ([`super::worker::job_alive`]); the board's watchdog task ([`watch`], at the acquisition's
+//!   priority, above every computation) pets the dog every [`PET_PERIOD_MS`] only if all of
+//!   [`Task::ALL`] checked in since its last look. A stuck task, a stopped acquisition (no LVDT blocks), a
 //!   starved executor or a job past its deadline therefore resets the MCU; the next boot
 //!   finds the IWDG reset flag (RCC_CSR.IWDGRSTF, RM0440 §7.4.30) and reports it.
 //!
@@ -27,8 +27,6 @@ use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use embassy_stm32::peripherals::IWDG;
-use embassy_stm32::wdg::IndependentWatchdog;
 use embassy_time::Timer;
 
 use super::Overruns;
@@ -86,11 +84,9 @@ pub fn check_in(task: Task) {
     CHECK_INS.fetch_or(1 << task as u32, Ordering::Relaxed);
 }
 
-/// Starts the watchdog and pets it while every task checks in.
-#[embassy_executor::task]
-pub async fn watchdog_task(iwdg: embassy_stm32::Peri<'static, IWDG>) {
-    let mut dog = IndependentWatchdog::new(iwdg, WATCHDOG_TIMEOUT_US);
-    dog.unleash();
+/// Pets the watchdog (`pet`) every [`PET_PERIOD_MS`] while every task checks in; the board's
+/// watchdog task runs it once its watchdog is started (`board::watchdog`).
+pub async fn watch(mut pet: impl FnMut()) -> ! {
     loop {
         Timer::after_millis(PET_PERIOD_MS).await;
         let mut seen = CHECK_INS.swap(0, Ordering::Relaxed);
@@ -99,7 +95,7 @@ pub async fn watchdog_task(iwdg: embassy_stm32::Peri<'static, IWDG>) {
             seen |= 1 << Task::Worker as u32;
         }
         if seen & Task::ALL_BITS == Task::ALL_BITS {
-            dog.pet();
+            pet();
         } else {
             defmt::warn!(
                 "watchdog: tasks not checked in {=u32:b}",
@@ -191,17 +187,14 @@ pub enum ResetReport {
     Watchdog,
 }
 
-/// Takes the panic record (clearing it) and the watchdog reset flag (clearing the reset flags).
-/// Call once at boot, before the tasks start.
-pub fn take_reset_report() -> Option<ResetReport> {
+/// Takes the panic record (clearing it); `watchdog` is the board's word that the last reset was
+/// the watchdog's. Call once at boot, before the tasks start.
+pub fn take_reset_report(watchdog: bool) -> Option<ResetReport> {
     static TEXT: static_cell::StaticCell<[u8; PANIC_TEXT_BYTES]> = static_cell::StaticCell::new();
     let ptr = PANIC_RECORD.0.get().cast::<PanicRecord>();
     // SAFETY: see `Retained`; after a power-on the bytes are arbitrary but every bit pattern is
     // a valid `PanicRecord` (integers and bytes), and the magic decides whether it is used.
     let rec = unsafe { core::ptr::read_volatile(ptr) };
-    let rcc = embassy_stm32::pac::RCC;
-    let watchdog = rcc.csr().read().iwdgrstf();
-    rcc.csr().modify(|w| w.set_rmvf(true));
     if rec.magic == PANIC_MAGIC {
         // SAFETY: as above; the magic is cleared so the report is made once.
         unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!((*ptr).magic), 0) };

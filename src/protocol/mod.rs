@@ -11,12 +11,14 @@
 //! - [`scpi`]: the USB command interface (IEEE 488.2 / SCPI-99 parser, status model, error queue).
 //! - [`csv`]: the text of a recorded run (header, samples, touch points, end);
 //! - [`download`]: the log download (`DATA:LOG?`) in that text;
-//! - [`stream`]: the USB sample stream in that text.
+//! - [`stream`]: the USB sample stream in that text;
+//! - [`slcan`]: CAN frames as SLCAN text lines (the simulated and the emulated pod's CAN port).
 
 pub mod canopen;
 pub mod csv;
 pub mod download;
 pub mod scpi;
+pub mod slcan;
 pub mod stream;
 
 use crate::app::CommandError;

@@ -43,8 +43,21 @@ impl LvdtChannel {
         adc_noise_counts: f64,
         rng: &mut Rng,
     ) -> Result<LvdtReading, DemodError> {
+        self.block_with(model, x_um, adc_noise_counts, rng).1
+    }
+
+    /// [`read_with`](Self::read_with) with the block's 12-bit ADC codes of both secondaries
+    /// (what the emulated board's ADC is handed).
+    pub fn block_with(
+        &self,
+        model: &LvdtModel,
+        x_um: f64,
+        adc_noise_counts: f64,
+        rng: &mut Rng,
+    ) -> ((Vec<u16>, Vec<u16>), Result<LvdtReading, DemodError>) {
         let (a, b) = model.block_adc(x_um, P, self.periods, adc_noise_counts, rng);
-        demodulate(&a, &b, &self.table)
+        let reading = demodulate(&a, &b, &self.table);
+        ((a, b), reading)
     }
 
     /// [`read_with`](Self::read_with) the channel's own transformer.

@@ -120,7 +120,7 @@ pub struct SensorFaults {
 }
 
 /// What one sample period delivers to the application (as the board's tasks hand it over).
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 pub struct Readings {
     /// Time of the sample, µs.
     pub t_us: u64,
@@ -132,6 +132,8 @@ pub struct Readings {
     pub lost_total: u32,
     /// The thermistor code read this period, if the thermistor task read one (every 100 ms).
     pub thermistor: Option<u16>,
+    /// The LVDT block's 12-bit ADC codes, secondary A then B (what the board's ADCs read).
+    pub adc: (Vec<u16>, Vec<u16>),
 }
 
 /// The sensor model of the simulated pod: the instrument (bar, LVDT, encoders, thermistor,
@@ -241,9 +243,9 @@ impl Sensors {
             f.lvdt_over_range_samples -= 1;
             x = OVER_RANGE_UM;
         }
-        let reading = self
-            .lvdt
-            .read_with(&lvdt, x, self.inst.adc_noise_counts, &mut self.rng);
+        let (adc, reading) =
+            self.lvdt
+                .block_with(&lvdt, x, self.inst.adc_noise_counts, &mut self.rng);
         let glitch = std::mem::take(&mut f.encoder_glitch_counts);
         let mut raw = self.raw(axes);
         if glitch != 0 {
@@ -255,6 +257,7 @@ impl Sensors {
             raw,
             lost_total: self.lost_total,
             thermistor,
+            adc,
         };
         self.t_us += self.period_us();
         r

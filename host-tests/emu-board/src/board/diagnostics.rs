@@ -1,0 +1,22 @@
+//! What the emulated board measures of itself, for the application's device counters.
+
+use ballpod::app::{DeviceCounter, DeviceCounters};
+
+use super::{state, uart};
+
+/// Every device counter the board keeps (the pod adds its own: `Pod::set_device_counters`):
+/// the queues' (`overruns::queue_counters`) with the UARTs' receive overruns in CAN's and
+/// USB's; the masked-section time, the DAC and the stack's high-water mark are not measured
+/// here.
+pub fn device_counters() -> DeviceCounters {
+    let mut c = super::overruns::queue_counters();
+    c.set(
+        DeviceCounter::CanRxOverruns,
+        state::CAN_RX_OVERRUNS.get() + uart::UART0.rx_overruns.get(),
+    );
+    c.set(
+        DeviceCounter::UsbRxOverruns,
+        state::USB_RX_OVERRUNS.get() + uart::UART1.rx_overruns.get(),
+    );
+    c
+}

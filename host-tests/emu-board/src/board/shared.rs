@@ -1,0 +1,122 @@
+//! The region the emulated board shares with the host's harness: QEMU's machine RAM at
+//! 0x2100_0000, backed by a file the harness maps too (`-machine memory-backend=…` with a
+//! shared `memory-backend-file`). The harness writes one block record per sample period into a
+//! ring — the secondaries' ADC codes, the encoder counters at the block's centre, a probe edge,
+//! the thermistor code — ahead of the firmware, which takes one at each tick of its sample
+//! clock (the emulated ADC DMA). The firmware writes its session there for the harness's
+//! virtual CNC. The layout is `host-tests/src/emu.rs`'s too (`SharedLayout`): change both.
+
+use core::sync::atomic::{AtomicU32, Ordering};
+
+use ballpod::acquisition::MAX_AXES;
+use ballpod::app::App;
+
+use super::block::BLOCK_MAX;
+
+/// Where the region is.
+pub const BASE: usize = 0x2100_0000;
+/// `magic` once the firmware has booted ("BPOD").
+pub const MAGIC: u32 = 0x444F_5042;
+/// Layout version (`version`).
+pub const VERSION: u32 = 1;
+/// Block records in the ring.
+pub const RING: usize = 64;
+/// Bytes of the configuration's encoding the session carries.
+pub const CONFIG_BYTES: usize = 512;
+
+/// One sample period as the harness writes it.
+#[repr(C)]
+pub struct Record {
+    /// The encoder counters at the block's centre (low 16 bits significant).
+    pub raw: [u32; MAX_AXES],
+    /// A thermistor reading in this period (12-bit code), or `u32::MAX`.
+    pub thermistor: u32,
+    /// The probe's stylus is seated (1) or deflected (0).
+    pub seated: u32,
+    /// 1: a probe edge in this period, the counters at it in `edge_raw`.
+    pub edge: u32,
+    /// The encoder counters at the edge.
+    pub edge_raw: [u32; MAX_AXES],
+    /// 1: a code of this block is at a rail (the ADCs' analog watchdogs would trip).
+    pub tripped: u32,
+    /// ADC codes of secondary A, then B (the block's length: the running configuration's).
+    pub a: [u16; BLOCK_MAX],
+    /// Secondary B.
+    pub b: [u16; BLOCK_MAX],
+}
+
+/// The region's layout.
+#[repr(C)]
+pub struct Shared {
+    /// [`MAGIC`] once booted (0 while booting: the harness waits for it).
+    pub magic: AtomicU32,
+    /// [`VERSION`].
+    pub version: AtomicU32,
+    /// Boots since the region was made (a watchdog reset shows as one more).
+    pub boots: AtomicU32,
+    /// Records the harness has written since the region was made.
+    pub written: AtomicU32,
+    /// Records the firmware has taken.
+    pub taken: AtomicU32,
+    /// Updates of the session below (odd while one is being written).
+    pub session_seq: AtomicU32,
+    /// Session state, pattern and direction (`App::session`, `pattern`, `direction` as u8,
+    /// bytes 0, 1, 2).
+    pub session: AtomicU32,
+    /// The run's number.
+    pub run: AtomicU32,
+    /// Bytes of `config` used.
+    pub config_len: AtomicU32,
+    /// The running configuration's encoding (`Config::encode`).
+    pub config: [u8; CONFIG_BYTES],
+    /// The block ring (record `k` at `k % RING`).
+    pub ring: [Record; RING],
+}
+
+/// The region.
+pub fn region() -> &'static Shared {
+    // SAFETY: the machine RAM at BASE (16 MiB) holds a `Shared` (far smaller); every field the
+    // harness writes while the firmware reads it is an atomic or written before `written`
+    // (release) and read after it (acquire).
+    unsafe { &*(BASE as *const Shared) }
+}
+
+/// The record `k`.
+pub fn record(k: u32) -> &'static Record {
+    let r = region();
+    let i = k as usize % RING;
+    // (in range: i < RING)
+    &r.ring[i]
+}
+
+/// Marks the region booted (the harness starts writing blocks).
+pub fn booted() {
+    let r = region();
+    r.boots.fetch_add(1, Ordering::Relaxed);
+    r.version.store(VERSION, Ordering::Relaxed);
+    r.magic.store(MAGIC, Ordering::Release);
+}
+
+/// The session for the virtual CNC, when it changed.
+pub fn publish_session(app: &App) {
+    let r = region();
+    let word = u32::from(app.session() as u8)
+        | u32::from(app.pattern() as u8) << 8
+        | u32::from(app.direction() as u8) << 16;
+    if r.session.load(Ordering::Relaxed) == word
+        && r.run.load(Ordering::Relaxed) == app.run_number()
+    {
+        return;
+    }
+    let seq = r.session_seq.load(Ordering::Relaxed);
+    r.session_seq.store(seq.wrapping_add(1), Ordering::Release);
+    let mut bytes = [0u8; CONFIG_BYTES];
+    let n = app.running_config().encode(&mut bytes).unwrap_or(0);
+    // SAFETY: the region's config area (see `region`); the firmware is its only writer, and
+    // the harness reads it between two equal even `session_seq`s.
+    unsafe { core::ptr::addr_of_mut!((*(BASE as *mut Shared)).config).write_volatile(bytes) };
+    r.config_len.store(n as u32, Ordering::Relaxed);
+    r.session.store(word, Ordering::Relaxed);
+    r.run.store(app.run_number(), Ordering::Relaxed);
+    r.session_seq.store(seq.wrapping_add(2), Ordering::Release);
+}

@@ -1065,8 +1065,8 @@ impl App {
     }
 
     /// True while a job is wanted or running ([`job`]: the ISO 230-4 figures of a run that
-    /// ended, the seed 002 identification): the results it publishes are invalid until then
-    /// (status bit [`StatusWord::COMPUTING`]).
+    /// ended, a touch-probe method, the seed 002 identification): the results it publishes are
+    /// invalid until then (status bit [`StatusWord::COMPUTING`]).
     pub fn job_pending(&self) -> bool {
         self.job.is_some()
             || self.figures_requests.iter().any(Option::is_some)

@@ -3,6 +3,7 @@ the sample stream port, and numpy implementations of the figures the pod reports
 their definitions (least-squares limaçon fit, ISO 230-4 G / F / G(b) / H on 1° bins) without the
 pod's code, so that a test can hold the pod's answer against them."""
 import math
+import os
 import re
 import socket
 import threading
@@ -21,6 +22,12 @@ COMMAND = {"arm": 1, "start": 2, "stop": 3, "abort": 4, "clear": 5, "reset": 6, 
 LIVE = ["delta_l", "ssm_ex", "ssm_ey", "ssm_ez", "ecc_u", "ecc_v", "r0", "temp", "u_ssm_ex", "u_ssm_ey",
         "u_ssm_ez", "u_ecc_u", "u_ecc_v", "u_r0"]  # 0x2100:k+1
 STATUS_RUNNING, STATUS_RESULTS_READY, STATUS_IDENTIFYING = 1 << 9, 1 << 10, 1 << 13
+# SYST:COUN? / 0x2110, in order (src/app/device.rs DEVICE_COUNTERS)
+DEVICE_COUNTERS = ["adc_blocks_lost", "block_queue_overruns", "probe_queue_overruns",
+                   "thermistor_queue_overruns", "can_rx_overruns", "can_tx_overruns", "can_tx_dropped",
+                   "usb_rx_overruns", "usb_tx_overruns", "stream_lines_dropped", "log_paused_samples",
+                   "settings_store_failures", "watchdog_misses", "dac_underruns", "masked_max_ns",
+                   "stack_high_water_bytes"]
 
 # CiA 301 table 22 abort codes
 ABORT_WRITE_ONLY = 0x06010001
@@ -86,7 +93,8 @@ def parse_runs(text):
     """The runs of a stream text (`# ballpod run v2` … `# stream_dropped=N`): a plain reader of
     the format of src/protocol/csv.rs."""
     runs, cur = [], None
-    for line in text.split("\n"):
+    # whole lines only: the port delivers bytes as they come (a UART's a byte at a time)
+    for line in text[:text.rfind("\n") + 1].split("\n"):
         if line.startswith("# ballpod run v"):
             cur = {"meta": {}, "cols": None, "rows": [], "end": {}}
             runs.append(cur)
@@ -249,13 +257,35 @@ def configure_circle(sdo, circle):
     sdo["circle_feed"].raw = circle["feed_mm_per_min"]
 
 
-def run(sdo, pattern, direction, timeout=30.0):
+# the emulated board's virtual CNC runs at real time (sim --serve's runs faster while a run runs)
+RUN_TIMEOUT = 240.0 if os.environ.get("BALLPOD_POD") == "emu" else 30.0
+# The emulated board's virtual CNC (emu --serve) puts the machine at an armed run's start a few
+# sample periods after it sees the run armed; a CNC starts a run once its positioning move is
+# done. `conftest` sets this to a function that says how many times it has (the harness's
+# figures, `positioned`); None against sim --serve, whose virtual CNC starts at once.
+POSITIONED = None
+
+
+def arm_then_start(arm, start):
+    """Arms (`arm()`), waits until the machine stands at the run's start, starts (`start()`)."""
+    before = POSITIONED() if POSITIONED else 0
+    arm()
+    if POSITIONED:
+        wait_until(lambda: POSITIONED() > before, 10, "the machine at the armed run's start")
+    start()
+
+
+def run(sdo, pattern, direction, timeout=None):
     """Arms and starts a run; the served machine ends it with its motion. Returns the state."""
+    timeout = timeout or RUN_TIMEOUT
     sdo["pattern"].raw = PATTERN[pattern]
     sdo["direction"].raw = DIRECTION[direction]
-    sdo["session_command"].raw = COMMAND["arm"]
-    assert sdo["session_state"].raw == 1  # ARMED
-    sdo["session_command"].raw = COMMAND["start"]
+
+    def arm():
+        sdo["session_command"].raw = COMMAND["arm"]
+        assert sdo["session_state"].raw == 1  # ARMED
+
+    arm_then_start(arm, lambda: setattr(sdo["session_command"], "raw", COMMAND["start"]))
     wait_until(lambda: sdo["session_state"].raw != 2, timeout, f"the {pattern} {direction} run's end")
     return sdo["session_state"].raw
 

@@ -18,7 +18,6 @@ MOUNTING_DEFAULTS = {"s002_u_w_clamp": 22.0, "s002_u_t_centring": 0.5, "s002_u_t
 
 
 @pytest.mark.sim_args("--speed", "40")
-@pytest.mark.needs_motion
 def test_seed002_procedure_identifies_the_truth(pod, eds):
     truth = pod["truth"]["machine"]["seed002"]
     net, node = connect(pod, eds)

@@ -11,7 +11,8 @@ import numpy as np
 import pytest
 
 from podlib import (ABORT_TOO_LOW, COMMAND, PATTERN, STATUS_RUNNING, StreamCapture, abort_code,
-                    assert_invalid, connect, result, tpdo_snapshots, wait_until)
+                    assert_invalid, arm_then_start, connect, result, tpdo_snapshots, wait_until,
+                    RUN_TIMEOUT)
 
 # The pod's streaming neighbourhood holds at most this many samples (src/app/ssm.rs SSM_WINDOW);
 # samples farther than ssm_window_radius from the current point leave it, oldest first.
@@ -87,7 +88,6 @@ def neighbourhood_fit(r, window, i, socket, bar_mm):
     return e, cov, offset, dof
 
 
-@pytest.mark.needs_motion
 def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
     truth = pod["truth"]
     e_true = truth["ssm_error_um"]
@@ -127,11 +127,14 @@ def test_ssm_live_error_by_tpdo_against_truth(pod, eds):
         node.tpdo[2].save()
         snaps = tpdo_snapshots(node, (2, 3, 4))
         sdo["pattern"].raw = PATTERN["SSM"]
-        sdo["session_command"].raw = COMMAND["arm"]
-        node.nmt.state = "OPERATIONAL"
-        net.sync.start(0.01)
-        sdo["session_command"].raw = COMMAND["start"]
-        wait_until(lambda: sdo["session_state"].raw != 2, 30, "the SSM run's end")
+
+        def arm():
+            sdo["session_command"].raw = COMMAND["arm"]
+            node.nmt.state = "OPERATIONAL"
+            net.sync.start(0.01)
+
+        arm_then_start(arm, lambda: setattr(sdo["session_command"], "raw", COMMAND["start"]))
+        wait_until(lambda: sdo["session_state"].raw != 2, RUN_TIMEOUT, "the SSM run's end")
         net.sync.stop()
         assert sdo["session_state"].raw == 3
         # the stations' E: truth within 3 u

@@ -14,7 +14,7 @@ import pytest
 import serial
 
 from podlib import (COMMAND, DIRECTION, PATTERN, StreamCapture, configure_circle, connect, fit_run,
-                    result, wait_until)
+                    result, wait_until, RUN_TIMEOUT)
 
 ARC_DEG = 360.0
 NO_FEED_IN = str(pathlib.Path(__file__).with_name("machine_no_feed_in.toml"))
@@ -33,7 +33,6 @@ def arm_feed_in(sdo, truth):
 
 
 @pytest.mark.sim_args("--speed", "40")
-@pytest.mark.needs_motion
 def test_a_feed_in_run_starts_and_stops_itself_on_the_data_arc(pod, eds):
     truth = pod["truth"]["machine"]["circle"]
     r_mm = truth["radius_mm"]
@@ -43,7 +42,7 @@ def test_a_feed_in_run_starts_and_stops_itself_on_the_data_arc(pod, eds):
     try:
         arm_feed_in(sdo, truth)
         # no START: the pod starts the run at the data arc and ends it after circle_arc
-        wait_until(lambda: sdo["session_state"].raw == 3, 60, "the self-triggered run's end")
+        wait_until(lambda: sdo["session_state"].raw == 3, RUN_TIMEOUT, "the self-triggered run's end")
         (run,) = stream.runs(1)
         assert (run.meta["pattern"], run.meta["direction"], run.end["end"]) == ("CIRCLE", "CCW", "DONE")
         x, y = run.col("x_mm"), run.col("y_mm")
@@ -67,7 +66,7 @@ def test_a_feed_in_run_starts_and_stops_itself_on_the_data_arc(pod, eds):
 
 
 @pytest.mark.sim_args("--speed", "40", "--machine", NO_FEED_IN)
-@pytest.mark.needs_motion
+@pytest.mark.emu_args("--machine", NO_FEED_IN)
 def test_a_program_without_a_feed_in_never_starts_and_the_pod_says_why(pod, eds):
     truth = pod["truth"]["machine"]["circle"]
     assert truth["feed_in_mm"] == 0.0

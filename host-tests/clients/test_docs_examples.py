@@ -32,7 +32,6 @@ def run_example(code, page):
     return out.stdout.splitlines()
 
 
-@pytest.mark.needs_motion
 def test_canopen_example(pod):
     (code,) = python_blocks("cnc.md")
     assert "net.add_node(16," in code and pod["node_id"] == 16  # the example's node-ID is the pod's
@@ -48,7 +47,7 @@ def test_canopen_example(pod):
     assert lines[5].startswith("G_ccw_um ") and float(lines[5].split()[1]) > 0
 
 
-@pytest.mark.needs_motion
+@pytest.mark.emu_pending
 def test_scpi_examples(pod):
     visa, pyserial = python_blocks("technician.md")
     lines = run_example(visa.replace("USB_PORT", str(pod["usb_port"])), "technician.md")

@@ -11,13 +11,11 @@ import can
 import pytest
 
 from conftest import emulated
+from podlib import DEVICE_COUNTERS
 
 pytestmark = pytest.mark.skipif(not emulated(), reason="the emulated board's own checks")
 
-COUNTERS = ["adc_blocks_lost", "block_queue_overruns", "probe_queue_overruns",
-            "thermistor_queue_overruns", "can_rx_overruns", "can_tx_overruns", "can_tx_dropped",
-            "usb_rx_overruns", "usb_tx_overruns", "stream_lines_dropped", "log_paused_samples",
-            "settings_store_failures", "watchdog_misses", "dac_underruns"]
+COUNTERS = DEVICE_COUNTERS[:14]
 
 
 def scpi(port):
@@ -65,7 +63,7 @@ def test_acquisition_whole_and_heartbeat_while_clients_talk(pod):
     # the sample counter between heartbeats: 1000 samples (1 kHz) per 1000 ms heartbeat, in
     # emulated time, within the SCPI query's own latency (a few samples)
     gaps = [b - a for a, b in zip(beats, beats[1:])]
-    figures = pathlib.Path(__file__).resolve().parents[1] / "target" / "emulated-board-figures.md"
+    figures = pathlib.Path(__file__).resolve().parents[1] / "target" / "emulated-board-idle-figures.md"
     figures.parent.mkdir(exist_ok=True)
     figures.write_text(
         "| figure (emulated board, 6 s of SDO uploads and SCPI queries) | value |\n|---|---|\n"

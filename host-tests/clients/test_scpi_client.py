@@ -16,7 +16,7 @@ import serial
 
 from conftest import host_binary
 from podlib import (LIVE, SCPI_ERROR, StreamCapture, connect, fit_run, iso230_4, scpi_nan, scpi_result,
-                    wait_until)
+                    wait_until, arm_then_start, RUN_TIMEOUT)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -44,12 +44,12 @@ def configure_circle(write, circle):
 
 
 def run_circle(query, write, direction):
-    write(f"SESS:PATT CIRCLE;DIR {direction};:SESS:ARM;STAR")
-    wait_until(lambda: query("SESS:STAT?") != "RUNNING", 30, f"the CIRCLE {direction} run's end")
+    arm_then_start(lambda: write(f"SESS:PATT CIRCLE;DIR {direction};:SESS:ARM"), lambda: write("SESS:STAR"))
+    wait_until(lambda: query("SESS:STAT?") != "RUNNING", RUN_TIMEOUT, f"the CIRCLE {direction} run's end")
     assert query("SESS:STAT?") == "DONE"
 
 
-@pytest.mark.needs_motion
+@pytest.mark.emu_pending
 def test_pyvisa_circle_session(pod, eds):
     truth = pod["truth"]["machine"]["circle"]
     stream = StreamCapture(pod["stream_port"])
@@ -75,7 +75,7 @@ def test_pyvisa_circle_session(pod, eds):
         assert error(q) == (-222, "Data out of range;bar_length out of range")
         assert float(q("CONF:BAR_LENGTH?")) == truth["radius_mm"]
         # the live values: counter, 14 values (9.91E+37 where invalid), status word, validity mask
-        w("SESS:PATT CIRCLE;DIR CCW;:SESS:ARM;STAR")
+        arm_then_start(lambda: w("SESS:PATT CIRCLE;DIR CCW;:SESS:ARM"), lambda: w("SESS:STAR"))
         assert q("SESS:STAT?") == "RUNNING"
         for _ in range(5):
             f = q("MEAS:ALL?").split(",")
@@ -181,7 +181,7 @@ def read_block(port):
     return data.decode()
 
 
-@pytest.mark.needs_motion
+@pytest.mark.emu_pending
 def test_pyserial_ssm_session_and_log_download(pod):
     """A serial client: error queue, an over-long line, an SSM run whose E is the truth's, and the
     log download, whose rows are the streamed rows of the same samples."""
@@ -205,8 +205,8 @@ def test_pyserial_ssm_session_and_log_download(pod):
         port.write(b"SESS:PATT SSM;:SESS:ARM\n")
         assert ask("SYST:ERR?") == '-221,"Settings conflict;ssm_socket_x not set"'
         port.write(b"CONF:UNL;:CONF:SSM_SOCKET_X 0;SSM_SOCKET_Y 0;SSM_SOCKET_Z 0\n")
-        port.write(b"SESS:ARM;STAR\n")
-        wait_until(lambda: ask("SESS:STAT?") != "RUNNING", 30, "the SSM run's end")
+        arm_then_start(lambda: port.write(b"SESS:ARM\n"), lambda: port.write(b"SESS:STAR\n"))
+        wait_until(lambda: ask("SESS:STAT?") != "RUNNING", RUN_TIMEOUT, "the SSM run's end")
         assert ask("SESS:STAT?") == "DONE"
         e_true = pod["truth"]["ssm_error_um"]
         for k, name in enumerate(("ssm_ex", "ssm_ey", "ssm_ez")):
@@ -234,7 +234,7 @@ def test_pyserial_ssm_session_and_log_download(pod):
         stream.close()
 
 
-@pytest.mark.needs_motion
+@pytest.mark.emu_pending
 def test_replay_of_the_stream_gives_the_pods_results(pod, tmp_path):
     """The stream text of a CCW and a CW run, replayed by `replay` into a fresh application, gives
     the results table the pod reports over SCPI — every valid result, and only those."""

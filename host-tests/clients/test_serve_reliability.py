@@ -22,7 +22,7 @@ def start_circle(sdo):
 
 
 @pytest.mark.sim_args("--speed", "40")
-@pytest.mark.needs_motion
+@pytest.mark.sim_only
 def test_heartbeats_keep_real_time_while_a_run_runs_fast(pod, eds):
     net, node = connect(pod, eds)
     sdo = node.sdo
@@ -48,7 +48,7 @@ def test_heartbeats_keep_real_time_while_a_run_runs_fast(pod, eds):
 
 
 @pytest.mark.sim_args("--speed", "40")
-@pytest.mark.needs_motion
+@pytest.mark.emu_pending
 def test_a_usb_client_that_never_reads_holds_up_nothing(pod, eds):
     net, node = connect(pod, eds)
     sdo = node.sdo

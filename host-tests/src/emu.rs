@@ -14,11 +14,14 @@
 //!   period the secondaries' 12-bit ADC codes (the LVDT model of [`crate::vmt::sensors`]), the
 //!   encoder counters, the thermistor code. The firmware takes one record per tick of its sample
 //!   clock, in emulated time; a record not there in time is a lost period, as on the pod.
-//! - The machine stands at its home (every axis at 0, the bar at its nominal length): the
-//!   counters read from 0 at boot, so the pod's axis positions are the machine's. The session
-//!   the firmware publishes ([`SharedLayout`]'s session words) is read and reported, for a
-//!   virtual CNC to move the machine through a run's pattern (not yet: the runs that need
-//!   motion are `sim --serve`'s).
+//! - The machine starts at its home (every axis at 0, the bar at its nominal length: the
+//!   counters read from 0 at boot). [`VirtualCnc`], `sim --serve`'s virtual CNC, moves it
+//!   through each run's pattern from the session the firmware publishes ([`SharedLayout`]'s
+//!   session words); it homes the axes at a program's start and ends a run with its program
+//!   through the records (the emulated board's `cnc` module).
+//! - `--figures FILE`: what the board measures of itself in emulated time (its CAN adapter's
+//!   SDO answer times and heartbeat gaps, the boots) with the records and `positioned`, a JSON
+//!   object rewritten as it changes.
 
 use std::fs::{File, OpenOptions};
 use std::io::{self, Write};
@@ -31,6 +34,11 @@ use std::time::{Duration, Instant};
 use ballpod::acquisition::MAX_AXES;
 use ballpod::config::Config;
 
+use ballpod::app::{Direction, Pattern, SessionState};
+use ballpod::config::RunTrigger;
+
+use crate::vmt::machine::MachineFile;
+use crate::vmt::motion::{Motion, ServeTruth};
 use crate::vmt::sensors::{Instrument, Sensors};
 
 /// Options of `emu --serve`.
@@ -50,6 +58,10 @@ pub struct EmuOptions {
     pub seed: u64,
     /// QEMU's `-icount shift`: 2^shift ns of emulated time per instruction.
     pub icount_shift: u32,
+    /// The served machine (`--machine`), instead of the default truth's.
+    pub machine: Option<MachineFile>,
+    /// Where to keep the board's figures (`--figures`): a JSON object, rewritten as they change.
+    pub figures: Option<PathBuf>,
 }
 
 /// The shared region's layout: `host-tests/emu-board/src/board/shared.rs` (`Shared`,
@@ -62,7 +74,7 @@ impl SharedLayout {
     /// "BPOD" once the firmware has booted.
     pub const MAGIC: u32 = 0x444F_5042;
     /// Layout version.
-    pub const VERSION: u32 = 1;
+    pub const VERSION: u32 = 2;
     const MAGIC_AT: u64 = 0;
     const VERSION_AT: u64 = 4;
     const BOOTS_AT: u64 = 8;
@@ -71,17 +83,24 @@ impl SharedLayout {
     const SESSION_SEQ_AT: u64 = 20;
     const SESSION_AT: u64 = 24;
     const RUN_AT: u64 = 28;
-    const CONFIG_LEN_AT: u64 = 32;
-    const CONFIG_AT: u64 = 36;
+    const FIGURES_AT: u64 = 32;
+    const FIGURES: u64 = 16;
+    const CONFIG_LEN_AT: u64 = Self::FIGURES_AT + 4 * Self::FIGURES;
+    const CONFIG_AT: u64 = Self::CONFIG_LEN_AT + 4;
     const CONFIG_BYTES: u64 = 512;
     const RING_AT: u64 = Self::CONFIG_AT + Self::CONFIG_BYTES;
     /// Records in the ring.
     pub const RING: u32 = 64;
     /// ADC codes per channel a record holds (`block::BLOCK_MAX`).
     pub const BLOCK_MAX: usize = 100;
-    /// Bytes of one record: raw[5], thermistor, seated, edge, edge_raw[5], tripped (u32 each),
-    /// then a[100], b[100] (u16).
-    pub const RECORD: u64 = 4 * (5 + 1 + 1 + 1 + 5 + 1) + 2 * 2 * Self::BLOCK_MAX as u64;
+    /// Bytes of one record: raw[5], thermistor, seated, edge, edge_raw[5], tripped, cnc,
+    /// reference_raw[5], reference_pos[10] (u32 each), then a[100], b[100] (u16).
+    pub const RECORD: u64 =
+        4 * (5 + 1 + 1 + 1 + 5 + 1 + 1 + 5 + 10) + 2 * 2 * Self::BLOCK_MAX as u64;
+    /// `Record::cnc`: the axes were homed before this block.
+    const CNC_REFERENCE: u32 = 1;
+    /// `Record::cnc`: the part program ended before this block.
+    const CNC_PROGRAM_END: u32 = 2;
 }
 
 /// One sample period for the firmware's ring.
@@ -98,6 +117,11 @@ pub struct Record<'a> {
     pub a: &'a [u16],
     /// ADC codes, secondary B.
     pub b: &'a [u16],
+    /// The virtual CNC homed the machine before this block: the counters that read these
+    /// positions (mm / degrees).
+    pub reference: Option<([u32; MAX_AXES], [f64; MAX_AXES])>,
+    /// The virtual CNC's part program ended before this block (the run stops).
+    pub program_end: bool,
 }
 
 impl Record<'_> {
@@ -116,6 +140,23 @@ impl Record<'_> {
         w(u32::from(
             self.a.iter().any(rail) || self.b.iter().any(rail),
         ));
+        let cnc = if self.reference.is_some() {
+            SharedLayout::CNC_REFERENCE
+        } else {
+            0
+        } | if self.program_end {
+            SharedLayout::CNC_PROGRAM_END
+        } else {
+            0
+        };
+        w(cnc);
+        let (raw, pos) = self.reference.unwrap_or(([0; MAX_AXES], [0.0; MAX_AXES]));
+        raw.iter().for_each(|&r| w(r));
+        for p in pos {
+            let bits = p.to_bits();
+            w(bits as u32);
+            w((bits >> 32) as u32);
+        }
         for codes in [self.a, self.b] {
             for k in 0..SharedLayout::BLOCK_MAX {
                 v.extend_from_slice(&codes.get(k).copied().unwrap_or(0).to_le_bytes());
@@ -180,6 +221,18 @@ impl Region {
         })
     }
 
+    /// What the board measured of itself (`shared::Figure` of the emulated board): SDO answers,
+    /// worst SDO answer time µs, heartbeat gaps measured, shortest and longest gap µs, boots
+    /// after a watchdog reset; then the device counters `adc_blocks_lost`,
+    /// `block_queue_overruns`, `watchdog_misses`, `stack_high_water_bytes`.
+    pub fn figures(&self) -> io::Result<[u32; 10]> {
+        let mut f = [0u32; 10];
+        for (k, v) in f.iter_mut().enumerate() {
+            *v = self.u32_at(SharedLayout::FIGURES_AT + 4 * k as u64)?;
+        }
+        Ok(f)
+    }
+
     /// Records written and taken.
     pub fn counts(&self) -> io::Result<(u32, u32)> {
         Ok((
@@ -225,6 +278,157 @@ impl Region {
 impl Drop for Region {
     fn drop(&mut self) {
         let _ = std::fs::remove_file(&self.path);
+    }
+}
+
+/// The virtual CNC of the emulated board: the simulated pod's ([`crate::vmt::motion`]) driven
+/// by the session the firmware publishes. When a run is armed (or found running) it puts the
+/// machine at its program's start and homes the axes there (the record's reference, as the
+/// simulated pod's `home`); once the run is running it moves through the pattern, and the
+/// record after the last step ends the program (the run stops before that block). A
+/// self-triggered circle (`run_trigger = FEED_IN`) gets its whole part program at once and
+/// the pod starts and ends the run itself. Between runs the machine stands where it stopped.
+///
+/// The harness writes records ahead of the firmware and sees the session a few periods late:
+/// a run started in the same turn as it was armed (`SESS:ARM;STAR`) starts where the machine
+/// stands, and the machine is put at the start a few periods into it. A client acting as the
+/// CNC therefore starts a run once the machine is at its start, as a CNC starts a run after
+/// its positioning move: `--figures`'s `positioned` counts the programs the machine was put
+/// at the start of, once the firmware has taken that period. A run starts with the machine
+/// resting at its start for the periods between START and the harness seeing it (a CNC's
+/// dwell); its end is exact. At rest the bar reads what it read at the last step.
+pub struct VirtualCnc {
+    truth: ServeTruth,
+    /// Where the machine stands (mm / degrees).
+    at: [f64; MAX_AXES],
+    /// The true bar-length deviation there, µm (the bar reads on while the machine rests).
+    dl_um: f64,
+    motion: Motion,
+    /// The run the motion is planned for.
+    planned: Option<u32>,
+    /// The motion is playing (the run runs, or a self-triggered program).
+    playing: bool,
+    self_triggered: bool,
+    /// The program's end was written for the planned run.
+    ended: bool,
+    probe_runs: u32,
+}
+
+/// What the virtual CNC does in one sample period.
+pub struct CncStep {
+    /// True bar-length deviation, µm.
+    pub dl_um: f64,
+    /// Axis positions (mm / degrees).
+    pub axes: [f64; MAX_AXES],
+    /// A probe edge this period at these positions.
+    pub edge: Option<[f64; MAX_AXES]>,
+    /// The stylus is seated.
+    pub seated: bool,
+    /// The machine was homed at `axes` before this period.
+    pub homed: bool,
+    /// The program ended before this period.
+    pub program_end: bool,
+}
+
+impl VirtualCnc {
+    /// At home (every axis at 0, where the counters read 0 at boot).
+    pub fn new(truth: ServeTruth) -> Self {
+        Self {
+            truth,
+            at: [0.0; MAX_AXES],
+            dl_um: 0.0,
+            motion: Motion::none(),
+            planned: None,
+            playing: false,
+            self_triggered: false,
+            ended: false,
+            probe_runs: 0,
+        }
+    }
+
+    /// The next sample period, with the session as last published; `sensors` get the bar
+    /// the run's configuration names.
+    pub fn step(&mut self, s: Option<&PublishedSession>, sensors: &mut Sensors) -> CncStep {
+        const ARMED: u8 = SessionState::Armed as u8;
+        const RUNNING: u8 = SessionState::Running as u8;
+        let mut homed = false;
+        let active = s.filter(|s| s.state == ARMED || s.state == RUNNING);
+        match active {
+            None => {
+                self.planned = None;
+                self.playing = false;
+            }
+            Some(s) if self.planned != Some(s.run) => {
+                self.planned = Some(s.run);
+                self.ended = false;
+                let cfg = s.config.unwrap_or_default();
+                sensors.set_bar_length(f64::from(cfg.bar_length_mm));
+                let pattern = Pattern::from_u8(s.pattern);
+                let direction = if s.direction == Direction::Cw as u8 {
+                    Direction::Cw
+                } else {
+                    Direction::Ccw
+                };
+                self.self_triggered = s.state == ARMED
+                    && pattern == Some(Pattern::Circle)
+                    && cfg.setup.run_trigger == RunTrigger::FeedIn;
+                let planned = match pattern {
+                    Some(_) if self.self_triggered => {
+                        Motion::plan_feed_in(&self.truth, &cfg, direction)
+                    }
+                    Some(p) => Motion::plan(&self.truth, &cfg, p, direction, self.probe_runs),
+                    None => Err(format!("pattern {} unknown", s.pattern)),
+                };
+                match planned {
+                    Ok(m) => {
+                        if pattern == Some(Pattern::Probe) {
+                            self.probe_runs += 1;
+                        }
+                        if let Some((start, dl_um)) = m.start_step() {
+                            self.at = start;
+                            self.dl_um = dl_um;
+                        }
+                        self.motion = m;
+                    }
+                    Err(e) => {
+                        eprintln!("emu: the virtual CNC has no program for run {}: {e}", s.run);
+                        self.motion = Motion::none();
+                    }
+                }
+                // homed where the program starts (or, without one, where the machine stands)
+                homed = true;
+                self.playing = self.self_triggered || s.state == RUNNING;
+            }
+            Some(s) => self.playing |= s.state == RUNNING,
+        }
+        let mut step = CncStep {
+            dl_um: self.dl_um,
+            axes: self.at,
+            edge: None,
+            seated: true,
+            homed,
+            program_end: false,
+        };
+        if !self.playing {
+            return step;
+        }
+        match self.motion.next_step() {
+            Some(m) => {
+                self.at = m.axes;
+                self.dl_um = m.dl_um;
+                step.dl_um = m.dl_um;
+                step.axes = m.axes;
+                step.edge = m.edge;
+                step.seated = m.seated;
+            }
+            None if !self.self_triggered && !self.ended => {
+                // the part program's last block: the run ends with the motion
+                step.program_end = true;
+                self.ended = true;
+            }
+            None => {}
+        }
+        step
     }
 }
 
@@ -294,60 +498,105 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
     }
     // the machine at home: every axis at 0, the bar at its nominal length
     let cfg = Config::default();
-    let mut sensors = Sensors::new(
-        f64::from(cfg.bar_length_mm),
-        &Instrument::default(),
-        opts.seed,
-    );
-    let home = [0.0; MAX_AXES];
-    // the served machine's truth, as `sim --serve` states it (its set-up configures a test; this
-    // harness does not move it through one yet)
-    let truth = serde_json::to_string(&crate::vmt::motion::ServeTruth::default())
-        .map_err(io::Error::other)?;
+    let mut truth = ServeTruth::default();
+    if let Some(m) = opts.machine {
+        truth.machine = m;
+    }
+    let instrument = Instrument {
+        bar_noise_um: 0.2,
+        ..Instrument::default()
+    };
+    let mut sensors = Sensors::new(f64::from(cfg.bar_length_mm), &instrument, opts.seed);
+    let mut cnc = VirtualCnc::new(truth);
+    let truth = serde_json::to_string(&truth).map_err(io::Error::other)?;
     println!(
         "{{\"can_port\":{},\"usb_port\":{},\"stream_port\":{},\"node_id\":{},\"emulated\":true,\"icount_shift\":{},\"truth\":{truth}}}",
         ports[0], ports[1], ports[2], cfg.can_node_id, opts.icount_shift
     );
     io::stdout().flush()?;
     let mut last_boots = region.boots()?.unwrap_or(0);
-    let mut last_session = None;
+    let mut session: Option<PublishedSession> = None;
+    let mut last_figures = None;
+    // the record that homed the machine for the latest program, until the firmware takes it
+    let mut homing: Option<u32> = None;
+    let mut positioned = 0u32;
     while start.elapsed().as_secs_f64() < opts.max_seconds {
+        if let Some(now) = region.session()? {
+            let key = |s: &PublishedSession| (s.state, s.pattern, s.direction, s.run);
+            if session.as_ref().map(key) != Some(key(&now)) {
+                eprintln!(
+                    "emu: session state {} pattern {} direction {} run {}",
+                    now.state, now.pattern, now.direction, now.run
+                );
+            }
+            session = Some(now);
+        }
         let (written, taken) = region.counts()?;
         // keep the ring three quarters full ahead of the firmware
         let mut k = written;
         while k.wrapping_sub(taken) < SharedLayout::RING * 3 / 4 {
-            let r = sensors.read(0.0, &home);
+            let step = cnc.step(session.as_ref(), &mut sensors);
+            if step.homed {
+                homing = Some(k);
+            }
+            let r = sensors.read(step.dl_um, &step.axes);
             region.push(
                 k,
                 &Record {
                     raw: r.raw,
                     thermistor: r.thermistor,
-                    seated: true,
-                    edge: None,
+                    seated: step.seated,
+                    edge: step.edge.map(|e| sensors.raw(&e)),
                     a: &r.adc.0,
                     b: &r.adc.1,
+                    reference: step.homed.then(|| sensors.reference(&step.axes)),
+                    program_end: step.program_end,
                 },
             )?;
             k = k.wrapping_add(1);
-        }
-        // the session on stderr as it changes (what a virtual CNC will move the machine by)
-        if let Some(now) = region.session()?
-            && last_session.as_ref().is_none_or(|l: &PublishedSession| {
-                (l.state, l.pattern, l.direction, l.run)
-                    != (now.state, now.pattern, now.direction, now.run)
-            })
-        {
-            eprintln!(
-                "emu: session state {} pattern {} direction {} run {}",
-                now.state, now.pattern, now.direction, now.run
-            );
-            last_session = Some(now);
         }
         if let Some(b) = region.boots()?
             && b != last_boots
         {
             eprintln!("emu: the firmware booted again (boot {b}): a reset");
             last_boots = b;
+        }
+        let (_, taken) = region.counts()?;
+        if let Some(h) = homing
+            && taken.wrapping_sub(h) as i32 > 0
+        {
+            positioned += 1;
+            homing = None;
+        }
+        let figures = (region.figures()?, region.boots()?.unwrap_or(0), positioned);
+        if let Some(path) = &opts.figures
+            && last_figures != Some(figures)
+        {
+            let (
+                [
+                    answers,
+                    worst,
+                    gaps,
+                    gap_min,
+                    gap_max,
+                    watchdog,
+                    adc_lost,
+                    queue,
+                    misses,
+                    stack,
+                ],
+                boots,
+                positioned,
+            ) = figures;
+            let (written, taken) = region.counts()?;
+            let json = format!(
+                "{{\"sdo_answers\":{answers},\"sdo_worst_us\":{worst},\"heartbeat_gaps\":{gaps},\"heartbeat_gap_min_us\":{gap_min},\"heartbeat_gap_max_us\":{gap_max},\"boots\":{boots},\"watchdog_resets\":{watchdog},\"records_written\":{written},\"records_taken\":{taken},\"adc_blocks_lost\":{adc_lost},\"block_queue_overruns\":{queue},\"watchdog_misses\":{misses},\"stack_high_water_bytes\":{stack},\"positioned\":{positioned}}}\n"
+            );
+            // written whole, then renamed over the old (a reader never sees half of it)
+            let tmp = path.with_extension("tmp");
+            std::fs::write(&tmp, json)?;
+            std::fs::rename(&tmp, path)?;
+            last_figures = Some(figures);
         }
         std::thread::sleep(Duration::from_micros(500));
     }

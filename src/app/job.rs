@@ -30,6 +30,7 @@ use super::probe::{ProbeAxis, ProbeFailure, Spheres};
 use super::results::ResultPatch;
 use super::seed002::{IdentificationInput, Setup, StepEccentricity, publish_identification};
 use crate::config::TestSetup;
+use crate::identify::multitasking::model_lsq::IdentificationScratch;
 use crate::in_place::{self, init_in_place};
 use crate::metrology::bar_budget::BarBudget;
 use core::mem::MaybeUninit;
@@ -77,12 +78,20 @@ struct ProbeInput {
     setup: TestSetup,
 }
 
+/// The identification's inputs and the model fit's scratch (its 4.8 KiB of sensitivities
+/// here, not on the worker's stack, where the identification is the deepest job).
+#[derive(Clone, Copy)]
+struct IdentificationJob {
+    input: IdentificationInput,
+    scratch: IdentificationScratch,
+}
+
 /// A job's copy of its inputs: one job at a time, so one place for all (the circle test is
 /// the largest).
 #[derive(Clone, Copy)]
 union Inputs {
     circle: CircleTest,
-    identification: IdentificationInput,
+    identification: IdentificationJob,
     probe: ProbeInput,
 }
 
@@ -94,9 +103,12 @@ impl Inputs {
         // a union's variants start at its start, so writing one initialises the union (its
         // other bytes are never read: a slot's `work` names the variant in use).
         unsafe {
-            (&raw mut (*p).identification).write(IdentificationInput {
-                setup: Setup::thesis_table_4_3(),
-                steps: [StepEccentricity::default(); 5],
+            (&raw mut (*p).identification).write(IdentificationJob {
+                input: IdentificationInput {
+                    setup: Setup::thesis_table_4_3(),
+                    steps: [StepEccentricity::default(); 5],
+                },
+                scratch: IdentificationScratch::EMPTY,
             });
             s.assume_init_mut()
         }
@@ -165,7 +177,9 @@ impl JobSlot {
         bar: BarBudget,
         epoch: u32,
     ) {
-        self.inputs.identification = input;
+        // (the scratch is set when the job runs: in place, no 4.8 KiB temporary here; the
+        // slot's `work` names the identification variant from here on)
+        self.inputs.identification.input = input;
         self.bar = bar;
         self.start(Work::Identification(epoch));
     }
@@ -206,8 +220,8 @@ impl JobSlot {
                 figures(unsafe { &self.inputs.circle }, &request, &mut self.patch);
             }
             Some(Work::Identification(_)) => {
-                let input = unsafe { &self.inputs.identification };
-                if !identification(input, &self.bar, &mut self.patch) {
+                let job = unsafe { &mut self.inputs.identification };
+                if !identification(job, &self.bar, &mut self.patch) {
                     self.failed = Some(Failure::Identification);
                 }
             }
@@ -263,8 +277,8 @@ fn figures(circle: &CircleTest, request: &FiguresRequest, patch: &mut ResultPatc
 
 /// Whether the identification gave a result.
 #[inline(never)]
-fn identification(input: &IdentificationInput, bar: &BarBudget, patch: &mut ResultPatch) -> bool {
-    match input.identify(bar) {
+fn identification(job: &mut IdentificationJob, bar: &BarBudget, patch: &mut ResultPatch) -> bool {
+    match job.input.identify_in(bar, &mut job.scratch) {
         Ok(id) => {
             publish_identification(&id, bar, patch);
             true

@@ -28,8 +28,8 @@ use crate::identify::multitasking::ballbar::{
     BallBarError, ThesisEccentricities, ThesisGeometry, ThesisResult, identify_thesis,
 };
 use crate::identify::multitasking::model_lsq::{
-    DeviationUncertainty, ModelLsq, ModelLsqError, ModelLsqResult, MountingUncertainty,
-    PatternMeasurement,
+    DeviationUncertainty, IdentificationScratch, ModelLsq, ModelLsqError, ModelLsqResult,
+    MountingUncertainty, PatternMeasurement,
 };
 use crate::identify::multitasking::patterns::{NcOffset, Pattern as ModelPattern, PatternGeometry};
 use crate::identify::multitasking::{Parameter, urad_to_arcsec};
@@ -531,6 +531,17 @@ impl IdentificationInput {
     /// Identification in both modes (seconds of f64 on the pod: a job); `bar` the configured
     /// bar's budget (its LVDT scale enters the model mode's u).
     pub fn identify(&self, bar: &BarBudget) -> Result<Identification, SessionError> {
+        let mut scratch = IdentificationScratch::EMPTY;
+        self.identify_in(bar, &mut scratch)
+    }
+
+    /// [`Self::identify`] with the model fit's sensitivities in the caller's `scratch` (the
+    /// pod's job slot: 4.8 KiB off the worker's stack).
+    pub fn identify_in(
+        &self,
+        bar: &BarBudget,
+        scratch: &mut IdentificationScratch,
+    ) -> Result<Identification, SessionError> {
         let steps = self.steps;
         let [bx, by, cr, ca, cr2] = steps;
         let ecc = |f: fn(&StepEccentricity) -> [f64; 2]| ThesisEccentricities {
@@ -550,7 +561,7 @@ impl IdentificationInput {
             &self.setup.thesis_geometry(),
             Some(&ecc(|s| s.u_e_um)),
         );
-        let model = self.identify_model(bar)?;
+        let model = self.identify_model(bar, scratch)?;
         Ok(Identification {
             steps,
             thesis,
@@ -585,7 +596,11 @@ impl IdentificationInput {
         m
     }
 
-    fn identify_model(&self, bar: &BarBudget) -> Result<ModelIdentification, SessionError> {
+    fn identify_model(
+        &self,
+        bar: &BarBudget,
+        scratch: &mut IdentificationScratch,
+    ) -> Result<ModelIdentification, SessionError> {
         let steps = &self.steps;
         let lsq = ModelLsq::without_squareness();
         let m = self.measurements();
@@ -594,7 +609,7 @@ impl IdentificationInput {
             .zip(steps.iter())
             .for_each(|(u, s)| *u = s.u_e_um);
         let (result, uncertainty) = lsq
-            .identify_propagated(&m, &u, &self.setup.mounting, bar)
+            .identify_propagated_in(&m, &u, &self.setup.mounting, bar, scratch)
             .map_err(SessionError::Model)?;
         Ok(ModelIdentification {
             result,

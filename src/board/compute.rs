@@ -125,7 +125,7 @@ pub async fn compute_task(
         }
     };
     let usb_out = &mut |b: &[u8]| {
-        if state::USB_TX.try_write(b).unwrap_or(0) < b.len() {
+        if state::write_all_now(&state::USB_TX, b) < b.len() {
             state::USB_TX_OVERRUNS.count();
         }
     };
@@ -163,6 +163,7 @@ pub async fn compute_task(
                     lost_total: super::lost_upstream(),
                     probe_seated: super::probe::seated(&probe_in),
                 };
+                super::before_block(&mut pod, b.t_us);
                 pod.on_block(&b, now, &mut (), can_out);
                 super::safety::check_in(super::safety::Task::Compute);
             }
@@ -202,8 +203,9 @@ pub async fn compute_task(
             &mut || state::USB_TX.free_capacity(),
             usb_out,
             state::STREAM_TX.free_capacity(),
+            // (the stream pulls no more than the room there is)
             &mut |b| {
-                let _ = state::STREAM_TX.try_write(b);
+                let _ = state::write_all_now(&state::STREAM_TX, b);
             },
         );
         // long work to the worker: the command that asked for it is answered already

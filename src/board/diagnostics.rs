@@ -46,26 +46,9 @@ pub fn start_cycle_counter() {
     cp.DWT.enable_cycle_counter();
 }
 
-unsafe extern "C" {
-    /// Lowest stack address (flip-link: the start of RAM).
-    static _stack_end: u32;
-    /// Highest stack address (the initial stack pointer).
-    static _stack_start: u32;
-}
-
-/// Deepest stack use since boot, bytes: from the bottom of the stack up to the first word that
-/// lost the paint. Scans the unused part (≈ 4 cycles a word): call it seldom.
-fn stack_high_water_bytes() -> u32 {
-    let lo = core::ptr::addr_of!(_stack_end) as usize;
-    let hi = core::ptr::addr_of!(_stack_start) as usize;
-    let mut a = lo;
-    // SAFETY: reads of the stack region between the linker's two symbols (ordinary RAM, 4-byte
-    // aligned, below the live stack pointer or holding live frames: reads never disturb them).
-    while a < hi && unsafe { core::ptr::read_volatile(a as *const u32) } == 0xCCCC_CCCC {
-        a += 4;
-    }
-    (hi - a) as u32
-}
+#[path = "stack.rs"]
+mod stack;
+use stack::stack_high_water_bytes;
 
 /// Counts an excitation DMA underrun (and clears the flag so the next one is seen).
 fn check_dac_underrun() {

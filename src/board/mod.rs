@@ -73,3 +73,13 @@ pub fn set_priorities() {
 /// shows its virtual CNC the session here).
 #[inline(always)]
 pub fn after_turn<const L: usize, const S: usize>(_pod: &ballpod::pod::Pod<'_, L, S>) {}
+
+/// Before the application takes the block latched at `t_us`: nothing on this board (the
+/// emulated board's virtual CNC homes the axes or ends its program here, as the simulated
+/// pod's does between two samples).
+#[inline(always)]
+pub fn before_block<const L: usize, const S: usize>(
+    _pod: &mut ballpod::pod::Pod<'_, L, S>,
+    _t_us: u64,
+) {
+}

@@ -58,3 +58,20 @@ pub static USB_TX: Pipe<CriticalSectionRawMutex, 2048> = Pipe::new();
 pub static USB_TX_OVERRUNS: Overruns = Overruns::new();
 /// The sample stream's text, for the stream port (the stream counts what did not fit).
 pub static STREAM_TX: Pipe<CriticalSectionRawMutex, 2048> = Pipe::new();
+
+/// Writes all of `bytes` into `pipe` without waiting, or as much as there is room for: the
+/// pipe's ring takes a write up to its end only, so one `try_write` can take less than the
+/// room it has. Returns the bytes written.
+pub fn write_all_now<const N: usize>(
+    pipe: &Pipe<CriticalSectionRawMutex, N>,
+    bytes: &[u8],
+) -> usize {
+    let mut done = 0;
+    while let Some(rest) = bytes.get(done..).filter(|r| !r.is_empty()) {
+        match pipe.try_write(rest) {
+            Ok(n) if n > 0 => done += n,
+            _ => break,
+        }
+    }
+    done
+}

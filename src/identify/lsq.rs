@@ -150,6 +150,9 @@ impl<const N: usize> GivensLsq<N> {
     /// Solves the accumulated problem. Rank-deficient problems are solved in the minimum-norm
     /// sense and reported through `rank`, `condition` and `right_singular_vectors`; callers
     /// that need every unknown use [`GivensLsq::solve_full_rank`].
+    // (stack: its 5 KB of SVD work stays out of the callers' frames, where the worker's
+    // deepest chain, the seed 002 identification, needs the room)
+    #[inline(never)]
     pub fn solve(&self, rel_tol: f64) -> Result<LsqSolution<N>, LsqError> {
         if (self.rows as usize) < N {
             return Err(LsqError::TooFewRows {

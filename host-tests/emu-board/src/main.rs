@@ -68,6 +68,13 @@ fn main() -> ! {
 fn init(spawner: Spawner) {
     board::time::start();
     let watchdog = board::watchdog::take_reset_flag();
+    if watchdog {
+        use board::shared::{Figure, figure, set_figure};
+        set_figure(
+            Figure::WatchdogResets,
+            figure(Figure::WatchdogResets).wrapping_add(1),
+        );
+    }
     let report = board::safety::take_reset_report(watchdog);
     let (can_report, usb_report) = match report {
         Some(board::safety::ResetReport::Panic(text)) => (

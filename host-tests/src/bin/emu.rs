@@ -5,6 +5,7 @@
 
 use std::path::PathBuf;
 
+use ballpod_host::vmt::machine::MachineFile;
 use clap::Parser;
 
 /// The firmware on an emulated Cortex-M4F, served to CANopen / SCPI clients on loopback TCP.
@@ -38,10 +39,25 @@ struct Args {
     /// QEMU's `-icount shift` (2^shift ns per instruction; 3: 125 M instructions per second).
     #[arg(long, default_value_t = 3)]
     icount_shift: u32,
+    /// The served machine (TOML or JSON; every key optional), as `sim --serve --machine`.
+    #[arg(long)]
+    machine: Option<PathBuf>,
+    /// Keep what the board measures of itself in emulated time here (a JSON object: SDO
+    /// answers and the worst answer time, heartbeat gaps, boots, records), rewritten as it
+    /// changes.
+    #[arg(long)]
+    figures: Option<PathBuf>,
 }
 
 fn main() {
     let a = Args::parse();
+    let machine = match a.machine.as_deref().map(MachineFile::read).transpose() {
+        Ok(m) => m,
+        Err(e) => {
+            eprintln!("emu: --machine: {e}");
+            std::process::exit(2);
+        }
+    };
     let r = ballpod_host::emu::run(ballpod_host::emu::EmuOptions {
         elf: a.elf,
         can_port: a.can_port,
@@ -50,6 +66,8 @@ fn main() {
         max_seconds: a.max_seconds,
         seed: a.seed,
         icount_shift: a.icount_shift,
+        machine,
+        figures: a.figures,
     });
     if let Err(e) = r {
         eprintln!("emu: {e}");

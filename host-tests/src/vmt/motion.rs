@@ -204,6 +204,12 @@ impl Motion {
         self.steps.first().map(|s| s.axes)
     }
 
+    /// The first sample period's axis positions (mm / degrees) and true bar-length deviation
+    /// (µm).
+    pub fn start_step(&self) -> Option<([f64; MAX_AXES], f64)> {
+        self.steps.first().map(|s| (s.axes, s.dl_um))
+    }
+
     /// The next sample period, `None` once the motion is over.
     pub fn next_step(&mut self) -> Option<MachineStep> {
         let s = self.steps.get(self.next).copied();

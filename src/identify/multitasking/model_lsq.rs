@@ -383,6 +383,7 @@ impl ModelLsq {
     /// both near 1e-8 of a sensitivity. `Differences::Central` (the identifiability report,
     /// whose null combinations need the sensitivities to rounding): step 1 µm / µrad, exact
     /// for the model's quadratic part, twice the simulations.
+    #[inline(never)] // stack: out of `solve`'s frame (the worker's deepest chain)
     fn jacobian(
         &self,
         m: &[PatternMeasurement],
@@ -448,6 +449,7 @@ impl ModelLsq {
     /// norm (Levenberg–Marquardt on the step: it vanishes at the fixed point, keeps the SVD
     /// well posed when the set-up is rank-deficient, and puts an inseparable direction at
     /// singular value ≈ λ, far below the rank threshold [`RANK_REL_TOL`]).
+    #[inline(never)] // stack: its system is built in its own frame, not in `solve`'s
     fn system(
         &self,
         m: &[PatternMeasurement],
@@ -486,6 +488,7 @@ impl ModelLsq {
             .count()
     }
 
+    #[inline(never)] // stack: out of `solve`'s frame (the worker's deepest chain)
     fn not_separable(&self, rank: usize, v: &[f64; 13]) -> ModelLsqError {
         let mut order = [0usize; 13];
         order.iter_mut().enumerate().for_each(|(i, o)| *o = i);
@@ -575,7 +578,6 @@ impl ModelLsq {
     /// - from the LVDT's scale (Type B, [`BarBudget::scale`]): an eccentricity is a shape
     ///   figure of ΔL, so a scale error k moves every measured eccentricity by k times itself —
     ///   all at once (one LVDT), one input; the bar's length and temperature move none.
-    #[inline(never)] // flash: 0.9 KB smaller than inlined into the application task
     pub fn identify_propagated(
         &self,
         m: &[PatternMeasurement],
@@ -583,7 +585,22 @@ impl ModelLsq {
         budget: &MountingUncertainty,
         bar: &BarBudget,
     ) -> Result<(ModelLsqResult, DeviationUncertainty), ModelLsqError> {
-        self.propagated::<false>(m, u_um, budget, bar, None)
+        let mut scratch = IdentificationScratch::EMPTY;
+        self.identify_propagated_in(m, u_um, budget, bar, &mut scratch)
+    }
+
+    /// [`Self::identify_propagated`] with its sensitivities and SVD in the caller's `scratch`
+    /// (4.8 KiB off the stack: the pod's job slot holds it).
+    #[inline(never)] // flash: 0.9 KB smaller than inlined into the application task
+    pub fn identify_propagated_in(
+        &self,
+        m: &[PatternMeasurement],
+        u_um: &[[f64; 2]],
+        budget: &MountingUncertainty,
+        bar: &BarBudget,
+        scratch: &mut IdentificationScratch,
+    ) -> Result<(ModelLsqResult, DeviationUncertainty), ModelLsqError> {
+        self.propagated::<false>(m, u_um, budget, bar, None, &mut scratch.0)
     }
 
     /// [`Self::identify_propagated`] with the full covariance of the deviations (µm², µm·µrad,
@@ -599,7 +616,9 @@ impl ModelLsq {
         bar: &BarBudget,
     ) -> Result<(ModelLsqResult, DeviationUncertainty, [[f64; 13]; 13]), ModelLsqError> {
         let mut cov = [[0.0f64; 13]; 13];
-        let (result, u) = self.propagated::<true>(m, u_um, budget, bar, Some(&mut cov))?;
+        let mut jac = Jacobian::EMPTY;
+        let (result, u) =
+            self.propagated::<true>(m, u_um, budget, bar, Some(&mut cov), &mut jac)?;
         for (row, fi) in cov.iter_mut().zip(self.free) {
             for (c, fj) in row.iter_mut().zip(self.free) {
                 if !(fi && fj) {
@@ -619,6 +638,7 @@ impl ModelLsq {
         budget: &MountingUncertainty,
         bar: &BarBudget,
         mut cov: Option<&mut [[f64; 13]; 13]>,
+        jac: &mut Jacobian,
     ) -> Result<(ModelLsqResult, DeviationUncertainty), ModelLsqError> {
         if u_um.len() != m.len() {
             return Err(ModelLsqError::BadMeasurement {
@@ -632,8 +652,9 @@ impl ModelLsq {
         if !(u_scale >= 0.0 && u_scale.is_finite()) {
             return Err(ModelLsqError::BadScaleUncertainty);
         }
-        let mut jac = Jacobian::EMPTY;
-        let result = self.solve(m, &mut jac)?;
+        // (every row and the SVD are written before they are read)
+        *jac = Jacobian::EMPTY;
+        let result = self.solve(m, jac)?;
         let x = result.deviations.to_array();
         let pred = Self::predict(m, &x)?;
         let mut var = [[0.0f64; 13]; 4];
@@ -688,7 +709,7 @@ impl ModelLsq {
                 if !(u > 0.0 && u.is_finite()) {
                     continue; // an eccentricity component without a u
                 }
-                let mut dx = response(m, &jac, &b);
+                let mut dx = response(m, jac, &b);
                 if source == 2 && i == 0 {
                     // The first tool length's T-ball offset is part of what is identified.
                     if let Some((param, sign)) = T_BALL_ALIAS.get(k)
@@ -740,7 +761,7 @@ impl ModelLsq {
                     [e[0] - base[0], e[1] - base[1]]
                 };
             }
-            let dx = response(m, &jac, &b);
+            let dx = response(m, jac, &b);
             // sources: the LVDT's scale, the W-ball (R_C, Z_C), the T-ball (its tool length)
             if let Some(v) = var.get_mut([3, 1, 1, 2, 2].get(input).copied().unwrap_or(2)) {
                 v.iter_mut().zip(dx.iter()).for_each(|(v, d)| *v += d * d);
@@ -861,9 +882,20 @@ impl ModelLsq {
 /// sensitivities are kept, 2 × 16 × 13 f64 = 3.3 KiB).
 pub const MAX_MEASUREMENTS: usize = 16;
 
+/// Where an identification keeps its sensitivities and SVD (4.8 KiB): the
+/// caller's, so that a job can keep it off the stack.
+#[derive(Clone, Copy)]
+pub struct IdentificationScratch(Jacobian);
+
+impl IdentificationScratch {
+    /// All zero.
+    pub const EMPTY: Self = Self(Jacobian::EMPTY);
+}
+
 /// Sensitivity rows ∂e/∂x of the measurement equations (µm per µm / µrad, unweighted; two
 /// per measurement), the largest weighted column norm, and once solved the weighted system's
 /// singular values and right singular vectors ([`response`]).
+#[derive(Clone, Copy)]
 struct Jacobian {
     rows: [[f64; 13]; 2 * MAX_MEASUREMENTS],
     scale: f64,

@@ -3,12 +3,19 @@
 //! the frames its CANopen node sends go out as `t…` lines (`state::CAN_TX`); the adapter's
 //! commands (`O`, `C`, `Sn`, `V`, …) are answered CR, a bad line BEL. The codec is the core's
 //! (`ballpod::protocol::slcan`), the one `sim --serve` speaks.
+//!
+//! As the bus side of the node it measures, in emulated time, what a CAN analyser on the bus
+//! would: each SDO request's answer time (its frame received → the answer's frame sent) and
+//! the time between heartbeats ([`BusFigures`], in the shared region's figures).
 
 use embassy_futures::select::{Either, select};
 
 use ballpod::protocol::slcan::{LineSplitter, SlcanPort};
 
+use ballpod::protocol::canopen::CanFrame;
+
 use super::safety::{self, Task};
+use super::shared::{Figure, set_figure};
 use super::state;
 use super::uart::UART0;
 
@@ -19,6 +26,7 @@ pub async fn can_task() {
     let mut port = SlcanPort::default();
     let mut buf = [0u8; 64];
     let mut out: heapless::Vec<u8, 512> = heapless::Vec::new();
+    let mut figures = BusFigures::resumed();
     loop {
         safety::check_in(Task::Can);
         let tick = embassy_time::Timer::after_millis(safety::CHECK_IN_MS);
@@ -35,20 +43,94 @@ pub async fn can_task() {
                         // (a 64-byte read answers at most 64 lines of 1–6 bytes)
                         let _ = out.extend_from_slice(r);
                     });
-                    if let Some(f) = frame
-                        && state::CAN_RX.try_send(f).is_err()
-                    {
-                        state::CAN_RX_OVERRUNS.count();
+                    if let Some(f) = frame {
+                        figures.received(&f);
+                        if state::CAN_RX.try_send(f).is_err() {
+                            state::CAN_RX_OVERRUNS.count();
+                        }
                     }
                 });
                 UART0.write_all(&out).await;
             }
             Either::First(Either::Second(frame)) => {
+                figures.sent(&frame);
                 if port.is_open() {
                     UART0.write_all(&SlcanPort::frame_line(&frame)).await;
                 }
             }
             Either::Second(()) => {}
+        }
+    }
+}
+
+/// What the bus side measures (emulated time, µs).
+#[derive(Default)]
+struct BusFigures {
+    /// When the SDO request waiting for its answer was received.
+    sdo_asked_us: Option<u64>,
+    sdo_answers: u32,
+    sdo_worst_us: u32,
+    /// The last heartbeat's time (none since boot or a boot-up frame).
+    heartbeat_us: Option<u64>,
+    heartbeats: u32,
+    gap_min_us: u32,
+    gap_max_us: u32,
+}
+
+impl BusFigures {
+    /// The figures so far (a reset keeps them: the shared region is the harness's).
+    fn resumed() -> Self {
+        use super::shared::figure;
+        Self {
+            sdo_answers: figure(Figure::SdoAnswers),
+            sdo_worst_us: figure(Figure::SdoWorstUs),
+            heartbeats: figure(Figure::Heartbeats),
+            gap_min_us: figure(Figure::HeartbeatGapMinUs),
+            gap_max_us: figure(Figure::HeartbeatGapMaxUs),
+            ..Self::default()
+        }
+    }
+
+    /// A frame from the bus.
+    fn received(&mut self, f: &CanFrame) {
+        // an SDO request to any node (the pod answers its own; the first waiting counts)
+        if f.id & 0x780 == 0x600 && self.sdo_asked_us.is_none() {
+            self.sdo_asked_us = Some(embassy_time::Instant::now().as_micros());
+        }
+    }
+
+    /// A frame the node sends.
+    fn sent(&mut self, f: &CanFrame) {
+        let now = embassy_time::Instant::now().as_micros();
+        let us = |t: u64| u32::try_from(now.saturating_sub(t)).unwrap_or(u32::MAX);
+        if f.id & 0x780 == 0x580
+            && let Some(t) = self.sdo_asked_us.take()
+        {
+            self.sdo_answers = self.sdo_answers.wrapping_add(1);
+            self.sdo_worst_us = self.sdo_worst_us.max(us(t));
+            set_figure(Figure::SdoAnswers, self.sdo_answers);
+            set_figure(Figure::SdoWorstUs, self.sdo_worst_us);
+        }
+        if f.id & 0x780 == 0x700 {
+            if f.data[0] == 0 {
+                // boot-up: the heartbeat starts again
+                self.heartbeat_us = None;
+                return;
+            }
+            if let Some(t) = self.heartbeat_us {
+                let gap = us(t);
+                self.gap_min_us = if self.heartbeats == 0 {
+                    gap
+                } else {
+                    self.gap_min_us.min(gap)
+                };
+                self.gap_max_us = self.gap_max_us.max(gap);
+                self.heartbeats = self.heartbeats.wrapping_add(1);
+                set_figure(Figure::Heartbeats, self.heartbeats);
+                set_figure(Figure::HeartbeatGapMinUs, self.gap_min_us);
+                set_figure(Figure::HeartbeatGapMaxUs, self.gap_max_us);
+            }
+            self.heartbeat_us = Some(now);
         }
     }
 }

@@ -6,8 +6,8 @@ use super::{state, uart};
 
 /// Every device counter the board keeps (the pod adds its own: `Pod::set_device_counters`):
 /// the queues' (`overruns::queue_counters`) with the UARTs' receive overruns in CAN's and
-/// USB's; the masked-section time, the DAC and the stack's high-water mark are not measured
-/// here.
+/// USB's; the stack's high-water mark (the STM32 board's measure: `stack.rs`); the
+/// masked-section time and the DAC are not measured here.
 pub fn device_counters() -> DeviceCounters {
     let mut c = super::overruns::queue_counters();
     c.set(
@@ -18,5 +18,28 @@ pub fn device_counters() -> DeviceCounters {
         DeviceCounter::UsbRxOverruns,
         state::USB_RX_OVERRUNS.get() + uart::UART1.rx_overruns.get(),
     );
+    c.set(
+        DeviceCounter::StackHighWaterBytes,
+        stack::stack_high_water_bytes(),
+    );
+    // (the harness keeps them beside its figures: no client port needed to read them)
+    use super::shared::{Figure, set_figure};
+    for (f, d) in [
+        (Figure::AdcBlocksLost, DeviceCounter::AdcBlocksLost),
+        (
+            Figure::BlockQueueOverruns,
+            DeviceCounter::BlockQueueOverruns,
+        ),
+        (Figure::WatchdogMisses, DeviceCounter::WatchdogMisses),
+        (
+            Figure::StackHighWaterBytes,
+            DeviceCounter::StackHighWaterBytes,
+        ),
+    ] {
+        set_figure(f, c.get(d));
+    }
     c
 }
+
+#[path = "../../../../src/board/stack.rs"]
+mod stack;

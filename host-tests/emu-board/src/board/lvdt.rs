@@ -130,6 +130,7 @@ pub async fn lvdt_task(len: usize, period_us: u32) {
                 read_volatile(&rec.tripped) != 0,
             )
         };
+        super::cnc::from_record(rec, tick.t_us);
         shared::region()
             .taken
             .store(tick.record.wrapping_add(1), Ordering::Release);

@@ -38,6 +38,7 @@ pub mod state;
 pub mod worker;
 
 pub mod can;
+pub mod cnc;
 pub mod diagnostics;
 pub mod encoders;
 pub mod hw;
@@ -57,4 +58,13 @@ pub use overruns::{Overruns, lost_upstream};
 /// harness's virtual CNC reads it (what a CNC would see over the protocols).
 pub fn after_turn<const L: usize, const S: usize>(pod: &ballpod::pod::Pod<'_, L, S>) {
     shared::publish_session(pod.app);
+}
+
+/// Before the application takes the block latched at `t_us`: what the virtual CNC did between
+/// the two samples ([`cnc`]).
+pub fn before_block<const L: usize, const S: usize>(
+    pod: &mut ballpod::pod::Pod<'_, L, S>,
+    t_us: u64,
+) {
+    cnc::apply(pod, t_us);
 }

@@ -13,16 +13,69 @@ use ballpod::app::App;
 
 use super::block::BLOCK_MAX;
 
+/// Words of [`Shared::figures`].
+pub const FIGURES: usize = 16;
+
+/// What the emulated CAN adapter measures in emulated time, at the bus side of the node (the
+/// word of [`Shared::figures`] each is in).
+#[derive(Clone, Copy)]
+pub enum Figure {
+    /// SDO requests answered.
+    SdoAnswers = 0,
+    /// The longest time from an SDO request's frame received to its answer's sent, µs.
+    SdoWorstUs = 1,
+    /// Gaps between two heartbeats measured (boot-up frames start again).
+    Heartbeats = 2,
+    /// The shortest time between two heartbeats, µs.
+    HeartbeatGapMinUs = 3,
+    /// The longest time between two heartbeats, µs.
+    HeartbeatGapMaxUs = 4,
+    /// Boots after a watchdog reset (the other boots: power-on, NMT reset node).
+    WatchdogResets = 5,
+    /// The device counters' `adc_blocks_lost` (as the application task last set them).
+    AdcBlocksLost = 6,
+    /// `block_queue_overruns`: blocks dropped because the application task had not taken the
+    /// previous ones.
+    BlockQueueOverruns = 7,
+    /// `watchdog_misses`.
+    WatchdogMisses = 8,
+    /// `stack_high_water_bytes`.
+    StackHighWaterBytes = 9,
+}
+
+/// Sets a figure.
+pub fn set_figure(f: Figure, v: u32) {
+    if let Some(w) = region().figures.get(f as usize) {
+        w.store(v, Ordering::Relaxed);
+    }
+}
+
+/// A figure (0 until set; kept across resets: the region is the harness's).
+pub fn figure(f: Figure) -> u32 {
+    region()
+        .figures
+        .get(f as usize)
+        .map_or(0, |w| w.load(Ordering::Relaxed))
+}
+
 /// Where the region is.
 pub const BASE: usize = 0x2100_0000;
 /// `magic` once the firmware has booted ("BPOD").
 pub const MAGIC: u32 = 0x444F_5042;
 /// Layout version (`version`).
-pub const VERSION: u32 = 1;
+pub const VERSION: u32 = 2;
 /// Block records in the ring.
 pub const RING: usize = 64;
 /// Bytes of the configuration's encoding the session carries.
 pub const CONFIG_BYTES: usize = 512;
+
+/// [`Record::cnc`]: the machine was homed before this block (the virtual CNC put it at its
+/// program's start): the axes are referenced at the record's reference, as the simulated
+/// pod's virtual CNC does with `App::reference_axes`.
+pub const CNC_REFERENCE: u32 = 1;
+/// [`Record::cnc`]: the part program's last block ran before this block: the run ends (the
+/// simulated pod's virtual CNC gives the STOP command then; a CNC gives it over CAN).
+pub const CNC_PROGRAM_END: u32 = 2;
 
 /// One sample period as the harness writes it.
 #[repr(C)]
@@ -39,6 +92,12 @@ pub struct Record {
     pub edge_raw: [u32; MAX_AXES],
     /// 1: a code of this block is at a rail (the ADCs' analog watchdogs would trip).
     pub tripped: u32,
+    /// The virtual CNC before this block ([`CNC_REFERENCE`], [`CNC_PROGRAM_END`]; 0: nothing).
+    pub cnc: u32,
+    /// [`CNC_REFERENCE`]: the counters that read the positions `reference_pos` …
+    pub reference_raw: [u32; MAX_AXES],
+    /// … (f64 bits, low word first; mm / degrees).
+    pub reference_pos: [u32; 2 * MAX_AXES],
     /// ADC codes of secondary A, then B (the block's length: the running configuration's).
     pub a: [u16; BLOCK_MAX],
     /// Secondary B.
@@ -65,6 +124,8 @@ pub struct Shared {
     pub session: AtomicU32,
     /// The run's number.
     pub run: AtomicU32,
+    /// What the board measures of itself in emulated time ([`Figure`]).
+    pub figures: [AtomicU32; FIGURES],
     /// Bytes of `config` used.
     pub config_len: AtomicU32,
     /// The running configuration's encoding (`Config::encode`).

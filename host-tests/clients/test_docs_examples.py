@@ -47,7 +47,6 @@ def test_canopen_example(pod):
     assert lines[5].startswith("G_ccw_um ") and float(lines[5].split()[1]) > 0
 
 
-@pytest.mark.emu_pending
 def test_scpi_examples(pod):
     visa, pyserial = python_blocks("technician.md")
     lines = run_example(visa.replace("USB_PORT", str(pod["usb_port"])), "technician.md")

@@ -49,7 +49,7 @@ def run_circle(query, write, direction):
     assert query("SESS:STAT?") == "DONE"
 
 
-@pytest.mark.emu_pending
+@pytest.mark.emu_block_queue_overruns(3)  # the circle pair's, as test_canopen_client.py's
 def test_pyvisa_circle_session(pod, eds):
     truth = pod["truth"]["machine"]["circle"]
     stream = StreamCapture(pod["stream_port"])
@@ -90,7 +90,7 @@ def test_pyvisa_circle_session(pod, eds):
             assert set(names) <= set(LIVE) and "delta_l" in names
         # the live fit's u (u_ecc_u, u_ecc_v, u_r0): invalid until e is, then what the results
         # would state for the samples so far; the last before the run's end against the results
-        live_u, deadline = None, time.monotonic() + 30
+        live_u, deadline = None, time.monotonic() + RUN_TIMEOUT
         while q("SESS:STAT?") == "RUNNING":
             assert time.monotonic() < deadline, "the CCW run's end"
             v = [scpi_nan(float(x)) for x in q("MEAS:ALL?").split(",")[1:1 + len(LIVE)]]
@@ -234,7 +234,7 @@ def test_pyserial_ssm_session_and_log_download(pod):
         stream.close()
 
 
-@pytest.mark.emu_pending
+@pytest.mark.emu_block_queue_overruns(3)  # the circle pair's, as test_canopen_client.py's
 def test_replay_of_the_stream_gives_the_pods_results(pod, tmp_path):
     """The stream text of a CCW and a CW run, replayed by `replay` into a fresh application, gives
     the results table the pod reports over SCPI — every valid result, and only those."""

@@ -6,6 +6,7 @@
 //! is connected are dropped by QEMU).
 
 use embassy_futures::join::join3;
+use embassy_futures::select::{Either, select};
 
 use super::safety::{self, Task};
 use super::state::{self, PACKET, UsbEvent};
@@ -24,7 +25,17 @@ pub async fn usb_task() {
     let receive = async {
         let mut data = [0u8; PACKET];
         loop {
-            let len = UART1.rx.read(&mut data).await;
+            let mut len = UART1.rx.read(&mut data).await;
+            // a USB frame's worth: what arrives within 1 ms, up to a packet (QEMU hands the
+            // UART a byte at a time; one event a byte would fill the application task's
+            // 8-event queue with 8 bytes, where the STM32 board's holds 8 packets)
+            let frame_end = embassy_time::Instant::now() + embassy_time::Duration::from_millis(1);
+            while let Some(rest) = data.get_mut(len..).filter(|r| !r.is_empty()) {
+                match select(UART1.rx.read(rest), embassy_time::Timer::at(frame_end)).await {
+                    Either::First(n) => len += n,
+                    Either::Second(()) => break,
+                }
+            }
             event(UsbEvent::Bytes { data, len });
         }
     };

@@ -373,10 +373,14 @@ impl VirtualCnc {
                     && pattern == Some(Pattern::Circle)
                     && cfg.setup.run_trigger == RunTrigger::FeedIn;
                 let planned = match pattern {
-                    Some(_) if self.self_triggered => {
-                        Motion::plan_feed_in(&self.truth, &cfg, direction)
-                    }
-                    Some(p) => Motion::plan(&self.truth, &cfg, p, direction, self.probe_runs),
+                    Some(p) => Motion::plan_run(
+                        &self.truth,
+                        &cfg,
+                        p,
+                        direction,
+                        self.self_triggered,
+                        self.probe_runs,
+                    ),
                     None => Err(format!("pattern {} unknown", s.pattern)),
                 };
                 match planned {

@@ -154,6 +154,24 @@ impl Motion {
         Ok(Self { steps, next: 0 })
     }
 
+    /// The program the served CNC runs for a run armed or started: a self-triggered circle's
+    /// whole part program ([`Self::plan_feed_in`]), else the pattern's motion ([`Self::plan`]).
+    /// Both virtual CNCs (the simulated pod's, the emulated board's) choose through this.
+    pub fn plan_run(
+        truth: &ServeTruth,
+        cfg: &Config,
+        pattern: Pattern,
+        direction: ballpod::app::Direction,
+        self_triggered: bool,
+        probe_runs: u32,
+    ) -> Result<Self, String> {
+        if self_triggered {
+            Self::plan_feed_in(truth, cfg, direction)
+        } else {
+            Self::plan(truth, cfg, pattern, direction, probe_runs)
+        }
+    }
+
     /// The served CNC's part program of a self-triggered circle run (`run_trigger = FEED_IN`),
     /// started when the pod is armed for it: at rest on the feed-in point (the machine file's
     /// `feed_in_mm` outside the circle at 0°), the radial feed-in, the data arc (`circle_arc`,

@@ -367,17 +367,14 @@ impl<const N: usize> VirtualPod<N> {
             // bars between procedures): its expansion is modelled on that length
             self.sensors.set_bar_length(f64::from(cfg.bar_length_mm));
             let direction = self.app.direction();
-            let planned = if self_triggered {
-                Motion::plan_feed_in(&self.setup.truth, &cfg, direction)
-            } else {
-                Motion::plan(
-                    &self.setup.truth,
-                    &cfg,
-                    self.app.pattern(),
-                    direction,
-                    self.probe_runs,
-                )
-            };
+            let planned = Motion::plan_run(
+                &self.setup.truth,
+                &cfg,
+                self.app.pattern(),
+                direction,
+                self_triggered,
+                self.probe_runs,
+            );
             match planned {
                 Ok(m) => {
                     if self.app.pattern() == Pattern::Probe {

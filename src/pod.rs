@@ -22,7 +22,8 @@ use crate::acquisition::thermal::ThermistorFault;
 use crate::acquisition::{MAX_AXES, Sample};
 use crate::app::log::SampleLog;
 use crate::app::{
-    App, DeviceCounter, DeviceCounters, JobSlot, Recorder, RunEnd, RunMeta, SettingsRequest, Touch,
+    App, DeviceCounter, DeviceCounters, JobSlot, Recorder, RunEnd, RunMeta, SessionState,
+    SettingsRequest, Touch,
 };
 use crate::config::{Config, ConfigError};
 use crate::protocol::canopen::{BusState, CanFrame, CanOpenNode};
@@ -90,6 +91,8 @@ impl<const LOG: usize, const STREAM: usize, T: Recorder> Recorder
         self.stream.begin_run(meta);
         self.tee.begin_run(meta);
     }
+    // out of line: inlined, it made the application's per-sample function spill
+    #[inline(never)]
     fn sample(&mut self, s: &Sample) {
         if self.log_paused {
             self.log.count_paused();
@@ -269,10 +272,13 @@ impl<'a, const LOG: usize, const STREAM: usize> Pod<'a, LOG, STREAM> {
             }
             usb_out(packet.get(..n).unwrap_or(&[]));
         }
-        let room = stream_room.min(packet.len());
-        let n = self.stream.pull(packet.get_mut(..room).unwrap_or(&mut []));
-        if n > 0 {
-            stream_out(packet.get(..n).unwrap_or(&[]));
+        // at most a packet's worth a turn, straight from the ring; while a run runs only
+        // whole packets (the next sample comes within a period: fewer writes, full USB
+        // packets), between runs everything
+        let pending = self.stream.pending();
+        let running = self.app.session() == SessionState::Running;
+        if pending >= packet.len() || (pending > 0 && !running) {
+            self.stream.drain(stream_room.min(packet.len()), stream_out);
         }
     }
 

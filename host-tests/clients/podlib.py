@@ -6,6 +6,7 @@ import math
 import os
 import re
 import socket
+import struct
 import threading
 import time
 
@@ -89,6 +90,51 @@ class Run:
         return "stream_dropped" in self.end
 
 
+RECORD_TAG = 0xB5
+
+
+def decode_stream(data):
+    """The stream port's bytes as the run text: text lines as they are, each sample record (tag
+    0xB5, n axis columns, little-endian `<H I Q f nf f`: flags, seq, µs, ΔL, the axes, °C; the
+    book's "The sample stream and the log") as a row of exact values: ΔL and positions as the
+    f32's own value, time to the µs, temperature to 0.01 °C as the log writes it; the NUL
+    bytes that pad each item to a multiple of 4 skipped. Stops at a record or line not yet
+    complete."""
+    out, at = [], 0
+    while at < len(data):
+        if data[at] == 0:  # padding: every item starts on a multiple of 4 bytes
+            at += 1
+        elif data[at] == RECORD_TAG:
+            if at + 2 > len(data):
+                break
+            n = data[at + 1]
+            assert n <= 5, f"byte {at}: not a sample record"
+            size = 24 + 4 * n
+            if at + size > len(data):
+                break
+            flags, seq, t_us = struct.unpack_from("<HIQ", data, at + 2)
+            vals = struct.unpack_from(f"<{n + 2}f", data, at + 16)
+            # the pod's log: the f32 product °C · 100, ± 0.5 in f32, truncated
+            centi = np.float32(vals[-1]) * np.float32(100.0)
+            if np.isfinite(centi) and abs(centi) < 32767.0:
+                half = np.float32(-0.5) if centi < 0 else np.float32(0.5)
+                temp = f"{int(centi + half) / 100:.2f}"
+            else:
+                temp = "nan"
+            cells = [str(seq), f"{t_us // 1_000_000}.{t_us % 1_000_000:06d}"]
+            cells += ["nan" if math.isnan(v) else repr(v) for v in vals[:-1]]
+            cells += [temp, str(flags)]
+            out.append(",".join(cells) + "\n")
+            at += size
+        else:
+            end = data.find(b"\n", at)
+            if end < 0:
+                break
+            out.append(data[at:end + 1].decode())
+            at = end + 1
+    return "".join(out)
+
+
 def parse_runs(text):
     """The runs of a stream text (`# ballpod run v2` … `# stream_dropped=N`): a plain reader of
     the format of src/protocol/csv.rs."""
@@ -132,9 +178,14 @@ class StreamCapture:
             with self.lock:
                 self.buf.extend(d)
 
-    def text(self):
+    def raw(self):
+        """The bytes the port sent (text lines and sample records), as a recording is kept."""
         with self.lock:
-            return bytes(self.buf).decode()
+            return bytes(self.buf)
+
+    def text(self):
+        """The stream as the run text: each sample record as the row the log writes."""
+        return decode_stream(self.raw())
 
     def runs(self, n, timeout=10.0):
         """The first `n` runs, once the stream has ended all of them."""

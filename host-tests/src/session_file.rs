@@ -192,6 +192,11 @@ fn whole(file: &Path, what: String) -> LogError {
 /// Reads a text file; bytes that are not UTF-8 are an error with line and column.
 pub fn read_text(file: &Path) -> Result<String, LogError> {
     let bytes = std::fs::read(file).map_err(|e| whole(file, e.to_string()))?;
+    utf8(file, bytes)
+}
+
+/// `bytes` of `file` as text; bytes that are not UTF-8 are an error with line and column.
+fn utf8(file: &Path, bytes: Vec<u8>) -> Result<String, LogError> {
     String::from_utf8(bytes).map_err(|e| {
         let at = e.utf8_error().valid_up_to();
         let before = &e.as_bytes()[..at];
@@ -208,6 +213,31 @@ pub fn read_text(file: &Path) -> Result<String, LogError> {
             ..whole(file, String::new())
         }
     })
+}
+
+/// Reads a pod recording — a `DATA:LOG?` download or a recorded stream port, whose sample
+/// records ([`ballpod::protocol::stream`]) become the log's text rows — as text.
+pub fn read_recording(file: &Path) -> Result<String, LogError> {
+    let bytes = std::fs::read(file).map_err(|e| whole(file, e.to_string()))?;
+    if !bytes.contains(&ballpod::protocol::stream::RECORD_TAG) {
+        return utf8(file, bytes);
+    }
+    let mut text = Vec::with_capacity(bytes.len() * 2);
+    let decoded = ballpod::protocol::stream::decode(&bytes, |l| text.extend_from_slice(l));
+    if let Err(e) = decoded {
+        use ballpod::protocol::stream::DecodeError;
+        let (offset, what) = match e {
+            DecodeError::BadRecord { offset } => (offset, "not a sample record (more than 5 axes)"),
+            DecodeError::Cut { offset } => (offset, "the recording ends inside a sample record"),
+        };
+        return Err(LogError {
+            // the line the record's row would have been in the text
+            line: text.iter().filter(|&&b| b == b'\n').count() + 1,
+            what: format!("byte {offset}: {what}"),
+            ..whole(file, String::new())
+        });
+    }
+    utf8(file, text)
 }
 
 /// Parses a session file: TOML when `path` ends in `.toml`, JSON otherwise (`path` only names
@@ -329,7 +359,7 @@ pub fn read_runs(path: &Path, s: &SessionFile) -> Result<Vec<(String, RecordedRu
     let mut out = Vec::new();
     for (i, entry) in s.runs.iter().enumerate() {
         let file = base.join(&entry.log);
-        let text = read_text(&file)?;
+        let text = read_recording(&file)?;
         let pattern = entry
             .pattern
             .as_ref()
@@ -772,7 +802,7 @@ pub fn read_inputs(files: &[PathBuf]) -> Result<Inputs, LogError> {
                 out.extend(o.files);
             }
         } else {
-            let text = read_text(f)?;
+            let text = read_recording(f)?;
             let name = f
                 .file_name()
                 .map_or(String::new(), |n| n.to_string_lossy().into_owned());

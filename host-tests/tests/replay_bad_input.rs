@@ -324,8 +324,10 @@ fn slow_reader_stream(catch_up: bool) -> (String, u32, String) {
     vp.sample_at(pose(SLOW_ROWS).0, &pose(SLOW_ROWS).1);
     drain(&mut vp, &mut text);
     let whole = vp.recording.runs.last().expect("recorded").to_csv();
+    let mut decoded = Vec::new();
+    ballpod::protocol::stream::decode(&text, |l| decoded.extend_from_slice(l)).expect("records");
     (
-        String::from_utf8(text).expect("the stream is text"),
+        String::from_utf8(decoded).expect("the stream is text"),
         vp.stream_dropped(),
         whole,
     )

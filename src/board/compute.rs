@@ -34,7 +34,7 @@ use super::worker::{self, Done, Work};
 use super::{block, diagnostics, probe_queue, thermistor};
 
 /// Bytes of the stream's ring (the USB task drains it through `STREAM_TX`).
-const STREAM_RING: usize = 2048;
+const STREAM_RING: usize = ballpod::protocol::stream::FIRMWARE_RING_BYTES;
 /// How often the device counters are refreshed, ms (the stack scan takes ≈ 0.2 ms).
 const DEVICE_COUNTERS_EVERY_MS: u32 = 100;
 

@@ -215,9 +215,47 @@ pub fn columns_line(meta: &RunMeta, line: &mut Line) -> bool {
 
 /// The data row of a sample or touch point.
 pub fn record_line(r: &LoggedRecord, meta: &RunMeta, line: &mut Line) -> bool {
-    line.clear();
     let rec: &LogRecord = &r.record;
-    push_u64(line, u64::from(rec.seq));
+    let mut axes = [f32::NAN; MAX_AXES];
+    let mut n = 0;
+    for ((input, _), slot) in axis_columns(meta).zip(axes.iter_mut()) {
+        *slot = rec.axes.get(input).copied().unwrap_or(f32::NAN);
+        n += 1;
+    }
+    row_line(
+        &Row {
+            seq: rec.seq,
+            t_us: r.t_us,
+            delta_l_um: rec.delta_l_um,
+            axes: axes.get(..n).unwrap_or(&[]),
+            temp_c: rec.temp_c(),
+            flags: rec.flags,
+        },
+        line,
+    )
+}
+
+/// One data row's values, the axes already in column order ([`axis_columns`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Row<'a> {
+    /// Sample number.
+    pub seq: u32,
+    /// Time stamp, µs since boot.
+    pub t_us: u64,
+    /// ΔL, µm.
+    pub delta_l_um: f32,
+    /// Positions of the axis columns, mm or degrees.
+    pub axes: &'a [f32],
+    /// Bar temperature, °C, as logged (0.01 °C steps, [`LogRecord::temp_c`]).
+    pub temp_c: f32,
+    /// Flags ([`LogRecord::flags`]).
+    pub flags: u16,
+}
+
+/// The data row `r` (the log's and the stream decoder's one formatter).
+pub fn row_line(r: &Row, line: &mut Line) -> bool {
+    line.clear();
+    push_u64(line, u64::from(r.seq));
     push_bytes(line, b",");
     push_u64(line, r.t_us / 1_000_000);
     push_bytes(line, b".");
@@ -229,16 +267,15 @@ pub fn record_line(r: &LoggedRecord, meta: &RunMeta, line: &mut Line) -> bool {
     }
     push_bytes(line, &digits);
     push_bytes(line, b",");
-    push_exact(line, f64::from(rec.delta_l_um), F32_DIGITS, b"nan");
-    for (input, _) in axis_columns(meta) {
+    push_exact(line, f64::from(r.delta_l_um), F32_DIGITS, b"nan");
+    for &v in r.axes {
         push_bytes(line, b",");
-        let v = rec.axes.get(input).copied().unwrap_or(f32::NAN);
         push_exact(line, f64::from(v), F32_DIGITS, b"nan");
     }
     push_bytes(line, b",");
-    push_fixed(line, f64::from(rec.temp_c()), 2, false, b"nan");
+    push_fixed(line, f64::from(r.temp_c), 2, false, b"nan");
     push_bytes(line, b",");
-    push_u64(line, u64::from(rec.flags));
+    push_u64(line, u64::from(r.flags));
     push_bytes(line, b"\n")
 }
 

@@ -41,12 +41,15 @@ pub const FAULTS: [(SampleFlags, u16); 5] = [
     (SampleFlags::OVERRUN, 0x6101),
 ];
 
+/// The flag bits of [`FAULTS`] (each fault is one bit: [`error_code`] maps a bit).
+const FAULT_MASK: u16 = {
+    let [(a, _), (b, _), (c, _), (d, _), (e, _)] = FAULTS;
+    a.0 | b.0 | c.0 | d.0 | e.0
+};
+
 /// The fault bits of a sample's flags (the flags of [`FAULTS`]).
-pub fn fault_bits(flags: SampleFlags) -> u16 {
-    FAULTS
-        .iter()
-        .filter(|(f, _)| flags.contains(*f))
-        .fold(0, |m, (f, _)| m | f.0)
+pub const fn fault_bits(flags: SampleFlags) -> u16 {
+    flags.0 & FAULT_MASK
 }
 
 /// The EMCY error code of a single fault bit (`None` if it is not a fault).

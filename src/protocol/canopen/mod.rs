@@ -417,6 +417,11 @@ impl CanOpenNode {
     /// (see [`emcy`]). Call once per sample.
     pub fn on_sample(&mut self, flags: SampleFlags, now_us: u64, out: &mut impl FnMut(CanFrame)) {
         let bits = emcy::fault_bits(flags);
+        // the sample path's case: the same faults as before, none waiting to be sent or
+        // cleared — nothing for `service_emcy` to do
+        if bits == self.faults_current && self.faults_raised == 0 && self.faults_reported == bits {
+            return;
+        }
         self.faults_current = bits;
         self.faults_raised |= bits & !self.faults_reported;
         self.service_emcy(now_us, out);

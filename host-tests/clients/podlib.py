@@ -327,7 +327,9 @@ def arm_then_start(arm, start):
 
 
 def run(sdo, pattern, direction, timeout=None):
-    """Arms and starts a run; the served machine ends it with its motion. Returns the state."""
+    """Arms and starts a run; the served machine ends it with its motion. Returns the state,
+    once a run that ended DONE has its results (status bit 10 RESULTS_READY: the jobs it left
+    have published them), as a CNC reads them (book "The CNC's side")."""
     timeout = timeout or RUN_TIMEOUT
     sdo["pattern"].raw = PATTERN[pattern]
     sdo["direction"].raw = DIRECTION[direction]
@@ -338,7 +340,16 @@ def run(sdo, pattern, direction, timeout=None):
 
     arm_then_start(arm, lambda: setattr(sdo["session_command"], "raw", COMMAND["start"]))
     wait_until(lambda: sdo["session_state"].raw != 2, timeout, f"the {pattern} {direction} run's end")
-    return sdo["session_state"].raw
+    state = sdo["session_state"].raw
+    if state == 3:  # DONE
+        wait_until(lambda: sdo["status_word"].raw & STATUS_RESULTS_READY, 30, "the run's results")
+    return state
+
+
+def wait_results_scpi(query):
+    """After a run ended DONE: until `STAT:POD?` has bit 10 RESULTS_READY (the jobs the run left
+    have published its results)."""
+    wait_until(lambda: int(query("STAT:POD?")) & STATUS_RESULTS_READY, 30, "the run's results")
 
 
 def result(sdo, name):

@@ -187,10 +187,6 @@ def test_refusals_with_the_reason(pod, eds):
         net.disconnect()
 
 
-# (the emulated board: one or two blocks dropped on the way to the application task in a circle
-# pair with the stream open — a turn of the application task longer than the block queue's
-# 4 ms; issue 41 item 5)
-@pytest.mark.emu_block_queue_overruns(3)
 def test_circle_ccw_then_cw_against_numpy_and_truth(pod, eds):
     """The ISO 230-4 circle CCW then CW: the results read over SDO equal a numpy fit of the
     samples the pod streamed, and the eccentricity is the truth's socket offset turned round;

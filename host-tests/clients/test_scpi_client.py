@@ -15,7 +15,7 @@ import pyvisa
 import serial
 
 from conftest import host_binary
-from podlib import (LIVE, SCPI_ERROR, StreamCapture, connect, fit_run, iso230_4, scpi_nan, scpi_result,
+from podlib import (LIVE, SCPI_ERROR, wait_results_scpi, StreamCapture, connect, fit_run, iso230_4, scpi_nan, scpi_result,
                     wait_until, arm_then_start, RUN_TIMEOUT)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -47,9 +47,9 @@ def run_circle(query, write, direction):
     arm_then_start(lambda: write(f"SESS:PATT CIRCLE;DIR {direction};:SESS:ARM"), lambda: write("SESS:STAR"))
     wait_until(lambda: query("SESS:STAT?") != "RUNNING", RUN_TIMEOUT, f"the CIRCLE {direction} run's end")
     assert query("SESS:STAT?") == "DONE"
+    wait_results_scpi(query)
 
 
-@pytest.mark.emu_block_queue_overruns(3)  # the circle pair's, as test_canopen_client.py's
 def test_pyvisa_circle_session(pod, eds):
     truth = pod["truth"]["machine"]["circle"]
     stream = StreamCapture(pod["stream_port"])
@@ -100,6 +100,7 @@ def test_pyvisa_circle_session(pod, eds):
             if not math.isnan(live["u_ecc_u"]):
                 live_u = live
         assert q("SESS:STAT?") == "DONE"
+        wait_results_scpi(q)
         w("FETC:RES? G_bidir")
         assert error(q)[0] == -230  # needs the CW run
         ccw = {n: scpi_result(q, n) for n in ("ecc_u", "ecc_v", "r0", "G_ccw")}
@@ -208,6 +209,7 @@ def test_pyserial_ssm_session_and_log_download(pod):
         arm_then_start(lambda: port.write(b"SESS:ARM\n"), lambda: port.write(b"SESS:STAR\n"))
         wait_until(lambda: ask("SESS:STAT?") != "RUNNING", RUN_TIMEOUT, "the SSM run's end")
         assert ask("SESS:STAT?") == "DONE"
+        wait_results_scpi(ask)
         e_true = pod["truth"]["ssm_error_um"]
         for k, name in enumerate(("ssm_ex", "ssm_ey", "ssm_ez")):
             v, u, unit = scpi_result(ask, name)
@@ -240,7 +242,6 @@ def test_pyserial_ssm_session_and_log_download(pod):
         stream.close()
 
 
-@pytest.mark.emu_block_queue_overruns(3)  # the circle pair's, as test_canopen_client.py's
 def test_replay_of_the_stream_gives_the_pods_results(pod, tmp_path):
     """The stream text of a CCW and a CW run, replayed by `replay` into a fresh application, gives
     the results table the pod reports over SCPI — every valid result, and only those."""

@@ -224,9 +224,12 @@ impl Region {
     /// What the board measured of itself (`shared::Figure` of the emulated board): SDO answers,
     /// worst SDO answer time µs, heartbeat gaps measured, shortest and longest gap µs, boots
     /// after a watchdog reset; then the device counters `adc_blocks_lost`,
-    /// `block_queue_overruns`, `watchdog_misses`, `stack_high_water_bytes`.
-    pub fn figures(&self) -> io::Result<[u32; 10]> {
-        let mut f = [0u32; 10];
+    /// `block_queue_overruns`, `watchdog_misses`, `stack_high_water_bytes`; then the CPU load
+    /// while a run ran: busy µs, measured µs, the busiest 100 ms in ‰; the application task's
+    /// longest turn, µs, and what it handled (1 block, 2 CAN frame, 3 USB, 4 tick, 5 work done);
+    /// the blocks dropped while a run ran or a job computed.
+    pub fn figures(&self) -> io::Result<[u32; 16]> {
+        let mut f = [0u32; 16];
         for (k, v) in f.iter_mut().enumerate() {
             *v = self.u32_at(SharedLayout::FIGURES_AT + 4 * k as u64)?;
         }
@@ -588,13 +591,19 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
                     queue,
                     misses,
                     stack,
+                    run_busy,
+                    run_measured,
+                    run_peak,
+                    longest_turn,
+                    longest_turn_kind,
+                    run_dropped,
                 ],
                 boots,
                 positioned,
             ) = figures;
             let (written, taken) = region.counts()?;
             let json = format!(
-                "{{\"sdo_answers\":{answers},\"sdo_worst_us\":{worst},\"heartbeat_gaps\":{gaps},\"heartbeat_gap_min_us\":{gap_min},\"heartbeat_gap_max_us\":{gap_max},\"boots\":{boots},\"watchdog_resets\":{watchdog},\"records_written\":{written},\"records_taken\":{taken},\"adc_blocks_lost\":{adc_lost},\"block_queue_overruns\":{queue},\"watchdog_misses\":{misses},\"stack_high_water_bytes\":{stack},\"positioned\":{positioned}}}\n"
+                "{{\"sdo_answers\":{answers},\"sdo_worst_us\":{worst},\"heartbeat_gaps\":{gaps},\"heartbeat_gap_min_us\":{gap_min},\"heartbeat_gap_max_us\":{gap_max},\"boots\":{boots},\"watchdog_resets\":{watchdog},\"records_written\":{written},\"records_taken\":{taken},\"adc_blocks_lost\":{adc_lost},\"block_queue_overruns\":{queue},\"watchdog_misses\":{misses},\"stack_high_water_bytes\":{stack},\"run_busy_us\":{run_busy},\"run_measured_us\":{run_measured},\"run_load_peak_permille\":{run_peak},\"longest_turn_us\":{longest_turn},\"longest_turn_kind\":{longest_turn_kind},\"run_blocks_dropped\":{run_dropped},\"positioned\":{positioned}}}\n"
             );
             // written whole, then renamed over the old (a reader never sees half of it)
             let tmp = path.with_extension("tmp");

@@ -229,6 +229,10 @@ impl Bench {
     fn command(&mut self, code: u8) -> Result<(), u32> {
         self.download(0x3002, 0, &[code])
     }
+    /// The jobs the last commands left run to their end (the firmware's worker).
+    fn run_jobs(&mut self) {
+        ballpod_host::run_jobs(&mut self.app);
+    }
     fn session_state(&mut self) -> u8 {
         let d = self.upload(0x3003, 0).unwrap();
         assert_eq!(d.len(), 1, "UNSIGNED8");
@@ -956,6 +960,9 @@ fn results_read_only_when_valid() {
     b.run_circle();
     b.command(CMD_STOP).unwrap();
     assert_eq!(b.session_state(), ST_DONE);
+    // the run's fit is a job's (status bit 6 COMPUTING): no data until it ends
+    assert_eq!(b.upload(0x4000, result_sub("ecc_u")), Err(NO_DATA));
+    b.run_jobs();
     for (name, want) in [("ecc_u", E_UM[0]), ("ecc_v", E_UM[1]), ("r0", R0_UM)] {
         let k = result_sub(name);
         assert_eq!(b.upload(0x4002, k).unwrap(), [1], "{name} valid");
@@ -1459,6 +1466,7 @@ fn referencing_an_axis_forgets_the_runs_measured_in_the_old_coordinates() {
     b.raw_sample([0; MAX_AXES]);
     b.run_circle();
     b.command(CMD_STOP).unwrap();
+    b.run_jobs();
     let ecc_u = result_sub("ecc_u");
     assert_eq!(b.read_u32(0x4002, ecc_u), 1, "the run's result is valid");
     b.write_f32(0x300C, 1, 0.0).unwrap();

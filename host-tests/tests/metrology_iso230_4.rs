@@ -1508,9 +1508,9 @@ fn circle_run(app: &mut ballpod::app::App, d: Direction, samples: &[Sample]) {
     app.execute(Command::Stop).unwrap();
 }
 
-/// The figures of a run's end are a job (app::job): STOP is answered with them invalid, the
-/// status word says COMPUTING and not RESULTS_READY; the application goes on with a run of the
-/// other direction while the job waits and runs; the results it publishes are those of the
+/// A run's results are a job (app::job): STOP is answered with them invalid (the run's fit,
+/// the traced centre, the figures), the status word says COMPUTING and not RESULTS_READY;
+/// the application goes on with a run of the other direction while the job waits and runs; the results it publishes are those of the
 /// runs as they ended, the same as where the job runs at once, bit for bit.
 #[test]
 fn a_circle_stop_leaves_its_figures_to_a_job_while_the_pod_goes_on() {
@@ -1527,6 +1527,9 @@ fn a_circle_stop_leaves_its_figures_to_a_job_while_the_pod_goes_on() {
         run(&m, Direction::Cw, 4000, &mut rng),
     );
     let ids = [
+        ResultId::EccU,
+        ResultId::R0,
+        ResultId::CentreDu,
         ResultId::GCcw,
         ResultId::FMaxCcw,
         ResultId::GCw,
@@ -1552,8 +1555,8 @@ fn a_circle_stop_leaves_its_figures_to_a_job_while_the_pod_goes_on() {
     assert!(status & StatusWord::RESULTS_READY == 0, "{status:#06x}");
     assert!(!app.result(ResultId::GCcw).valid, "G before its job");
     assert!(
-        app.result(ResultId::EccU).valid,
-        "the run's fit is published at STOP"
+        !app.result(ResultId::EccU).valid,
+        "the run's fit is the job's too"
     );
     assert!(app.start_job(&mut slot));
     // the application goes on while the job waits for the worker: the CW run, to its end

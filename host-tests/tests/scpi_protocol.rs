@@ -70,13 +70,16 @@ impl Bench {
         b
     }
 
-    /// Sends raw bytes; returns what came back.
+    /// Sends raw bytes; returns what came back. The jobs the commands left (a run's results)
+    /// then run to their end, as the pod's worker runs them before a client's next message
+    /// comes.
     fn raw(&mut self, bytes: &[u8]) -> Vec<u8> {
         let mut out = Vec::new();
         self.scpi
             .feed(bytes, &mut self.app, &self.log, &mut |b: &[u8]| {
                 out.extend_from_slice(b)
             });
+        ballpod_host::run_jobs(&mut self.app);
         out
     }
 

@@ -14,7 +14,7 @@ use crate::config::{CirclePlane, Field, TestSetup, is_set};
 use crate::in_place::init_in_place;
 use crate::metrology::bar_budget::BarBudget;
 use crate::metrology::bar_budget::FigureKind::{Radial, Shape};
-use crate::metrology::circle_fit::{CircleEstimate, CircleFitConfig, CircleFitError, SampleUse};
+use crate::metrology::circle_fit::{CircleFitConfig, CircleFitError, SampleUse};
 use crate::metrology::iso230_4::{self, CircularTest, IsoError};
 use crate::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
 use core::mem::MaybeUninit;
@@ -136,12 +136,12 @@ pub struct CircleTest {
 pub struct FiguresRequest {
     /// The run's direction.
     pub direction: Direction,
-    /// The centre's standard uncertainty for the run's figures, µm
-    /// ([`CircularTest::centre_u_um`]).
-    pub u_centre_um: f32,
-    /// The centre's for the bi-directional figures and the diagnoses (the larger of the two
-    /// directions'), µm; `None` until both directions are complete.
-    pub u_centre_bidir_um: Option<f32>,
+    /// The centre's standard uncertainty as entered (`circle_u_centre_um`), µm; the job takes
+    /// the traced offset's where it contradicts it ([`CircularTest::centre_u_um`]).
+    pub u_centre_entered_um: f32,
+    /// Both directions were complete when the run ended: the bi-directional figures and the
+    /// diagnoses too.
+    pub both_directions: bool,
     /// The bar's budget as configured when the run ended.
     pub bar: BarBudget,
     /// [`CircleTest`]'s run epochs when the run ended.
@@ -197,9 +197,10 @@ impl CircleTest {
     /// again, no new test since).
     pub fn current(&self, request: &FiguresRequest) -> bool {
         let k = dir_index(request.direction);
-        match request.u_centre_bidir_um {
-            Some(_) => self.epochs == request.epochs,
-            None => self.epochs.get(k) == request.epochs.get(k),
+        if request.both_directions {
+            self.epochs == request.epochs
+        } else {
+            self.epochs.get(k) == request.epochs.get(k)
         }
     }
 
@@ -279,64 +280,65 @@ impl CircleTest {
         self.next_noise_at = used.saturating_add(every);
     }
 
-    /// Ends the run of direction `d`: the traced offset of the centre (`centre_du`,
-    /// `centre_dv`), the run's fit with the centre's shares of its (r0, e_u, e_v)
-    /// ([`CircularTest::centre_shares`]) for the centre's `u_centre_um`, or for the offset the
-    /// run's axis positions traced where it contradicts that
-    /// ([`iso230_4::TracedCentre::centre_u_um`]), and what is left to a job: the run's figures
-    /// and, when both directions are complete, the bi-directional ones ([`Self::figures`]; their
-    /// results are invalid until it publishes them). `Err` if the run has no fit (too short an
-    /// arc, too few samples).
+    /// Ends the run of direction `d`: whether it has a fit (`Err`: too short an arc, too few
+    /// samples — the run is aborted), and what is left to a job ([`Self::figures`]): the run's
+    /// results, which are invalid until it publishes them (cleared here). The centre's entered
+    /// standard uncertainty is `u_centre_um`. A least-squares solve: what is longer runs in the
+    /// job (the traced centre and the centre's shares took ≈ 600 000 instructions here).
     pub fn finish_run(
         &mut self,
         d: Direction,
         results: &mut Results,
         u_centre_um: f32,
         bar: BarBudget,
-    ) -> Result<(CircleEstimate, [f32; 3], FiguresRequest), CircleFitError> {
+    ) -> Result<FiguresRequest, CircleFitError> {
         results.clear(ResultId::GBidir, ResultId::CentreDv);
         let (g, fmax, fmin) = figure_ids(d);
-        for id in [g, fmax, fmin] {
+        for id in [g, fmax, fmin, ResultId::EccU, ResultId::EccV, ResultId::R0] {
             results.clear(id, id);
         }
-        let est = self.test.fit_estimate(d)?;
+        results.clear(ResultId::ResidualRms, ResultId::ResidualRms);
+        results.clear(ResultId::Arc, ResultId::Arc);
+        self.test.fit(d).estimate()?;
+        if let Some(c) = self.complete.get_mut(dir_index(d)) {
+            *c = true;
+        }
+        Ok(FiguresRequest {
+            direction: d,
+            u_centre_entered_um: u_centre_um,
+            both_directions: self.complete == [true, true],
+            bar,
+            epochs: self.epochs,
+        })
+    }
+
+    /// What a run's end left ([`Self::finish_run`]), 0.1–0.3 s on the pod, so a job runs it on
+    /// its own copy of the test ([`super::job`]): into `results` the traced offset of the centre
+    /// (`centre_du`, `centre_dv`); the run's fit (e, r0, their u with the bar's share and the
+    /// centre's, [`CircularTest::centre_shares`], for the entered u of the centre or the traced
+    /// offset's where it contradicts that, [`iso230_4::TracedCentre::centre_u_um`]; residual,
+    /// arc); G and F of its direction; when both directions were complete, G(b), H, the radial
+    /// deviation and the diagnoses, for the larger of the two directions' centre u. Each u with
+    /// the bar's share (the request's, `metrology::bar_budget`) and the centre's (each figure's
+    /// and diagnosis's `Diagnosed::centre_um`, H none; the servo mismatch's from the two
+    /// directions' signed squareness changes, [`servo_mismatch_ms`]).
+    pub fn figures(&self, request: &FiguresRequest, results: &mut impl ResultSink) {
+        let (d, bar) = (request.direction, &request.bar);
         if let Ok(t) = self.test.traced_centre(d) {
             let ([du, dv], [u_du, u_dv]) = (t.offset_um, t.u_um);
             results.set(ResultId::CentreDu, f64::from(du), f64::from(u_du));
             results.set(ResultId::CentreDv, f64::from(dv), f64::from(u_dv));
         }
-        // the centre's u for the shares; the bidirectional figures take the larger
+        let entered = request.u_centre_entered_um;
         let [u_ccw, u_cw] =
-            [Direction::Ccw, Direction::Cw].map(|d| self.test.centre_u_um(d, u_centre_um));
+            [Direction::Ccw, Direction::Cw].map(|d| self.test.centre_u_um(d, entered));
         let u_run = if d == Direction::Ccw { u_ccw } else { u_cw };
-        let socket = self.test.centre_shares(d, u_run)?;
-        if let Some(c) = self.complete.get_mut(dir_index(d)) {
-            *c = true;
+        if let (Ok(e), Ok(socket)) = (self.test.fit_estimate(d), self.test.centre_shares(d, u_run))
+        {
+            super::publish_fit(results, &e, self.arc_deg(d), bar, socket);
         }
-        let request = FiguresRequest {
-            direction: d,
-            u_centre_um: u_run,
-            u_centre_bidir_um: (self.complete == [true, true]).then_some(if u_ccw > u_cw {
-                u_ccw
-            } else {
-                u_cw
-            }),
-            bar,
-            epochs: self.epochs,
-        };
-        Ok((est, socket, request))
-    }
-
-    /// The figures a run's end left ([`Self::finish_run`]): G and F of its direction and, when
-    /// both were complete, G(b), H, the radial deviation and the diagnoses, each u with the
-    /// bar's share (the request's, `metrology::bar_budget`) and the centre's (each figure's and
-    /// diagnosis's `Diagnosed::centre_um`, H none; the servo mismatch's from the two
-    /// directions' signed squareness changes, [`servo_mismatch_ms`]), into `results`. 0.1–0.3 s
-    /// on the pod: a job runs it on its own copy of the test ([`super::job`]).
-    pub fn figures(&self, request: &FiguresRequest, results: &mut impl ResultSink) {
-        let (d, bar) = (request.direction, &request.bar);
         let (g, fmax, fmin) = figure_ids(d);
-        if let Ok(f) = self.test.direction_figures(d, request.u_centre_um) {
+        if let Ok(f) = self.test.direction_figures(d, u_run) {
             for (id, v, kind) in [
                 (g, f.circular_deviation_g_um, Shape),
                 (fmax, f.radial_deviation_f_max_um, Radial),
@@ -345,8 +347,8 @@ impl CircleTest {
                 results.set_with_bar(id, v.value, [v.std_uncertainty, v.centre_um], bar, kind);
             }
         }
-        if let Some(u) = request.u_centre_bidir_um {
-            self.bidirectional(results, bar, u);
+        if request.both_directions {
+            self.bidirectional(results, bar, if u_ccw > u_cw { u_ccw } else { u_cw });
         }
     }
 

@@ -115,6 +115,42 @@ pub(crate) fn live_u_due(used: u32, last: &mut u32) -> bool {
     due
 }
 
+/// A run's fit into `results`: e and r0 with their u (the bar's share of `bar` and the centre's
+/// `[s_r0, s_eu, s_ev]`), the residual RMS and the arc, degrees.
+fn publish_fit(
+    results: &mut impl ResultSink,
+    e: &CircleEstimate,
+    arc_deg: f32,
+    bar: &BarBudget,
+    [s_r0, s_eu, s_ev]: [f32; 3],
+) {
+    for (id, v, u, kind, socket) in [
+        (
+            ResultId::EccU,
+            e.e_um[0],
+            e.u_e_um[0],
+            FigureKind::Shape,
+            s_eu,
+        ),
+        (
+            ResultId::EccV,
+            e.e_um[1],
+            e.u_e_um[1],
+            FigureKind::Shape,
+            s_ev,
+        ),
+        (ResultId::R0, e.r0_um, e.u_r0_um, FigureKind::Radial, s_r0),
+    ] {
+        results.set_with_bar(id, v, [u, socket], bar, kind);
+    }
+    results.set(
+        ResultId::ResidualRms,
+        f64::from(e.residual_rms_um),
+        f64::NAN,
+    );
+    results.set(ResultId::Arc, f64::from(arc_deg), f64::NAN);
+}
+
 /// Sets the live values of a running circle fit (`fit`: r0, e_u, e_v) and, when refreshed,
 /// their u (held otherwise, but never where its value is not valid); the bits it keeps.
 fn set_live_fit(live: &mut LiveValues, fit: Option<[f32; 3]>, u: Option<[f32; 3]>) -> u16 {
@@ -919,34 +955,9 @@ impl App {
         e: &CircleEstimate,
         arc_deg: f32,
         bar: &BarBudget,
-        [s_r0, s_eu, s_ev]: [f32; 3],
+        socket: [f32; 3],
     ) {
-        let r = &mut self.results;
-        for (id, v, u, kind, socket) in [
-            (
-                ResultId::EccU,
-                e.e_um[0],
-                e.u_e_um[0],
-                FigureKind::Shape,
-                s_eu,
-            ),
-            (
-                ResultId::EccV,
-                e.e_um[1],
-                e.u_e_um[1],
-                FigureKind::Shape,
-                s_ev,
-            ),
-            (ResultId::R0, e.r0_um, e.u_r0_um, FigureKind::Radial, s_r0),
-        ] {
-            r.set_with_bar(id, v, [u, socket], bar, kind);
-        }
-        r.set(
-            ResultId::ResidualRms,
-            f64::from(e.residual_rms_um),
-            f64::NAN,
-        );
-        r.set(ResultId::Arc, f64::from(arc_deg), f64::NAN);
+        publish_fit(&mut self.results, e, arc_deg, bar, socket);
     }
 
     fn stop(&mut self) {
@@ -961,14 +972,13 @@ impl App {
         self.procedure_note = None;
         let ok = match &mut self.estimator {
             RunEstimator::None => false,
+            // the run's fit and figures: a job (`CircleTest::figures`)
             RunEstimator::Circle => {
                 match self
                     .circle
                     .finish_run(d, &mut self.results, setup.circle_u_centre_um, bar)
                 {
-                    Ok((e, socket, request)) => {
-                        let arc = self.circle.arc_deg(d);
-                        self.publish_run_fit(&e, arc, &bar, socket);
+                    Ok(request) => {
                         if let Some(r) = self.figures_requests.get_mut(circle::dir_index(d)) {
                             *r = Some(request);
                         }

@@ -14,7 +14,7 @@
 
 use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
-use core::sync::atomic::Ordering;
+use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_futures::select::{Either5, select5};
 use embassy_time::{Duration, Instant, Ticker};
@@ -134,15 +134,23 @@ pub async fn compute_task(
     let mut packet = [0u8; state::PACKET];
     loop {
         let now = Instant::now().as_micros();
-        match select5(
+        let event = select5(
             block::BLOCKS.receive(),
             state::CAN_RX.receive(),
             state::USB_RX.receive(),
             ticker.next(),
             worker::DONE.receive(),
         )
-        .await
-        {
+        .await;
+        let began = Instant::now().as_micros();
+        let kind = match &event {
+            Either5::First(_) => TurnKind::Block,
+            Either5::Second(_) => TurnKind::CanFrame,
+            Either5::Third(_) => TurnKind::Usb,
+            Either5::Fourth(()) => TurnKind::Tick,
+            Either5::Fifth(_) => TurnKind::WorkDone,
+        };
+        match event {
             Either5::First(block) => {
                 while let Ok(code) = thermistor::CODES.try_receive() {
                     if pod.on_thermistor(code).is_err() {
@@ -220,8 +228,34 @@ pub async fn compute_task(
                 jobs = Some(slot);
             }
         }
+        let took = Instant::now().as_micros().saturating_sub(began) as u32;
+        if took > LONGEST_TURN_US.load(Ordering::Relaxed) {
+            LONGEST_TURN_US.store(took, Ordering::Relaxed);
+            LONGEST_TURN_KIND.store(kind as u32, Ordering::Relaxed);
+        }
     }
 }
+
+/// What a turn of the application task handled.
+#[derive(Clone, Copy)]
+pub enum TurnKind {
+    /// An LVDT block (a sample).
+    Block = 1,
+    /// A CAN frame.
+    CanFrame = 2,
+    /// USB bytes or a port opened or closed.
+    Usb = 3,
+    /// The 1 ms tick (protocol timers, device counters).
+    Tick = 4,
+    /// The worker handed back a job or a save.
+    WorkDone = 5,
+}
+
+/// The longest turn of the application task since boot, µs (the block queue holds 4 blocks:
+/// a turn longer than 4 sample periods loses blocks).
+pub static LONGEST_TURN_US: AtomicU32 = AtomicU32::new(0);
+/// Its [`TurnKind`].
+pub static LONGEST_TURN_KIND: AtomicU32 = AtomicU32::new(0);
 
 /// Hands `work` to the worker. Its queue holds one job and one save, and the task hands over at
 /// most one of each at a time (it waits for the slot and the save to come back first), so the

@@ -60,7 +60,7 @@ fn main() -> ! {
     loop {
         // SAFETY: polled from thread mode only, never reentrantly.
         unsafe { executor.poll() };
-        cortex_m::asm::wfi();
+        board::load::sleep();
     }
 }
 

@@ -38,6 +38,15 @@ pub fn device_counters() -> DeviceCounters {
     ] {
         set_figure(f, c.get(d));
     }
+    use core::sync::atomic::Ordering::Relaxed;
+    set_figure(
+        Figure::LongestTurnUs,
+        super::compute::LONGEST_TURN_US.load(Relaxed),
+    );
+    set_figure(
+        Figure::LongestTurnKind,
+        super::compute::LONGEST_TURN_KIND.load(Relaxed),
+    );
     c
 }
 

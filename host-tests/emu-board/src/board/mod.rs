@@ -42,6 +42,7 @@ pub mod cnc;
 pub mod diagnostics;
 pub mod encoders;
 pub mod hw;
+pub mod load;
 pub mod lvdt;
 pub mod probe;
 pub mod settings;

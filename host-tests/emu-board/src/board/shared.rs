@@ -41,6 +41,20 @@ pub enum Figure {
     WatchdogMisses = 8,
     /// `stack_high_water_bytes`.
     StackHighWaterBytes = 9,
+    /// Time the CPU was busy while a run ran, µs (interrupts and the tasks above the worker:
+    /// `load`).
+    RunBusyUs = 10,
+    /// Time measured for [`Figure::RunBusyUs`], µs.
+    RunMeasuredUs = 11,
+    /// The busiest 100 ms while a run ran, ‰ of the CPU.
+    RunLoadPeakPermille = 12,
+    /// The application task's longest turn, µs (`compute::LONGEST_TURN_US`).
+    LongestTurnUs = 13,
+    /// What it handled (`compute::TurnKind`).
+    LongestTurnKind = 14,
+    /// Blocks dropped on the way to the application task while a run ran or a job computed
+    /// (`load`).
+    RunBlocksDropped = 15,
 }
 
 /// Sets a figure.

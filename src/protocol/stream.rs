@@ -140,7 +140,10 @@ impl<const N: usize> SampleStream<N> {
         }
         let tail = (self.head + self.len) % Self::CAP;
         let first = bytes.len().min(Self::CAP - tail);
-        let (a, b) = bytes.split_at(first);
+        let (a, b) = (
+            bytes.get(..first).unwrap_or(&[]),
+            bytes.get(first..).unwrap_or(&[]),
+        );
         if let Some(dst) = self.buf.0.get_mut(tail..tail + first) {
             dst.copy_from_slice(a);
         }
@@ -246,9 +249,10 @@ fn encode(
     axes: &[f32; MAX_AXES],
     temp_c: f32,
 ) {
-    let (zeros, rest) = dst.split_at_mut(pad.min(dst.len()));
-    zeros.fill(0);
-    let mut slots = rest.chunks_exact_mut(4);
+    if let Some(zeros) = dst.get_mut(..pad) {
+        zeros.fill(0);
+    }
+    let mut slots = dst.get_mut(pad..).unwrap_or(&mut []).chunks_exact_mut(4);
     let mut put = |w: u32| {
         if let Some(d) = slots.next() {
             d.copy_from_slice(&w.to_le_bytes());

@@ -48,11 +48,11 @@ use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
 use ballpod::metrology::ssm::SsmGeometry;
 use ballpod::metrology::ssm::streaming::{StreamingConfig, StreamingSsm};
 use ballpod::pod::{Block, BootReport, Pod};
-use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
-use embassy_sync::pipe::Pipe;
 use ballpod::protocol::canopen::CanOpenNode;
 use ballpod::protocol::scpi::ScpiServer;
 use ballpod::protocol::stream::{FIRMWARE_RING_BYTES, SampleStream};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::pipe::Pipe;
 
 /// SysTick ticks per 10 instructions (25.6 per instruction).
 pub(crate) const TICKS_PER_10_INSN: u32 = 256;

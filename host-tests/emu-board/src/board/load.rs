@@ -19,8 +19,8 @@ use ballpod::app::SessionState;
 use critical_section::Mutex;
 use embassy_time::Instant;
 
-use super::shared::{Figure, figure, region, set_figure};
 use super::block::BLOCK_QUEUE_OVERRUNS;
+use super::shared::{Figure, figure, region, set_figure};
 use super::worker::{WORK_BEGUN, job_alive};
 
 /// Length of a window, µs of measured time.

@@ -14,7 +14,7 @@ import pytest
 import serial
 
 from podlib import (COMMAND, DIRECTION, PATTERN, StreamCapture, configure_circle, connect, fit_run,
-                    result, wait_until, RUN_TIMEOUT)
+                    result, wait_until, RUN_TIMEOUT, STATUS_RESULTS_READY)
 
 ARC_DEG = 360.0
 NO_FEED_IN = str(pathlib.Path(__file__).with_name("machine_no_feed_in.toml"))
@@ -54,6 +54,8 @@ def test_a_feed_in_run_starts_and_stops_itself_on_the_data_arc(pod, eds):
         assert math.degrees(theta[0]) == pytest.approx(0.0, abs=0.05)
         span = math.degrees(theta[-1] - theta[0])
         assert ARC_DEG <= span <= ARC_DEG + 0.05, span
+        # the run's results come from its job: once RESULTS_READY is set
+        wait_until(lambda: sdo["status_word"].raw & STATUS_RESULTS_READY, 30, "the run's results")
         ecc_u, ecc_v = result(sdo, "ecc_u"), result(sdo, "ecc_v")
         f = fit_run(run)
         assert ecc_u[0] == pytest.approx(f["e_u"], abs=2e-3) and ecc_v[0] == pytest.approx(f["e_v"], abs=2e-3)

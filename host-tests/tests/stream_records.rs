@@ -108,9 +108,7 @@ fn stream_bytes<const N: usize>(m: &RunMeta, ev: &[Event], chunk: usize) -> (Vec
     struct Drained<'a, const N: usize>(&'a mut SampleStream<N>, Vec<u8>, usize);
     impl<const N: usize> Drained<'_, N> {
         fn drain(&mut self) {
-            let mut buf = vec![0u8; self.2];
-            let k = self.0.pull(&mut buf);
-            self.1.extend_from_slice(&buf[..k]);
+            self.1.extend(take(self.0, self.2));
         }
     }
     impl<const N: usize> Recorder for Drained<'_, N> {
@@ -143,6 +141,13 @@ fn stream_bytes<const N: usize>(m: &RunMeta, ev: &[Event], chunk: usize) -> (Vec
     (bytes, s.dropped_lines())
 }
 
+/// Up to `max` bytes the stream hands out ([`SampleStream::drain`]).
+fn take<const N: usize>(st: &mut SampleStream<N>, max: usize) -> Vec<u8> {
+    let mut out = Vec::new();
+    st.drain(max, &mut |b| out.extend_from_slice(b));
+    out
+}
+
 fn decoded(bytes: &[u8]) -> String {
     let mut text = Vec::new();
     let n = decode(bytes, |l| text.extend_from_slice(l)).expect("decodes");
@@ -168,16 +173,14 @@ fn a_record_holds_the_documented_bytes() {
     let mut st = SampleStream::<4096>::new();
     st.set_enabled(true);
     st.begin_run(&m);
-    let mut head = vec![0u8; st.pending()];
-    st.pull(&mut head);
+    let head = take(&mut st, usize::MAX);
     assert!(!head.contains(&RECORD_TAG), "the header is text");
     st.sample(&s);
-    let mut rec = vec![0u8; 64];
-    let k = st.pull(&mut rec);
+    let rec = take(&mut st, 64);
     // NULs up to the next multiple of 4 bytes of the stream, then the record
     let pad = head.len().next_multiple_of(4) - head.len();
     assert!(rec[..pad].iter().all(|&b| b == 0));
-    let rec = &rec[pad..k];
+    let rec = &rec[pad..];
     // four axis columns: 24 + 16 bytes
     assert_eq!(rec.len(), 40);
     assert_eq!(record_len(4), 40);
@@ -277,8 +280,7 @@ fn a_full_ring_drops_whole_records_and_counts_them() {
     let mut st = Box::new(SampleStream::<8192>::new());
     st.set_enabled(true);
     st.begin_run(&m);
-    let mut out = vec![0u8; st.pending()];
-    st.pull(&mut out);
+    let mut out = take(&mut st, usize::MAX);
     for e in &ev {
         match e {
             Event::Sample(s) => st.sample(s),
@@ -289,11 +291,9 @@ fn a_full_ring_drops_whole_records_and_counts_them() {
     // dropped whole
     let kept = 8192 / record_len(4);
     assert_eq!(st.dropped_lines() as usize, ev.len() - kept);
-    let mut rest = vec![0u8; st.pending()];
-    st.pull(&mut rest);
+    let rest = take(&mut st, usize::MAX);
     st.end_run(&end(200));
-    let mut tail = vec![0u8; st.pending()];
-    st.pull(&mut tail);
+    let tail = take(&mut st, usize::MAX);
     out.extend(rest);
     out.extend(tail);
     let text = decoded(&out);

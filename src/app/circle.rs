@@ -294,11 +294,18 @@ impl CircleTest {
     ) -> Result<FiguresRequest, CircleFitError> {
         results.clear(ResultId::GBidir, ResultId::CentreDv);
         let (g, fmax, fmin) = figure_ids(d);
-        for id in [g, fmax, fmin, ResultId::EccU, ResultId::EccV, ResultId::R0] {
+        for id in [
+            g,
+            fmax,
+            fmin,
+            ResultId::EccU,
+            ResultId::EccV,
+            ResultId::R0,
+            ResultId::ResidualRms,
+            ResultId::Arc,
+        ] {
             results.clear(id, id);
         }
-        results.clear(ResultId::ResidualRms, ResultId::ResidualRms);
-        results.clear(ResultId::Arc, ResultId::Arc);
         self.test.fit(d).estimate()?;
         if let Some(c) = self.complete.get_mut(dir_index(d)) {
             *c = true;

@@ -950,16 +950,6 @@ impl App {
     /// Publishes a run's circle fit with the bar's shares and the centre's (µm, for r0, e_u,
     /// e_v: [`circle::CircleTest::finish_run`]; zero for a seed 002 step, whose centre's inputs
     /// are in the procedure's budget).
-    fn publish_run_fit(
-        &mut self,
-        e: &CircleEstimate,
-        arc_deg: f32,
-        bar: &BarBudget,
-        socket: [f32; 3],
-    ) {
-        publish_fit(&mut self.results, e, arc_deg, bar, socket);
-    }
-
     fn stop(&mut self) {
         if let Err(reason) = self.monitor.stop() {
             self.abort(reason);
@@ -991,7 +981,7 @@ impl App {
                 let (step, fit) = (*step, *fit);
                 match fit.estimate() {
                     Ok(e) => {
-                        self.publish_run_fit(&e, fit.arc_deg(), &bar, [0.0; 3]);
+                        publish_fit(&mut self.results, &e, fit.arc_deg(), &bar, [0.0; 3]);
                         self.record_step(step, d, e, &bar);
                         true
                     }

@@ -175,26 +175,6 @@ impl<const N: usize> SampleStream<N> {
         n
     }
 
-    /// Takes up to `out.len()` bytes; returns how many.
-    pub fn pull(&mut self, out: &mut [u8]) -> usize {
-        let n = self.len.min(out.len());
-        let first = n.min(Self::CAP - self.head);
-        if let (Some(dst), Some(src)) = (
-            out.get_mut(..first),
-            self.buf.0.get(self.head..self.head + first),
-        ) {
-            dst.copy_from_slice(src);
-        }
-        if n > first
-            && let (Some(dst), Some(src)) = (out.get_mut(first..n), self.buf.0.get(..n - first))
-        {
-            dst.copy_from_slice(src);
-        }
-        self.head = (self.head + n) % Self::CAP;
-        self.len -= n;
-        n
-    }
-
     /// Writes one record: the axes in input order `axes`, the temperature as sampled.
     fn record(
         &mut self,

@@ -471,10 +471,9 @@ impl<const N: usize> VirtualPod<N> {
 
     /// The next at most `max` bytes of the sample stream.
     pub fn pull_stream(&mut self, max: usize) -> Vec<u8> {
-        let mut buf = vec![0u8; max.max(1)];
-        let n = self.stream.pull(&mut buf);
-        buf.truncate(n);
-        buf
+        let mut out = Vec::new();
+        self.stream.drain(max, &mut |b| out.extend_from_slice(b));
+        out
     }
 
     /// Stream lines dropped because the ring was full.

@@ -180,6 +180,9 @@ fn pipeline_per_sample(
         log,
         stream,
     } = parts;
+    // each pattern on an empty ring, as a pod's first run (the previous pattern's run never
+    // ended: its records would stay ahead of this run's 2 kB header)
+    stream.drain(usize::MAX, &mut |_| {});
     let mut pod = Pod::boot(app, node, scpi, log, stream, 1, &BootReport::default());
     let mut packet = [0u8; 64];
     let mut pipe = [0u8; 64];
@@ -974,7 +977,8 @@ fn main() -> ! {
 }
 
 #[panic_handler]
-fn panic(_info: &core::panic::PanicInfo) -> ! {
+fn panic(info: &core::panic::PanicInfo) -> ! {
+    hprintln!("panic: {}", info);
     debug::exit(debug::EXIT_FAILURE);
     #[allow(clippy::empty_loop)]
     loop {}

@@ -35,7 +35,6 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "sim_args(*args): extra options of that test's `sim --serve`")
     config.addinivalue_line("markers", "emu_args(*args): extra options of that test's `emu --serve`")
     config.addinivalue_line("markers", "sim_only: a behaviour of sim --serve itself (its TCP server, its speed-up)")
-    config.addinivalue_line("markers", "emu_pending: not passing against the emulated firmware yet (issue 41)")
 
 
 EMU_ELF = ROOT / "host-tests/emu-board/target/thumbv7em-none-eabihf/release/ballpod-emu"
@@ -106,9 +105,6 @@ def pod(request, tmp_path_factory):
     marker = request.node.get_closest_marker("emu_args" if emulated() else "sim_args")
     extra = list(marker.args) if marker else []
     if emulated():
-        if request.node.get_closest_marker("emu_pending") and not os.environ.get("BALLPOD_EMU_PENDING"):
-            pytest.skip("not passing against the emulated firmware yet (issue 41; "
-                        "BALLPOD_EMU_PENDING=1 runs it)")
         if request.node.get_closest_marker("sim_only"):
             pytest.skip("a behaviour of sim --serve itself (its TCP server, its speed-up)")
         figures = tmp_path_factory.mktemp("emu") / "figures.json"

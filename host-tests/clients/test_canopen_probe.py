@@ -44,7 +44,6 @@ def sphere_fit(p):
 
 
 @pytest.mark.sim_args("--speed", "40")
-@pytest.mark.emu_pending
 def test_probe_procedure_identifies_the_c_and_b_axes(pod, eds):
     truth = pod["truth"]["machine"]["seed002"]
     z_c = pod["truth"]["sphere_rc_zc_mm"][1]

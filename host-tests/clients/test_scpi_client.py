@@ -182,7 +182,6 @@ def read_block(port):
     return data.decode()
 
 
-@pytest.mark.emu_pending
 def test_pyserial_ssm_session_and_log_download(pod):
     """A serial client: error queue, an over-long line, an SSM run whose E is the truth's, and the
     log download, whose rows are the streamed rows of the same samples."""

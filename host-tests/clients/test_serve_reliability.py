@@ -48,7 +48,6 @@ def test_heartbeats_keep_real_time_while_a_run_runs_fast(pod, eds):
 
 
 @pytest.mark.sim_args("--speed", "40")
-@pytest.mark.emu_pending
 def test_a_usb_client_that_never_reads_holds_up_nothing(pod, eds):
     net, node = connect(pod, eds)
     sdo = node.sdo

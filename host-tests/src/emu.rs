@@ -19,6 +19,11 @@
 //!   through each run's pattern from the session the firmware publishes ([`SharedLayout`]'s
 //!   session words); it homes the axes at a program's start and ends a run with its program
 //!   through the records (the emulated board's `cnc` module).
+//! - `--set NAME=VALUE`: settings the board boots with, stored in its settings pages before
+//!   its first boot (the region's settings area) as on a pod configured and saved before; the
+//!   harness reads the sensors at their sample rate and excitation (`Sensors::with_config`).
+//!   A reset keeps them (the pages survive it); a client's `*SAV` then a reset changes them,
+//!   but the harness goes on at the first boot's rate.
 //! - `--figures FILE`: what the board measures of itself in emulated time (its CAN adapter's
 //!   SDO answer times and heartbeat gaps, the boots) with the records and `positioned`, a JSON
 //!   object rewritten as it changes.
@@ -62,6 +67,10 @@ pub struct EmuOptions {
     pub machine: Option<MachineFile>,
     /// Where to keep the board's figures (`--figures`): a JSON object, rewritten as they change.
     pub figures: Option<PathBuf>,
+    /// The settings the board boots with the first time (`--set`): stored in its settings
+    /// pages as a pod configured and saved before; the sensors are read at its sample rate and
+    /// excitation.
+    pub settings: Config,
 }
 
 /// The shared region's layout: `host-tests/emu-board/src/board/shared.rs` (`Shared`,
@@ -74,7 +83,7 @@ impl SharedLayout {
     /// "BPOD" once the firmware has booted.
     pub const MAGIC: u32 = 0x444F_5042;
     /// Layout version.
-    pub const VERSION: u32 = 2;
+    pub const VERSION: u32 = 3;
     const MAGIC_AT: u64 = 0;
     const VERSION_AT: u64 = 4;
     const BOOTS_AT: u64 = 8;
@@ -88,9 +97,14 @@ impl SharedLayout {
     const CONFIG_LEN_AT: u64 = Self::FIGURES_AT + 4 * Self::FIGURES;
     const CONFIG_AT: u64 = Self::CONFIG_LEN_AT + 4;
     const CONFIG_BYTES: u64 = 512;
-    const RING_AT: u64 = Self::CONFIG_AT + Self::CONFIG_BYTES;
+    const SETTINGS_LEN_AT: u64 = Self::CONFIG_AT + Self::CONFIG_BYTES;
+    const SETTINGS_AT: u64 = Self::SETTINGS_LEN_AT + 4;
+    const RING_AT: u64 = Self::SETTINGS_AT + Self::CONFIG_BYTES;
     /// Records in the ring.
-    pub const RING: u32 = 64;
+    pub const RING: u32 = 512;
+    /// Time the harness writes ahead of the firmware, µs (48 records at 1 kHz, 480 at 10 kHz:
+    /// the harness's own scheduling on the host has that long).
+    pub const LEAD_US: f64 = 48_000.0;
     /// ADC codes per channel a record holds (`block::BLOCK_MAX`).
     pub const BLOCK_MAX: usize = 100;
     /// Bytes of one record: raw[5], thermistor, seated, edge, edge_raw[5], tripped, cnc,
@@ -250,6 +264,18 @@ impl Region {
         self.file.write_all_at(&r.bytes(), at)?;
         self.file
             .write_all_at(&k.wrapping_add(1).to_le_bytes(), SharedLayout::WRITTEN_AT)
+    }
+
+    /// Leaves `settings` for the firmware's first boot (before QEMU starts).
+    pub fn preset_settings(&self, settings: &Config) -> io::Result<()> {
+        let mut bytes = vec![0u8; ballpod::config::ENCODED_LEN];
+        let n = settings
+            .encode(&mut bytes)
+            .map_err(|e| io::Error::other(format!("{e:?}")))?;
+        self.file
+            .write_all_at(&bytes[..n], SharedLayout::SETTINGS_AT)?;
+        self.file
+            .write_all_at(&(n as u32).to_le_bytes(), SharedLayout::SETTINGS_LEN_AT)
     }
 
     /// The session the firmware published; `None` while it is being written.
@@ -465,6 +491,9 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
         std::env::temp_dir()
     };
     let region = Region::create(&dir.join(format!("ballpod-emu-{}", std::process::id())))?;
+    if opts.settings != Config::default() {
+        region.preset_settings(&opts.settings)?;
+    }
     let ports = [
         free_port(opts.can_port)?,
         free_port(opts.usb_port)?,
@@ -504,7 +533,7 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
         std::thread::sleep(Duration::from_millis(5));
     }
     // the machine at home: every axis at 0, the bar at its nominal length
-    let cfg = Config::default();
+    let cfg = opts.settings;
     let mut truth = ServeTruth::default();
     if let Some(m) = opts.machine {
         truth.machine = m;
@@ -513,8 +542,10 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
         bar_noise_um: 0.2,
         ..Instrument::default()
     };
-    let mut sensors = Sensors::new(f64::from(cfg.bar_length_mm), &instrument, opts.seed);
+    let mut sensors = Sensors::with_config(&cfg, &instrument, opts.seed);
     let mut cnc = VirtualCnc::new(truth);
+    let lead = ((SharedLayout::LEAD_US * 1e-6 * f64::from(cfg.sample_rate_hz)) as u32)
+        .clamp(8, SharedLayout::RING * 3 / 4);
     let truth = serde_json::to_string(&truth).map_err(io::Error::other)?;
     println!(
         "{{\"can_port\":{},\"usb_port\":{},\"stream_port\":{},\"node_id\":{},\"emulated\":true,\"icount_shift\":{},\"truth\":{truth}}}",
@@ -539,9 +570,9 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
             session = Some(now);
         }
         let (written, taken) = region.counts()?;
-        // keep the ring three quarters full ahead of the firmware
+        // keep `LEAD_US` of records ahead of the firmware
         let mut k = written;
-        while k.wrapping_sub(taken) < SharedLayout::RING * 3 / 4 {
+        while k.wrapping_sub(taken) < lead {
             let step = cnc.step(session.as_ref(), &mut sensors);
             if step.homed {
                 homing = Some(k);

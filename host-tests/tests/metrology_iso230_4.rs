@@ -1088,9 +1088,10 @@ fn a_circle_runs_centre_share_reaches_its_results() {
     cfg.setup.circle_centre_mm = [entered[0] as f32, entered[1] as f32, 88.0];
     cfg.setup.circle_radius_mm = R as f32;
     cfg.setup.circle_u_centre_um = 500.0;
-    // the live noise and share are taken at 256 used samples, then every 1 024: the run ends on
-    // one of those refreshes, so the last live u is what the results state
-    let samples = run(&m, Direction::Ccw, 256 + 7 * 1024, &mut Rng::new(77));
+    // the live noise is taken at 256 used samples, then every 1 024, the centre's share over the
+    // next two samples, and the live u at once: the run ends with one of those refreshes, so the
+    // last live u is what the results state
+    let samples = run(&m, Direction::Ccw, 256 + 7 * 1024 + 2, &mut Rng::new(77));
     let mut t = test_about(entered, R, cfg.setup.circle_min_arc_deg);
     for s in &samples {
         t.update(s, Direction::Ccw);

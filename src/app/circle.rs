@@ -123,6 +123,11 @@ pub struct CircleTest {
     /// as of the last noise refresh ([`CircularTest::centre_shares`]; 0 before the first),
     /// µm.
     live_centre_um: [f32; 3],
+    /// The step of the centre's refresh due at the next sample after a noise refresh
+    /// ([`Self::refresh_live_centre`]).
+    centre_step: CentreStep,
+    /// The centre's u the shares are taken for (step [`CentreStep::Shares`]), µm.
+    centre_u_um: f32,
     /// Runs begun in each direction (CCW, CW) since boot, and both at a new test or
     /// [`CircleTest::clear`]: a [`FiguresRequest`] computes and publishes only while the runs it
     /// read are still the latest.
@@ -161,6 +166,20 @@ pub const LIVE_NOISE_EVERY: u32 = 1024;
 /// to tell it before e is observable (the minimum arc is at least 10°).
 pub const LIVE_NOISE_RETRY: u32 = 256;
 
+/// The live refresh after the noise, a step a sample: each step is one long computation
+/// (the noise ≈ 62 000 Cortex-M4F instructions, the traced centre ≈ 154 000, the shares), so
+/// the application task's turn is the longest of them, not their sum (3.2 ms of block queue
+/// at 10 kHz).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum CentreStep {
+    /// Nothing due.
+    Done,
+    /// The centre's u: the entered one, or the traced offset where it contradicts it.
+    TracedCentre,
+    /// The centre's shares for that u.
+    Shares,
+}
+
 /// The fit the state holds before the first run (never fed: the test has no geometry).
 const NO_TEST: CircleFitConfig = CircleFitConfig {
     geometry: PatternGeometry {
@@ -181,6 +200,8 @@ impl CircleTest {
             live_noise_um: f32::NAN,
             next_noise_at: 0,
             live_centre_um: [0.0; 3],
+            centre_step: CentreStep::Done,
+            centre_u_um: 0.0,
             epochs: [0; 2],
         } in place {
             test: |s| CircularTest::init(s, NO_TEST, f32::NAN),
@@ -210,6 +231,7 @@ impl CircleTest {
         self.live_noise_um = f32::NAN;
         self.next_noise_at = LIVE_NOISE_RETRY;
         self.live_centre_um = [0.0; 3];
+        self.centre_step = CentreStep::Done;
         if self.geometry != Some(geometry) {
             self.geometry = Some(geometry);
             self.test.restart(geometry.fit, geometry.radius_mm);
@@ -252,32 +274,54 @@ impl CircleTest {
         last_u_at: &mut u32,
     ) -> (Option<[f32; 3]>, Option<[f32; 3]>) {
         let used = self.test.fit(d).samples();
+        let mut refreshed = false;
         if used >= self.next_noise_at {
-            self.refresh_live_noise(d, used, config.setup.circle_u_centre_um);
+            self.refresh_live_noise(d, used);
+        } else if self.centre_step != CentreStep::Done {
+            refreshed = self.refresh_live_centre(d, config.setup.circle_u_centre_um);
         }
-        let with_u = super::live_u_due(used, last_u_at);
+        // the u at its interval, and at once when a refresh is complete
+        let with_u = super::live_u_due(used, last_u_at) || refreshed;
         let (noise, socket) = (self.live_noise_um, self.live_centre_um);
         super::live_fit(self.test.fit(d), noise, socket, with_u, config)
     }
 
     /// Takes the sample noise of the run of direction `d` from its profile
-    /// ([`CircularTest::noise_um`]) and the centre's shares for `u_centre_um`, or the traced
-    /// offset where it contradicts that ([`iso230_4::TracedCentre::centre_u_um`])
-    /// ([`CircularTest::centre_shares`]; the last ones kept while the fit is not available)
-    /// at `used` samples, and when to take them next.
+    /// ([`CircularTest::noise_um`]) at `used` samples, and when to take it next; the centre's
+    /// shares follow at the next samples ([`Self::refresh_live_centre`]).
     #[inline(never)] // off the per-sample path: one sample in [`LIVE_NOISE_EVERY`]
-    fn refresh_live_noise(&mut self, d: Direction, used: u32, u_centre_um: f32) {
+    fn refresh_live_noise(&mut self, d: Direction, used: u32) {
         self.live_noise_um = self.test.noise_um(d);
-        let u_centre_um = self.test.centre_u_um(d, u_centre_um);
-        if let Ok(s) = self.test.centre_shares(d, u_centre_um) {
-            self.live_centre_um = s;
-        }
+        self.centre_step = CentreStep::TracedCentre;
         let every = if self.live_noise_um.is_nan() {
             LIVE_NOISE_RETRY
         } else {
             LIVE_NOISE_EVERY
         };
         self.next_noise_at = used.saturating_add(every);
+    }
+
+    /// The centre's refresh, a step a sample ([`CentreStep`]): the centre's u, `u_centre_um`
+    /// or the traced offset where it contradicts that
+    /// ([`iso230_4::TracedCentre::centre_u_um`]), then the centre's shares for it
+    /// ([`CircularTest::centre_shares`]; the last ones kept while the fit is not available).
+    /// True when this step completed the refresh.
+    #[inline(never)] // off the per-sample path: two samples in [`LIVE_NOISE_EVERY`]
+    fn refresh_live_centre(&mut self, d: Direction, u_centre_um: f32) -> bool {
+        match self.centre_step {
+            CentreStep::TracedCentre => {
+                self.centre_u_um = self.test.centre_u_um(d, u_centre_um);
+                self.centre_step = CentreStep::Shares;
+                false
+            }
+            CentreStep::Shares | CentreStep::Done => {
+                if let Ok(s) = self.test.centre_shares(d, self.centre_u_um) {
+                    self.live_centre_um = s;
+                }
+                self.centre_step = CentreStep::Done;
+                true
+            }
+        }
     }
 
     /// Ends the run of direction `d`: whether it has a fit (`Err`: too short an arc, too few

@@ -42,8 +42,12 @@ pub struct LvdtBlock {
     pub reading: BlockReading,
 }
 
+/// Blocks the queue holds: 32 ms of the application task's turns at 1 kHz, 3.2 ms at the
+/// highest sample rate (10 kHz) — longer than its longest turn in a run (a run's header, the
+/// live values' refresh: ≈ 2 ms; book "The emulated board"). 48 bytes a block.
+pub const BLOCK_QUEUE: usize = 32;
 /// LVDT task → application task.
-pub static BLOCKS: Channel<CriticalSectionRawMutex, LvdtBlock, 4> = Channel::new();
+pub static BLOCKS: Channel<CriticalSectionRawMutex, LvdtBlock, BLOCK_QUEUE> = Channel::new();
 /// Blocks dropped because the application task was behind.
 pub static BLOCK_QUEUE_OVERRUNS: Overruns = Overruns::new();
 /// Sample periods lost before demodulation (the LVDT task was behind the ADC DMA), from the

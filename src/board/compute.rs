@@ -251,8 +251,9 @@ pub enum TurnKind {
     WorkDone = 5,
 }
 
-/// The longest turn of the application task since boot, µs (the block queue holds 4 blocks:
-/// a turn longer than 4 sample periods loses blocks).
+/// The longest turn of the application task since boot, µs (the block queue holds
+/// [`BLOCK_QUEUE`](super::block::BLOCK_QUEUE) blocks: a longer turn, in sample periods, loses
+/// blocks).
 pub static LONGEST_TURN_US: AtomicU32 = AtomicU32::new(0);
 /// Its [`TurnKind`].
 pub static LONGEST_TURN_KIND: AtomicU32 = AtomicU32::new(0);

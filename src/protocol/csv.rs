@@ -62,14 +62,53 @@ const F64_DIGITS: u32 = 15;
 /// Lines of the run header before the configuration.
 const HEAD_LINES: usize = 4;
 
+/// Configuration lines of [`FIELDS`]' rows: one per element.
+const FIELD_LINES: usize = field_lines();
+
+// Evaluated at compile time: an index out of bounds is a build error.
+#[allow(clippy::indexing_slicing)]
+const fn field_lines() -> usize {
+    let (mut n, mut i) = (0, 0);
+    while i < FIELDS.len() {
+        n += if FIELDS[i].elements == 0 {
+            1
+        } else {
+            FIELDS[i].elements as usize
+        };
+        i += 1;
+    }
+    n
+}
+
+/// The [`FIELDS`] row and element of each of the configuration's field lines: a line is
+/// formatted without searching the table (a header's hundred lines each searched it: ≈ 30 000
+/// Cortex-M4F instructions of a run's start).
+// Evaluated at compile time: an index out of bounds is a build error.
+#[allow(clippy::indexing_slicing)]
+const LINE_FIELDS: [(u8, u8); FIELD_LINES] = {
+    assert!(FIELDS.len() <= 256);
+    let mut t = [(0u8, 0u8); FIELD_LINES];
+    let (mut line, mut i) = (0, 0);
+    while i < FIELDS.len() {
+        let n = if FIELDS[i].elements == 0 {
+            1
+        } else {
+            FIELDS[i].elements
+        };
+        let mut k = 0;
+        while k < n {
+            t[line] = (i as u8, k);
+            line += 1;
+            k += 1;
+        }
+        i += 1;
+    }
+    t
+};
+
 /// Configuration lines: every element of [`FIELDS`], the two enums, two per encoder input.
-fn config_lines() -> usize {
-    FIELDS
-        .iter()
-        .map(|r| usize::from(r.elements.max(1)))
-        .sum::<usize>()
-        + 2
-        + 2 * MAX_AXES
+const fn config_lines() -> usize {
+    FIELD_LINES + 2 + 2 * MAX_AXES
 }
 
 /// Lines of the run header ([`meta_line`]): head and configuration.
@@ -103,21 +142,17 @@ pub fn meta_line(index: usize, meta: &RunMeta, line: &mut Line) -> bool {
             push_bytes(line, meta.direction.name().as_bytes());
         }
         k => {
-            let mut k = k - HEAD_LINES;
-            let mut found = false;
-            for row in FIELDS {
-                let n = usize::from(row.elements.max(1));
-                if k >= n {
-                    k -= n;
-                    continue;
-                }
+            let k = k - HEAD_LINES;
+            let found = if let Some(&(r, k)) = LINE_FIELDS.get(k)
+                && let Some(row) = FIELDS.get(usize::from(r))
+            {
                 push_bytes(line, b"# ");
                 push_bytes(line, row.name.as_bytes());
                 if row.elements > 0 {
-                    push_u64(line, k as u64);
+                    push_u64(line, u64::from(k));
                 }
                 push_bytes(line, b"=");
-                let v = c.field_value(row.element(k as u8)).unwrap_or(f64::NAN);
+                let v = c.field_value(row.element(k)).unwrap_or(f64::NAN);
                 match row.ty {
                     FieldType::F32 => push_exact(line, v, F32_DIGITS, b"nan"),
                     FieldType::F64 => push_exact(line, v, F64_DIGITS, b"nan"),
@@ -126,11 +161,13 @@ pub fn meta_line(index: usize, meta: &RunMeta, line: &mut Line) -> bool {
                         None => push_u64(line, v as u64),
                     },
                 };
-                found = true;
-                break;
-            }
+                true
+            } else {
+                false
+            };
             if !found {
-                match k {
+                // (past the field lines; an index in them always has its row)
+                match k.wrapping_sub(FIELD_LINES) {
                     0 => {
                         kv(line, "lvdt_input");
                         push_bytes(

@@ -96,6 +96,10 @@ fn init(spawner: Spawner) {
     let region = board::shared::region();
     let fresh = region.boots.load(Ordering::Relaxed) == 0;
     let mut flash = board::settings::SettingsPages::take(fresh);
+    if fresh && let Some(preset) = board::shared::preset_settings() {
+        // (validated by the harness: a store cannot refuse them)
+        let _ = ballpod::settings::store(&mut flash, &preset);
+    }
     let loaded = ballpod::settings::load(&mut flash);
     let cfg = loaded.config;
     let boot = ballpod::pod::BootReport {

@@ -37,7 +37,7 @@ use ballpod::acquisition::projection::{Q14Sums, RailTest, add_periods, add_perio
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::seed002::{Procedure, Setup};
-use ballpod::app::{App, Command, Direction as RunDirection, Pattern, Recorder};
+use ballpod::app::{App, Command, Direction as RunDirection, Pattern, Recorder, RunMeta};
 use ballpod::config::Config;
 use ballpod::identify::lsq::GivensLsq;
 use ballpod::metrology::bar_budget::BarBudget;
@@ -802,6 +802,27 @@ fn main() -> ! {
         let per_sample = pipeline_per_sample(&mut app, parts, &samples, a, b, &table, empty);
         record_stack(name, lo);
         print(&Row::pipeline(name, per_sample));
+    }
+    // a run's start: the stream's header (the run's configuration as text), written into the
+    // ring in the application task's turn that starts the run
+    {
+        let stream = &mut parts.stream;
+        stream.drain(usize::MAX, &mut |_| {});
+        stream.set_enabled(true);
+        let meta = RunMeta {
+            run: 1,
+            pattern: Pattern::Circle,
+            direction: RunDirection::Ccw,
+            config: Config::default(),
+        };
+        let (_, n) = measure(|| stream.begin_run(black_box(&meta)));
+        stream.drain(usize::MAX, &mut |_| {});
+        print(&Row::plain(
+            "sample stream: a run's header (its configuration as text, at the run's start)",
+            "run",
+            n.saturating_sub(empty) as f32,
+            0,
+        ));
     }
     let (growing, steady) = ssm_pipeline_at_feed(parts, a, b, &table, empty);
     print(&Row::pipeline(

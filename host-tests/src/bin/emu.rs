@@ -5,6 +5,7 @@
 
 use std::path::PathBuf;
 
+use ballpod::config::Config;
 use ballpod_host::vmt::machine::MachineFile;
 use clap::Parser;
 
@@ -47,6 +48,36 @@ struct Args {
     /// changes.
     #[arg(long)]
     figures: Option<PathBuf>,
+    /// A setting the board boots with (repeatable; `NAME=VALUE`, NAME as in `CONFigure:LIST?`,
+    /// VALUE a number or a choice's name), stored in its settings pages before its first boot
+    /// as on a pod configured and saved before: e.g. `--set sample_rate=10000 --set
+    /// excitation=10000` for the highest sample rate.
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    set: Vec<String>,
+}
+
+/// The default configuration with `sets` applied, each checked as a client's write, then the
+/// whole (a cross-field rule such as excitation / sample rate holds after all are set).
+fn settings(sets: &[String]) -> Result<Config, String> {
+    let mut c = Config::default();
+    for s in sets {
+        let (name, value) = s
+            .split_once('=')
+            .ok_or_else(|| format!("{s}: not NAME=VALUE"))?;
+        let field = Config::field_by_name(name).ok_or_else(|| format!("{name}: no such field"))?;
+        let info = Config::field_info(field).ok_or_else(|| format!("{name}: no such field"))?;
+        let v = match value.parse::<f64>() {
+            Ok(v) => v,
+            Err(_) => info
+                .choice(value.as_bytes())
+                .map(f64::from)
+                .ok_or_else(|| format!("{name}: {value} is neither a number nor a choice"))?,
+        };
+        Config::check_write(field, v).map_err(|e| format!("{name}={value}: {e:?}"))?;
+        c.set_field(field, v);
+    }
+    c.validate().map_err(|e| format!("{e:?}"))?;
+    Ok(c)
 }
 
 fn main() {
@@ -55,6 +86,13 @@ fn main() {
         Ok(m) => m,
         Err(e) => {
             eprintln!("emu: --machine: {e}");
+            std::process::exit(2);
+        }
+    };
+    let settings = match settings(&a.set) {
+        Ok(c) => c,
+        Err(e) => {
+            eprintln!("emu: --set {e}");
             std::process::exit(2);
         }
     };
@@ -68,6 +106,7 @@ fn main() {
         icount_shift: a.icount_shift,
         machine,
         figures: a.figures,
+        settings,
     });
     if let Err(e) = r {
         eprintln!("emu: {e}");

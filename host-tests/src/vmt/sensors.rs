@@ -168,6 +168,18 @@ impl Sensors {
             sample_rate_hz: inst.sample_rate_hz as f32,
             ..Config::default()
         };
+        Self::with_config(&config, inst, seed)
+    }
+
+    /// The sensors a pod configured as `config` reads (its bar, sample rate, excitation,
+    /// encoders, thermistor), with the instrument `inst` otherwise (its sample rate is
+    /// `config`'s) and noise seed `seed`.
+    pub fn with_config(config: &Config, inst: &Instrument, seed: u64) -> Self {
+        let config = *config;
+        let inst = &Instrument {
+            sample_rate_hz: f64::from(config.sample_rate_hz),
+            ..*inst
+        };
         Self {
             config,
             lvdt: LvdtChannel::new(&config),

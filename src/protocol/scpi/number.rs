@@ -211,12 +211,15 @@ pub fn push_exact<const C: usize>(
             break;
         }
     }
-    // digits of m, most significant first
+    // digits of m, most significant first: the low nine from a u32, the rest (m < 10¹⁷) from
+    // another (a hardware division a digit, where a u64's is a library call of ~100
+    // instructions: a run header's hundred values)
     let mut digits = [b'0'; 17];
-    let mut t = m;
-    for d in digits.iter_mut().take(sig as usize).rev() {
-        *d = b'0' + (t % 10) as u8;
-        t /= 10;
+    let (mut high, mut low) = ((m / 1_000_000_000) as u32, (m % 1_000_000_000) as u32);
+    for (i, d) in digits.iter_mut().take(sig as usize).rev().enumerate() {
+        let t = if i < 9 { &mut low } else { &mut high };
+        *d = b'0' + (*t % 10) as u8;
+        *t /= 10;
     }
     let mut n = sig as usize;
     while n > 1 && digits.get(n - 1) == Some(&b'0') {
@@ -228,12 +231,13 @@ pub fn push_exact<const C: usize>(
     }
     if (-5..15).contains(&e) {
         if e >= 0 {
+            // the integer part: its digits, then zeros where the digits end before it does
             let int_len = (e + 1) as usize;
-            for i in 0..int_len {
-                let d = digits.get(i).copied().unwrap_or(b'0');
-                if !push_bytes(buf, &[d]) {
-                    return false;
-                }
+            let zeros = [b'0'; 17];
+            if !(push_bytes(buf, digits.get(..int_len.min(n)).unwrap_or(&[]))
+                && push_bytes(buf, zeros.get(..int_len.saturating_sub(n)).unwrap_or(&[])))
+            {
+                return false;
             }
             if n > int_len {
                 push_bytes(buf, b".") && push_bytes(buf, digits.get(int_len..).unwrap_or(&[]))

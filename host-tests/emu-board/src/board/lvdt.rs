@@ -35,8 +35,9 @@ struct Tick {
     t_us: u64,
 }
 
-/// Sample clock → LVDT task (a ring's worth: a late tick's periods wait here).
-static TICKS: Channel<CriticalSectionRawMutex, Tick, { shared::RING }> = Channel::new();
+/// Sample clock → LVDT task (a late tick's periods wait here: 64 ms at 1 kHz, 6.4 ms at 10
+/// kHz; a full queue loses the period).
+static TICKS: Channel<CriticalSectionRawMutex, Tick, 64> = Channel::new();
 /// The record the next tick takes.
 static NEXT: AtomicU32 = AtomicU32::new(0);
 /// The sample period, µs.
@@ -111,9 +112,6 @@ fn take(t_us: u64) {
 /// (`block::block_len`), `period_us` the sample period.
 #[embassy_executor::task]
 pub async fn lvdt_task(len: usize, period_us: u32) {
-    #[repr(align(4))]
-    struct Codes([u16; BLOCK_MAX]);
-    let (mut a, mut b) = (Codes([0; BLOCK_MAX]), Codes([0; BLOCK_MAX]));
     let mut path = BlockPath::new(period_us);
     let len = len.min(BLOCK_MAX);
     loop {
@@ -122,32 +120,19 @@ pub async fn lvdt_task(len: usize, period_us: u32) {
         let rec = shared::record(tick.record);
         // SAFETY: the record is the harness's until the firmware marks it taken (below): the
         // harness writes at most `RING` records ahead of `taken`.
-        let (ra, rb, raw, tripped) = unsafe {
-            (
-                read_volatile(&rec.a),
-                read_volatile(&rec.b),
-                read_volatile(&rec.raw),
-                read_volatile(&rec.tripped) != 0,
-            )
-        };
+        let (raw, tripped) = unsafe { (read_volatile(&rec.raw), read_volatile(&rec.tripped) != 0) };
         super::cnc::from_record(rec, tick.t_us);
-        shared::region()
-            .taken
-            .store(tick.record.wrapping_add(1), Ordering::Release);
-        a.0 = ra;
-        b.0 = rb;
+        // the codes read where they are, as the STM32 board's path reads its DMA ring's half
+        // (no copy: the harness leaves the record alone until it is marked taken, below)
         path.on_block(
-            a.0.get(..len).unwrap_or(&[]),
-            b.0.get(..len).unwrap_or(&[]),
+            rec.a.get(..len).unwrap_or(&[]),
+            rec.b.get(..len).unwrap_or(&[]),
             tick.t_us,
             raw.map(|c| c & 0xFFFF),
             tripped,
         );
-        // the periods of a late tick one at a time, as the ADC delivers them on the pod: the
-        // application task takes each before the next (the queue is 4 deep, a late tick up
-        // to 8 periods)
-        while !super::block::BLOCKS.is_empty() && !TICKS.is_empty() {
-            embassy_time::Timer::after_micros(100).await;
-        }
+        shared::region()
+            .taken
+            .store(tick.record.wrapping_add(1), Ordering::Release);
     }
 }

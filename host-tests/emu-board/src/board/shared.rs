@@ -10,6 +10,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 
 use ballpod::acquisition::MAX_AXES;
 use ballpod::app::App;
+use ballpod::config::Config;
 
 use super::block::BLOCK_MAX;
 
@@ -77,9 +78,9 @@ pub const BASE: usize = 0x2100_0000;
 /// `magic` once the firmware has booted ("BPOD").
 pub const MAGIC: u32 = 0x444F_5042;
 /// Layout version (`version`).
-pub const VERSION: u32 = 2;
-/// Block records in the ring.
-pub const RING: usize = 64;
+pub const VERSION: u32 = 3;
+/// Block records in the ring (the harness keeps 48 ms of them ahead: 480 at 10 kHz).
+pub const RING: usize = 512;
 /// Bytes of the configuration's encoding the session carries.
 pub const CONFIG_BYTES: usize = 512;
 
@@ -144,6 +145,12 @@ pub struct Shared {
     pub config_len: AtomicU32,
     /// The running configuration's encoding (`Config::encode`).
     pub config: [u8; CONFIG_BYTES],
+    /// Bytes of `settings` used (0: none).
+    pub settings_len: AtomicU32,
+    /// Settings the harness left before the first boot (`emu --set`; `Config::encode`): the
+    /// firmware stores them in its settings pages at that boot, as on a pod configured and
+    /// saved before (the harness writes it once, before QEMU starts).
+    pub settings: [u8; CONFIG_BYTES],
     /// The block ring (record `k` at `k % RING`).
     pub ring: [Record; RING],
 }
@@ -162,6 +169,13 @@ pub fn record(k: u32) -> &'static Record {
     let i = k as usize % RING;
     // (in range: i < RING)
     &r.ring[i]
+}
+
+/// The settings the harness left for the first boot (`emu --set`), if any and valid.
+pub fn preset_settings() -> Option<Config> {
+    let r = region();
+    let n = (r.settings_len.load(Ordering::Acquire) as usize).min(CONFIG_BYTES);
+    Config::decode(r.settings.get(..n).filter(|b| !b.is_empty())?).ok()
 }
 
 /// Marks the region booted (the harness starts writing blocks).

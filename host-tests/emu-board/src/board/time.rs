@@ -99,7 +99,18 @@ impl TimerDriver {
 
 impl Driver for TimerDriver {
     fn now(&self) -> u64 {
-        self.ticks() / PER_US
+        // ticks / 25 without a 64-bit division (a library call of ~100 instructions, several
+        // a sample period: the STM32's time driver counts µs itself): with ticks = w·2³² + l
+        // and 2³² = 25 · 171 798 691 + 21, µs = w · 171 798 691 + (w · 21 + l mod 25) / 25 +
+        // l / 25 (the middle term in u32 for 1 100 years of wraps)
+        let t = self.ticks();
+        let (w, l) = ((t >> 32) as u32, t as u32);
+        const Q: u64 = (1u64 << 32) / PER_US;
+        const R: u32 = ((1u64 << 32) % PER_US) as u32;
+        let per_us = PER_US as u32;
+        u64::from(w) * Q
+            + u64::from((w.wrapping_mul(R) + l % per_us) / per_us)
+            + u64::from(l / per_us)
     }
 
     fn schedule_wake(&self, at: u64, waker: &Waker) {

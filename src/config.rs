@@ -354,7 +354,7 @@ pub struct Config {
     pub probe_debounce_us: u32,
     /// Time the probe must read seated before it re-arms, µs.
     pub probe_reseat_us: u32,
-    /// CANopen node id (1…127).
+    /// CANopen node-ID (1…127), or 255: none, LSS only ([`crate::protocol::canopen::lss`]).
     pub can_node_id: u8,
     /// CAN bit rate.
     pub can_bitrate: CanBitrate,
@@ -691,7 +691,7 @@ pub const FIELDS: &[FieldInfo] = &[
         FieldType::U32,
     ),
     typed(
-        real(Field::CanNodeId, "can_node_id", Unit::One, 1.0, 127.0),
+        real(Field::CanNodeId, "can_node_id", Unit::One, 1.0, 255.0),
         FieldType::U8,
     ),
     code(Field::CirclePlane, "circle_plane"),
@@ -1241,7 +1241,9 @@ impl Field {
             Field::ProbeReseatUs => {
                 "Touch probe: time the stylus must read seated before the probe re-arms"
             }
-            Field::CanNodeId => "CANopen node-ID (taken at reset communication)",
+            Field::CanNodeId => {
+                "CANopen node-ID 1–127 (taken at reset communication), or 255: none, the pod answers LSS (CiA 305) only until a master configures one"
+            }
             Field::CirclePlane => "CIRCLE: plane of the circle",
             Field::CircleCentreMm(_) => {
                 "CIRCLE: circle centre = the socket, machine coordinate X, Y or Z (the coordinate normal to the plane may stay not set)"
@@ -1462,6 +1464,15 @@ impl Config {
             for f in row.fields() {
                 check(f, self.field_value(f).unwrap_or(f64::NAN))?;
             }
+        }
+        // a node-ID is 1–127, or 255 for none (CiA 305's "unconfigured")
+        if (128..=254).contains(&self.can_node_id) {
+            return Err(ConfigError::OutOfRange {
+                field: Field::CanNodeId,
+                value: f64::from(self.can_node_id),
+                min: 1.0,
+                max: 127.0,
+            });
         }
         // a sample is a whole number of excitation periods that fits the ADC ring
         let periods = self.periods_per_sample();

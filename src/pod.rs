@@ -25,7 +25,7 @@ use crate::app::{
     App, DeviceCounter, DeviceCounters, JobSlot, Recorder, RunEnd, RunMeta, SessionState,
     SettingsRequest, Touch,
 };
-use crate::config::{Config, ConfigError};
+use crate::config::{CanBitrate, Config, ConfigError};
 use crate::protocol::canopen::{BusState, CanFrame, CanOpenNode};
 use crate::protocol::scpi::ScpiServer;
 use crate::protocol::stream::SampleStream;
@@ -239,6 +239,12 @@ impl<'a, const LOG: usize, const STREAM: usize> Pod<'a, LOG, STREAM> {
     /// least every millisecond.
     pub fn tick(&mut self, now_us: u64, can_out: &mut impl FnMut(CanFrame)) {
         self.node.poll(now_us, self.app, can_out);
+    }
+
+    /// The bit rate an LSS master activated, once its switch delay has passed: the shell
+    /// switches its CAN controller to it ([`CanOpenNode::take_bit_rate_switch`]).
+    pub fn bit_rate_switch(&mut self, now_us: u64) -> Option<CanBitrate> {
+        self.node.take_bit_rate_switch(now_us)
     }
 
     /// The device counters: the board's (`board`, what only the shell can see) with the pod's

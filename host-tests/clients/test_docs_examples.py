@@ -1,5 +1,5 @@
 """The book's protocol examples run verbatim against the simulated pod: every ```python block of
-the pages "The CNC's side" (docs/src/cnc.md) and "The technician's side" (docs/src/technician.md),
+the pages "The CNC's side" (docs/src/cnc.md: a session, then LSS) and "The technician's side" (docs/src/technician.md),
 with only the port placeholders CAN_PORT / USB_PORT filled in, in a fresh interpreter from the
 repository root; what they print is checked against the served machine's truth. The page
 "Serving the simulated pod" (docs/src/serve.md) must name every key of the JSON line the pod
@@ -33,7 +33,7 @@ def run_example(code, page):
 
 
 def test_canopen_example(pod):
-    (code,) = python_blocks("cnc.md")
+    _, code = python_blocks("cnc.md")
     assert "net.add_node(16," in code and pod["node_id"] == 16  # the example's node-ID is the pod's
     lines = run_example(code.replace("CAN_PORT", str(pod["can_port"])), "cnc.md")
     assert lines[0] == "ballpod measurement pod"
@@ -45,6 +45,12 @@ def test_canopen_example(pod):
         name, value, _, u = line.split()
         assert name in ("ecc_u_um", "ecc_v_um") and abs(float(value) + offset) <= 3 * float(u), line
     assert lines[5].startswith("G_ccw_um ") and float(lines[5].split()[1]) > 0
+
+
+def test_lss_example(pod):
+    code, _ = python_blocks("cnc.md")
+    lines = run_example(code.replace("CAN_PORT", str(pod["can_port"])), "cnc.md")
+    assert lines == [f"node-ID {pod['node_id']}", "node-ID 21"]
 
 
 def test_scpi_examples(pod):

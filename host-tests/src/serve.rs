@@ -61,6 +61,9 @@ pub struct ServeOptions {
     pub max_seconds: f64,
     /// The served machine (`--machine`), instead of the default truth's.
     pub machine: Option<crate::vmt::machine::MachineFile>,
+    /// The settings the pod boots with, stored in its settings pages (`--set`); `None`: erased
+    /// pages, the defaults.
+    pub settings: Option<ballpod::config::Config>,
 }
 
 impl Default for ServeOptions {
@@ -74,6 +77,7 @@ impl Default for ServeOptions {
             seed: 1,
             bar_noise_um: 0.2,
             max_seconds: 600.0,
+            settings: None,
             machine: None,
         }
     }
@@ -240,7 +244,12 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
     if let Some(m) = opts.machine {
         setup.truth.machine = m;
     }
-    let mut vp: VirtualPod = VirtualPod::new(setup);
+    let mut flash = crate::flash_model::FlashModel::erased();
+    if let Some(c) = &opts.settings {
+        ballpod::settings::store(&mut flash, c)
+            .map_err(|e| io::Error::other(format!("--set: the settings were not stored: {e:?}")))?;
+    }
+    let mut vp: VirtualPod = VirtualPod::boot(setup, flash);
     vp.stream_reader(false);
     let truth = serde_json::to_string(vp.truth()).map_err(io::Error::other)?;
     println!(
@@ -255,6 +264,7 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
     let mut stream = Client::new("stream");
     let mut slcan_lines = LineSplitter::default();
     let mut slcan = SlcanPort::default();
+    slcan.set_node_bit_rate(vp.app.config().can_bitrate.bits_per_s());
     let start = Instant::now();
     let mut last = Instant::now();
     let mut backlog_us = 0.0f64;
@@ -334,7 +344,10 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
             backlog_us -= period_us;
             tx.extend(vp.step());
         }
-        if slcan.is_open() {
+        if let Some(rate) = vp.bit_rate_switch() {
+            slcan.set_node_bit_rate(rate.bits_per_s());
+        }
+        if slcan.passes() {
             for f in &tx {
                 replies.extend_from_slice(&SlcanPort::frame_line(f));
             }

@@ -551,3 +551,204 @@ fn real32_config_entries_take_declared_limits_without_an_exact_real32() {
     // ssm_dwell_speed
     assert_eq!(inexact, 10, "{seen:?}");
 }
+
+// ---- The wire contract ----------------------------------------------------------------------
+//
+// Every object and sub-entry of a released EDS (`releases/ballpod-rev<major>.<minor>.eds`)
+// keeps its index, sub-index, name, object type, data type, access and PDO mapping in every
+// later firmware of the same major revision: new objects are appended, retired ones stay
+// (a retired result reads "no data" for ever). Only a major revision (0x1018:3 upper 16 bits)
+// may break it, and `CHANGELOG.md` must say so. Limits and defaults may change.
+
+/// The keys of an entry that make its wire layout.
+const LAYOUT_KEYS: [&str; 5] = [
+    "ParameterName",
+    "ObjectType",
+    "DataType",
+    "AccessType",
+    "PDOMapping",
+];
+
+/// (section, key, value) of every object and sub-entry section's layout keys.
+fn layout(ini: &Ini) -> BTreeMap<String, BTreeMap<&'static str, String>> {
+    let mut out = BTreeMap::new();
+    for (name, keys) in ini {
+        let object = name.len() == 4 && u16::from_str_radix(name, 16).is_ok();
+        let sub = name
+            .split_once("SUB")
+            .is_some_and(|(i, s)| i.len() == 4 && u8::from_str_radix(s, 16).is_ok());
+        if !(object || sub) {
+            continue;
+        }
+        let l = LAYOUT_KEYS
+            .iter()
+            .filter_map(|&k| keys.get(k).map(|v| (k, v.clone())))
+            .collect();
+        out.insert(name.clone(), l);
+    }
+    out
+}
+
+/// What `current` moved, renamed, retyped or removed of `released` (empty: the layout holds).
+fn layout_breaks(released: &Ini, current: &Ini) -> Vec<String> {
+    let now = layout(current);
+    let mut breaks = Vec::new();
+    for (section, keys) in layout(released) {
+        let Some(cur) = now.get(&section) else {
+            breaks.push(format!("[{section}] {} removed", keys["ParameterName"]));
+            continue;
+        };
+        for (k, v) in &keys {
+            match cur.get(k) {
+                Some(c) if c == v => {}
+                c => breaks.push(format!("[{section}] {k}: released {v}, now {c:?}")),
+            }
+        }
+    }
+    breaks
+}
+
+/// Sections of `current` that `released` does not have (appended objects or sub-entries).
+fn appended(released: &Ini, current: &Ini) -> Vec<String> {
+    let old = layout(released);
+    layout(current)
+        .into_keys()
+        .filter(|s| !old.contains_key(s))
+        .collect()
+}
+
+fn revision(ini: &Ini) -> (u16, u16) {
+    let r = int(&ini["DEVICEINFO"]["RevisionNumber"]) as u32;
+    ((r >> 16) as u16, r as u16)
+}
+
+/// Every released EDS in `releases/`, with its file name.
+fn released_eds() -> Vec<(String, Ini)> {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/../releases");
+    let mut out: Vec<(String, Ini)> = std::fs::read_dir(dir)
+        .expect("releases/ at the repository root")
+        .filter_map(|e| e.ok())
+        .map(|e| e.path())
+        .filter(|p| p.extension().is_some_and(|x| x == "eds"))
+        .map(|p| {
+            let name = p.file_name().unwrap().to_string_lossy().into_owned();
+            (name, parse_ini(&std::fs::read_to_string(&p).unwrap()))
+        })
+        .collect();
+    out.sort_by_key(|(_, ini)| revision(ini));
+    out
+}
+
+fn changelog() -> String {
+    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../CHANGELOG.md"))
+        .expect("CHANGELOG.md at the repository root")
+}
+
+#[test]
+fn the_wire_layout_keeps_every_released_one() {
+    let current = parse_ini(&generated());
+    let (major, minor) = revision(&current);
+    let log = changelog();
+    let released = released_eds();
+    assert!(!released.is_empty(), "no released EDS in releases/");
+    for (file, old) in &released {
+        let (old_major, old_minor) = revision(old);
+        assert_eq!(
+            file,
+            &format!("ballpod-rev{old_major}.{old_minor}.eds"),
+            "a released EDS is named by its RevisionNumber"
+        );
+        assert!(
+            (major, minor) >= (old_major, old_minor),
+            "revision {major}.{minor} is older than the released {old_major}.{old_minor}"
+        );
+        let breaks = layout_breaks(old, &current);
+        if major > old_major {
+            // a deliberate break: the CHANGELOG names the new major revision
+            assert!(
+                log.contains(&format!("EDS revision {major}.0")),
+                "revision {major}.{minor} breaks {file}: CHANGELOG.md must name \"EDS revision {major}.0\""
+            );
+            continue;
+        }
+        assert!(
+            breaks.is_empty(),
+            "the wire layout of {file} changed (append new objects instead, keep retired ones; a deliberate break needs a new major revision):\n{}",
+            breaks.join("\n")
+        );
+        let added = appended(old, &current);
+        if !added.is_empty() {
+            assert!(
+                minor > old_minor,
+                "objects appended since {file} ({}…): raise the minor revision od::REVISION",
+                added[0]
+            );
+        }
+    }
+    if !released
+        .iter()
+        .any(|(_, ini)| revision(ini) == (major, minor))
+    {
+        assert!(
+            log.contains(&format!("EDS revision {major}.{minor}")),
+            "the unreleased EDS revision {major}.{minor} is not named in CHANGELOG.md"
+        );
+    }
+}
+
+#[test]
+fn the_released_layout_check_finds_a_moved_renamed_or_retyped_object() {
+    // Independent of the check's own reading: edit the released text as a careless change
+    // would (99dd7fe's insertion moved every later result by two sub-indices).
+    let (_, released) = released_eds().pop().unwrap();
+    let mut moved = released.clone();
+    let a = moved["4000SUB20"].clone();
+    let b = moved["4000SUB22"].clone();
+    moved.insert("4000SUB20".into(), b);
+    moved.insert("4000SUB22".into(), a);
+    assert_eq!(
+        layout_breaks(&released, &moved).len(),
+        2,
+        "two results swapped"
+    );
+    let mut retyped = released.clone();
+    retyped
+        .get_mut("2000")
+        .unwrap()
+        .insert("DataType".into(), "0x0007".into());
+    assert_eq!(layout_breaks(&released, &retyped).len(), 1);
+    let mut removed = released.clone();
+    removed.remove("4002SUB1");
+    assert_eq!(layout_breaks(&released, &removed).len(), 1);
+    let mut added = released.clone();
+    let mut extra = released["4000SUB1"].clone();
+    extra.insert("ParameterName".into(), "new_result".into());
+    added.insert("4000SUB7F".into(), extra);
+    assert!(
+        layout_breaks(&released, &added).is_empty(),
+        "appending keeps the layout"
+    );
+    assert_eq!(appended(&released, &added), vec!["4000SUB7F".to_string()]);
+}
+
+#[test]
+fn every_name_a_client_reads_by_is_unique() {
+    // python canopen and most masters look objects up by ParameterName (`od["result_value"]
+    // ["G_ccw"]`): an object's name is unique in the EDS, a sub-entry's within its object.
+    let ini = parse_ini(&generated());
+    let mut objects = BTreeMap::new();
+    for (name, keys) in &ini {
+        if name.len() == 4 && u16::from_str_radix(name, 16).is_ok() {
+            let n = &keys["ParameterName"];
+            assert!(
+                objects.insert(n.clone(), name.clone()).is_none(),
+                "object name {n} twice"
+            );
+            let mut subs = std::collections::BTreeSet::new();
+            for (s, k) in ini.range(format!("{name}SUB")..format!("{name}SUC")) {
+                let sn = &k["ParameterName"];
+                assert!(subs.insert(sn.clone()), "{sn} twice in [{name}] ({s})");
+            }
+        }
+    }
+}

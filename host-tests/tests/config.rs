@@ -43,10 +43,26 @@ fn out_of_range_is_rejected_naming_field_and_range_and_changes_nothing() {
         ConfigError::OutOfRange {
             field: Field::CanNodeId,
             min: 1.0,
-            max: 127.0,
+            max: 255.0,
             ..
         }
     ));
+    // CiA 305: a node-ID is 1–127, or 255 (none: LSS only); 128–254 are neither
+    for id in [128, 200, 254] {
+        let e = c.try_update(|c| c.can_node_id = id).unwrap_err();
+        assert!(matches!(
+            e,
+            ConfigError::OutOfRange {
+                field: Field::CanNodeId,
+                min: 1.0,
+                max: 127.0,
+                ..
+            }
+        ));
+    }
+    assert!(same(&c, &before));
+    let mut none = c;
+    none.try_update(|c| c.can_node_id = 255).unwrap();
     let e = c
         .try_update(|c| c.axes[3].counts_per_unit = f64::NAN)
         .unwrap_err();

@@ -748,7 +748,7 @@ fn min_max_def_keywords_follow_the_table() {
     assert_eq!(b.send("CONF:BAR_LENGTH? MIN"), "50");
     assert_eq!(b.send("CONF:BAR_LENGTH? MAXIMUM"), "600");
     assert_eq!(b.send("CONF:BAR_LENGTH? DEF"), "150");
-    assert_eq!(b.send("CONF:CAN_NODE_ID? MAX"), "127");
+    assert_eq!(b.send("CONF:CAN_NODE_ID? MAX"), "255"); // 255: none (LSS, CiA 305)
     b.send("CONF:BAR_LENGTH MAX");
     assert_eq!(b.app.config().bar_length_mm, 600.0);
     b.send("conf:bar_length def");
@@ -756,7 +756,7 @@ fn min_max_def_keywords_follow_the_table() {
     b.send("CONF:BAR_LENGTH min");
     assert_eq!(b.app.config().bar_length_mm, 50.0);
     b.send("CONF:CAN_NODE_ID MAX");
-    assert_eq!(b.app.config().can_node_id, 127);
+    assert_eq!(b.app.config().can_node_id, 255);
     assert_eq!(b.errors(), Vec::<i32>::new());
 }
 

@@ -2,7 +2,8 @@
 //! uncertainty and validity (CANopen 0x4000–0x4002, SCPI `FETCh:RESult?`). The list below is the
 //! one catalogue: [`ResultId`] names an entry, [`ResultInfo::all`] gives its name and unit and
 //! [`RESULT_MEANINGS`] its meaning in the same order, and the EDS and the docs are generated
-//! from it.
+//! from it. The catalogue is append-only (the wire contract, [`crate::protocol::canopen::od`]):
+//! a new result goes at the end, a retired one keeps its row and stays invalid.
 //!
 //! A result that has not been computed for the present runs is **invalid**: CANopen answers
 //! "no data available" (0x0800 0024), SCPI -230 with its name. Never 0.0.

@@ -8,7 +8,7 @@
 use core::num::{NonZeroU8, NonZeroU16};
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use embassy_futures::select::{Either3, select3};
+use embassy_futures::select::{Either4, select4};
 use embassy_stm32::can::config::NominalBitTiming;
 use embassy_stm32::can::enums::BusErrorMode;
 use embassy_stm32::can::{Can, CanConfigurator, OperatingMode, frame::Frame};
@@ -48,6 +48,27 @@ pub fn start(
     cc.start(OperatingMode::NormalOperationMode)
 }
 
+/// Switches the running controller to `bitrate` (an LSS master's "activate bit timing", CiA
+/// 305): into init mode, the core's exact timing into `NBTP`, out again (RM0440 §44.3.2; the
+/// same register steps embassy takes at start — its `Can` has no way back to a configurator).
+/// Frames in the transmit buffers stay queued; the node sends nothing during the switch.
+fn switch_bit_rate(bitrate: CanBitrate) {
+    let r = embassy_stm32::pac::FDCAN1;
+    let t = bitrate.timing();
+    r.cccr().modify(|w| w.set_init(true));
+    while !r.cccr().read().init() {}
+    r.cccr().modify(|w| w.set_cce(true));
+    r.nbtp().write(|w| {
+        w.set_nbrp(t.prescaler.saturating_sub(1));
+        w.set_ntseg1(t.seg1.saturating_sub(1));
+        w.set_ntseg2(t.seg2.saturating_sub(1));
+        w.set_nsjw(t.sync_jump_width.saturating_sub(1));
+    });
+    r.cccr().modify(|w| w.set_cce(false));
+    r.cccr().modify(|w| w.set_init(false));
+    while r.cccr().read().init() {}
+}
+
 /// The core's view of the controller's fault-confinement state.
 fn bus_state(mode: BusErrorMode) -> BusState {
     match mode {
@@ -79,8 +100,9 @@ pub async fn can_task(mut can: Can<'static>) {
         }
         // the timer: check in and look at the bus state even while the bus is silent
         let tick = Timer::after_millis(super::safety::CHECK_IN_MS);
-        match select3(can.read(), state::CAN_TX.receive(), tick).await {
-            Either3::First(Ok(env)) => {
+        let switch = state::CAN_BIT_RATE.wait();
+        match select4(can.read(), state::CAN_TX.receive(), tick, switch).await {
+            Either4::First(Ok(env)) => {
                 RX_FRAMES.fetch_add(1, Ordering::Relaxed);
                 if let Some(frame) = to_core(&env.frame)
                     && state::CAN_RX.try_send(frame).is_err()
@@ -88,8 +110,12 @@ pub async fn can_task(mut can: Can<'static>) {
                     state::CAN_RX_OVERRUNS.count();
                 }
             }
-            Either3::First(Err(_)) | Either3::Third(()) => {}
-            Either3::Second(f) => {
+            Either4::First(Err(_)) | Either4::Third(()) => {}
+            Either4::Fourth(rate) => {
+                defmt::info!("CAN bit rate {} (LSS)", rate.bits_per_s());
+                switch_bit_rate(rate);
+            }
+            Either4::Second(f) => {
                 // Never wait long for a transmit buffer: with no other node on the bus nothing
                 // acknowledges, the FDCAN retries for ever (error passive, not bus-off) and a
                 // plain `write().await` would stop reception too. A frame that cannot be

@@ -193,6 +193,9 @@ pub async fn compute_task(
                     pod.on_bus_state(bus, now, can_out);
                 }
                 pod.tick(now, can_out);
+                if let Some(rate) = pod.bit_rate_switch(now) {
+                    state::CAN_BIT_RATE.signal(rate);
+                }
             }
             Either5::Fifth(Done::Job(slot)) => {
                 pod.finish_job(slot);

@@ -26,6 +26,10 @@ pub static CAN_TX_OVERRUNS: Overruns = Overruns::new();
 pub static CAN_TX_DROPPED: Overruns = Overruns::new();
 /// The controller's fault-confinement state when it changes (the CAN task reads FDCAN `PSR`).
 pub static CAN_BUS: Signal<CriticalSectionRawMutex, BusState> = Signal::new();
+/// The bit rate an LSS master activated, once its switch delay has passed (the application
+/// task's node → the CAN task, which switches the controller).
+pub static CAN_BIT_RATE: Signal<CriticalSectionRawMutex, ballpod::config::CanBitrate> =
+    Signal::new();
 
 /// Bytes of one USB packet.
 pub const PACKET: usize = 64;

@@ -231,20 +231,46 @@ impl LineSplitter {
 /// commands, and the CAN frames the host transmits (the pod's node uses standard data frames
 /// only: extended and remote frames are acknowledged and dropped). `sim --serve` and the
 /// emulated board both speak through it.
+///
+/// The bus has a bit rate: the host's adapter sets its own (`Sn`), the pod's controller runs at
+/// [`set_node_bit_rate`](Self::set_node_bit_rate)'s. Frames pass only while the two agree, as
+/// on a real bus, where a node at another bit rate sees error frames only (an adapter that was
+/// never given `Sn` is taken to be at the pod's rate).
 #[derive(Clone, Copy, Debug, Default)]
 pub struct SlcanPort {
     open: bool,
+    /// The host adapter's bit rate, bit/s (`None` until an `Sn`).
+    host_bit_rate: Option<u32>,
+    /// The pod controller's bit rate, bit/s (0 until set: any).
+    node_bit_rate: u32,
 }
 
 impl SlcanPort {
-    /// True while the host has the channel open (`O` or `L`): frames go out only then.
+    /// True while the host has the channel open (`O` or `L`).
     pub const fn is_open(&self) -> bool {
         self.open
     }
 
-    /// The host (re)connected: the channel is closed until it opens it.
+    /// True while frames pass between the host and the pod: the channel is open and both
+    /// sides run at the same bit rate.
+    pub fn passes(&self) -> bool {
+        let same = match self.host_bit_rate {
+            Some(h) => self.node_bit_rate == 0 || h == self.node_bit_rate,
+            None => true,
+        };
+        self.open && same
+    }
+
+    /// The pod's controller runs at `bits_per_s` (at boot, and after an LSS bit-rate switch).
+    pub fn set_node_bit_rate(&mut self, bits_per_s: u32) {
+        self.node_bit_rate = bits_per_s;
+    }
+
+    /// The host (re)connected: the channel is closed until it opens it, at the bit rate it
+    /// sets then.
     pub fn reset(&mut self) {
         self.open = false;
+        self.host_bit_rate = None;
     }
 
     /// One line from the host: its answer through `reply` (CR, `z`/`Z` CR for a frame, BEL
@@ -263,9 +289,13 @@ impl SlcanPort {
                 self.open = false;
                 reply(b"\r");
             }
+            Ok(SlcanCommand::Bitrate(b)) => {
+                self.host_bit_rate = Some(b);
+                reply(b"\r");
+            }
             Ok(SlcanCommand::Transmit(f)) => {
                 reply(if f.extended { b"Z\r" } else { b"z\r" });
-                if f.extended || f.remote {
+                if f.extended || f.remote || !self.passes() {
                     return None;
                 }
                 let len = usize::from(f.dlc.min(8));

@@ -132,7 +132,7 @@ fn init(spawner: Spawner) {
         board::lvdt::lvdt_task(board::block::block_len(&cfg), period_us),
     );
     spawn(&io, "thermistor", board::thermistor::thermistor_task());
-    spawn(&io, "can", board::can::can_task());
+    spawn(&io, "can", board::can::can_task(cfg.can_bitrate));
     spawn(&io, "usb", board::usb::usb_task());
     spawn(&io, "watchdog", board::watchdog::watchdog_task());
     board::lvdt::start(period_us);

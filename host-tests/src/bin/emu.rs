@@ -5,7 +5,6 @@
 
 use std::path::PathBuf;
 
-use ballpod::config::Config;
 use ballpod_host::vmt::machine::MachineFile;
 use clap::Parser;
 
@@ -56,30 +55,6 @@ struct Args {
     set: Vec<String>,
 }
 
-/// The default configuration with `sets` applied, each checked as a client's write, then the
-/// whole (a cross-field rule such as excitation / sample rate holds after all are set).
-fn settings(sets: &[String]) -> Result<Config, String> {
-    let mut c = Config::default();
-    for s in sets {
-        let (name, value) = s
-            .split_once('=')
-            .ok_or_else(|| format!("{s}: not NAME=VALUE"))?;
-        let field = Config::field_by_name(name).ok_or_else(|| format!("{name}: no such field"))?;
-        let info = Config::field_info(field).ok_or_else(|| format!("{name}: no such field"))?;
-        let v = match value.parse::<f64>() {
-            Ok(v) => v,
-            Err(_) => info
-                .choice(value.as_bytes())
-                .map(f64::from)
-                .ok_or_else(|| format!("{name}: {value} is neither a number nor a choice"))?,
-        };
-        Config::check_write(field, v).map_err(|e| format!("{name}={value}: {e:?}"))?;
-        c.set_field(field, v);
-    }
-    c.validate().map_err(|e| format!("{e:?}"))?;
-    Ok(c)
-}
-
 fn main() {
     let a = Args::parse();
     let machine = match a.machine.as_deref().map(MachineFile::read).transpose() {
@@ -89,7 +64,7 @@ fn main() {
             std::process::exit(2);
         }
     };
-    let settings = match settings(&a.set) {
+    let settings = match ballpod_host::cli::settings(&a.set) {
         Ok(c) => c,
         Err(e) => {
             eprintln!("emu: --set {e}");

@@ -69,6 +69,12 @@ struct Args {
     /// `--serve`: stop after this many seconds of real time.
     #[arg(long, default_value_t = 600.0)]
     max_seconds: f64,
+    /// `--serve`: a setting the pod boots with (repeatable; `NAME=VALUE`, NAME as in
+    /// `CONFigure:LIST?`, VALUE a number or a choice's name), stored in its settings pages as on
+    /// a pod configured and saved before: e.g. `--set can_node_id=255` for a pod without a
+    /// node-ID (it waits for an LSS master).
+    #[arg(long = "set", value_name = "NAME=VALUE")]
+    set: Vec<String>,
 }
 
 fn non_negative(s: &str) -> Result<f64, String> {
@@ -98,6 +104,9 @@ fn serve(a: &Args) -> Result<(), String> {
         seed: a.seed,
         bar_noise_um: a.noise.unwrap_or(d.bar_noise_um),
         max_seconds: a.max_seconds,
+        settings: Some(ballpod_host::cli::settings(&a.set))
+            .filter(|_| !a.set.is_empty())
+            .transpose()?,
         machine: a
             .machine
             .as_ref()

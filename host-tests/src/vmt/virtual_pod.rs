@@ -427,6 +427,13 @@ impl<const N: usize> VirtualPod<N> {
         tx
     }
 
+    /// The bit rate an LSS master activated, once its switch delay has passed
+    /// ([`ballpod::pod::Pod::bit_rate_switch`]).
+    pub fn bit_rate_switch(&mut self) -> Option<ballpod::config::CanBitrate> {
+        let now = self.proto_us();
+        self.pod().bit_rate_switch(now)
+    }
+
     /// The CAN controller's error state changed (bus-off, recovery): the slave's frames.
     pub fn bus_state(&mut self, state: BusState) -> Vec<CanFrame> {
         let mut tx = Vec::new();

@@ -291,7 +291,7 @@ pub fn write_eds(w: &mut impl Write) -> fmt::Result {
     writeln!(w, "GroupMessaging=0")?;
     writeln!(w, "NrOfRXPDO=0")?;
     writeln!(w, "NrOfTXPDO={TPDO_COUNT}")?;
-    writeln!(w, "LSS_Supported=0")?;
+    writeln!(w, "LSS_Supported=1")?;
     writeln!(w)?;
     writeln!(w, "[DummyUsage]")?;
     for d in 1..=7 {

@@ -44,6 +44,10 @@
 //! - Store / restore parameters 0x1010 / 0x1011 with the "save" / "load" signatures: they ask
 //!   the application to store the configuration or the defaults (the shell owns the flash); a
 //!   wrong signature is aborted with 0x0800 0020.
+//! - LSS slave (CiA 305, [`lss`]): a master configures the node-ID and bit rate, stores them,
+//!   inquires the identity; fastscan finds a pod without a node-ID (`can_node_id` = 255),
+//!   which sends nothing but LSS answers until it has one. The bit rate an LSS master
+//!   activates reaches the shell through [`CanOpenNode::take_bit_rate_switch`].
 //! - The object dictionary ([`od`]) and the EDS (CiA 306) generated from it ([`eds`]).
 //!
 //! **Configuration is written only in pre-operational**: a write to 0x2000–0x20FF in
@@ -81,6 +85,7 @@ pub mod abort;
 pub mod bit_timing;
 pub mod eds;
 pub mod emcy;
+pub mod lss;
 pub mod nmt;
 pub mod od;
 pub mod pdo;
@@ -92,6 +97,8 @@ pub use od::CommParams;
 
 use crate::acquisition::SampleFlags;
 use crate::app::{App, Command};
+use crate::config::CanBitrate;
+use lss::{COB_LSS_MASTER, COB_LSS_SLAVE, LssAction, LssSlave, NODE_ID_UNCONFIGURED};
 use pdo::{TPDO_COUNT, TT_EVENT_MANUFACTURER, TT_EVENT_PROFILE};
 use sdo::SdoServer;
 
@@ -146,6 +153,9 @@ pub struct Stats {
     /// Frames the node would have sent while bus-off (heartbeats, TPDOs, SDO responses):
     /// dropped and counted here. EMCYs are not dropped: they wait for the recovery.
     pub frames_dropped_bus_off: u32,
+    /// Frames the node would have sent while silent around an LSS bit-rate switch (twice the
+    /// switch delay, CiA 305 §3.9.4): dropped and counted here.
+    pub frames_dropped_bit_rate_switch: u32,
 }
 
 /// The CAN controller's fault-confinement state (ISO 11898-1 §12.1.4), as the driver reports
@@ -185,16 +195,27 @@ pub struct CanOpenNode {
     boot_error: Option<(u16, u8)>,
     bus: BusState,
     stats: Stats,
+    lss: LssSlave,
+    /// The bit rate an LSS master activated and when the controller takes it, µs.
+    bit_rate_switch: Option<(CanBitrate, u64)>,
+    /// The node sends nothing before this time, µs (an LSS bit-rate switch).
+    silent_until_us: u64,
 }
 
-/// `id` if it is a valid node-ID (1…127), else 127.
+/// `id` if it is a valid node-ID (1…127) or [`NODE_ID_UNCONFIGURED`], else 127.
 fn valid_node_id(id: u8) -> u8 {
-    if (1..=127).contains(&id) { id } else { 127 }
+    if (1..=127).contains(&id) || id == NODE_ID_UNCONFIGURED {
+        id
+    } else {
+        127
+    }
 }
 
 impl CanOpenNode {
     /// A node in state Initialising; the first [`poll`](Self::poll) sends boot-up. `node_id`
-    /// must be 1…127 (a validated `Config::can_node_id` is); anything else becomes 127.
+    /// must be 1…127 (a validated `Config::can_node_id` is), or [`NODE_ID_UNCONFIGURED`]: the
+    /// node then sends nothing and answers LSS only until a master configures a node-ID
+    /// ([`lss`]); anything else becomes 127.
     /// `serial` is the serial number in 0x1018:4 (e.g. from the MCU's unique ID).
     pub fn new(node_id: u8, serial: u32) -> Self {
         Self {
@@ -211,6 +232,32 @@ impl CanOpenNode {
             boot_error: None,
             bus: BusState::ErrorActive,
             stats: Stats::default(),
+            lss: LssSlave::new([od::VENDOR_ID, od::PRODUCT_CODE, od::REVISION, serial]),
+            bit_rate_switch: None,
+            silent_until_us: 0,
+        }
+    }
+
+    /// True while the node has a node-ID (not [`NODE_ID_UNCONFIGURED`]).
+    pub fn configured(&self) -> bool {
+        self.comm.node_id != NODE_ID_UNCONFIGURED
+    }
+
+    /// The LSS slave's state.
+    pub fn lss_state(&self) -> lss::LssState {
+        self.lss.state()
+    }
+
+    /// The bit rate an LSS master activated, once its switch delay has passed at `now_us`:
+    /// the shell switches its controller to it (taken once). The node sends nothing until
+    /// another delay has passed.
+    pub fn take_bit_rate_switch(&mut self, now_us: u64) -> Option<CanBitrate> {
+        match self.bit_rate_switch {
+            Some((rate, at)) if now_us >= at => {
+                self.bit_rate_switch = None;
+                Some(rate)
+            }
+            _ => None,
         }
     }
 
@@ -250,16 +297,28 @@ impl CanOpenNode {
         }
     }
 
-    /// Reset communication: node-ID from the configuration, default communication parameters,
-    /// boot-up, pre-operational (CiA 301 §7.3.2.2.1).
+    /// Reset communication: node-ID pending from LSS, else from the configuration; default
+    /// communication parameters; boot-up, pre-operational (CiA 301 §7.3.2.2.1) — or, without a
+    /// node-ID, silence until LSS configures one.
     fn reset_communication(&mut self, app: &App, now_us: u64, out: &mut impl FnMut(CanFrame)) {
+        let id = (self.lss.pending_node_id()).unwrap_or(app.config().can_node_id);
+        self.take_node_id(id, now_us, out);
+    }
+
+    fn take_node_id(&mut self, id: u8, now_us: u64, out: &mut impl FnMut(CanFrame)) {
         let serial = self.comm.serial;
-        self.comm = CommParams::new(valid_node_id(app.config().can_node_id), serial);
+        self.comm = CommParams::new(valid_node_id(id), serial);
+        self.lss.reset_communication();
         self.sdo.reset();
         self.faults_reported = 0;
         self.faults_raised = self.faults_current;
         self.emcy_next_us = now_us;
-        self.boot(now_us, out);
+        if self.configured() {
+            self.boot(now_us, out);
+        } else {
+            self.nmt = NmtState::Initialising;
+            self.next_heartbeat_us = None;
+        }
     }
 
     fn boot(&mut self, now_us: u64, out: &mut impl FnMut(CanFrame)) {
@@ -308,15 +367,65 @@ impl CanOpenNode {
         now_us: u64,
         out: &mut impl FnMut(CanFrame),
     ) {
-        let mut dropped = 0u32;
-        let bus_off = self.bus == BusState::BusOff;
-        let mut gate = |f| if bus_off { dropped += 1 } else { out(f) };
-        self.handle_frame(frame, app, now_us, &mut gate);
-        self.count_dropped(dropped);
+        self.gated(now_us, out, |node, mut out| {
+            node.handle_frame(frame, app, now_us, &mut out)
+        });
     }
 
-    fn count_dropped(&mut self, n: u32) {
-        self.stats.frames_dropped_bus_off = self.stats.frames_dropped_bus_off.saturating_add(n);
+    /// Runs `work` with an output that drops (and counts) what the node may not send now:
+    /// everything while bus-off, everything while silent around an LSS bit-rate switch.
+    fn gated(
+        &mut self,
+        now_us: u64,
+        out: &mut impl FnMut(CanFrame),
+        work: impl FnOnce(&mut Self, &mut dyn FnMut(CanFrame)),
+    ) {
+        let (mut dropped, mut held) = (0u32, 0u32);
+        let bus_off = self.bus == BusState::BusOff;
+        let silent = now_us < self.silent_until_us;
+        work(self, &mut |f| match (bus_off, silent) {
+            (true, _) => dropped += 1,
+            (_, true) => held += 1,
+            _ => out(f),
+        });
+        let s = &mut self.stats;
+        s.frames_dropped_bus_off = s.frames_dropped_bus_off.saturating_add(dropped);
+        s.frames_dropped_bit_rate_switch = s.frames_dropped_bit_rate_switch.saturating_add(held);
+    }
+
+    /// An LSS request (any NMT state, with or without a node-ID).
+    fn on_lss(&mut self, data: &[u8], app: &mut App, now_us: u64, out: &mut impl FnMut(CanFrame)) {
+        let (answer, action) = self.lss.on_request(data, self.comm.node_id);
+        let answer = match action {
+            LssAction::None => answer,
+            LssAction::ActivateNodeId(id) => {
+                self.take_node_id(id, now_us, out);
+                answer
+            }
+            LssAction::Store { node_id, bitrate } => {
+                let stored = app
+                    .configure(|c| {
+                        c.can_node_id = node_id;
+                        if let Some(b) = bitrate {
+                            c.can_bitrate = b;
+                        }
+                    })
+                    .and_then(|()| app.execute(Command::StoreSettings))
+                    .is_ok();
+                Some(LssSlave::store_answer(stored))
+            }
+            LssAction::ActivateBitTiming { bitrate, delay_ms } => {
+                let delay_us = u64::from(delay_ms) * 1000;
+                self.bit_rate_switch = Some((bitrate, now_us.saturating_add(delay_us)));
+                self.silent_until_us = now_us.saturating_add(2 * delay_us);
+                answer
+            }
+        };
+        if let Some(a) = answer
+            && let Some(f) = CanFrame::new(COB_LSS_SLAVE, &a)
+        {
+            out(f);
+        }
     }
 
     fn handle_frame(
@@ -326,6 +435,10 @@ impl CanOpenNode {
         now_us: u64,
         out: &mut impl FnMut(CanFrame),
     ) {
+        if frame.id == COB_LSS_MASTER {
+            self.on_lss(frame.payload(), app, now_us, out);
+            return;
+        }
         if self.nmt == NmtState::Initialising {
             self.stats.frames_ignored = self.stats.frames_ignored.saturating_add(1);
             return;
@@ -492,7 +605,10 @@ impl CanOpenNode {
 
     fn service_emcy(&mut self, now_us: u64, out: &mut impl FnMut(CanFrame)) {
         self.update_error_register();
-        if !self.nmt.sdo_allowed() || self.bus == BusState::BusOff || now_us < self.emcy_next_us {
+        if !self.nmt.sdo_allowed()
+            || self.bus == BusState::BusOff
+            || now_us < self.emcy_next_us.max(self.silent_until_us)
+        {
             return;
         }
         let inhibit_us = u64::from(self.comm.emcy_inhibit_100us) * 100;
@@ -525,14 +641,16 @@ impl CanOpenNode {
     /// Time-driven work: boot-up (first call), heartbeat, event-timer TPDOs (types 254/255),
     /// SDO segment timeout, pending EMCY. Call at least every millisecond.
     pub fn poll(&mut self, now_us: u64, app: &App, out: &mut impl FnMut(CanFrame)) {
-        let mut dropped = 0u32;
-        let bus_off = self.bus == BusState::BusOff;
-        let mut gate = |f| if bus_off { dropped += 1 } else { out(f) };
-        self.poll_inner(now_us, app, &mut gate);
-        self.count_dropped(dropped);
+        self.gated(now_us, out, |node, mut out| {
+            node.poll_inner(now_us, app, &mut out)
+        });
     }
 
     fn poll_inner(&mut self, now_us: u64, app: &App, out: &mut impl FnMut(CanFrame)) {
+        if !self.configured() {
+            // no node-ID: nothing but LSS until a master configures one (CiA 305)
+            return;
+        }
         if self.nmt == NmtState::Initialising {
             self.boot(now_us, out);
         }

@@ -11,6 +11,14 @@
 //! values from [`crate::app::LIVE`], the results from [`crate::app::ResultInfo::all`], so a new field,
 //! live value or result appears here, in the SDO server and in `ballpod.eds` at once.
 //!
+//! **The wire contract.** An object's index and sub-index, name, type, access and PDO mapping
+//! never change once released: the tables the dictionary is generated from ([`FIELDS`],
+//! [`LIVE`], the results catalogue, the device and run counters) are append-only — a new row
+//! goes at the end, a retired one stays where it is (a retired result never becomes valid: it
+//! reads "no data", 0x0800 0024). [`REVISION`] says which layout a pod speaks;
+//! `host-tests/tests/canopen_eds.rs` compares `ballpod.eds` with every released EDS in
+//! `releases/` and fails on a moved, renamed or retyped object.
+//!
 //! Index map (see the module doc of [`super`] for the full table):
 //! - 0x1000–0x1A03: communication profile area (CiA 301 §7.5.2);
 //! - 0x2000 + i: configuration field `FIELDS[i]` in the field's unit and type (REAL32, or
@@ -50,8 +58,11 @@ pub const DEVICE_TYPE: u32 = 0x0000_0000;
 pub const VENDOR_ID: u32 = 0;
 /// Product code 0x1018:2.
 pub const PRODUCT_CODE: u32 = 0xBA11_0001;
-/// Revision number 0x1018:3: major revision (upper 16 bits) . minor revision (lower 16 bits).
-pub const REVISION: u32 = 0x0000_0001;
+/// Revision number 0x1018:3 (CiA 301 §7.5.2.26): the wire layout's major revision (upper 16
+/// bits) . minor revision (lower 16 bits). The minor grows with each release that appends
+/// objects; the major only with a deliberate break of the layout, which `CHANGELOG.md` names.
+/// `host-tests/tests/canopen_eds.rs` compares the EDS with every released one in `releases/`.
+pub const REVISION: u32 = 0x0001_0000;
 /// Manufacturer device name 0x1008.
 pub const DEVICE_NAME: &str = "ballpod measurement pod";
 /// Manufacturer hardware version 0x1009.

@@ -1,7 +1,9 @@
 //! The CAN bus as SLCAN on UART0 (QEMU's serial 0, a TCP port): the emulated board is its own
 //! SLCAN adapter. Received `t…` lines are frames for the application task (`state::CAN_RX`),
 //! the frames its CANopen node sends go out as `t…` lines (`state::CAN_TX`); the adapter's
-//! commands (`O`, `C`, `Sn`, `V`, …) are answered CR, a bad line BEL. The codec is the core's
+//! commands (`O`, `C`, `Sn`, `V`, …) are answered CR, a bad line BEL. Frames pass while the
+//! host's `Sn` bit rate is the controller's (the configured one, or the one an LSS master
+//! activated: `state::CAN_BIT_RATE`). The codec is the core's
 //! (`ballpod::protocol::slcan`), the one `sim --serve` speaks.
 //!
 //! As the bus side of the node it measures, in emulated time, what a CAN analyser on the bus
@@ -21,9 +23,11 @@ use super::uart::UART0;
 
 /// Moves SLCAN lines and frames between UART0 and the application task.
 #[embassy_executor::task]
-pub async fn can_task() {
+pub async fn can_task(bit_rate: ballpod::config::CanBitrate) {
     let mut lines = LineSplitter::default();
     let mut port = SlcanPort::default();
+    // the bus runs at the configured bit rate until an LSS master switches it
+    port.set_node_bit_rate(bit_rate.bits_per_s());
     let mut buf = [0u8; 64];
     let mut out: heapless::Vec<u8, 512> = heapless::Vec::new();
     let mut figures = BusFigures::resumed();
@@ -32,7 +36,7 @@ pub async fn can_task() {
         let tick = embassy_time::Timer::after_millis(safety::CHECK_IN_MS);
         match select(
             select(UART0.rx.read(&mut buf), state::CAN_TX.receive()),
-            tick,
+            select(tick, state::CAN_BIT_RATE.wait()),
         )
         .await
         {
@@ -54,11 +58,12 @@ pub async fn can_task() {
             }
             Either::First(Either::Second(frame)) => {
                 figures.sent(&frame);
-                if port.is_open() {
+                if port.passes() {
                     UART0.write_all(&SlcanPort::frame_line(&frame)).await;
                 }
             }
-            Either::Second(()) => {}
+            Either::Second(Either::First(())) => {}
+            Either::Second(Either::Second(rate)) => port.set_node_bit_rate(rate.bits_per_s()),
         }
     }
 }
@@ -66,8 +71,9 @@ pub async fn can_task() {
 /// What the bus side measures (emulated time, µs).
 #[derive(Default)]
 struct BusFigures {
-    /// When the SDO request waiting for its answer was received.
-    sdo_asked_us: Option<u64>,
+    /// When the SDO request waiting for its answer was received, and the COB-ID of the answer
+    /// it waits for.
+    sdo_asked: Option<(u64, u16)>,
     sdo_answers: u32,
     sdo_worst_us: u32,
     /// The last heartbeat's time (none since boot or a boot-up frame).
@@ -93,9 +99,11 @@ impl BusFigures {
 
     /// A frame from the bus.
     fn received(&mut self, f: &CanFrame) {
-        // an SDO request to any node (the pod answers its own; the first waiting counts)
-        if f.id & 0x780 == 0x600 && self.sdo_asked_us.is_none() {
-            self.sdo_asked_us = Some(embassy_time::Instant::now().as_micros());
+        // an SDO request to any node: the pod answers its own (as an analyser pairs them, the
+        // latest request waits; one to a node that never answers is replaced by the next)
+        if f.id & 0x780 == 0x600 {
+            let answer = f.id - 0x600 + 0x580;
+            self.sdo_asked = Some((embassy_time::Instant::now().as_micros(), answer));
         }
     }
 
@@ -103,9 +111,10 @@ impl BusFigures {
     fn sent(&mut self, f: &CanFrame) {
         let now = embassy_time::Instant::now().as_micros();
         let us = |t: u64| u32::try_from(now.saturating_sub(t)).unwrap_or(u32::MAX);
-        if f.id & 0x780 == 0x580
-            && let Some(t) = self.sdo_asked_us.take()
+        if let Some((t, answer)) = self.sdo_asked
+            && f.id == answer
         {
+            self.sdo_asked = None;
             self.sdo_answers = self.sdo_answers.wrapping_add(1);
             self.sdo_worst_us = self.sdo_worst_us.max(us(t));
             set_figure(Figure::SdoAnswers, self.sdo_answers);

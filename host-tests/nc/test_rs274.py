@@ -105,7 +105,7 @@ CASES = [
 @pytest.mark.parametrize("plane,centre,radius,feed,start,arc", CASES)
 def test_programs_are_accepted_and_trace_the_nominal_circle(tmp_path, plane, centre, radius, feed,
                                                             start, arc):
-    setup = {"circle_plane": plane, "circle_radius": radius, "circle_feed": feed}
+    setup = {"circle_plane": plane, "circle_radius": radius, "bar_length": radius, "circle_feed": feed}
     for k, c in zip("xyz", centre):
         if c is not None:
             setup[f"circle_centre_{k}"] = c

@@ -27,6 +27,14 @@
 //! At start the server prints one JSON line on stdout: the ports and the truth
 //! (`{"can_port":…,"usb_port":…,"stream_port":…,"node_id":…,"truth":{…}}`). It stops after
 //! `max_seconds` of real time.
+//!
+//! **A part program instead of a client** (`--program FILE --m-codes DIR`): the served CNC
+//! runs the program (cycle start `cycle_start_s` after the server is up) as LinuxCNC's task does ([`crate::vmt::nc_program`]) on the circle
+//! machine, and at each user M-code runs `DIR/M<code> P Q` with `BALLPOD_CAN` (or, with
+//! `m_codes_via_usb`, `BALLPOD_SCPI`) naming this server's port and `BALLPOD_NODE` the pod's
+//! node-ID, the motion waiting until it exits (its output goes to stderr). When the program
+//! ends — or an M-code fails, which stops it — a second JSON line says so:
+//! `{"program":"done","user_m_codes":N}` or `{"program":"stopped","reason":"…"}`.
 
 use std::collections::VecDeque;
 use std::io::{self, ErrorKind, Read, Write};
@@ -36,6 +44,8 @@ use std::time::{Duration, Instant};
 use ballpod::app::SessionState;
 use ballpod::protocol::canopen::CanFrame;
 
+use crate::vmt::motion::circle_machine_at;
+use crate::vmt::nc_program::{CncStep, ProgramCnc};
 use crate::vmt::sensors::Instrument;
 use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 use ballpod::protocol::slcan::{LineSplitter, SlcanPort};
@@ -64,6 +74,13 @@ pub struct ServeOptions {
     /// The settings the pod boots with, stored in its settings pages (`--set`); `None`: erased
     /// pages, the defaults.
     pub settings: Option<ballpod::config::Config>,
+    /// A part program the served CNC runs, and the directory of its user M-codes' programs.
+    pub program: Option<(std::path::PathBuf, std::path::PathBuf)>,
+    /// The operator presses cycle start this long after the server is up, s (time for a
+    /// stream reader to connect).
+    pub cycle_start_s: f64,
+    /// The user M-codes reach the pod over the USB command port (SCPI) instead of CAN.
+    pub m_codes_via_usb: bool,
 }
 
 impl Default for ServeOptions {
@@ -78,8 +95,118 @@ impl Default for ServeOptions {
             bar_noise_um: 0.2,
             max_seconds: 600.0,
             settings: None,
+            program: None,
+            cycle_start_s: 1.0,
+            m_codes_via_usb: false,
             machine: None,
         }
+    }
+}
+
+/// The part program the served CNC runs (`--program`), and the user M-code running now.
+struct ServedProgram {
+    cnc: ProgramCnc,
+    /// When the operator presses cycle start.
+    cycle_start: Instant,
+    dir: std::path::PathBuf,
+    running: Option<(u16, std::process::Child)>,
+    /// The environment the M-codes get (this server's ports, the node-ID).
+    env: Vec<(String, String)>,
+    ran: u32,
+    over: bool,
+}
+
+impl ServedProgram {
+    /// True while the machine moves (not at an M-code, not over).
+    fn moving(&self) -> bool {
+        self.running.is_none() && !self.over && Instant::now() >= self.cycle_start
+    }
+
+    /// One sample period: the machine along the program (standing while an M-code runs);
+    /// starts the M-code it reaches. Returns the frames the node sent.
+    fn step(&mut self, vp: &mut VirtualPod, dt_s: f64) -> Vec<CanFrame> {
+        if self.over || self.running.is_some() || Instant::now() < self.cycle_start {
+            return vp.sample_at_rest();
+        }
+        match self.cnc.step(dt_s) {
+            CncStep::At { axes, sense } => {
+                let cfg = vp.app.running_config();
+                let (dl, axes) = match circle_machine_at(vp.truth(), &cfg, &axes, sense) {
+                    Ok(m) => (m.dl_um, m.axes),
+                    // no circle set up yet: the bar reads its nominal
+                    Err(_) => (0.0, axes),
+                };
+                vp.sample_at(dl, &axes).1
+            }
+            CncStep::UserM { code, p, q } => {
+                let path = self.dir.join(format!("M{code}"));
+                let child = std::process::Command::new(&path)
+                    .arg(format!("{p:.6}"))
+                    .arg(format!("{q:.6}"))
+                    .stdout(std::process::Stdio::from(io::stderr()))
+                    .envs(self.env.iter().map(|(k, v)| (k.as_str(), v.as_str())))
+                    .spawn();
+                match child {
+                    Ok(c) => self.running = Some((code, c)),
+                    Err(e) => self.stop(&format!("M{code}: {}: {e}", path.display())),
+                }
+                vp.sample_at_rest()
+            }
+            CncStep::Done => {
+                self.over = true;
+                println!("{{\"program\":\"done\",\"user_m_codes\":{}}}", self.ran);
+                let _ = io::stdout().flush();
+                vp.sample_at_rest()
+            }
+        }
+    }
+
+    /// The environment of the next M-code: this server's port and the pod's node-ID.
+    fn poll_user_m(&mut self, vp: &VirtualPod, (can, usb): (u16, u16), via_usb: bool) {
+        self.env = if via_usb {
+            vec![("BALLPOD_SCPI".into(), format!("socket://127.0.0.1:{usb}"))]
+        } else {
+            vec![
+                (
+                    "BALLPOD_CAN".into(),
+                    format!("slcan:socket://127.0.0.1:{can}"),
+                ),
+                (
+                    "BALLPOD_NODE".into(),
+                    vp.app.config().can_node_id.to_string(),
+                ),
+            ]
+        };
+        let Some((code, child)) = self.running.as_mut() else {
+            return;
+        };
+        match child.try_wait() {
+            Ok(None) => {}
+            Ok(Some(status)) => {
+                let code = *code;
+                self.running = None;
+                self.ran += 1;
+                if status.success() {
+                    self.cnc.resume();
+                } else {
+                    self.stop(&format!("M{code} exited with {status}"));
+                }
+            }
+            Err(e) => {
+                let code = *code;
+                self.running = None;
+                self.stop(&format!("M{code}: {e}"));
+            }
+        }
+    }
+
+    /// The program stops (an M-code failed): the machine stands.
+    fn stop(&mut self, reason: &str) {
+        self.over = true;
+        eprintln!("serve: the program stops: {reason}");
+        let reason = reason.replace('\\', "/").replace('"', "'");
+        println!("{{\"program\":\"stopped\",\"reason\":\"{reason}\"}}");
+        let _ = io::stdout().flush();
     }
 }
 
@@ -251,6 +378,23 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
     }
     let mut vp: VirtualPod = VirtualPod::boot(setup, flash);
     vp.stream_reader(false);
+    let mut program = match &opts.program {
+        Some((file, dir)) => {
+            let cnc = ProgramCnc::load(file).map_err(io::Error::other)?;
+            // referenced where the bar is mounted: the axes read the program's positions
+            vp.home(&cnc.start());
+            Some(ServedProgram {
+                cnc,
+                cycle_start: Instant::now() + Duration::from_secs_f64(opts.cycle_start_s.max(0.0)),
+                dir: dir.clone(),
+                running: None,
+                env: Vec::new(),
+                ran: 0,
+                over: false,
+            })
+        }
+        None => None,
+    };
     let truth = serde_json::to_string(vp.truth()).map_err(io::Error::other)?;
     println!(
         "{{\"can_port\":{},\"usb_port\":{},\"stream_port\":{},\"node_id\":{},\"truth\":{truth}}}",
@@ -331,8 +475,12 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
         let now = Instant::now();
         let dt_us = now.duration_since(last).as_secs_f64() * 1e6;
         last = now;
-        // a run running, or the CNC's program of an armed self-triggered run
-        let running = vp.app.session() == SessionState::Running || vp.moving();
+        // a run running, or the CNC's program of an armed self-triggered run, or the served
+        // part program moving (at real time while an M-code's program runs)
+        let running = match &program {
+            Some(p) => p.moving(),
+            None => vp.app.session() == SessionState::Running || vp.moving(),
+        };
         let speed = if running && !opts.realtime {
             opts.speed
         } else {
@@ -340,9 +488,16 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
         };
         backlog_us = (backlog_us + dt_us * speed).min(200_000.0);
         let period_us = vp.sensors.period_us() as f64;
+        if let Some(p) = program.as_mut() {
+            let ports = (can_l.local_addr()?.port(), usb_l.local_addr()?.port());
+            p.poll_user_m(&vp, ports, opts.m_codes_via_usb);
+        }
         while backlog_us >= period_us {
             backlog_us -= period_us;
-            tx.extend(vp.step());
+            match program.as_mut() {
+                Some(p) => tx.extend(p.step(&mut vp, period_us * 1e-6)),
+                None => tx.extend(vp.step()),
+            }
         }
         if let Some(rate) = vp.bit_rate_switch() {
             slcan.set_node_bit_rate(rate.bits_per_s());

@@ -289,6 +289,22 @@ fn not_observable_states_and_bad_samples() {
 }
 
 #[test]
+fn an_arc_a_sample_short_of_the_minimum_counts_one_well_short_does_not() {
+    // min_arc 60° (`fit`): a sampled arc ends up to a sample's step inside the program's ends
+    // (ARC_END_TOLERANCE_DEG, 0.05°); 0.1° short is a shorter arc than asked for
+    for (arc, observable) in [(60.0 - 0.03, true), (60.0 - 0.1, false)] {
+        let (run, s) = simple_run(arc, 240);
+        let f = fit(&run, &s);
+        assert_eq!(
+            f.estimate().is_ok(),
+            observable,
+            "arc {arc}°: {:?}",
+            f.estimate()
+        );
+    }
+}
+
+#[test]
 fn cw_ccw_combination_and_seed002_b_pattern_direction() {
     // BX pattern (seed 002 §3.2): X = L_B + R_B sin φ, Z = Z_C + R_B cos φ; n = (sin φ, cos φ)
     let geom = PatternGeometry {

@@ -5,11 +5,16 @@
 use std::path::Path;
 
 use ballpod::app::Direction;
-use ballpod::config::{CirclePlane, Config};
-use ballpod_host::ncgen::{CircleOptions, CircleTest, Dialect, SphereTest};
+use ballpod::config::{CirclePlane, Config, RunTrigger};
+use ballpod_host::ncgen::{
+    CircleOptions, CircleTest, DEFAULT_M_BASE, Dialect, Session, SphereTest,
+};
 
 fn setup(plane: CirclePlane, centre: [f32; 3], radius: f32, feed: f32) -> Config {
-    let mut c = Config::default();
+    let mut c = Config {
+        bar_length_mm: radius,
+        ..Config::default()
+    };
     c.setup.circle_plane = plane;
     c.setup.circle_centre_mm = centre;
     c.setup.circle_radius_mm = radius;
@@ -41,11 +46,20 @@ fn cases() -> Vec<(&'static str, Config, CircleOptions)> {
 #[test]
 fn fanuc_programs_match_their_reviewed_golden_files() {
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/nc");
-    for (stem, cfg, options) in cases() {
+    // the 220° ZX circle once more with its session: the PLC's M-codes (book: "Running a test
+    // from the CNC", the hand-shake table)
+    let session = Session::new(DEFAULT_M_BASE, 1000, RunTrigger::Command).unwrap();
+    let mut all: Vec<_> = cases().into_iter().map(|c| (c, None)).collect();
+    let zx = cases()[1].clone();
+    all.push((("circle_zx_220_session", zx.1, zx.2), Some(session)));
+    for ((stem, cfg, options), session) in all {
         let program = CircleTest::from_config(&cfg, options)
             .unwrap()
-            .program(Dialect::Fanuc);
+            .program_with(Dialect::Fanuc, session.as_ref());
         let path = dir.join(format!("{stem}.{}", Dialect::Fanuc.extension()));
+        if std::env::var_os("BALLPOD_BLESS").is_some() {
+            std::fs::write(&path, &program).unwrap();
+        }
         let golden = std::fs::read_to_string(&path).unwrap_or_default();
         assert_eq!(program, golden, "{} differs", path.display());
     }
@@ -111,6 +125,12 @@ fn a_set_up_the_machine_cannot_run_is_refused_with_the_field() {
     c = ok;
     c.setup.circle_feed_mm_per_min = -5.0;
     assert_eq!(field(&c, d()), "circle_feed");
+    // a radius the bar cannot reach: beyond the LVDT's ±1.1 mm stroke about bar_length
+    c = ok;
+    c.setup.circle_radius_mm = 151.2;
+    assert_eq!(field(&c, d()), "circle_radius");
+    c.setup.circle_radius_mm = 151.0;
+    assert!(CircleTest::from_config(&c, d()).is_ok());
     c = ok;
     c.setup.circle_centre_mm[1] = f32::NAN;
     let e = CircleTest::from_config(&c, d()).unwrap_err();

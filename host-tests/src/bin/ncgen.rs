@@ -17,10 +17,11 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand, ValueEnum};
 
 use ballpod::app::Direction;
+use ballpod::config::RunTrigger;
 use ballpod_host::ncgen::{
-    CircleOptions, CircleTest, Dialect, PatternTest, SphereTest, SsmTest, TwoStepTest,
+    CircleOptions, CircleTest, Dialect, PatternTest, Session, SphereTest, SsmTest, TwoStepTest,
     centrelines_from_toml, check_travel, correct_program, correct_program_centrelines,
-    deviations_from_results,
+    deviations_from_results, session_scripts, setup_file,
 };
 use ballpod_host::session_file::{read_text, setup_config, setup_travel};
 
@@ -78,6 +79,51 @@ enum Test {
     /// A program's G0/G1 points (X Y Z A B, no TCPM) corrected for estimated rotary-axis
     /// centrelines (seed 004 eq 9 and 4.3; the program keeps its dialect).
     CorrectCentrelines(CentrelinesArgs),
+    /// The LinuxCNC user M-code scripts of a program's session (`--session`): `DIR/M150` …
+    /// `M155`, the python module they call and the pod's EDS; put DIR in the INI's
+    /// `[RS274NGC] USER_M_PATH`.
+    MCodes(MCodesArgs),
+}
+
+/// Where the M-code scripts go.
+#[derive(clap::Args, Debug)]
+struct MCodesArgs {
+    /// The directory (created if missing).
+    dir: PathBuf,
+    /// The first of the six M-codes (100 … 194).
+    #[arg(long, default_value_t = ballpod_host::ncgen::DEFAULT_M_BASE)]
+    m_base: u16,
+}
+
+/// Who starts and stops a circle's runs.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum TriggerArg {
+    /// The program's M-codes (start at the data arc, stop at its end).
+    Command,
+    /// The pod itself (run_trigger FEED_IN): the program only arms and waits.
+    FeedIn,
+}
+
+/// A program that drives the pod itself.
+#[derive(clap::Args, Debug)]
+struct SessionArgs {
+    /// Write the pod's session into the program as M-codes (book: "Running a test from the
+    /// CNC"), and the set-up they apply to `--setup-out`.
+    #[arg(long)]
+    session: bool,
+    /// The first of the six M-codes (100 … 194).
+    #[arg(long, default_value_t = ballpod_host::ncgen::DEFAULT_M_BASE)]
+    m_base: u16,
+    /// The set-up's number (`M150 P<n>` applies `ballpod-setup-<n>.toml`).
+    #[arg(long, default_value_t = 1000)]
+    setup_number: u32,
+    /// Who starts and stops the runs.
+    #[arg(long, value_enum, default_value = "command")]
+    trigger: TriggerArg,
+    /// Write the set-up the program needs here (TOML: `[session]` pattern, `[setup]` fields),
+    /// e.g. `DIR/ballpod-setup-1000.toml` beside the M-code scripts.
+    #[arg(long)]
+    setup_out: Option<PathBuf>,
 }
 
 /// The program to correct and the centrelines file.
@@ -157,6 +203,8 @@ struct CircleArgs {
     /// Radial feed-in / feed-out distance, mm (0.1 … 10).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     feed_in_mm: f64,
+    #[command(flatten)]
+    session: SessionArgs,
 }
 
 /// The pattern and its options (the geometry is the set-up's `s002_*` fields).
@@ -233,7 +281,45 @@ fn run(args: &Args) -> Result<String, String> {
             };
             let test = CircleTest::from_config(&cfg, options)
                 .map_err(|e| format!("{}: {e}", c.setup.display()))?;
-            within_travel(&c.setup, test.program(dialect))
+            let a = &c.session;
+            let trigger = match a.trigger {
+                TriggerArg::Command => RunTrigger::Command,
+                TriggerArg::FeedIn => RunTrigger::FeedIn,
+            };
+            let session = if a.session {
+                Some(Session::new(a.m_base, a.setup_number, trigger)?)
+            } else {
+                None
+            };
+            let program = within_travel(&c.setup, test.program_with(dialect, session.as_ref()))?;
+            if let Some(path) = &a.setup_out {
+                let text = setup_file(
+                    "CIRCLE",
+                    &test.setup_fields(trigger),
+                    &format!("ballpod set-up {} (ncgen circle)", a.setup_number),
+                );
+                std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+            }
+            Ok(program)
+        }
+        Test::MCodes(m) => {
+            Session::new(m.m_base, 0, RunTrigger::Command)?;
+            let d = &m.dir;
+            std::fs::create_dir_all(d).map_err(|e| format!("{}: {e}", d.display()))?;
+            let mut eds = String::new();
+            ballpod::protocol::canopen::eds::write_eds(&mut eds).map_err(|e| e.to_string())?;
+            let mut files = session_scripts(m.m_base);
+            files.push(("ballpod.eds".into(), eds, false));
+            for (name, text, executable) in files {
+                let path = d.join(&name);
+                std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+                if executable {
+                    use std::os::unix::fs::PermissionsExt;
+                    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o755))
+                        .map_err(|e| format!("{}: {e}", path.display()))?;
+                }
+            }
+            Ok(String::new())
         }
         Test::Pattern(p) => {
             let step = ballpod::app::Pattern::from_name(p.pattern.as_bytes())

@@ -75,6 +75,21 @@ struct Args {
     /// node-ID (it waits for an LSS master).
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
+    /// `--serve`: the served CNC runs this part program (LinuxCNC dialect, `ncgen circle
+    /// --session`) on the circle machine, its user M-codes from `--m-codes` in step with the
+    /// motion, as LinuxCNC's task does.
+    #[arg(long, requires = "m_codes")]
+    program: Option<PathBuf>,
+    /// `--serve --program`: the directory of the user M-codes' programs (`ncgen m-codes DIR`).
+    #[arg(long, requires = "program")]
+    m_codes: Option<PathBuf>,
+    /// `--serve --program`: the M-codes reach the pod over the USB command port (SCPI) instead
+    /// of CAN.
+    #[arg(long, requires = "program")]
+    m_codes_via_usb: bool,
+    /// `--serve --program`: cycle start this many seconds after the server is up.
+    #[arg(long, default_value_t = 1.0, requires = "program")]
+    cycle_start_after: f64,
 }
 
 fn non_negative(s: &str) -> Result<f64, String> {
@@ -104,9 +119,12 @@ fn serve(a: &Args) -> Result<(), String> {
         seed: a.seed,
         bar_noise_um: a.noise.unwrap_or(d.bar_noise_um),
         max_seconds: a.max_seconds,
-        settings: Some(ballpod_host::cli::settings(&a.set))
-            .filter(|_| !a.set.is_empty())
+        settings: (!a.set.is_empty())
+            .then(|| ballpod_host::cli::settings(&a.set))
             .transpose()?,
+        program: a.program.clone().zip(a.m_codes.clone()),
+        m_codes_via_usb: a.m_codes_via_usb,
+        cycle_start_s: a.cycle_start_after,
         machine: a
             .machine
             .as_ref()

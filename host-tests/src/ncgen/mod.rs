@@ -21,6 +21,7 @@
 mod correct;
 mod dialect;
 mod pattern;
+mod session;
 mod sphere;
 mod ssm;
 mod travel;
@@ -33,6 +34,10 @@ pub use correct::{
 };
 pub use dialect::Dialect;
 pub use pattern::PatternTest;
+pub use session::{
+    DEFAULT_M_BASE, STEPS as SESSION_STEPS, Session, SessionStep, SetupField, StepInfo,
+    circle_fields, scripts as session_scripts, setup_file,
+};
 pub use sphere::SphereTest;
 pub use ssm::SsmTest;
 pub use travel::{Extents, Travel, check as check_travel, extents};
@@ -41,7 +46,10 @@ pub use two_step::TwoStepTest;
 use std::fmt::Write as _;
 
 use ballpod::app::Direction;
-use ballpod::config::{CirclePlane, Config};
+use ballpod::config::{CirclePlane, Config, RunTrigger};
+
+/// The LVDT's stroke either side of the bar's length, mm (the bars the pod reads).
+pub const BAR_STROKE_MM: f64 = 1.1;
 
 /// Why a test cannot be programmed (the set-up field or option named).
 #[derive(Clone, Debug, PartialEq)]
@@ -94,8 +102,10 @@ pub struct CircleTest {
     pub plane: CirclePlane,
     /// Centre (the socket), mm; the out-of-plane coordinate may be unknown (not moved).
     pub centre_mm: [Option<f64>; 3],
-    /// Radius (the bar length), mm.
+    /// Radius, mm.
     pub radius_mm: f64,
+    /// The bar's calibrated length, mm (the set-up's `bar_length`).
+    pub bar_length_mm: f64,
     /// Feed, mm/min.
     pub feed_mm_per_min: f64,
     /// The options.
@@ -136,6 +146,16 @@ impl CircleTest {
             }),
         };
         let radius_mm = positive(t.circle_radius_mm, "circle_radius")?;
+        // the bar is the radius: on the circle the LVDT must stay within its stroke
+        let bar_length_mm = f64::from(cfg.bar_length_mm);
+        if (radius_mm - bar_length_mm).abs() > BAR_STROKE_MM {
+            return Err(NcError {
+                field: "circle_radius",
+                what: format!(
+                    "{radius_mm} mm: the bar (bar_length {bar_length_mm} mm) reaches only ±{BAR_STROKE_MM} mm beyond its length"
+                ),
+            });
+        }
         let feed_mm_per_min = positive(t.circle_feed_mm_per_min, "circle_feed")?;
         let range = |x: f64, lo: f64, hi: f64, open_lo: bool, field: &'static str| {
             let ok = x.is_finite() && (if open_lo { x > lo } else { x >= lo }) && x <= hi;
@@ -164,9 +184,24 @@ impl CircleTest {
             plane: t.circle_plane,
             centre_mm,
             radius_mm,
+            bar_length_mm,
             feed_mm_per_min,
             options,
         })
+    }
+
+    /// Every configuration field the pod needs for this program's runs (`trigger`: who starts
+    /// and stops them), as the header names them and `M150` applies them.
+    pub fn setup_fields(&self, trigger: RunTrigger) -> Vec<SetupField> {
+        circle_fields(
+            self.plane,
+            self.centre_mm,
+            self.radius_mm,
+            self.bar_length_mm,
+            self.feed_mm_per_min,
+            self.options.arc_deg,
+            trigger,
+        )
     }
 
     /// The point at angle `deg` and distance `r_mm` from the centre, in the plane, mm (the
@@ -180,8 +215,16 @@ impl CircleTest {
         p
     }
 
-    /// The part program in `dialect`.
+    /// The part program in `dialect`; the pod is driven by its client (no M-codes).
     pub fn program(&self, dialect: Dialect) -> String {
+        self.program_with(dialect, None)
+    }
+
+    /// The part program in `dialect`, with `session`'s M-codes when given: `M150 P<n>` applies
+    /// the set-up, then per direction: arm before the feed-in (or before the return to it),
+    /// start at the data arc's start and stop at its end (run_trigger COMMAND), wait for the
+    /// results after the feed-out.
+    pub fn program_with(&self, dialect: Dialect, session: Option<&Session>) -> String {
         let o = &self.options;
         let mut out = String::new();
         let names: Vec<&str> = o.directions.iter().map(|d| d.name()).collect();
@@ -214,18 +257,48 @@ impl CircleTest {
                 num(o.overshoot_deg),
                 num(o.feed_in_mm)
             ),
-            format!(
-                "pod set-up: pattern CIRCLE, circle_plane {}, circle_radius {}, circle_feed {}, circle_arc {}",
-                CirclePlane::NAMES[self.plane as usize],
-                num(self.radius_mm),
-                num(self.feed_mm_per_min),
-                num(o.arc_deg)
-            ),
-            "the pod runs one test per direction: arm it before each feed-in; with run_trigger FEED_IN the feed-in starts it, the data arc's end stops it"
-                .into(),
+            "pod set-up, pattern CIRCLE, the fields:".into(),
+            match session {
+                None => "the pod runs one test per direction: arm it before each feed-in; with run_trigger FEED_IN the feed-in starts it, the data arc's end stops it"
+                    .into(),
+                Some(s) => format!(
+                    "the M-codes M{}-M{} drive the pod: set-up {}, arm, start, stop, results; book: Running a test from the CNC",
+                    s.m_base,
+                    s.m_base + SESSION_STEPS.len() as u16 - 1,
+                    s.setup_number
+                ),
+            },
         ];
+        let mut header = header.to_vec();
+        // the set-up fields, a few to a line (controls limit a block's length: LinuxCNC 255)
+        let words: Vec<String> = self
+            .setup_fields(session.map_or(RunTrigger::Command, |s| s.trigger))
+            .iter()
+            .map(|(name, v)| setup_word(name, *v))
+            .collect();
+        let mut lines: Vec<String> = Vec::new();
+        for w in words {
+            match lines.last_mut() {
+                Some(l) if l.len() + w.len() < 64 => {
+                    l.push_str(", ");
+                    l.push_str(&w);
+                }
+                _ => lines.push(format!("  {w}")),
+            }
+        }
+        let at = header.len() - 1;
+        header.splice(at..at, lines);
         dialect.begin(&mut out, &header);
         let _ = writeln!(out, "{}", dialect.modal(self.plane));
+        let step = |out: &mut String, st: SessionStep| {
+            if let Some(s) = session {
+                let commanded = matches!(st, SessionStep::Start | SessionStep::Stop);
+                if s.commanded() || !commanded {
+                    let _ = writeln!(out, "{}", s.block(st));
+                }
+            }
+        };
+        step(&mut out, SessionStep::SetUp);
         let (_, _, w) = plane_axes(self.plane);
         if let Some(z) = self.centre_mm[w] {
             let _ = writeln!(out, "G0 {}{}", axis[w], num(z));
@@ -241,6 +314,13 @@ impl CircleTest {
             };
             let data_end = o.start_deg + sign * o.arc_deg;
             let over_end = data_end + sign * o.overshoot_deg;
+            step(
+                &mut out,
+                match d {
+                    Direction::Ccw => SessionStep::ArmCcw,
+                    Direction::Cw => SessionStep::ArmCw,
+                },
+            );
             match previous {
                 None => {
                     dialect.comment(
@@ -272,13 +352,16 @@ impl CircleTest {
                 num(self.feed_mm_per_min)
             );
             dialect.comment(&mut out, &format!("{} data arc start", d.name()));
+            step(&mut out, SessionStep::Start);
             self.arc(&mut out, *d, o.start_deg, data_end);
             dialect.comment(&mut out, &format!("{} data arc end, overshoot", d.name()));
+            step(&mut out, SessionStep::Stop);
             if o.overshoot_deg > 0.0 {
                 self.arc(&mut out, *d, data_end, over_end);
             }
             dialect.comment(&mut out, &format!("{} feed-out", d.name()));
             let _ = writeln!(out, "G1 {}", self.words(over_end, out_r));
+            step(&mut out, SessionStep::Results);
             previous = Some((*d, over_end));
         }
         dialect.end(&mut out);
@@ -327,6 +410,18 @@ impl CircleTest {
             .collect();
         let _ = writeln!(out, "{g} {} {}", self.words(to_deg, r_mm), centre.join(" "));
     }
+}
+
+/// A set-up field as the header names it: `circle_plane XY`, `run_trigger COMMAND`, numbers
+/// with the programs' 4 decimals.
+fn setup_word(name: &str, v: f64) -> String {
+    let choice = |names: &[&str]| names.get(v as usize).map(|n| n.to_string());
+    let value = match name {
+        "circle_plane" => choice(&CirclePlane::NAMES),
+        "run_trigger" => choice(&RunTrigger::NAMES),
+        _ => None,
+    };
+    format!("{name} {}", value.unwrap_or_else(|| num(v)))
 }
 
 /// The resolution of the coordinates the programs write ([`num`]), mm.

@@ -18,6 +18,8 @@
 //!   sequence);
 //! - [`nc_motion`]: a part program's path through LinuxCNC's interpreter (`rs274 -g`), run by
 //!   run, sampled at the pod's rate (`sim --nc`);
+//! - [`nc_program`]: a part program as LinuxCNC's task runs it, user M-codes in step with the
+//!   motion (`sim --serve --program`);
 //! - [`virtual_pod`]: the pod's application with its log, stream, CANopen slave and SCPI
 //!   server on those sensors, behind `sim --serve`, the simulator and the fault-scenario tests.
 
@@ -25,6 +27,7 @@ pub mod lvdt_channel;
 pub mod machine;
 pub mod motion;
 pub mod nc_motion;
+pub mod nc_program;
 pub mod probe_rig;
 pub mod rtest_rig;
 pub mod sensors;

@@ -241,6 +241,33 @@ impl Motion {
     }
 }
 
+/// The served circle machine with the bar mounted, the axes commanded to `axes` (X, Y, Z mm)
+/// moving in `sense` (+1 CCW, −1 CW about the plane's normal): the true bar-length deviation
+/// and the positions the encoders read, for a part program's path (`sim --serve --program`).
+/// The circle is the pod's set-up's (centre, radius, plane, feed): the program is written from
+/// it; a position off the circle extends the bar by as much (feed-in, feed-out).
+pub fn circle_machine_at(
+    truth: &ServeTruth,
+    cfg: &Config,
+    axes: &[f64; MAX_AXES],
+    sense: f64,
+) -> Result<MachineStep, String> {
+    let c = CircleProgram::new(truth, cfg)?;
+    let (u, v, _) = crate::ncgen::plane_axes(c.plane);
+    let (du, dv) = (axes[u] - c.centre_mm[u], axes[v] - c.centre_mm[v]);
+    let theta = dv.atan2(du);
+    let out_mm = du.hypot(dv) - c.machine.radius_mm;
+    let sign = if sense < 0.0 { -1.0 } else { 1.0 };
+    let mut step = c.step(theta, sign, out_mm);
+    // the axes outside the plane and the rotary ones stay where the program has them
+    for (k, a) in axes.iter().enumerate() {
+        if k != u && k != v {
+            step.axes[k] = *a;
+        }
+    }
+    Ok(step)
+}
+
 /// The circle the served CNC runs: the pod's set-up (centre, radius, plane, feed) on the
 /// circular-test machine's faults.
 struct CircleProgram {

@@ -19,15 +19,15 @@
 use ballpod::app::Direction;
 
 /// Axes of a canonical position: X, Y, Z (mm), A, B, C (degrees).
-type Axes6 = [f64; 6];
+pub(crate) type Axes6 = [f64; 6];
 
 /// The selected plane of an arc: (first, second, normal) axis indices of X Y Z.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct ArcPlane([usize; 3]);
+pub(crate) struct ArcPlane([usize; 3]);
 
 /// One feed move of a run.
 #[derive(Clone, Copy, Debug, PartialEq)]
-enum Move {
+pub(crate) enum Move {
     /// Straight, every axis linear in time.
     Line { from: Axes6, to: Axes6, feed: f64 },
     /// Arc (helix) in `plane` about `centre` (first, second axis), `turns` the signed angle
@@ -43,8 +43,23 @@ enum Move {
 }
 
 impl Move {
+    /// Where it ends.
+    pub(crate) fn end(&self) -> Axes6 {
+        match self {
+            Move::Line { to, .. } | Move::Arc { to, .. } => *to,
+        }
+    }
+
+    /// The sense of rotation in the arc's plane: +1 CCW, −1 CW, 0 for a straight move.
+    pub(crate) fn sense(&self) -> f64 {
+        match self {
+            Move::Line { .. } => 0.0,
+            Move::Arc { turns, .. } => turns.signum(),
+        }
+    }
+
     /// Duration, s.
-    fn seconds(&self) -> f64 {
+    pub(crate) fn seconds(&self) -> f64 {
         let per_s = |feed: f64| feed / 60.0;
         match *self {
             Move::Line { from, to, feed } => {
@@ -72,7 +87,7 @@ impl Move {
     }
 
     /// The position a fraction `f` (0…1) of the move's time in.
-    fn at(&self, f: f64) -> Axes6 {
+    pub(crate) fn at(&self, f: f64) -> Axes6 {
         let lerp = |from: &Axes6, to: &Axes6| -> Axes6 {
             std::array::from_fn(|k| from[k] + (to[k] - from[k]) * f)
         };
@@ -162,7 +177,7 @@ fn command(line: &str) -> Option<(&str, Vec<&str>)> {
     let args = args.strip_suffix(')')?;
     let args = if args.is_empty() {
         Vec::new()
-    } else if name == "COMMENT" {
+    } else if name == "COMMENT" || name == "MESSAGE" {
         vec![args.trim_matches('"')]
     } else {
         args.split(',').map(str::trim).collect()
@@ -188,8 +203,22 @@ fn marker(comment: &str) -> Option<(Direction, bool)> {
     }
 }
 
-/// The data runs of a program's canonical commands (`rs274 -g` output), in program order.
-pub fn runs(canon: &str) -> Result<Vec<NcRun>, String> {
+/// One canonical command the motion follows, in program order.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum CanonStep {
+    /// A feed move (`STRAIGHT_FEED`, `ARC_FEED`).
+    Feed(Move),
+    /// A rapid (`STRAIGHT_TRAVERSE`) from one point to another.
+    Traverse { from: Axes6, to: Axes6 },
+    /// A comment's text.
+    Comment(String),
+    /// A message's text (`(MSG, …)`).
+    Message(String),
+}
+
+/// The moves, comments and messages of a program's canonical commands (`rs274 -g` output), in
+/// program order: the one reading of the canonical commands ([`runs`], [`super::nc_program`]).
+pub(crate) fn canon_steps(canon: &str) -> Result<Vec<CanonStep>, String> {
     let num = |s: &str| {
         s.parse::<f64>()
             .map_err(|_| format!("not a number in the canonical commands: {s}"))
@@ -202,7 +231,7 @@ pub fn runs(canon: &str) -> Result<Vec<NcRun>, String> {
         Ok(p)
     };
     let (mut pos, mut feed, mut plane) = ([0.0; 6], 0.0, ArcPlane([0, 1, 2]));
-    let (mut out, mut open): (Vec<NcRun>, Option<NcRun>) = (Vec::new(), None);
+    let mut out = Vec::new();
     for line in canon.lines() {
         let Some((name, a)) = command(line) else {
             continue;
@@ -222,7 +251,9 @@ pub fn runs(canon: &str) -> Result<Vec<NcRun>, String> {
                 None
             }
             "STRAIGHT_TRAVERSE" => {
-                pos = axes(&a)?;
+                let to = axes(&a)?;
+                out.push(CanonStep::Traverse { from: pos, to });
+                pos = to;
                 None
             }
             "STRAIGHT_FEED" => {
@@ -270,19 +301,13 @@ pub fn runs(canon: &str) -> Result<Vec<NcRun>, String> {
                     feed,
                 })
             }
-            "COMMENT" => {
-                if let Some((direction, start)) = a.first().and_then(|c| marker(c)) {
-                    match (start, open.take()) {
-                        (true, None) => {
-                            open = Some(NcRun {
-                                direction,
-                                moves: Vec::new(),
-                            })
-                        }
-                        (false, Some(run)) if run.direction == direction => out.push(run),
-                        _ => return Err(format!("run markers out of order at: {line}")),
-                    }
-                }
+            "COMMENT" | "MESSAGE" => {
+                let text = a.first().copied().unwrap_or("").trim().to_string();
+                out.push(if name == "COMMENT" {
+                    CanonStep::Comment(text)
+                } else {
+                    CanonStep::Message(text)
+                });
                 None
             }
             _ => None,
@@ -291,12 +316,38 @@ pub fn runs(canon: &str) -> Result<Vec<NcRun>, String> {
             if feed <= 0.0 {
                 return Err(format!("a feed move without a feed rate: {line}"));
             }
-            pos = match m {
-                Move::Line { to, .. } | Move::Arc { to, .. } => to,
-            };
-            if let Some(run) = open.as_mut() {
-                run.moves.push(m);
+            pos = m.end();
+            out.push(CanonStep::Feed(m));
+        }
+    }
+    Ok(out)
+}
+
+/// The data runs of a program's canonical commands (`rs274 -g` output), in program order.
+pub fn runs(canon: &str) -> Result<Vec<NcRun>, String> {
+    let (mut out, mut open): (Vec<NcRun>, Option<NcRun>) = (Vec::new(), None);
+    for step in canon_steps(canon)? {
+        match step {
+            CanonStep::Comment(c) => {
+                if let Some((direction, start)) = marker(&c) {
+                    match (start, open.take()) {
+                        (true, None) => {
+                            open = Some(NcRun {
+                                direction,
+                                moves: Vec::new(),
+                            })
+                        }
+                        (false, Some(run)) if run.direction == direction => out.push(run),
+                        _ => return Err(format!("run markers out of order at: ({c})")),
+                    }
+                }
             }
+            CanonStep::Feed(m) => {
+                if let Some(run) = open.as_mut() {
+                    run.moves.push(m);
+                }
+            }
+            CanonStep::Traverse { .. } | CanonStep::Message(_) => {}
         }
     }
     if open.is_some() {

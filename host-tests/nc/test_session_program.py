@@ -213,3 +213,50 @@ def test_a_self_triggered_program_drives_the_pod_over_scpi(tmp_path):
     results = read_results(info, CIRCLE_PAIR)
     assert all(valid for valid, _, _ in results.values()), results
     check_runs_against_the_stream(info, stream, results)
+
+
+# seed 002 (thesis Table 4.3, the simulator's set-up, mm) and the truth's keys of the deviations
+S002 = {"s002_l_b": 100.0, "s002_r_b": 356.3945, "s002_r_b2": 406.4608, "s002_r_c": 50.0,
+        "s002_z_c": 65.5348, "s002_z_t": 112.2877, "s002_z_t2": 62.2491, "s002_x_t": 490.0,
+        "s002_origin_x": 0.0, "s002_origin_y": 0.0, "s002_origin_z": 0.0, "bar_length": 100.0}
+MOUNTING_U = ["s002_u_w_clamp", "s002_u_t_centring", "s002_u_t_axial", "s002_u_r_c_z_c", "s002_u_r_b"]
+DEVIATIONS = {"dx_BT": "dx_bt_um", "dz_BT": "dz_bt_um", "alpha_BT": "alpha_bt_arcsec",
+              "alpha_XB": "alpha_xb_arcsec", "beta_XB": "beta_xb_arcsec",
+              "gamma_XB": "gamma_xb_arcsec", "dx_CZ": "dx_cz_um", "dy_CZ": "dy_cz_um",
+              "alpha_CZ": "alpha_cz_arcsec", "beta_CZ": "beta_cz_arcsec"}
+
+
+def test_the_seed_002_programs_drive_the_procedure_to_the_identification(tmp_path):
+    """Five LinuxCNC programs with their sessions, one after the other (the operator loads the
+    next and presses cycle start): the pod identifies the machine's deviations as when a client
+    drives it (within 3u and 0.5 um / 0.5 arc-second of the truth)."""
+    setup = tmp_path / "s002.toml"
+    setup.write_text("[setup]\n" + "".join(f"{k} = {v}\n" for k, v in S002.items()))
+    mc = tmp_path / "mc"
+    assert subprocess.run([NCGEN, "m-codes", str(mc)], timeout=60).returncode == 0
+    programs = []
+    for n, step in enumerate(["BX", "BY", "CR", "CA", "CR2"], start=1):
+        program = tmp_path / f"{step}.ngc"
+        p = subprocess.run([NCGEN, "pattern", step, str(setup), "--session", "--setup-number", str(n),
+                            "--setup-out", str(mc / f"ballpod-setup-{n}.toml"), "--out", str(program)],
+                           capture_output=True, text=True, timeout=60)
+        assert p.returncode == 0, p.stderr
+        programs += ["--program", str(program)]
+        # the set-up file is the technician's to complete: the simulated machine's balls are
+        # mounted without offsets at the R_C and Z_C entered, so no mounting uncertainty (as
+        # clients/test_canopen_seed002.py states it)
+        with open(mc / f"ballpod-setup-{n}.toml", "a") as f:
+            f.write("".join(f"{k} = 0.0\n" for k in MOUNTING_U))
+    proc = subprocess.Popen([SIM, "--serve", "--max-seconds", "400", "--m-codes", str(mc), *programs],
+                            stdout=subprocess.PIPE, text=True)
+    SERVED.append(proc)
+    info = json.loads(proc.stdout.readline())
+    end = json.loads(proc.stdout.readline())
+    # per program: set-up, then per direction arm, start, stop, results
+    assert end == {"program": "done", "user_m_codes": 5 * 9}, end
+    results = read_results(info, list(DEVIATIONS))
+    truth = info["truth"]["machine"]["seed002"]
+    for name, key in DEVIATIONS.items():
+        valid, value, u = results[name]
+        t = truth[key]
+        assert valid and abs(value - t) <= 3 * u and abs(value - t) <= 0.5, (name, value, u, t)

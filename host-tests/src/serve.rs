@@ -44,7 +44,7 @@ use std::time::{Duration, Instant};
 use ballpod::app::SessionState;
 use ballpod::protocol::canopen::CanFrame;
 
-use crate::vmt::motion::circle_machine_at;
+use crate::vmt::motion::machine_at;
 use crate::vmt::nc_program::{CncStep, ProgramCnc};
 use crate::vmt::sensors::Instrument;
 use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
@@ -74,8 +74,9 @@ pub struct ServeOptions {
     /// The settings the pod boots with, stored in its settings pages (`--set`); `None`: erased
     /// pages, the defaults.
     pub settings: Option<ballpod::config::Config>,
-    /// A part program the served CNC runs, and the directory of its user M-codes' programs.
-    pub program: Option<(std::path::PathBuf, std::path::PathBuf)>,
+    /// The part programs the served CNC runs one after the other, and the directory of their
+    /// user M-codes' programs.
+    pub program: Option<(Vec<std::path::PathBuf>, std::path::PathBuf)>,
     /// The operator presses cycle start this long after the server is up, s (time for a
     /// stream reader to connect).
     pub cycle_start_s: f64,
@@ -106,6 +107,8 @@ impl Default for ServeOptions {
 /// The part program the served CNC runs (`--program`), and the user M-code running now.
 struct ServedProgram {
     cnc: ProgramCnc,
+    /// The programs still to run, in order (the operator loads each and presses cycle start).
+    next_files: std::collections::VecDeque<std::path::PathBuf>,
     /// When the operator presses cycle start.
     cycle_start: Instant,
     dir: std::path::PathBuf,
@@ -126,18 +129,10 @@ impl ServedProgram {
     /// starts the M-code it reaches. Returns the frames the node sent.
     fn step(&mut self, vp: &mut VirtualPod, dt_s: f64) -> Vec<CanFrame> {
         if self.over || self.running.is_some() || Instant::now() < self.cycle_start {
-            return vp.sample_at_rest();
+            return at_rest(vp);
         }
         match self.cnc.step(dt_s) {
-            CncStep::At { axes, sense } => {
-                let cfg = vp.app.running_config();
-                let (dl, axes) = match circle_machine_at(vp.truth(), &cfg, &axes, sense) {
-                    Ok(m) => (m.dl_um, m.axes),
-                    // no circle set up yet: the bar reads its nominal
-                    Err(_) => (0.0, axes),
-                };
-                vp.sample_at(dl, &axes).1
-            }
+            CncStep::At { axes, sense } => sample(vp, &axes, sense),
             CncStep::UserM { code, p, q } => {
                 let path = self.dir.join(format!("M{code}"));
                 let child = std::process::Command::new(&path)
@@ -150,13 +145,22 @@ impl ServedProgram {
                     Ok(c) => self.running = Some((code, c)),
                     Err(e) => self.stop(&format!("M{code}: {}: {e}", path.display())),
                 }
-                vp.sample_at_rest()
+                at_rest(vp)
             }
             CncStep::Done => {
+                if let Some(next) = self.next_files.pop_front() {
+                    // the next program, from where this one left the machine
+                    let at = vp.axes_now();
+                    match ProgramCnc::load(&next, Some(at)) {
+                        Ok(cnc) => self.cnc = cnc,
+                        Err(e) => self.stop(&e),
+                    }
+                    return at_rest(vp);
+                }
                 self.over = true;
                 println!("{{\"program\":\"done\",\"user_m_codes\":{}}}", self.ran);
                 let _ = io::stdout().flush();
-                vp.sample_at_rest()
+                at_rest(vp)
             }
         }
     }
@@ -208,6 +212,27 @@ impl ServedProgram {
         println!("{{\"program\":\"stopped\",\"reason\":\"{reason}\"}}");
         let _ = io::stdout().flush();
     }
+}
+
+/// One sample period with the served machine at `axes` moving in `sense`: the bar of the pod's
+/// pattern reads the machine's true ΔL there. Returns the frames the node sent.
+fn sample(vp: &mut VirtualPod, axes: &[f64; 5], sense: f64) -> Vec<CanFrame> {
+    let cfg = vp.app.running_config();
+    // the technician mounted the bar the configuration names (its expansion is modelled on it)
+    vp.sensors.set_bar_length(f64::from(cfg.bar_length_mm));
+    let pattern = vp.app.pattern();
+    let (dl, axes) = match machine_at(vp.truth(), &cfg, pattern, axes, sense) {
+        Ok(m) => (m.dl_um, m.axes),
+        // nothing set up yet: the bar reads its nominal
+        Err(_) => (0.0, *axes),
+    };
+    vp.sample_at(dl, &axes).1
+}
+
+/// One sample period with the served machine standing where it is.
+fn at_rest(vp: &mut VirtualPod) -> Vec<CanFrame> {
+    let at = vp.axes_now();
+    sample(vp, &at, 0.0)
 }
 
 /// Bytes a client may have waiting to be read before the pod stops producing for it (a log
@@ -379,12 +404,16 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
     let mut vp: VirtualPod = VirtualPod::boot(setup, flash);
     vp.stream_reader(false);
     let mut program = match &opts.program {
-        Some((file, dir)) => {
-            let cnc = ProgramCnc::load(file).map_err(io::Error::other)?;
+        Some((files, dir)) => {
+            let first = files
+                .first()
+                .ok_or_else(|| io::Error::other("--program: none"))?;
+            let cnc = ProgramCnc::load(first, None).map_err(io::Error::other)?;
             // referenced where the bar is mounted: the axes read the program's positions
             vp.home(&cnc.start());
             Some(ServedProgram {
                 cnc,
+                next_files: files.iter().skip(1).cloned().collect(),
                 cycle_start: Instant::now() + Duration::from_secs_f64(opts.cycle_start_s.max(0.0)),
                 dir: dir.clone(),
                 running: None,

@@ -225,6 +225,8 @@ struct PatternArgs {
     /// Feed of the linear axes, mm/min.
     #[arg(long, default_value_t = 1000.0, allow_negative_numbers = true)]
     feed: f64,
+    #[command(flatten)]
+    session: SessionArgs,
 }
 
 /// The sphere's place (as the stylus ball's centre) and size.
@@ -333,7 +335,29 @@ fn run(args: &Args) -> Result<String, String> {
             };
             let test = PatternTest::from_config(&cfg, step, steps, p.feed, directions(p.direction))
                 .map_err(|e| format!("{}: {e}", p.setup.display()))?;
-            within_travel(&p.setup, test.program(dialect))
+            let a = &p.session;
+            if !matches!(a.trigger, TriggerArg::Command) {
+                return Err("--trigger feed-in: a seed 002 run starts and stops on command".into());
+            }
+            let session = if a.session {
+                Some(Session::new(a.m_base, a.setup_number, RunTrigger::Command)?)
+            } else {
+                None
+            };
+            let program = within_travel(&p.setup, test.program_with(dialect, session.as_ref()))?;
+            if let Some(path) = &a.setup_out {
+                let text = setup_file(
+                    step.name(),
+                    &test.setup_fields,
+                    &format!(
+                        "ballpod set-up {} (ncgen pattern {})",
+                        a.setup_number,
+                        step.name()
+                    ),
+                );
+                std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+            }
+            Ok(program)
         }
         Test::Ssm(a) => {
             let text = read_text(&a.setup).map_err(|e| e.to_string())?;

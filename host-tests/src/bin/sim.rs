@@ -75,11 +75,12 @@ struct Args {
     /// node-ID (it waits for an LSS master).
     #[arg(long = "set", value_name = "NAME=VALUE")]
     set: Vec<String>,
-    /// `--serve`: the served CNC runs this part program (LinuxCNC dialect, `ncgen circle
-    /// --session`) on the circle machine, its user M-codes from `--m-codes` in step with the
-    /// motion, as LinuxCNC's task does.
+    /// `--serve`: the served CNC runs this part program (LinuxCNC dialect, `ncgen circle` or
+    /// `ncgen pattern` with `--session`) on the machine of the pod's pattern, its user M-codes
+    /// from `--m-codes` in step with the motion, as LinuxCNC's task does; repeated, the programs
+    /// run one after the other.
     #[arg(long, requires = "m_codes")]
-    program: Option<PathBuf>,
+    program: Vec<PathBuf>,
     /// `--serve --program`: the directory of the user M-codes' programs (`ncgen m-codes DIR`).
     #[arg(long, requires = "program")]
     m_codes: Option<PathBuf>,
@@ -122,7 +123,7 @@ fn serve(a: &Args) -> Result<(), String> {
         settings: (!a.set.is_empty())
             .then(|| ballpod_host::cli::settings(&a.set))
             .transpose()?,
-        program: a.program.clone().zip(a.m_codes.clone()),
+        program: a.m_codes.clone().map(|dir| (a.program.clone(), dir)),
         m_codes_via_usb: a.m_codes_via_usb,
         cycle_start_s: a.cycle_start_after,
         machine: a

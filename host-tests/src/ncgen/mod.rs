@@ -261,33 +261,13 @@ impl CircleTest {
             match session {
                 None => "the pod runs one test per direction: arm it before each feed-in; with run_trigger FEED_IN the feed-in starts it, the data arc's end stops it"
                     .into(),
-                Some(s) => format!(
-                    "the M-codes M{}-M{} drive the pod: set-up {}, arm, start, stop, results; book: Running a test from the CNC",
-                    s.m_base,
-                    s.m_base + SESSION_STEPS.len() as u16 - 1,
-                    s.setup_number
-                ),
+                Some(s) => session_line(s),
             },
         ];
-        let mut header = header.to_vec();
-        // the set-up fields, a few to a line (controls limit a block's length: LinuxCNC 255)
-        let words: Vec<String> = self
-            .setup_fields(session.map_or(RunTrigger::Command, |s| s.trigger))
-            .iter()
-            .map(|(name, v)| setup_word(name, *v))
-            .collect();
-        let mut lines: Vec<String> = Vec::new();
-        for w in words {
-            match lines.last_mut() {
-                Some(l) if l.len() + w.len() < 64 => {
-                    l.push_str(", ");
-                    l.push_str(&w);
-                }
-                _ => lines.push(format!("  {w}")),
-            }
-        }
         let at = header.len() - 1;
-        header.splice(at..at, lines);
+        let mut header = header.to_vec();
+        let fields = self.setup_fields(session.map_or(RunTrigger::Command, |s| s.trigger));
+        header.splice(at..at, field_lines(&fields));
         dialect.begin(&mut out, &header);
         let _ = writeln!(out, "{}", dialect.modal(self.plane));
         let step = |out: &mut String, st: SessionStep| {
@@ -410,6 +390,32 @@ impl CircleTest {
             .collect();
         let _ = writeln!(out, "{g} {} {}", self.words(to_deg, r_mm), centre.join(" "));
     }
+}
+
+/// The header line of a program with its session.
+fn session_line(s: &Session) -> String {
+    format!(
+        "the M-codes M{}-M{} drive the pod: set-up {}, arm, start, stop, results; book: Running a test from the CNC",
+        s.m_base,
+        s.m_base + SESSION_STEPS.len() as u16 - 1,
+        s.setup_number
+    )
+}
+
+/// The set-up fields as header comment lines, a few to a line (controls limit a block's
+/// length: LinuxCNC 255 characters).
+fn field_lines(fields: &[SetupField]) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for w in fields.iter().map(|(name, v)| setup_word(name, *v)) {
+        match lines.last_mut() {
+            Some(l) if l.len() + w.len() < 64 => {
+                l.push_str(", ");
+                l.push_str(&w);
+            }
+            _ => lines.push(format!("  {w}")),
+        }
+    }
+    lines
 }
 
 /// A set-up field as the header names it: `circle_plane XY`, `run_trigger COMMAND`, numbers

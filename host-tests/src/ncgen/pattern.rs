@@ -17,7 +17,7 @@ use ballpod::app::{Direction, Pattern};
 use ballpod::config::{Config, TestSetup};
 use ballpod::identify::multitasking::patterns::PatternProgram;
 
-use super::{Dialect, NcError, num};
+use super::{Dialect, NcError, Session, SessionStep, SetupField, field_lines, num, session_line};
 
 /// The largest bar-length change between blocks the default block count allows, µm (a tenth
 /// of a good ball bar's uncertainty: the thesis's 0.2778° blocks leave 1 µm on the B patterns).
@@ -36,6 +36,9 @@ pub struct PatternTest {
     pub feed_mm_per_min: f64,
     /// The runs, in order.
     pub directions: Vec<Direction>,
+    /// The configuration fields the pod needs for the runs: the set `s002_*` geometry (not its
+    /// uncertainties, which have defaults) and `bar_length` = L_B.
+    pub setup_fields: Vec<SetupField>,
 }
 
 impl PatternTest {
@@ -79,6 +82,7 @@ impl PatternTest {
             steps,
             feed_mm_per_min,
             directions,
+            setup_fields: s002_fields(cfg),
         };
         // the core validates the geometry (e.g. CR with R_C = L_B puts the T-ball on the axis)
         test.run(Direction::Ccw).map_err(|e| NcError {
@@ -156,8 +160,16 @@ impl PatternTest {
         }
     }
 
-    /// The part program in `dialect`.
+    /// The part program in `dialect`; the pod is driven by its client (no M-codes).
     pub fn program(&self, dialect: Dialect) -> String {
+        self.program_with(dialect, None)
+    }
+
+    /// The part program in `dialect`, with `session`'s M-codes when given (a commanded
+    /// session: the seed 002 runs start and stop on the client's or the program's command):
+    /// `M150 P<n>` applies the set-up, then per run: arm before it, start at `(… run start)`,
+    /// stop at `(… run end)`, wait for its results.
+    pub fn program_with(&self, dialect: Dialect, session: Option<&Session>) -> String {
         let s = &self.setup;
         let g = s.geometry(self.step);
         let names: Vec<&str> = self.directions.iter().map(|d| d.name()).collect();
@@ -187,13 +199,23 @@ impl PatternTest {
                 "joint-space interpolation: the bar leaves the pattern by up to {} um between blocks",
                 num(self.interpolation_error_um())
             ),
-            format!(
-                "pod set-up: pattern {}; the pod runs one test per direction: arm it before each run",
-                self.step.name()
-            ),
+            format!("pod set-up, pattern {}, the fields:", self.step.name()),
+            match session {
+                None => "the pod runs one test per direction: arm it before each run".into(),
+                Some(se) => session_line(se),
+            },
         ];
+        let at = header.len() - 1;
+        let mut header = header.to_vec();
+        header.splice(at..at, field_lines(&self.setup_fields));
         dialect.begin(&mut out, &header);
         let _ = writeln!(out, "G21 G90 G94");
+        let step = |out: &mut String, st: SessionStep| {
+            if let Some(se) = session {
+                let _ = writeln!(out, "{}", se.block(st));
+            }
+        };
+        step(&mut out, SessionStep::SetUp);
         let mut first = true;
         for d in &self.directions {
             // from_config checked the geometry: a run always builds
@@ -213,6 +235,13 @@ impl PatternTest {
                     num(b.c_deg)
                 )
             };
+            step(
+                &mut out,
+                match d {
+                    Direction::Ccw => SessionStep::ArmCcw,
+                    Direction::Cw => SessionStep::ArmCw,
+                },
+            );
             if first {
                 dialect.comment(
                     &mut out,
@@ -227,6 +256,7 @@ impl PatternTest {
             // the run starts where the machine is (the mounting point, or the previous run's
             // end): its first block is the next one
             dialect.comment(&mut out, &format!("{} run start", d.name()));
+            step(&mut out, SessionStep::Start);
             for (i, b) in blocks.enumerate() {
                 if i == 0 {
                     let _ = writeln!(out, "G1 {} F{}", words(&b), num(self.feed_mm_per_min));
@@ -235,10 +265,29 @@ impl PatternTest {
                 }
             }
             dialect.comment(&mut out, &format!("{} run end", d.name()));
+            step(&mut out, SessionStep::Stop);
+            step(&mut out, SessionStep::Results);
         }
         dialect.end(&mut out);
         out
     }
+}
+
+/// The fields a seed 002 run needs: every set `s002_*` geometry field (their uncertainties have
+/// defaults), then `bar_length` — the procedure's bar, L_B (`s002_l_b`).
+fn s002_fields(cfg: &Config) -> Vec<SetupField> {
+    let mut out: Vec<SetupField> = ballpod::config::FIELDS
+        .iter()
+        .flat_map(|row| row.fields())
+        .filter_map(|f| {
+            let name = ballpod::app::field_name(f);
+            let v = cfg.field_value(f)?;
+            (name.starts_with("s002_") && !name.starts_with("s002_u_") && v.is_finite())
+                .then_some((name, v))
+        })
+        .collect();
+    out.push(("bar_length", f64::from(cfg.setup.s002_l_b_mm)));
+    out
 }
 
 /// The seed 002 set-up of a configuration, or the first field it lacks, by name.

@@ -169,7 +169,8 @@ pub fn setup_file(pattern: &str, fields: &[SetupField], comment: &str) -> String
     let _ = writeln!(out, "# {comment}");
     let _ = writeln!(out, "[session]\npattern = \"{pattern}\"\n\n[setup]");
     for (name, value) in fields {
-        let _ = writeln!(out, "{name} = {value}");
+        // the configuration holds f32: its shortest decimal is the value the pod takes
+        let _ = writeln!(out, "{name} = {}", *value as f32);
     }
     out
 }

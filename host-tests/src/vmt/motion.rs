@@ -241,6 +241,27 @@ impl Motion {
     }
 }
 
+/// The served machine with the bar of the pod's `pattern` mounted and the axes commanded to
+/// `axes` (X, Y, Z mm; B, C degrees): a CIRCLE on the circle machine
+/// ([`circle_machine_at`]), a seed 002 step on the seed 002 machine with the configured
+/// Table 4.3 set-up (the bar of that step between the W and T balls); the true bar-length
+/// deviation and the positions the encoders read, for a part program's path.
+pub fn machine_at(
+    truth: &ServeTruth,
+    cfg: &Config,
+    pattern: Pattern,
+    axes: &[f64; MAX_AXES],
+    sense: f64,
+) -> Result<MachineStep, String> {
+    if pattern.seed002_step().is_some() {
+        let setup = Setup::from_config(&cfg.setup)
+            .map_err(|f| format!("seed 002 set-up: {f:?} not set"))?;
+        let dl = truth.machine.seed002.delta_l_um(&setup, pattern, axes);
+        return Ok(MachineStep::at(dl, *axes));
+    }
+    circle_machine_at(truth, cfg, axes, sense)
+}
+
 /// The served circle machine with the bar mounted, the axes commanded to `axes` (X, Y, Z mm)
 /// moving in `sense` (+1 CCW, −1 CW about the plane's normal): the true bar-length deviation
 /// and the positions the encoders read, for a part program's path (`sim --serve --program`).

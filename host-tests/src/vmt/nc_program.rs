@@ -111,8 +111,10 @@ pub struct ProgramCnc {
 }
 
 impl ProgramCnc {
-    /// The program in `path` through LinuxCNC's interpreter (module doc).
-    pub fn load(path: &std::path::Path) -> Result<Self, String> {
+    /// The program in `path` through LinuxCNC's interpreter (module doc), the machine where its
+    /// first rapids leave it (`from` `None`: the bar is mounted there), or at `from` (X, Y, Z
+    /// mm; B, C degrees: where the previous program left it), from where its rapids move it.
+    pub fn load(path: &std::path::Path, from: Option<[f64; 5]>) -> Result<Self, String> {
         let text = std::fs::read_to_string(path).map_err(|e| format!("{}: {e}", path.display()))?;
         let marked = mark_user_m_codes(&text)?;
         let tmp = std::env::temp_dir().join(format!(
@@ -123,25 +125,28 @@ impl ProgramCnc {
         std::fs::write(&tmp, marked).map_err(|e| format!("{}: {e}", tmp.display()))?;
         let canon = interpret(&tmp);
         let _ = std::fs::remove_file(&tmp);
-        Self::from_canon(&canon?)
+        Self::from_canon(&canon?, from)
     }
 
-    /// The program of the canonical commands `canon` (`rs274 -g` output of a marked program).
-    pub fn from_canon(canon: &str) -> Result<Self, String> {
+    /// The program of the canonical commands `canon` (`rs274 -g` output of a marked program),
+    /// the machine at `from` or where the first rapids leave it ([`load`](Self::load)).
+    pub fn from_canon(canon: &str, from: Option<[f64; 5]>) -> Result<Self, String> {
         let mut events = Vec::new();
-        let mut start: Option<Axes6> = None;
-        let mut at = [0.0; 6];
+        let from6 = from.map(|[x, y, z, b, c]| [x, y, z, 0.0, b, c]);
+        let mut start: Option<Axes6> = from6;
+        let mut at = from6.unwrap_or([0.0; 6]);
         for step in canon_steps(canon)? {
             match step {
-                CanonStep::Traverse { from, to } => {
-                    at = to;
+                CanonStep::Traverse { to, .. } => {
+                    // (from where the machine is: the interpreter starts at its origin)
                     if start.is_some() {
                         events.push(Event::Move(Move::Line {
-                            from,
+                            from: at,
                             to,
                             feed: RAPID_MM_PER_MIN,
                         }));
                     }
+                    at = to;
                 }
                 CanonStep::Feed(m) => {
                     start.get_or_insert(at);
@@ -167,7 +172,8 @@ impl ProgramCnc {
                 CanonStep::Comment(_) => {}
             }
         }
-        // the rapids before the first feed move are not run: the machine starts where they end
+        // without `from`, the rapids before the first feed move are not run: the machine starts
+        // where they end
         let at = start.unwrap_or(at);
         Ok(Self {
             events,
@@ -225,11 +231,19 @@ impl ProgramCnc {
                             sense: m.sense(),
                         };
                     }
-                    // the rest of this period goes into the next move
+                    // the rest of this period goes into the next move; before an M-code or
+                    // the program's end the machine is at this move's end first
                     dt -= (dur - self.t_s).max(0.0);
+                    let sense = m.sense();
                     self.at = m.end();
                     self.t_s = 0.0;
                     self.next += 1;
+                    if !matches!(self.events.get(self.next), Some(Event::Move(_))) {
+                        return CncStep::At {
+                            axes: five(&self.at),
+                            sense,
+                        };
+                    }
                 }
             }
         }

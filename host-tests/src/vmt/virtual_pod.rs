@@ -112,8 +112,6 @@ pub struct VirtualPod<const N: usize = LOG_CAPACITY> {
     /// time here, so heartbeats, SDO timeouts and event timers keep their real periods while
     /// the machine runs faster.
     protocol_us: Option<u64>,
-    /// The true ΔL of the last sample period, µm (the machine at rest keeps it).
-    rest_dl_um: f64,
 }
 
 impl<const N: usize> VirtualPod<N> {
@@ -171,7 +169,6 @@ impl<const N: usize> VirtualPod<N> {
             at: [0.0; MAX_AXES],
             last: None,
             protocol_us: None,
-            rest_dl_um: 0.0,
             setup,
         }
     }
@@ -286,7 +283,6 @@ impl<const N: usize> VirtualPod<N> {
     ) -> (Option<Sample>, Vec<CanFrame>) {
         let mut tx = Vec::new();
         self.at = *axes;
-        self.rest_dl_um = dl_um;
         if self.losing > 0 {
             self.losing -= 1;
             self.sensors.lose_samples(1);
@@ -317,11 +313,9 @@ impl<const N: usize> VirtualPod<N> {
         (Some(s), tx)
     }
 
-    /// One sample period with the machine standing where it is (true ΔL as the last sample's
-    /// machine left it: the bar does not move). Returns the frames the node sent.
-    pub fn sample_at_rest(&mut self) -> Vec<CanFrame> {
-        let (dl, at) = (self.rest_dl_um, self.at);
-        self.sample_at(dl, &at).1
+    /// Where the machine is (X, Y, Z mm; B, C degrees).
+    pub fn axes_now(&self) -> [f64; MAX_AXES] {
+        self.at
     }
 
     /// The device counters this pod has: the periods lost upstream (as `adc_blocks_lost`),

@@ -28,13 +28,15 @@
 //! (`{"can_port":…,"usb_port":…,"stream_port":…,"node_id":…,"truth":{…}}`). It stops after
 //! `max_seconds` of real time.
 //!
-//! **A part program instead of a client** (`--program FILE --m-codes DIR`): the served CNC
-//! runs the program (cycle start `cycle_start_s` after the server is up) as LinuxCNC's task does ([`crate::vmt::nc_program`]) on the circle
-//! machine, and at each user M-code runs `DIR/M<code> P Q` with `BALLPOD_CAN` (or, with
-//! `m_codes_via_usb`, `BALLPOD_SCPI`) naming this server's port and `BALLPOD_NODE` the pod's
-//! node-ID, the motion waiting until it exits (its output goes to stderr). When the program
-//! ends — or an M-code fails, which stops it — a second JSON line says so:
-//! `{"program":"done","user_m_codes":N}` or `{"program":"stopped","reason":"…"}`.
+//! **Part programs instead of a client** (`--program FILE … --m-codes DIR`): the served CNC
+//! runs the programs one after the other (cycle start `cycle_start_s` after the server is up)
+//! as LinuxCNC's task does ([`crate::vmt::nc_program`]) on the machine of the pod's pattern
+//! ([`crate::vmt::motion::machine_at`]), and at each user M-code runs `DIR/M<code> P Q` with
+//! `BALLPOD_CAN` (or, with `m_codes_via_usb`, `BALLPOD_SCPI`) naming this server's port and
+//! `BALLPOD_NODE` the pod's node-ID, the motion waiting until it exits (its output goes to
+//! stderr). When the last program ends — or an M-code fails, which stops it — a second JSON
+//! line says so: `{"program":"done","user_m_codes":N}` or
+//! `{"program":"stopped","reason":"…"}`.
 
 use std::collections::VecDeque;
 use std::io::{self, ErrorKind, Read, Write};
@@ -165,7 +167,9 @@ impl ServedProgram {
         }
     }
 
-    /// The environment of the next M-code: this server's port and the pod's node-ID.
+    /// Before the sample periods of a loop turn: the program goes on once the running
+    /// M-code's program has exited 0 (and stops when it failed); the next M-code's environment
+    /// names this server's port and the pod's node-ID.
     fn poll_user_m(&mut self, vp: &VirtualPod, (can, usb): (u16, u16), via_usb: bool) {
         self.env = if via_usb {
             vec![("BALLPOD_SCPI".into(), format!("socket://127.0.0.1:{usb}"))]

@@ -301,7 +301,10 @@ impl CanOpenNode {
     /// communication parameters; boot-up, pre-operational (CiA 301 §7.3.2.2.1) — or, without a
     /// node-ID, silence until LSS configures one.
     fn reset_communication(&mut self, app: &App, now_us: u64, out: &mut impl FnMut(CanFrame)) {
-        let id = (self.lss.pending_node_id()).unwrap_or(app.config().can_node_id);
+        let id = self
+            .lss
+            .pending_node_id()
+            .unwrap_or(app.config().can_node_id);
         self.take_node_id(id, now_us, out);
     }
 

@@ -278,3 +278,41 @@ fn the_error_reference_lists_every_error_number_the_server_queues() {
         }
     }
 }
+
+/// The worked examples of the circle and seed 002 pages are what `sim` prints today with its
+/// default options (the simulator's output, not the pages' own arithmetic): each page's text
+/// block is a run of consecutive lines of its output.
+#[test]
+fn the_worked_examples_are_what_sim_prints() {
+    let out_dir = std::env::temp_dir().join(format!("ballpod-docs-sim-{}", std::process::id()));
+    let run = std::process::Command::new(env!("CARGO_BIN_EXE_sim"))
+        .arg("--out")
+        .arg(&out_dir)
+        .output()
+        .expect("sim runs");
+    let _ = std::fs::remove_dir_all(&out_dir);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let printed: Vec<String> = String::from_utf8_lossy(&run.stdout)
+        .lines()
+        .map(|l| l.trim_end().to_string())
+        .collect();
+    for marker in [
+        "runs the circle after the seed 002 procedure",
+        "runs the procedure with the Table 4.3 set-up above",
+    ] {
+        let block: Vec<String> = ballpod_host::docs::block_after(marker, "text")
+            .lines()
+            .map(|l| l.trim_end().to_string())
+            .collect();
+        let found = printed.windows(block.len()).any(|w| w == block.as_slice());
+        assert!(
+            found,
+            "the worked example after {marker:?} is not what `sim` prints now:\n{}",
+            printed.join("\n")
+        );
+    }
+}

@@ -26,6 +26,7 @@ import pytest
 
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parents[1] / "clients"))
 from podlib import StreamCapture, fit_run, parse_runs  # noqa: E402
+from test_rs274 import interpret  # noqa: E402
 
 NCGEN = os.environ.get("BALLPOD_NCGEN")
 SIM = os.environ.get("BALLPOD_SIM")
@@ -34,7 +35,6 @@ SETUP = {"circle_plane": "XY", "circle_centre_x": 0.0, "circle_centre_y": 0.0, "
          "circle_radius": 150.0, "circle_feed": 1000.0}
 # the M-codes from the default base (book: "Running a test from the CNC")
 M = {"setup": 150, "arm_ccw": 151, "arm_cw": 152, "start": 153, "stop": 154, "results": 155}
-CANON = re.compile(r"^\s*\d+ N\.\.\.\.\. (\w+)\((.*)\)$")
 
 
 def ncgen(tmp_path, *args):
@@ -49,23 +49,15 @@ def ncgen(tmp_path, *args):
 
 
 def sequence(tmp_path, program):
-    """The program through rs274 -g, each M-code block as a message: the ordered list of
-    ('M', code), ('comment', text), ('move', name)."""
+    """The program through rs274 -g (test_rs274's `interpret`), each M-code block as a message:
+    the ordered list of ('M', code), ('comment', text), ('move', name)."""
     marked = re.sub(r"^M(1\d\d)( P\S+)?$", lambda m: f"(MSG,ballpod M{m.group(1)})", program, flags=re.M)
-    f = tmp_path / "marked.ngc"
-    f.write_text(marked)
-    p = subprocess.run(["rs274", "-g", str(f)], capture_output=True, text=True, timeout=60)
-    assert p.returncode == 0, p.stdout + p.stderr
     out = []
-    for line in p.stdout.splitlines():
-        m = CANON.match(line)
-        if not m:
-            continue
-        name, args = m.groups()
+    for name, args in interpret(tmp_path, marked):
         if name == "MESSAGE":
-            out.append(("M", int(re.search(r"ballpod M(\d+)", args).group(1))))
+            out.append(("M", int(re.search(r"ballpod M(\d+)", ", ".join(args)).group(1))))
         elif name == "COMMENT":
-            out.append(("comment", args.strip('"')))
+            out.append(("comment", ", ".join(args).strip('"')))  # (rejoined at its commas)
         elif name in ("STRAIGHT_FEED", "ARC_FEED", "STRAIGHT_TRAVERSE"):
             out.append(("move", name))
     return out

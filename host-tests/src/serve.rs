@@ -115,8 +115,10 @@ struct ServedProgram {
     cycle_start: Instant,
     dir: std::path::PathBuf,
     running: Option<(u16, std::process::Child)>,
-    /// The environment the M-codes get (this server's ports, the node-ID).
-    env: Vec<(String, String)>,
+    /// This server's SLCAN and USB command ports, and whether the M-codes reach the pod over
+    /// the latter.
+    ports: (u16, u16),
+    via_usb: bool,
     ran: u32,
     over: bool,
 }
@@ -137,12 +139,21 @@ impl ServedProgram {
             CncStep::At { axes, sense } => sample(vp, &axes, sense),
             CncStep::UserM { code, p, q } => {
                 let path = self.dir.join(format!("M{code}"));
-                let child = std::process::Command::new(&path)
+                let mut command = std::process::Command::new(&path);
+                command
                     .arg(format!("{p:.6}"))
                     .arg(format!("{q:.6}"))
-                    .stdout(std::process::Stdio::from(io::stderr()))
-                    .envs(self.env.iter().map(|(k, v)| (k.as_str(), v.as_str())))
-                    .spawn();
+                    .stdout(std::process::Stdio::from(io::stderr()));
+                // this server's port and the pod's node-ID, as the control's environment would
+                let (can, usb) = self.ports;
+                if self.via_usb {
+                    command.env("BALLPOD_SCPI", format!("socket://127.0.0.1:{usb}"));
+                } else {
+                    command
+                        .env("BALLPOD_CAN", format!("slcan:socket://127.0.0.1:{can}"))
+                        .env("BALLPOD_NODE", vp.app.config().can_node_id.to_string());
+                }
+                let child = command.spawn();
                 match child {
                     Ok(c) => self.running = Some((code, c)),
                     Err(e) => self.stop(&format!("M{code}: {}: {e}", path.display())),
@@ -168,23 +179,8 @@ impl ServedProgram {
     }
 
     /// Before the sample periods of a loop turn: the program goes on once the running
-    /// M-code's program has exited 0 (and stops when it failed); the next M-code's environment
-    /// names this server's port and the pod's node-ID.
-    fn poll_user_m(&mut self, vp: &VirtualPod, (can, usb): (u16, u16), via_usb: bool) {
-        self.env = if via_usb {
-            vec![("BALLPOD_SCPI".into(), format!("socket://127.0.0.1:{usb}"))]
-        } else {
-            vec![
-                (
-                    "BALLPOD_CAN".into(),
-                    format!("slcan:socket://127.0.0.1:{can}"),
-                ),
-                (
-                    "BALLPOD_NODE".into(),
-                    vp.app.config().can_node_id.to_string(),
-                ),
-            ]
-        };
+    /// M-code's program has exited 0, and stops when it failed.
+    fn poll_user_m(&mut self) {
         let Some((code, child)) = self.running.as_mut() else {
             return;
         };
@@ -421,7 +417,8 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
                 cycle_start: Instant::now() + Duration::from_secs_f64(opts.cycle_start_s.max(0.0)),
                 dir: dir.clone(),
                 running: None,
-                env: Vec::new(),
+                ports: (can_l.local_addr()?.port(), usb_l.local_addr()?.port()),
+                via_usb: opts.m_codes_via_usb,
                 ran: 0,
                 over: false,
             })
@@ -522,8 +519,7 @@ pub fn run(opts: ServeOptions) -> io::Result<()> {
         backlog_us = (backlog_us + dt_us * speed).min(200_000.0);
         let period_us = vp.sensors.period_us() as f64;
         if let Some(p) = program.as_mut() {
-            let ports = (can_l.local_addr()?.port(), usb_l.local_addr()?.port());
-            p.poll_user_m(&vp, ports, opts.m_codes_via_usb);
+            p.poll_user_m();
         }
         while backlog_us >= period_us {
             backlog_us -= period_us;

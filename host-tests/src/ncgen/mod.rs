@@ -36,7 +36,7 @@ pub use dialect::Dialect;
 pub use pattern::PatternTest;
 pub use session::{
     DEFAULT_M_BASE, STEPS as SESSION_STEPS, Session, SessionStep, SetupField, StepInfo,
-    circle_fields, scripts as session_scripts, setup_file,
+    scripts as session_scripts, setup_file,
 };
 pub use sphere::SphereTest;
 pub use ssm::SsmTest;
@@ -193,15 +193,28 @@ impl CircleTest {
     /// Every configuration field the pod needs for this program's runs (`trigger`: who starts
     /// and stops them), as the header names them and `M150` applies them.
     pub fn setup_fields(&self, trigger: RunTrigger) -> Vec<SetupField> {
-        circle_fields(
-            self.plane,
-            self.centre_mm,
-            self.radius_mm,
-            self.bar_length_mm,
-            self.feed_mm_per_min,
-            self.options.arc_deg,
-            trigger,
-        )
+        let mut f: Vec<SetupField> = vec![("circle_plane", f64::from(self.plane as u8))];
+        for (name, c) in ["circle_centre_x", "circle_centre_y", "circle_centre_z"]
+            .into_iter()
+            .zip(self.centre_mm)
+        {
+            if let Some(c) = c {
+                f.push((name, c));
+            }
+        }
+        let arc_deg = self.options.arc_deg;
+        f.extend([
+            ("circle_radius", self.radius_mm),
+            ("bar_length", self.bar_length_mm),
+            ("circle_feed", self.feed_mm_per_min),
+            ("circle_arc", arc_deg),
+        ]);
+        if arc_deg < 360.0 {
+            // a partial arc: the pod's minimum (default 300°) would refuse it
+            f.push(("circle_min_arc", arc_deg));
+        }
+        f.push(("run_trigger", f64::from(trigger as u8)));
+        f
     }
 
     /// The point at angle `deg` and distance `r_mm` from the centre, in the plane, mm (the

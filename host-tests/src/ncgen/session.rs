@@ -16,7 +16,7 @@
 
 use std::fmt::Write as _;
 
-use ballpod::config::{CirclePlane, RunTrigger};
+use ballpod::config::RunTrigger;
 
 /// A step of the session a program drives.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -173,39 +173,6 @@ pub fn setup_file(pattern: &str, fields: &[SetupField], comment: &str) -> String
         let _ = writeln!(out, "{name} = {}", *value as f32);
     }
     out
-}
-
-/// The circle's set-up fields a run needs, in the order the header names them.
-pub fn circle_fields(
-    plane: CirclePlane,
-    centre_mm: [Option<f64>; 3],
-    radius_mm: f64,
-    bar_length_mm: f64,
-    feed_mm_per_min: f64,
-    arc_deg: f64,
-    trigger: RunTrigger,
-) -> Vec<SetupField> {
-    let mut f: Vec<SetupField> = vec![("circle_plane", f64::from(plane as u8))];
-    for (name, c) in ["circle_centre_x", "circle_centre_y", "circle_centre_z"]
-        .into_iter()
-        .zip(centre_mm)
-    {
-        if let Some(c) = c {
-            f.push((name, c));
-        }
-    }
-    f.extend([
-        ("circle_radius", radius_mm),
-        ("bar_length", bar_length_mm),
-        ("circle_feed", feed_mm_per_min),
-        ("circle_arc", arc_deg),
-    ]);
-    if arc_deg < 360.0 {
-        // a partial arc: the pod's minimum (default 300°) would refuse it
-        f.push(("circle_min_arc", arc_deg));
-    }
-    f.push(("run_trigger", f64::from(trigger as u8)));
-    f
 }
 
 /// The scripts LinuxCNC runs for the M-codes (`DIR/M150` … and the python module they call):

@@ -189,17 +189,6 @@ impl ProgramCnc {
         five(&self.at)
     }
 
-    /// The user M-codes of the program, in order (code, P, Q).
-    pub fn user_m_codes(&self) -> Vec<(u16, f64, f64)> {
-        self.events
-            .iter()
-            .filter_map(|e| match e {
-                Event::UserM { code, p, q } => Some((*code, *p, *q)),
-                Event::Move(_) => None,
-            })
-            .collect()
-    }
-
     /// The next sample period `dt_s` on: the machine's position, a user M-code to run (the
     /// machine stands still until [`resume`](Self::resume)), or the end.
     pub fn step(&mut self, dt_s: f64) -> CncStep {

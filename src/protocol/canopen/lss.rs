@@ -143,11 +143,6 @@ impl LssSlave {
         }
     }
 
-    /// The LSS state.
-    pub fn state(&self) -> LssState {
-        self.state
-    }
-
     /// The node-ID a master configured since boot, if any (taken at reset communication).
     pub fn pending_node_id(&self) -> Option<u8> {
         self.pending_node_id

@@ -239,13 +239,8 @@ impl CanOpenNode {
     }
 
     /// True while the node has a node-ID (not [`NODE_ID_UNCONFIGURED`]).
-    pub fn configured(&self) -> bool {
+    fn configured(&self) -> bool {
         self.comm.node_id != NODE_ID_UNCONFIGURED
-    }
-
-    /// The LSS slave's state.
-    pub fn lss_state(&self) -> lss::LssState {
-        self.lss.state()
     }
 
     /// The bit rate an LSS master activated, once its switch delay has passed at `now_us`:

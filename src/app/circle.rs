@@ -168,7 +168,7 @@ pub const LIVE_NOISE_RETRY: u32 = 256;
 
 /// The live refresh after the noise, a step a sample: each step is one long computation
 /// (the noise ≈ 62 000 Cortex-M4F instructions, the traced centre ≈ 154 000, the shares), so
-/// the application task's turn is the longest of them, not their sum (3.2 ms of block queue
+/// the application task's turn is the longest of them, not their sum (6.4 ms of block queue
 /// at 10 kHz).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 enum CentreStep {

@@ -41,7 +41,7 @@ type Edge = (u64, [u32; MAX_AXES]);
 /// One slot of the block latch's history (`board::lvdt::LATCHES`: event number, time, counts).
 type Latch = (u32, u64, [u32; MAX_AXES]);
 
-static BLOCKS: Channel<CriticalSectionRawMutex, Block, 32> = Channel::new();
+static BLOCKS: Channel<CriticalSectionRawMutex, Block, 64> = Channel::new();
 static EDGES: Channel<CriticalSectionRawMutex, Edge, 8> = Channel::new();
 static CODES: Channel<CriticalSectionRawMutex, u16, 2> = Channel::new();
 static CAN_RX: Channel<CriticalSectionRawMutex, CanFrame, 16> = Channel::new();
@@ -64,13 +64,13 @@ pub fn report() {
     hprintln!();
     hprintln!("| interrupt-masked section (firmware queue, its depth) | longest, insns |");
     hprintln!("|---|---|");
-    row("LVDT block queue (32): try_send, try_receive", || {
+    row("LVDT block queue (64): try_send, try_receive", || {
         let block: Block = (
             1,
             [2; MAX_AXES],
             BlockReading::Ac(Err(DemodError::ModeChanged)),
         );
-        for _ in 0..34 {
+        for _ in 0..66 {
             let _ = BLOCKS.try_send(block);
         }
         while BLOCKS.try_receive().is_ok() {}

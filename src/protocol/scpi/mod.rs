@@ -115,7 +115,7 @@ struct Download {
 
 /// Lines the counting pass of a pulled download formats per pull: a record line is ≈ 10 k
 /// instructions on the M4 (`cargo bench-m4`), so a pull holds the application task ≈ 0.5 ms,
-/// well within the block queue ahead of it (32 blocks: 3.2 ms at the highest sample rate).
+/// well within the block queue ahead of it (64 blocks: 6.4 ms at the highest sample rate).
 pub const COUNT_LINES_PER_PULL: usize = 8;
 
 /// One SCPI session (one USB CDC-ACM port or TCP connection): line buffer, status model and

@@ -226,6 +226,15 @@ pub fn numeric_gains(k: &Kin, a: f64, c: f64, xm: f64, ym: f64, zm: f64, h: f64)
 /// the ideal TCP commands. `p` = [XOW, YOW, ZOW, YOA, ZOA, BOA, COA, XOC, YOC, AOC, BOC] in
 /// mm / rad.
 pub fn exact_reduced_reading_um(k: &Kin, p: &[f64; 11], a: f64, c: f64) -> [f64; 3] {
+    let e = reduced_errors(p);
+    let (xm, ym, zm) = tcp_commands(k, a, c);
+    let r = reading(k, &e, a, c, xm, ym, zm);
+    [r[0] * 1e3, r[1] * 1e3, r[2] * 1e3]
+}
+
+/// The 44-error vector (Table 1 order) with only the 11 reduced-model errors `p` =
+/// [XOW, YOW, ZOW, YOA, ZOA, BOA, COA, XOC, YOC, AOC, BOC] set (mm / rad).
+pub fn reduced_errors(p: &[f64; 11]) -> [f64; 44] {
     const MAP: [&str; 11] = [
         "XOW", "YOW", "ZOW", "YOA", "ZOA", "BOA", "COA", "XOC", "YOC", "AOC", "BOC",
     ];
@@ -233,7 +242,5 @@ pub fn exact_reduced_reading_um(k: &Kin, p: &[f64; 11], a: f64, c: f64) -> [f64;
     for (v, n) in p.iter().zip(MAP) {
         e[idx(n)] = *v;
     }
-    let (xm, ym, zm) = tcp_commands(k, a, c);
-    let r = reading(k, &e, a, c, xm, ym, zm);
-    [r[0] * 1e3, r[1] * 1e3, r[2] * 1e3]
+    e
 }

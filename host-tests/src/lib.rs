@@ -7,6 +7,7 @@ pub mod docs;
 pub mod docs_ref;
 pub mod emu;
 pub mod flash_model;
+pub mod forward_linuxcnc_trt;
 pub mod forward_seed000;
 pub mod forward_seed001;
 pub mod forward_seed002;

@@ -503,7 +503,7 @@ fn shares(parts: &[(&str, f64)]) -> Vec<Share> {
 /// The seed 003 R-test of `[rtest]`: the 11 location and ball errors.
 pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
     use ballpod::identify::rtest::{
-        ReadingZero, RtestConfig, RtestGeometry, RtestSample, U_READING_SCALE, identify,
+        ReadingZero, RtestConfig, RtestGeometry, RtestParam, RtestSample, U_READING_SCALE, identify,
     };
     let file = path.parent().unwrap_or(Path::new(".")).join(&e.readings);
     let rows = read_table(&file, &["a_deg", "c_deg", "dx_um", "dy_um", "dz_um"])?;
@@ -515,17 +515,9 @@ pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
             reading_um: [r[2], r[3], r[4]],
         })
         .collect();
-    let geometry = match e.geometry_mm {
-        Some([x_w_mm, y_w_mm, z_w_mm, x_c_mm, y_c_mm, z_c_mm]) => RtestGeometry {
-            x_w_mm,
-            y_w_mm,
-            z_w_mm,
-            x_c_mm,
-            y_c_mm,
-            z_c_mm,
-        },
-        None => RtestGeometry::SEED003_TABLE3,
-    };
+    let geometry = e
+        .geometry_mm
+        .map_or(RtestGeometry::SEED003_TABLE3, RtestGeometry::from_array);
     let zero = match e.zero.as_deref() {
         None | Some("absolute") => ReadingZero::Absolute,
         Some("first_pose") => ReadingZero::FirstPose,
@@ -549,33 +541,26 @@ pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
     };
     let r = identify(&geometry, &samples, &cfg)
         .map_err(|x| whole(&file, format!("R-test identification: {x:?}")))?;
-    const NAMES: [(&str, &str); 11] = [
-        ("XOW", "um"),
-        ("YOW", "um"),
-        ("ZOW", "um"),
-        ("YOA", "um"),
-        ("ZOA", "um"),
-        ("BOA", "arcsec"),
-        ("COA", "arcsec"),
-        ("XOC", "um"),
-        ("YOC", "um"),
-        ("AOC", "arcsec"),
-        ("BOC", "arcsec"),
-    ];
     let (v, u) = (r.errors.to_array(), r.std_uncertainty.to_array());
     let (type_a, scale) = (r.u_type_a.to_array(), r.u_reading_scale.to_array());
     // a parameter the path does not determine (fixed, or only in a combination with fixed
     // ones) is NaN: not reported, like an invalid result
-    Ok(NAMES
+    Ok(RtestParam::ALL
         .iter()
-        .enumerate()
-        .filter(|&(j, _)| v[j].is_finite())
-        .map(|(j, (n, unit))| Figure {
+        .filter(|p| v[p.index()].is_finite())
+        .map(|&p| {
+            (
+                p.index(),
+                p.name(),
+                if p.is_angular() { "arcsec" } else { "um" },
+            )
+        })
+        .map(|(j, n, unit)| Figure {
             name: format!("rtest_{n}"),
             value: v[j] as f32,
             u: Some(u[j] as f32),
             dof: None,
-            unit: (*unit).into(),
+            unit: unit.into(),
             contributors: shares(&[("type_a", type_a[j]), ("head_scale", scale[j])]),
         })
         .collect())

@@ -384,6 +384,23 @@ impl RtestParam {
         self as usize
     }
 
+    /// The paper's symbol (`XOC`), as results name it (`rtest_XOC`).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Xow => "XOW",
+            Self::Yow => "YOW",
+            Self::Zow => "ZOW",
+            Self::Yoa => "YOA",
+            Self::Zoa => "ZOA",
+            Self::Boa => "BOA",
+            Self::Coa => "COA",
+            Self::Xoc => "XOC",
+            Self::Yoc => "YOC",
+            Self::Aoc => "AOC",
+            Self::Boc => "BOC",
+        }
+    }
+
     /// The full-model error this parameter is.
     pub fn iso(self) -> IsoError {
         match self {
@@ -507,6 +524,19 @@ impl RtestGeometry {
         y_c_mm: 0.0,
         z_c_mm: 29.794,
     };
+
+    /// From the six lengths as a session file's `[rtest] geometry_mm` lists them: ball X_w,
+    /// Y_w, Z_w, then the C-frame origin X_c, Y_c, Z_c (mm).
+    pub fn from_array([x_w_mm, y_w_mm, z_w_mm, x_c_mm, y_c_mm, z_c_mm]: [f64; 6]) -> Self {
+        Self {
+            x_w_mm,
+            y_w_mm,
+            z_w_mm,
+            x_c_mm,
+            y_c_mm,
+            z_c_mm,
+        }
+    }
 
     fn chain(&self) -> ChainGeometry {
         ChainGeometry {

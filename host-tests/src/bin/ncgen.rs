@@ -8,7 +8,9 @@
 //! `ts_*` fields (`cargo ncgen -- two-step SETUP`); `cargo ncgen -- correct PROGRAM SETUP
 //! RESULTS` rewrites a program for the identified deviations (seed 002 chapter 3), and
 //! `cargo ncgen -- correct-centrelines PROGRAM CENTRELINES` for estimated rotary-axis
-//! centrelines (seed 004 eq 9). Prints the
+//! centrelines (seed 004 eq 9); `cargo ncgen -- kins xyzac-trt RESULTS` writes an R-test's
+//! identified axis lines into LinuxCNC's trt kinematics (HAL `setp` lines, or the generic
+//! table with `--format csv`). Prints the
 //! program, or writes it with `--out`. A set-up the machine cannot run is refused with the field
 //! named — a program beyond the set-up file's `[travel]` too —; nothing is written.
 
@@ -79,10 +81,65 @@ enum Test {
     /// A program's G0/G1 points (X Y Z A B, no TCPM) corrected for estimated rotary-axis
     /// centrelines (seed 004 eq 9 and 4.3; the program keeps its dialect).
     CorrectCentrelines(CentrelinesArgs),
+    /// The R-test's identified rotary-axis lines as the pins of LinuxCNC's table-tilting
+    /// kinematics (HAL `setp` lines with the dispersion before and after and what the
+    /// kinematics cannot take), or the generic table (`--format csv`).
+    Kins(KinsArgs),
     /// The LinuxCNC user M-code scripts of a program's session (`--session`): `DIR/M150` …
     /// `M155`, the python module they call and the pod's EDS; put DIR in the INI's
     /// `[RS274NGC] USER_M_PATH`.
     MCodes(MCodesArgs),
+}
+
+/// The kinematics to correct.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum KinsArg {
+    /// `xyzac-trt-kins`: A tilts the table about X, C turns it about Z.
+    XyzacTrt,
+    /// `xyzbc-trt-kins`: B tilts the table about Y, C turns it about Z.
+    XyzbcTrt,
+}
+
+/// What `kins` writes.
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum KinsFormat {
+    /// HAL `setp` lines, the rest as comments.
+    Hal,
+    /// The generic table: deviation, ISO 230-1 name, value, u, unit, control parameter.
+    Csv,
+}
+
+/// The correction's inputs.
+#[derive(clap::Args, Debug)]
+struct KinsArgs {
+    /// The control's kinematics.
+    #[arg(value_enum)]
+    kins: KinsArg,
+    /// Results file with the R-test's location errors (`results.json` of `cargo replay`).
+    results: PathBuf,
+    /// The R-test's geometry as its session file gives it (`[rtest] geometry_mm`): ball X_w
+    /// Y_w Z_w from the C-frame origin, C-frame origin X_c Y_c Z_c from the A axis, mm
+    /// (default: seed 003 Table 3).
+    #[arg(long, num_args = 6, allow_negative_numbers = true, value_names = ["X_W", "Y_W", "Z_W", "X_C", "Y_C", "Z_C"])]
+    geometry_mm: Option<Vec<f64>>,
+    /// A pin's present value in the control, `NAME=MM` (e.g. `x-rot-point=12.5`): every pin
+    /// the kinematics reads (`tool-offset` may be left at 0), or none — then the values are in
+    /// the R-test's frame (the nominal A axis through the origin, C at X_c, Y_c).
+    #[arg(long = "pin", value_name = "NAME=MM")]
+    pins: Vec<String>,
+    /// The largest change a pin may take, µm (a larger one is refused).
+    #[arg(long, default_value_t = 200.0)]
+    max_change_um: f64,
+    /// The tilt axis's range for the dispersion, degrees.
+    #[arg(long, num_args = 2, allow_negative_numbers = true, value_names = ["LOW", "HIGH"], default_values_t = [-90.0, 0.0])]
+    tilt_range_deg: Vec<f64>,
+    /// Half the side of the cube about the work point the dispersion covers, mm (0: the
+    /// ball's centre only).
+    #[arg(long, default_value_t = 50.0)]
+    half_side_mm: f64,
+    /// What to write.
+    #[arg(long, value_enum, default_value = "hal")]
+    format: KinsFormat,
 }
 
 /// Where the M-code scripts go.
@@ -411,6 +468,7 @@ fn run(args: &Args) -> Result<String, String> {
             correct_program_centrelines(&program, &lines, &name)
                 .map_err(|e| format!("{}: {e}", c.program.display()))
         }
+        Test::Kins(k) => kins(k),
         Test::Sphere(s) => {
             let centre = [0, 1, 2].map(|k| s.centre.get(k).copied().unwrap_or(f64::NAN));
             let test = SphereTest::new(centre, s.contact_radius, [s.b_deg, s.c_deg])
@@ -418,6 +476,110 @@ fn run(args: &Args) -> Result<String, String> {
             Ok(test.program(dialect))
         }
     }
+}
+
+/// `ncgen kins`: the R-test's lines into the kinematics' pins.
+fn kins(k: &KinsArgs) -> Result<String, String> {
+    use ballpod::identify::rtest::RtestGeometry;
+    use ballpod_host::ncgen::kins::{
+        DispersionGrid, Pin, TrtKins, correct, hal_lines, rtest_deviations, rtest_from_results,
+        rtest_nominal_pins, rtest_work_point, table_csv,
+    };
+    let kins = match k.kins {
+        KinsArg::XyzacTrt => TrtKins::Xyzac,
+        KinsArg::XyzbcTrt => TrtKins::Xyzbc,
+    };
+    let text =
+        std::fs::read_to_string(&k.results).map_err(|e| format!("{}: {e}", k.results.display()))?;
+    let (errors, u) =
+        rtest_from_results(&text).map_err(|e| format!("{}: {e}", k.results.display()))?;
+    if kins != TrtKins::Xyzac {
+        return Err(format!(
+            "{}: the R-test identifies an A/C table-tilting machine (seed 003): xyzac-trt, not {}",
+            k.results.display(),
+            kins.name()
+        ));
+    }
+    let g = match k.geometry_mm.as_deref() {
+        None => RtestGeometry::SEED003_TABLE3,
+        Some(&[x_w, y_w, z_w, x_c, y_c, z_c]) => {
+            RtestGeometry::from_array([x_w, y_w, z_w, x_c, y_c, z_c])
+        }
+        Some(_) => return Err("--geometry-mm: six values".into()),
+    };
+    if ![g.x_w_mm, g.y_w_mm, g.z_w_mm, g.x_c_mm, g.y_c_mm, g.z_c_mm]
+        .iter()
+        .all(|v| v.is_finite())
+    {
+        return Err("--geometry-mm: finite values".into());
+    }
+    let mut current = rtest_nominal_pins(&g);
+    let mut given = Vec::new();
+    for p in &k.pins {
+        let (name, value) = p
+            .split_once('=')
+            .ok_or_else(|| format!("--pin {p}: NAME=MM"))?;
+        let pin = Pin::from_name(name.trim()).ok_or_else(|| {
+            format!("--pin {p}: {name} is not a pin of {} (x-rot-point, y-rot-point, z-rot-point, y-offset, z-offset, tool-offset)", kins.name())
+        })?;
+        let v: f64 = value
+            .trim()
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| format!("--pin {p}: {value} is not a length in mm"))?;
+        if !kins.pins().contains(&pin) {
+            return Err(format!("--pin {p}: {} does not read {name}", kins.name()));
+        }
+        current.0[pin as usize] = v;
+        given.push(pin);
+    }
+    // the pins hold one frame: the control's (all given) or the R-test's (none given)
+    let missing: Vec<_> = kins
+        .pins()
+        .into_iter()
+        .filter(|p| *p != Pin::ToolOffset && !given.contains(p))
+        .map(Pin::name)
+        .collect();
+    if !given.is_empty() && !missing.is_empty() {
+        return Err(format!(
+            "--pin: give every pin of {} or none (missing: {})",
+            kins.name(),
+            missing.join(", ")
+        ));
+    }
+    let [lo, hi] = [0, 1].map(|i| k.tilt_range_deg.get(i).copied().unwrap_or(f64::NAN));
+    if !(lo.is_finite() && hi.is_finite() && lo < hi && hi - lo <= 360.0) {
+        return Err("--tilt-range-deg: LOW < HIGH, at most 360° apart".into());
+    }
+    if !(k.half_side_mm.is_finite() && (0.0..=2000.0).contains(&k.half_side_mm)) {
+        return Err("--half-side-mm: 0 … 2000".into());
+    }
+    if !(k.max_change_um.is_finite() && k.max_change_um > 0.0) {
+        return Err("--max-change-um: a length > 0".into());
+    }
+    let measured = rtest_deviations(&g, &errors, &u).map_err(|e| e.to_string())?;
+    let grid = DispersionGrid {
+        tilt_range_deg: (lo, hi),
+        half_side_mm: k.half_side_mm,
+    };
+    let c = correct(
+        kins,
+        &current,
+        &measured,
+        rtest_work_point(&g, &current),
+        &grid,
+        k.max_change_um,
+    )
+    .map_err(|e| e.to_string())?;
+    let name = k.results.file_name().map_or_else(
+        || k.results.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    Ok(match k.format {
+        KinsFormat::Hal => hal_lines(&c, &name),
+        KinsFormat::Csv => table_csv(&c),
+    })
 }
 
 /// `program` if it stays within the travel the set-up file gives (`[travel]`), else the

@@ -20,6 +20,7 @@
 
 mod correct;
 mod dialect;
+pub mod kins;
 mod pattern;
 mod session;
 mod sphere;

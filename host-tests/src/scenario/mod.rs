@@ -491,9 +491,7 @@ fn seed002_probe(s: &Scenario, runs: std::ops::Range<u32>) -> Result<Vec<Check>,
 
 fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {
     use crate::vmt::rtest_rig::{RtestRig, path_k4, seed003_table3_kinematics};
-    const NAMES: [&str; 11] = [
-        "XOW", "YOW", "ZOW", "YOA", "ZOA", "BOA", "COA", "XOC", "YOC", "AOC", "BOC",
-    ];
+    use ballpod::identify::rtest::RtestParam;
     let truth = s.rtest_errors.ok_or("seed003_rtest needs rtest_errors")?;
     // sensor level: the exact chain → three LVDT channels → the core's head combination
     let mut rig = RtestRig::new(s.noise_um, s.seed);
@@ -516,13 +514,14 @@ fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {
         "[rtest]\nreadings = \"readings.csv\"\n",
         &table,
     )?;
-    NAMES
+    RtestParam::ALL
         .iter()
+        .map(|p| p.name())
         .zip(truth)
         .map(|(n, t)| {
             let f = figure(&figs, &format!("rtest_{n}"))?;
             Ok(Check {
-                name: (*n).to_string(),
+                name: n.to_string(),
                 truth: t,
                 got: f64::from(f.value),
                 u: f.u.map_or(0.0, f64::from),

@@ -123,4 +123,28 @@ impl RtestRig {
             })
             .collect()
     }
+
+    /// The head's readings at `poses` (A, C degrees, the servo positions X_m, Y_m, Z_m in mm)
+    /// on the machine `k` with the 11 location/ball errors `errors` (µm / arc-seconds): a
+    /// control that commands its own kinematics, not the ideal TCP of [`Self::measure`].
+    pub fn measure_commanded(
+        &mut self,
+        k: &fw::Kin,
+        errors: &[f64; 11],
+        poses: &[(f64, f64, [f64; 3])],
+    ) -> Vec<RtestSample> {
+        let e = fw::reduced_errors(&errors_si(errors));
+        poses
+            .iter()
+            .filter_map(|&(a, c, [xm, ym, zm])| {
+                let q = fw::reading(k, &e, a.to_radians(), c.to_radians(), xm, ym, zm);
+                let r = self.sample([q[0] * 1e3, q[1] * 1e3, q[2] * 1e3]);
+                r.is_valid().then(|| RtestSample {
+                    a_deg: a,
+                    c_deg: c,
+                    reading_um: r.displacement_um.map(f64::from),
+                })
+            })
+            .collect()
+    }
 }

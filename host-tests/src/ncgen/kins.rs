@@ -1,0 +1,734 @@
+//! Corrections a control takes: the rotary-axis lines a test identified on a table-tilting
+//! machine, written into the control's kinematics — LinuxCNC's `xyzac-trt-kins` (A tilts the
+//! table about X, C turns it about Z) and `xyzbc-trt-kins` (B about Y, C about Z)
+//! (`cargo ncgen -- kins`).
+//!
+//! A trt kinematics turns the work point about two lines (LinuxCNC `trtfuncs.c`): the table
+//! axis C through (`x-rot-point`, `y-rot-point`) along Z, then the tilt axis — A through
+//! (`y-rot-point + y-offset`, `z-rot-point + z-offset + tool-offset`) along X, or B through
+//! (`x-rot-point + x-offset`, `z-rot-point + z-offset + tool-offset`) along Y. So it takes
+//! where each line is, never which way it points: each line is placed where the measured one
+//! crosses the work (C at the work point's height, A at its X, B at its Y), `z-rot-point` and
+//! `tool-offset` stay, and the lines' tilts are reported as what the control cannot express,
+//! with the tool-centre error they leave ([`Dispersion`]: before, with the control's present
+//! values, and after, with the corrected ones — computed, as cycle 451's log states them
+//! measured).
+//!
+//! The lines come as deviations from the control's own ([`LineDeviations`]): what a test
+//! measures is the machine against the model the control commanded it with. From the R-test
+//! ([`rtest_deviations`]): seed 003's location errors through `identify::rtest::axis_lines`.
+//! A correction that would move a pin by more than the guard is refused with both numbers
+//! (KinematicsOpt's maximum correction).
+
+use ballpod::identify::centreline::AxisLine;
+use ballpod::identify::rtest::{ARCSEC_RAD, LocationErrors, RtestGeometry, RtestParam, axis_lines};
+use nalgebra::{Rotation3, Unit, Vector3};
+
+use super::NcError;
+
+/// A LinuxCNC table-rotary-tilting kinematics.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TrtKins {
+    /// `xyzac-trt-kins`: A tilts the table about X, C turns it about Z.
+    Xyzac,
+    /// `xyzbc-trt-kins`: B tilts the table about Y, C turns it about Z.
+    Xyzbc,
+}
+
+/// One HAL pin of a trt kinematics (the index into [`TrtPins`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pin {
+    /// `x-rot-point`, mm.
+    XRotPoint,
+    /// `y-rot-point`, mm.
+    YRotPoint,
+    /// `z-rot-point`, mm.
+    ZRotPoint,
+    /// `x-offset`, mm (xyzbc).
+    XOffset,
+    /// `y-offset`, mm (xyzac).
+    YOffset,
+    /// `z-offset`, mm.
+    ZOffset,
+    /// `tool-offset`, mm (the tool's length; the control's, never corrected here).
+    ToolOffset,
+}
+
+impl Pin {
+    /// Every pin, in [`TrtPins`] order.
+    pub const ALL: [Self; 7] = [
+        Self::XRotPoint,
+        Self::YRotPoint,
+        Self::ZRotPoint,
+        Self::XOffset,
+        Self::YOffset,
+        Self::ZOffset,
+        Self::ToolOffset,
+    ];
+
+    /// The pin's name after the kinematics' prefix.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::XRotPoint => "x-rot-point",
+            Self::YRotPoint => "y-rot-point",
+            Self::ZRotPoint => "z-rot-point",
+            Self::XOffset => "x-offset",
+            Self::YOffset => "y-offset",
+            Self::ZOffset => "z-offset",
+            Self::ToolOffset => "tool-offset",
+        }
+    }
+
+    /// The pin of `name`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|p| p.name() == name)
+    }
+}
+
+/// The pins' values, mm, in [`Pin::ALL`] order.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TrtPins(pub [f64; 7]);
+
+impl TrtPins {
+    /// The value of `pin`, mm.
+    pub fn get(&self, pin: Pin) -> f64 {
+        self.0[pin as usize]
+    }
+
+    fn set(&mut self, pin: Pin, v: f64) {
+        self.0[pin as usize] = v;
+    }
+}
+
+impl TrtKins {
+    /// The kinematics' module name (and its HAL pins' prefix).
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Xyzac => "xyzac-trt-kins",
+            Self::Xyzbc => "xyzbc-trt-kins",
+        }
+    }
+
+    /// The tilt axis's letter.
+    pub fn tilt_letter(self) -> char {
+        match self {
+            Self::Xyzac => 'A',
+            Self::Xyzbc => 'B',
+        }
+    }
+
+    /// The machine axis the tilt axis runs along (0 = X, 1 = Y).
+    fn tilt_along(self) -> usize {
+        match self {
+            Self::Xyzac => 0,
+            Self::Xyzbc => 1,
+        }
+    }
+
+    /// The pins this kinematics reads (the other offset is not a pin of it).
+    pub fn pins(self) -> [Pin; 6] {
+        let offset = match self {
+            Self::Xyzac => Pin::YOffset,
+            Self::Xyzbc => Pin::XOffset,
+        };
+        [
+            Pin::XRotPoint,
+            Pin::YRotPoint,
+            Pin::ZRotPoint,
+            offset,
+            Pin::ZOffset,
+            Pin::ToolOffset,
+        ]
+    }
+
+    /// The two lines the kinematics turns the work about, at tilt = table = 0: the tilt axis
+    /// and the table axis (mm, unit directions).
+    pub fn lines(self, p: &TrtPins) -> TableLines {
+        let (xr, yr, zr) = (
+            p.get(Pin::XRotPoint),
+            p.get(Pin::YRotPoint),
+            p.get(Pin::ZRotPoint),
+        );
+        let z_tilt = zr + p.get(Pin::ZOffset) + p.get(Pin::ToolOffset);
+        let tilt = match self {
+            Self::Xyzac => AxisLine {
+                direction: [1.0, 0.0, 0.0],
+                point_mm: [xr, yr + p.get(Pin::YOffset), z_tilt],
+            },
+            Self::Xyzbc => AxisLine {
+                direction: [0.0, 1.0, 0.0],
+                point_mm: [xr + p.get(Pin::XOffset), yr, z_tilt],
+            },
+        };
+        TableLines {
+            tilt,
+            table: AxisLine {
+                direction: [0.0, 0.0, 1.0],
+                point_mm: [xr, yr, z_tilt],
+            },
+        }
+    }
+}
+
+/// A table-tilting machine's two rotary-axis lines at tilt = table = 0, in the control's
+/// coordinates (mm; the tool tip over the table, machine axes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TableLines {
+    /// The tilt axis (A or B), fixed in the machine.
+    pub tilt: AxisLine,
+    /// The table axis (C), carried by the tilt axis.
+    pub table: AxisLine,
+}
+
+/// Where the work point `work_mm` (the table at tilt = table = 0) is at `tilt_deg`,
+/// `table_deg`: turned about the table line, then about the tilt line, right-handed about
+/// each line's direction (exact rotations).
+pub fn turned(lines: &TableLines, work_mm: [f64; 3], tilt_deg: f64, table_deg: f64) -> [f64; 3] {
+    let about = |l: &AxisLine, deg: f64, p: Vector3<f64>| {
+        let axis = Unit::new_normalize(Vector3::from(l.direction));
+        let o = Vector3::from(l.point_mm);
+        Rotation3::from_axis_angle(&axis, deg.to_radians()) * (p - o) + o
+    };
+    let p = about(&lines.table, table_deg, Vector3::from(work_mm));
+    about(&lines.tilt, tilt_deg, p).into()
+}
+
+/// How the measured lines differ from the control's: each line's point moved (mm, at the
+/// control line's [`TrtKins::lines`] point: the tilt axis where it passes under the table
+/// axis, the table axis at the tilt axis's height) and its measured direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineDeviations {
+    /// The tilt axis: point shift (mm), direction.
+    pub tilt: ([f64; 3], [f64; 3]),
+    /// The table axis at tilt = 0: point shift (mm), direction.
+    pub table: ([f64; 3], [f64; 3]),
+}
+
+impl LineDeviations {
+    /// The measured lines in the control's coordinates: the control's lines moved.
+    pub fn actual(&self, control: &TableLines) -> TableLines {
+        let moved = |l: &AxisLine, (d, dir): ([f64; 3], [f64; 3])| AxisLine {
+            direction: dir,
+            point_mm: [
+                l.point_mm[0] + d[0],
+                l.point_mm[1] + d[1],
+                l.point_mm[2] + d[2],
+            ],
+        };
+        TableLines {
+            tilt: moved(&control.tilt, self.tilt),
+            table: moved(&control.table, self.table),
+        }
+    }
+}
+
+/// Where `line` crosses the plane `coordinate[axis] = at` (mm); `None` when it runs in it.
+fn crossing(line: &AxisLine, axis: usize, at: f64) -> Option<[f64; 3]> {
+    let d = line.direction;
+    let p = line.point_mm;
+    let da = *d.get(axis)?;
+    if da.abs() < 1e-9 {
+        return None;
+    }
+    let s = (at - p.get(axis)?) / da;
+    Some([p[0] + s * d[0], p[1] + s * d[1], p[2] + s * d[2]])
+}
+
+/// The pins that put the control's lines where `actual`'s cross the work at `work_mm`: the
+/// table axis at the work point's height, the tilt axis at its X (A) or Y (B);
+/// `z-rot-point`, `tool-offset` and the pin the kinematics does not read stay as in `current`.
+pub fn placed_pins(
+    kins: TrtKins,
+    current: &TrtPins,
+    actual: &TableLines,
+    work_mm: [f64; 3],
+) -> Option<TrtPins> {
+    let c = crossing(&actual.table, 2, work_mm[2])?;
+    let along = kins.tilt_along();
+    let t = crossing(&actual.tilt, along, *work_mm.get(along)?)?;
+    let mut p = *current;
+    p.set(Pin::XRotPoint, c[0]);
+    p.set(Pin::YRotPoint, c[1]);
+    match kins {
+        TrtKins::Xyzac => p.set(Pin::YOffset, t[1] - c[1]),
+        TrtKins::Xyzbc => p.set(Pin::XOffset, t[0] - c[0]),
+    }
+    p.set(
+        Pin::ZOffset,
+        t[2] - current.get(Pin::ZRotPoint) - current.get(Pin::ToolOffset),
+    );
+    Some(p)
+}
+
+/// The tool-centre error a kinematics leaves (µm): the tool where the control puts it less
+/// where the work point is, over [`DispersionGrid`]'s poses and points.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Dispersion {
+    /// Largest length of the error vector, µm.
+    pub max_um: f64,
+    /// Root mean square of its length, µm.
+    pub rms_um: f64,
+}
+
+/// Where the dispersion is taken: every 15° of the tilt over its range and of the table over
+/// a turn, at the work point and the eight corners of a cube about it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DispersionGrid {
+    /// The tilt's range, degrees (low, high).
+    pub tilt_range_deg: (f64, f64),
+    /// Half the cube's side, mm (0: the work point only).
+    pub half_side_mm: f64,
+}
+
+impl DispersionGrid {
+    /// The dispersion of the control's model `control` against the machine's `actual` lines.
+    pub fn dispersion(
+        &self,
+        control: &TableLines,
+        actual: &TableLines,
+        work_mm: [f64; 3],
+    ) -> Dispersion {
+        let (lo, hi) = self.tilt_range_deg;
+        let steps = ((hi - lo) / 15.0).ceil().max(1.0) as usize;
+        let h = self.half_side_mm;
+        let mut points = vec![work_mm];
+        if h > 0.0 {
+            for k in 0..8 {
+                let s = |bit: usize| if k & bit == 0 { -h } else { h };
+                points.push([work_mm[0] + s(1), work_mm[1] + s(2), work_mm[2] + s(4)]);
+            }
+        }
+        let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0usize);
+        for i in 0..=steps {
+            let tilt = lo + (hi - lo) * i as f64 / steps as f64;
+            for j in 0..24 {
+                let table = 15.0 * j as f64;
+                for &w in &points {
+                    let c = turned(control, w, tilt, table);
+                    let a = turned(actual, w, tilt, table);
+                    let e = ((c[0] - a[0]).powi(2) + (c[1] - a[1]).powi(2) + (c[2] - a[2]).powi(2))
+                        .sqrt()
+                        * 1e3;
+                    max = max.max(e);
+                    sum += e * e;
+                    n += 1;
+                }
+            }
+        }
+        Dispersion {
+            max_um: max,
+            rms_um: (sum / n.max(1) as f64).sqrt(),
+        }
+    }
+}
+
+/// A direction the kinematics cannot take: a line's tilt from its nominal axis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Unexpressed {
+    /// What it is ("C axis tilt about Y").
+    pub what: &'static str,
+    /// ISO 230-1's symbol of the location error it stands for.
+    pub iso: &'static str,
+    /// Its value, arc-seconds.
+    pub value_arcsec: f64,
+    /// Its standard uncertainty, arc-seconds.
+    pub u_arcsec: f64,
+}
+
+/// The four tilts of `lines` from their nominal axes (rad): the tilt axis's two, then the
+/// table axis's about X and Y.
+fn tilts(kins: TrtKins, lines: &TableLines) -> [(&'static str, &'static str, f64); 4] {
+    let t = lines.tilt.direction;
+    let c = lines.table.direction;
+    let tilt = match kins {
+        // A along X: about Y = −z/x, about Z = y/x
+        TrtKins::Xyzac => [
+            ("A axis tilt about Y", "E_B0A", -t[2] / t[0]),
+            ("A axis tilt about Z", "E_C0A", t[1] / t[0]),
+        ],
+        // B along Y: about X = z/y, about Z = −x/y
+        TrtKins::Xyzbc => [
+            ("B axis tilt about X", "E_A0B", t[2] / t[1]),
+            ("B axis tilt about Z", "E_C0B", -t[0] / t[1]),
+        ],
+    };
+    [
+        tilt[0],
+        tilt[1],
+        ("C axis tilt about X", "E_A0C", -c[1] / c[2]),
+        ("C axis tilt about Y", "E_B0C", c[0] / c[2]),
+    ]
+}
+
+/// One row of the generic table: a deviation, what ISO 230-1 calls it, its value and u, and
+/// the control parameter it goes to.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DeviationRow {
+    /// The test's name for it (`XOC`).
+    pub name: &'static str,
+    /// ISO 230-1's symbol (`E_X0C`), or what it is when not a machine error.
+    pub iso: &'static str,
+    /// Value (µm or arc-seconds).
+    pub value: f64,
+    /// Standard uncertainty (same unit).
+    pub u: f64,
+    /// `um` or `arcsec`.
+    pub unit: &'static str,
+    /// The control parameter it goes to, or why none.
+    pub control: String,
+}
+
+/// What `cargo ncgen -- kins` writes: the corrected pins, their u, what the kinematics cannot
+/// take, the dispersion before and after, and the generic table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KinsCorrection {
+    /// The kinematics.
+    pub kins: TrtKins,
+    /// The control's present values.
+    pub current: TrtPins,
+    /// The corrected values.
+    pub corrected: TrtPins,
+    /// Standard uncertainty of each corrected value, mm (0 where not changed).
+    pub u_mm: [f64; 7],
+    /// The lines' tilts the kinematics cannot take.
+    pub unexpressed: [Unexpressed; 4],
+    /// The tool-centre error with the present values (computed from the measured lines).
+    pub before: Dispersion,
+    /// The tool-centre error left with the corrected values: the unexpressed tilts' share.
+    pub after: Dispersion,
+    /// The generic table.
+    pub rows: Vec<DeviationRow>,
+}
+
+/// The deviations of a test, with what moving each by its u does to the lines: the source
+/// side of [`correct`].
+pub struct MeasuredLines {
+    /// The lines' deviations at the estimate.
+    pub deviations: LineDeviations,
+    /// The lines' deviations with each measured quantity moved by its standard uncertainty
+    /// (treated as uncorrelated: the results file carries no covariance).
+    pub moved_by_u: Vec<LineDeviations>,
+    /// The generic table's rows (their `control` column is filled by [`correct`]).
+    pub rows: Vec<(DeviationRow, Option<&'static str>)>,
+}
+
+/// The correction of `current` for `measured`: the pins placed at the work point
+/// ([`placed_pins`]), their u, the unexpressed tilts and the dispersion before and after;
+/// refused when a pin would move by more than `max_change_um`.
+pub fn correct(
+    kins: TrtKins,
+    current: &TrtPins,
+    measured: &MeasuredLines,
+    work_mm: [f64; 3],
+    grid: &DispersionGrid,
+    max_change_um: f64,
+) -> Result<KinsCorrection, NcError> {
+    let bad = |field: &'static str, what: String| NcError { field, what };
+    let control = kins.lines(current);
+    let place = |d: &LineDeviations| {
+        placed_pins(kins, current, &d.actual(&control), work_mm).ok_or_else(|| {
+            bad(
+                "RESULTS",
+                "a measured axis runs across its nominal one: not a table-tilting machine's".into(),
+            )
+        })
+    };
+    let actual = measured.deviations.actual(&control);
+    let corrected = place(&measured.deviations)?;
+    for pin in kins.pins() {
+        let change_um = (corrected.get(pin) - current.get(pin)) * 1e3;
+        if change_um.abs() > max_change_um {
+            return Err(bad(
+                "--max-change-um",
+                format!(
+                    "{}.{} would change by {change_um:+.1} µm, beyond the guard of {max_change_um} µm",
+                    kins.name(),
+                    pin.name()
+                ),
+            ));
+        }
+    }
+    let mut var = [0.0f64; 7];
+    let mut tilt_var = [0.0f64; 4];
+    let base_tilts = tilts(kins, &actual);
+    for d in &measured.moved_by_u {
+        let p = place(d)?;
+        for (v, (a, b)) in var.iter_mut().zip(p.0.iter().zip(corrected.0.iter())) {
+            *v += (a - b).powi(2);
+        }
+        let t = tilts(kins, &d.actual(&control));
+        for (v, (a, b)) in tilt_var.iter_mut().zip(t.iter().zip(base_tilts.iter())) {
+            *v += (a.2 - b.2).powi(2);
+        }
+    }
+    let unexpressed = std::array::from_fn(|k| Unexpressed {
+        what: base_tilts[k].0,
+        iso: base_tilts[k].1,
+        value_arcsec: base_tilts[k].2 / ARCSEC_RAD,
+        u_arcsec: tilt_var[k].sqrt() / ARCSEC_RAD,
+    });
+    let rows = measured
+        .rows
+        .iter()
+        .map(|(r, feeds)| DeviationRow {
+            control: match feeds {
+                Some(what) => what.to_string(),
+                None => "not expressible (a direction)".into(),
+            },
+            ..r.clone()
+        })
+        .collect();
+    Ok(KinsCorrection {
+        kins,
+        current: *current,
+        corrected,
+        u_mm: var.map(f64::sqrt),
+        unexpressed,
+        before: grid.dispersion(&control, &actual, work_mm),
+        after: grid.dispersion(&kins.lines(&corrected), &actual, work_mm),
+        rows,
+    })
+}
+
+/// The R-test's set-up in the control's coordinates: where the ball (the work point) is.
+/// The seed 003 geometry puts the ball at (X_w, Y_w, Z_w) from the C-frame origin, which is
+/// Z_c above the A axis on the C axis: so the ball is at (x-rot-point + X_w, y-rot-point +
+/// Y_w, A's height + Z_c + Z_w).
+pub fn rtest_work_point(g: &RtestGeometry, current: &TrtPins) -> [f64; 3] {
+    let a = TrtKins::Xyzac.lines(current);
+    [
+        current.get(Pin::XRotPoint) + g.x_w_mm,
+        current.get(Pin::YRotPoint) + g.y_w_mm,
+        a.tilt.point_mm[2] + g.z_c_mm + g.z_w_mm,
+    ]
+}
+
+/// The R-test's location errors as line deviations (`identify::rtest::axis_lines`, each
+/// against the nominal line of `g`), with each moved by its u, and the generic table's rows.
+pub fn rtest_deviations(
+    g: &RtestGeometry,
+    errors: &LocationErrors,
+    u: &LocationErrors,
+) -> Result<MeasuredLines, NcError> {
+    let lines = |e: &LocationErrors| -> Result<LineDeviations, NcError> {
+        let (a, c) = axis_lines(g, e).map_err(|x| NcError {
+            field: "RESULTS",
+            what: format!("the R-test's axis lines: {x:?}"),
+        })?;
+        // each deviation at the point the control's line is given by (`TrtKins::lines`):
+        // the A axis where it passes under the C axis (X = X_c), the C axis at the A axis's
+        // height (Z = 0); the R-test frame has the nominal A axis through its origin
+        let at = |l: &AxisLine, axis: usize, v: f64, nominal: [f64; 3]| {
+            crossing(l, axis, v)
+                .map(|p| std::array::from_fn(|k| p[k] - nominal[k]))
+                .ok_or_else(|| NcError {
+                    field: "RESULTS",
+                    what: "an R-test axis line runs across its nominal one".into(),
+                })
+        };
+        Ok(LineDeviations {
+            tilt: (at(&a, 0, g.x_c_mm, [g.x_c_mm, 0.0, 0.0])?, a.direction),
+            table: (at(&c, 2, 0.0, [g.x_c_mm, g.y_c_mm, 0.0])?, c.direction),
+        })
+    };
+    let (v, uv) = (errors.to_array(), u.to_array());
+    let mut moved_by_u = Vec::new();
+    for k in 0..11 {
+        let mut m = v;
+        m[k] += uv[k];
+        moved_by_u.push(lines(&LocationErrors::from_array(m))?);
+    }
+    let rows = RtestParam::ALL
+        .iter()
+        .map(|&p| {
+            let none = "none: the ball's place on the table, not the machine";
+            let (iso, feeds) = match p {
+                RtestParam::Xow => ("ball position X (set-up)", Some(none)),
+                RtestParam::Yow => ("ball position Y (set-up)", Some(none)),
+                RtestParam::Zow => ("ball position Z (set-up)", Some(none)),
+                RtestParam::Yoa => ("E_Y0A", Some("A axis Y: y-rot-point + y-offset")),
+                RtestParam::Zoa => (
+                    "E_Z0A",
+                    Some("A axis Z: z-rot-point + z-offset + tool-offset"),
+                ),
+                RtestParam::Boa => ("E_B0A", None),
+                RtestParam::Coa => ("E_C0A", None),
+                RtestParam::Xoc => ("E_X0C", Some("C axis X: x-rot-point")),
+                RtestParam::Yoc => ("E_Y0C", Some("C axis Y: y-rot-point")),
+                RtestParam::Aoc => ("E_A0C", None),
+                RtestParam::Boc => ("E_B0C", None),
+            };
+            let name = p.name();
+            let unit = if p.is_angular() { "arcsec" } else { "um" };
+            (
+                DeviationRow {
+                    name,
+                    iso,
+                    value: v[p.index()],
+                    u: uv[p.index()],
+                    unit,
+                    control: String::new(),
+                },
+                feeds,
+            )
+        })
+        .collect();
+    Ok(MeasuredLines {
+        deviations: lines(errors)?,
+        moved_by_u,
+        rows,
+    })
+}
+
+/// The correction as HAL `setp` lines for the kinematics' pins, the dispersion, the
+/// unexpressed tilts and the generic table as comments.
+pub fn hal_lines(c: &KinsCorrection, source: &str) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::new();
+    let k = c.kins.name();
+    let _ = writeln!(
+        s,
+        "# {k} pins corrected from {source} (cargo ncgen -- kins)"
+    );
+    let _ = writeln!(
+        s,
+        "# tool-centre error over the grid: before max {:.2} µm rms {:.2} µm; after (the unexpressed tilts) max {:.2} µm rms {:.2} µm",
+        c.before.max_um, c.before.rms_um, c.after.max_um, c.after.rms_um
+    );
+    for u in &c.unexpressed {
+        let _ = writeln!(
+            s,
+            "# not expressible in {k}: {} ({}) {:+.2}″ (u {:.2}″)",
+            u.what, u.iso, u.value_arcsec, u.u_arcsec
+        );
+    }
+    for pin in c.kins.pins() {
+        let (was, now) = (c.current.get(pin), c.corrected.get(pin));
+        if pin == Pin::ToolOffset {
+            continue;
+        }
+        let _ = writeln!(
+            s,
+            "setp {k}.{} {now:.6}  # was {was:.6}: {:+.1} µm (u {:.1} µm)",
+            pin.name(),
+            (now - was) * 1e3,
+            c.u_mm[pin as usize] * 1e3
+        );
+    }
+    let _ = writeln!(
+        s,
+        "# deviation | ISO 230-1 | value | u | unit | control parameter"
+    );
+    for r in &c.rows {
+        let _ = writeln!(
+            s,
+            "# {} | {} | {:+.3} | {:.3} | {} | {}",
+            r.name, r.iso, r.value, r.u, r.unit, r.control
+        );
+    }
+    s
+}
+
+/// The generic table as CSV (deviation, ISO 230-1 name, value, u, unit, control parameter),
+/// then the pins (`pin:NAME`, the corrected value, its u, mm, the present value).
+pub fn table_csv(c: &KinsCorrection) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::from("deviation,iso_230_1,value,u,unit,control\n");
+    for r in &c.rows {
+        let _ = writeln!(
+            s,
+            "{},{},{:?},{:?},{},\"{}\"",
+            r.name, r.iso, r.value, r.u, r.unit, r.control
+        );
+    }
+    for u in &c.unexpressed {
+        let _ = writeln!(
+            s,
+            "{},{},{:?},{:?},arcsec,\"not expressible in {}\"",
+            u.what,
+            u.iso,
+            u.value_arcsec,
+            u.u_arcsec,
+            c.kins.name()
+        );
+    }
+    for pin in c.kins.pins() {
+        let _ = writeln!(
+            s,
+            "pin:{},{}.{},{:?},{:?},mm,\"was {:?}\"",
+            pin.name(),
+            c.kins.name(),
+            pin.name(),
+            c.corrected.get(pin),
+            c.u_mm[pin as usize],
+            c.current.get(pin)
+        );
+    }
+    s
+}
+
+/// The R-test frame's nominal pins for `g` (the A axis through the origin, C at (X_c, Y_c)):
+/// the values a control set from the machine's drawing would hold, `z-rot-point` on the A
+/// axis.
+pub fn rtest_nominal_pins(g: &RtestGeometry) -> TrtPins {
+    let mut p = TrtPins::default();
+    p.set(Pin::XRotPoint, g.x_c_mm);
+    p.set(Pin::YRotPoint, g.y_c_mm);
+    p.set(Pin::YOffset, 0.0 - g.y_c_mm);
+    p
+}
+
+/// The R-test's location errors and their u from a results file (`results.json` of `cargo
+/// replay`: `host[]`'s `rtest_XOW` … `rtest_BOC`, µm and arc-seconds). A file of another test
+/// is refused with the reason: seed 002's deviations belong to a machine that turns the tool
+/// (B head) and the table (C), which no trt kinematics describes.
+pub fn rtest_from_results(json: &str) -> Result<(LocationErrors, LocationErrors), NcError> {
+    #[derive(serde::Deserialize)]
+    struct Entry {
+        name: String,
+        value: Option<f64>,
+        #[serde(default)]
+        u: Option<f64>,
+    }
+    #[derive(serde::Deserialize)]
+    struct File {
+        #[serde(default)]
+        results: Vec<Entry>,
+        #[serde(default)]
+        host: Vec<Entry>,
+    }
+    let bad = |what: String| NcError {
+        field: "RESULTS",
+        what,
+    };
+    let file: File = serde_json::from_str(json).map_err(|e| bad(e.to_string()))?;
+    if !file.host.iter().any(|e| e.name.starts_with("rtest_")) {
+        return Err(bad(if file.results.iter().any(|e| e.name == "dx_BT") {
+            "seed 002's deviations: its machine turns the tool about B and the table about C, \
+             which no table-tilting (trt) kinematics describes; `ncgen correct` rewrites the \
+             program for them"
+                .into()
+        } else {
+            "no R-test results (host[]: rtest_XOW … rtest_BOC): run `cargo replay` on the \
+             R-test's session file"
+                .into()
+        }));
+    }
+    let mut v = [0.0; 11];
+    let mut u = [0.0; 11];
+    for p in RtestParam::ALL {
+        let name = format!("rtest_{}", p.name());
+        let e = file.host.iter().find(|e| e.name == name).ok_or_else(|| {
+            bad(format!(
+                "{name}: not identified (the path does not determine it)"
+            ))
+        })?;
+        let (x, ux) = (e.value.unwrap_or(f64::NAN), e.u.unwrap_or(f64::NAN));
+        if !(x.is_finite() && ux.is_finite() && ux >= 0.0) {
+            return Err(bad(format!("{name}: a finite value with a u ≥ 0")));
+        }
+        v[p.index()] = x;
+        u[p.index()] = ux;
+    }
+    Ok((LocationErrors::from_array(v), LocationErrors::from_array(u)))
+}

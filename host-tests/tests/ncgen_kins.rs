@@ -1,0 +1,280 @@
+//! Corrections a control takes (`ncgen::kins`): the trt kinematics as two axis lines against
+//! LinuxCNC's published equations (`forward_linuxcnc_trt`), the R-test's frame against seed
+//! 003's HTM chain, and the closed loop on the virtual machine: identify with the R-test →
+//! write the pins back → the control commands its corrected kinematics → the R-test again.
+
+use ballpod::identify::rtest::{
+    LocationErrors, RtestConfig, RtestGeometry, RtestSample, identify, predict_um,
+};
+use ballpod_host::forward_linuxcnc_trt::{self as lcnc, Pins};
+use ballpod_host::forward_seed003 as fw;
+use ballpod_host::ncgen::kins::{
+    DispersionGrid, KinsCorrection, Pin, TrtKins, TrtPins, correct, rtest_deviations,
+    rtest_nominal_pins, rtest_work_point, turned,
+};
+use ballpod_host::rng::Rng;
+use ballpod_host::vmt::rtest_rig::{RtestRig, path_k4, seed003_table3_kinematics};
+
+fn pins_of(p: &TrtPins) -> Pins {
+    Pins {
+        x_rot_point: p.get(Pin::XRotPoint),
+        y_rot_point: p.get(Pin::YRotPoint),
+        z_rot_point: p.get(Pin::ZRotPoint),
+        x_offset: p.get(Pin::XOffset),
+        y_offset: p.get(Pin::YOffset),
+        z_offset: p.get(Pin::ZOffset),
+        tool_offset: p.get(Pin::ToolOffset),
+    }
+}
+
+fn close(a: [f64; 3], b: [f64; 3], tol: f64) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol)
+}
+
+/// One of LinuxCNC's kinematics functions: pins, X Y Z (mm), tilt and table angles (deg).
+type Kinematics = fn(&Pins, [f64; 3], f64, f64) -> [f64; 3];
+
+#[test]
+fn linuxcnc_trt_kinematics_turn_the_work_about_the_two_lines_of_its_pins() {
+    let mut rng = Rng::new(7);
+    for kins in [TrtKins::Xyzac, TrtKins::Xyzbc] {
+        for _ in 0..200 {
+            let p = TrtPins(std::array::from_fn(|_| 200.0 * rng.normal()));
+            let q = [
+                300.0 * rng.normal(),
+                300.0 * rng.normal(),
+                300.0 * rng.normal(),
+            ];
+            let (tilt, table) = (120.0 * rng.normal(), 400.0 * rng.normal());
+            let (inverse, forward): (Kinematics, Kinematics) = match kins {
+                TrtKins::Xyzac => (lcnc::xyzac_inverse, lcnc::xyzac_forward),
+                TrtKins::Xyzbc => (lcnc::xyzbc_inverse, lcnc::xyzbc_forward),
+            };
+            let j = inverse(&pins_of(&p), q, tilt, table);
+            let ours = turned(&kins.lines(&p), q, tilt, table);
+            assert!(close(j, ours, 1e-9), "{kins:?} {p:?}: {j:?} vs {ours:?}");
+            // (and LinuxCNC's forward undoes its inverse)
+            assert!(close(forward(&pins_of(&p), j, tilt, table), q, 1e-9));
+        }
+    }
+}
+
+/// Table 3's machine: LinuxCNC joints (the tool over the table at A = C = 0, from the A
+/// axis's nominal point) → seed 003's servo positions (X moves the table, Y and Z the probe).
+fn servo(k: &fw::Kin, j: [f64; 3]) -> [f64; 3] {
+    [
+        k.x_z + k.x_h - k.x_x - k.x_a - j[0],
+        j[1] + k.y_x + k.y_a - k.y_z - k.y_h,
+        j[2] + k.z_x + k.z_a - k.z_z - k.z_h - k.z_p,
+    ]
+}
+
+#[test]
+fn linuxcnc_xyzac_with_the_drawings_pins_commands_seed003s_ideal_tcp() {
+    let k = seed003_table3_kinematics();
+    let g = RtestGeometry::SEED003_TABLE3;
+    let pins = rtest_nominal_pins(&g);
+    let w = rtest_work_point(&g, &pins);
+    for (a, c) in path_k4(37) {
+        let j = lcnc::xyzac_inverse(&pins_of(&pins), w, a, c);
+        let (xm, ym, zm) = fw::tcp_commands(&k, a.to_radians(), c.to_radians());
+        assert!(close(servo(&k, j), [xm, ym, zm], 1e-9), "A {a} C {c}");
+    }
+}
+
+/// Seed 003's hidden location errors, as a machine might have them (µm / arc-seconds): the
+/// ball where it was meant to be.
+const TRUTH: [f64; 11] = [
+    0.0, 0.0, 0.0, 40.0, -30.0, 6.0, -4.0, 35.0, -25.0, 5.0, -8.0,
+];
+
+/// An R-test on path K4 of Table 3's machine whose control runs xyzac with `pins`: the
+/// readings, identified.
+fn rtest(rig: &mut RtestRig, pins: &TrtPins) -> (Vec<RtestSample>, LocationErrors, LocationErrors) {
+    let k = seed003_table3_kinematics();
+    let g = RtestGeometry::SEED003_TABLE3;
+    let w = rtest_work_point(&g, pins);
+    let poses: Vec<_> = path_k4(241)
+        .into_iter()
+        .map(|(a, c)| {
+            (
+                a,
+                c,
+                servo(&k, lcnc::xyzac_inverse(&pins_of(pins), w, a, c)),
+            )
+        })
+        .collect();
+    let samples = rig.measure_commanded(&k, &TRUTH, &poses);
+    assert_eq!(rig.invalid_samples, 0);
+    let id = identify(&g, &samples, &RtestConfig::default()).expect("identified");
+    (samples, id.errors, id.std_uncertainty)
+}
+
+fn rms_um(samples: &[RtestSample]) -> f64 {
+    let s: f64 = samples
+        .iter()
+        .map(|r| r.reading_um.iter().map(|v| v * v).sum::<f64>())
+        .sum();
+    (s / samples.len() as f64).sqrt()
+}
+
+fn corrected(pins: &TrtPins, e: &LocationErrors, u: &LocationErrors) -> KinsCorrection {
+    let g = RtestGeometry::SEED003_TABLE3;
+    let measured = rtest_deviations(&g, e, u).expect("lines");
+    let grid = DispersionGrid {
+        tilt_range_deg: (-90.0, 0.0),
+        half_side_mm: 0.0,
+    };
+    correct(
+        TrtKins::Xyzac,
+        pins,
+        &measured,
+        rtest_work_point(&g, pins),
+        &grid,
+        500.0,
+    )
+    .expect("within the guard")
+}
+
+#[test]
+fn the_rtests_correction_written_back_leaves_what_xyzac_cannot_express() {
+    let g = RtestGeometry::SEED003_TABLE3;
+    let mut rig = RtestRig::new(0.3, 11);
+    let drawing = rtest_nominal_pins(&g);
+    // 1. identify on the machine whose control holds the drawing's pins
+    let (before, e, u) = rtest(&mut rig, &drawing);
+    let c = corrected(&drawing, &e, &u);
+    // the pins moved where the true lines cross the work (the true errors through the same
+    // mapping, noise-free), within 2 u
+    let truth = corrected(
+        &drawing,
+        &LocationErrors::from_array(TRUTH),
+        &LocationErrors::default(),
+    );
+    for pin in TrtKins::Xyzac.pins() {
+        let (got, want, u) = (
+            c.corrected.get(pin),
+            truth.corrected.get(pin),
+            c.u_mm[pin as usize],
+        );
+        assert!(
+            (got - want).abs() <= 2.0 * u + 1e-6,
+            "{pin:?}: {got} vs {want} (u {u})"
+        );
+    }
+    // the four tilts are what the kinematics cannot take: the true ones, within 2 u
+    for (x, t) in c.unexpressed.iter().zip(truth.unexpressed.iter()) {
+        assert!(
+            (x.value_arcsec - t.value_arcsec).abs() <= 2.0 * x.u_arcsec + 0.05,
+            "{x:?} vs {t:?}"
+        );
+    }
+    // 2. write back, run the R-test again: the control commands its corrected kinematics
+    let (after, e2, u2) = rtest(&mut rig, &c.corrected);
+    // the readings (the tool-centre error at the ball along K4) shrink to what the tilts leave
+    let (rms_before, rms_after) = (rms_um(&before), rms_um(&after));
+    assert!(rms_after < rms_before / 4.0, "{rms_before} → {rms_after}");
+    // what the second run reads is what the identified lines predict: the tool where the
+    // corrected kinematics puts it less where the ball is — at home, where the first run's
+    // reading at A = C = 0 put it (the reduced model's prediction there), turned about the
+    // identified lines — within the readings' noise
+    let predicted = {
+        let control = TrtKins::Xyzac.lines(&c.corrected);
+        let actual = rtest_deviations(&g, &e, &u)
+            .expect("lines")
+            .deviations
+            .actual(&TrtKins::Xyzac.lines(&drawing));
+        let w_control = rtest_work_point(&g, &c.corrected);
+        let home = predict_um(&g, &e, 0.0, 0.0).expect("prediction");
+        let w_drawing = rtest_work_point(&g, &drawing);
+        let ball: [f64; 3] = std::array::from_fn(|i| w_drawing[i] - home[i] * 1e-3);
+        let s: f64 = path_k4(241)
+            .iter()
+            .map(|&(a, cc)| {
+                let (p, q) = (
+                    turned(&control, w_control, a, cc),
+                    turned(&actual, ball, a, cc),
+                );
+                (0..3).map(|i| ((p[i] - q[i]) * 1e3).powi(2)).sum::<f64>()
+            })
+            .sum();
+        (s / 241.0).sqrt()
+    };
+    assert!(
+        (rms_after - predicted).abs() < 0.2,
+        "read {rms_after} µm, predicted {predicted} µm"
+    );
+    // 3. the correction the second run asks for is within its U of none
+    let c2 = corrected(&c.corrected, &e2, &u2);
+    for pin in TrtKins::Xyzac.pins() {
+        let (d, u) = (
+            (c2.corrected.get(pin) - c.corrected.get(pin)) * 1e3,
+            c2.u_mm[pin as usize] * 1e3,
+        );
+        assert!(
+            d.abs() <= 2.0 * u + 1e-3,
+            "{pin:?}: asks for {d} µm again (u {u})"
+        );
+    }
+    assert!(c2.before.max_um < c.before.max_um / 4.0);
+}
+
+#[test]
+fn a_correction_beyond_the_guard_is_refused_with_both_numbers() {
+    let g = RtestGeometry::SEED003_TABLE3;
+    let drawing = rtest_nominal_pins(&g);
+    let measured = rtest_deviations(
+        &g,
+        &LocationErrors::from_array(TRUTH),
+        &LocationErrors::default(),
+    )
+    .expect("lines");
+    let grid = DispersionGrid {
+        tilt_range_deg: (-90.0, 0.0),
+        half_side_mm: 0.0,
+    };
+    let e = correct(
+        TrtKins::Xyzac,
+        &drawing,
+        &measured,
+        rtest_work_point(&g, &drawing),
+        &grid,
+        20.0,
+    )
+    .expect_err("beyond 20 µm");
+    assert_eq!(e.field, "--max-change-um");
+    assert!(e.what.contains("beyond the guard of 20 µm"), "{}", e.what);
+}
+
+/// The book's example (Part programs, "Corrections the control takes"): its results file
+/// through `cargo ncgen -- kins xyzac-trt` prints its block.
+#[test]
+fn the_books_kins_example_is_what_ncgen_prints() {
+    let json = ballpod_host::docs::block_after("**R-test results**", "json");
+    let dir = std::env::temp_dir().join(format!("ballpod-kins-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("results.json");
+    std::fs::write(&file, json).unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ncgen"))
+        .current_dir(&dir)
+        .args(["kins", "xyzac-trt", "results.json"])
+        .output()
+        .expect("ncgen runs");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let printed = String::from_utf8(out.stdout).unwrap();
+    let example = ballpod_host::docs::block_after("xyzac-trt results.json` prints:", "text");
+    assert_eq!(printed, example);
+    // the same file, asked for xyzbc: refused with the reason
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ncgen"))
+        .current_dir(&dir)
+        .args(["kins", "xyzbc-trt", "results.json"])
+        .output()
+        .expect("ncgen runs");
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("A/C table-tilting machine"));
+    let _ = std::fs::remove_dir_all(&dir);
+}

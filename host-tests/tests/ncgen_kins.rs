@@ -278,3 +278,84 @@ fn the_books_kins_example_is_what_ncgen_prints() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("A/C table-tilting machine"));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Seed 004's machine (the rotary table A ∥ Z on the tilting B ∥ Y: xyzbc-trt's C and B) with
+/// the book's centrelines file: the dispersion `ncgen kins` states before and after is the
+/// error of LinuxCNC's xyzbc equations (with the present and the corrected pins) against seed
+/// 004's eq 9 about the file's actual lines (`forward_seed004`), over the same grid.
+#[test]
+fn seed004s_centrelines_into_xyzbc_leave_the_dispersion_it_states() {
+    use ballpod_host::forward_seed004 as fw4;
+    use ballpod_host::ncgen::centrelines_from_toml;
+    use ballpod_host::ncgen::kins::centreline_deviations;
+    let toml = ballpod_host::docs::block_after("**Centrelines file**", "toml");
+    let file = centrelines_from_toml(&toml).expect("the book's centrelines file");
+    let (measured, nominal) = centreline_deviations(&file).expect("lines");
+    let work = [-63.72, -70.71, 258.75];
+    let grid = DispersionGrid {
+        tilt_range_deg: (0.0, 90.0),
+        half_side_mm: 50.0,
+    };
+    let c = correct(TrtKins::Xyzbc, &nominal, &measured, work, &grid, 1000.0).expect("corrected");
+    let a = &file.actual;
+    let oracle = |pins: &TrtPins| {
+        let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0);
+        for i in 0..=6 {
+            let b = 15.0 * i as f64;
+            for j in 0..24 {
+                let cc = 15.0 * j as f64;
+                for k in 0..9 {
+                    let s = |bit: usize| {
+                        if k == 0 {
+                            0.0
+                        } else if (k - 1) & bit == 0 {
+                            -50.0
+                        } else {
+                            50.0
+                        }
+                    };
+                    let w = [work[0] + s(1), work[1] + s(2), work[2] + s(4)];
+                    let j = lcnc::xyzbc_inverse(&pins_of(pins), w, b, cc);
+                    let p = fw4::eq9(
+                        w,
+                        a.a_direction,
+                        a.a_point_mm,
+                        a.b_direction,
+                        a.b_point_mm,
+                        cc.to_radians(),
+                        b.to_radians(),
+                    );
+                    let e = (0..3).map(|i| (j[i] - p[i]).powi(2)).sum::<f64>().sqrt() * 1e3;
+                    max = max.max(e);
+                    sum += e * e;
+                    n += 1;
+                }
+            }
+        }
+        (max, (sum / n as f64).sqrt())
+    };
+    let (before, after) = (oracle(&nominal), oracle(&c.corrected));
+    assert!(
+        (c.before.max_um - before.0).abs() < 1e-6 && (c.before.rms_um - before.1).abs() < 1e-6,
+        "{:?} vs {before:?}",
+        c.before
+    );
+    assert!(
+        (c.after.max_um - after.0).abs() < 1e-6 && (c.after.rms_um - after.1).abs() < 1e-6,
+        "{:?} vs {after:?}",
+        c.after
+    );
+    // (the file's table axis is tilted 1.6 mrad, which xyzbc cannot take: rms 632 → 213 µm)
+    assert!(after.1 < before.1 / 2.5, "{before:?} → {after:?}");
+    // the lines' tilts are what xyzbc cannot take: the file's, in arc-seconds
+    let t = &c.unexpressed;
+    assert!((t[1].value_arcsec - (-a.b_direction[0] / a.b_direction[1]) / ARCSEC).abs() < 1e-6);
+    assert!((t[3].value_arcsec - (a.a_direction[0] / a.a_direction[2]) / ARCSEC).abs() < 1e-6);
+    // every pin the correction changes has a u > 0
+    for pin in [Pin::XRotPoint, Pin::YRotPoint, Pin::XOffset, Pin::ZOffset] {
+        assert!(c.u_mm[pin as usize] > 0.0, "{pin:?}");
+    }
+}
+
+/// One arc-second, rad.
+const ARCSEC: f64 = std::f64::consts::PI / 648_000.0;

@@ -9,8 +9,8 @@
 //! RESULTS` rewrites a program for the identified deviations (seed 002 chapter 3), and
 //! `cargo ncgen -- correct-centrelines PROGRAM CENTRELINES` for estimated rotary-axis
 //! centrelines (seed 004 eq 9); `cargo ncgen -- kins xyzac-trt RESULTS` writes an R-test's
-//! identified axis lines into LinuxCNC's trt kinematics (HAL `setp` lines, or the generic
-//! table with `--format csv`). Prints the
+//! identified axis lines into LinuxCNC's trt kinematics (`kins xyzbc-trt CENTRELINES.toml`
+//! seed 004's; HAL `setp` lines, or the generic table with `--format csv`). Prints the
 //! program, or writes it with `--out`. A set-up the machine cannot run is refused with the field
 //! named — a program beyond the set-up file's `[travel]` too —; nothing is written.
 
@@ -81,9 +81,9 @@ enum Test {
     /// A program's G0/G1 points (X Y Z A B, no TCPM) corrected for estimated rotary-axis
     /// centrelines (seed 004 eq 9 and 4.3; the program keeps its dialect).
     CorrectCentrelines(CentrelinesArgs),
-    /// The R-test's identified rotary-axis lines as the pins of LinuxCNC's table-tilting
-    /// kinematics (HAL `setp` lines with the dispersion before and after and what the
-    /// kinematics cannot take), or the generic table (`--format csv`).
+    /// Identified rotary-axis lines (an R-test's results, seed 004's centrelines) as the pins
+    /// of LinuxCNC's table-tilting kinematics (HAL `setp` lines with the dispersion before and
+    /// after and what the kinematics cannot take), or the generic table (`--format csv`).
     Kins(KinsArgs),
     /// The LinuxCNC user M-code scripts of a program's session (`--session`): `DIR/M150` …
     /// `M155`, the python module they call and the pod's EDS; put DIR in the INI's
@@ -115,8 +115,10 @@ struct KinsArgs {
     /// The control's kinematics.
     #[arg(value_enum)]
     kins: KinsArg,
-    /// Results file with the R-test's location errors (`results.json` of `cargo replay`).
-    results: PathBuf,
+    /// Where the lines come from: an R-test's results (`results.json` of `cargo replay`,
+    /// xyzac-trt) or seed 004's centrelines file (`.toml`, as `correct-centrelines` takes it,
+    /// with `[uncertainty]`; xyzbc-trt).
+    source: PathBuf,
     /// The R-test's geometry as its session file gives it (`[rtest] geometry_mm`): ball X_w
     /// Y_w Z_w from the C-frame origin, C-frame origin X_c Y_c Z_c from the A axis, mm
     /// (default: seed 003 Table 3).
@@ -133,8 +135,13 @@ struct KinsArgs {
     /// The tilt axis's range for the dispersion, degrees.
     #[arg(long, num_args = 2, allow_negative_numbers = true, value_names = ["LOW", "HIGH"], default_values_t = [-90.0, 0.0])]
     tilt_range_deg: Vec<f64>,
+    /// The work point the lines are placed at (C at its height, A at its X, B at its Y) and
+    /// the dispersion is taken about, in the pins' frame, mm. Default: the R-test's ball, or
+    /// for centrelines the table axis at the tilt axis's height.
+    #[arg(long, num_args = 3, allow_negative_numbers = true, value_names = ["X", "Y", "Z"])]
+    work_point_mm: Option<Vec<f64>>,
     /// Half the side of the cube about the work point the dispersion covers, mm (0: the
-    /// ball's centre only).
+    /// work point only).
     #[arg(long, default_value_t = 50.0)]
     half_side_mm: f64,
     /// What to write.
@@ -478,63 +485,85 @@ fn run(args: &Args) -> Result<String, String> {
     }
 }
 
-/// `ncgen kins`: the R-test's lines into the kinematics' pins.
+/// `ncgen kins`: an R-test's or seed 004's lines into the kinematics' pins.
 fn kins(k: &KinsArgs) -> Result<String, String> {
     use ballpod::identify::rtest::RtestGeometry;
     use ballpod_host::ncgen::kins::{
-        DispersionGrid, Pin, TrtKins, correct, hal_lines, rtest_deviations, rtest_from_results,
-        rtest_nominal_pins, rtest_work_point, table_csv,
+        DispersionGrid, Pin, TrtKins, centreline_deviations, correct, hal_lines, rtest_deviations,
+        rtest_from_results, rtest_nominal_pins, rtest_work_point, table_csv,
     };
     let kins = match k.kins {
         KinsArg::XyzacTrt => TrtKins::Xyzac,
         KinsArg::XyzbcTrt => TrtKins::Xyzbc,
     };
-    let text =
-        std::fs::read_to_string(&k.results).map_err(|e| format!("{}: {e}", k.results.display()))?;
-    let (errors, u) =
-        rtest_from_results(&text).map_err(|e| format!("{}: {e}", k.results.display()))?;
-    if kins != TrtKins::Xyzac {
-        return Err(format!(
-            "{}: the R-test identifies an A/C table-tilting machine (seed 003): xyzac-trt, not {}",
-            k.results.display(),
-            kins.name()
-        ));
-    }
-    let g = match k.geometry_mm.as_deref() {
-        None => RtestGeometry::SEED003_TABLE3,
-        Some(&[x_w, y_w, z_w, x_c, y_c, z_c]) => {
-            RtestGeometry::from_array([x_w, y_w, z_w, x_c, y_c, z_c])
+    let src = &k.source;
+    let at = |e: String| format!("{}: {e}", src.display());
+    let text = std::fs::read_to_string(src).map_err(|e| at(e.to_string()))?;
+    let centrelines = src.extension().is_some_and(|x| x == "toml");
+    // the source's lines, the pins its frame has, and where the R-test's ball is
+    let (measured, drawing, geometry) = if centrelines {
+        if kins != TrtKins::Xyzbc {
+            return Err(at(format!(
+                "seed 004's centrelines are a rotary table on a B tilting axis: xyzbc-trt, not {}",
+                kins.name()
+            )));
         }
-        Some(_) => return Err("--geometry-mm: six values".into()),
+        if k.geometry_mm.is_some() {
+            return Err("--geometry-mm: an R-test's; a centrelines file has its lines".into());
+        }
+        let file = centrelines_from_toml(&text).map_err(|e| at(e.to_string()))?;
+        let (m, pins) = centreline_deviations(&file).map_err(|e| at(e.to_string()))?;
+        (m, pins, None)
+    } else {
+        let (errors, u) = rtest_from_results(&text).map_err(|e| at(e.to_string()))?;
+        if kins != TrtKins::Xyzac {
+            return Err(at(format!(
+                "the R-test identifies an A/C table-tilting machine (seed 003): xyzac-trt, not {}",
+                kins.name()
+            )));
+        }
+        let g = match k.geometry_mm.as_deref() {
+            None => RtestGeometry::SEED003_TABLE3,
+            Some(&[x_w, y_w, z_w, x_c, y_c, z_c]) => {
+                RtestGeometry::from_array([x_w, y_w, z_w, x_c, y_c, z_c])
+            }
+            Some(_) => return Err("--geometry-mm: six values".into()),
+        };
+        if ![g.x_w_mm, g.y_w_mm, g.z_w_mm, g.x_c_mm, g.y_c_mm, g.z_c_mm]
+            .iter()
+            .all(|v| v.is_finite())
+        {
+            return Err("--geometry-mm: finite values".into());
+        }
+        let m = rtest_deviations(&g, &errors, &u).map_err(|e| e.to_string())?;
+        (m, rtest_nominal_pins(&g), Some(g))
     };
-    if ![g.x_w_mm, g.y_w_mm, g.z_w_mm, g.x_c_mm, g.y_c_mm, g.z_c_mm]
-        .iter()
-        .all(|v| v.is_finite())
-    {
-        return Err("--geometry-mm: finite values".into());
-    }
-    let mut current = rtest_nominal_pins(&g);
+    let mut current = drawing;
     let mut given = Vec::new();
     for p in &k.pins {
         let (name, value) = p
             .split_once('=')
             .ok_or_else(|| format!("--pin {p}: NAME=MM"))?;
-        let pin = Pin::from_name(name.trim()).ok_or_else(|| {
-            format!("--pin {p}: {name} is not a pin of {} (x-rot-point, y-rot-point, z-rot-point, y-offset, z-offset, tool-offset)", kins.name())
-        })?;
+        let pin = Pin::from_name(name.trim())
+            .filter(|pin| kins.pins().contains(pin))
+            .ok_or_else(|| {
+                let names: Vec<_> = kins.pins().iter().map(|p| p.name()).collect();
+                format!(
+                    "--pin {p}: {name} is not a pin of {} ({})",
+                    kins.name(),
+                    names.join(", ")
+                )
+            })?;
         let v: f64 = value
             .trim()
             .parse()
             .ok()
             .filter(|v: &f64| v.is_finite())
             .ok_or_else(|| format!("--pin {p}: {value} is not a length in mm"))?;
-        if !kins.pins().contains(&pin) {
-            return Err(format!("--pin {p}: {} does not read {name}", kins.name()));
-        }
         current.0[pin as usize] = v;
         given.push(pin);
     }
-    // the pins hold one frame: the control's (all given) or the R-test's (none given)
+    // the pins hold one frame: the control's (all given) or the source's (none given)
     let missing: Vec<_> = kins
         .pins()
         .into_iter()
@@ -548,6 +577,12 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
             missing.join(", ")
         ));
     }
+    let work = match (k.work_point_mm.as_deref(), &geometry) {
+        (Some(&[x, y, z]), _) if [x, y, z].iter().all(|v| v.is_finite()) => [x, y, z],
+        (Some(_), _) => return Err("--work-point-mm: three finite values".into()),
+        (None, Some(g)) => rtest_work_point(g, &current),
+        (None, None) => kins.lines(&current).table.point_mm,
+    };
     let [lo, hi] = [0, 1].map(|i| k.tilt_range_deg.get(i).copied().unwrap_or(f64::NAN));
     if !(lo.is_finite() && hi.is_finite() && lo < hi && hi - lo <= 360.0) {
         return Err("--tilt-range-deg: LOW < HIGH, at most 360° apart".into());
@@ -558,22 +593,14 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
     if !(k.max_change_um.is_finite() && k.max_change_um > 0.0) {
         return Err("--max-change-um: a length > 0".into());
     }
-    let measured = rtest_deviations(&g, &errors, &u).map_err(|e| e.to_string())?;
     let grid = DispersionGrid {
         tilt_range_deg: (lo, hi),
         half_side_mm: k.half_side_mm,
     };
-    let c = correct(
-        kins,
-        &current,
-        &measured,
-        rtest_work_point(&g, &current),
-        &grid,
-        k.max_change_um,
-    )
-    .map_err(|e| e.to_string())?;
-    let name = k.results.file_name().map_or_else(
-        || k.results.display().to_string(),
+    let c = correct(kins, &current, &measured, work, &grid, k.max_change_um)
+        .map_err(|e| e.to_string())?;
+    let name = src.file_name().map_or_else(
+        || src.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
     Ok(match k.format {

@@ -311,28 +311,28 @@ pub struct CentrelineUncertainty {
 }
 
 /// One input pair of [`CentrelineUncertainty`].
-struct UncertainPair {
+pub(super) struct UncertainPair {
     /// The file's key of the standard uncertainties.
-    key: &'static str,
+    pub(super) key: &'static str,
     /// The file's key of the correlation.
-    correlation_key: &'static str,
+    pub(super) correlation_key: &'static str,
     /// The line (A: the table).
-    line: Line,
+    pub(super) line: Line,
     /// The machine directions the two components move along (signed unit vectors).
-    along: [[f64; 3]; 2],
+    pub(super) along: [[f64; 3]; 2],
     /// Their standard uncertainties, µrad (a tilt) or µm (a point).
-    u: [f64; 2],
+    pub(super) u: [f64; 2],
     /// Their correlation coefficient.
-    correlation: f64,
+    pub(super) correlation: f64,
     /// Their degrees of freedom (`None`: infinite).
-    dof: Option<u32>,
+    pub(super) dof: Option<u32>,
     /// Whether it tilts the direction (else it moves the point).
-    tilt: bool,
+    pub(super) tilt: bool,
 }
 
 impl CentrelineUncertainty {
     /// The four input pairs.
-    fn pairs(&self) -> [UncertainPair; 4] {
+    pub(super) fn pairs(&self) -> [UncertainPair; 4] {
         const X: [f64; 3] = [1.0, 0.0, 0.0];
         const Y: [f64; 3] = [0.0, 1.0, 0.0];
         const Z: [f64; 3] = [0.0, 0.0, 1.0];
@@ -390,7 +390,7 @@ impl CentrelineUncertainty {
 
 /// One of the two centrelines.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Line {
+pub(super) enum Line {
     /// The rotary table A.
     A,
     /// The tilting axis B.

@@ -405,9 +405,11 @@ pub struct KinsCorrection {
 pub struct MeasuredLines {
     /// The lines' deviations at the estimate.
     pub deviations: LineDeviations,
-    /// The lines' deviations with each measured quantity moved by its standard uncertainty
-    /// (treated as uncorrelated: the results file carries no covariance).
+    /// The lines' deviations with each measured quantity moved by its standard uncertainty.
     pub moved_by_u: Vec<LineDeviations>,
+    /// The correlated pairs among them: indices into `moved_by_u` and the correlation
+    /// coefficient (the others are taken as uncorrelated).
+    pub correlated: Vec<(usize, usize, f64)>,
     /// The generic table's rows (their `control` column is filled by [`correct`]).
     pub rows: Vec<(DeviationRow, Option<&'static str>)>,
 }
@@ -448,17 +450,31 @@ pub fn correct(
             ));
         }
     }
-    let mut var = [0.0f64; 7];
-    let mut tilt_var = [0.0f64; 4];
+    // each input moved by its u: the pins' and the tilts' changes, then
+    // u² = Σ cᵢ² + 2 Σ r·cᵢ·cⱼ over the correlated pairs
     let base_tilts = tilts(kins, &actual);
+    let mut changes = Vec::new();
     for d in &measured.moved_by_u {
         let p = place(d)?;
-        for (v, (a, b)) in var.iter_mut().zip(p.0.iter().zip(corrected.0.iter())) {
-            *v += (a - b).powi(2);
-        }
         let t = tilts(kins, &d.actual(&control));
-        for (v, (a, b)) in tilt_var.iter_mut().zip(t.iter().zip(base_tilts.iter())) {
-            *v += (a.2 - b.2).powi(2);
+        let pins: [f64; 7] = std::array::from_fn(|k| p.0[k] - corrected.0[k]);
+        let tilt: [f64; 4] = std::array::from_fn(|k| t[k].2 - base_tilts[k].2);
+        changes.push((pins, tilt));
+    }
+    let mut var = [0.0f64; 7];
+    let mut tilt_var = [0.0f64; 4];
+    for (p, t) in &changes {
+        var.iter_mut().zip(p).for_each(|(v, c)| *v += c * c);
+        tilt_var.iter_mut().zip(t).for_each(|(v, c)| *v += c * c);
+    }
+    for &(i, j, r) in &measured.correlated {
+        if let (Some((pi, ti)), Some((pj, tj))) = (changes.get(i), changes.get(j)) {
+            for k in 0..7 {
+                var[k] += 2.0 * r * pi[k] * pj[k];
+            }
+            for k in 0..4 {
+                tilt_var[k] += 2.0 * r * ti[k] * tj[k];
+            }
         }
     }
     let unexpressed = std::array::from_fn(|k| Unexpressed {
@@ -576,6 +592,8 @@ pub fn rtest_deviations(
     Ok(MeasuredLines {
         deviations: lines(errors)?,
         moved_by_u,
+        // (the results file carries no covariance of the R-test's figures)
+        correlated: Vec::new(),
         rows,
     })
 }
@@ -731,4 +749,200 @@ pub fn rtest_from_results(json: &str) -> Result<(LocationErrors, LocationErrors)
         u[p.index()] = ux;
     }
     Ok((LocationErrors::from_array(v), LocationErrors::from_array(u)))
+}
+
+/// A centrelines file's lines (seed 004: the rotary table A, nominally ∥ Z, carried by the
+/// tilting axis B, nominally ∥ Y — LinuxCNC's C and B of `xyzbc-trt-kins`) as line
+/// deviations from its `[nominal]` ones, each `[uncertainty]` component moved by its u (the
+/// pairs with their correlation), the generic table's rows, and the pins the nominal lines are
+/// (the file's frame: `z-rot-point` 0). Refused without `[uncertainty]` (a pin is not written
+/// without its u) or when the nominal lines are not along Z and Y.
+pub fn centreline_deviations(
+    file: &super::CentrelinesFile,
+) -> Result<(MeasuredLines, TrtPins), NcError> {
+    use super::CentrelinePair;
+    use super::correct::Line;
+    let bad = |what: String| NcError {
+        field: "CENTRELINES",
+        what,
+    };
+    let nominal = file.nominal.unwrap_or(CentrelinePair::NOMINAL);
+    let unit = |d: [f64; 3]| {
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        d.map(|v| v / n)
+    };
+    let (na, nb) = (unit(nominal.a_direction), unit(nominal.b_direction));
+    if na[2].abs() < 1.0 - 1e-12 || nb[1].abs() < 1.0 - 1e-12 {
+        return Err(bad(
+            "nominal: the NC-set lines are not along Z (a) and Y (b), as xyzbc-trt-kins's are"
+                .into(),
+        ));
+    }
+    let u = file.uncertainty.as_ref().ok_or_else(|| {
+        bad("uncertainty: the lines' standard uncertainties are needed for the pins' u".into())
+    })?;
+    // the deviations where the control's lines are given: B where it passes the table axis
+    // (Y of nominal A), the table axis at B's height (Z of nominal B)
+    let (y0, z0) = (nominal.a_point_mm[1], nominal.b_point_mm[2]);
+    let line = |d: [f64; 3], p: [f64; 3]| AxisLine {
+        direction: d,
+        point_mm: p,
+    };
+    let (nom_a, nom_b) = (
+        line(nominal.a_direction, nominal.a_point_mm),
+        line(nominal.b_direction, nominal.b_point_mm),
+    );
+    let deviations = |a: &AxisLine, b: &AxisLine| -> Result<LineDeviations, NcError> {
+        let shift = |actual: &AxisLine, nom: &AxisLine, axis: usize, at: f64| match (
+            crossing(actual, axis, at),
+            crossing(nom, axis, at),
+        ) {
+            (Some(p), Some(q)) => Ok(std::array::from_fn(|k| p[k] - q[k])),
+            _ => Err(bad("a line runs across its nominal one".into())),
+        };
+        // directions along +Y (B) and +Z (A), as the kinematics' lines run
+        let along = |d: [f64; 3], k: usize| {
+            let d = unit(d);
+            if d[k] < 0.0 { d.map(|v| -v) } else { d }
+        };
+        Ok(LineDeviations {
+            tilt: (shift(b, &nom_b, 1, y0)?, along(b.direction, 1)),
+            table: (shift(a, &nom_a, 2, z0)?, along(a.direction, 2)),
+        })
+    };
+    let actual = &file.actual;
+    let (act_a, act_b) = (
+        line(actual.a_direction, actual.a_point_mm),
+        line(actual.b_direction, actual.b_point_mm),
+    );
+    let mut moved_by_u = Vec::new();
+    let mut correlated = Vec::new();
+    for pair in u.pairs() {
+        for k in 0..2 {
+            let (mut a, mut b) = (act_a, act_b);
+            let l = match pair.line {
+                Line::A => &mut a,
+                Line::B => &mut b,
+            };
+            let along = pair.along[k];
+            if pair.tilt {
+                let d = unit(l.direction);
+                l.direction = std::array::from_fn(|i| d[i] + pair.u[k] * 1e-6 * along[i]);
+            } else {
+                l.point_mm = std::array::from_fn(|i| l.point_mm[i] + pair.u[k] * 1e-3 * along[i]);
+            }
+            moved_by_u.push(deviations(&a, &b)?);
+        }
+        let n = moved_by_u.len();
+        if pair.correlation != 0.0 {
+            correlated.push((n - 2, n - 1, pair.correlation));
+        }
+    }
+    let dev = deviations(&act_a, &act_b)?;
+    let (a_dir, b_dir) = (unit(act_a.direction), unit(act_b.direction));
+    let (a_dir, b_dir) = (
+        if a_dir[2] < 0.0 {
+            a_dir.map(|v| -v)
+        } else {
+            a_dir
+        },
+        if b_dir[1] < 0.0 {
+            b_dir.map(|v| -v)
+        } else {
+            b_dir
+        },
+    );
+    let row = |name, iso, value: f64, u: f64, unit, feeds| {
+        (
+            DeviationRow {
+                name,
+                iso,
+                value,
+                u,
+                unit,
+                control: String::new(),
+            },
+            feeds,
+        )
+    };
+    let rows = vec![
+        row(
+            "table tilt X",
+            "E_B0C",
+            a_dir[0] / a_dir[2] * 1e6,
+            u.a_tilt_urad[0],
+            "urad",
+            None,
+        ),
+        row(
+            "table tilt Y",
+            "−E_A0C",
+            a_dir[1] / a_dir[2] * 1e6,
+            u.a_tilt_urad[1],
+            "urad",
+            None,
+        ),
+        row(
+            "table point X",
+            "E_X0C",
+            dev.table.0[0] * 1e3,
+            u.a_point_um[0],
+            "um",
+            Some("C axis X: x-rot-point"),
+        ),
+        row(
+            "table point Y",
+            "E_Y0C",
+            dev.table.0[1] * 1e3,
+            u.a_point_um[1],
+            "um",
+            Some("C axis Y: y-rot-point"),
+        ),
+        row(
+            "tilt axis tilt X",
+            "−E_C0B",
+            b_dir[0] / b_dir[1] * 1e6,
+            u.b_tilt_urad[0],
+            "urad",
+            None,
+        ),
+        row(
+            "tilt axis tilt −Z",
+            "−E_A0B",
+            -b_dir[2] / b_dir[1] * 1e6,
+            u.b_tilt_urad[1],
+            "urad",
+            None,
+        ),
+        row(
+            "tilt axis point X",
+            "E_X0B",
+            dev.tilt.0[0] * 1e3,
+            u.b_point_um[0],
+            "um",
+            Some("B axis X: x-rot-point + x-offset"),
+        ),
+        row(
+            "tilt axis point Z",
+            "E_Z0B",
+            dev.tilt.0[2] * 1e3,
+            u.b_point_um[1],
+            "um",
+            Some("B axis Z: z-rot-point + z-offset + tool-offset"),
+        ),
+    ];
+    let mut pins = TrtPins::default();
+    pins.set(Pin::XRotPoint, nominal.a_point_mm[0]);
+    pins.set(Pin::YRotPoint, y0);
+    pins.set(Pin::XOffset, nominal.b_point_mm[0] - nominal.a_point_mm[0]);
+    pins.set(Pin::ZOffset, z0);
+    Ok((
+        MeasuredLines {
+            deviations: dev,
+            moved_by_u,
+            correlated,
+            rows,
+        },
+        pins,
+    ))
 }

@@ -111,6 +111,10 @@ pub struct Report {
     /// (what `ncgen correct` propagates into each corrected point).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub seed002_covariance: Option<DeviationCovariance>,
+    /// The covariance of the R-test's figures (`host[]`'s `rtest_*`, the ones reported), when
+    /// replayed (what `ncgen kins` propagates into each pin).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rtest_covariance: Option<DeviationCovariance>,
 }
 
 /// The covariance of the seed 002 model mode's identified deviations

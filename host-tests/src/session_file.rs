@@ -500,8 +500,12 @@ fn shares(parts: &[(&str, f64)]) -> Vec<Share> {
     s
 }
 
-/// The seed 003 R-test of `[rtest]`: the 11 location and ball errors.
-pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
+/// The seed 003 R-test of `[rtest]`: the 11 location and ball errors, and the covariance of
+/// the ones reported.
+pub fn rtest(
+    path: &Path,
+    e: &RtestEntry,
+) -> Result<(Vec<Figure>, crate::replay::DeviationCovariance), LogError> {
     use ballpod::identify::rtest::{
         ReadingZero, RtestConfig, RtestGeometry, RtestParam, RtestSample, U_READING_SCALE, identify,
     };
@@ -545,25 +549,42 @@ pub fn rtest(path: &Path, e: &RtestEntry) -> Result<Vec<Figure>, LogError> {
     let (type_a, scale) = (r.u_type_a.to_array(), r.u_reading_scale.to_array());
     // a parameter the path does not determine (fixed, or only in a combination with fixed
     // ones) is NaN: not reported, like an invalid result
-    Ok(RtestParam::ALL
-        .iter()
+    let reported: Vec<RtestParam> = RtestParam::ALL
+        .into_iter()
         .filter(|p| v[p.index()].is_finite())
-        .map(|&p| {
-            (
-                p.index(),
-                p.name(),
-                if p.is_angular() { "arcsec" } else { "um" },
-            )
+        .collect();
+    let unit = |p: &RtestParam| if p.is_angular() { "arcsec" } else { "um" };
+    let figures = reported
+        .iter()
+        .map(|p| {
+            let j = p.index();
+            Figure {
+                name: format!("rtest_{}", p.name()),
+                value: v[j] as f32,
+                u: Some(u[j] as f32),
+                dof: None,
+                unit: unit(p).into(),
+                contributors: shares(&[("type_a", type_a[j]), ("head_scale", scale[j])]),
+            }
         })
-        .map(|(j, n, unit)| Figure {
-            name: format!("rtest_{n}"),
-            value: v[j] as f32,
-            u: Some(u[j] as f32),
-            dof: None,
-            unit: unit.into(),
-            contributors: shares(&[("type_a", type_a[j]), ("head_scale", scale[j])]),
-        })
-        .collect())
+        .collect();
+    let covariance = crate::replay::DeviationCovariance {
+        names: reported
+            .iter()
+            .map(|p| format!("rtest_{}", p.name()))
+            .collect(),
+        units: reported.iter().map(|p| unit(p).to_string()).collect(),
+        matrix: reported
+            .iter()
+            .map(|p| {
+                reported
+                    .iter()
+                    .map(|q| r.covariance[p.index()][q.index()])
+                    .collect()
+            })
+            .collect(),
+    };
+    Ok((figures, covariance))
 }
 
 /// A seed 004 table's `sense`: `primed` (default, seed 004's table axes) or `right_handed`.
@@ -747,6 +768,8 @@ pub struct Inputs {
     pub runs: Vec<(String, RecordedRun)>,
     /// The host-only methods' figures.
     pub host: Vec<Figure>,
+    /// The covariance of the R-test's figures, when `[rtest]` was replayed.
+    pub rtest_covariance: Option<crate::replay::DeviationCovariance>,
     /// Files the host-only methods write (name, text): seed 001 curves and tables.
     pub files: Vec<(String, String)>,
 }
@@ -757,6 +780,7 @@ pub fn read_inputs(files: &[PathBuf]) -> Result<Inputs, LogError> {
     let Inputs {
         runs,
         host,
+        rtest_covariance,
         files: out,
     } = &mut inputs;
     for f in files {
@@ -765,7 +789,9 @@ pub fn read_inputs(files: &[PathBuf]) -> Result<Inputs, LogError> {
             let s = parse_session(f, &read_text(f)?)?;
             runs.extend(read_runs(f, &s)?);
             if let Some(r) = &s.rtest {
-                host.extend(rtest(f, r)?);
+                let (figures, covariance) = rtest(f, r)?;
+                host.extend(figures);
+                *rtest_covariance = Some(covariance);
             }
             if let Some(d) = &s.dial {
                 host.extend(dial(f, d)?);

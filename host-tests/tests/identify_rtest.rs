@@ -1321,3 +1321,66 @@ fn the_ball_as_entered_is_estimated_not_budgeted() {
         "the paper's pass covers every parameter in {least:.3} or more"
     );
 }
+
+/// The identification's covariance: its diagonal is u², and over 300 noisy K4 runs with the
+/// head's axes each off by N(0, 0.5 %) its off-diagonal terms follow the estimates' own
+/// covariance (every correlation within 0.15 of the scatter's).
+#[test]
+fn the_covariance_follows_the_estimates_scatter() {
+    let g = RtestGeometry::SEED003_TABLE3;
+    let truth = [
+        -3.2, -21.6, -33.9, 20.5, 32.5, 12.3, -7.2, 1.4, -15.9, -6.5, -4.6,
+    ];
+    let e = LocationErrors::from_array(truth);
+    let path: Vec<(f64, f64)> = (0..241)
+        .map(|i| (-90.0 * i as f64 / 240.0, 360.0 * i as f64 / 240.0))
+        .collect();
+    let mut rng = SplitMix::new(5);
+    let n = 300;
+    let mut est = Vec::new();
+    let mut cov_sum = [[0.0f64; 11]; 11];
+    for _ in 0..n {
+        let scale: [f64; 3] = std::array::from_fn(|_| 1.0 + 0.005 * rng.normal());
+        let samples: Vec<RtestSample> = path
+            .iter()
+            .map(|&(a, c)| {
+                let p = predict_um(&g, &e, a, c).unwrap();
+                RtestSample {
+                    a_deg: a,
+                    c_deg: c,
+                    reading_um: std::array::from_fn(|k| p[k] * scale[k] + 0.3 * rng.normal()),
+                }
+            })
+            .collect();
+        let cfg = RtestConfig {
+            refine_ball: false,
+            ..RtestConfig::default()
+        };
+        let id = identify(&g, &samples, &cfg).unwrap();
+        let u = id.std_uncertainty.to_array();
+        for i in 0..11 {
+            assert!((id.covariance[i][i] - u[i] * u[i]).abs() <= 1e-9 * u[i] * u[i]);
+            for j in 0..11 {
+                cov_sum[i][j] += id.covariance[i][j];
+            }
+        }
+        est.push(id.errors.to_array());
+    }
+    let mean: [f64; 11] = std::array::from_fn(|i| est.iter().map(|x| x[i]).sum::<f64>() / n as f64);
+    let scatter = |i: usize, j: usize| {
+        est.iter()
+            .map(|x| (x[i] - mean[i]) * (x[j] - mean[j]))
+            .sum::<f64>()
+            / (n - 1) as f64
+    };
+    for i in 0..11 {
+        for j in 0..11 {
+            let r_stated = cov_sum[i][j] / (cov_sum[i][i] * cov_sum[j][j]).sqrt();
+            let r_seen = scatter(i, j) / (scatter(i, i) * scatter(j, j)).sqrt();
+            assert!(
+                (r_stated - r_seen).abs() <= 0.15,
+                "({i}, {j}): stated {r_stated:.3}, seen {r_seen:.3}"
+            );
+        }
+    }
+}

@@ -767,6 +767,11 @@ pub struct RtestIdentification {
     pub std_uncertainty: LocationErrors,
     /// Its Type A share, from the residual variance (µm / arc-seconds).
     pub u_type_a: LocationErrors,
+    /// The estimates' covariance (µm², µm·″, ″²; [`RtestParam::ALL`] order): the Type A part
+    /// s²·(HᵀH)⁻¹ plus the head's calibration, each axis's response moved by its u, outer
+    /// products summed; its diagonal is [`Self::std_uncertainty`] squared. NaN rows and
+    /// columns where `errors` is NaN.
+    pub covariance: [[f64; 11]; 11],
     /// Its share from the head's calibration, [`RtestConfig::u_reading_scale`]: each axis's
     /// readings scaled by 1 + u through the same least squares (µm / arc-seconds).
     pub u_reading_scale: LocationErrors,
@@ -1052,6 +1057,25 @@ fn identify_about(
     };
     let mut x = sol.x;
     let mut u = sol.std_uncertainty;
+    // Type A correlations from the SVD of the triangular factor: (HᵀH)⁻¹ = V·Σ⁻²·Vᵀ (s²
+    // cancels in the correlation; the u above carry it)
+    let inv = |i: usize, j: usize| -> f64 {
+        sol.right_singular_vectors
+            .iter()
+            .zip(sol.singular_values)
+            .filter(|(_, s)| *s > 0.0)
+            .map(|(v, s)| {
+                v.get(i).copied().unwrap_or(0.0) * v.get(j).copied().unwrap_or(0.0) / (s * s)
+            })
+            .sum()
+    };
+    let correlation_a: [[f64; 11]; 11] = core::array::from_fn(|i| {
+        core::array::from_fn(|j| {
+            let d = crate::num::sqrt(inv(i, i) * inv(j, j));
+            if d > 0.0 { inv(i, j) / d } else { 0.0 }
+        })
+    });
+
     if cfg.zero == ReadingZero::FirstPose {
         // the centred rows also spent one degree of freedom per axis on the offsets, which the
         // solver's s² = RSS/(m − 11) does not know of
@@ -1062,15 +1086,17 @@ fn identify_about(
     // The head's calibration: each axis's readings scaled by 1 + u through the same least
     // squares (linear in the readings: the response is exact), the axes independent.
     let mut u_scale = [0.0f64; 11];
+    let mut scale_shifts = [[0.0f64; 11]; 3];
     if cfg.u_reading_scale > 0.0 {
-        for axis in 0..3 {
+        for (axis, shift) in scale_shifts.iter_mut().enumerate() {
             let mut scale = [1.0; 3];
             if let Some(k) = scale.get_mut(axis) {
                 *k += cfg.u_reading_scale;
             }
             let moved = build_scaled(g, samples, cfg.zero, &fixed, &fixed_values, scale)?
                 .solve_full_rank(cfg.rank_tol)?;
-            for ((v, a), b) in u_scale.iter_mut().zip(moved.x).zip(x) {
+            for (((v, d), a), b) in u_scale.iter_mut().zip(shift.iter_mut()).zip(moved.x).zip(x) {
+                *d = a - b;
                 *v += (a - b) * (a - b);
             }
         }
@@ -1079,6 +1105,18 @@ fn identify_about(
     let mut u_type_a = u;
     for ((v, a), b) in u.iter_mut().zip(u_type_a).zip(u_scale) {
         *v = crate::num::sqrt(a * a + b * b);
+    }
+    let mut covariance = correlation_a;
+    for ((row, ui), i) in covariance.iter_mut().zip(u_type_a).zip(0..) {
+        for ((c, uj), j) in row.iter_mut().zip(u_type_a).zip(0..) {
+            let scale: f64 = scale_shifts
+                .iter()
+                .map(|d: &[f64; 11]| {
+                    d.get(i).copied().unwrap_or(0.0) * d.get(j).copied().unwrap_or(0.0)
+                })
+                .sum();
+            *c = *c * ui * uj + scale;
+        }
     }
     for p in RtestParam::ALL {
         if fixed.contains(p)
@@ -1113,12 +1151,20 @@ fn identify_about(
                     *v = f64::NAN;
                 }
             }
+            for (i, row) in covariance.iter_mut().enumerate() {
+                for (j, c) in row.iter_mut().enumerate() {
+                    if i == p.index() || j == p.index() {
+                        *c = f64::NAN;
+                    }
+                }
+            }
         }
     }
     Ok(RtestIdentification {
         errors: LocationErrors::from_array(x),
         std_uncertainty: LocationErrors::from_array(u),
         u_type_a: LocationErrors::from_array(u_type_a),
+        covariance,
         u_reading_scale: LocationErrors::from_array(u_scale),
         fixed,
         combined,

@@ -515,7 +515,7 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
         let (m, pins) = centreline_deviations(&file).map_err(|e| at(e.to_string()))?;
         (m, pins, None)
     } else {
-        let (errors, u) = rtest_from_results(&text).map_err(|e| at(e.to_string()))?;
+        let (errors, u, correlation) = rtest_from_results(&text).map_err(|e| at(e.to_string()))?;
         if kins != TrtKins::Xyzac {
             return Err(at(format!(
                 "the R-test identifies an A/C table-tilting machine (seed 003): xyzac-trt, not {}",
@@ -535,7 +535,8 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
         {
             return Err("--geometry-mm: finite values".into());
         }
-        let m = rtest_deviations(&g, &errors, &u).map_err(|e| e.to_string())?;
+        let m =
+            rtest_deviations(&g, &errors, &u, correlation.as_ref()).map_err(|e| e.to_string())?;
         (m, rtest_nominal_pins(&g), Some(g))
     };
     let mut current = drawing;

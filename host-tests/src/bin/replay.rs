@@ -36,13 +36,14 @@ fn main() {
 
 fn run(args: &Args) -> Result<(), String> {
     let inputs = read_inputs(&args.files).map_err(|e| e.to_string())?;
-    let (runs, host) = (inputs.runs, inputs.host);
+    let (runs, host, rtest_covariance) = (inputs.runs, inputs.host, inputs.rtest_covariance);
     let mut report = if runs.is_empty() {
         Report::default()
     } else {
         replay(&runs)?
     };
     report.host = host;
+    report.rtest_covariance = rtest_covariance;
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let write = |name: &str, text: &str| -> Result<(), String> {
         let p = args.out.join(name);

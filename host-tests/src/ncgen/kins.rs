@@ -398,6 +398,8 @@ pub struct KinsCorrection {
     pub after: Dispersion,
     /// The generic table.
     pub rows: Vec<DeviationRow>,
+    /// What the u leave out ([`MeasuredLines::u_note`]).
+    pub u_note: Option<&'static str>,
 }
 
 /// The deviations of a test, with what moving each by its u does to the lines: the source
@@ -410,6 +412,8 @@ pub struct MeasuredLines {
     /// The correlated pairs among them: indices into `moved_by_u` and the correlation
     /// coefficient (the others are taken as uncorrelated).
     pub correlated: Vec<(usize, usize, f64)>,
+    /// What the u leave out, said with the output (`None`: nothing known).
+    pub u_note: Option<&'static str>,
     /// The generic table's rows (their `control` column is filled by [`correct`]).
     pub rows: Vec<(DeviationRow, Option<&'static str>)>,
 }
@@ -503,6 +507,7 @@ pub fn correct(
         before: grid.dispersion(&control, &actual, work_mm),
         after: grid.dispersion(&kins.lines(&corrected), &actual, work_mm),
         rows,
+        u_note: measured.u_note,
     })
 }
 
@@ -520,11 +525,14 @@ pub fn rtest_work_point(g: &RtestGeometry, current: &TrtPins) -> [f64; 3] {
 }
 
 /// The R-test's location errors as line deviations (`identify::rtest::axis_lines`, each
-/// against the nominal line of `g`), with each moved by its u, and the generic table's rows.
+/// against the nominal line of `g`), with each moved by its u and their correlations
+/// (`correlation`, [`RtestParam::ALL`] order; `None`: taken as uncorrelated, and said so), and
+/// the generic table's rows.
 pub fn rtest_deviations(
     g: &RtestGeometry,
     errors: &LocationErrors,
     u: &LocationErrors,
+    correlation: Option<&[[f64; 11]; 11]>,
 ) -> Result<MeasuredLines, NcError> {
     let lines = |e: &LocationErrors| -> Result<LineDeviations, NcError> {
         let (a, c) = axis_lines(g, e).map_err(|x| NcError {
@@ -589,11 +597,24 @@ pub fn rtest_deviations(
             )
         })
         .collect();
+    let mut correlated = Vec::new();
+    if let Some(r) = correlation {
+        for (i, row) in r.iter().enumerate() {
+            for (j, &rij) in row.iter().enumerate().skip(i + 1) {
+                if rij != 0.0 {
+                    correlated.push((i, j, rij));
+                }
+            }
+        }
+    }
     Ok(MeasuredLines {
         deviations: lines(errors)?,
         moved_by_u,
-        // (the results file carries no covariance of the R-test's figures)
-        correlated: Vec::new(),
+        correlated,
+        u_note: correlation.is_none().then_some(
+            "the figures taken as uncorrelated (the results file has no rtest_covariance): the \
+             pins' u are not their own",
+        ),
         rows,
     })
 }
@@ -613,6 +634,9 @@ pub fn hal_lines(c: &KinsCorrection, source: &str) -> String {
         "# tool-centre error over the grid: before max {:.2} µm rms {:.2} µm; after (the unexpressed tilts) max {:.2} µm rms {:.2} µm",
         c.before.max_um, c.before.rms_um, c.after.max_um, c.after.rms_um
     );
+    if let Some(note) = c.u_note {
+        let _ = writeln!(s, "# u: {note}");
+    }
     for u in &c.unexpressed {
         let _ = writeln!(
             s,
@@ -699,8 +723,12 @@ pub fn rtest_nominal_pins(g: &RtestGeometry) -> TrtPins {
 /// The R-test's location errors and their u from a results file (`results.json` of `cargo
 /// replay`: `host[]`'s `rtest_XOW` … `rtest_BOC`, µm and arc-seconds). A file of another test
 /// is refused with the reason: seed 002's deviations belong to a machine that turns the tool
-/// (B head) and the table (C), which no trt kinematics describes.
-pub fn rtest_from_results(json: &str) -> Result<(LocationErrors, LocationErrors), NcError> {
+/// (B head) and the table (C), which no trt kinematics describes. With `rtest_covariance`
+/// (as `cargo replay` writes it) the figures' correlations too ([`RtestParam::ALL`] order).
+#[allow(clippy::type_complexity)] // (the three parts are named in the doc)
+pub fn rtest_from_results(
+    json: &str,
+) -> Result<(LocationErrors, LocationErrors, Option<[[f64; 11]; 11]>), NcError> {
     #[derive(serde::Deserialize)]
     struct Entry {
         name: String,
@@ -709,11 +737,18 @@ pub fn rtest_from_results(json: &str) -> Result<(LocationErrors, LocationErrors)
         u: Option<f64>,
     }
     #[derive(serde::Deserialize)]
+    struct Covariance {
+        names: Vec<String>,
+        matrix: Vec<Vec<f64>>,
+    }
+    #[derive(serde::Deserialize)]
     struct File {
         #[serde(default)]
         results: Vec<Entry>,
         #[serde(default)]
         host: Vec<Entry>,
+        #[serde(default)]
+        rtest_covariance: Option<Covariance>,
     }
     let bad = |what: String| NcError {
         field: "RESULTS",
@@ -748,7 +783,44 @@ pub fn rtest_from_results(json: &str) -> Result<(LocationErrors, LocationErrors)
         v[p.index()] = x;
         u[p.index()] = ux;
     }
-    Ok((LocationErrors::from_array(v), LocationErrors::from_array(u)))
+    let correlation = match file.rtest_covariance {
+        None => None,
+        Some(c) => {
+            let bad_cov = |what: String| bad(format!("rtest_covariance: {what}"));
+            let index = |n: &String| {
+                RtestParam::ALL
+                    .into_iter()
+                    .find(|p| format!("rtest_{}", p.name()) == *n)
+                    .map(RtestParam::index)
+                    .ok_or_else(|| bad_cov(format!("{n} is not an R-test figure")))
+            };
+            let idx = c.names.iter().map(index).collect::<Result<Vec<_>, _>>()?;
+            if idx.len() != 11 || c.matrix.len() != 11 || c.matrix.iter().any(|r| r.len() != 11) {
+                return Err(bad_cov("11 × 11 over the eleven figures".into()));
+            }
+            let mut r = [[0.0f64; 11]; 11];
+            for (row, &i) in c.matrix.iter().zip(&idx) {
+                for (&cij, &j) in row.iter().zip(&idx) {
+                    let (ui, uj) = (u[i], u[j]);
+                    let rij = if i == j { 1.0 } else { cij / (ui * uj) };
+                    if !rij.is_finite() || rij.abs() > 1.0 + 1e-6 {
+                        return Err(bad_cov(format!(
+                            "{} × {}: a correlation outside −1 … 1 with the figures' u",
+                            RtestParam::ALL[i].name(),
+                            RtestParam::ALL[j].name()
+                        )));
+                    }
+                    r[i][j] = rij.clamp(-1.0, 1.0);
+                }
+            }
+            Some(r)
+        }
+    };
+    Ok((
+        LocationErrors::from_array(v),
+        LocationErrors::from_array(u),
+        correlation,
+    ))
 }
 
 /// A centrelines file's lines (seed 004: the rotary table A, nominally ∥ Z, carried by the
@@ -941,6 +1013,7 @@ pub fn centreline_deviations(
             deviations: dev,
             moved_by_u,
             correlated,
+            u_note: None,
             rows,
         },
         pins,

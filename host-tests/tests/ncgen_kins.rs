@@ -281,25 +281,19 @@ fn the_books_kins_example_is_what_ncgen_prints() {
     std::fs::create_dir_all(&dir).unwrap();
     let file = dir.join("results.json");
     std::fs::write(&file, json).unwrap();
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ncgen"))
-        .current_dir(&dir)
-        .args(["kins", "xyzac-trt", "results.json"])
-        .output()
-        .expect("ncgen runs");
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    let printed = run_ok(
+        &dir,
+        env!("CARGO_BIN_EXE_ncgen"),
+        &["kins", "xyzac-trt", "results.json"],
     );
-    let printed = String::from_utf8(out.stdout).unwrap();
     let example = ballpod_host::docs::block_after("xyzac-trt results.json` prints:", "text");
     assert_eq!(printed, example);
     // the same file, asked for xyzbc: refused with the reason
-    let out = std::process::Command::new(env!("CARGO_BIN_EXE_ncgen"))
-        .current_dir(&dir)
-        .args(["kins", "xyzbc-trt", "results.json"])
-        .output()
-        .expect("ncgen runs");
+    let out = run(
+        &dir,
+        env!("CARGO_BIN_EXE_ncgen"),
+        &["kins", "xyzbc-trt", "results.json"],
+    );
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("A/C table-tilting machine"));
     let _ = std::fs::remove_dir_all(&dir);
@@ -457,19 +451,7 @@ fn replay_then_kins_uses_the_rtests_covariance() {
         "[rtest]\nreadings = \"rtest.csv\"\n",
     )
     .unwrap();
-    let run = |exe: &str, args: &[&str]| {
-        let out = std::process::Command::new(exe)
-            .current_dir(&dir)
-            .args(args)
-            .output()
-            .expect("runs");
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-        String::from_utf8(out.stdout).unwrap()
-    };
+    let run = |exe: &str, args: &[&str]| run_ok(&dir, exe, args);
     run(
         env!("CARGO_BIN_EXE_replay"),
         &["session.toml", "--out", "out"],
@@ -501,4 +483,24 @@ fn replay_then_kins_uses_the_rtests_covariance() {
         );
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// One of the crate's binaries run in `dir`.
+fn run(dir: &std::path::Path, exe: &str, args: &[&str]) -> std::process::Output {
+    std::process::Command::new(exe)
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .expect("runs")
+}
+
+/// [`run`], which must succeed: its standard output.
+fn run_ok(dir: &std::path::Path, exe: &str, args: &[&str]) -> String {
+    let out = run(dir, exe, args);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
 }

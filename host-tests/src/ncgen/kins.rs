@@ -716,6 +716,7 @@ pub fn rtest_nominal_pins(g: &RtestGeometry) -> TrtPins {
     let mut p = TrtPins::default();
     p.set(Pin::XRotPoint, g.x_c_mm);
     p.set(Pin::YRotPoint, g.y_c_mm);
+    // (0 − y, not −y: a Y_c of 0 gives +0, which prints as 0, not −0)
     p.set(Pin::YOffset, 0.0 - g.y_c_mm);
     p
 }
@@ -737,18 +738,13 @@ pub fn rtest_from_results(
         u: Option<f64>,
     }
     #[derive(serde::Deserialize)]
-    struct Covariance {
-        names: Vec<String>,
-        matrix: Vec<Vec<f64>>,
-    }
-    #[derive(serde::Deserialize)]
     struct File {
         #[serde(default)]
         results: Vec<Entry>,
         #[serde(default)]
         host: Vec<Entry>,
         #[serde(default)]
-        rtest_covariance: Option<Covariance>,
+        rtest_covariance: Option<crate::replay::DeviationCovariance>,
     }
     let bad = |what: String| NcError {
         field: "RESULTS",

@@ -53,8 +53,9 @@ def check_emulated_figures(request, info, seconds):
     time (its CAN adapter's SDO answer times and heartbeat gaps, the boots, the device counters
     the application task last set), one row of EMU_FIGURES; fails the test if the watchdog reset
     the firmware (a lock-up ends QEMU and the test with it), a heartbeat came more than 2 ms off
-    its 1000 ms, an SDO answer took longer than 10 ms, a sample period was lost (by the ADC or
-    on the way to the application task while a run ran or a job computed), a watchdog look
+    its 1000 ms (or the longest turn + 1 ms, where a turn was longer), an SDO answer took longer
+    than 10 ms, a sample period was lost (by the ADC or on the way to the application task while
+    a run ran or a job computed), a watchdog look
     missed a task, the stack came within
     2 KiB of the STM32 board's, or the CPU was busy more than half of any 100 ms while a run ran
     (the interrupts and the application task; a job in the worker is left out)."""
@@ -78,8 +79,14 @@ def check_emulated_figures(request, info, seconds):
                   f"{'not measured yet' if stack in (0, NOT_MEASURED) else stack} | {load} | "
                   f"{f.get('longest_turn_us', 0)} ({TURN_KINDS.get(f.get('longest_turn_kind', 0), hex(f.get('longest_turn_kind', 0)))}) |\n")
     assert f["watchdog_resets"] == 0, f"the watchdog reset the firmware during the test: {f}"
+    # a heartbeat leaves at the 1 ms tick nearest its time, and a tick waits for the application
+    # task's turn in front of it: 2 ms, or the longest turn + 1 ms where a turn between runs is
+    # longer (a line of several SCPI configuration writes, a probe run's sphere fit). A job in
+    # the application task would hold it for seconds.
+    hb_tolerance_us = max(2000, f.get("longest_turn_us", 0) + 1000)
     if gaps:
-        assert abs(f["heartbeat_gap_min_us"] - 1e6) <= 2000 and abs(f["heartbeat_gap_max_us"] - 1e6) <= 2000, f
+        assert abs(f["heartbeat_gap_min_us"] - 1e6) <= hb_tolerance_us, f
+        assert abs(f["heartbeat_gap_max_us"] - 1e6) <= hb_tolerance_us, f
     assert f["sdo_worst_us"] <= 10_000, f
     assert f["adc_blocks_lost"] == 0 and f["watchdog_misses"] == 0, f
     # (blocks dropped between runs, with no job, are counted in the table but lose no sample

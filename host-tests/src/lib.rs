@@ -13,6 +13,7 @@ pub mod forward_seed001;
 pub mod forward_seed002;
 pub mod forward_seed003;
 pub mod forward_seed004;
+pub mod forward_siemens_carr;
 pub mod gum;
 pub mod lvdt_model;
 pub mod ncgen;

@@ -351,6 +351,38 @@ fn boot_up_then_heartbeat_every_period_with_state_byte() {
     assert_eq!(b.take(), vec![frame(HEARTBEAT, &[0x04])], "stopped = 0x04");
 }
 
+/// A shell polls every millisecond, each poll a little late by a latency that varies (the
+/// turn in front of it): every heartbeat leaves at the poll nearest its place on the 1000 ms
+/// grid, so the gaps between them differ from 1000 ms by no more than the latencies do — not
+/// by a whole poll interval, as when a heartbeat goes out only at or after its due time and
+/// the grid was set by a poll later than the one that finds it due.
+#[test]
+fn heartbeats_keep_their_period_to_the_polls_latency_not_to_a_poll_interval() {
+    let mut b = Bench::new();
+    // the producer time written at 150 µs: the grid is 150 µs + k s
+    b.now_us = 150;
+    b.download(0x1017, 0, &0u16.to_le_bytes()).unwrap();
+    b.download(0x1017, 0, &1000u16.to_le_bytes()).unwrap();
+    // latencies of a shell's 1 ms polls, µs: 0…300
+    let latency = |k: u64| (k * 37) % 301;
+    let mut times = Vec::new();
+    for k in 1..10_000u64 {
+        b.now_us = k * 1000 + latency(k);
+        b.poll();
+        if b.take().iter().any(|f| f.id == HEARTBEAT) {
+            times.push(b.now_us);
+        }
+    }
+    assert_eq!(times.len(), 9, "one a second: {times:?}");
+    let gaps: Vec<i64> = times
+        .windows(2)
+        .map(|w| w[1] as i64 - w[0] as i64)
+        .collect();
+    for g in &gaps {
+        assert!((g - 1_000_000).abs() <= 300, "gap {g} µs: {gaps:?}");
+    }
+}
+
 #[test]
 fn heartbeat_time_written_by_sdo_takes_effect_and_zero_disables() {
     let mut b = Bench::new();

@@ -272,8 +272,8 @@ fn a_correction_beyond_the_guard_is_refused_with_both_numbers() {
     assert!(e.what.contains("beyond the guard of 20 µm"), "{}", e.what);
 }
 
-/// The book's example (Part programs, "Corrections the control takes"): its results file
-/// through `cargo ncgen -- kins xyzac-trt` prints its block.
+/// The book's examples (Part programs, "Corrections the control takes"): its results file
+/// through `cargo ncgen -- kins xyzac-trt` and `sinumerik-p` prints their blocks.
 #[test]
 fn the_books_kins_example_is_what_ncgen_prints() {
     let json = ballpod_host::docs::block_after("**R-test results**", "json");
@@ -288,6 +288,17 @@ fn the_books_kins_example_is_what_ncgen_prints() {
     );
     let example = ballpod_host::docs::block_after("xyzac-trt results.json` prints:", "text");
     assert_eq!(printed, example);
+    // and into a SINUMERIK record
+    let printed = run_ok(
+        &dir,
+        env!("CARGO_BIN_EXE_ncgen"),
+        &["kins", "sinumerik-p", "results.json"],
+    );
+    let example = ballpod_host::docs::block_after(
+        "sinumerik-p results.json` (the R-test results above) prints:",
+        "text",
+    );
+    assert_eq!(printed, example);
     // the same file, asked for xyzbc: refused with the reason
     let out = run(
         &dir,
@@ -299,13 +310,58 @@ fn the_books_kins_example_is_what_ncgen_prints() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The tool-centre error (max, rms µm) of a control that sends the tool to `control(w, B, C)`
+/// for the work point w at B, C (degrees) against seed 004's eq 9 about `file`'s actual lines,
+/// over B 0 … 90° and C a turn every 15°, at `work` and the corners of a 100 mm cube about it.
+fn seed004_dispersion(
+    file: &ballpod_host::ncgen::CentrelinesFile,
+    work: [f64; 3],
+    control: impl Fn([f64; 3], f64, f64) -> [f64; 3],
+) -> (f64, f64) {
+    use ballpod_host::forward_seed004 as fw4;
+    let a = &file.actual;
+    let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0);
+    for i in 0..=6 {
+        let b = 15.0 * i as f64;
+        for j in 0..24 {
+            let cc = 15.0 * j as f64;
+            for k in 0..9 {
+                let s = |bit: usize| {
+                    if k == 0 {
+                        0.0
+                    } else if (k - 1) & bit == 0 {
+                        -50.0
+                    } else {
+                        50.0
+                    }
+                };
+                let w = [work[0] + s(1), work[1] + s(2), work[2] + s(4)];
+                let j = control(w, b, cc);
+                let p = fw4::eq9(
+                    w,
+                    a.a_direction,
+                    a.a_point_mm,
+                    a.b_direction,
+                    a.b_point_mm,
+                    cc.to_radians(),
+                    b.to_radians(),
+                );
+                let e = (0..3).map(|i| (j[i] - p[i]).powi(2)).sum::<f64>().sqrt() * 1e3;
+                max = max.max(e);
+                sum += e * e;
+                n += 1;
+            }
+        }
+    }
+    (max, (sum / n as f64).sqrt())
+}
+
 /// Seed 004's machine (the rotary table A ∥ Z on the tilting B ∥ Y: xyzbc-trt's C and B) with
 /// the book's centrelines file: the dispersion `ncgen kins` states before and after is the
 /// error of LinuxCNC's xyzbc equations (with the present and the corrected pins) against seed
 /// 004's eq 9 about the file's actual lines (`forward_seed004`), over the same grid.
 #[test]
 fn seed004s_centrelines_into_xyzbc_leave_the_dispersion_it_states() {
-    use ballpod_host::forward_seed004 as fw4;
     use ballpod_host::ncgen::centrelines_from_toml;
     use ballpod_host::ncgen::kins::centreline_deviations;
     let toml = ballpod_host::docs::block_after("**Centrelines file**", "toml");
@@ -319,40 +375,9 @@ fn seed004s_centrelines_into_xyzbc_leave_the_dispersion_it_states() {
     let c = correct(TrtKins::Xyzbc, &nominal, &measured, work, &grid, 1000.0).expect("corrected");
     let a = &file.actual;
     let oracle = |pins: &TrtPins| {
-        let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0);
-        for i in 0..=6 {
-            let b = 15.0 * i as f64;
-            for j in 0..24 {
-                let cc = 15.0 * j as f64;
-                for k in 0..9 {
-                    let s = |bit: usize| {
-                        if k == 0 {
-                            0.0
-                        } else if (k - 1) & bit == 0 {
-                            -50.0
-                        } else {
-                            50.0
-                        }
-                    };
-                    let w = [work[0] + s(1), work[1] + s(2), work[2] + s(4)];
-                    let j = lcnc::xyzbc_inverse(&pins_of(pins), w, b, cc);
-                    let p = fw4::eq9(
-                        w,
-                        a.a_direction,
-                        a.a_point_mm,
-                        a.b_direction,
-                        a.b_point_mm,
-                        cc.to_radians(),
-                        b.to_radians(),
-                    );
-                    let e = (0..3).map(|i| (j[i] - p[i]).powi(2)).sum::<f64>().sqrt() * 1e3;
-                    max = max.max(e);
-                    sum += e * e;
-                    n += 1;
-                }
-            }
-        }
-        (max, (sum / n as f64).sqrt())
+        seed004_dispersion(&file, work, |w, b, cc| {
+            lcnc::xyzbc_inverse(&pins_of(pins), w, b, cc)
+        })
     };
     let (before, after) = (oracle(&nominal), oracle(&c.corrected));
     assert!(
@@ -503,4 +528,217 @@ fn run_ok(dir: &std::path::Path, exe: &str, args: &[&str]) -> String {
         String::from_utf8_lossy(&out.stderr)
     );
     String::from_utf8(out.stdout).unwrap()
+}
+
+// ---------------------------------------------------------------------------------------------
+// SINUMERIK: a swivel data record of kinematic type P
+// ---------------------------------------------------------------------------------------------
+
+use ballpod_host::forward_siemens_carr as sie;
+use ballpod_host::ncgen::carr::{self, CarrCorrection, SwivelTable};
+use ballpod_host::ncgen::kins::rtest_ball;
+
+fn chain_of(t: &SwivelTable) -> sie::SwivelTable {
+    sie::SwivelTable {
+        l2: t.l2(),
+        l3: t.l3(),
+        l4: t.l4(),
+        v1: t.v1(),
+        v2: t.v2(),
+    }
+}
+
+#[test]
+fn a_sinumerik_swivel_tables_chain_turns_the_part_about_the_two_lines_of_its_record() {
+    let mut rng = Rng::new(8);
+    for _ in 0..200 {
+        let v = |rng: &mut Rng| [rng.normal(), rng.normal(), rng.normal()];
+        let l = |rng: &mut Rng| {
+            [
+                300.0 * rng.normal(),
+                300.0 * rng.normal(),
+                300.0 * rng.normal(),
+            ]
+        };
+        let t = SwivelTable::closed(l(&mut rng), l(&mut rng), v(&mut rng), v(&mut rng));
+        let w = l(&mut rng);
+        let (a1, a2) = (120.0 * rng.normal(), 400.0 * rng.normal());
+        let siemens = sie::part_point(&chain_of(&t), w, a1, a2);
+        let ours = turned(&t.lines(), w, a1, a2);
+        assert!(close(siemens, ours, 1e-9), "{t:?}: {siemens:?} vs {ours:?}");
+        // and the same lines given at their reference points turn it alike
+        assert!(close(
+            turned(&t.lines().at_reference(), w, a1, a2),
+            ours,
+            1e-9
+        ));
+    }
+    // the R-test frame's drawing record is the drawing's xyzac pins: the same tool positions
+    let g = RtestGeometry::SEED003_TABLE3;
+    let (rec, pins) = (SwivelTable::rtest_nominal(&g), rtest_nominal_pins(&g));
+    let w = rtest_work_point(&g, &pins);
+    assert!(close(rtest_ball(&g, &rec.lines().at_reference()), w, 1e-12));
+    for (a, c) in path_k4(37) {
+        let j = lcnc::xyzac_inverse(&pins_of(&pins), w, a, c);
+        assert!(
+            close(sie::part_point(&chain_of(&rec), w, a, c), j, 1e-9),
+            "A {a} C {c}"
+        );
+    }
+}
+
+/// An R-test on path K4 of Table 3's machine whose SINUMERIK holds the record `rec`, the
+/// ball where the control takes it to be (`w`, mm): the readings, identified.
+fn rtest_sinumerik(
+    rig: &mut RtestRig,
+    rec: &SwivelTable,
+    w: [f64; 3],
+) -> (Vec<RtestSample>, Identified) {
+    let k = seed003_table3_kinematics();
+    let g = RtestGeometry::SEED003_TABLE3;
+    let chain = chain_of(rec);
+    let poses: Vec<_> = path_k4(241)
+        .into_iter()
+        .map(|(a, c)| (a, c, servo(&k, sie::part_point(&chain, w, a, c))))
+        .collect();
+    let samples = rig.measure_commanded(&k, &TRUTH, &poses);
+    assert_eq!(rig.invalid_samples, 0);
+    let id = identify(&g, &samples, &RtestConfig::default()).expect("identified");
+    (samples, Identified::of(&id))
+}
+
+fn corrected_record(
+    rec: &SwivelTable,
+    id: &Identified,
+    max_turn_urad: f64,
+) -> Result<CarrCorrection, ballpod_host::ncgen::NcError> {
+    let g = RtestGeometry::SEED003_TABLE3;
+    let measured = rtest_deviations(&g, &id.e, &id.u, Some(&id.r)).expect("lines");
+    let grid = DispersionGrid {
+        tilt_range_deg: (-90.0, 0.0),
+        half_side_mm: 50.0,
+    };
+    let w = rtest_ball(&g, &rec.lines().at_reference());
+    carr::correct(1, rec, &measured, w, &grid, 500.0, max_turn_urad)
+}
+
+#[test]
+fn the_rtests_correction_into_a_sinumerik_record_leaves_only_the_measurements_u() {
+    let g = RtestGeometry::SEED003_TABLE3;
+    let mut rig = RtestRig::new(0.3, 12);
+    let drawing = SwivelTable::rtest_nominal(&g);
+    // 1. identify on the machine whose control holds the drawing's record, the ball where the
+    // drawing puts it
+    let w = rtest_ball(&g, &drawing.lines().at_reference());
+    let (before, id) = rtest_sinumerik(&mut rig, &drawing, w);
+    let c = corrected_record(&drawing, &id, 2000.0).expect("within the guard");
+    // every value where the true lines put it (the true errors, noise-free), within 2 u
+    let truth = corrected_record(&drawing, &Identified::truth(), 2000.0).expect("truth");
+    for (k, (n, what)) in carr::PARAMETERS.iter().enumerate() {
+        let (got, want, u) = (c.corrected.0[k], truth.corrected.0[k], c.u[k]);
+        assert!(
+            (got - want).abs() <= 2.0 * u + 1e-9,
+            "$TC_CARR{n} ({what}): {got} vs {want} (u {u})"
+        );
+    }
+    // a type-P record takes directions too: nothing is left over
+    assert!(truth.before.max_um > 20.0, "{:?}", truth.before);
+    assert!(truth.after.max_um < 1e-6, "{:?}", truth.after);
+    // 2. write back, run the R-test again: the control commands its corrected record, the
+    // ball set up where it is (the first run's reading at A = C = 0 says where: the ball's
+    // place is the set-up's, not the machine's — XOW … ZOW)
+    let home = predict_um(&g, &id.e, 0.0, 0.0).expect("prediction");
+    let ball: [f64; 3] = std::array::from_fn(|i| w[i] - home[i] * 1e-3);
+    let (after, id2) = rtest_sinumerik(&mut rig, &c.corrected, ball);
+    let (rms_before, rms_after) = (rms_um(&before), rms_um(&after));
+    // the readings fall to the head's noise (three sensors at 0.3 µm: 0.52 µm) and what the
+    // first run's u leave
+    assert!(rms_after < 1.0, "{rms_before} → {rms_after}");
+    // 3. what the second run asks for is the first one's error plus its own: within
+    // 2·√(u₁² + u₂²) of none, lengths and vectors alike
+    let c2 = corrected_record(&c.corrected, &id2, 2000.0).expect("within the guard");
+    for (k, (n, what)) in carr::PARAMETERS.iter().enumerate() {
+        let d = c2.corrected.0[k] - c.corrected.0[k];
+        let u = c.u[k].hypot(c2.u[k]);
+        assert!(
+            d.abs() <= 2.0 * u + 1e-9,
+            "$TC_CARR{n} ({what}): asks for {d:e} again (u {u:e})"
+        );
+    }
+    assert!(
+        c2.before.max_um < c.before.max_um / 20.0,
+        "{:?} then {:?}",
+        c.before,
+        c2.before
+    );
+    eprintln!(
+        "sinumerik loop: readings {rms_before:.2} → {rms_after:.2} µm rms; dispersion {:?} → {:?}",
+        c.before, c2.before
+    );
+}
+
+#[test]
+fn a_sinumerik_record_is_refused_a_turn_beyond_the_guard_or_an_open_chain() {
+    let g = RtestGeometry::SEED003_TABLE3;
+    let drawing = SwivelTable::rtest_nominal(&g);
+    // the truth's tilts (A: 7.2″ = 35 µrad, C: 9.4″ = 46 µrad) against a guard of 10 µrad
+    let e = corrected_record(&drawing, &Identified::truth(), 10.0).expect_err("beyond 10 µrad");
+    assert_eq!(e.field, "--max-turn-urad");
+    assert!(e.what.contains("beyond the guard of 10 µrad"), "{}", e.what);
+    // l4 that does not close the chain
+    let mut open = drawing;
+    open.0[14] += 0.5;
+    let e = corrected_record(&open, &Identified::truth(), 2000.0).expect_err("open chain");
+    assert_eq!(e.field, "--carr");
+    assert!(e.what.contains("0.5000 mm"), "{}", e.what);
+}
+
+/// The same centrelines file into a SINUMERIK record (axis 1 the tilting B, axis 2 the table):
+/// the dispersion it states before and after is Siemens' chain with the present and the
+/// corrected record against seed 004's eq 9 — and after, with the table's 1.6 mrad tilt taken
+/// by v2, none is left.
+#[test]
+fn seed004s_centrelines_into_a_sinumerik_record_leave_no_dispersion() {
+    use ballpod_host::ncgen::centrelines_from_toml;
+    use ballpod_host::ncgen::kins::centreline_deviations;
+    let toml = ballpod_host::docs::block_after("**Centrelines file**", "toml");
+    let file = centrelines_from_toml(&toml).expect("the book's centrelines file");
+    let (measured, nominal) = centreline_deviations(&file).expect("lines");
+    let record = SwivelTable::through(&TrtKins::Xyzbc.lines(&nominal));
+    let work = [-63.72, -70.71, 258.75];
+    let grid = DispersionGrid {
+        tilt_range_deg: (0.0, 90.0),
+        half_side_mm: 50.0,
+    };
+    let c = carr::correct(1, &record, &measured, work, &grid, 1000.0, 5000.0).expect("corrected");
+    let oracle = |rec: &SwivelTable| {
+        seed004_dispersion(&file, work, |w, b, cc| {
+            sie::part_point(&chain_of(rec), w, b, cc)
+        })
+    };
+    let (before, after) = (oracle(&record), oracle(&c.corrected));
+    assert!(
+        (c.before.max_um - before.0).abs() < 1e-6 && (c.before.rms_um - before.1).abs() < 1e-6,
+        "{:?} vs {before:?}",
+        c.before
+    );
+    assert!(
+        (c.after.max_um - after.0).abs() < 1e-6 && (c.after.rms_um - after.1).abs() < 1e-6,
+        "{:?} vs {after:?}",
+        c.after
+    );
+    assert!(before.1 > 600.0 && after.0 < 1e-6, "{before:?} → {after:?}");
+    // the vectors are the file's actual directions; every value the correction changes has a u
+    let a = &file.actual;
+    let unit = |d: [f64; 3]| {
+        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        d.map(|v| v / n)
+    };
+    assert!(close(c.corrected.v1(), unit(a.b_direction), 1e-12));
+    assert!(close(c.corrected.v2(), unit(a.a_direction), 1e-12));
+    for (k, (n, what)) in carr::PARAMETERS.iter().enumerate() {
+        if (c.corrected.0[k] - c.current.0[k]).abs() > 1e-9 {
+            assert!(c.u[k] > 0.0, "$TC_CARR{n} ({what})");
+        }
+    }
 }

@@ -133,7 +133,6 @@ pub async fn compute_task(
     let mut ticks = 0u32;
     let mut packet = [0u8; state::PACKET];
     loop {
-        let now = Instant::now().as_micros();
         let event = select5(
             block::BLOCKS.receive(),
             state::CAN_RX.receive(),
@@ -142,7 +141,9 @@ pub async fn compute_task(
             worker::DONE.receive(),
         )
         .await;
-        let began = Instant::now().as_micros();
+        // the protocols' clock is the event's time (taken before the wait, a tick would see
+        // the end of the turn before it, up to a millisecond stale: heartbeats 1 ms late)
+        let now = Instant::now().as_micros();
         let kind = match &event {
             Either5::First(_) => TurnKind::Block,
             Either5::Second(_) => TurnKind::CanFrame,
@@ -231,7 +232,7 @@ pub async fn compute_task(
                 jobs = Some(slot);
             }
         }
-        let took = Instant::now().as_micros().saturating_sub(began) as u32;
+        let took = Instant::now().as_micros().saturating_sub(now) as u32;
         if took > LONGEST_TURN_US.load(Ordering::Relaxed) {
             LONGEST_TURN_US.store(took, Ordering::Relaxed);
             LONGEST_TURN_KIND.store(kind as u32, Ordering::Relaxed);

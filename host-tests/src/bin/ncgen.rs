@@ -83,7 +83,8 @@ enum Test {
     CorrectCentrelines(CentrelinesArgs),
     /// Identified rotary-axis lines (an R-test's results, seed 004's centrelines) as the pins
     /// of LinuxCNC's table-tilting kinematics (HAL `setp` lines with the dispersion before and
-    /// after and what the kinematics cannot take), or the generic table (`--format csv`).
+    /// after and what the kinematics cannot take) or a SINUMERIK swivel data record of type P
+    /// (`$TC_CARR` assignments), or the generic table (`--format csv`).
     Kins(KinsArgs),
     /// The LinuxCNC user M-code scripts of a program's session (`--session`): `DIR/M150` …
     /// `M155`, the python module they call and the pod's EDS; put DIR in the INI's
@@ -98,12 +99,16 @@ enum KinsArg {
     XyzacTrt,
     /// `xyzbc-trt-kins`: B tilts the table about Y, C turns it about Z.
     XyzbcTrt,
+    /// A SINUMERIK orientable toolholder of kinematic type P (a swivel table,
+    /// `$TC_CARR23="P"`): rotary axis 1 tilts, axis 2 is the table it carries.
+    SinumerikP,
 }
 
 /// What `kins` writes.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum KinsFormat {
-    /// HAL `setp` lines, the rest as comments.
+    /// The control's own lines: HAL `setp` lines (LinuxCNC) or `$TC_CARR` assignments
+    /// (SINUMERIK), the rest as comments.
     Hal,
     /// The generic table: deviation, ISO 230-1 name, value, u, unit, control parameter.
     Csv,
@@ -129,9 +134,20 @@ struct KinsArgs {
     /// the R-test's frame (the nominal A axis through the origin, C at X_c, Y_c).
     #[arg(long = "pin", value_name = "NAME=MM")]
     pins: Vec<String>,
-    /// The largest change a pin may take, µm (a larger one is refused).
+    /// A SINUMERIK record's present value, `N=VALUE` with N the `$TC_CARR` number (4…12,
+    /// 15…20; e.g. `4=250.0`): every one of l2, v1, v2, l3 (l4, 18…20, may be left out: it
+    /// closes the chain), or none — then the values are the source's frame's nominal ones.
+    #[arg(long = "carr", value_name = "N=VALUE")]
+    carr: Vec<String>,
+    /// The SINUMERIK swivel data record's number (`$TC_CARR…[N]`).
+    #[arg(long, default_value_t = 1)]
+    record: u16,
+    /// The largest change a pin or a record's length may take, µm (a larger one is refused).
     #[arg(long, default_value_t = 200.0)]
     max_change_um: f64,
+    /// The largest turn a SINUMERIK record's vector may take, µrad (a larger one is refused).
+    #[arg(long, default_value_t = 500.0)]
+    max_turn_urad: f64,
     /// The tilt axis's range for the dispersion, degrees.
     #[arg(long, num_args = 2, allow_negative_numbers = true, value_names = ["LOW", "HIGH"], default_values_t = [-90.0, 0.0])]
     tilt_range_deg: Vec<f64>,
@@ -485,26 +501,37 @@ fn run(args: &Args) -> Result<String, String> {
     }
 }
 
-/// `ncgen kins`: an R-test's or seed 004's lines into the kinematics' pins.
+/// `text` as a finite number.
+fn finite(text: &str) -> Option<f64> {
+    text.trim().parse().ok().filter(|v: &f64| v.is_finite())
+}
+
+/// `ncgen kins`: an R-test's or seed 004's lines into the kinematics' pins or record.
 fn kins(k: &KinsArgs) -> Result<String, String> {
     use ballpod::identify::rtest::RtestGeometry;
+    use ballpod_host::ncgen::carr::{self, SwivelTable};
     use ballpod_host::ncgen::kins::{
-        DispersionGrid, Pin, TrtKins, centreline_deviations, correct, hal_lines, rtest_deviations,
-        rtest_from_results, rtest_nominal_pins, rtest_work_point, table_csv,
+        DispersionGrid, Pin, TrtKins, centreline_deviations, correct, hal_lines, rtest_ball,
+        rtest_deviations, rtest_from_results, rtest_nominal_pins, table_csv,
     };
-    let kins = match k.kins {
-        KinsArg::XyzacTrt => TrtKins::Xyzac,
-        KinsArg::XyzbcTrt => TrtKins::Xyzbc,
-    };
+    // the trt kinematics, or (SINUMERIK) the one whose lines the source's frame gives
+    let siemens = matches!(k.kins, KinsArg::SinumerikP);
     let src = &k.source;
     let at = |e: String| format!("{}: {e}", src.display());
     let text = std::fs::read_to_string(src).map_err(|e| at(e.to_string()))?;
     let centrelines = src.extension().is_some_and(|x| x == "toml");
+    let kins = match k.kins {
+        KinsArg::XyzacTrt => TrtKins::Xyzac,
+        KinsArg::XyzbcTrt => TrtKins::Xyzbc,
+        KinsArg::SinumerikP if centrelines => TrtKins::Xyzbc,
+        KinsArg::SinumerikP => TrtKins::Xyzac,
+    };
     // the source's lines, the pins its frame has, and where the R-test's ball is
     let (measured, drawing, geometry) = if centrelines {
         if kins != TrtKins::Xyzbc {
             return Err(at(format!(
-                "seed 004's centrelines are a rotary table on a B tilting axis: xyzbc-trt, not {}",
+                "seed 004's centrelines are a rotary table on a B tilting axis: xyzbc-trt or \
+                 sinumerik-p, not {}",
                 kins.name()
             )));
         }
@@ -518,7 +545,8 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
         let (errors, u, correlation) = rtest_from_results(&text).map_err(|e| at(e.to_string()))?;
         if kins != TrtKins::Xyzac {
             return Err(at(format!(
-                "the R-test identifies an A/C table-tilting machine (seed 003): xyzac-trt, not {}",
+                "the R-test identifies an A/C table-tilting machine (seed 003): xyzac-trt or \
+                 sinumerik-p, not {}",
                 kins.name()
             )));
         }
@@ -539,50 +567,100 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
             rtest_deviations(&g, &errors, &u, correlation.as_ref()).map_err(|e| e.to_string())?;
         (m, rtest_nominal_pins(&g), Some(g))
     };
-    let mut current = drawing;
-    let mut given = Vec::new();
-    for p in &k.pins {
-        let (name, value) = p
-            .split_once('=')
-            .ok_or_else(|| format!("--pin {p}: NAME=MM"))?;
-        let pin = Pin::from_name(name.trim())
-            .filter(|pin| kins.pins().contains(pin))
-            .ok_or_else(|| {
-                let names: Vec<_> = kins.pins().iter().map(|p| p.name()).collect();
-                format!(
-                    "--pin {p}: {name} is not a pin of {} ({})",
-                    kins.name(),
-                    names.join(", ")
-                )
-            })?;
-        let v: f64 = value
-            .trim()
-            .parse()
-            .ok()
-            .filter(|v: &f64| v.is_finite())
-            .ok_or_else(|| format!("--pin {p}: {value} is not a length in mm"))?;
-        current.0[pin as usize] = v;
-        given.push(pin);
-    }
-    // the pins hold one frame: the control's (all given) or the source's (none given)
-    let missing: Vec<_> = kins
-        .pins()
-        .into_iter()
-        .filter(|p| *p != Pin::ToolOffset && !given.contains(p))
-        .map(Pin::name)
-        .collect();
-    if !given.is_empty() && !missing.is_empty() {
-        return Err(format!(
-            "--pin: give every pin of {} or none (missing: {})",
-            kins.name(),
-            missing.join(", ")
-        ));
-    }
+    // the control's present values: the pins, or the record (its lines at their reference)
+    let (current, record) = if siemens {
+        if !k.pins.is_empty() {
+            return Err("--pin: LinuxCNC's; a SINUMERIK record's values are --carr N=VALUE".into());
+        }
+        let mut rec = SwivelTable::through(&kins.lines(&drawing).at_reference());
+        let mut given = Vec::new();
+        for c in &k.carr {
+            let (n, value) = c
+                .split_once('=')
+                .ok_or_else(|| format!("--carr {c}: N=VALUE"))?;
+            let index = n
+                .trim()
+                .parse::<u8>()
+                .ok()
+                .and_then(|n| carr::PARAMETERS.iter().position(|p| p.0 == n))
+                .ok_or_else(|| {
+                    format!("--carr {c}: {n} is not 4…12 or 15…20 ($TC_CARR l2 v1 v2 l3 l4)")
+                })?;
+            let v = finite(value).ok_or_else(|| format!("--carr {c}: {value} is not a number"))?;
+            rec.0[index] = v;
+            given.push(index);
+        }
+        let missing: Vec<_> = (0..12)
+            .filter(|i| !given.contains(i))
+            .map(|i| carr::PARAMETERS[i].0.to_string())
+            .collect();
+        if !given.is_empty() && !missing.is_empty() {
+            return Err(format!(
+                "--carr: give every one of $TC_CARR4…12 and 15…17 or none (missing: {})",
+                missing.join(", ")
+            ));
+        }
+        if !given.iter().any(|&i| i >= 12) {
+            // l4 left out: it closes the chain
+            rec = SwivelTable::closed(rec.l2(), rec.l3(), rec.v1(), rec.v2());
+        }
+        for (at, name) in [(3, "v1 ($TC_CARR7…9)"), (6, "v2 ($TC_CARR10…12)")] {
+            let n = rec.0[at..at + 3].iter().map(|v| v * v).sum::<f64>().sqrt();
+            if n < 1e-9 {
+                return Err(format!("--carr: {name} is the zero vector"));
+            }
+        }
+        (drawing, Some(rec))
+    } else {
+        if !k.carr.is_empty() {
+            return Err("--carr: a SINUMERIK record's; LinuxCNC's pins are --pin NAME=MM".into());
+        }
+        let mut current = drawing;
+        let mut given = Vec::new();
+        for p in &k.pins {
+            let (name, value) = p
+                .split_once('=')
+                .ok_or_else(|| format!("--pin {p}: NAME=MM"))?;
+            let pin = Pin::from_name(name.trim())
+                .filter(|pin| kins.pins().contains(pin))
+                .ok_or_else(|| {
+                    let names: Vec<_> = kins.pins().iter().map(|p| p.name()).collect();
+                    format!(
+                        "--pin {p}: {name} is not a pin of {} ({})",
+                        kins.name(),
+                        names.join(", ")
+                    )
+                })?;
+            let v =
+                finite(value).ok_or_else(|| format!("--pin {p}: {value} is not a length in mm"))?;
+            current.0[pin as usize] = v;
+            given.push(pin);
+        }
+        // the pins hold one frame: the control's (all given) or the source's (none given)
+        let missing: Vec<_> = kins
+            .pins()
+            .into_iter()
+            .filter(|p| *p != Pin::ToolOffset && !given.contains(p))
+            .map(Pin::name)
+            .collect();
+        if !given.is_empty() && !missing.is_empty() {
+            return Err(format!(
+                "--pin: give every pin of {} or none (missing: {})",
+                kins.name(),
+                missing.join(", ")
+            ));
+        }
+        (current, None)
+    };
+    let lines = match &record {
+        Some(r) => r.lines().at_reference(),
+        None => kins.lines(&current),
+    };
     let work = match (k.work_point_mm.as_deref(), &geometry) {
         (Some(&[x, y, z]), _) if [x, y, z].iter().all(|v| v.is_finite()) => [x, y, z],
         (Some(_), _) => return Err("--work-point-mm: three finite values".into()),
-        (None, Some(g)) => rtest_work_point(g, &current),
-        (None, None) => kins.lines(&current).table.point_mm,
+        (None, Some(g)) => rtest_ball(g, &lines),
+        (None, None) => lines.table.point_mm,
     };
     let [lo, hi] = [0, 1].map(|i| k.tilt_range_deg.get(i).copied().unwrap_or(f64::NAN));
     if !(lo.is_finite() && hi.is_finite() && lo < hi && hi - lo <= 360.0) {
@@ -594,16 +672,35 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
     if !(k.max_change_um.is_finite() && k.max_change_um > 0.0) {
         return Err("--max-change-um: a length > 0".into());
     }
+    if !(k.max_turn_urad.is_finite() && k.max_turn_urad > 0.0) {
+        return Err("--max-turn-urad: an angle > 0".into());
+    }
     let grid = DispersionGrid {
         tilt_range_deg: (lo, hi),
         half_side_mm: k.half_side_mm,
     };
-    let c = correct(kins, &current, &measured, work, &grid, k.max_change_um)
-        .map_err(|e| e.to_string())?;
     let name = src.file_name().map_or_else(
         || src.display().to_string(),
         |n| n.to_string_lossy().into_owned(),
     );
+    if let Some(rec) = record {
+        let c = carr::correct(
+            k.record,
+            &rec,
+            &measured,
+            work,
+            &grid,
+            k.max_change_um,
+            k.max_turn_urad,
+        )
+        .map_err(|e| e.to_string())?;
+        return Ok(match k.format {
+            KinsFormat::Hal => carr::carr_lines(&c, &name),
+            KinsFormat::Csv => carr::carr_csv(&c),
+        });
+    }
+    let c = correct(kins, &current, &measured, work, &grid, k.max_change_um)
+        .map_err(|e| e.to_string())?;
     Ok(match k.format {
         KinsFormat::Hal => hal_lines(&c, &name),
         KinsFormat::Csv => table_csv(&c),

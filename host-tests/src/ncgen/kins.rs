@@ -117,6 +117,28 @@ impl TrtKins {
         }
     }
 
+    /// The pins that take `feeds`, as the generic table says it.
+    fn parameter(self, feeds: Feeds) -> String {
+        let t = self.tilt_letter();
+        match feeds {
+            Feeds::SetUp => "none: the ball's place on the table, not the machine".into(),
+            Feeds::TiltPoint(2) => format!("{t} axis Z: z-rot-point + z-offset + tool-offset"),
+            Feeds::TiltPoint(k) if k == self.tilt_along() => {
+                format!("none: along the {t} axis itself")
+            }
+            Feeds::TiltPoint(k) => {
+                let x = axis_letter(k).to_ascii_lowercase();
+                format!("{t} axis {}: {x}-rot-point + {x}-offset", axis_letter(k))
+            }
+            Feeds::TablePoint(k) => format!(
+                "C axis {}: {}-rot-point",
+                axis_letter(k),
+                axis_letter(k).to_ascii_lowercase()
+            ),
+            Feeds::TiltDirection | Feeds::TableDirection => "not expressible (a direction)".into(),
+        }
+    }
+
     /// The machine axis the tilt axis runs along (0 = X, 1 = Y).
     fn tilt_along(self) -> usize {
         match self {
@@ -180,6 +202,33 @@ pub struct TableLines {
     pub table: AxisLine,
 }
 
+/// The point of `line` nearest `p` (mm).
+pub(super) fn nearest(line: &AxisLine, p: [f64; 3]) -> [f64; 3] {
+    let d = unit(line.direction);
+    let o = line.point_mm;
+    let s: f64 = (0..3).map(|k| (p[k] - o[k]) * d[k]).sum();
+    std::array::from_fn(|k| o[k] + s * d[k])
+}
+
+impl TableLines {
+    /// The same lines given at the points [`LineDeviations`] are taken at: the tilt axis where
+    /// it passes nearest the table axis's point, the table axis nearest that (for LinuxCNC's
+    /// lines, the points they already have).
+    pub fn at_reference(&self) -> Self {
+        let tilt = nearest(&self.tilt, self.table.point_mm);
+        Self {
+            tilt: AxisLine {
+                direction: self.tilt.direction,
+                point_mm: tilt,
+            },
+            table: AxisLine {
+                direction: self.table.direction,
+                point_mm: nearest(&self.table, tilt),
+            },
+        }
+    }
+}
+
 /// Where the work point `work_mm` (the table at tilt = table = 0) is at `tilt_deg`,
 /// `table_deg`: turned about the table line, then about the tilt line, right-handed about
 /// each line's direction (exact rotations).
@@ -194,21 +243,25 @@ pub fn turned(lines: &TableLines, work_mm: [f64; 3], tilt_deg: f64, table_deg: f
 }
 
 /// How the measured lines differ from the control's: each line's point moved (mm, at the
-/// control line's [`TrtKins::lines`] point: the tilt axis where it passes under the table
-/// axis, the table axis at the tilt axis's height) and its measured direction.
+/// control line's point: for [`TrtKins::lines`] the tilt axis where it passes under the table
+/// axis, the table axis at the tilt axis's height) and its direction turned (the measured unit
+/// direction less the nominal axis's, rad to first order). A test measures the machine against
+/// the kinematics the control commanded it with, so both are the control's errors, whatever
+/// its lines are — axis-parallel (LinuxCNC's) or tilted by an earlier correction (a Siemens
+/// swivel data record's vectors).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LineDeviations {
-    /// The tilt axis: point shift (mm), direction.
+    /// The tilt axis: point shift (mm), direction change.
     pub tilt: ([f64; 3], [f64; 3]),
-    /// The table axis at tilt = 0: point shift (mm), direction.
+    /// The table axis at tilt = 0: point shift (mm), direction change.
     pub table: ([f64; 3], [f64; 3]),
 }
 
 impl LineDeviations {
-    /// The measured lines in the control's coordinates: the control's lines moved.
+    /// The measured lines in the control's coordinates: the control's lines moved and turned.
     pub fn actual(&self, control: &TableLines) -> TableLines {
-        let moved = |l: &AxisLine, (d, dir): ([f64; 3], [f64; 3])| AxisLine {
-            direction: dir,
+        let moved = |l: &AxisLine, (d, turn): ([f64; 3], [f64; 3])| AxisLine {
+            direction: unit(std::array::from_fn(|k| l.direction[k] + turn[k])),
             point_mm: [
                 l.point_mm[0] + d[0],
                 l.point_mm[1] + d[1],
@@ -220,6 +273,17 @@ impl LineDeviations {
             table: moved(&control.table, self.table),
         }
     }
+}
+
+/// `d` scaled to unit length.
+pub(super) fn unit(d: [f64; 3]) -> [f64; 3] {
+    let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+    d.map(|v| v / n)
+}
+
+/// `d` less the unit axis `k` (a direction's change from the nominal axis).
+fn less_axis(d: [f64; 3], k: usize) -> [f64; 3] {
+    std::array::from_fn(|i| d[i] - f64::from(u8::from(i == k)))
 }
 
 /// Where `line` crosses the plane `coordinate[axis] = at` (mm); `None` when it runs in it.
@@ -414,8 +478,29 @@ pub struct MeasuredLines {
     pub correlated: Vec<(usize, usize, f64)>,
     /// What the u leave out, said with the output (`None`: nothing known).
     pub u_note: Option<&'static str>,
-    /// The generic table's rows (their `control` column is filled by [`correct`]).
-    pub rows: Vec<(DeviationRow, Option<&'static str>)>,
+    /// The generic table's rows, each with what it moves (its `control` column is filled by
+    /// the target: [`correct`], [`super::carr::correct`]).
+    pub rows: Vec<(DeviationRow, Feeds)>,
+}
+
+/// What of the lines a deviation moves: each target names the parameter that takes it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Feeds {
+    /// The test's set-up (the ball's place on the table), not the machine.
+    SetUp,
+    /// The tilt axis's point, along machine axis 0 (X), 1 (Y) or 2 (Z).
+    TiltPoint(usize),
+    /// The table axis's point, along machine axis 0 (X) or 1 (Y).
+    TablePoint(usize),
+    /// The tilt axis's direction.
+    TiltDirection,
+    /// The table axis's direction.
+    TableDirection,
+}
+
+/// A machine axis's letter (0 = X).
+pub(super) fn axis_letter(k: usize) -> char {
+    ['X', 'Y', 'Z'].get(k).copied().unwrap_or('?')
 }
 
 /// The correction of `current` for `measured`: the pins placed at the work point
@@ -491,10 +576,7 @@ pub fn correct(
         .rows
         .iter()
         .map(|(r, feeds)| DeviationRow {
-            control: match feeds {
-                Some(what) => what.to_string(),
-                None => "not expressible (a direction)".into(),
-            },
+            control: kins.parameter(*feeds),
             ..r.clone()
         })
         .collect();
@@ -516,12 +598,20 @@ pub fn correct(
 /// Z_c above the A axis on the C axis: so the ball is at (x-rot-point + X_w, y-rot-point +
 /// Y_w, A's height + Z_c + Z_w).
 pub fn rtest_work_point(g: &RtestGeometry, current: &TrtPins) -> [f64; 3] {
-    let a = TrtKins::Xyzac.lines(current);
-    [
-        current.get(Pin::XRotPoint) + g.x_w_mm,
-        current.get(Pin::YRotPoint) + g.y_w_mm,
-        a.tilt.point_mm[2] + g.z_c_mm + g.z_w_mm,
-    ]
+    rtest_ball(g, &TrtKins::Xyzac.lines(current))
+}
+
+/// The R-test's ball for a control whose lines are `lines` (at their reference points,
+/// [`TableLines::at_reference`]): (X_w, Y_w, Z_w) from the C-frame origin, which is on the C
+/// axis Z_c above the A axis (seed 003's chain: on a tilted C axis, where it has risen Z_c).
+pub fn rtest_ball(g: &RtestGeometry, lines: &TableLines) -> [f64; 3] {
+    let z = lines.tilt.point_mm[2] + g.z_c_mm;
+    let o = crossing(&lines.table, 2, z).unwrap_or([
+        lines.table.point_mm[0],
+        lines.table.point_mm[1],
+        z,
+    ]);
+    [o[0] + g.x_w_mm, o[1] + g.y_w_mm, o[2] + g.z_w_mm]
 }
 
 /// The R-test's location errors as line deviations (`identify::rtest::axis_lines`, each
@@ -551,8 +641,14 @@ pub fn rtest_deviations(
                 })
         };
         Ok(LineDeviations {
-            tilt: (at(&a, 0, g.x_c_mm, [g.x_c_mm, 0.0, 0.0])?, a.direction),
-            table: (at(&c, 2, 0.0, [g.x_c_mm, g.y_c_mm, 0.0])?, c.direction),
+            tilt: (
+                at(&a, 0, g.x_c_mm, [g.x_c_mm, 0.0, 0.0])?,
+                less_axis(unit(a.direction), 0),
+            ),
+            table: (
+                at(&c, 2, 0.0, [g.x_c_mm, g.y_c_mm, 0.0])?,
+                less_axis(unit(c.direction), 2),
+            ),
         })
     };
     let (v, uv) = (errors.to_array(), u.to_array());
@@ -565,22 +661,18 @@ pub fn rtest_deviations(
     let rows = RtestParam::ALL
         .iter()
         .map(|&p| {
-            let none = "none: the ball's place on the table, not the machine";
             let (iso, feeds) = match p {
-                RtestParam::Xow => ("ball position X (set-up)", Some(none)),
-                RtestParam::Yow => ("ball position Y (set-up)", Some(none)),
-                RtestParam::Zow => ("ball position Z (set-up)", Some(none)),
-                RtestParam::Yoa => ("E_Y0A", Some("A axis Y: y-rot-point + y-offset")),
-                RtestParam::Zoa => (
-                    "E_Z0A",
-                    Some("A axis Z: z-rot-point + z-offset + tool-offset"),
-                ),
-                RtestParam::Boa => ("E_B0A", None),
-                RtestParam::Coa => ("E_C0A", None),
-                RtestParam::Xoc => ("E_X0C", Some("C axis X: x-rot-point")),
-                RtestParam::Yoc => ("E_Y0C", Some("C axis Y: y-rot-point")),
-                RtestParam::Aoc => ("E_A0C", None),
-                RtestParam::Boc => ("E_B0C", None),
+                RtestParam::Xow => ("ball position X (set-up)", Feeds::SetUp),
+                RtestParam::Yow => ("ball position Y (set-up)", Feeds::SetUp),
+                RtestParam::Zow => ("ball position Z (set-up)", Feeds::SetUp),
+                RtestParam::Yoa => ("E_Y0A", Feeds::TiltPoint(1)),
+                RtestParam::Zoa => ("E_Z0A", Feeds::TiltPoint(2)),
+                RtestParam::Boa => ("E_B0A", Feeds::TiltDirection),
+                RtestParam::Coa => ("E_C0A", Feeds::TiltDirection),
+                RtestParam::Xoc => ("E_X0C", Feeds::TablePoint(0)),
+                RtestParam::Yoc => ("E_Y0C", Feeds::TablePoint(1)),
+                RtestParam::Aoc => ("E_A0C", Feeds::TableDirection),
+                RtestParam::Boc => ("E_B0C", Feeds::TableDirection),
             };
             let name = p.name();
             let unit = if p.is_angular() { "arcsec" } else { "um" };
@@ -613,7 +705,7 @@ pub fn rtest_deviations(
         correlated,
         u_note: correlation.is_none().then_some(
             "the figures taken as uncorrelated (the results file has no rtest_covariance): the \
-             pins' u are not their own",
+             corrected values' u are not their own",
         ),
         rows,
     })
@@ -657,14 +749,36 @@ pub fn hal_lines(c: &KinsCorrection, source: &str) -> String {
             c.u_mm[pin as usize] * 1e3
         );
     }
+    rows_as_comments(&mut s, "#", &c.rows);
+    s
+}
+
+/// The generic table's rows as comment lines after `comment` (`#` in HAL, `;` in a part
+/// program).
+pub(super) fn rows_as_comments(s: &mut String, comment: &str, rows: &[DeviationRow]) {
+    use std::fmt::Write as _;
     let _ = writeln!(
         s,
-        "# deviation | ISO 230-1 | value | u | unit | control parameter"
+        "{comment} deviation | ISO 230-1 | value | u | unit | control parameter"
     );
-    for r in &c.rows {
+    for r in rows {
         let _ = writeln!(
             s,
-            "# {} | {} | {:+.3} | {:.3} | {} | {}",
+            "{comment} {} | {} | {:+.3} | {:.3} | {} | {}",
+            r.name, r.iso, r.value, r.u, r.unit, r.control
+        );
+    }
+}
+
+/// The generic table as CSV: its header and rows (deviation, ISO 230-1 name, value, u, unit,
+/// control parameter).
+pub(super) fn rows_csv(rows: &[DeviationRow]) -> String {
+    use std::fmt::Write as _;
+    let mut s = String::from("deviation,iso_230_1,value,u,unit,control\n");
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{:?},{:?},{},\"{}\"",
             r.name, r.iso, r.value, r.u, r.unit, r.control
         );
     }
@@ -675,14 +789,7 @@ pub fn hal_lines(c: &KinsCorrection, source: &str) -> String {
 /// then the pins (`pin:NAME`, the corrected value, its u, mm, the present value).
 pub fn table_csv(c: &KinsCorrection) -> String {
     use std::fmt::Write as _;
-    let mut s = String::from("deviation,iso_230_1,value,u,unit,control\n");
-    for r in &c.rows {
-        let _ = writeln!(
-            s,
-            "{},{},{:?},{:?},{},\"{}\"",
-            r.name, r.iso, r.value, r.u, r.unit, r.control
-        );
-    }
+    let mut s = rows_csv(&c.rows);
     for u in &c.unexpressed {
         let _ = writeln!(
             s,
@@ -835,10 +942,6 @@ pub fn centreline_deviations(
         what,
     };
     let nominal = file.nominal.unwrap_or(CentrelinePair::NOMINAL);
-    let unit = |d: [f64; 3]| {
-        let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-        d.map(|v| v / n)
-    };
     let (na, nb) = (unit(nominal.a_direction), unit(nominal.b_direction));
     if na[2].abs() < 1.0 - 1e-12 || nb[1].abs() < 1.0 - 1e-12 {
         return Err(bad(
@@ -874,8 +977,14 @@ pub fn centreline_deviations(
             if d[k] < 0.0 { d.map(|v| -v) } else { d }
         };
         Ok(LineDeviations {
-            tilt: (shift(b, &nom_b, 1, y0)?, along(b.direction, 1)),
-            table: (shift(a, &nom_a, 2, z0)?, along(a.direction, 2)),
+            tilt: (
+                shift(b, &nom_b, 1, y0)?,
+                less_axis(along(b.direction, 1), 1),
+            ),
+            table: (
+                shift(a, &nom_a, 2, z0)?,
+                less_axis(along(a.direction, 2), 2),
+            ),
         })
     };
     let actual = &file.actual;
@@ -940,7 +1049,7 @@ pub fn centreline_deviations(
             a_dir[0] / a_dir[2] * 1e6,
             u.a_tilt_urad[0],
             "urad",
-            None,
+            Feeds::TableDirection,
         ),
         row(
             "table tilt Y",
@@ -948,7 +1057,7 @@ pub fn centreline_deviations(
             a_dir[1] / a_dir[2] * 1e6,
             u.a_tilt_urad[1],
             "urad",
-            None,
+            Feeds::TableDirection,
         ),
         row(
             "table point X",
@@ -956,7 +1065,7 @@ pub fn centreline_deviations(
             dev.table.0[0] * 1e3,
             u.a_point_um[0],
             "um",
-            Some("C axis X: x-rot-point"),
+            Feeds::TablePoint(0),
         ),
         row(
             "table point Y",
@@ -964,7 +1073,7 @@ pub fn centreline_deviations(
             dev.table.0[1] * 1e3,
             u.a_point_um[1],
             "um",
-            Some("C axis Y: y-rot-point"),
+            Feeds::TablePoint(1),
         ),
         row(
             "tilt axis tilt X",
@@ -972,7 +1081,7 @@ pub fn centreline_deviations(
             b_dir[0] / b_dir[1] * 1e6,
             u.b_tilt_urad[0],
             "urad",
-            None,
+            Feeds::TiltDirection,
         ),
         row(
             "tilt axis tilt −Z",
@@ -980,7 +1089,7 @@ pub fn centreline_deviations(
             -b_dir[2] / b_dir[1] * 1e6,
             u.b_tilt_urad[1],
             "urad",
-            None,
+            Feeds::TiltDirection,
         ),
         row(
             "tilt axis point X",
@@ -988,7 +1097,7 @@ pub fn centreline_deviations(
             dev.tilt.0[0] * 1e3,
             u.b_point_um[0],
             "um",
-            Some("B axis X: x-rot-point + x-offset"),
+            Feeds::TiltPoint(0),
         ),
         row(
             "tilt axis point Z",
@@ -996,7 +1105,7 @@ pub fn centreline_deviations(
             dev.tilt.0[2] * 1e3,
             u.b_point_um[1],
             "um",
-            Some("B axis Z: z-rot-point + z-offset + tool-offset"),
+            Feeds::TiltPoint(2),
         ),
     ];
     let mut pins = TrtPins::default();

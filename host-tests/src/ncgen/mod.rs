@@ -18,6 +18,7 @@
 //! the first feed-in point when the bar is mounted. The pod's run covers the data arc (armed before, started on it or by the CNC,
 //! stopped at its end); comments mark where it begins and ends.
 
+pub mod carr;
 mod correct;
 mod dialect;
 pub mod kins;

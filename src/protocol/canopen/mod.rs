@@ -29,7 +29,8 @@
 //!   node-ID from the configuration's `can_node_id`, restores the communication parameters,
 //!   sends boot-up; reset node also resets the application, [`crate::app::Command::Reset`]).
 //!   NMT frames must have 2 data bytes; others are counted and ignored.
-//! - Heartbeat producer 0x1017 (§7.2.8.3.2), no node guarding.
+//! - Heartbeat producer 0x1017 (§7.2.8.3.2) on a fixed grid of the producer time, each sent at
+//!   the poll nearest its grid time (up to half a millisecond early); no node guarding.
 //! - SDO server (§7.2.4): expedited and segmented upload/download, one channel (0x1200),
 //!   1 s segment timeout, abort codes of CiA 301 table 22 ([`SdoAbort`]); no block transfer.
 //! - SYNC consumer (COB-ID 0x1005) driving TPDOs of transmission type 1–240; types 254/255
@@ -178,6 +179,12 @@ const COB_EMCY: u16 = 0x080;
 const COB_SDO_TX: u16 = 0x580;
 const COB_SDO_RX: u16 = 0x600;
 const COB_HEARTBEAT: u16 = 0x700;
+
+/// How early a heartbeat may leave, µs: half the poll interval ([`CanOpenNode::poll`] runs every
+/// millisecond), so each heartbeat leaves at the poll nearest its place on the producer-time
+/// grid. With "at or after", a grid set by one poll's latency sent every heartbeat whose poll
+/// ran a few µs earlier than that one a whole millisecond late (gaps of 999/1001 ms).
+const HEARTBEAT_EARLY_US: u64 = 500;
 
 /// The CANopen slave.
 #[derive(Clone, Copy, Debug)]
@@ -340,6 +347,7 @@ impl CanOpenNode {
         }
     }
 
+    /// Schedules the next heartbeat one producer time after `now_us`.
     fn schedule_heartbeat(&mut self, now_us: u64) {
         self.next_heartbeat_us = match self.comm.heartbeat_ms {
             0 => None,
@@ -658,7 +666,7 @@ impl CanOpenNode {
             self.schedule_heartbeat(now_us);
         }
         if let Some(t) = self.next_heartbeat_us
-            && now_us >= t
+            && now_us.saturating_add(HEARTBEAT_EARLY_US) >= t
         {
             self.send(out, COB_HEARTBEAT, &[self.nmt.heartbeat_byte()]);
             let period = u64::from(self.comm.heartbeat_ms) * 1000;

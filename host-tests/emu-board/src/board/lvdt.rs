@@ -37,7 +37,10 @@ struct Tick {
 
 /// Sample clock → LVDT task (a late tick's periods wait here: 64 ms at 1 kHz, 6.4 ms at 10
 /// kHz; a full queue loses the period).
-static TICKS: Channel<CriticalSectionRawMutex, Tick, 64> = Channel::new();
+static TICKS: Channel<CriticalSectionRawMutex, Tick, TICKS_HELD> = Channel::new();
+/// Periods the tick queue holds; a tick takes at most this many (a QEMU wake-up later than
+/// that loses the rest; at 8, a wake-up 17 ms late lost 9 periods of an idle pod).
+const TICKS_HELD: usize = 64;
 /// The record the next tick takes.
 static NEXT: AtomicU32 = AtomicU32::new(0);
 /// The sample period, µs.
@@ -76,7 +79,7 @@ pub extern "C" fn block_latch() {
         (now.saturating_sub(last) + period / 2) / period
     };
     let mut t_us = if last == 0 { now } else { last };
-    for _ in 0..periods.min(8) {
+    for _ in 0..periods.min(TICKS_HELD as u64) {
         if last != 0 {
             t_us += period;
         }

@@ -307,6 +307,25 @@ fn the_books_kins_example_is_what_ncgen_prints() {
     );
     assert!(!out.status.success());
     assert!(String::from_utf8_lossy(&out.stderr).contains("A/C table-tilting machine"));
+    // seed 002's results (a B head and a C table): refused by both targets, with the reason
+    std::fs::write(
+        dir.join("seed002.json"),
+        r#"{"results": [{"name": "dx_BT", "value": 1.0, "u": 0.1}]}"#,
+    )
+    .unwrap();
+    for target in ["xyzac-trt", "sinumerik-p"] {
+        let out = run(
+            &dir,
+            env!("CARGO_BIN_EXE_ncgen"),
+            &["kins", target, "seed002.json"],
+        );
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            err.contains("turns the tool about B") && err.contains("type P"),
+            "{err}"
+        );
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -861,8 +861,8 @@ pub fn rtest_from_results(
     if !file.host.iter().any(|e| e.name.starts_with("rtest_")) {
         return Err(bad(if file.results.iter().any(|e| e.name == "dx_BT") {
             "seed 002's deviations: its machine turns the tool about B and the table about C, \
-             which no table-tilting (trt) kinematics describes; `ncgen correct` rewrites the \
-             program for them"
+             which neither a table-tilting (trt) kinematics nor a swivel table (SINUMERIK type \
+             P) describes; `ncgen correct` rewrites the program for them"
                 .into()
         } else {
             "no R-test results (host[]: rtest_XOW … rtest_BOC): run `cargo replay` on the \

@@ -9,7 +9,7 @@ use ballpod::identify::rtest::{
 use ballpod_host::forward_linuxcnc_trt::{self as lcnc, Pins};
 use ballpod_host::forward_seed003 as fw;
 use ballpod_host::ncgen::kins::{
-    DispersionGrid, KinsCorrection, Pin, TrtKins, TrtPins, correct, rtest_deviations,
+    Dispersion, DispersionGrid, KinsCorrection, Pin, TrtKins, TrtPins, correct, rtest_deviations,
     rtest_nominal_pins, rtest_work_point, turned,
 };
 use ballpod_host::rng::Rng;
@@ -329,6 +329,14 @@ fn the_books_kins_example_is_what_ncgen_prints() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The dispersion a correction states is the oracle's `(max, rms)` (µm), to 1e-6 µm.
+fn assert_states(stated: Dispersion, oracle: (f64, f64)) {
+    assert!(
+        (stated.max_um - oracle.0).abs() < 1e-6 && (stated.rms_um - oracle.1).abs() < 1e-6,
+        "{stated:?} vs {oracle:?}"
+    );
+}
+
 /// The tool-centre error (max, rms µm) of a control that sends the tool to `control(w, B, C)`
 /// for the work point w at B, C (degrees) against seed 004's eq 9 about `file`'s actual lines,
 /// over B 0 … 90° and C a turn every 15°, at `work` and the corners of a 100 mm cube about it.
@@ -399,16 +407,8 @@ fn seed004s_centrelines_into_xyzbc_leave_the_dispersion_it_states() {
         })
     };
     let (before, after) = (oracle(&nominal), oracle(&c.corrected));
-    assert!(
-        (c.before.max_um - before.0).abs() < 1e-6 && (c.before.rms_um - before.1).abs() < 1e-6,
-        "{:?} vs {before:?}",
-        c.before
-    );
-    assert!(
-        (c.after.max_um - after.0).abs() < 1e-6 && (c.after.rms_um - after.1).abs() < 1e-6,
-        "{:?} vs {after:?}",
-        c.after
-    );
+    assert_states(c.before, before);
+    assert_states(c.after, after);
     // (the file's table axis is tilted 1.6 mrad, which xyzbc cannot take: rms 632 → 213 µm)
     assert!(after.1 < before.1 / 2.5, "{before:?} → {after:?}");
     // the lines' tilts are what xyzbc cannot take: the file's, in arc-seconds
@@ -736,16 +736,8 @@ fn seed004s_centrelines_into_a_sinumerik_record_leave_no_dispersion() {
         })
     };
     let (before, after) = (oracle(&record), oracle(&c.corrected));
-    assert!(
-        (c.before.max_um - before.0).abs() < 1e-6 && (c.before.rms_um - before.1).abs() < 1e-6,
-        "{:?} vs {before:?}",
-        c.before
-    );
-    assert!(
-        (c.after.max_um - after.0).abs() < 1e-6 && (c.after.rms_um - after.1).abs() < 1e-6,
-        "{:?} vs {after:?}",
-        c.after
-    );
+    assert_states(c.before, before);
+    assert_states(c.after, after);
     assert!(before.1 > 600.0 && after.0 < 1e-6, "{before:?} → {after:?}");
     // the vectors are the file's actual directions; every value the correction changes has a u
     let a = &file.actual;

@@ -604,9 +604,11 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
             // l4 left out: it closes the chain
             rec = SwivelTable::closed(rec.l2(), rec.l3(), rec.v1(), rec.v2());
         }
-        for (at, name) in [(3, "v1 ($TC_CARR7…9)"), (6, "v2 ($TC_CARR10…12)")] {
-            let n = rec.0[at..at + 3].iter().map(|v| v * v).sum::<f64>().sqrt();
-            if n < 1e-9 {
+        for (v, name) in [
+            (rec.v1(), "v1 ($TC_CARR7…9)"),
+            (rec.v2(), "v2 ($TC_CARR10…12)"),
+        ] {
+            if v.iter().map(|c| c * c).sum::<f64>().sqrt() < 1e-9 {
                 return Err(format!("--carr: {name} is the zero vector"));
             }
         }

@@ -25,8 +25,8 @@ use ballpod::identify::rtest::{ARCSEC_RAD, RtestGeometry};
 
 use super::NcError;
 use super::kins::{
-    DeviationRow, Dispersion, DispersionGrid, Feeds, MeasuredLines, TableLines, axis_letter,
-    nearest, rows_as_comments, rows_csv, unit,
+    DeviationRow, Dispersion, DispersionGrid, Feeds, MeasuredLines, TableLines, TrtKins,
+    axis_letter, nearest, rows_as_comments, rows_csv, rtest_nominal_pins, unit,
 };
 
 /// The swivel data record's values the correction writes (type P): l2, v1, v2, l3, l4 —
@@ -172,16 +172,11 @@ impl SwivelTable {
         )
     }
 
-    /// The record a control set from the R-test frame's drawing holds: axis 1 (A) through the
-    /// origin along +X, axis 2 (C) through (X_c, Y_c, 0) along +Z — the lines of
-    /// [`super::kins::rtest_nominal_pins`].
+    /// The record a control set from the R-test frame's drawing holds: the lines of
+    /// [`rtest_nominal_pins`] (axis 1, A, along +X under the C axis; axis 2, C, through
+    /// (X_c, Y_c, 0) along +Z).
     pub fn rtest_nominal(g: &RtestGeometry) -> Self {
-        Self::closed(
-            [g.x_c_mm, 0.0, 0.0],
-            [0.0, g.y_c_mm, 0.0],
-            [1.0, 0.0, 0.0],
-            [0.0, 0.0, 1.0],
-        )
+        Self::through(&TrtKins::Xyzac.lines(&rtest_nominal_pins(g)).at_reference())
     }
 }
 

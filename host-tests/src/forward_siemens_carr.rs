@@ -9,6 +9,17 @@
 //! a right-handed turn about its (normalised) vector — Rodrigues' formula term by term in
 //! f64. The correction side (`ncgen::carr`) derives the same as turns about two axis lines;
 //! the tests hold one against the other.
+//!
+//! Kinematic type M (`$TC_CARR23 = "M"`, mixed: the tool turns about axis 1, the part about
+//! axis 2), as W1 and the commissioning manual state its vectors: l2 (`$TC_CARR4…6`) from the
+//! tool adapter to a point on axis 1 (v1), l1 (`$TC_CARR1…3`) = −l2 closing the tool's chain;
+//! l3 (`$TC_CARR15…17`) from the machine reference to a point on axis 2 (v2), l4
+//! (`$TC_CARR18…20`) = −l3 closing the part's. The tool's length vector t (from its tip to
+//! the adapter) becomes l1 + R(v1, θ1 − o1)·(l2 + t), so the tip is that far below the carrier
+//! reference; a part point w is at l3 + R(v2, θ2)·(l4 + w). o1 (`$TC_CARR24`, degrees) is the
+//! axis position at which the chain holds as written ("the initial state of the rotary axis is
+//! the position specified by the parameter; all angle specifications then refer to the
+//! coordinate system displaced by this value").
 
 /// A type-P swivel data record's vectors (mm; v1, v2 need not be unit).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -53,4 +64,45 @@ fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
 pub fn part_point(t: &SwivelTable, w: [f64; 3], deg1: f64, deg2: f64) -> [f64; 3] {
     let inner = rodrigues(t.v2, deg2, add(t.l4, w));
     add(t.l2, rodrigues(t.v1, deg1, add(t.l3, inner)))
+}
+
+/// A type-M swivel data record's vectors (mm; v1, v2 need not be unit) and axis 1's offset.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MixedRecord {
+    /// l1, `$TC_CARR1…3`.
+    pub l1: [f64; 3],
+    /// l2, `$TC_CARR4…6`.
+    pub l2: [f64; 3],
+    /// v1, `$TC_CARR7…9` (the tool's axis).
+    pub v1: [f64; 3],
+    /// v2, `$TC_CARR10…12` (the table's axis).
+    pub v2: [f64; 3],
+    /// l3, `$TC_CARR15…17`.
+    pub l3: [f64; 3],
+    /// l4, `$TC_CARR18…20`.
+    pub l4: [f64; 3],
+    /// Axis 1's offset, `$TC_CARR24`, degrees.
+    pub offset1_deg: f64,
+}
+
+/// Where a type-M record puts the tool's tip from the carrier reference (mm) with axis 1 at
+/// `deg1`: −(l1 + R(v1, deg1 − o1)·(l2 + t)), `t` the tool's length vector (tip → adapter).
+pub fn mixed_tool_tip(r: &MixedRecord, t: [f64; 3], deg1: f64) -> [f64; 3] {
+    let turned = rodrigues(r.v1, deg1 - r.offset1_deg, add(r.l2, t));
+    let v = add(r.l1, turned);
+    [-v[0], -v[1], -v[2]]
+}
+
+/// Where a type-M record has the part point `w` (mm, the table at angle 0) with axis 2 at
+/// `deg2`: l3 + R(v2, deg2)·(l4 + w).
+pub fn mixed_part_point(r: &MixedRecord, w: [f64; 3], deg2: f64) -> [f64; 3] {
+    add(r.l3, rodrigues(r.v2, deg2, add(r.l4, w)))
+}
+
+/// Where a control with the record `r` puts its carrier reference (the linear axes, mm) for
+/// the tool `t`'s tip to be on the part point `w` at `deg1`, `deg2`.
+pub fn mixed_command(r: &MixedRecord, t: [f64; 3], w: [f64; 3], deg1: f64, deg2: f64) -> [f64; 3] {
+    let p = mixed_part_point(r, w, deg2);
+    let tip = mixed_tool_tip(r, t, deg1);
+    [p[0] - tip[0], p[1] - tip[1], p[2] - tip[2]]
 }

@@ -148,6 +148,21 @@ pub fn simulate(
     o: &SimOptions,
     progress: &mut dyn FnMut(usize, usize, &str),
 ) -> Result<SimSession, String> {
+    simulate_commanded(m, o, progress, None)
+}
+
+/// How a control commands a seed 002 step's pose: the axes its kinematics sends for the
+/// nominal pattern's axes (X, Y, Z mm, B, C degrees) — a control holding a corrected model.
+pub type Commanded<'a> = &'a dyn Fn(Pattern, [f64; MAX_AXES]) -> [f64; MAX_AXES];
+
+/// [`simulate`] with the seed 002 steps' built-in motion commanded through `command` (the
+/// machine's bar read where those axes put it; part programs, `nc_dir`, run as written).
+pub fn simulate_commanded(
+    m: &MachineFile,
+    o: &SimOptions,
+    progress: &mut dyn FnMut(usize, usize, &str),
+    command: Option<Commanded<'_>>,
+) -> Result<SimSession, String> {
     let mut vp: VirtualPod = VirtualPod::new(VirtualSetup {
         seed: o.seed,
         instrument: m.instrument,
@@ -215,7 +230,16 @@ pub fn simulate(
                             dir.sign() * 2.0 * std::f64::consts::PI * i as f64 / n as f64
                         }
                     };
-                    let poses = (0..n).map(|i| m.seed002.pose(&pod_setup, step, angle(i)));
+                    let poses = (0..n).map(|i| {
+                        let (dl, axes) = m.seed002.pose(&pod_setup, step, angle(i));
+                        match command {
+                            None => (dl, axes),
+                            Some(f) => {
+                                let axes = f(step, axes);
+                                (m.seed002.delta_l_um(&pod_setup, step, &axes), axes)
+                            }
+                        }
+                    });
                     run_poses(&mut vp, &mut report, &name, step, dir, poses)?;
                     names.push(name);
                 }

@@ -2,6 +2,9 @@
 //! LinuxCNC's published equations (`forward_linuxcnc_trt`), the R-test's frame against seed
 //! 003's HTM chain, and the closed loop on the virtual machine: identify with the R-test →
 //! write the pins back → the control commands its corrected kinematics → the R-test again.
+//! The same for SINUMERIK records: type P (a swivel table) against Siemens' chain with the
+//! R-test and seed 004's centrelines, and type M (seed 002's B head and C table) against seed
+//! 002's HTM chain and in a closed loop through the pod's seed 002 procedure.
 
 use ballpod::identify::rtest::{
     LocationErrors, RtestConfig, RtestGeometry, RtestSample, identify, predict_um,
@@ -752,4 +755,426 @@ fn seed004s_centrelines_into_a_sinumerik_record_leave_no_dispersion() {
             assert!(c.u[k] > 0.0, "$TC_CARR{n} ({what})");
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// SINUMERIK: a swivel data record of kinematic type M (seed 002's B head and C table)
+// ---------------------------------------------------------------------------------------------
+
+use ballpod::app::Pattern;
+use ballpod::app::seed002::Setup;
+use ballpod::identify::multitasking::{Deviations, Parameter, arcsec_to_urad};
+use ballpod_host::forward_seed002 as f2;
+use ballpod_host::ncgen::carr_mixed::{self, MixedGrid, MixedRecord, Seed002Deviations};
+use ballpod_host::simulate::{SimOptions, simulate_commanded};
+use ballpod_host::vmt::machine::MachineFile;
+
+fn mixed_chain_of(r: &MixedRecord) -> sie::MixedRecord {
+    sie::MixedRecord {
+        l1: r.l1(),
+        l2: r.l2(),
+        v1: r.v1(),
+        v2: r.v2(),
+        l3: r.l3(),
+        l4: r.l4(),
+        offset1_deg: r.offset1_deg(),
+    }
+}
+
+/// Where seed 002's machine (the literal HTM chain, `forward_seed002`, deviations `d` in µm /
+/// µrad) has the tool tip less the part point `w` (mm) when a control holding the record
+/// `rec` commands them together at B, C (degrees). The record's frame: the model frame's
+/// origin (C at the table face) at `origin`; the tool's tip at rest at `tip` from the carrier
+/// reference (on the spindle); B, C counted about v1's and v2's senses.
+fn seed002_error_um(
+    rec: &MixedRecord,
+    nominal: &MixedRecord,
+    d: &[f64; 13],
+    origin: [f64; 3],
+    tip: [f64; 3],
+    w: [f64; 3],
+    (b, c): (f64, f64),
+) -> [f64; 3] {
+    let t = tip.map(|v| -v);
+    let p = sie::mixed_command(&mixed_chain_of(rec), t, w, b, c);
+    // the machine: its B pivot on the spindle, at the nominal record's place
+    let b0 = nominal.b_pivot();
+    let (s1, s2) = (nominal.v1()[1].signum(), nominal.v2()[2].signum());
+    let (mbt, mxb, _, _, mcz, mczi) = f2::mats(d);
+    let mut m = f2::mul(&mxb, &f2::eb((s1 * b).to_radians()));
+    m = f2::mul(&m, &mbt);
+    let arm = f2::apply(&m, std::array::from_fn(|k| tip[k] - b0[k]));
+    let tool: [f64; 3] = std::array::from_fn(|k| p[k] + b0[k] - origin[k] + arm[k]);
+    let wm: [f64; 3] = std::array::from_fn(|k| w[k] - origin[k]);
+    let mut mc = f2::mul(&mcz, &f2::ec((s2 * c).to_radians()));
+    mc = f2::mul(&mc, &mczi);
+    let part = f2::apply(&mc, wm);
+    std::array::from_fn(|k| (tool[k] - part[k]) * 1e3)
+}
+
+/// Seed 002's deviations as a results file states them: `d` with a diagonal covariance of
+/// `u` (µm, µrad).
+fn seed002_measured(d: [f64; 13], u: f64) -> Seed002Deviations {
+    let mut covariance = [[0.0; 13]; 13];
+    for (i, row) in covariance.iter_mut().enumerate() {
+        row[i] = u * u;
+    }
+    Seed002Deviations {
+        deviations: Deviations::from_array(&d),
+        covariance,
+        u_note: None,
+    }
+}
+
+/// A type-M record in a machine's frame (the adapter 150 mm under the B pivot, l2 slid 35 mm
+/// along B; C through (420, −180) with its l3 point 40 mm under the table face at Z −260),
+/// with B and C counted either way round.
+fn mixed_present(s1: f64, s2: f64) -> (MixedRecord, f64) {
+    (
+        MixedRecord::closed(
+            [0.0, 35.0, 150.0],
+            [0.0, s1, 0.0],
+            [420.0, -180.0, -300.0],
+            [0.0, 0.0, s2],
+            0.0,
+        ),
+        -260.0,
+    )
+}
+
+/// Random deviations (µm, µrad) of the size seed 002 finds; the squareness ones 0;
+/// `tilt`: whether the spindle may be tilted at B = 0 (α_BT + α_XB ≠ 0).
+fn seed002_random(rng: &mut Rng, tilt: bool) -> [f64; 13] {
+    let mut d = [0.0; 13];
+    for p in Parameter::ALL {
+        d[p.index()] = if p.is_positional() {
+            40.0 * rng.normal()
+        } else {
+            arcsec_to_urad(25.0 * rng.normal())
+        };
+    }
+    for p in [Parameter::GammaXy, Parameter::AlphaYz, Parameter::BetaYz] {
+        d[p.index()] = 0.0;
+    }
+    if !tilt {
+        d[Parameter::AlphaBt.index()] = -d[Parameter::AlphaXb.index()];
+    }
+    d
+}
+
+/// The type-M record corrected for seed 002's deviations puts the tool on the part as seed
+/// 002's HTM chain moves the machine (Siemens' chain, `forward_siemens_carr`, against
+/// `forward_seed002`): with the spindle untilted at B = 0 (α_BT = −α_XB) to 0.15 µm over
+/// B 0 … 90° and any C, for 50 random machines, both senses of v1 and v2, in a machine frame;
+/// and the dispersion a correction states — before and after, the spindle's tilt left — is
+/// that chain's over the same grid, to 0.15 µm. (The bound is the linearised HTMs' second
+/// order, which the first-order mapping does not carry: (75″)² over 400 mm is 0.05 µm.)
+#[test]
+fn a_type_m_record_corrected_for_seed002s_deviations_moves_as_its_htm_chain() {
+    let mut rng = Rng::new(42);
+    let tool = 356.3945;
+    for case in 0..50 {
+        let (s1, s2) = match case % 4 {
+            0 => (1.0, 1.0),
+            1 => (-1.0, 1.0),
+            2 => (1.0, -1.0),
+            _ => (-1.0, -1.0),
+        };
+        let (present, face_z) = mixed_present(s1, s2);
+        let origin = [420.0, -180.0, face_z];
+        let b0 = present.b_pivot();
+        assert!(close(b0, [0.0, 0.0, 150.0], 1e-12), "{b0:?}");
+        let tip = [0.0, 0.0, b0[2] - tool];
+        // untilted: the corrected record is the machine
+        let d = seed002_random(&mut rng, false);
+        let rec = present.corrected(&Deviations::from_array(&d), face_z);
+        let mut before = 0.0f64;
+        for _ in 0..40 {
+            let w = std::array::from_fn(|k| origin[k] + 100.0 * rng.normal());
+            let (b, c) = (90.0 * rng.uniform(), 360.0 * rng.uniform());
+            let e = seed002_error_um(&rec, &present, &d, origin, tip, w, (b, c));
+            assert!(e.iter().all(|v| v.abs() < 0.15), "case {case}: {e:?}");
+            let e0 = seed002_error_um(&present, &present, &d, origin, tip, w, (b, c));
+            before = before.max(e0.iter().map(|v| v * v).sum::<f64>().sqrt());
+        }
+        assert!(
+            before > 20.0,
+            "case {case}: the present record was off by {before} µm only"
+        );
+        // tilted: the stated dispersion is the chain's
+        let d = seed002_random(&mut rng, true);
+        let grid = MixedGrid {
+            b_range_deg: (0.0, 90.0),
+            tool_below_pivot_mm: tool,
+            work_mm: [origin[0], origin[1], origin[2] + 65.5],
+            half_side_mm: 50.0,
+        };
+        let c = carr_mixed::correct(
+            1,
+            &present,
+            &seed002_measured(d, 1.0),
+            face_z,
+            &grid,
+            1e3,
+            1e3,
+        )
+        .expect("corrected");
+        for (stated, rec) in [(c.before, &present), (c.after, &c.corrected)] {
+            let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0usize);
+            for i in 0..=6 {
+                let b = 15.0 * i as f64;
+                for j in 0..24 {
+                    let cc = 15.0 * j as f64;
+                    for k in 0..9 {
+                        let s = |bit: usize| match (k, k & bit) {
+                            (0, _) => 0.0,
+                            (_, 0) => -50.0,
+                            _ => 50.0,
+                        };
+                        let w0 = grid.work_mm;
+                        let w = [w0[0] + s(1), w0[1] + s(2), w0[2] + s(4)];
+                        let e = seed002_error_um(rec, &present, &d, origin, tip, w, (b, cc));
+                        let e = e.iter().map(|v| v * v).sum::<f64>().sqrt();
+                        max = max.max(e);
+                        sum += e * e;
+                        n += 1;
+                    }
+                }
+            }
+            let rms = (sum / n as f64).sqrt();
+            assert!(
+                (stated.max_um - max).abs() < 0.15 && (stated.rms_um - rms).abs() < 0.15,
+                "case {case}: stated {stated:?}, the chain's max {max} rms {rms}"
+            );
+        }
+        // the tilt left: α_BT + α_XB times the tool's reach, the same at every pose
+        let tilt = d[Parameter::AlphaBt.index()] + d[Parameter::AlphaXb.index()];
+        assert!((c.spindle_tilt_urad.0 - tilt).abs() < 1e-9);
+        assert!(
+            (c.after.max_um - tilt.abs() * 1e-6 * tool * 1e3).abs()
+                < 0.05 * c.after.max_um.max(1.0)
+        );
+    }
+}
+
+/// The axes a control holding `rec` (in seed 002's model frame) sends for a seed 002 pose:
+/// the pattern's T-ball point on the part (where the nominal record puts it), commanded
+/// through Siemens' chain — the tool the T-ball R_B under the B pivot.
+fn commanded_through(rec: &MixedRecord, step: Pattern, axes: [f64; 5]) -> [f64; 5] {
+    let r_b = Setup::thesis_table_4_3().geometry(step).r_b_mm;
+    let [x, y, z, b, c] = axes;
+    let t = [0.0, 0.0, r_b];
+    let nominal = mixed_chain_of(&MixedRecord::model_frame());
+    let tip = sie::mixed_tool_tip(&nominal, t, b);
+    // the part point there, the table at C = 0
+    let w = sie::mixed_part_point(&nominal, [x + tip[0], y + tip[1], z + tip[2]], -c);
+    let p = sie::mixed_command(&mixed_chain_of(rec), t, w, b, c);
+    [p[0], p[1], p[2], b, c]
+}
+
+/// The seed 002 procedure on `m` with the control commanding through `rec`: the results file
+/// and the rms of the bar's true readings over the procedure's poses (µm).
+fn seed002_through(m: &MachineFile, rec: &MixedRecord) -> (String, f64) {
+    let o = SimOptions {
+        seed: 11,
+        repeats: 1,
+        feed_mm_per_min: 4000.0,
+        seed002: true,
+        circle: false,
+        nc_dir: None,
+    };
+    let setup = Setup::thesis_table_4_3();
+    let sum = std::cell::Cell::new((0.0f64, 0usize));
+    let command = |step: Pattern, axes: [f64; 5]| {
+        let a = commanded_through(rec, step, axes);
+        let dl = m.seed002.delta_l_um(&setup, step, &a);
+        let (s, n) = sum.get();
+        sum.set((s + dl * dl, n + 1));
+        a
+    };
+    let s = simulate_commanded(m, &o, &mut |_, _, _| {}, Some(&command)).expect("session");
+    assert!(
+        s.report.runs.iter().all(|r| r.outcome == "DONE"),
+        "{:?}",
+        s.report.runs
+    );
+    let (sq, n) = sum.get();
+    (s.report.to_json().expect("json"), (sq / n as f64).sqrt())
+}
+
+/// The closed loop on the virtual machine: seed 002's procedure (the pod's acquisition and
+/// model-mode identification on the machine's literal HTM chain, 0.2 µm bar noise) on a
+/// machine off by the thesis's Table 4.5 and a spindle 30 µm / −20 µm from its B axis, its
+/// SINUMERIK commanding through a type-M record of the model frame; the record corrected by
+/// `ncgen kins sinumerik-m` and written back, the W ball set again where the corrected control
+/// puts the T-ball, the procedure run again. Every corrected value is within 2u of where the
+/// true deviations put it; the second run identifies every deviation the record takes within
+/// 2·√(u₁² + u₂²) of none, and the spindle's tilt it cannot take, α_BT + α_XB, where the first
+/// run stated it; the bar's readings fall to what that tilt alone reads.
+#[test]
+fn seed002s_correction_into_a_type_m_record_leaves_only_the_spindles_tilt() {
+    let mut m = MachineFile::default();
+    m.seed002.dx_bt_um = 30.0;
+    m.seed002.dz_bt_um = -20.0;
+    let nominal = MixedRecord::model_frame();
+    let (json1, rms1) = seed002_through(&m, &nominal);
+    let first = carr_mixed::seed002_from_results(&json1).expect("results");
+    assert!(first.u_note.is_none(), "the covariance is in the results");
+    let grid = MixedGrid {
+        b_range_deg: (0.0, 90.0),
+        tool_below_pivot_mm: 356.3945,
+        work_mm: [0.0, 0.0, 65.5],
+        half_side_mm: 50.0,
+    };
+    let c = carr_mixed::correct(1, &nominal, &first, 0.0, &grid, 200.0, 500.0).expect("corrected");
+    // the values within 2u of the truth's record
+    let truth = m.seed002.deviations();
+    let want = nominal.corrected(&truth, 0.0);
+    for (k, &(n, what)) in carr_mixed::PARAMETERS.iter().enumerate() {
+        let (got, w, u) = (c.corrected.0[k], want.0[k], c.u[k]);
+        assert!(
+            (got - w).abs() <= 2.0 * u + 1e-12,
+            "$TC_CARR{n} ({what}): {got} vs the truth's {w} (u {u})"
+        );
+    }
+    // written back, the W ball set again with the corrected control, run again
+    let setup = Setup::thesis_table_4_3();
+    let at_setup = [setup.r_c_mm, 0.0, setup.z_c_mm + setup.r_b_mm, 0.0, 0.0];
+    let moved = commanded_through(&c.corrected, Pattern::Cr, at_setup);
+    let mut m2 = m;
+    m2.seed002.w_offset_um = std::array::from_fn(|k| (moved[k] - at_setup[k]) * 1e3);
+    let (json2, rms2) = seed002_through(&m2, &c.corrected);
+    let second = carr_mixed::seed002_from_results(&json2).expect("results");
+    let u = |s: &Seed002Deviations, p: Parameter| s.covariance[p.index()][p.index()].sqrt();
+    let (d1, d2) = (&first.deviations, &second.deviations);
+    for p in [
+        Parameter::DxBt,
+        Parameter::DzBt,
+        Parameter::AlphaXb,
+        Parameter::BetaXb,
+        Parameter::GammaXb,
+        Parameter::DxCz,
+        Parameter::DyCz,
+        Parameter::AlphaCz,
+        Parameter::BetaCz,
+    ] {
+        let bound = 2.0 * u(&first, p).hypot(u(&second, p));
+        eprintln!(
+            "{}: first {:+.3} second {:+.3} (bound {:.3})",
+            p.name(),
+            d1.get(p),
+            d2.get(p),
+            bound
+        );
+        assert!(
+            d2.get(p).abs() <= bound,
+            "{}: {} left, bound {bound}",
+            p.name(),
+            d2.get(p)
+        );
+    }
+    // the tilt: the second run sees it all in α_BT (the record's B axis is the machine's)
+    let (tilt1, u_tilt1) = c.spindle_tilt_urad;
+    let tilt_true = truth.alpha_bt_urad + truth.alpha_xb_urad;
+    assert!(
+        (tilt1 - tilt_true).abs() <= 2.0 * u_tilt1,
+        "{tilt1} vs {tilt_true} (u {u_tilt1})"
+    );
+    let bound = 2.0 * u_tilt1.hypot(u(&second, Parameter::AlphaBt));
+    assert!(
+        (d2.alpha_bt_urad - tilt1).abs() <= bound,
+        "α_BT {} vs {tilt1}",
+        d2.alpha_bt_urad
+    );
+    // the readings: what the tilt alone reads on a nominal control
+    let mut tilted = MachineFile {
+        seed002: ballpod_host::vmt::machine::Machine002::perfect(),
+        ..MachineFile::default()
+    };
+    tilted.seed002.alpha_bt_arcsec = ballpod::identify::multitasking::urad_to_arcsec(tilt_true);
+    let (_, rms_tilt) = seed002_through(&tilted, &nominal);
+    eprintln!(
+        "readings rms: {rms1:.3} → {rms2:.3} µm; the tilt alone {rms_tilt:.3} µm; dispersion {:?} → {:?}",
+        c.before, c.after
+    );
+    assert!(rms2 < rms1 / 3.0);
+    assert!(
+        (rms2 - rms_tilt).abs() < 0.5,
+        "{rms2} vs the tilt's {rms_tilt}"
+    );
+}
+
+/// The book's type-M example (Part programs, "seed 002 into a mixed record"): its command on
+/// its results file prints its block; the guards refuse that correction with both numbers; and
+/// what does not fit is refused with the reason: a record without the table face's height, an
+/// open part chain, a v1 not along Y, an R-test's results or a centrelines file.
+#[test]
+fn the_books_type_m_example_is_what_ncgen_prints_and_what_does_not_fit_is_refused() {
+    let json = ballpod_host::docs::block_after("**Seed 002 results**", "json");
+    let dir = std::env::temp_dir().join(format!("ballpod-kins-m-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("results.json"), json).unwrap();
+    let marker = "C's vector entered as (0, 0, −1):";
+    let command = ballpod_host::docs::block_after(marker, "sh");
+    let words: Vec<&str> = command.split_whitespace().collect();
+    assert_eq!(words[..3], ["cargo", "ncgen", "--"], "{command}");
+    let args = &words[3..];
+    let ncgen = env!("CARGO_BIN_EXE_ncgen");
+    let printed = run_ok(&dir, ncgen, args);
+    assert_eq!(printed, ballpod_host::docs::block_after(marker, "text"));
+    let refused = |extra: &[&str], expect: &[&str]| {
+        let all: Vec<&str> = args.iter().chain(extra).copied().collect();
+        let out = run(&dir, ncgen, &all);
+        assert!(!out.status.success(), "{extra:?} accepted");
+        let err = String::from_utf8_lossy(&out.stderr);
+        for e in expect {
+            assert!(err.contains(e), "{extra:?}: {err}");
+        }
+    };
+    // the guards, with both numbers (v1 turns 104.9 µrad; l3 x moves 53.1 µm)
+    refused(
+        &["--max-turn-urad", "100"],
+        &[
+            "v1 ($TC_CARR7…9) would turn by 104.9 µrad",
+            "guard of 100 µrad",
+        ],
+    );
+    refused(
+        &["--max-change-um", "40"],
+        &[
+            "$TC_CARR15[2] (l3 x) would change by +53.1 µm",
+            "guard of 40 µm",
+        ],
+    );
+    // an open part chain; a v1 along X
+    refused(&["--carr", "18=1"], &["l4 ($TC_CARR18…20)", "from −l3"]);
+    refused(
+        &["--carr", "7=1", "--carr", "8=0"],
+        &["v1 ($TC_CARR7…9) must run along Y"],
+    );
+    // a record without the table face's height
+    let short: Vec<&str> = args
+        .iter()
+        .copied()
+        .take_while(|a| *a != "--table-face-z-mm")
+        .collect();
+    let out = run(&dir, ncgen, &short);
+    assert!(!out.status.success());
+    assert!(String::from_utf8_lossy(&out.stderr).contains("--table-face-z-mm"));
+    // an R-test's results; a centrelines file
+    std::fs::write(
+        dir.join("rtest.json"),
+        ballpod_host::docs::block_after("**R-test results**", "json"),
+    )
+    .unwrap();
+    for (file, expect) in [
+        ("rtest.json", "R-test's results"),
+        ("lines.toml", "seed 004"),
+    ] {
+        let out = run(&dir, ncgen, &["kins", "sinumerik-m", file]);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(expect) && err.contains("sinumerik-p"), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
 }

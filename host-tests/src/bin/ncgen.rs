@@ -10,7 +10,9 @@
 //! `cargo ncgen -- correct-centrelines PROGRAM CENTRELINES` for estimated rotary-axis
 //! centrelines (seed 004 eq 9); `cargo ncgen -- kins xyzac-trt RESULTS` writes an R-test's
 //! identified axis lines into LinuxCNC's trt kinematics (`kins xyzbc-trt CENTRELINES.toml`
-//! seed 004's; HAL `setp` lines, or the generic table with `--format csv`). Prints the
+//! seed 004's; HAL `setp` lines, or the generic table with `--format csv`), `kins sinumerik-p`
+//! the same into a SINUMERIK swivel table's record and `kins sinumerik-m RESULTS` seed 002's
+//! deviations into a SINUMERIK mixed record (`$TC_CARR` assignments). Prints the
 //! program, or writes it with `--out`. A set-up the machine cannot run is refused with the field
 //! named — a program beyond the set-up file's `[travel]` too —; nothing is written.
 
@@ -102,6 +104,9 @@ enum KinsArg {
     /// A SINUMERIK orientable toolholder of kinematic type P (a swivel table,
     /// `$TC_CARR23="P"`): rotary axis 1 tilts, axis 2 is the table it carries.
     SinumerikP,
+    /// A SINUMERIK orientable toolholder of kinematic type M (mixed, `$TC_CARR23="M"`):
+    /// rotary axis 1 turns the tool (seed 002's B head), axis 2 the part (its C table).
+    SinumerikM,
 }
 
 /// What `kins` writes.
@@ -121,8 +126,9 @@ struct KinsArgs {
     #[arg(value_enum)]
     kins: KinsArg,
     /// Where the lines come from: an R-test's results (`results.json` of `cargo replay`,
-    /// xyzac-trt) or seed 004's centrelines file (`.toml`, as `correct-centrelines` takes it,
-    /// with `[uncertainty]`; xyzbc-trt).
+    /// xyzac-trt, sinumerik-p), seed 004's centrelines file (`.toml`, as `correct-centrelines`
+    /// takes it, with `[uncertainty]`; xyzbc-trt, sinumerik-p) or seed 002's results
+    /// (`results.json` of `cargo sim` or `cargo replay`; sinumerik-m).
     source: PathBuf,
     /// The R-test's geometry as its session file gives it (`[rtest] geometry_mm`): ball X_w
     /// Y_w Z_w from the C-frame origin, C-frame origin X_c Y_c Z_c from the A axis, mm
@@ -135,8 +141,9 @@ struct KinsArgs {
     #[arg(long = "pin", value_name = "NAME=MM")]
     pins: Vec<String>,
     /// A SINUMERIK record's present value, `N=VALUE` with N the `$TC_CARR` number (4…12,
-    /// 15…20; e.g. `4=250.0`): every one of l2, v1, v2, l3 (l4, 18…20, may be left out: it
-    /// closes the chain), or none — then the values are the source's frame's nominal ones.
+    /// 15…20; e.g. `4=250.0`; type M also 1…3 and 24): every one of l2, v1, v2, l3 (l1, 1…3,
+    /// and l4, 18…20, may be left out: they close the chains; 24, axis 1's offset, defaults to
+    /// 0), or none — then the values are the source's frame's nominal ones.
     #[arg(long = "carr", value_name = "N=VALUE")]
     carr: Vec<String>,
     /// The SINUMERIK swivel data record's number (`$TC_CARR…[N]`).
@@ -148,9 +155,19 @@ struct KinsArgs {
     /// The largest turn a SINUMERIK record's vector may take, µrad (a larger one is refused).
     #[arg(long, default_value_t = 500.0)]
     max_turn_urad: f64,
-    /// The tilt axis's range for the dispersion, degrees.
-    #[arg(long, num_args = 2, allow_negative_numbers = true, value_names = ["LOW", "HIGH"], default_values_t = [-90.0, 0.0])]
-    tilt_range_deg: Vec<f64>,
+    /// The tilt axis's range for the dispersion, degrees (default −90 … 0 for A, 0 … 90 for
+    /// seed 002's B).
+    #[arg(long, num_args = 2, allow_negative_numbers = true, value_names = ["LOW", "HIGH"])]
+    tilt_range_deg: Option<Vec<f64>>,
+    /// sinumerik-m: the table face's height in the record's machine coordinates, mm — where
+    /// seed 002 states C's position (its model frame's z = 0, from which Z_C is measured).
+    /// Required with --carr; without, the model frame's 0.
+    #[arg(long, allow_negative_numbers = true)]
+    table_face_z_mm: Option<f64>,
+    /// sinumerik-m: the tool tip's distance below the B pivot for the dispersion, mm (default
+    /// R_B of the thesis's Table 4.3).
+    #[arg(long)]
+    tool_mm: Option<f64>,
     /// The work point the lines are placed at (C at its height, A at its X, B at its Y) and
     /// the dispersion is taken about, in the pins' frame, mm. Default: the R-test's ball, or
     /// for centrelines the table axis at the tilt axis's height.
@@ -514,7 +531,13 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
         DispersionGrid, Pin, TrtKins, centreline_deviations, correct, hal_lines, rtest_ball,
         rtest_deviations, rtest_from_results, rtest_nominal_pins, table_csv,
     };
-    // the trt kinematics, or (SINUMERIK) the one whose lines the source's frame gives
+    if matches!(k.kins, KinsArg::SinumerikM) {
+        return kins_mixed(k);
+    }
+    if k.table_face_z_mm.is_some() || k.tool_mm.is_some() {
+        return Err("--table-face-z-mm, --tool-mm: sinumerik-m's (seed 002)".into());
+    }
+    // the trt kinematics, or (SINUMERIK type P) the one whose lines the source's frame gives
     let siemens = matches!(k.kins, KinsArg::SinumerikP);
     let src = &k.source;
     let at = |e: String| format!("{}: {e}", src.display());
@@ -524,7 +547,8 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
         KinsArg::XyzacTrt => TrtKins::Xyzac,
         KinsArg::XyzbcTrt => TrtKins::Xyzbc,
         KinsArg::SinumerikP if centrelines => TrtKins::Xyzbc,
-        KinsArg::SinumerikP => TrtKins::Xyzac,
+        // (type M went to `kins_mixed`)
+        KinsArg::SinumerikP | KinsArg::SinumerikM => TrtKins::Xyzac,
     };
     // the source's lines, the pins its frame has, and where the R-test's ball is
     let (measured, drawing, geometry) = if centrelines {
@@ -573,23 +597,12 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
             return Err("--pin: LinuxCNC's; a SINUMERIK record's values are --carr N=VALUE".into());
         }
         let mut rec = SwivelTable::through(&kins.lines(&drawing).at_reference());
-        let mut given = Vec::new();
-        for c in &k.carr {
-            let (n, value) = c
-                .split_once('=')
-                .ok_or_else(|| format!("--carr {c}: N=VALUE"))?;
-            let index = n
-                .trim()
-                .parse::<u8>()
-                .ok()
-                .and_then(|n| carr::PARAMETERS.iter().position(|p| p.0 == n))
-                .ok_or_else(|| {
-                    format!("--carr {c}: {n} is not 4…12 or 15…20 ($TC_CARR l2 v1 v2 l3 l4)")
-                })?;
-            let v = finite(value).ok_or_else(|| format!("--carr {c}: {value} is not a number"))?;
-            rec.0[index] = v;
-            given.push(index);
-        }
+        let given = carr_given(
+            &k.carr,
+            &carr::PARAMETERS,
+            "4…12 or 15…20 ($TC_CARR l2 v1 v2 l3 l4)",
+            &mut rec.0,
+        )?;
         let missing: Vec<_> = (0..12)
             .filter(|i| !given.contains(i))
             .map(|i| carr::PARAMETERS[i].0.to_string())
@@ -664,21 +677,8 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
         (None, Some(g)) => rtest_ball(g, &lines),
         (None, None) => lines.table.point_mm,
     };
-    let [lo, hi] = [0, 1].map(|i| k.tilt_range_deg.get(i).copied().unwrap_or(f64::NAN));
-    if !(lo.is_finite() && hi.is_finite() && lo < hi && hi - lo <= 360.0) {
-        return Err("--tilt-range-deg: LOW < HIGH, at most 360° apart".into());
-    }
-    if !(k.half_side_mm.is_finite() && (0.0..=2000.0).contains(&k.half_side_mm)) {
-        return Err("--half-side-mm: 0 … 2000".into());
-    }
-    if !(k.max_change_um.is_finite() && k.max_change_um > 0.0) {
-        return Err("--max-change-um: a length > 0".into());
-    }
-    if !(k.max_turn_urad.is_finite() && k.max_turn_urad > 0.0) {
-        return Err("--max-turn-urad: an angle > 0".into());
-    }
     let grid = DispersionGrid {
-        tilt_range_deg: (lo, hi),
+        tilt_range_deg: grid_limits(k, (-90.0, 0.0))?,
         half_side_mm: k.half_side_mm,
     };
     let name = src.file_name().map_or_else(
@@ -706,6 +706,160 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
     Ok(match k.format {
         KinsFormat::Hal => hal_lines(&c, &name),
         KinsFormat::Csv => table_csv(&c),
+    })
+}
+
+/// The tilt range (`default` when not given), after the grid's and the guards' options are
+/// checked.
+fn grid_limits(k: &KinsArgs, default: (f64, f64)) -> Result<(f64, f64), String> {
+    let (lo, hi) = match k.tilt_range_deg.as_deref() {
+        None => default,
+        Some(&[lo, hi]) => (lo, hi),
+        Some(_) => return Err("--tilt-range-deg: LOW HIGH".into()),
+    };
+    if !(lo.is_finite() && hi.is_finite() && lo < hi && hi - lo <= 360.0) {
+        return Err("--tilt-range-deg: LOW < HIGH, at most 360° apart".into());
+    }
+    if !(k.half_side_mm.is_finite() && (0.0..=2000.0).contains(&k.half_side_mm)) {
+        return Err("--half-side-mm: 0 … 2000".into());
+    }
+    if !(k.max_change_um.is_finite() && k.max_change_um > 0.0) {
+        return Err("--max-change-um: a length > 0".into());
+    }
+    if !(k.max_turn_urad.is_finite() && k.max_turn_urad > 0.0) {
+        return Err("--max-turn-urad: an angle > 0".into());
+    }
+    Ok((lo, hi))
+}
+
+/// The record's values `--carr N=VALUE` gives, each at N's place in `parameters` (`numbers`
+/// says which N there are): the places given.
+fn carr_given(
+    carr: &[String],
+    parameters: &[(u8, &str)],
+    numbers: &str,
+    values: &mut [f64],
+) -> Result<Vec<usize>, String> {
+    let mut given = Vec::new();
+    for c in carr {
+        let (n, value) = c
+            .split_once('=')
+            .ok_or_else(|| format!("--carr {c}: N=VALUE"))?;
+        let index = n
+            .trim()
+            .parse::<u8>()
+            .ok()
+            .and_then(|n| parameters.iter().position(|p| p.0 == n))
+            .filter(|&i| i < values.len())
+            .ok_or_else(|| format!("--carr {c}: {n} is not {numbers}"))?;
+        let v = finite(value).ok_or_else(|| format!("--carr {c}: {value} is not a number"))?;
+        values[index] = v;
+        given.push(index);
+    }
+    Ok(given)
+}
+
+/// `ncgen kins sinumerik-m`: seed 002's deviations into a type-M record.
+fn kins_mixed(k: &KinsArgs) -> Result<String, String> {
+    use ballpod::app::seed002::Setup;
+    use ballpod_host::ncgen::carr_mixed::{self, MixedGrid, MixedRecord};
+    let src = &k.source;
+    let at = |e: String| format!("{}: {e}", src.display());
+    if src.extension().is_some_and(|x| x == "toml") {
+        return Err(at(
+            "seed 004's centrelines are a rotary table on a tilting axis (a swivel table): \
+             sinumerik-p or xyzbc-trt, not a mixed record"
+                .into(),
+        ));
+    }
+    if !k.pins.is_empty() {
+        return Err("--pin: LinuxCNC's; a SINUMERIK record's values are --carr N=VALUE".into());
+    }
+    if k.geometry_mm.is_some() {
+        return Err("--geometry-mm: an R-test's, not seed 002's".into());
+    }
+    let text = std::fs::read_to_string(src).map_err(|e| at(e.to_string()))?;
+    let measured = carr_mixed::seed002_from_results(&text).map_err(|e| at(e.to_string()))?;
+    let mut rec = MixedRecord::model_frame();
+    let given = carr_given(
+        &k.carr,
+        &carr_mixed::PARAMETERS,
+        "1…12, 15…20 or 24 ($TC_CARR l1 l2 v1 v2 l3 l4, axis 1's offset)",
+        &mut rec.0,
+    )?;
+    // l2, v1, v2, l3: all or none; l1, l4 close the chains when left out
+    use carr_mixed::{L1, L2, L3, L4, OFFSET1};
+    let missing: Vec<_> = (L2..L4)
+        .filter(|i| !given.contains(i))
+        .map(|i| carr_mixed::PARAMETERS[i].0.to_string())
+        .collect();
+    if !given.is_empty() && !missing.is_empty() {
+        return Err(format!(
+            "--carr: give every one of $TC_CARR4…12 and 15…17 or none (missing: {})",
+            missing.join(", ")
+        ));
+    }
+    // l1 and l4 left out close their chains (l1 = −l2, l4 = −l3)
+    for (closing, of) in [(L1..L2, L2), (L4..OFFSET1, L3)] {
+        if !given.iter().any(|i| closing.contains(i)) {
+            for (k, i) in closing.enumerate() {
+                rec.0[i] = 0.0 - rec.0[of + k];
+            }
+        }
+    }
+    for (v, name) in [
+        (rec.v1(), "v1 ($TC_CARR7…9)"),
+        (rec.v2(), "v2 ($TC_CARR10…12)"),
+    ] {
+        if v.iter().map(|c| c * c).sum::<f64>().sqrt() < 1e-9 {
+            return Err(format!("--carr: {name} is the zero vector"));
+        }
+    }
+    let face_z_mm = match (k.table_face_z_mm, given.is_empty()) {
+        (Some(z), _) if z.is_finite() => z,
+        (Some(_), _) => return Err("--table-face-z-mm: a finite height".into()),
+        (None, true) => 0.0,
+        (None, false) => {
+            return Err(
+                "--table-face-z-mm: the table face's height in the record's coordinates (where \
+                 seed 002 states C's position) is needed with --carr"
+                    .into(),
+            );
+        }
+    };
+    let tool = k.tool_mm.unwrap_or(Setup::thesis_table_4_3().r_b_mm);
+    if !(tool.is_finite() && tool >= 0.0) {
+        return Err("--tool-mm: a length ≥ 0".into());
+    }
+    // the work point: C at the table face (model frame: the origin)
+    let work = match k.work_point_mm.as_deref() {
+        Some(&[x, y, z]) if [x, y, z].iter().all(|v| v.is_finite()) => [x, y, z],
+        Some(_) => return Err("--work-point-mm: three finite values".into()),
+        None => rec.table_at(face_z_mm),
+    };
+    let grid = MixedGrid {
+        b_range_deg: grid_limits(k, (0.0, 90.0))?,
+        tool_below_pivot_mm: tool,
+        work_mm: work,
+        half_side_mm: k.half_side_mm,
+    };
+    let c = carr_mixed::correct(
+        k.record,
+        &rec,
+        &measured,
+        face_z_mm,
+        &grid,
+        k.max_change_um,
+        k.max_turn_urad,
+    )
+    .map_err(|e| e.to_string())?;
+    let name = src.file_name().map_or_else(
+        || src.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    );
+    Ok(match k.format {
+        KinsFormat::Hal => carr_mixed::mixed_lines(&c, &name),
+        KinsFormat::Csv => carr_mixed::mixed_csv(&c),
     })
 }
 

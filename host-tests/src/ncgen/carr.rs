@@ -61,22 +61,192 @@ const V2: usize = 6;
 const L3: usize = 9;
 const L4: usize = 12;
 
-/// Whether the value at `k` is a direction component (unitless) rather than a length (mm).
-pub fn is_direction(k: usize) -> bool {
-    (V1..L3).contains(&k)
+/// What a swivel data record's value is: its unit, how it is printed and guarded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kind {
+    /// A length, mm (to the nm; changes in µm, guarded by `--max-change-um`).
+    Length,
+    /// A direction component, unitless (to 1e-9; changes in µrad, the vector's turn guarded
+    /// by `--max-turn-urad`).
+    Direction,
+    /// An angle, degrees (to 1e-9°; changes in arc-seconds, guarded by `--max-turn-urad`).
+    Angle,
+}
+
+/// What the value at `k` of a [`SwivelTable`] is.
+pub fn kind(k: usize) -> Kind {
+    if (V1..L3).contains(&k) {
+        Kind::Direction
+    } else {
+        Kind::Length
+    }
+}
+
+/// The vector of a record's values starting at `at` (NaN past the end).
+pub(super) fn vector_at(values: &[f64], at: usize) -> [f64; 3] {
+    std::array::from_fn(|k| values.get(at + k).copied().unwrap_or(f64::NAN))
+}
+
+/// Sets the vector of a record's values starting at `at`.
+pub(super) fn set_at(values: &mut [f64], at: usize, v: [f64; 3]) {
+    for (k, x) in v.into_iter().enumerate() {
+        if let Some(slot) = values.get_mut(at + k) {
+            *slot = x;
+        }
+    }
+}
+
+/// How far `b` is turned from `a` (µrad; neither need be unit).
+pub(super) fn turn_urad(a: [f64; 3], b: [f64; 3]) -> f64 {
+    let (a, b) = (unit(a), unit(b));
+    let cross = [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ];
+    cross.iter().map(|c| c * c).sum::<f64>().sqrt() * 1e6
+}
+
+/// Refused when one of `turns` (µrad, and what turns) is beyond `max_turn_urad`.
+pub(super) fn check_turns(turns: &[(f64, &str)], max_turn_urad: f64) -> Result<(), NcError> {
+    for &(turn_urad, which) in turns {
+        if turn_urad > max_turn_urad {
+            return Err(NcError {
+                field: "--max-turn-urad",
+                what: format!(
+                    "{which} would turn by {turn_urad:.1} µrad ({:.1}″), beyond the guard of \
+                     {max_turn_urad} µrad",
+                    turn_urad * 1e-6 / ARCSEC_RAD
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// A record's values as a correction holds them: the parameters (`$TC_CARR` number, what),
+/// each one's kind, and the present and corrected values with the corrected ones' u.
+pub(super) struct Values<'a> {
+    /// The record's number (`$TC_CARR…[n]`).
+    pub record: u16,
+    /// The parameters, in the values' order.
+    pub parameters: &'a [(u8, &'static str)],
+    /// What each value is.
+    pub kind: fn(usize) -> Kind,
+    /// The control's present values.
+    pub current: &'a [f64],
+    /// The corrected values.
+    pub corrected: &'a [f64],
+    /// Their standard uncertainties.
+    pub u: &'a [f64],
+}
+
+impl Values<'_> {
+    /// Refused when a length would change by more than `max_change_um`.
+    pub fn check_lengths(&self, max_change_um: f64) -> Result<(), NcError> {
+        for (k, &(n, what)) in self.parameters.iter().enumerate() {
+            if (self.kind)(k) != Kind::Length {
+                continue;
+            }
+            let change_um = (self.corrected[k] - self.current[k]) * 1e3;
+            if change_um.abs() > max_change_um {
+                return Err(NcError {
+                    field: "--max-change-um",
+                    what: format!(
+                        "$TC_CARR{n}[{}] ({what}) would change by {change_um:+.1} µm, beyond \
+                         the guard of {max_change_um} µm",
+                        self.record
+                    ),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The values as part-program assignments (`$TC_CARRn[record]=…`, a SINUMERIK takes them
+    /// in an MPF or from MDA), each with its present value, change and u as a comment.
+    pub fn write_assignments(&self, s: &mut String) {
+        use std::fmt::Write as _;
+        for (k, &(p, what)) in self.parameters.iter().enumerate() {
+            let kind = (self.kind)(k);
+            let (was, now) = (self.current[k], self.corrected[k]);
+            let (d, unit) = change(kind, now - was);
+            let (u, _) = change(kind, self.u[k]);
+            let _ = writeln!(
+                s,
+                "$TC_CARR{p}[{}]={} ; {what}, was {}: {d:+.1} {unit} (u {u:.1} {unit})",
+                self.record,
+                value(kind, now),
+                value(kind, was)
+            );
+        }
+    }
+
+    /// The values as CSV rows (`carr:N`, the parameter, the corrected value, its u, the unit,
+    /// the present value).
+    pub fn write_csv(&self, s: &mut String) {
+        use std::fmt::Write as _;
+        for (k, &(p, what)) in self.parameters.iter().enumerate() {
+            let _ = writeln!(
+                s,
+                "carr:{p},$TC_CARR{p}[{}] ({what}),{:?},{:?},{},\"was {:?}\"",
+                self.record,
+                self.corrected[k],
+                self.u[k],
+                match (self.kind)(k) {
+                    Kind::Length => "mm",
+                    Kind::Direction => "1",
+                    Kind::Angle => "deg",
+                },
+                self.current[k]
+            );
+        }
+    }
+}
+
+/// A value with its kind's digits (mm to the nm, a vector component or degrees to 1e-9); one
+/// that rounds to 0 is 0, not −0.
+fn value(kind: Kind, v: f64) -> String {
+    let s = match kind {
+        Kind::Length => format!("{v:.6}"),
+        Kind::Direction | Kind::Angle => format!("{v:.9}"),
+    };
+    match s.strip_prefix('-') {
+        Some(digits) if digits.chars().all(|c| c == '0' || c == '.') => digits.to_string(),
+        _ => s,
+    }
+}
+
+/// A change in its kind's unit for the comments (to 0.1): µm, µrad for a vector component,
+/// arc-seconds for an angle; one that rounds to 0 is 0 (not −0.0).
+fn change(kind: Kind, d: f64) -> (f64, &'static str) {
+    let (v, unit) = match kind {
+        Kind::Length => (d * 1e3, "µm"),
+        Kind::Direction => (d * 1e6, "µrad"),
+        Kind::Angle => (d.to_radians() / ARCSEC_RAD, "arcsec"),
+    };
+    (if (v * 10.0).round() == 0.0 { 0.0 } else { v }, unit)
 }
 
 impl SwivelTable {
     /// The vector starting at `at`.
     fn vector(&self, at: usize) -> [f64; 3] {
-        std::array::from_fn(|k| self.0.get(at + k).copied().unwrap_or(f64::NAN))
+        vector_at(&self.0, at)
     }
 
     fn set(&mut self, at: usize, v: [f64; 3]) {
-        for (k, x) in v.into_iter().enumerate() {
-            if let Some(slot) = self.0.get_mut(at + k) {
-                *slot = x;
-            }
+        set_at(&mut self.0, at, v);
+    }
+
+    /// The values with their parameters, for the guards and the output.
+    fn values<'a>(record: u16, current: &'a Self, corrected: &'a Self, u: &'a [f64]) -> Values<'a> {
+        Values {
+            record,
+            parameters: &PARAMETERS,
+            kind,
+            current: &current.0,
+            corrected: &corrected.0,
+            u,
         }
     }
 
@@ -249,40 +419,17 @@ pub fn correct(
     let control = current.lines().at_reference();
     let actual = measured.deviations.actual(&control);
     let corrected = current.placed(&actual);
-    for (k, &(n, what)) in PARAMETERS.iter().enumerate() {
-        if is_direction(k) {
-            continue;
-        }
-        let change_um = (corrected.0[k] - current.0[k]) * 1e3;
-        if change_um.abs() > max_change_um {
-            return Err(bad(
-                "--max-change-um",
-                format!(
-                    "$TC_CARR{n}[{record}] ({what}) would change by {change_um:+.1} µm, beyond \
-                     the guard of {max_change_um} µm"
-                ),
-            ));
-        }
-    }
-    for (at, which) in [(V1, "v1 ($TC_CARR7…9)"), (V2, "v2 ($TC_CARR10…12)")] {
-        let (a, b) = (unit(current.vector(at)), corrected.vector(at));
-        let cross = [
-            a[1] * b[2] - a[2] * b[1],
-            a[2] * b[0] - a[0] * b[2],
-            a[0] * b[1] - a[1] * b[0],
-        ];
-        let turn_urad = cross.iter().map(|c| c * c).sum::<f64>().sqrt() * 1e6;
-        if turn_urad > max_turn_urad {
-            return Err(bad(
-                "--max-turn-urad",
-                format!(
-                    "{which} would turn by {turn_urad:.1} µrad ({:.1}″), beyond the guard of \
-                     {max_turn_urad} µrad",
-                    turn_urad * 1e-6 / ARCSEC_RAD
-                ),
-            ));
-        }
-    }
+    SwivelTable::values(record, current, &corrected, &[]).check_lengths(max_change_um)?;
+    check_turns(
+        &[
+            (turn_urad(current.v1(), corrected.v1()), "v1 ($TC_CARR7…9)"),
+            (
+                turn_urad(current.v2(), corrected.v2()),
+                "v2 ($TC_CARR10…12)",
+            ),
+        ],
+        max_turn_urad,
+    )?;
     // each input moved by its u: the values' changes, then u² = Σ cᵢ² + 2 Σ r·cᵢ·cⱼ
     let changes: Vec<[f64; 15]> = measured
         .moved_by_u
@@ -323,26 +470,6 @@ pub fn correct(
     })
 }
 
-/// The value at `k` with its unit's digits (mm to the nm, a vector component to 1e-9).
-fn value(k: usize, v: f64) -> String {
-    if is_direction(k) {
-        format!("{v:.9}")
-    } else {
-        format!("{v:.6}")
-    }
-}
-
-/// A change at `k` in its unit for the comments (to 0.1): µm, or µrad for a vector
-/// component; one that rounds to 0 is 0 (not −0.0).
-fn change(k: usize, d: f64) -> (f64, &'static str) {
-    let (v, unit) = if is_direction(k) {
-        (d * 1e6, "µrad")
-    } else {
-        (d * 1e3, "µm")
-    };
-    (if (v * 10.0).round() == 0.0 { 0.0 } else { v }, unit)
-}
-
 /// The correction as part-program assignments (`$TC_CARRn[record]=…`, a SINUMERIK takes them
 /// in an MPF or from MDA), with the dispersion and the generic table as comments.
 pub fn carr_lines(c: &CarrCorrection, source: &str) -> String {
@@ -365,17 +492,7 @@ pub fn carr_lines(c: &CarrCorrection, source: &str) -> String {
     if let Some(note) = c.u_note {
         let _ = writeln!(s, "; u: {note}");
     }
-    for (k, &(p, what)) in PARAMETERS.iter().enumerate() {
-        let (was, now) = (c.current.0[k], c.corrected.0[k]);
-        let (d, unit) = change(k, now - was);
-        let (u, _) = change(k, c.u[k]);
-        let _ = writeln!(
-            s,
-            "$TC_CARR{p}[{n}]={} ; {what}, was {}: {d:+.1} {unit} (u {u:.1} {unit})",
-            value(k, now),
-            value(k, was)
-        );
-    }
+    SwivelTable::values(n, &c.current, &c.corrected, &c.u).write_assignments(&mut s);
     rows_as_comments(&mut s, ";", &c.rows);
     s
 }
@@ -383,18 +500,7 @@ pub fn carr_lines(c: &CarrCorrection, source: &str) -> String {
 /// The generic table as CSV (deviation, ISO 230-1 name, value, u, unit, control parameter),
 /// then the record's values (`carr:N`, the corrected value, its u, the present value).
 pub fn carr_csv(c: &CarrCorrection) -> String {
-    use std::fmt::Write as _;
     let mut s = rows_csv(&c.rows);
-    for (k, &(p, what)) in PARAMETERS.iter().enumerate() {
-        let _ = writeln!(
-            s,
-            "carr:{p},$TC_CARR{p}[{}] ({what}),{:?},{:?},{},\"was {:?}\"",
-            c.record,
-            c.corrected.0[k],
-            c.u[k],
-            if is_direction(k) { "1" } else { "mm" },
-            c.current.0[k]
-        );
-    }
+    SwivelTable::values(c.record, &c.current, &c.corrected, &c.u).write_csv(&mut s);
     s
 }

@@ -334,6 +334,42 @@ pub struct Dispersion {
     pub rms_um: f64,
 }
 
+impl Dispersion {
+    /// The largest and the rms of error lengths (µm).
+    pub(super) fn of(errors_um: impl IntoIterator<Item = f64>) -> Self {
+        let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0usize);
+        for e in errors_um {
+            max = max.max(e);
+            sum += e * e;
+            n += 1;
+        }
+        Self {
+            max_um: max,
+            rms_um: (sum / n.max(1) as f64).sqrt(),
+        }
+    }
+}
+
+/// The angles every 15° (or fewer, evenly) from `lo` to `hi` inclusive, degrees.
+pub(super) fn every_15_deg((lo, hi): (f64, f64)) -> impl Iterator<Item = f64> {
+    let steps = ((hi - lo) / 15.0).ceil().max(1.0) as usize;
+    (0..=steps).map(move |i| lo + (hi - lo) * i as f64 / steps as f64)
+}
+
+/// `work_mm` and the eight corners of a cube of half side `half_side_mm` about it (the work
+/// point alone when that is 0), mm.
+pub(super) fn cube_about(work_mm: [f64; 3], half_side_mm: f64) -> Vec<[f64; 3]> {
+    let h = half_side_mm;
+    let mut points = vec![work_mm];
+    if h > 0.0 {
+        for k in 0..8 {
+            let s = |bit: usize| if k & bit == 0 { -h } else { h };
+            points.push([work_mm[0] + s(1), work_mm[1] + s(2), work_mm[2] + s(4)]);
+        }
+    }
+    points
+}
+
 /// Where the dispersion is taken: every 15° of the tilt over its range and of the table over
 /// a turn, at the work point and the eight corners of a cube about it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -352,19 +388,9 @@ impl DispersionGrid {
         actual: &TableLines,
         work_mm: [f64; 3],
     ) -> Dispersion {
-        let (lo, hi) = self.tilt_range_deg;
-        let steps = ((hi - lo) / 15.0).ceil().max(1.0) as usize;
-        let h = self.half_side_mm;
-        let mut points = vec![work_mm];
-        if h > 0.0 {
-            for k in 0..8 {
-                let s = |bit: usize| if k & bit == 0 { -h } else { h };
-                points.push([work_mm[0] + s(1), work_mm[1] + s(2), work_mm[2] + s(4)]);
-            }
-        }
-        let (mut max, mut sum, mut n) = (0.0f64, 0.0, 0usize);
-        for i in 0..=steps {
-            let tilt = lo + (hi - lo) * i as f64 / steps as f64;
+        let points = cube_about(work_mm, self.half_side_mm);
+        let mut errors = Vec::new();
+        for tilt in every_15_deg(self.tilt_range_deg) {
             for j in 0..24 {
                 let table = 15.0 * j as f64;
                 for &w in &points {
@@ -373,16 +399,11 @@ impl DispersionGrid {
                     let e = ((c[0] - a[0]).powi(2) + (c[1] - a[1]).powi(2) + (c[2] - a[2]).powi(2))
                         .sqrt()
                         * 1e3;
-                    max = max.max(e);
-                    sum += e * e;
-                    n += 1;
+                    errors.push(e);
                 }
             }
         }
-        Dispersion {
-            max_um: max,
-            rms_um: (sum / n.max(1) as f64).sqrt(),
-        }
+        Dispersion::of(errors)
     }
 }
 
@@ -828,6 +849,30 @@ pub fn rtest_nominal_pins(g: &RtestGeometry) -> TrtPins {
     p
 }
 
+/// One figure of a results file (`results.json`): its name, value and u (either may be null).
+#[derive(serde::Deserialize)]
+pub(super) struct Figure {
+    /// The figure's name (`dx_BT`, `rtest_XOW`).
+    pub name: String,
+    /// Its value, in its unit.
+    #[serde(default)]
+    pub value: Option<f64>,
+    /// Its standard uncertainty.
+    #[serde(default)]
+    pub u: Option<f64>,
+}
+
+/// A results file's figures: the pod's (`results`) and the host's (`host`).
+#[derive(serde::Deserialize)]
+pub(super) struct Figures {
+    /// The pod's results table.
+    #[serde(default)]
+    pub results: Vec<Figure>,
+    /// The host's figures (the R-test's).
+    #[serde(default)]
+    pub host: Vec<Figure>,
+}
+
 /// The R-test's location errors and their u from a results file (`results.json` of `cargo
 /// replay`: `host[]`'s `rtest_XOW` … `rtest_BOC`, µm and arc-seconds). A file of another test
 /// is refused with the reason: seed 002's deviations belong to a machine that turns the tool
@@ -838,18 +883,9 @@ pub fn rtest_from_results(
     json: &str,
 ) -> Result<(LocationErrors, LocationErrors, Option<[[f64; 11]; 11]>), NcError> {
     #[derive(serde::Deserialize)]
-    struct Entry {
-        name: String,
-        value: Option<f64>,
-        #[serde(default)]
-        u: Option<f64>,
-    }
-    #[derive(serde::Deserialize)]
     struct File {
-        #[serde(default)]
-        results: Vec<Entry>,
-        #[serde(default)]
-        host: Vec<Entry>,
+        #[serde(flatten)]
+        figures: Figures,
         #[serde(default)]
         rtest_covariance: Option<crate::replay::DeviationCovariance>,
     }
@@ -858,27 +894,40 @@ pub fn rtest_from_results(
         what,
     };
     let file: File = serde_json::from_str(json).map_err(|e| bad(e.to_string()))?;
-    if !file.host.iter().any(|e| e.name.starts_with("rtest_")) {
-        return Err(bad(if file.results.iter().any(|e| e.name == "dx_BT") {
-            "seed 002's deviations: its machine turns the tool about B and the table about C, \
+    if !file
+        .figures
+        .host
+        .iter()
+        .any(|e| e.name.starts_with("rtest_"))
+    {
+        return Err(bad(
+            if file.figures.results.iter().any(|e| e.name == "dx_BT") {
+                "seed 002's deviations: its machine turns the tool about B and the table about C, \
              which neither a table-tilting (trt) kinematics nor a swivel table (SINUMERIK type \
-             P) describes; `ncgen correct` rewrites the program for them"
-                .into()
-        } else {
-            "no R-test results (host[]: rtest_XOW … rtest_BOC): run `cargo replay` on the \
+             P) describes: `kins sinumerik-m` writes them into a mixed record (type M), \
+             `ncgen correct` rewrites the program for them"
+                    .into()
+            } else {
+                "no R-test results (host[]: rtest_XOW … rtest_BOC): run `cargo replay` on the \
              R-test's session file"
-                .into()
-        }));
+                    .into()
+            },
+        ));
     }
     let mut v = [0.0; 11];
     let mut u = [0.0; 11];
     for p in RtestParam::ALL {
         let name = format!("rtest_{}", p.name());
-        let e = file.host.iter().find(|e| e.name == name).ok_or_else(|| {
-            bad(format!(
-                "{name}: not identified (the path does not determine it)"
-            ))
-        })?;
+        let e = file
+            .figures
+            .host
+            .iter()
+            .find(|e| e.name == name)
+            .ok_or_else(|| {
+                bad(format!(
+                    "{name}: not identified (the path does not determine it)"
+                ))
+            })?;
         let (x, ux) = (e.value.unwrap_or(f64::NAN), e.u.unwrap_or(f64::NAN));
         if !(x.is_finite() && ux.is_finite() && ux >= 0.0) {
             return Err(bad(format!("{name}: a finite value with a u ≥ 0")));

@@ -19,6 +19,7 @@
 //! stopped at its end); comments mark where it begins and ends.
 
 pub mod carr;
+pub mod carr_mixed;
 mod correct;
 mod dialect;
 pub mod kins;

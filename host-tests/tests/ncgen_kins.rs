@@ -823,6 +823,7 @@ fn seed002_measured(d: [f64; 13], u: f64) -> Seed002Deviations {
         deviations: Deviations::from_array(&d),
         covariance,
         u_note: None,
+        source: carr_mixed::Source::Model,
     }
 }
 
@@ -1018,7 +1019,7 @@ fn seed002s_correction_into_a_type_m_record_leaves_only_the_spindles_tilt() {
     m.seed002.dz_bt_um = -20.0;
     let nominal = MixedRecord::model_frame();
     let (json1, rms1) = seed002_through(&m, &nominal);
-    let first = carr_mixed::seed002_from_results(&json1).expect("results");
+    let first = carr_mixed::seed002_from_results(&json1, false).expect("results");
     assert!(first.u_note.is_none(), "the covariance is in the results");
     let grid = MixedGrid {
         b_range_deg: (0.0, 90.0),
@@ -1044,7 +1045,7 @@ fn seed002s_correction_into_a_type_m_record_leaves_only_the_spindles_tilt() {
     let mut m2 = m;
     m2.seed002.w_offset_um = std::array::from_fn(|k| (moved[k] - at_setup[k]) * 1e3);
     let (json2, rms2) = seed002_through(&m2, &c.corrected);
-    let second = carr_mixed::seed002_from_results(&json2).expect("results");
+    let second = carr_mixed::seed002_from_results(&json2, false).expect("results");
     let u = |s: &Seed002Deviations, p: Parameter| s.covariance[p.index()][p.index()].sqrt();
     let (d1, d2) = (&first.deviations, &second.deviations);
     for p in [
@@ -1177,4 +1178,165 @@ fn the_books_type_m_example_is_what_ncgen_prints_and_what_does_not_fit_is_refuse
         assert!(err.contains(expect) && err.contains("sinumerik-p"), "{err}");
     }
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The touch probe's figures (seed 002 chapter 5) into a type-M record: a machine off in
+/// everything the probe identifies (the spindle 30/−20 µm from B, B's zero, C's place and tilt;
+/// B untilted), its spheres through seed 002's HTM chain, identified by the core's probe
+/// method, its `probe_*` figures as `results.json` lists them: the record corrected from them
+/// is the one the true deviations give (to 0.01 µm and 0.01 µrad), and says that v1 stays.
+/// A file with only the C axis's figures changes only the part's chain; one with the model
+/// mode's as well takes those unless asked for the probe's.
+#[test]
+fn the_touch_probes_figures_correct_a_type_m_record_as_its_truth() {
+    use ballpod::identify::multitasking::lobing::LOBING_COMPONENTS;
+    use ballpod::identify::multitasking::probe::{
+        BAxisProbe, CAxisProbe, ProbeMode, identify_b_axis, identify_c_axis,
+    };
+    let mut d = [0.0; 13];
+    d[Parameter::DxBt.index()] = 30.0;
+    d[Parameter::DzBt.index()] = -20.0;
+    d[Parameter::BetaXb.index()] = arcsec_to_urad(-24.1);
+    d[Parameter::DxCz.index()] = 53.1;
+    d[Parameter::DyCz.index()] = -45.7;
+    d[Parameter::AlphaCz.index()] = arcsec_to_urad(1.1);
+    d[Parameter::BetaCz.index()] = arcsec_to_urad(-25.2);
+    // B: the sphere on the C centreline seen through the actual tip at B = 0 and 90°, two
+    // tool lengths (the probe reports the sphere less the tip's displacement)
+    let sphere = [-490.0, 0.0, -472.0];
+    let (rb, rb2) = (382.95, 433.062);
+    let seen = |rb: f64| -> [[f64; 3]; 2] {
+        [0.0f64, 90.0].map(|deg| {
+            let phi = deg.to_radians();
+            let (x, z) = (sphere[0] + rb * phi.sin(), sphere[2] + rb * phi.cos());
+            let t = f2::t_ball(&d, x, sphere[1], z, phi, rb, [0.0; 3]);
+            let t0 = f2::t_ball(&[0.0; 13], x, sphere[1], z, phi, rb, [0.0; 3]);
+            std::array::from_fn(|i| sphere[i] - (t[i] - t0[i]))
+        })
+    };
+    let ([m0, m90], [n0, n90]) = (seen(rb), seen(rb2));
+    let b = identify_b_axis(
+        &BAxisProbe {
+            measured_mm: [m0, m90, n0, n90],
+            nominal_mm: [sphere; 4],
+            measured_std_uncertainty_um: [[0.1; 3]; 4],
+            lobing_shift_um: [[[0.0; 3]; LOBING_COMPONENTS]; 4],
+            std_uncertainty_dof: 0.0,
+            r_b_mm: rb,
+            r_b2_mm: rb2,
+            x_t_mm: 490.0,
+        },
+        ProbeMode::Corrected,
+    )
+    .expect("B axis");
+    // C: the sphere at R_C on the table at C = 0, 90, 180, 270°
+    let (_, _, _, _, mcz, _) = f2::mats(&d);
+    let (rc, zc, origin) = (100.0, 64.838, [-490.0, 0.0, -536.838]);
+    let centres: [[f64; 3]; 4] = std::array::from_fn(|k| {
+        let th = k as f64 * std::f64::consts::FRAC_PI_2;
+        let p = f2::apply(&f2::mul(&mcz, &f2::ec(th)), [rc, 0.0, zc]);
+        std::array::from_fn(|i| origin[i] + p[i])
+    });
+    let c = identify_c_axis(
+        &CAxisProbe {
+            centres_mm: centres,
+            nominal_axis_xy_mm: [-490.0, 0.0],
+            z_c_mm: zc,
+            std_uncertainty_dof: 0.0,
+            centres_std_uncertainty_um: [[0.1; 3]; 4],
+        },
+        ProbeMode::Corrected,
+    )
+    .expect("C axis");
+    let figure = |name: &str, value: f64, unit: &str| {
+        format!(r#"{{"name": "{name}", "value": {value}, "u": 0.1, "unit": "{unit}"}}"#)
+    };
+    let b_figures = [
+        figure("probe_dx_BT", b.dx_bt_um, "um"),
+        figure("probe_dz_BT", b.dz_bt_um, "um"),
+        figure("probe_beta_XB", b.beta_xb_arcsec, "arcsec"),
+        figure(
+            "probe_alpha_BT_plus_alpha_XB",
+            b.alpha_bt_plus_alpha_xb_arcsec.expect("α_BT + α_XB"),
+            "arcsec",
+        ),
+    ];
+    let c_figures = [
+        figure("probe_alpha_CZ", c.alpha_cz_arcsec, "arcsec"),
+        figure("probe_beta_CZ", c.beta_cz_arcsec, "arcsec"),
+        figure("probe_dx_CZ", c.dx_cz_um, "um"),
+        figure("probe_dy_CZ", c.dy_cz_um, "um"),
+    ];
+    let file = |figures: &[String]| format!(r#"{{"results": [{}]}}"#, figures.join(", "));
+    let nominal = MixedRecord::model_frame();
+    let grid = MixedGrid {
+        b_range_deg: (0.0, 90.0),
+        tool_below_pivot_mm: 356.3945,
+        work_mm: [0.0, 0.0, 65.5],
+        half_side_mm: 50.0,
+    };
+    let corrected = |json: &str, probe: bool| {
+        let m = carr_mixed::seed002_from_results(json, probe).expect("figures");
+        carr_mixed::correct(1, &nominal, &m, 0.0, &grid, 200.0, 500.0).expect("corrected")
+    };
+    let both: Vec<String> = b_figures.iter().chain(&c_figures).cloned().collect();
+    let got = corrected(&file(&both), false);
+    let want = nominal.corrected(&Deviations::from_array(&d), 0.0);
+    for (k, &(n, what)) in carr_mixed::PARAMETERS.iter().enumerate() {
+        let tol = match carr_mixed::kind(k) {
+            carr::Kind::Length => 1e-5,
+            carr::Kind::Direction => 1e-8,
+            carr::Kind::Angle => 1e-8_f64.to_degrees(),
+        };
+        assert!(
+            (got.corrected.0[k] - want.0[k]).abs() < tol,
+            "$TC_CARR{n} ({what}): {} vs {}",
+            got.corrected.0[k],
+            want.0[k]
+        );
+    }
+    assert!(
+        got.spindle_tilt_urad.0.abs() < 0.05,
+        "{:?}",
+        got.spindle_tilt_urad
+    );
+    let printed = carr_mixed::mixed_lines(&got, "results.json");
+    assert!(
+        printed.contains("v1 stays") && printed.contains("; probe_dx_BT |"),
+        "{printed}"
+    );
+    // only the C axis: the tool's chain stays
+    let c_only = corrected(&file(&c_figures), false);
+    for k in carr_mixed::L1..carr_mixed::V2 {
+        assert_eq!(
+            c_only.corrected.0[k],
+            nominal.0[k],
+            "{}",
+            carr_mixed::PARAMETERS[k].1
+        );
+    }
+    assert_eq!(c_only.corrected.offset1_deg(), 0.0);
+    for k in carr_mixed::V2..carr_mixed::OFFSET1 {
+        assert!((c_only.corrected.0[k] - want.0[k]).abs() < 1e-5);
+    }
+    assert!(carr_mixed::mixed_lines(&c_only, "r").contains("B axis not probed"));
+    // with the model mode's figures too: those, unless the probe's are asked for
+    let mut with_model = both.clone();
+    with_model.push(figure("dx_BT", 1.0, "um"));
+    assert!(carr_mixed::seed002_from_results(&file(&with_model), false).is_err());
+    let probe = carr_mixed::seed002_from_results(&file(&with_model), true).expect("probe");
+    assert_eq!(
+        probe.source,
+        carr_mixed::Source::Probe {
+            b_axis: true,
+            c_axis: true
+        }
+    );
+    // an axis with some of its figures is refused with the missing one's name
+    let e = carr_mixed::seed002_from_results(&file(&b_figures[..3]), false).expect_err("partial");
+    assert!(
+        e.what.contains("probe_alpha_BT_plus_alpha_XB"),
+        "{}",
+        e.what
+    );
 }

@@ -168,6 +168,10 @@ struct KinsArgs {
     /// R_B of the thesis's Table 4.3).
     #[arg(long)]
     tool_mm: Option<f64>,
+    /// sinumerik-m: take the touch probe's figures (`probe_*`, thesis chapter 5) even when the
+    /// file has the model mode's (without them they are taken anyway).
+    #[arg(long)]
+    probe: bool,
     /// The work point the lines are placed at (C at its height, A at its X, B at its Y) and
     /// the dispersion is taken about, in the pins' frame, mm. Default: the R-test's ball, or
     /// for centrelines the table axis at the tilt axis's height.
@@ -534,8 +538,8 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
     if matches!(k.kins, KinsArg::SinumerikM) {
         return kins_mixed(k);
     }
-    if k.table_face_z_mm.is_some() || k.tool_mm.is_some() {
-        return Err("--table-face-z-mm, --tool-mm: sinumerik-m's (seed 002)".into());
+    if k.table_face_z_mm.is_some() || k.tool_mm.is_some() || k.probe {
+        return Err("--table-face-z-mm, --tool-mm, --probe: sinumerik-m's (seed 002)".into());
     }
     // the trt kinematics, or (SINUMERIK type P) the one whose lines the source's frame gives
     let siemens = matches!(k.kins, KinsArg::SinumerikP);
@@ -779,7 +783,8 @@ fn kins_mixed(k: &KinsArgs) -> Result<String, String> {
         return Err("--geometry-mm: an R-test's, not seed 002's".into());
     }
     let text = std::fs::read_to_string(src).map_err(|e| at(e.to_string()))?;
-    let measured = carr_mixed::seed002_from_results(&text).map_err(|e| at(e.to_string()))?;
+    let measured =
+        carr_mixed::seed002_from_results(&text, k.probe).map_err(|e| at(e.to_string()))?;
     let mut rec = MixedRecord::model_frame();
     let given = carr_given(
         &k.carr,

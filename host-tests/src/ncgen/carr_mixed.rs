@@ -348,35 +348,133 @@ impl MixedGrid {
     }
 }
 
+/// Which of seed 002's figures the deviations come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Source {
+    /// The ball-bar procedure's model mode (`dx_BT` … `beta_CZ`): all ten.
+    Model,
+    /// The touch-probe method (`probe_*`, thesis chapter 5): the C axis's four when it was
+    /// probed; the B axis's δx_BT, δz_BT, β_XB and α_BT + α_XB when it was — B's tilt (α_XB,
+    /// γ_XB) is not separable from the spindle's with B = 0/90°, so v1 stays.
+    Probe {
+        /// The B axis was probed.
+        b_axis: bool,
+        /// The C axis was probed.
+        c_axis: bool,
+    },
+}
+
 /// Seed 002's identified deviations with their covariance, as a results file gives them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Seed002Deviations {
-    /// The deviations (µm, µrad; the squareness ones 0: not identified).
+    /// The deviations (µm, µrad; the squareness ones 0: not identified; from the touch probe,
+    /// α_BT holds α_BT + α_XB and α_XB, γ_XB are 0, as are an axis's not probed).
     pub deviations: Deviations,
     /// Their covariance (µm², µm·µrad, µrad²; [`Parameter::ALL`] order).
     pub covariance: [[f64; 13]; 13],
     /// What the u leave out, said with the output (`None`: nothing known).
     pub u_note: Option<&'static str>,
+    /// Which figures they are.
+    pub source: Source,
+}
+
+/// The touch-probe figures of each axis and the deviation each stands for (α_BT + α_XB in
+/// α_BT's place).
+const PROBE_B: [(&str, Parameter); 4] = [
+    ("probe_dx_BT", Parameter::DxBt),
+    ("probe_dz_BT", Parameter::DzBt),
+    ("probe_beta_XB", Parameter::BetaXb),
+    ("probe_alpha_BT_plus_alpha_XB", Parameter::AlphaBt),
+];
+const PROBE_C: [(&str, Parameter); 4] = [
+    ("probe_alpha_CZ", Parameter::AlphaCz),
+    ("probe_beta_CZ", Parameter::BetaCz),
+    ("probe_dx_CZ", Parameter::DxCz),
+    ("probe_dy_CZ", Parameter::DyCz),
+];
+
+/// The touch-probe figures of `file` as deviations, each axis probed or not (refused when
+/// an axis has some of its figures, or neither has any).
+fn probe_deviations(file: &Figures) -> Result<Seed002Deviations, NcError> {
+    let bad = |what: String| NcError {
+        field: "RESULTS",
+        what,
+    };
+    let mut d = [0.0; 13];
+    let mut covariance = [[0.0f64; 13]; 13];
+    let mut probed = [false; 2];
+    for (axis, figures) in [PROBE_B, PROBE_C].iter().enumerate() {
+        let found: Vec<_> = figures
+            .iter()
+            .map(|(name, p)| (name, p, file.results.iter().find(|e| e.name == *name)))
+            .collect();
+        if found.iter().all(|f| f.2.is_none()) {
+            continue;
+        }
+        for &(name, &p, entry) in &found {
+            let (v, u) = entry
+                .and_then(|e| Some((e.value?, e.u?)))
+                .filter(|(v, u)| v.is_finite() && u.is_finite() && *u >= 0.0)
+                .ok_or_else(|| bad(format!("{name}: a finite value with a u ≥ 0")))?;
+            let to_model = |x: f64| {
+                if p.is_positional() {
+                    x
+                } else {
+                    ballpod::identify::multitasking::arcsec_to_urad(x)
+                }
+            };
+            let i = p.index();
+            d[i] = to_model(v);
+            if let Some(c) = covariance.get_mut(i).and_then(|r| r.get_mut(i)) {
+                *c = to_model(u).powi(2);
+            }
+        }
+        probed[axis] = true;
+    }
+    let [b_axis, c_axis] = probed;
+    if !(b_axis || c_axis) {
+        return Err(bad(
+            "no touch-probe results (probe_dx_BT …, probe_alpha_CZ …): probe the B or the C axis"
+                .into(),
+        ));
+    }
+    Ok(Seed002Deviations {
+        deviations: Deviations::from_array(&d),
+        covariance,
+        u_note: Some(
+            "the touch-probe figures taken as uncorrelated (the pod states no covariance for \
+             them; δx_BT and β_XB come from the same equations): the corrected values' u are \
+             not their own",
+        ),
+        source: Source::Probe { b_axis, c_axis },
+    })
 }
 
 /// The deviations of a seed 002 results file (`results.json` of `cargo sim` or `cargo replay`):
-/// with `seed002_covariance` their covariance; without it each result's own `u`, taken as
-/// uncorrelated (and the output says so). A file of another test is refused with the reason.
-pub fn seed002_from_results(json: &str) -> Result<Seed002Deviations, NcError> {
+/// the model mode's, with `seed002_covariance` their covariance, without it each result's own
+/// `u` taken as uncorrelated (and the output says so); the touch probe's (`probe_*`) when
+/// `probe` is asked or the file has no model-mode results. A file of another test is refused
+/// with the reason.
+pub fn seed002_from_results(json: &str, probe: bool) -> Result<Seed002Deviations, NcError> {
     let bad = |what: String| NcError {
         field: "RESULTS",
         what,
     };
     let file: Figures = serde_json::from_str(json).map_err(|e| bad(e.to_string()))?;
-    if !file.results.iter().any(|e| e.name == "dx_BT") {
+    let model = file.results.iter().any(|e| e.name == "dx_BT");
+    let probed = file.results.iter().any(|e| e.name.starts_with("probe_"));
+    if probe || (!model && probed) {
+        return probe_deviations(&file);
+    }
+    if !model {
         return Err(bad(
             if file.host.iter().any(|e| e.name.starts_with("rtest_")) {
                 "an R-test's results: its machine tilts the table (A) and turns it (C), a swivel \
                  table: sinumerik-p or xyzac-trt, not a mixed record"
                     .into()
             } else {
-                "no seed 002 model-mode results (dx_BT … beta_CZ): run the seed 002 procedure \
-                 (cargo sim, or cargo replay of its runs)"
+                "no seed 002 results (the model mode's dx_BT … beta_CZ or the touch probe's \
+                 probe_*): run the seed 002 procedure (cargo sim, or cargo replay of its runs)"
                     .into()
             },
         ));
@@ -418,6 +516,7 @@ pub fn seed002_from_results(json: &str) -> Result<Seed002Deviations, NcError> {
         deviations: identified.deviations,
         covariance,
         u_note,
+        source: Source::Model,
     })
 }
 
@@ -501,6 +600,8 @@ pub struct MixedCorrection {
     pub rows: Vec<DeviationRow>,
     /// What the u leave out.
     pub u_note: Option<&'static str>,
+    /// Which figures the deviations came from.
+    pub source: Source,
 }
 
 /// The correction of the type-M record `current` (number `record`) for seed 002's
@@ -588,9 +689,18 @@ pub fn correct(
     let (a, b) = (Parameter::AlphaBt.index(), Parameter::AlphaXb.index());
     let tilt = d.alpha_bt_urad + d.alpha_xb_urad;
     let u_tilt = (cov[a][a] + cov[b][b] + 2.0 * cov[a][b]).max(0.0).sqrt();
+    // the figures' names: the model mode's, or the touch probe's of the axes probed
+    let named = |p: Parameter| match measured.source {
+        Source::Model => Some(p.name()),
+        Source::Probe { b_axis, c_axis } => [(PROBE_B, b_axis), (PROBE_C, c_axis)]
+            .into_iter()
+            .filter(|(_, probed)| *probed)
+            .find_map(|(figures, _)| figures.iter().find(|(_, q)| *q == p).map(|(n, _)| *n)),
+    };
     let rows = ROWS
         .iter()
-        .map(|&(p, iso, control)| {
+        .filter_map(|&(p, iso, control)| {
+            let name = named(p)?;
             let (value, u, unit) = if p.is_positional() {
                 (d.get(p), sigma[p.index()], "um")
             } else {
@@ -600,14 +710,14 @@ pub fn correct(
                     "arcsec",
                 )
             };
-            DeviationRow {
-                name: p.name(),
+            Some(DeviationRow {
+                name,
                 iso,
                 value,
                 u,
                 unit,
                 control: control.into(),
-            }
+            })
         })
         .collect();
     let actual = corrected;
@@ -622,6 +732,7 @@ pub fn correct(
         after: grid.dispersion(&corrected, &actual, tilt * 1e-6),
         rows,
         u_note: measured.u_note,
+        source: measured.source,
     })
 }
 
@@ -652,12 +763,30 @@ pub fn mixed_lines(c: &MixedCorrection, source: &str) -> String {
     if let Some(note) = c.u_note {
         let _ = writeln!(s, "; u: {note}");
     }
+    if let Source::Probe { b_axis, c_axis } = c.source {
+        let _ = writeln!(
+            s,
+            "; from the touch-probe figures (probe_*): B's tilt (alpha_XB, gamma_XB) is not separable from the spindle's with B = 0/90°: v1 stays"
+        );
+        if !b_axis {
+            let _ = writeln!(s, "; B axis not probed: l1, l2 and the offset stay");
+        }
+        if !c_axis {
+            let _ = writeln!(s, "; C axis not probed: l3, l4 and v2 stay");
+        }
+    }
     let (tilt, u) = c.spindle_tilt_urad;
+    let tilt = match c.source {
+        Source::Probe { b_axis: false, .. } => "not measured (the B axis was not probed)".into(),
+        _ => format!(
+            "{:+.2}″ (u {:.2}″)",
+            urad_to_arcsec(tilt),
+            urad_to_arcsec(u)
+        ),
+    };
     let _ = writeln!(
         s,
-        "; not expressible in a type M record: the spindle's tilt about X at B = 0 (alpha_BT + alpha_XB) {:+.2}″ (u {:.2}″)",
-        urad_to_arcsec(tilt),
-        urad_to_arcsec(u)
+        "; not expressible in a type M record: the spindle's tilt about X at B = 0 (alpha_BT + alpha_XB) {tilt}"
     );
     let _ = writeln!(
         s,

@@ -19,6 +19,7 @@
 //! - [`pod`]: the application with its protocol servers, log and stream: the one pod type every
 //!   shell (board, emulated board, simulated pod) drives;
 //! - [`settings`]: the configuration in two power-safe flash slots;
+//! - [`boot`]: what a boot finds — the reset cause, the option bytes — and what is reported;
 //! - [`num`]: small numeric helpers shared by all of them (hardware square root, CRC);
 //! - [`units`]: the units of the configuration fields and the results (one name table).
 #![no_std]
@@ -39,6 +40,7 @@
 
 pub mod acquisition;
 pub mod app;
+pub mod boot;
 pub mod config;
 pub mod identify;
 mod in_place;

@@ -83,35 +83,56 @@ unsafe fn UART5() {
 async fn main(spawner: Spawner) {
     let p = embassy_stm32::init(clocks());
     board::diagnostics::start_cycle_counter();
-    // Why the previous run ended (panic text from retained RAM, or a watchdog reset).
-    let report = board::safety::take_reset_report(board::watchdog::take_reset_flag());
-    let (can_report, usb_report) = match report {
+    // The watchdog first: a boot that hangs reading the flash is reset, not stuck.
+    let dog = board::watchdog::start(p.IWDG);
+    // Why the previous run ended: a panic or HardFault record in retained RAM, else the reset
+    // flags (a watchdog or low-power reset is a fault; power-on, the pin, a software reset are
+    // not).
+    let cause = board::watchdog::take_reset_cause();
+    defmt::info!("reset: {}", cause.text());
+    let (can_report, usb_report) = match board::safety::take_reset_report() {
         Some(board::safety::ResetReport::Panic(text)) => {
             defmt::error!("previous run ended in a {}", text);
             (Some((emcy::SOFTWARE_ERROR, emcy::REASON_PANIC)), Some(text))
         }
-        Some(board::safety::ResetReport::Watchdog) => {
-            defmt::error!("previous run ended by a watchdog reset");
+        Some(board::safety::ResetReport::HardFault(text)) => {
+            defmt::error!("previous run ended in a {}", text);
             (
-                Some((emcy::SOFTWARE_ERROR, emcy::REASON_WATCHDOG)),
-                Some("watchdog reset"),
+                Some((emcy::SOFTWARE_ERROR, emcy::REASON_HARD_FAULT)),
+                Some(text),
             )
         }
-        None => (None, None),
+        None => match cause.fault() {
+            Some((code, reason, text)) => {
+                defmt::error!("previous run ended by a {}", text);
+                (Some((code, reason)), Some(text))
+            }
+            None => (None, None),
+        },
     };
-    // The stored settings (newest valid slot), or the defaults if no slot holds valid ones.
-    let mut flash =
-        board::settings::SettingsPages(embassy_stm32::flash::Flash::new_blocking(p.FLASH));
-    let loaded = ballpod::settings::load(&mut flash);
-    let cfg = loaded.config;
-    match loaded.from {
-        Some((slot, seq)) => defmt::info!("settings: slot {} sequence {}", slot.index(), seq),
-        None => defmt::warn!(
-            "settings: no valid slot ({}, {}), defaults in use",
-            board::settings::slot_reason(&loaded.scan.a),
-            board::settings::slot_reason(&loaded.scan.b)
-        ),
+    // The option bytes this firmware depends on (the flash driver panics on a single-bank
+    // chip: without DBANK the settings pages are not touched, the defaults run and it is said).
+    let option_bytes = ballpod::boot::OptionBytes(embassy_stm32::pac::FLASH.optr().read().0);
+    if let Some(fault) = option_bytes.fault() {
+        defmt::error!("{}", fault);
     }
+    // The stored settings (newest valid slot), or the defaults if no slot holds valid ones.
+    let (cfg, settings_rejected, flash) = if option_bytes.dual_bank() {
+        let mut flash =
+            board::settings::SettingsPages(embassy_stm32::flash::Flash::new_blocking(p.FLASH));
+        let loaded = ballpod::settings::load(&mut flash);
+        match loaded.from {
+            Some((slot, seq)) => defmt::info!("settings: slot {} sequence {}", slot.index(), seq),
+            None => defmt::warn!(
+                "settings: no valid slot ({}, {}), defaults in use",
+                board::settings::slot_reason(&loaded.scan.a),
+                board::settings::slot_reason(&loaded.scan.b)
+            ),
+        }
+        (loaded.config, loaded.rejected(), Some(flash))
+    } else {
+        (ballpod::config::Config::default(), None, None)
+    };
     defmt::info!(
         "ballpod up: bar {} mm, node {}",
         cfg.bar_length_mm,
@@ -143,7 +164,8 @@ async fn main(spawner: Spawner) {
     let boot = ballpod::pod::BootReport {
         can: can_report,
         usb: usb_report,
-        settings_rejected: loaded.rejected(),
+        settings_rejected,
+        option_bytes: option_bytes.fault(),
     };
     let pod = board::compute::PodState::new(cfg, device_serial(), boot);
     interrupt::UART4.set_priority(board::IO_EXECUTOR_PRIORITY);
@@ -174,7 +196,7 @@ async fn main(spawner: Spawner) {
     );
     spawn(&io, "can", board::can::can_task(can));
     spawn(&io, "usb", board::usb::usb_task(usb, device_serial()));
-    spawn(&io, "watchdog", board::watchdog::watchdog_task(p.IWDG));
+    spawn(&io, "watchdog", board::watchdog::watchdog_task(dog));
 }
 
 /// The pod's serial number for CANopen 0x1018:4: a CRC-32 of the STM32's 96-bit unique device ID

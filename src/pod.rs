@@ -60,6 +60,9 @@ pub struct BootReport {
     pub usb: Option<&'static str>,
     /// Why a stored configuration was rejected, if one was (`settings::Loaded::rejected`).
     pub settings_rejected: Option<ConfigError>,
+    /// What is wrong with the chip's option bytes, if anything
+    /// ([`crate::boot::OptionBytes::fault`]).
+    pub option_bytes: Option<&'static str>,
 }
 
 /// The pod's state, each part where its shell keeps it (the firmware: statics built in place,
@@ -142,6 +145,11 @@ impl<'a, const LOG: usize, const STREAM: usize> Pod<'a, LOG, STREAM> {
         scpi.set_pull_download(true);
         scpi.set_serial(serial);
         if let Some(text) = boot.usb {
+            scpi.push_device_error(text);
+        }
+        if let Some(text) = boot.option_bytes {
+            let (code, reason) = crate::boot::OptionBytes::EMCY;
+            node.report_boot_error(code, reason);
             scpi.push_device_error(text);
         }
         crate::protocol::report_rejected_settings(boot.settings_rejected, node, scpi);

@@ -516,11 +516,25 @@ fn error_codes() -> String {
     let fixed = [
         (
             emcy::SOFTWARE_ERROR,
-            "after the boot-up: the previous run ended in a panic or a watchdog reset".to_string(),
+            "after the boot-up: the previous run ended in a panic, a watchdog reset or a HardFault \
+             (`SYSTem:ERRor?` has the panic's place or the fault's PC)"
+                .to_string(),
             format!(
-                "{} panic, {} watchdog",
+                "{} panic, {} watchdog, {} HardFault",
                 emcy::REASON_PANIC,
-                emcy::REASON_WATCHDOG
+                emcy::REASON_WATCHDOG,
+                emcy::REASON_HARD_FAULT
+            ),
+        ),
+        (
+            emcy::DEVICE_HARDWARE,
+            "after the boot-up: the previous run ended in a low-power reset, or the option bytes \
+             are wrong for the firmware (`SYSTem:ERRor?` says which bit and how to set it)"
+                .to_string(),
+            format!(
+                "{} low-power reset, {} option bytes",
+                emcy::REASON_LOW_POWER_RESET,
+                emcy::REASON_OPTION_BYTES
             ),
         ),
         (

@@ -829,6 +829,14 @@ fn store_and_restore_need_their_signatures() {
         b.app.take_settings_request(),
         Some(SettingsRequest::RestoreDefaults)
     );
+    // not while a run is armed (the flash work would stall the sampling): 0x0800 0022, as
+    // SCPI's *SAV gets -221 — one rule, the application's
+    b.download(0x3000, 0, &[PAT_PROBE]).unwrap();
+    b.command(CMD_ARM).unwrap();
+    assert_eq!(b.app.session(), SessionState::Armed);
+    assert_eq!(b.download(0x1010, 1, b"save"), Err(WRONG_STATE));
+    assert_eq!(b.download(0x1011, 1, b"load"), Err(WRONG_STATE));
+    assert_eq!(b.app.take_settings_request(), None);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -283,6 +283,27 @@ fn sav_0_stores_settings() {
     assert_eq!(b.app.take_settings_request(), Some(SettingsRequest::Store));
     b.rejected("*SAV 3", -222);
     assert_eq!(b.app.take_settings_request(), None);
+    // not while a run is armed or running (the flash work would stall the sampling): -221
+    // with the reason, nothing asked of the shell; between runs again it stores
+    for state in ["ARMED", "RUNNING"] {
+        b.send("SESS:PATT PROBE;:SESS:ARM");
+        if state == "RUNNING" {
+            b.send("SESS:STAR");
+        }
+        assert_eq!(b.send("SESS:STAT?"), state);
+        b.send("*SAV 0");
+        assert_eq!(
+            b.error(),
+            (
+                -221,
+                "Settings conflict;not while a run is armed or running".into()
+            )
+        );
+        assert_eq!(b.app.take_settings_request(), None);
+        b.send("SESS:ABOR");
+    }
+    assert_eq!(b.send("*SAV 0"), "");
+    assert_eq!(b.app.take_settings_request(), Some(SettingsRequest::Store));
 }
 
 // ---------------------------------------------------------------------------------------------

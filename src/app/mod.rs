@@ -243,9 +243,11 @@ pub enum Command {
     /// Reset the application state: a run in progress is aborted, procedures and results are
     /// forgotten, the state is Idle; the configuration stays (`*RST`, NMT reset node).
     Reset = 6,
-    /// Store the configuration in non-volatile memory (the shell does it: [`App::take_settings_request`]).
+    /// Store the configuration in non-volatile memory (the shell does it: [`App::take_settings_request`];
+    /// not while a run is armed or running: the flash work would stall the sampling).
     StoreSettings = 7,
-    /// Restore the default configuration at the next reset (CiA 301 0x1011).
+    /// Restore the default configuration at the next reset (CiA 301 0x1011; not while a run
+    /// is armed or running).
     RestoreDefaults = 8,
 }
 
@@ -790,6 +792,11 @@ impl App {
                 self.session = S::Idle;
                 self.abort_reason = None;
                 Ok(())
+            }
+            // a save erases and programs a flash page (~26 ms with the bus stalled): between
+            // runs only, whichever port asks (SCPI -221, SDO abort 0x0800 0022, LSS error)
+            Command::StoreSettings | Command::RestoreDefaults if !self.idle() => {
+                self.refuse(CommandError::Busy)
             }
             Command::StoreSettings => {
                 self.settings_request = Some(SettingsRequest::Store);

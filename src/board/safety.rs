@@ -22,6 +22,10 @@
 //! - **Panic**: [`panic`] writes `file:line: message` (at most [`PANIC_TEXT_BYTES`] bytes) and a
 //!   magic word into a `.uninit` static that the startup code does not zero, logs it over defmt
 //!   and resets. The next boot takes it out ([`take_reset_report`]) and clears the magic.
+//! - **HardFault**: [`HardFault`] leaves `HardFault at PC 0x…, LR 0x…, CFSR 0x…` the same way
+//!   (its own magic) and resets: a fault is reported with the instruction that took it, not as
+//!   the watchdog reset it would otherwise end in. A fault inside the handler locks the core
+//!   up; the G474 does not reset on a lockup, the watchdog does (reported as one).
 
 use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
@@ -108,6 +112,8 @@ pub async fn watch(mut pet: impl FnMut()) -> ! {
 
 /// Magic word of a valid panic record ("PANC").
 const PANIC_MAGIC: u32 = 0x434E_4150;
+/// Magic word of a valid HardFault record ("HFLT").
+const FAULT_MAGIC: u32 = 0x544C_4648;
 
 /// What a panic leaves in retained RAM.
 #[derive(Clone, Copy)]
@@ -134,6 +140,21 @@ struct Bounded<'a> {
 }
 
 impl Bounded<'_> {
+    /// `v` as eight hexadecimal digits.
+    fn push_hex(&mut self, v: u32) {
+        const DIGITS: &[u8; 16] = b"0123456789ABCDEF";
+        for k in (0..8).rev() {
+            let d = DIGITS
+                .get(((v >> (4 * k)) & 0xF) as usize)
+                .copied()
+                .unwrap_or(b'?');
+            if let Some(slot) = self.buf.get_mut(self.len) {
+                *slot = d;
+                self.len += 1;
+            }
+        }
+    }
+
     fn push(&mut self, s: &str) {
         for &b in s.as_bytes() {
             if let Some(d) = self.buf.get_mut(self.len) {
@@ -167,10 +188,16 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     }
     w.push(info.message().as_str().unwrap_or("(formatted message)"));
     let len = w.len;
+    record_and_reset(PANIC_MAGIC, text, len)
+}
+
+/// The record of `magic` with the first `len` bytes of `text` to retained RAM and defmt, then
+/// a reset.
+fn record_and_reset(magic: u32, text: [u8; PANIC_TEXT_BYTES], len: usize) -> ! {
     let shown = core::str::from_utf8(text.get(..len).unwrap_or(&[])).unwrap_or("?");
     defmt::error!("{}", shown);
     let rec = PanicRecord {
-        magic: PANIC_MAGIC,
+        magic,
         len: len as u32,
         text,
     };
@@ -179,23 +206,46 @@ fn panic(info: &core::panic::PanicInfo) -> ! {
     cortex_m::peripheral::SCB::sys_reset()
 }
 
-/// Why the previous run ended, if not by power-on or the reset button.
+/// The HardFault handler: where the fault was (the stacked PC and LR) and why (the
+/// configurable fault status register CFSR, PM0214 §4.4.14) to retained RAM and defmt, then
+/// reset.
+#[cortex_m_rt::exception]
+unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
+    cortex_m::interrupt::disable();
+    let mut text = [0u8; PANIC_TEXT_BYTES];
+    let mut w = Bounded {
+        buf: &mut text,
+        len: 0,
+    };
+    // SAFETY: a read of the fault status register, no side effect.
+    let cfsr = unsafe { (*cortex_m::peripheral::SCB::PTR).cfsr.read() };
+    w.push("HardFault at PC 0x");
+    w.push_hex(frame.pc());
+    w.push(", LR 0x");
+    w.push_hex(frame.lr());
+    w.push(", CFSR 0x");
+    w.push_hex(cfsr);
+    let len = w.len;
+    record_and_reset(FAULT_MAGIC, text, len)
+}
+
+/// Why the previous run ended, when its end left a record.
 pub enum ResetReport {
     /// A panic, with its text (`panic at file:line: message`).
     Panic(&'static str),
-    /// The independent watchdog expired.
-    Watchdog,
+    /// A HardFault, with its text (`HardFault at PC 0x…, LR 0x…, CFSR 0x…`).
+    HardFault(&'static str),
 }
 
-/// Takes the panic record (clearing it); `watchdog` is the board's word that the last reset was
-/// the watchdog's. Call once at boot, before the tasks start.
-pub fn take_reset_report(watchdog: bool) -> Option<ResetReport> {
+/// Takes the panic or HardFault record (clearing it). Call once at boot, before the tasks
+/// start.
+pub fn take_reset_report() -> Option<ResetReport> {
     static TEXT: static_cell::StaticCell<[u8; PANIC_TEXT_BYTES]> = static_cell::StaticCell::new();
     let ptr = PANIC_RECORD.0.get().cast::<PanicRecord>();
     // SAFETY: see `Retained`; after a power-on the bytes are arbitrary but every bit pattern is
     // a valid `PanicRecord` (integers and bytes), and the magic decides whether it is used.
     let rec = unsafe { core::ptr::read_volatile(ptr) };
-    if rec.magic == PANIC_MAGIC {
+    if rec.magic == PANIC_MAGIC || rec.magic == FAULT_MAGIC {
         // SAFETY: as above; the magic is cleared so the report is made once.
         unsafe { core::ptr::write_volatile(core::ptr::addr_of_mut!((*ptr).magic), 0) };
         let text = TEXT.try_init(rec.text)?;
@@ -208,7 +258,11 @@ pub fn take_reset_report(watchdog: bool) -> Option<ResetReport> {
                 core::str::from_utf8(bytes.get(..e.valid_up_to()).unwrap_or(&[])).unwrap_or("")
             }
         };
-        return Some(ResetReport::Panic(s));
+        return Some(if rec.magic == FAULT_MAGIC {
+            ResetReport::HardFault(s)
+        } else {
+            ResetReport::Panic(s)
+        });
     }
-    watchdog.then_some(ResetReport::Watchdog)
+    None
 }

@@ -74,9 +74,10 @@ pub fn job_alive() -> bool {
     }
 }
 
-/// Runs the work handed over, in thread mode.
+/// Runs the work handed over, in thread mode. `flash` is `None` when the option bytes leave
+/// the settings pages unusable (`ballpod::boot::OptionBytes::fault`): every save then fails.
 #[embassy_executor::task]
-pub async fn worker_task(mut flash: SettingsPages) {
+pub async fn worker_task(mut flash: Option<SettingsPages>) {
     loop {
         safety::check_in(Task::Worker);
         let Ok(work) =
@@ -96,7 +97,7 @@ pub async fn worker_task(mut flash: SettingsPages) {
                 defmt::info!("job took {} ms", took);
                 Done::Job(slot)
             }
-            Work::Store(cfg) => Done::Stored(save(&mut flash, &cfg)),
+            Work::Store(cfg) => Done::Stored(flash.as_mut().is_some_and(|f| save(f, &cfg))),
         };
         safety::check_in(Task::Worker);
         DONE.send(done).await;

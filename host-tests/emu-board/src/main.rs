@@ -75,8 +75,9 @@ fn init(spawner: Spawner) {
             figure(Figure::WatchdogResets).wrapping_add(1),
         );
     }
-    let report = board::safety::take_reset_report(watchdog);
-    let (can_report, usb_report) = match report {
+    // a panic or HardFault record first, else the emulated watchdog's flag (the reset cause
+    // and its report are the firmware's: `ballpod::boot`)
+    let (can_report, usb_report) = match board::safety::take_reset_report() {
         Some(board::safety::ResetReport::Panic(text)) => (
             Some((
                 ballpod::protocol::canopen::emcy::SOFTWARE_ERROR,
@@ -84,14 +85,20 @@ fn init(spawner: Spawner) {
             )),
             Some(text),
         ),
-        Some(board::safety::ResetReport::Watchdog) => (
+        Some(board::safety::ResetReport::HardFault(text)) => (
             Some((
                 ballpod::protocol::canopen::emcy::SOFTWARE_ERROR,
-                ballpod::protocol::canopen::emcy::REASON_WATCHDOG,
+                ballpod::protocol::canopen::emcy::REASON_HARD_FAULT,
             )),
-            Some("watchdog reset"),
+            Some(text),
         ),
-        None => (None, None),
+        None => match watchdog
+            .then(|| ballpod::boot::ResetCause::Watchdog.fault())
+            .flatten()
+        {
+            Some((code, reason, text)) => (Some((code, reason)), Some(text)),
+            None => (None, None),
+        },
     };
     let region = board::shared::region();
     let fresh = region.boots.load(Ordering::Relaxed) == 0;
@@ -106,6 +113,8 @@ fn init(spawner: Spawner) {
         can: can_report,
         usb: usb_report,
         settings_rejected: loaded.rejected(),
+        // (QEMU's board has no option bytes to check)
+        option_bytes: None,
     };
     let serial = 0x0E4D_0000 | region.boots.load(Ordering::Relaxed);
     let pod = board::compute::PodState::new(cfg, serial, boot);
@@ -125,7 +134,7 @@ fn init(spawner: Spawner) {
         "compute",
         board::compute::compute_task(pod, board::encoders::Encoders, board::probe::ProbeInput),
     );
-    spawn(&spawner, "worker", board::worker::worker_task(flash));
+    spawn(&spawner, "worker", board::worker::worker_task(Some(flash)));
     spawn(
         &io,
         "lvdt",

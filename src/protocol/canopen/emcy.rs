@@ -5,14 +5,25 @@ use crate::acquisition::SampleFlags;
 
 /// Error code 0x0000: error reset or no error (CiA 301 table 21).
 pub const ERROR_RESET: u16 = 0x0000;
-/// Error code 0x6000: software, generic (CiA 301 table 21) — the previous run ended in a panic
-/// or a watchdog reset ([`super::CanOpenNode::report_boot_error`]; byte 3 says which:
-/// [`REASON_PANIC`] or [`REASON_WATCHDOG`]).
+/// Error code 0x6000: software, generic (CiA 301 table 21) — the previous run ended in a panic,
+/// a watchdog reset or a HardFault ([`super::CanOpenNode::report_boot_error`]; byte 3 says
+/// which: [`REASON_PANIC`], [`REASON_WATCHDOG`], [`REASON_HARD_FAULT`]).
 pub const SOFTWARE_ERROR: u16 = 0x6000;
 /// Manufacturer byte 3 of a 0x6000 EMCY: the firmware panicked.
 pub const REASON_PANIC: u8 = 1;
 /// Manufacturer byte 3 of a 0x6000 EMCY: the independent watchdog reset the MCU.
 pub const REASON_WATCHDOG: u8 = 2;
+/// Manufacturer byte 3 of a 0x6000 EMCY: the core took a HardFault (its PC in `SYSTem:ERRor?`).
+pub const REASON_HARD_FAULT: u8 = 6;
+/// Error code 0x5000: device hardware, generic (CiA 301 table 21) — the previous run ended in
+/// a low-power reset, or the option bytes are not as the firmware needs them (byte 3:
+/// [`REASON_LOW_POWER_RESET`], [`REASON_OPTION_BYTES`]).
+pub const DEVICE_HARDWARE: u16 = 0x5000;
+/// Manufacturer byte 3 of a 0x5000 EMCY: a low-power reset ended the previous run.
+pub const REASON_LOW_POWER_RESET: u8 = 4;
+/// Manufacturer byte 3 of a 0x5000 EMCY: the option bytes are wrong for this firmware
+/// (`SYSTem:ERRor?` says which and how to set them).
+pub const REASON_OPTION_BYTES: u8 = 5;
 /// Error code 0x6300: data set (CiA 301 table 21) — a stored configuration was rejected at
 /// boot (byte 3: [`REASON_SETTINGS_REJECTED`]).
 pub const DATA_SET: u16 = 0x6300;

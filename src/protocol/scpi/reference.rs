@@ -134,7 +134,7 @@ const fn doc(c: Command) -> CommandDoc {
         ),
         Sav => d(
             "*SAV 0",
-            "store the configuration in flash (session command 7); needs `CONFigure:UNLock`",
+            "store the configuration in flash (session command 7); needs `CONFigure:UNLock`; not while a run is armed or running (-221)",
             "*SAV 0",
         ),
         ConfUnlock => d(

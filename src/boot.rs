@@ -5,8 +5,8 @@
 //!   boot. A panic or a HardFault leaves its own record in retained RAM (the firmware's
 //!   `board::safety`) and is reported from it; of the flags, only a watchdog reset and a
 //!   low-power reset are faults.
-//! - [`OptionBytes`]: the user option bytes of FLASH_OPTR (RM0440 §3.7.8) the firmware depends
-//!   on — dual-bank flash (DBANK = 1: the settings pages are the last two 2 KiB pages of bank
+//! - [`OptionBytes`]: the user option bytes of FLASH_OPTR (RM0440, flash option register)
+//!   the firmware depends on — dual-bank flash (DBANK = 1: the settings pages are the last two 2 KiB pages of bank
 //!   2, and the flash driver refuses a single-bank chip) and BOOT0 from the option bit
 //!   (nSWBOOT0 = 0, nBOOT0 = 1: PB8 is the CAN receiver's RX, which a transceiver may hold
 //!   high at power-up; taken as BOOT0 it would start the ROM bootloader instead).
@@ -108,7 +108,7 @@ impl ResetCause {
     }
 }
 
-/// FLASH_OPTR, the user option bytes as loaded (RM0440 §3.7.8).
+/// FLASH_OPTR, the user option bytes as loaded (RM0440, flash option register).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OptionBytes(pub u32);
 

@@ -1,7 +1,7 @@
 //! What a boot finds (`ballpod::boot`): the reset cause from RCC_CSR's flags and the option
 //! bytes from FLASH_OPTR, against the bit positions of the reference manual (RM0440 §7.4.30
 //! RCC_CSR: OBLRSTF 25, PINRSTF 26, BORRSTF 27, SFTRSTF 28, IWDGRSTF 29, WWDGRSTF 30, LPWRRSTF
-//! 31; §3.7.8 FLASH_OPTR: DBANK 22, nSWBOOT0 26, nBOOT0 27), and what the pod reports of them
+//! 31; FLASH_OPTR: DBANK 22, nSWBOOT0 26, nBOOT0 27), and what the pod reports of them
 //! over CANopen and SCPI.
 
 use ballpod::acquisition::MAX_AXES;
@@ -22,7 +22,7 @@ const IWDGRSTF: u32 = 1 << 29;
 const WWDGRSTF: u32 = 1 << 30;
 const LPWRRSTF: u32 = 1 << 31;
 
-/// Every reset drives the reset pin, so PINRSTF comes with each (RM0440 Figure 15); a power-on
+/// Every reset drives the reset pin, so PINRSTF comes with each (RM0440, reset circuit); a power-on
 /// sets BORRSTF too. The most specific flag names the cause, and only the watchdogs and a
 /// low-power reset are faults.
 #[test]

@@ -207,7 +207,7 @@ fn record_and_reset(magic: u32, text: [u8; PANIC_TEXT_BYTES], len: usize) -> ! {
 }
 
 /// The HardFault handler: where the fault was (the stacked PC and LR) and why (the
-/// configurable fault status register CFSR, PM0214 §4.4.14) to retained RAM and defmt, then
+/// configurable fault status register CFSR, PM0214) to retained RAM and defmt, then
 /// reset.
 #[cortex_m_rt::exception]
 unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {

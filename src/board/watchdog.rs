@@ -12,7 +12,7 @@ use super::safety::{self, WATCHDOG_TIMEOUT_US};
 pub type Dog = IndependentWatchdog<'static, IWDG>;
 
 /// Starts the watchdog, frozen while a debugger halts the core (DBGMCU_APB1FZR1.DBG_IWDG_STOP,
-/// RM0440 §46.16.4: a breakpoint does not reset the pod). Call at boot before the flash is
+/// RM0440, debug support: a breakpoint does not reset the pod). Call at boot before the flash is
 /// read, so a boot that hangs there is reset.
 pub fn start(iwdg: embassy_stm32::Peri<'static, IWDG>) -> Dog {
     embassy_stm32::pac::DBGMCU

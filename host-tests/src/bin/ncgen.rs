@@ -605,18 +605,9 @@ fn kins(k: &KinsArgs) -> Result<String, String> {
             &k.carr,
             &carr::PARAMETERS,
             "4…12 or 15…20 ($TC_CARR l2 v1 v2 l3 l4)",
+            0..12,
             &mut rec.0,
         )?;
-        let missing: Vec<_> = (0..12)
-            .filter(|i| !given.contains(i))
-            .map(|i| carr::PARAMETERS[i].0.to_string())
-            .collect();
-        if !given.is_empty() && !missing.is_empty() {
-            return Err(format!(
-                "--carr: give every one of $TC_CARR4…12 and 15…17 or none (missing: {})",
-                missing.join(", ")
-            ));
-        }
         if !given.iter().any(|&i| i >= 12) {
             // l4 left out: it closes the chain
             rec = SwivelTable::closed(rec.l2(), rec.l3(), rec.v1(), rec.v2());
@@ -737,11 +728,13 @@ fn grid_limits(k: &KinsArgs, default: (f64, f64)) -> Result<(f64, f64), String> 
 }
 
 /// The record's values `--carr N=VALUE` gives, each at N's place in `parameters` (`numbers`
-/// says which N there are): the places given.
+/// says which N there are): the places given — every one of `needed` (l2, v1, v2, l3:
+/// `$TC_CARR4…12` and 15…17) or none.
 fn carr_given(
     carr: &[String],
     parameters: &[(u8, &str)],
     numbers: &str,
+    needed: std::ops::Range<usize>,
     values: &mut [f64],
 ) -> Result<Vec<usize>, String> {
     let mut given = Vec::new();
@@ -759,6 +752,16 @@ fn carr_given(
         let v = finite(value).ok_or_else(|| format!("--carr {c}: {value} is not a number"))?;
         values[index] = v;
         given.push(index);
+    }
+    let missing: Vec<_> = needed
+        .filter(|i| !given.contains(i))
+        .filter_map(|i| parameters.get(i).map(|p| p.0.to_string()))
+        .collect();
+    if !given.is_empty() && !missing.is_empty() {
+        return Err(format!(
+            "--carr: give every one of $TC_CARR4…12 and 15…17 or none (missing: {})",
+            missing.join(", ")
+        ));
     }
     Ok(given)
 }
@@ -790,20 +793,10 @@ fn kins_mixed(k: &KinsArgs) -> Result<String, String> {
         &k.carr,
         &carr_mixed::PARAMETERS,
         "1…12, 15…20 or 24 ($TC_CARR l1 l2 v1 v2 l3 l4, axis 1's offset)",
+        carr_mixed::L2..carr_mixed::L4,
         &mut rec.0,
     )?;
-    // l2, v1, v2, l3: all or none; l1, l4 close the chains when left out
     use carr_mixed::{L1, L2, L3, L4, OFFSET1};
-    let missing: Vec<_> = (L2..L4)
-        .filter(|i| !given.contains(i))
-        .map(|i| carr_mixed::PARAMETERS[i].0.to_string())
-        .collect();
-    if !given.is_empty() && !missing.is_empty() {
-        return Err(format!(
-            "--carr: give every one of $TC_CARR4…12 and 15…17 or none (missing: {})",
-            missing.join(", ")
-        ));
-    }
     // l1 and l4 left out close their chains (l1 = −l2, l4 = −l3)
     for (closing, of) in [(L1..L2, L2), (L4..OFFSET1, L3)] {
         if !given.iter().any(|i| closing.contains(i)) {

@@ -495,6 +495,20 @@ pub enum Field {
     PeriodsPerSample,
     /// An axis name is used by two inputs.
     AxisNameDuplicate(u8),
+    /// Encoder input n moves, at [`GLITCH_MARGIN`] × its maximum speed, more counts between two
+    /// reads of its hardware counter than the count extension can follow
+    /// ([`Config::counter_reach`]).
+    AxisCounterReach(u8),
+}
+
+/// An encoder input's count step between two counter reads against what the extension follows
+/// ([`Config::counter_reach`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CounterReach {
+    /// Counts between two reads at [`GLITCH_MARGIN`] × the maximum speed.
+    pub counts_per_read: f64,
+    /// The largest step the extension follows, counts (2^(bits − 1) − 1).
+    pub max_counts_per_read: f64,
 }
 
 /// How a field is stored (and sent: CANopen data type, encoding width).
@@ -538,6 +552,17 @@ pub struct FieldInfo {
 /// Points of the excitation table per period: the pod's DAC table and the demodulation's (the
 /// firmware builds both at compile time), so `samples_per_period` can only be this.
 pub const EXCITATION_POINTS: u16 = 20;
+/// Width of each encoder input's hardware counter, bits, in input order: TIM1, TIM3, TIM4
+/// (16 bits), TIM2 and TIM5 (32 bits) on the NUCLEO-G474RE — the rotary axes' default inputs
+/// (4 and 5) are the wide ones. The configuration's rule ([`Config::counter_reach`]) holds every
+/// board to these, so a configuration the pod takes is one the real counters follow.
+pub const ENCODER_COUNTER_BITS: [u32; MAX_AXES] = [16, 16, 16, 32, 32];
+/// Times a sample the board reads the hardware counters and extends them to 64 bits (the block
+/// latch at each half block: `board::lvdt::BlockLatchIsr`).
+pub const COUNTER_READS_PER_SAMPLE: u32 = 2;
+/// Margin on the plausible count step between two samples: a step beyond this many times the
+/// step at the axis' maximum speed is a quadrature glitch (flagged, counted).
+pub const GLITCH_MARGIN: f64 = 2.0;
 /// Most excitation periods in one pod sample: the ADC DMA ring holds one block of
 /// [`EXCITATION_POINTS`] × this samples per channel (RAM budget).
 pub const MAX_PERIODS_PER_SAMPLE: u32 = 5;
@@ -1341,6 +1366,9 @@ impl Field {
             Field::AxisNameDuplicate(_) => {
                 "Cross-field rule: an axis name may be used by one encoder input only"
             }
+            Field::AxisCounterReach(_) => {
+                "Cross-field rule: at twice axis_max_speed, axis_counts × speed / (2 × sample_rate) must stay below half the input's counter range: 32 767 counts for encoder inputs 1–3 (16-bit timers), 2³¹ − 1 for inputs 4 and 5 (32-bit)"
+            }
         }
     }
 }
@@ -1498,7 +1526,35 @@ impl Config {
                 });
             }
         }
+        for (i, a) in (0u8..).zip(self.axes.iter()) {
+            let reach = self.counter_reach(usize::from(i));
+            if a.name != AxisName::Unused && !(reach.counts_per_read <= reach.max_counts_per_read) {
+                return Err(ConfigError::OutOfRange {
+                    field: Field::AxisCounterReach(i),
+                    value: reach.counts_per_read,
+                    min: 0.0,
+                    max: reach.max_counts_per_read,
+                });
+            }
+        }
         Ok(())
+    }
+
+    /// Encoder input `i`'s counts between two reads of its hardware counter at
+    /// [`GLITCH_MARGIN`] × its maximum speed, and the most the count extension follows: the
+    /// difference of two reads is taken modulo 2^bits as signed, so a step must stay below
+    /// 2^(bits − 1) ([`ENCODER_COUNTER_BITS`], [`COUNTER_READS_PER_SAMPLE`]). A step the pod
+    /// flags as a glitch is then one it measured. (Unknown input: 0 of 0.)
+    pub fn counter_reach(&self, i: usize) -> CounterReach {
+        let (Some(a), Some(bits)) = (self.axes.get(i), ENCODER_COUNTER_BITS.get(i)) else {
+            return CounterReach::default();
+        };
+        let reads_per_s = f64::from(self.sample_rate_hz) * f64::from(COUNTER_READS_PER_SAMPLE);
+        CounterReach {
+            counts_per_read: GLITCH_MARGIN * f64::from(a.max_speed_per_s) * a.counts_per_unit
+                / reads_per_s,
+            max_counts_per_read: (1u64 << (bits.saturating_sub(1) & 63)) as f64 - 1.0,
+        }
     }
 
     /// A numeric field's value as `f64` in its unit (NaN for a set-up field that is not set;
@@ -1566,7 +1622,9 @@ impl Config {
             Field::SsmUSocketUm => f64::from(s.ssm_u_socket_um),
             Field::CircleUCentreUm => f64::from(s.circle_u_centre_um),
             Field::S002URbUm => f64::from(s.s002_u_r_b_um),
-            Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => return None,
+            Field::PeriodsPerSample | Field::AxisNameDuplicate(_) | Field::AxisCounterReach(_) => {
+                return None;
+            }
         })
     }
 
@@ -1668,7 +1726,7 @@ impl Config {
             Field::SsmUSocketUm => s.ssm_u_socket_um = x,
             Field::CircleUCentreUm => s.circle_u_centre_um = x,
             Field::S002URbUm => s.s002_u_r_b_um = x,
-            Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => {}
+            Field::PeriodsPerSample | Field::AxisNameDuplicate(_) | Field::AxisCounterReach(_) => {}
         }
     }
 

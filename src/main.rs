@@ -117,7 +117,7 @@ async fn main(spawner: Spawner) {
         defmt::error!("{}", fault);
     }
     // The stored settings (newest valid slot), or the defaults if no slot holds valid ones.
-    let (cfg, settings_rejected, flash) = if option_bytes.dual_bank() {
+    let (cfg, settings_rejected, settings_unreadable, flash) = if option_bytes.dual_bank() {
         let mut flash =
             board::settings::SettingsPages(embassy_stm32::flash::Flash::new_blocking(p.FLASH));
         let loaded = ballpod::settings::load(&mut flash);
@@ -129,9 +129,14 @@ async fn main(spawner: Spawner) {
                 board::settings::slot_reason(&loaded.scan.b)
             ),
         }
-        (loaded.config, loaded.rejected(), Some(flash))
+        (
+            loaded.config,
+            loaded.rejected(),
+            loaded.unreadable(),
+            Some(flash),
+        )
     } else {
-        (ballpod::config::Config::default(), None, None)
+        (ballpod::config::Config::default(), None, 0, None)
     };
     defmt::info!(
         "ballpod up: bar {} mm, node {}",
@@ -143,7 +148,7 @@ async fn main(spawner: Spawner) {
         e1: (p.TIM1, p.PA8, p.PA9),
         e2: (p.TIM3, p.PA6, p.PA7),
         e3: (p.TIM4, p.PB6, p.PB7),
-        e4: (p.TIM8, p.PC6, p.PC7),
+        e4: (p.TIM2, p.PA15, p.PB3),
         e5: (p.TIM5, p.PB2, p.PC12),
     });
     let probe_in = board::probe::input(p.PB4, p.EXTI4);
@@ -165,6 +170,7 @@ async fn main(spawner: Spawner) {
         can: can_report,
         usb: usb_report,
         settings_rejected,
+        settings_unreadable,
         option_bytes: option_bytes.fault(),
     };
     let pod = board::compute::PodState::new(cfg, device_serial(), boot);

@@ -60,6 +60,9 @@ pub struct BootReport {
     pub usb: Option<&'static str>,
     /// Why a stored configuration was rejected, if one was (`settings::Loaded::rejected`).
     pub settings_rejected: Option<ConfigError>,
+    /// Settings slots that could not be read (`settings::Loaded::unreadable`: a flash ECC
+    /// error, a save cut by a power loss).
+    pub settings_unreadable: u32,
     /// What is wrong with the chip's option bytes, if anything
     /// ([`crate::boot::OptionBytes::fault`]).
     pub option_bytes: Option<&'static str>,
@@ -153,6 +156,8 @@ impl<'a, const LOG: usize, const STREAM: usize> Pod<'a, LOG, STREAM> {
             scpi.push_device_error(text);
         }
         crate::protocol::report_rejected_settings(boot.settings_rejected, node, scpi);
+        crate::protocol::report_unreadable_settings(boot.settings_unreadable, node, scpi);
+        app.set_settings_unreadable(boot.settings_unreadable);
         Self {
             app,
             node,
@@ -263,6 +268,7 @@ impl<'a, const LOG: usize, const STREAM: usize> Pod<'a, LOG, STREAM> {
             self.stream.dropped_lines(),
         );
         board.set(DeviceCounter::LogPausedSamples, self.log.paused_samples());
+
         self.app.set_device_counters(board);
     }
 

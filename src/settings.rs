@@ -90,7 +90,8 @@ pub const RECORD_LEN: usize = (CRC_AT + 4).div_ceil(WRITE_SIZE) * WRITE_SIZE;
 pub enum SlotError {
     /// The record bytes are all 0xFF (never written, or erased).
     Erased,
-    /// The flash driver failed to read the slot.
+    /// The flash driver failed to read the slot: on the pod, a double ECC error — a double-word
+    /// whose programming or erase a power loss cut (the NMI handler marks the read failed).
     Read,
     /// The record does not start with [`RECORD_MAGIC`].
     BadMagic,
@@ -221,6 +222,16 @@ impl Loaded {
     pub fn is_defaults(&self) -> bool {
         self.from.is_none()
     }
+    /// Slots that could not be read (0–2: [`SlotError::Read`], a flash ECC error on the pod):
+    /// the other slot's settings or the defaults are in use, and the pod says so at boot
+    /// (`protocol::report_unreadable_settings`).
+    pub fn unreadable(&self) -> u32 {
+        [&self.scan.a, &self.scan.b]
+            .into_iter()
+            .filter(|s| matches!(s, Err(SlotError::Read)))
+            .count() as u32
+    }
+
     /// Why a slot's record, intact (CRC good), holds a configuration this firmware rejects — a
     /// value the hardware cannot realise, a rule added since it was saved — if one does: the
     /// other slot's settings or the defaults are in use, and the pod says so at boot

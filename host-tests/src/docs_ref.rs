@@ -539,10 +539,15 @@ fn error_codes() -> String {
         ),
         (
             emcy::DATA_SET,
-            "after the boot-up: a stored configuration was rejected; the other slot's settings or the \
-             defaults are in use"
+            "after the boot-up: a stored configuration was rejected, or a settings slot could not be \
+             read (a double ECC error: a save cut by a power loss); the other slot's settings or \
+             the defaults are in use"
                 .to_string(),
-            format!("{}", emcy::REASON_SETTINGS_REJECTED),
+            format!(
+                "{} rejected, {} unreadable",
+                emcy::REASON_SETTINGS_REJECTED,
+                emcy::REASON_SETTINGS_UNREADABLE
+            ),
         ),
         (
             emcy::ERROR_PASSIVE,

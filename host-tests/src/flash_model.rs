@@ -4,6 +4,11 @@
 //! (1 → 0). Power can be cut after any number of **byte steps**: an erase sets one byte to 0xFF
 //! per step, a program clears the bits of one byte per step, so a cut leaves a page half erased
 //! or a double-word half programmed — the torn states a real power loss can leave.
+//!
+//! Each double-word carries ECC bits written with it (RM0440 "Error code correction"): a
+//! double-word whose erase or program was cut part-way has data and ECC that disagree, and
+//! reading any byte of it is a double ECC error — on the pod an NMI, which the firmware turns
+//! into a failed read ([`FlashFault::Ecc`]). An erase or a complete program makes it whole.
 
 use ballpod::settings::{SettingsFlash, Slot, WRITE_SIZE};
 
@@ -28,7 +33,12 @@ pub enum FlashFault {
     NotErased,
     /// An access outside the page or a program not on a double-word boundary.
     BadAddress,
+    /// A read met a double-word whose erase or program a power cut left part-way.
+    Ecc,
 }
+
+/// Double-words of one page.
+const DWORDS: usize = PAGE_BYTES / WRITE_SIZE;
 
 /// Two pages of flash with an optional power-cut budget.
 #[derive(Clone, Debug)]
@@ -45,6 +55,10 @@ pub struct FlashModel {
     pub erases: usize,
     /// Double-word programs started.
     pub programs: usize,
+    /// Double-words left part-way by a power cut (data and ECC disagree), per page.
+    pub torn: [[bool; DWORDS]; 2],
+    /// Reads that met a torn double-word.
+    pub ecc_reads: usize,
 }
 
 impl FlashModel {
@@ -57,6 +71,8 @@ impl FlashModel {
             erase_order: EraseOrder::Forward,
             erases: 0,
             programs: 0,
+            torn: [[false; DWORDS]; 2],
+            ecc_reads: 0,
         }
     }
 
@@ -65,6 +81,7 @@ impl FlashModel {
         Self {
             pages: self.pages,
             erase_order: self.erase_order,
+            torn: self.torn,
             ..Self::erased()
         }
     }
@@ -93,6 +110,11 @@ impl SettingsFlash for FlashModel {
         let src = self.pages[slot.index()]
             .get(offset..offset + buf.len())
             .ok_or(FlashFault::BadAddress)?;
+        let dwords = offset / WRITE_SIZE..(offset + buf.len()).div_ceil(WRITE_SIZE);
+        if self.torn[slot.index()][dwords].contains(&true) {
+            self.ecc_reads += 1;
+            return Err(FlashFault::Ecc);
+        }
         buf.copy_from_slice(src);
         Ok(())
     }
@@ -103,11 +125,19 @@ impl SettingsFlash for FlashModel {
             EraseOrder::Forward => (0..PAGE_BYTES).collect(),
             EraseOrder::Backward => (0..PAGE_BYTES).rev().collect(),
         };
-        for i in order {
+        // both orders reach the double-words one after the other
+        for (done, i) in order.into_iter().enumerate() {
             if !self.step() {
+                if done % WRITE_SIZE != 0 {
+                    // byte i's double-word is erased part-way
+                    self.torn[slot.index()][i / WRITE_SIZE] = true;
+                }
                 return Err(FlashFault::PowerCut);
             }
             self.pages[slot.index()][i] = 0xFF;
+            if (done + 1) % WRITE_SIZE == 0 {
+                self.torn[slot.index()][i / WRITE_SIZE] = false;
+            }
         }
         Ok(())
     }
@@ -123,11 +153,16 @@ impl SettingsFlash for FlashModel {
             return Err(FlashFault::BadAddress);
         }
         let page = &self.pages[slot.index()];
-        if page[offset..offset + WRITE_SIZE].iter().any(|&b| b != 0xFF) {
+        let d = offset / WRITE_SIZE;
+        if page[offset..offset + WRITE_SIZE].iter().any(|&b| b != 0xFF)
+            || self.torn[slot.index()][d]
+        {
             return Err(FlashFault::NotErased);
         }
         for (k, &b) in dword.iter().enumerate() {
             if !self.step() {
+                // cut part-way: the ECC bits do not match what was written
+                self.torn[slot.index()][d] = k != 0;
                 return Err(FlashFault::PowerCut);
             }
             // Programming only clears bits.

@@ -461,11 +461,27 @@ fn real32_limits(ini: &Ini) -> Vec<(u16, u8, String, f64, f64)> {
 /// Excitation and sample rate are tied (a sample is 1 to 5 whole excitation periods): before
 /// one of them is written at its limit, the pair is walked to where that limit is realisable
 /// (20 kHz excitation: 5 kHz samples first; 200 Hz samples: a 1 kHz excitation; 10 kHz
-/// samples: 5 kHz samples, then a 10 kHz excitation), every step itself valid.
+/// samples: 5 kHz samples, then a 10 kHz excitation), every step itself valid. The counters'
+/// reach ties counts, speed and rate: 200 Hz samples need the linear axes (16-bit counters) at
+/// 600 mm/s first; a 16-bit input's count scale or speed at its high limit, the input unused
+/// (0x2042, name NONE).
 fn partner_for(n: &mut Node, name: &str, v: f64) {
+    let sixteen_bit = ["axis_counts_0", "axis_counts_1", "axis_counts_2"]
+        .iter()
+        .chain(&["axis_max_speed_0", "axis_max_speed_1", "axis_max_speed_2"])
+        .position(|x| *x == name);
+    if let Some(k) = sixteen_bit.filter(|_| v > 5000.0) {
+        n.download(0x2042, (k % 3) as u8 + 1, &[0]).unwrap();
+        return;
+    }
     let steps: &[(&str, f32)] = match (name, v) {
         ("excitation", v) if v > 5000.0 => &[("sample_rate", 5000.0)],
-        ("sample_rate", v) if v < 1000.0 => &[("excitation", 1000.0)],
+        ("sample_rate", v) if v < 1000.0 => &[
+            ("axis_max_speed_0", 600.0),
+            ("axis_max_speed_1", 600.0),
+            ("axis_max_speed_2", 600.0),
+            ("excitation", 1000.0),
+        ],
         ("sample_rate", v) if v > 5000.0 => &[("sample_rate", 5000.0), ("excitation", 10_000.0)],
         _ => return,
     };

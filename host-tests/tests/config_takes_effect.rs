@@ -5,8 +5,8 @@
 //! from the definitions (r = (v − zero)/span, ΔL = the calibration polynomial at r).
 use ballpod::acquisition::lvdt::{BlockReading, DemodError};
 use ballpod::acquisition::{MAX_AXES, SampleFlags};
-use ballpod::app::{App, StatusWord};
-use ballpod::config::{AT_RESET, Config, Field, LvdtInput};
+use ballpod::app::{App, CommandError, StatusWord};
+use ballpod::config::{AT_RESET, Config, ConfigError, Field, LvdtInput};
 use ballpod_host::vmt::virtual_pod::{VirtualPod, VirtualSetup};
 
 /// A raw AC block reading of ratio `r` with a healthy signal.
@@ -94,6 +94,30 @@ fn sampling_fields_take_effect_at_reset_and_are_reported_pending() {
     assert!(pending(&app));
     app.set_field(Field::SampleRateHz, 1000.0).unwrap();
     assert!(!pending(&app));
+}
+
+#[test]
+fn until_the_reset_the_counters_are_held_to_the_rate_the_pod_runs_with() {
+    // with 5 kHz pending, encoder 1 at 5 000 mm/s would step 2 × 5 000 × 10 000 / 10 000 =
+    // 10 000 counts a read at the glitch limit (a configuration valid on its own), but until the
+    // reset the pod reads it at 2 kHz: 50 000 counts, beyond its 16-bit counter's 32 767
+    let mut app = App::new(Config::default(), [16; MAX_AXES]);
+    app.set_field(Field::SampleRateHz, 5000.0).unwrap();
+    let mut later = *app.config();
+    later.axes[0].max_speed_per_s = 5000.0;
+    assert_eq!(later.validate(), Ok(()));
+    let e = app.set_field(Field::AxisMaxSpeed(0), 5000.0).unwrap_err();
+    assert!(matches!(
+        e,
+        CommandError::Config(ConfigError::OutOfRange {
+            field: Field::AxisCounterReach(0),
+            ..
+        })
+    ));
+    assert_eq!(app.config().axes[0].max_speed_per_s, 1000.0);
+    // after the reset (a pod booted with the saved configuration) it is taken
+    let mut rebooted = App::new(*app.config(), [16; MAX_AXES]);
+    rebooted.set_field(Field::AxisMaxSpeed(0), 5000.0).unwrap();
 }
 
 /// One SCPI line to the simulated pod's command port; its response line.

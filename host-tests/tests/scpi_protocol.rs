@@ -601,7 +601,9 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::SsmUSocketUm => g(s.ssm_u_socket_um),
         Field::CircleUCentreUm => g(s.circle_u_centre_um),
         Field::S002URbUm => g(s.s002_u_r_b_um),
-        Field::PeriodsPerSample | Field::AxisNameDuplicate(_) => unreachable!(),
+        Field::PeriodsPerSample | Field::AxisNameDuplicate(_) | Field::AxisCounterReach(_) => {
+            unreachable!()
+        }
     }
 }
 
@@ -676,16 +678,26 @@ fn every_field_is_settable_at_its_limits_and_reads_back() {
 /// Excitation and sample rate are tied (a sample is 1 to 5 whole excitation periods): the
 /// writes that make limit `v` of `f` realisable, each valid on its own (20 kHz excitation:
 /// 5 kHz samples first; 200 Hz samples: a 1 kHz excitation; 10 kHz samples: 5 kHz samples,
-/// then a 10 kHz excitation).
-fn partner_steps(f: Field, v: f64) -> Vec<(String, f64)> {
+/// then a 10 kHz excitation). The counters' reach ties counts, speed and rate: 200 Hz samples
+/// need the linear axes (16-bit counters) at 600 mm/s first; a 16-bit input's count scale or
+/// speed at its high limit, the input unused.
+fn partner_steps(f: Field, v: f64) -> Vec<(String, String)> {
     let (rate, exc) = (
         "CONF:SAMPLE_RATE".to_string(),
         "CONF:EXCITATION".to_string(),
     );
+    let unused = |i: u8| vec![(format!("CONF:AXIS{}:NAME", i + 1), "NONE".to_string())];
     match f {
-        Field::ExcitationHz if v > 5000.0 => vec![(rate, 5000.0)],
-        Field::SampleRateHz if v < 1000.0 => vec![(exc, 1000.0)],
-        Field::SampleRateHz if v > 5000.0 => vec![(rate, 5000.0), (exc, 10_000.0)],
+        Field::ExcitationHz if v > 5000.0 => vec![(rate, "5000".into())],
+        Field::SampleRateHz if v < 1000.0 => {
+            let mut steps: Vec<_> = (1..=3)
+                .map(|i| (format!("CONF:AXIS_MAX_SPEED{i}"), "600".to_string()))
+                .collect();
+            steps.push((exc, "1000".into()));
+            steps
+        }
+        Field::SampleRateHz if v > 5000.0 => vec![(rate, "5000".into()), (exc, "10000".into())],
+        Field::AxisCountsPerUnit(i) | Field::AxisMaxSpeed(i) if i < 3 && v > 5000.0 => unused(i),
         _ => vec![],
     }
 }
@@ -863,6 +875,15 @@ fn cross_field_conflicts_give_minus_221_and_change_nothing() {
         -221,
         "Settings conflict;excitation / sample_rate (whole periods, 1 to 5) out of range",
     );
+    // 5 000 mm/s × 10 000 counts/mm is 25 000 counts between two reads of encoder 1's 16-bit
+    // counter at 1 kHz, 50 000 at the glitch limit: beyond the ±32 767 its extension follows
+    b.rejected_with(
+        "CONF:AXIS_MAX_SPEED1 5000",
+        -221,
+        "Settings conflict;encoder input 1: axis_counts * axis_max_speed / sample_rate (counts per counter read) out of range",
+    );
+    // encoder 4's counter is 32 bits wide
+    assert_eq!(b.send("CONF:AXIS_MAX_SPEED4 5000"), "");
     // the excitation table has 20 points
     b.rejected_with(
         "CONF:SAMPLES_PER_PERIOD 64",

@@ -4,7 +4,9 @@
 //! lose power after any step. For each save we first count its steps on a copy, then repeat it
 //! from the same flash contents with the power cut after 0, 1, …, all of them, power the flash
 //! back on, and load: the result must be exactly the previous settings or the new ones — never
-//! a mix, never an error, never the defaults once one save has completed.
+//! a mix, never an error, never the defaults once one save has completed. A double-word the
+//! cut left part-way reads as a double ECC error (the pod's NMI, a failed read): that slot is
+//! unreadable, the other one is used, and the boot says so.
 use ballpod::config::{Config, ENCODED_LEN};
 
 /// Two configurations equal bit for bit (their encodings; `==` fails on the set-up fields that
@@ -49,12 +51,13 @@ fn configs() -> Vec<Config> {
 }
 
 /// Cuts power after every step of `store(new)` starting from `before` (whose newest settings are
-/// `old`, or none); returns the number of cut points tried.
-fn cut_everywhere(before: &FlashModel, old: Option<&Config>, new: &Config) -> usize {
+/// `old`, or none); returns the number of cut points tried and of loads that met an ECC error.
+fn cut_everywhere(before: &FlashModel, old: Option<&Config>, new: &Config) -> (usize, usize) {
     let mut full = before.power_on();
     settings::store(&mut full, new).unwrap();
     let total = full.steps;
     let mut seen_new = false;
+    let mut ecc = 0;
     for cut in 0..=total {
         let mut f = before.power_on();
         f.budget = Some(cut);
@@ -70,6 +73,13 @@ fn cut_everywhere(before: &FlashModel, old: Option<&Config>, new: &Config) -> us
         }
         let mut back = f.power_on();
         let loaded = settings::load(&mut back);
+        // a slot is unreadable exactly when the load met a torn double-word, and it is said
+        assert_eq!(
+            loaded.unreadable() as usize,
+            back.ecc_reads,
+            "cut {cut} of {total}"
+        );
+        ecc += back.ecc_reads;
         let is_new = same(&loaded.config, new) && !loaded.is_defaults();
         let is_old = match old {
             Some(o) => same(&loaded.config, o) && !loaded.is_defaults(),
@@ -91,17 +101,19 @@ fn cut_everywhere(before: &FlashModel, old: Option<&Config>, new: &Config) -> us
         assert!(same(&settings::load(&mut back.power_on()).config, new));
     }
     assert!(seen_new, "the complete save was never visible");
-    total + 1
+    (total + 1, ecc)
 }
 
-fn run_saves(order: EraseOrder) -> usize {
+fn run_saves(order: EraseOrder) -> (usize, usize) {
     let cfgs = configs();
     let mut flash = FlashModel::erased();
     flash.erase_order = order;
-    let mut cuts = 0;
+    let (mut cuts, mut ecc) = (0, 0);
     let mut old: Option<Config> = None;
     for (k, new) in cfgs.iter().enumerate() {
-        cuts += cut_everywhere(&flash, old.as_ref(), new);
+        let (c, e) = cut_everywhere(&flash, old.as_ref(), new);
+        cuts += c;
+        ecc += e;
         let stored = settings::store(&mut flash, new).unwrap();
         // Alternating slots, sequence numbers 1, 2, 3, …
         let expected_slot = if k % 2 == 0 { Slot::A } else { Slot::B };
@@ -111,18 +123,24 @@ fn run_saves(order: EraseOrder) -> usize {
         );
         old = Some(*new);
     }
-    cuts
+    (cuts, ecc)
 }
 
 #[test]
 fn power_cut_at_every_byte_of_a_save_leaves_old_or_new_settings() {
-    let cuts = run_saves(EraseOrder::Forward) + run_saves(EraseOrder::Backward);
+    let (forward, ecc_forward) = run_saves(EraseOrder::Forward);
+    let (backward, ecc_backward) = run_saves(EraseOrder::Backward);
+    let cuts = forward + backward;
+    // a cut inside a double-word of the record (programming it, or erasing over an old one)
+    // leaves an ECC error at 7 of every 8 byte steps there
+    let ecc = ecc_forward + ecc_backward;
+    assert!(ecc > 8 * RECORD_LEN / 2, "{ecc} loads met an ECC error");
     // Each save is one page erase (2048 byte steps) and the record's programmed bytes; every
     // one of them plus the completed save is a cut point, for 4 saves × 2 erase orders.
     let per_save = PAGE_BYTES + RECORD_LEN + 1;
     assert!(cuts >= 8 * (PAGE_BYTES + 1), "only {cuts} cut points");
     assert!(cuts <= 8 * per_save, "{cuts} cut points");
-    println!("power-cut points checked: {cuts}");
+    println!("power-cut points checked: {cuts}, loads that met an ECC error: {ecc}");
 }
 
 #[test]
@@ -195,6 +213,36 @@ fn record_layout_is_the_documented_one() {
     assert!(page[RECORD_LEN..].iter().all(|&b| b == 0xFF));
     // Slot B untouched.
     assert!(f.pages[1].iter().all(|&b| b == 0xFF));
+}
+
+#[test]
+fn a_double_word_cut_mid_program_reads_as_an_ecc_error_until_erased() {
+    let cfgs = configs();
+    let mut f = FlashModel::erased();
+    settings::store(&mut f, &cfgs[0]).unwrap(); // slot A, seq 1
+    // the next save (slot B) cut 3 bytes into its second double-word
+    let mut g = f.power_on();
+    g.budget = Some(PAGE_BYTES + 8 + 3);
+    assert!(settings::store(&mut g, &cfgs[1]).is_err());
+    let mut back = g.power_on();
+    let mut buf = [0u8; 8];
+    assert_eq!(back.read(Slot::B, 8, &mut buf), Err(FlashFault::Ecc));
+    // the double-words either side read
+    back.read(Slot::B, 0, &mut buf).unwrap();
+    back.read(Slot::B, 16, &mut buf).unwrap();
+    // the boot uses slot A and counts slot B unreadable
+    let l = settings::load(&mut back);
+    assert_eq!(l.from, Some((Slot::A, 1)));
+    assert_eq!(l.scan.b, Err(SlotError::Read));
+    assert_eq!(l.unreadable(), 1);
+    // the torn double-word cannot be programmed over; the next save erases it and works
+    assert_eq!(
+        back.program(Slot::B, 8, &[0; 8]),
+        Err(FlashFault::NotErased)
+    );
+    settings::store(&mut back, &cfgs[1]).unwrap();
+    let l = settings::load(&mut back.power_on());
+    assert_eq!((l.from, l.unreadable()), (Some((Slot::B, 2)), 0));
 }
 
 #[test]

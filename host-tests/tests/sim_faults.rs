@@ -582,7 +582,8 @@ fn a_few_lost_samples_are_counted_flagged_and_sent_as_emcy_6101() {
     let dev: Vec<&str> = dev.split(',').collect();
     assert_eq!(dev.len(), ballpod::app::DEVICE_COUNTERS.len());
     assert_eq!(dev[0], "5");
-    assert_eq!(dev[14..], ["9.91E+37", "9.91E+37"]);
+    assert_eq!(dev[14..16], ["9.91E+37", "9.91E+37"]);
+    assert_eq!(dev[16], "0", "settings_slots_unreadable");
     assert_eq!(b.read(0x2110, 15), u32::MAX, "masked_max_ns not measured");
     stop_done(&mut b);
 }
@@ -1040,6 +1041,50 @@ fn a_stored_configuration_the_firmware_rejects_boots_into_the_defaults_with_a_re
         f32::from_bits(b.read(0x2000, 0)),
         Config::default().bar_length_mm
     );
+}
+
+/// A save cut by a power loss inside a double-word of the record leaves it with data and ECC
+/// that disagree: the pod's read of that slot is a double ECC error (on the board an NMI, here
+/// the flash model's failed read). The pod boots with the other slot's settings and says so
+/// once: EMCY 0x6300 byte 3 = 7, -315 in `SYST:ERR?`, device counter
+/// `settings_slots_unreadable` (0x2110:17) = 1.
+#[test]
+fn a_slot_torn_by_a_power_loss_boots_from_the_other_with_a_report() {
+    let mut flash = FlashModel::erased();
+    let older = Config {
+        bar_length_mm: 200.0,
+        ..Config::default()
+    };
+    ballpod::settings::store(&mut flash, &older).unwrap(); // slot A
+    let mut cut = flash.power_on();
+    // the next save (slot B) cut 5 bytes into the record's third double-word
+    cut.budget = Some(2048 + 2 * 8 + 5);
+    let newer = Config {
+        bar_length_mm: 300.0,
+        ..Config::default()
+    };
+    assert!(ballpod::settings::store(&mut cut, &newer).is_err());
+    let vp = VirtualPod::boot(VirtualSetup::default(), cut.power_on());
+    assert_eq!(vp.boot_settings().unreadable(), 1);
+    let mut b = Bench::on(vp);
+    b.step(1);
+    let frames = b.take();
+    let emcy: Vec<_> = frames.iter().filter(|f| f.id == EMCY).collect();
+    assert_eq!(emcy.len(), 1, "{frames:?}");
+    assert_eq!(
+        (
+            u16::from_le_bytes([emcy[0].data[0], emcy[0].data[1]]),
+            emcy[0].data[3]
+        ),
+        (0x6300, 7)
+    );
+    assert_eq!(
+        b.scpi("SYST:ERR?"),
+        "-315,\"Configuration memory lost;settings slot unreadable (flash ECC error: a save cut by a power loss)\""
+    );
+    assert_eq!(b.read(0x2110, 17), 1);
+    // the older settings run
+    assert_eq!(f32::from_bits(b.read(0x2000, 0)), 200.0);
 }
 
 /// A complete save is reported done: no failure counted, no error bit, and the pod boots with

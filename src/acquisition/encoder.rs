@@ -1,5 +1,7 @@
 //! Quadrature encoders: hardware counter → 64-bit count → position in mm or degrees.
 
+use super::MAX_AXES;
+
 /// Extends a wrapping hardware counter of `bits` bits (16 for TIM3/4/8, 32 for TIM2/5) to an
 /// exact 64-bit count, and flags jumps no real axis can make (a quadrature glitch or a missed
 /// read).
@@ -125,6 +127,50 @@ impl CountExtender {
     /// Implausible steps seen since start.
     pub const fn glitches(&self) -> u32 {
         self.glitches
+    }
+}
+
+/// The board's first stage of the count extension: the hardware counters
+/// ([`ENCODER_COUNTER_BITS`] wide) read [`COUNTER_READS_PER_SAMPLE`] times a sample, in the
+/// block-latch interrupt whatever else runs, and each extended to 64 bits there. The pipeline
+/// takes the low 32 bits of these counts as a 32-bit counter (`counter_bits` = 32 in
+/// [`Acquisition::new`](super::Acquisition::new)): a step of 2³¹ counts in one sample is
+/// beyond any axis, so the second stage is exact and the first one decides what the pod
+/// follows — the configuration's rule ([`Config::counter_reach`]).
+///
+/// [`ENCODER_COUNTER_BITS`]: crate::config::ENCODER_COUNTER_BITS
+/// [`COUNTER_READS_PER_SAMPLE`]: crate::config::COUNTER_READS_PER_SAMPLE
+/// [`Config::counter_reach`]: crate::config::Config::counter_reach
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CounterLatch {
+    inputs: [CountExtender; MAX_AXES],
+}
+
+/// Width of the counts [`CounterLatch`] hands on, bits (the pipeline's `counter_bits`).
+pub const LATCHED_COUNTER_BITS: [u32; MAX_AXES] = [32; MAX_AXES];
+
+impl CounterLatch {
+    /// The extension of counters `bits` wide, nothing read yet (the first read is count 0).
+    pub const fn new(bits: [u32; MAX_AXES]) -> Self {
+        let [b0, b1, b2, b3, b4] = bits;
+        Self {
+            inputs: [
+                CountExtender::new(b0, 0),
+                CountExtender::new(b1, 0),
+                CountExtender::new(b2, 0),
+                CountExtender::new(b3, 0),
+                CountExtender::new(b4, 0),
+            ],
+        }
+    }
+
+    /// Feeds one read of the hardware counters; returns each extended count's low 32 bits.
+    pub fn read(&mut self, raw: [u32; MAX_AXES]) -> [u32; MAX_AXES] {
+        let mut out = [0; MAX_AXES];
+        for ((o, e), r) in out.iter_mut().zip(self.inputs.iter_mut()).zip(raw) {
+            *o = e.update(r).count as u32;
+        }
+        out
     }
 }
 

@@ -6,6 +6,7 @@
 //! - [`probe`]: touch-trigger latch, debounce, re-seat lock-out;
 //! - [`thermal`]: thermistor → °C, bar expansion correction;
 //! - [`rtest_head`]: the R-test head's three LVDT channels → sphere-centre displacement;
+//! - [`rings`]: the two secondaries' DMA rings realigned together after an overrun;
 //! - [`pipeline`]: all of the above → one flagged [`Sample`] per sample period;
 //! - [`sample`]: the sample and its validity flags.
 
@@ -14,6 +15,7 @@ pub mod lvdt;
 pub mod pipeline;
 pub mod probe;
 pub mod projection;
+pub mod rings;
 pub mod rtest_head;
 pub mod sample;
 pub mod thermal;

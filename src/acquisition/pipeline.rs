@@ -7,10 +7,7 @@ use super::lvdt::{DemodError, LvdtCalibration, LvdtReading, LvdtStatus, dc_readi
 use super::probe::{ProbeDebouncer, ProbeLatch, TriggerOutcome};
 use super::sample::{MAX_AXES, Sample, SampleFlags};
 use super::thermal::{REFERENCE_TEMP_C, Thermistor, ThermistorFault, bar_expansion_um};
-use crate::config::Config;
-
-/// Margin on the plausible count step between two samples (×2 the step at maximum speed).
-const GLITCH_MARGIN: f64 = 2.0;
+use crate::config::{Config, GLITCH_MARGIN};
 
 /// Counters of everything acquisition flagged or lost (nothing is dropped silently).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

@@ -323,9 +323,22 @@ pub fn field_name(f: Field) -> &'static str {
     match f {
         Field::PeriodsPerSample => "excitation / sample_rate (whole periods, 1 to 5)",
         Field::AxisNameDuplicate(_) => "axis name",
+        Field::AxisCounterReach(i) => COUNTER_REACH
+            .get(usize::from(i))
+            .copied()
+            .unwrap_or("axis_counts * axis_max_speed / sample_rate"),
         f => Config::field_info(f).map_or("field", |i| i.name),
     }
 }
+
+/// The refusal of each input's counter-reach rule ([`Config::counter_reach`]), naming its fields.
+const COUNTER_REACH: [&str; MAX_AXES] = [
+    "encoder input 1: axis_counts * axis_max_speed / sample_rate (counts per counter read)",
+    "encoder input 2: axis_counts * axis_max_speed / sample_rate (counts per counter read)",
+    "encoder input 3: axis_counts * axis_max_speed / sample_rate (counts per counter read)",
+    "encoder input 4: axis_counts * axis_max_speed / sample_rate (counts per counter read)",
+    "encoder input 5: axis_counts * axis_max_speed / sample_rate (counts per counter read)",
+];
 
 /// The armed run's estimator.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -470,6 +483,8 @@ pub struct App {
     trigger: Option<ArcTrigger>,
     settings_request: Option<SettingsRequest>,
     settings_failures: u32,
+    /// Settings slots the boot found unreadable.
+    settings_unreadable: u32,
     settings_failed: bool,
     /// The status word's bits no sample changes ([`App::update_status`]).
     status_fixed: u16,
@@ -539,6 +554,7 @@ impl App {
             trigger: None,
             settings_request: None,
             settings_failures: 0,
+            settings_unreadable: 0,
             device: DeviceCounters::START,
             boot: (
                 config.excitation_hz,
@@ -647,7 +663,17 @@ impl App {
     pub fn device_counters(&self) -> DeviceCounters {
         let mut c = self.device;
         c.set(DeviceCounter::SettingsStoreFailures, self.settings_failures);
+        c.set(
+            DeviceCounter::SettingsSlotsUnreadable,
+            self.settings_unreadable,
+        );
         c
+    }
+
+    /// The settings slots the boot found unreadable (`settings::Loaded::unreadable`), for the
+    /// device counters.
+    pub fn set_settings_unreadable(&mut self, slots: u32) {
+        self.settings_unreadable = slots;
     }
     /// The shell's device counters (its queues, watchdog, DMA, masked time, stack).
     pub fn set_device_counters(&mut self, c: DeviceCounters) {
@@ -698,6 +724,11 @@ impl App {
         if let Err(e) = next.try_update(edit) {
             return self.refuse(CommandError::Config(e));
         }
+        // until the reset the counters are read at the sample rate the pod runs with: the
+        // counter-reach rule holds there too
+        if let Err(e) = self.running(next).validate() {
+            return self.refuse(CommandError::Config(e));
+        }
         self.apply_config(next);
         Ok(())
     }
@@ -729,12 +760,17 @@ impl App {
     /// The configuration the pod runs with: [`config`](Self::config) with the
     /// [`AT_RESET`](crate::config::AT_RESET) fields as they were at start.
     pub fn running_config(&self) -> Config {
+        self.running(self.config)
+    }
+
+    /// `config` with the [`AT_RESET`](crate::config::AT_RESET) fields the pod started with.
+    fn running(&self, config: Config) -> Config {
         let (excitation_hz, samples_per_period, sample_rate_hz) = self.boot;
         Config {
             excitation_hz,
             samples_per_period,
             sample_rate_hz,
-            ..self.config
+            ..config
         }
     }
 

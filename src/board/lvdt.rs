@@ -23,7 +23,9 @@
 //! block's first conversions), or if one of those latches is no longer held.
 //!
 //! **Loss** is counted from the gaps between the blocks' latched times
-//! ([`ballpod::acquisition::periods_lost`]), however the blocks were lost.
+//! ([`ballpod::acquisition::periods_lost`]), however the blocks were lost. After an overrun of
+//! either ring both are cleared at one DMA position ([`realign`]), so A's and B's halves stay
+//! the same conversions.
 
 use core::cell::Cell;
 use core::sync::atomic::{AtomicU32, Ordering};
@@ -39,6 +41,7 @@ use static_cell::StaticCell;
 use super::block::{BLOCK_MAX, BlockPath, P};
 use ballpod::acquisition::MAX_AXES;
 use ballpod::acquisition::lvdt::{ADC12_FULL_SCALE, ExcitationTable};
+use ballpod::acquisition::rings::{DmaRing, realign};
 use ballpod::config::Config;
 use embassy_stm32::interrupt::typelevel::{DMA1_CHANNEL2, Handler};
 
@@ -78,7 +81,7 @@ pub struct BlockLatchIsr;
 
 impl Handler<DMA1_CHANNEL2> for BlockLatchIsr {
     unsafe fn on_interrupt() {
-        let raw = super::encoders::raw_counts();
+        let raw = super::encoders::latched_counts();
         let t_us = embassy_time::Instant::now().as_micros();
         let (isr, cr) = (pac::DMA1.isr().read(), pac::DMA1.ch(1).cr().read());
         // the same condition as embassy's handler, which acknowledges one event per call
@@ -142,10 +145,24 @@ fn latch(centre: Option<u32>) -> (Latch, u32) {
         .unwrap_or(Latch {
             seq: newest,
             t_us: embassy_time::Instant::now().as_micros(),
-            raw: super::encoders::raw_counts(),
+            raw: super::encoders::latched_counts(),
             watchdog: true,
         });
     (x, newest)
+}
+
+/// An ADC's ring and the DMA1 channel that fills it (0-based: ADC1 on channel 2 → 1, ADC2 on
+/// channel 3 → 2), as [`realign`] sees them.
+struct Ring<'r, T: embassy_stm32::adc::Instance>(&'r mut RingBufferedAdc<'static, T>, usize);
+
+impl<T: embassy_stm32::adc::Instance> DmaRing for Ring<'_, T> {
+    fn remaining(&mut self) -> u16 {
+        pac::DMA1.ch(self.1).ndtr().read().ndt()
+    }
+
+    fn clear(&mut self) {
+        self.0.clear();
+    }
 }
 
 static RING_A: StaticCell<[u16; BLOCK_MAX]> = StaticCell::new();
@@ -293,8 +310,11 @@ pub async fn lvdt_task(
             && ring_a.read(a2).await.is_ok()
             && ring_b.read(b2).await.is_ok();
         if !ok {
-            // The ring reset itself to the next half-ring boundary; the lost periods show in
-            // the gap of the next block's time.
+            // Either ring was lapped: both restart at one DMA position (the next half-ring
+            // boundary); the lost periods show in the gap of the next block's time.
+            if !realign(&mut Ring(&mut ring_a, 1), &mut Ring(&mut ring_b, 2)) {
+                defmt::warn!("ADC rings: ADC1 and ADC2 DMA positions disagree");
+            }
             centre_seq = None;
             continue;
         }

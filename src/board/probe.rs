@@ -15,7 +15,7 @@ pub struct ProbeEdgeIsr;
 
 impl Handler<EXTI4> for ProbeEdgeIsr {
     unsafe fn on_interrupt() {
-        let raw = super::encoders::raw_counts();
+        let raw = super::encoders::latched_counts();
         let t_us = embassy_time::Instant::now().as_micros();
         if pac::EXTI.pr(0).read().0 & (1 << 4) != 0 {
             pac::EXTI.pr(0).write_value(pac::exti::regs::Lines(1 << 4));

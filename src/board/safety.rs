@@ -26,6 +26,9 @@
 //!   (its own magic) and resets: a fault is reported with the instruction that took it, not as
 //!   the watchdog reset it would otherwise end in. A fault inside the handler locks the core
 //!   up; the G474 does not reset on a lockup, the watchdog does (reported as one).
+//! - **NMI** (the STM32 board's `settings::NonMaskableInt`): a double ECC error at the settings
+//!   pages is let through (the read that met it fails, its slot is unreadable); any other NMI
+//!   is recorded as `NMI, FLASH_ECCR 0x…` the same way ([`record_fault_and_reset`]).
 
 use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
@@ -225,6 +228,25 @@ unsafe fn HardFault(frame: &cortex_m_rt::ExceptionFrame) -> ! {
     w.push_hex(frame.lr());
     w.push(", CFSR 0x");
     w.push_hex(cfsr);
+    let len = w.len;
+    record_and_reset(FAULT_MAGIC, text, len)
+}
+
+/// Records `what` followed by `value` in hex (e.g. `NMI, FLASH_ECCR 0x…`) as a fault, like a
+/// HardFault, and resets (for the board's other fault handlers).
+#[allow(
+    dead_code,
+    reason = "the STM32 board's NMI handler calls it; the emulated board has none"
+)]
+pub fn record_fault_and_reset(what: &str, value: u32) -> ! {
+    cortex_m::interrupt::disable();
+    let mut text = [0u8; PANIC_TEXT_BYTES];
+    let mut w = Bounded {
+        buf: &mut text,
+        len: 0,
+    };
+    w.push(what);
+    w.push_hex(value);
     let len = w.len;
     record_and_reset(FAULT_MAGIC, text, len)
 }

@@ -24,6 +24,28 @@ pub mod stream;
 use crate::app::CommandError;
 use crate::config::ConfigError;
 
+/// Reports settings slots found unreadable at boot (`unreadable`, from
+/// [`Loaded::unreadable`](crate::settings::Loaded::unreadable): a double ECC error, a save cut
+/// by a power loss; the other slot's settings or the defaults are in use) on both protocols:
+/// CANopen EMCY 0x6300 byte 3 = 7 after the boot-up; SCPI -315 `"Configuration memory
+/// lost;settings slot unreadable …"`. Called once at boot (`Pod::boot`).
+pub fn report_unreadable_settings(
+    unreadable: u32,
+    node: &mut canopen::CanOpenNode,
+    scpi: &mut scpi::ScpiServer,
+) {
+    if unreadable > 0 {
+        node.report_boot_error(
+            canopen::emcy::DATA_SET,
+            canopen::emcy::REASON_SETTINGS_UNREADABLE,
+        );
+        scpi.push_settings_rejected(
+            "settings slot unreadable (flash ECC error: a save cut by a power loss)",
+            "",
+        );
+    }
+}
+
 /// Reports a stored configuration rejected at boot (`rejected`, from
 /// [`Loaded::rejected`](crate::settings::Loaded::rejected); the other slot's settings or the
 /// defaults are in use) on both protocols: CANopen EMCY 0x6300 (data set),

@@ -113,6 +113,7 @@ fn init(spawner: Spawner) {
         can: can_report,
         usb: usb_report,
         settings_rejected: loaded.rejected(),
+        settings_unreadable: loaded.unreadable(),
         // (QEMU's board has no option bytes to check)
         option_bytes: None,
     };

@@ -121,7 +121,8 @@ impl<const N: usize> VirtualPod<N> {
     }
 
     /// A pod booting with the settings pages `flash`: the newest valid record, else the
-    /// defaults, and a stored configuration it rejects reported (as the firmware's `main`).
+    /// defaults, and a stored configuration it rejects or a slot it cannot read reported (as the
+    /// firmware's `main`).
     pub fn boot(setup: VirtualSetup, mut flash: FlashModel) -> Self {
         let boot_settings = settings::load(&mut flash);
         let config = boot_settings.config;
@@ -138,6 +139,7 @@ impl<const N: usize> VirtualPod<N> {
         let mut log = Box::new(SampleLog::new());
         let boot = BootReport {
             settings_rejected: boot_settings.rejected(),
+            settings_unreadable: boot_settings.unreadable(),
             ..BootReport::default()
         };
         Pod::boot(

@@ -25,11 +25,14 @@ pub const REASON_LOW_POWER_RESET: u8 = 4;
 /// (`SYSTem:ERRor?` says which and how to set them).
 pub const REASON_OPTION_BYTES: u8 = 5;
 /// Error code 0x6300: data set (CiA 301 table 21) — a stored configuration was rejected at
-/// boot (byte 3: [`REASON_SETTINGS_REJECTED`]).
+/// boot (byte 3: [`REASON_SETTINGS_REJECTED`], [`REASON_SETTINGS_UNREADABLE`]).
 pub const DATA_SET: u16 = 0x6300;
 /// Manufacturer byte 3 of a 0x6300 EMCY: the stored settings were rejected, another slot's or
 /// the defaults are in use.
 pub const REASON_SETTINGS_REJECTED: u8 = 3;
+/// Manufacturer byte 3 of a 0x6300 EMCY: a settings slot could not be read (a double ECC error
+/// in flash, a save cut by a power loss); the other slot's settings or the defaults are in use.
+pub const REASON_SETTINGS_UNREADABLE: u8 = 7;
 /// Error code 0x8120: CAN in error passive mode (CiA 301 table 21).
 pub const ERROR_PASSIVE: u16 = 0x8120;
 /// Error code 0x8140: recovered from bus off (CiA 301 table 21).

@@ -62,7 +62,7 @@ pub const PRODUCT_CODE: u32 = 0xBA11_0001;
 /// bits) . minor revision (lower 16 bits). The minor grows with each release that appends
 /// objects; the major only with a deliberate break of the layout, which `CHANGELOG.md` names.
 /// `host-tests/tests/canopen_eds.rs` compares the EDS with every released one in `releases/`.
-pub const REVISION: u32 = 0x0001_0000;
+pub const REVISION: u32 = 0x0001_0001;
 /// Manufacturer device name 0x1008.
 pub const DEVICE_NAME: &str = "ballpod measurement pod";
 /// Manufacturer hardware version 0x1009.

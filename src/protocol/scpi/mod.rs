@@ -605,7 +605,7 @@ fn refusal(e: CommandError) -> ScpiError {
     let (detail, suffix) = e.text();
     let code = match e {
         CommandError::Config(ConfigError::OutOfRange {
-            field: Field::PeriodsPerSample,
+            field: Field::PeriodsPerSample | Field::AxisCounterReach(_),
             ..
         }) => code::SETTINGS_CONFLICT,
         CommandError::Config(ConfigError::OutOfRange { .. }) => code::DATA_OUT_OF_RANGE,

@@ -223,6 +223,18 @@ impl<'a, const LOG: usize, const STREAM: usize> Pod<'a, LOG, STREAM> {
         self.node.on_frame(frame, self.app, now_us, can_out);
     }
 
+    /// The CAN controller lost received frames since the last call (EMCY 0x8110); false: not
+    /// reported yet, call again ([`CanOpenNode::on_rx_lost`]).
+    pub fn on_can_rx_lost(&mut self, now_us: u64, can_out: &mut impl FnMut(CanFrame)) -> bool {
+        self.node.on_rx_lost(now_us, can_out)
+    }
+
+    /// The COB-IDs the CANopen node consumes now, for the controller's acceptance filters
+    /// ([`CanOpenNode::accepted_ids`]).
+    pub fn can_accepted_ids(&self) -> [Option<u16>; 4] {
+        self.node.accepted_ids()
+    }
+
     /// The CAN controller's error state changed (bus-off, recovery).
     pub fn on_bus_state(
         &mut self,
@@ -248,10 +260,11 @@ impl<'a, const LOG: usize, const STREAM: usize> Pod<'a, LOG, STREAM> {
         self.stream.set_enabled(open);
     }
 
-    /// The protocols' timers at `now_us` (heartbeat, event timers, SDO timeouts): call at
-    /// least every millisecond.
+    /// The protocols' timers at `now_us` (heartbeat, event timers, SDO timeouts, a log
+    /// download nobody reads: [`ScpiServer::watch_download`]): call at least every millisecond.
     pub fn tick(&mut self, now_us: u64, can_out: &mut impl FnMut(CanFrame)) {
         self.node.poll(now_us, self.app, can_out);
+        self.scpi.watch_download(now_us);
     }
 
     /// The bit rate an LSS master activated, once its switch delay has passed: the shell

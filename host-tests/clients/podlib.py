@@ -28,7 +28,8 @@ DEVICE_COUNTERS = ["adc_blocks_lost", "block_queue_overruns", "probe_queue_overr
                    "thermistor_queue_overruns", "can_rx_overruns", "can_tx_overruns", "can_tx_dropped",
                    "usb_rx_overruns", "usb_tx_overruns", "stream_lines_dropped", "log_paused_samples",
                    "settings_store_failures", "watchdog_misses", "dac_underruns", "masked_max_ns",
-                   "stack_high_water_bytes", "settings_slots_unreadable"]
+                   "stack_high_water_bytes", "settings_slots_unreadable",
+                   "can_rx_lost", "can_bus_off_entries", "can_error_passive_entries"]
 
 # CiA 301 table 22 abort codes
 ABORT_WRITE_ONLY = 0x06010001

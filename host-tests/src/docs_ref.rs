@@ -550,6 +550,13 @@ fn error_codes() -> String {
             ),
         ),
         (
+            emcy::CAN_OVERRUN,
+            "the CAN controller lost received frames (its receive FIFO full; at most one per \
+             inhibit time; device counter `can_rx_lost`)"
+                .to_string(),
+            "–".to_string(),
+        ),
+        (
             emcy::ERROR_PASSIVE,
             "the CAN controller went error passive".to_string(),
             "–".to_string(),

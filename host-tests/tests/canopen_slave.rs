@@ -1512,3 +1512,103 @@ fn referencing_an_axis_forgets_the_runs_measured_in_the_old_coordinates() {
     b.write_f32(0x300C, 1, 0.0).unwrap();
     assert_eq!(b.upload(0x4000, ecc_u), Err(NO_DATA), "as after command 5");
 }
+
+/// The controller's acceptance filters (`CanOpenNode::accepted_ids`) against the node's own
+/// handling of every standard COB-ID: a frame whose ID is not in the list is one the node
+/// ignores (nothing sent, counted in `frames_ignored`), and each listed ID is one a frame
+/// reaches — in pre-operational and operational, after the SYNC COB-ID moves (0x1005), and
+/// with no node-ID (LSS only).
+#[test]
+fn the_acceptance_filters_pass_every_frame_the_node_consumes() {
+    // NMT start, an empty SYNC, an SDO upload of 0x1000, an LSS switch-state-global, a few
+    // other shapes
+    let payloads: [&[u8]; 6] = [
+        &[0x01, 0],
+        &[],
+        &[0x40, 0x00, 0x10, 0, 0, 0, 0, 0],
+        &[0x04, 0x01, 0, 0, 0, 0, 0, 0],
+        &[0x80, NODE],
+        &[0xFF; 8],
+    ];
+    for setup in ["pre-operational", "operational", "sync 0x0A0", "no node-ID"] {
+        let mut b = Bench::new();
+        match setup {
+            "operational" => b.nmt(0x01, NODE),
+            "sync 0x0A0" => b.download(0x1005, 0, &0xA0u32.to_le_bytes()).unwrap(),
+            "no node-ID" => {
+                b.node = CanOpenNode::new(255, 1);
+                b.poll();
+            }
+            _ => {}
+        }
+        b.take();
+        let ids = b.node.accepted_ids();
+        let expected_sync = if setup == "sync 0x0A0" { 0x0A0 } else { 0x080 };
+        let expected_sdo = (setup != "no node-ID").then_some(SDO_RX);
+        assert_eq!(
+            ids,
+            [Some(0x000), Some(expected_sync), expected_sdo, Some(0x7E5)],
+            "{setup}"
+        );
+        for id in 0..0x800u16 {
+            let listed = ids.contains(&Some(id));
+            let mut reached = false;
+            for p in payloads {
+                let (mut node, mut app) = (b.node, b.app.clone());
+                let ignored = node.stats().frames_ignored;
+                let mut out = Vec::new();
+                node.on_frame(&frame(id, p), &mut app, 0, &mut |f| out.push(f));
+                let was_ignored = node.stats().frames_ignored == ignored + 1;
+                if !listed {
+                    assert!(was_ignored && out.is_empty(), "{setup}: {id:#05x} {p:?}");
+                }
+                reached |= !was_ignored;
+            }
+            if listed && setup != "no node-ID" {
+                assert!(reached, "{setup}: {id:#05x} listed but never consumed");
+            }
+        }
+    }
+}
+
+/// Received frames the controller lost: EMCY 0x8110 (CAN overrun) with the communication bit
+/// in its error register (CiA 301 table 21), at most one per inhibit time (0x1015) and none
+/// while bus-off; a loss not reported yet is reported when the shell calls again.
+#[test]
+fn lost_frames_are_reported_as_emcy_8110_once_per_inhibit_time() {
+    let mut b = Bench::new();
+    // 0x1015 inhibit time, 100 µs units: 10 ms
+    b.download(0x1015, 0, &100u16.to_le_bytes()).unwrap();
+    let lost = |b: &mut Bench| {
+        let sent = &mut b.sent;
+        b.node.on_rx_lost(b.now_us, &mut |f| sent.push(f))
+    };
+    assert!(lost(&mut b));
+    let out = b.take();
+    assert_eq!(out.len(), 1);
+    assert_eq!(out[0].id, 0x80 + u16::from(NODE));
+    assert_eq!(out[0].data[..2], 0x8110u16.to_le_bytes());
+    assert_eq!(
+        out[0].data[2] & 0x11,
+        0x11,
+        "generic and communication bits"
+    );
+    // within the inhibit time: not now
+    b.advance_ms(5);
+    assert!(!lost(&mut b));
+    assert!(b.take().is_empty());
+    b.advance_ms(6);
+    assert!(lost(&mut b));
+    assert_eq!(b.take().len(), 1);
+    // bus-off: nothing can be sent
+    b.advance_ms(20);
+    let sent = &mut b.sent;
+    b.node.on_bus_state(
+        ballpod::protocol::canopen::BusState::BusOff,
+        b.now_us,
+        &mut |f| sent.push(f),
+    );
+    b.take();
+    assert!(!lost(&mut b));
+    assert!(b.take().is_empty());
+}

@@ -1650,3 +1650,48 @@ fn axes_are_referenced_with_axis_position_on_a_locked_port() {
         )
     );
 }
+
+/// A pulled `DATA:LOG?` whose host stops reading ends after `DOWNLOAD_STALL_US` (10 s) without
+/// a pull, so that logging resumes (it is paused while a download is pending); -410 says so
+/// and `downloads_cut` counts it. A host that reads slowly but on, a pull every 9 s, keeps it.
+#[test]
+fn a_download_nobody_reads_for_10_s_ends_and_logging_resumes() {
+    use ballpod::protocol::scpi::DOWNLOAD_STALL_US;
+    assert_eq!(DOWNLOAD_STALL_US, 10_000_000);
+    let mut b = bench_with_log();
+    b.scpi.set_pull_download(true);
+    b.raw(b"DATA:LOG?\n");
+    assert!(b.scpi.download_pending());
+    let mut buf = [0u8; 64];
+    // slow but steady: a pull every 9 s for a minute
+    let mut t = 1_000_000u64;
+    b.scpi.watch_download(t);
+    for _ in 0..7 {
+        t += 9_000_000;
+        b.scpi.pull_download(&b.log, &mut buf);
+        b.scpi.watch_download(t);
+        assert!(b.scpi.download_pending(), "at {t} µs");
+    }
+    // then nothing: still pending 9.9 s after the last pull, ended at 10 s
+    b.scpi.watch_download(t + 9_900_000);
+    assert!(b.scpi.download_pending());
+    b.scpi.watch_download(t + 10_000_000);
+    assert!(!b.scpi.download_pending());
+    assert_eq!(b.scpi.counters().downloads_cut, 1);
+    assert_eq!(
+        b.error(),
+        (
+            -410,
+            "Query INTERRUPTED;DATA:LOG? ended: not read for 10 s".into()
+        )
+    );
+    // a new download is whole again
+    let mut streamed = bench_with_log();
+    let whole = streamed.raw(b"DATA:LOG?\n");
+    let mut got = b.raw(b"DATA:LOG?\n");
+    while b.scpi.download_pending() {
+        let n = b.scpi.pull_download(&b.log, &mut buf);
+        got.extend_from_slice(&buf[..n]);
+    }
+    assert_eq!(got, whole);
+}

@@ -48,10 +48,17 @@ pub enum DeviceCounter {
     /// Settings slots found unreadable at boot (0–2: a double ECC error in flash, a save cut by
     /// a power loss).
     SettingsSlotsUnreadable,
+    /// Received CAN frames the controller lost (its receive FIFO or the driver's buffer full,
+    /// counted in the interrupt); each loss is also EMCY 0x8110.
+    CanRxLost,
+    /// Times the CAN controller went bus-off, however briefly (counted in the interrupt).
+    CanBusOffEntries,
+    /// Times the CAN controller went error passive (counted in the interrupt).
+    CanErrorPassiveEntries,
 }
 
 /// Number of device counters.
-pub const DEVICE_COUNTER_COUNT: usize = DeviceCounter::SettingsSlotsUnreadable as usize + 1;
+pub const DEVICE_COUNTER_COUNT: usize = DeviceCounter::CanErrorPassiveEntries as usize + 1;
 
 /// The counters' names (SCPI documentation, CANopen sub-index names in the EDS), in order.
 pub const DEVICE_COUNTERS: [&str; DEVICE_COUNTER_COUNT] = [
@@ -72,6 +79,9 @@ pub const DEVICE_COUNTERS: [&str; DEVICE_COUNTER_COUNT] = [
     "masked_max_ns",
     "stack_high_water_bytes",
     "settings_slots_unreadable",
+    "can_rx_lost",
+    "can_bus_off_entries",
+    "can_error_passive_entries",
 ];
 
 /// The device counters' values, [`DEVICE_COUNTERS`] order.

@@ -1,25 +1,76 @@
 //! FDCAN1 on PB8/PB9 at the configured bit rate: received standard data frames go to the
 //! application task (`state::CAN_RX`), the frames its CANopen node sends come back through
-//! `state::CAN_TX`, and a change of the controller's error state (error active / passive /
-//! bus-off, FDCAN `PSR`) is signalled (`state::CAN_BUS`). The controller recovers from bus-off
-//! by itself (embassy-stm32's `automatic_bus_off_recovery`, on by default: the IT0 interrupt
-//! clears `CCCR.INIT` and the FDCAN waits for 128 × 11 recessive bits).
+//! `state::CAN_TX`, and the controller's error states (error active / passive / bus-off, FDCAN
+//! `PSR`) go to it in order (`state::CAN_BUS`). The controller recovers from bus-off by itself
+//! (embassy-stm32's `automatic_bus_off_recovery`, on by default: the IT0 interrupt clears
+//! `CCCR.INIT` and the FDCAN waits for 128 × 11 recessive bits).
+//!
+//! **Acceptance filters**: only the COB-IDs the node consumes reach the receive FIFO (NMT,
+//! SYNC, its SDO request, the LSS master's: `CanOpenNode::accepted_ids`, updated through
+//! `state::CAN_FILTERS` when the node-ID or 0x1005 changes); the global filter rejects every
+//! other standard, extended and remote frame, so a busy bus of other nodes' traffic never fills
+//! the 3-frame FIFO. **Counted in the interrupt** ([`CanEventIsr`], before embassy's handler):
+//! a frame lost to a full FIFO (`IR.RF0L`: `state::CAN_RX_LOST`, EMCY 0x8110), every entry into
+//! bus-off and error passive however brief ([`BUS_OFF_ENTRIES`], [`ERROR_PASSIVE_ENTRIES`]; a
+//! bus-off that recovered between two looks of the task is still reported, entry and
+//! recovery).
 
 use core::num::{NonZeroU8, NonZeroU16};
 use core::sync::atomic::{AtomicU32, Ordering};
 
-use embassy_futures::select::{Either4, select4};
-use embassy_stm32::can::config::NominalBitTiming;
+use embassy_futures::select::{Either, Either4, select, select4};
+use embassy_stm32::can::config::{GlobalFilter, NominalBitTiming};
 use embassy_stm32::can::enums::BusErrorMode;
+use embassy_stm32::can::filter::{Action, FilterType, StandardFilter};
 use embassy_stm32::can::{Can, CanConfigurator, OperatingMode, frame::Frame};
-use embassy_stm32::{Peri, peripherals};
+use embassy_stm32::interrupt::typelevel::{FDCAN1_IT0, Handler};
+use embassy_stm32::{Peri, pac, peripherals};
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::signal::Signal;
 use embassy_time::{Duration, Timer, with_timeout};
-use embedded_can::Id;
+use embedded_can::{Id, StandardId};
 
 use ballpod::config::CanBitrate;
 use ballpod::protocol::canopen::{BusState, CanFrame};
 
-use super::{Irqs, state};
+use super::{Irqs, Overruns, state};
+
+/// Times the controller went bus-off (counted in [`CanEventIsr`]).
+pub static BUS_OFF_ENTRIES: Overruns = Overruns::new();
+/// Times the controller went error passive (counted in [`CanEventIsr`]).
+pub static ERROR_PASSIVE_ENTRIES: Overruns = Overruns::new();
+/// A bus-off or error-passive change was seen: the CAN task looks at once.
+static BUS_EVENT: Signal<CriticalSectionRawMutex, ()> = Signal::new();
+
+/// FDCAN1 interrupt line 0, bound before embassy's handler (which clears `IR.BO` and the
+/// receive and transmit flags it handles): counts a frame lost to a full receive FIFO 0
+/// (`IR.RF0L`) and the entries into bus-off (`IR.BO` with `PSR.BO`) and error passive (`IR.EP`
+/// with `PSR.EP`), clearing the flags embassy leaves (RF0L, EP).
+pub struct CanEventIsr;
+
+impl Handler<FDCAN1_IT0> for CanEventIsr {
+    unsafe fn on_interrupt() {
+        let r = pac::FDCAN1;
+        let ir = r.ir().read();
+        if ir.rfl(0) {
+            r.ir().write(|w| w.set_rfl(0, true));
+            state::CAN_RX_LOST.count();
+        }
+        if ir.bo() || ir.ep() {
+            let psr = r.psr().read();
+            if ir.bo() && psr.bo() {
+                BUS_OFF_ENTRIES.count();
+            }
+            if ir.ep() {
+                r.ir().write(|w| w.set_ep(true));
+                if psr.ep() {
+                    ERROR_PASSIVE_ENTRIES.count();
+                }
+            }
+            BUS_EVENT.signal(());
+        }
+    }
+}
 
 /// Longest wait for a free transmit buffer, ms (three 8-byte frames at 125 kbit/s take ~3 ms).
 pub const TX_WAIT_MS: u64 = 5;
@@ -44,8 +95,37 @@ pub fn start(
         seg2: NonZeroU8::new(t.seg2).unwrap_or(NonZeroU8::MIN),
         sync_jump_width: NonZeroU8::new(t.sync_jump_width).unwrap_or(NonZeroU8::MIN),
     };
-    cc.set_config(cc.config().set_nominal_bit_timing(nbt));
-    cc.start(OperatingMode::NormalOperationMode)
+    // nothing the filters do not name; every standard frame until the node names its IDs
+    // (its first turn, within a millisecond)
+    cc.set_config(
+        cc.config()
+            .set_nominal_bit_timing(nbt)
+            .set_global_filter(GlobalFilter::reject_all()),
+    );
+    cc.properties()
+        .set_standard_filter(0.into(), StandardFilter::accept_all_into_fifo0());
+    let can = cc.start(OperatingMode::NormalOperationMode);
+    // the lost-frame and error-passive interrupts (line 0, as embassy's)
+    pac::FDCAN1.ie().modify(|w| {
+        w.set_rfle(0, true);
+        w.set_epe(true);
+    });
+    can
+}
+
+/// The acceptance filters for `ids` (`CanOpenNode::accepted_ids`): one slot each, into FIFO 0;
+/// an empty slot disabled.
+fn set_filters(can: &Can<'static>, ids: [Option<u16>; 4]) {
+    for (slot, id) in (0u8..).zip(ids) {
+        let filter = match id.and_then(StandardId::new) {
+            Some(id) => StandardFilter {
+                filter: FilterType::DedicatedSingle(id),
+                action: Action::StoreInFifo0,
+            },
+            None => StandardFilter::disable(),
+        };
+        can.properties().set_standard_filter(slot.into(), filter);
+    }
 }
 
 /// Switches the running controller to `bitrate` (an LSS master's "activate bit timing", CiA
@@ -86,20 +166,49 @@ fn to_core(frame: &Frame) -> Option<CanFrame> {
     }
 }
 
+/// Sends the application task the states since the last look: the interrupt's counts of
+/// bus-off and error-passive entries say what `PSR` alone could miss (a bus-off recovered
+/// between two looks: bus-off, then the state now).
+fn report_bus(can: &Can<'static>, last: &mut (BusState, u32, u32)) {
+    let now = bus_state(can.properties().bus_error_mode());
+    let (bus_off, passive) = (BUS_OFF_ENTRIES.get(), ERROR_PASSIVE_ENTRIES.get());
+    let (was, seen_off, seen_passive) = *last;
+    let mut states = heapless::Vec::<BusState, 3>::new();
+    if passive != seen_passive && was == BusState::ErrorActive && now == BusState::ErrorActive {
+        let _ = states.push(BusState::ErrorPassive);
+    }
+    if bus_off != seen_off && was != BusState::BusOff && now != BusState::BusOff {
+        let _ = states.push(BusState::BusOff);
+    }
+    if states.last().copied().unwrap_or(was) != now {
+        let _ = states.push(now);
+    }
+    for s in states {
+        defmt::warn!("CAN bus state {}", s as u8);
+        if state::CAN_BUS.try_send(s).is_err() {
+            // the application task, which drains them every millisecond, is four behind
+            state::CAN_RX_OVERRUNS.count();
+        }
+    }
+    *last = (now, bus_off, passive);
+}
+
 /// Moves frames between FDCAN1 and the application task.
 #[embassy_executor::task]
 pub async fn can_task(mut can: Can<'static>) {
-    let mut last_bus = BusState::ErrorActive;
+    let mut last = (BusState::ErrorActive, 0, 0);
     loop {
         super::safety::check_in(super::safety::Task::Can);
-        let bus = bus_state(can.properties().bus_error_mode());
-        if bus != last_bus {
-            defmt::warn!("CAN bus state {}", bus as u8);
-            last_bus = bus;
-            state::CAN_BUS.signal(bus);
+        report_bus(&can, &mut last);
+        if let Some(ids) = state::CAN_FILTERS.try_take() {
+            set_filters(&can, ids);
         }
-        // the timer: check in and look at the bus state even while the bus is silent
-        let tick = Timer::after_millis(super::safety::CHECK_IN_MS);
+        // the timer: check in and look at the bus state even while the bus is silent; a bus
+        // event or new filters end the wait at once
+        let tick = select(
+            Timer::after_millis(super::safety::CHECK_IN_MS),
+            select(BUS_EVENT.wait(), state::CAN_FILTERS.wait()),
+        );
         let switch = state::CAN_BIT_RATE.wait();
         match select4(can.read(), state::CAN_TX.receive(), tick, switch).await {
             Either4::First(Ok(env)) => {
@@ -110,7 +219,9 @@ pub async fn can_task(mut can: Can<'static>) {
                     state::CAN_RX_OVERRUNS.count();
                 }
             }
-            Either4::First(Err(_)) | Either4::Third(()) => {}
+            Either4::First(Err(_)) => {}
+            Either4::Third(Either::First(()) | Either::Second(Either::First(()))) => {}
+            Either4::Third(Either::Second(Either::Second(ids))) => set_filters(&can, ids),
             Either4::Fourth(rate) => {
                 defmt::info!("CAN bit rate {} (LSS)", rate.bits_per_s());
                 switch_bit_rate(rate);

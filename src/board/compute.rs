@@ -124,19 +124,37 @@ pub async fn compute_task(
             state::CAN_TX_OVERRUNS.count();
         }
     };
+    // a piece of a response goes out whole or not at all (never cut inside); with the input
+    // taken only while the pipe is empty (below), only a packet of queries whose answers
+    // exceed the pipe (2 KiB) loses the pieces that do not fit, counted
     let usb_out = &mut |b: &[u8]| {
-        if state::write_all_now(&state::USB_TX, b) < b.len() {
+        if state::USB_TX.free_capacity() < b.len()
+            || state::write_all_now(&state::USB_TX, b) < b.len()
+        {
             state::USB_TX_OVERRUNS.count();
         }
     };
     let mut ticker = Ticker::every(Duration::from_millis(1));
     let mut ticks = 0u32;
+    // what the CAN side was last told: the acceptance filters, the frames lost
+    let mut can_filters = None;
+    let mut can_rx_lost = 0u32;
     let mut packet = [0u8; state::PACKET];
     loop {
+        // USB input only once the answers to the last input have left the pipe: the host that
+        // does not read its answers is not sent more (its writes wait: `usb` flow control)
+        let usb_in = async {
+            if state::USB_TX.is_empty() {
+                state::USB_RX.receive().await
+            } else {
+                // (the 1 ms tick comes first and looks again)
+                core::future::pending().await
+            }
+        };
         let event = select5(
             block::BLOCKS.receive(),
             state::CAN_RX.receive(),
-            state::USB_RX.receive(),
+            usb_in,
             ticker.next(),
             worker::DONE.receive(),
         )
@@ -190,8 +208,17 @@ pub async fn compute_task(
                 if ticks.is_multiple_of(DEVICE_COUNTERS_EVERY_MS) {
                     pod.set_device_counters(diagnostics::device_counters());
                 }
-                if let Some(bus) = state::CAN_BUS.try_take() {
+                while let Ok(bus) = state::CAN_BUS.try_receive() {
                     pod.on_bus_state(bus, now, can_out);
+                }
+                let lost = state::CAN_RX_LOST.get();
+                if lost != can_rx_lost && pod.on_can_rx_lost(now, can_out) {
+                    can_rx_lost = lost;
+                }
+                let ids = pod.can_accepted_ids();
+                if can_filters != Some(ids) {
+                    can_filters = Some(ids);
+                    state::CAN_FILTERS.signal(ids);
                 }
                 pod.tick(now, can_out);
                 if let Some(rate) = pod.bit_rate_switch(now) {

@@ -74,6 +74,11 @@ pub fn device_counters() -> DeviceCounters {
             u32::try_from(masked_ns).unwrap_or(u32::MAX - 1),
         ),
         (C::StackHighWaterBytes, stack_high_water_bytes()),
+        (C::CanBusOffEntries, super::can::BUS_OFF_ENTRIES.get()),
+        (
+            C::CanErrorPassiveEntries,
+            super::can::ERROR_PASSIVE_ENTRIES.get(),
+        ),
     ] {
         c.set(k, v);
     }

@@ -33,7 +33,8 @@ bind_interrupts!(pub struct Irqs {
     DMA1_CHANNEL2 => lvdt::BlockLatchIsr, dma::InterruptHandler<peripherals::DMA1_CH2>;
     DMA1_CHANNEL3 => dma::InterruptHandler<peripherals::DMA1_CH3>;
     EXTI4 => probe::ProbeEdgeIsr;
-    FDCAN1_IT0 => stm_can::IT0InterruptHandler<peripherals::FDCAN1>;
+    // the event counts first: embassy's handler clears the bus-off flag it reads
+    FDCAN1_IT0 => can::CanEventIsr, stm_can::IT0InterruptHandler<peripherals::FDCAN1>;
     FDCAN1_IT1 => stm_can::IT1InterruptHandler<peripherals::FDCAN1>;
     USB_LP => stm_usb::InterruptHandler<peripherals::USB>;
 });

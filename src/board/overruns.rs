@@ -62,6 +62,7 @@ pub fn queue_counters() -> DeviceCounters {
         (C::CanRxOverruns, super::state::CAN_RX_OVERRUNS.get()),
         (C::CanTxOverruns, super::state::CAN_TX_OVERRUNS.get()),
         (C::CanTxDropped, super::state::CAN_TX_DROPPED.get()),
+        (C::CanRxLost, super::state::CAN_RX_LOST.get()),
         (C::UsbRxOverruns, super::state::USB_RX_OVERRUNS.get()),
         (C::UsbTxOverruns, super::state::USB_TX_OVERRUNS.get()),
         (C::WatchdogMisses, super::safety::WATCHDOG_MISSES.get()),

@@ -14,7 +14,8 @@ use super::Overruns;
 
 /// Frames received on the bus, for the application task.
 pub static CAN_RX: Channel<CriticalSectionRawMutex, CanFrame, 16> = Channel::new();
-/// Received frames dropped because the application task had not taken the previous ones.
+/// Received frames (or bus-state changes) dropped because the application task had not taken
+/// the previous ones.
 pub static CAN_RX_OVERRUNS: Overruns = Overruns::new();
 /// Frames the CANopen node sends, for the CAN task.
 pub static CAN_TX: Channel<CriticalSectionRawMutex, CanFrame, 16> = Channel::new();
@@ -24,8 +25,16 @@ pub static CAN_TX_OVERRUNS: Overruns = Overruns::new();
 /// [`super::can::TX_WAIT_MS`] (no other node acknowledges: the FDCAN retries for ever), or a
 /// queued frame was replaced by a higher-priority one.
 pub static CAN_TX_DROPPED: Overruns = Overruns::new();
-/// The controller's fault-confinement state when it changes (the CAN task reads FDCAN `PSR`).
-pub static CAN_BUS: Signal<CriticalSectionRawMutex, BusState> = Signal::new();
+/// The controller's fault-confinement states in the order they came (the CAN task reads FDCAN
+/// `PSR` and its interrupt's counts, so a bus-off that recovered between two looks is still
+/// one entry and its recovery another).
+pub static CAN_BUS: Channel<CriticalSectionRawMutex, BusState, 4> = Channel::new();
+/// Received frames the CAN controller lost (its FIFO or the driver's buffer full), counted in
+/// the interrupt.
+pub static CAN_RX_LOST: Overruns = Overruns::new();
+/// The COB-IDs the CANopen node consumes now (`CanOpenNode::accepted_ids`), for the
+/// controller's acceptance filters: application task → CAN task, on a change.
+pub static CAN_FILTERS: Signal<CriticalSectionRawMutex, [Option<u16>; 4]> = Signal::new();
 /// The bit rate an LSS master activated, once its switch delay has passed (the application
 /// task's node → the CAN task, which switches the controller).
 pub static CAN_BIT_RATE: Signal<CriticalSectionRawMutex, ballpod::config::CanBitrate> =
@@ -52,8 +61,9 @@ pub enum UsbEvent {
     StreamClosed,
 }
 
-/// USB events, for the application task.
-pub static USB_RX: Channel<CriticalSectionRawMutex, UsbEvent, 8> = Channel::new();
+/// USB events, for the application task: four, since the STM32 board's USB task waits for
+/// room (flow control) and the application task takes one each turn.
+pub static USB_RX: Channel<CriticalSectionRawMutex, UsbEvent, 4> = Channel::new();
 /// USB events dropped because the application task had not taken the previous ones.
 pub static USB_RX_OVERRUNS: Overruns = Overruns::new();
 /// SCPI responses and log downloads, for the command port.

@@ -1,10 +1,19 @@
 //! USB FS device (PA11/PA12), composite with two CDC-ACM interfaces: the **command port** (the
 //! SCPI server of the application task: received packets go to `state::USB_RX`, responses and
 //! log downloads come back through `state::USB_TX`) and the **stream port** (every sample of
-//! every run as CSV text, from `state::STREAM_TX`; the stream writes while a host holds the
-//! port open, DTR set).
+//! every run as CSV text, from `state::STREAM_TX`).
+//!
+//! A port is **open** while a host holds it with DTR set (a terminal, pyserial and PyVISA set
+//! it on open), not merely while the device is enumerated: closing the program closes the port
+//! (the command port locks the configuration again, a pending download ends; the stream
+//! stops). On opening, what an earlier host left unread is cleared. **Flow control**: a
+//! received packet waits for room in `state::USB_RX` (the endpoint is not read meanwhile, so
+//! the host's next packet is NAKed and retried by its USB stack) — none is dropped; the
+//! application task takes the next packet only once the responses to the last ones have left
+//! `state::USB_TX` (`compute`).
 
 use embassy_futures::join::join5;
+use embassy_futures::select::{Either, select};
 use embassy_stm32::peripherals::USB;
 use embassy_stm32::usb::Driver;
 use embassy_usb::Builder;
@@ -17,10 +26,9 @@ use super::state::{self, PACKET, UsbEvent};
 const VID: u16 = 0x1209;
 const PID: u16 = 0x0001;
 
-fn event(e: UsbEvent) {
-    if state::USB_RX.try_send(e).is_err() {
-        state::USB_RX_OVERRUNS.count();
-    }
+/// Hands `e` to the application task, waiting for room (flow control: nothing is dropped).
+async fn event(e: UsbEvent) {
+    state::USB_RX.send(e).await;
 }
 
 /// Runs the USB device and both ports; `serial` is the pod's serial number (as CANopen
@@ -55,18 +63,28 @@ pub async fn usb_task(driver: Driver<'static, USB>, serial: u32) {
     );
     let stream = CdcAcmClass::new(&mut builder, STREAM_STATE.init(State::new()), PACKET as u16);
     let mut usb = builder.build();
-    let (mut tx, mut rx) = command.split();
-    let (mut stream_tx, _stream_rx) = stream.split();
+    let (mut tx, mut rx, command_control) = command.split_with_control();
+    let (mut stream_tx, _stream_rx, stream_control) = stream.split_with_control();
 
     let receive = async {
         loop {
             rx.wait_connection().await;
-            let mut data = [0u8; PACKET];
-            while let Ok(len) = rx.read_packet(&mut data).await {
-                event(UsbEvent::Bytes { data, len });
+            while !command_control.dtr() {
+                command_control.control_changed().await;
             }
-            // disconnected: configuration writes lock again, a download cut short is reported
-            event(UsbEvent::CommandClosed);
+            // a new host: nothing of the last one's answers is left for it
+            state::USB_TX.clear();
+            let mut data = [0u8; PACKET];
+            loop {
+                match select(rx.read_packet(&mut data), command_control.control_changed()).await {
+                    Either::First(Ok(len)) => event(UsbEvent::Bytes { data, len }).await,
+                    Either::Second(()) if command_control.dtr() => {}
+                    // the cable is gone or the host closed the port
+                    Either::First(Err(_)) | Either::Second(()) => break,
+                }
+            }
+            // configuration writes lock again, a download cut short is reported
+            event(UsbEvent::CommandClosed).await;
         }
     };
     let respond = async {
@@ -86,20 +104,32 @@ pub async fn usb_task(driver: Driver<'static, USB>, serial: u32) {
         let mut buf = [0u8; PACKET];
         loop {
             stream_tx.wait_connection().await;
+            while !stream_control.dtr() {
+                stream_control.control_changed().await;
+            }
             state::STREAM_TX.clear();
-            event(UsbEvent::StreamOpened);
+            event(UsbEvent::StreamOpened).await;
             loop {
-                let n = state::STREAM_TX.read(&mut buf).await;
+                let n = match select(
+                    state::STREAM_TX.read(&mut buf),
+                    stream_control.control_changed(),
+                )
+                .await
+                {
+                    Either::First(n) => n,
+                    Either::Second(()) if stream_control.dtr() => continue,
+                    Either::Second(()) => break,
+                };
                 if stream_tx
                     .write_packet(buf.get(..n).unwrap_or(&[]))
                     .await
                     .is_err()
-                    || !stream_tx.dtr()
+                    || !stream_control.dtr()
                 {
                     break;
                 }
             }
-            event(UsbEvent::StreamClosed);
+            event(UsbEvent::StreamClosed).await;
         }
     };
     // the task's futures are polled together: while this one checks in, none of them blocks

@@ -33,6 +33,9 @@ pub const REASON_SETTINGS_REJECTED: u8 = 3;
 /// Manufacturer byte 3 of a 0x6300 EMCY: a settings slot could not be read (a double ECC error
 /// in flash, a save cut by a power loss); the other slot's settings or the defaults are in use.
 pub const REASON_SETTINGS_UNREADABLE: u8 = 7;
+/// Error code 0x8110: CAN overrun, objects lost (CiA 301 table 21) — received frames the
+/// controller could not keep.
+pub const CAN_OVERRUN: u16 = 0x8110;
 /// Error code 0x8120: CAN in error passive mode (CiA 301 table 21).
 pub const ERROR_PASSIVE: u16 = 0x8120;
 /// Error code 0x8140: recovered from bus off (CiA 301 table 21).

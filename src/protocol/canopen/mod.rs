@@ -587,26 +587,63 @@ impl CanOpenNode {
             _ => None,
         };
         self.update_error_register();
-        if let Some(code) = code
-            && self.nmt.sdo_allowed()
-        {
-            self.comm.push_error(u32::from(code));
-            let register = self.comm.error_register | emcy::ER_GENERIC | emcy::ER_COMMUNICATION;
-            self.send(
-                out,
-                COB_EMCY,
-                &emcy::payload(code, register, 0, self.faults_reported),
-            );
-            self.stats.emcys_sent = self.stats.emcys_sent.saturating_add(1);
-            let inhibit_us = u64::from(self.comm.emcy_inhibit_100us) * 100;
-            self.emcy_next_us = now_us.saturating_add(inhibit_us);
+        if let Some(code) = code {
+            self.communication_emcy(code, now_us, out);
         }
         self.service_emcy(now_us, out);
+    }
+
+    /// A communication EMCY (`code`: bus-off recovered, error passive, overrun) with the
+    /// generic and communication bits in its error register, in pre-operational and
+    /// operational; the inhibit time starts again.
+    fn communication_emcy(&mut self, code: u16, now_us: u64, out: &mut impl FnMut(CanFrame)) {
+        if !self.nmt.sdo_allowed() {
+            return;
+        }
+        self.comm.push_error(u32::from(code));
+        let register = self.comm.error_register | emcy::ER_GENERIC | emcy::ER_COMMUNICATION;
+        self.send(
+            out,
+            COB_EMCY,
+            &emcy::payload(code, register, 0, self.faults_reported),
+        );
+        self.stats.emcys_sent = self.stats.emcys_sent.saturating_add(1);
+        let inhibit_us = u64::from(self.comm.emcy_inhibit_100us) * 100;
+        self.emcy_next_us = now_us.saturating_add(inhibit_us);
     }
 
     /// The controller's state as last reported to [`on_bus_state`](Self::on_bus_state).
     pub fn bus_state(&self) -> BusState {
         self.bus
+    }
+
+    /// The controller lost received frames (its receive FIFO or the driver's buffer was full):
+    /// EMCY 0x8110 (CAN overrun, objects lost), with the communication bit in the error register,
+    /// at most one per inhibit time. The shell calls it when its lost-frame count grows; false:
+    /// not now (bus-off, the inhibit time, an LSS switch's silence), call again later (in
+    /// stopped no EMCY is sent: counted only).
+    pub fn on_rx_lost(&mut self, now_us: u64, out: &mut impl FnMut(CanFrame)) -> bool {
+        if self.bus == BusState::BusOff || now_us < self.emcy_next_us.max(self.silent_until_us) {
+            return false;
+        }
+        self.communication_emcy(emcy::CAN_OVERRUN, now_us, out);
+        true
+    }
+
+    /// The COB-IDs the node consumes now — NMT, SYNC (0x1005), its SDO request (with a
+    /// node-ID), the LSS master's — for the controller's acceptance filters: the node ignores
+    /// every other frame ([`Stats::frames_ignored`]), so a controller that passes only these
+    /// changes nothing but the load of a busy bus. Changes with the node-ID and 0x1005.
+    pub fn accepted_ids(&self) -> [Option<u16>; 4] {
+        let node = self.comm.node_id;
+        [
+            Some(COB_NMT),
+            Some((self.comm.cob_id_sync & 0x7FF) as u16),
+            (1..=127)
+                .contains(&node)
+                .then(|| COB_SDO_RX + u16::from(node)),
+            Some(COB_LSS_MASTER),
+        ]
     }
 
     fn service_emcy(&mut self, now_us: u64, out: &mut impl FnMut(CanFrame)) {

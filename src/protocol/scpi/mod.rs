@@ -94,7 +94,8 @@ type Response = Text<256>;
 pub struct ScpiCounters {
     /// Lines rejected because they exceeded [`LINE_CAPACITY`].
     pub lines_overrun: u32,
-    /// Pulled log downloads cut short by a disconnect ([`ScpiServer::connection_closed`]).
+    /// Pulled log downloads cut short by a disconnect ([`ScpiServer::connection_closed`]) or
+    /// ended unread ([`ScpiServer::watch_download`]).
     pub downloads_cut: u32,
 }
 
@@ -129,9 +130,20 @@ pub struct ScpiServer {
     counters: ScpiCounters,
     pull_mode: bool,
     download: Option<Download>,
+    /// Pulls of downloads so far (wrapping).
+    pulls: u32,
+    /// The pulls when [`watch_download`] last saw them change, and when (µs; 0: not yet).
+    ///
+    /// [`watch_download`]: ScpiServer::watch_download
+    download_pulls: (u32, u64),
     config_unlocked: bool,
     serial: u32,
 }
+
+/// A pulled download whose host has not taken a packet for this long ends
+/// ([`ScpiServer::watch_download`]): 10 s, far beyond a host's pause between reads, well
+/// within the log's use (logging is paused while a download is pending).
+pub const DOWNLOAD_STALL_US: u64 = 10_000_000;
 
 impl Default for ScpiServer {
     fn default() -> Self {
@@ -167,6 +179,8 @@ impl ScpiServer {
             },
             pull_mode: false,
             download: None,
+            pulls: 0,
+            download_pulls: (0, 0),
             config_unlocked: false,
             serial: 0,
         }
@@ -197,6 +211,30 @@ impl ScpiServer {
             self.status.push(ScpiError::with(
                 code::QUERY_INTERRUPTED,
                 "DATA:LOG? cut by disconnect",
+            ));
+        }
+    }
+
+    /// Ends a pulled download whose host has not taken any of it for [`DOWNLOAD_STALL_US`] at
+    /// `now_us` (it stopped reading: the terminal hung, the program died with the port open),
+    /// so that logging resumes: counted in [`ScpiCounters::downloads_cut`] and reported as -410
+    /// "Query INTERRUPTED" in `SYSTem:ERRor?`. Call it with the protocols' clock, at least every
+    /// second.
+    pub fn watch_download(&mut self, now_us: u64) {
+        if self.download.is_none() {
+            return;
+        }
+        let (pulls, since) = self.download_pulls;
+        let counted = self.pulls;
+        if counted != pulls || since == 0 {
+            self.download_pulls = (counted, now_us.max(1));
+        } else if now_us.saturating_sub(since) >= DOWNLOAD_STALL_US {
+            self.download = None;
+            self.download_pulls = (counted, 0);
+            self.counters.downloads_cut = self.counters.downloads_cut.saturating_add(1);
+            self.status.push(ScpiError::with(
+                code::QUERY_INTERRUPTED,
+                "DATA:LOG? ended: not read for 10 s",
             ));
         }
     }
@@ -251,6 +289,7 @@ impl ScpiServer {
         let Some(d) = self.download.as_mut() else {
             return 0;
         };
+        self.pulls = self.pulls.wrapping_add(1);
         if let Some((cursor, bytes, separate)) = d.counting.as_mut() {
             // the block's length first, [`COUNT_LINES_PER_PULL`] lines at a time
             let mut done = false;

@@ -12,10 +12,14 @@
 //! application task takes the next packet only once the responses to the last ones have left
 //! `state::USB_TX` (`compute`).
 
+use core::sync::atomic::{AtomicBool, Ordering};
+
 use embassy_futures::join::join5;
 use embassy_futures::select::{Either, select};
 use embassy_stm32::peripherals::USB;
 use embassy_stm32::usb::Driver;
+use embassy_sync::blocking_mutex::raw::CriticalSectionRawMutex;
+use embassy_sync::signal::Signal;
 use embassy_usb::Builder;
 use embassy_usb::class::cdc_acm::{CdcAcmClass, State};
 use static_cell::StaticCell;
@@ -25,6 +29,12 @@ use super::state::{self, PACKET, UsbEvent};
 /// The pod's USB identity (pid.codes test VID/PID until an allocation exists).
 const VID: u16 = 0x1209;
 const PID: u16 = 0x0001;
+
+/// A host holds the command port open (DTR set).
+static COMMAND_OPEN: AtomicBool = AtomicBool::new(false);
+/// The command port's host closed it (DTR dropped, the cable gone): a write in progress is
+/// given up. Reset when a host opens it.
+static COMMAND_CLOSED: Signal<CriticalSectionRawMutex, ()> = Signal::new();
 
 /// Hands `e` to the application task, waiting for room (flow control: nothing is dropped).
 async fn event(e: UsbEvent) {
@@ -73,7 +83,9 @@ pub async fn usb_task(driver: Driver<'static, USB>, serial: u32) {
                 command_control.control_changed().await;
             }
             // a new host: nothing of the last one's answers is left for it
+            COMMAND_CLOSED.reset();
             state::USB_TX.clear();
+            COMMAND_OPEN.store(true, Ordering::Relaxed);
             let mut data = [0u8; PACKET];
             loop {
                 match select(rx.read_packet(&mut data), command_control.control_changed()).await {
@@ -84,6 +96,8 @@ pub async fn usb_task(driver: Driver<'static, USB>, serial: u32) {
                 }
             }
             // configuration writes lock again, a download cut short is reported
+            COMMAND_OPEN.store(false, Ordering::Relaxed);
+            COMMAND_CLOSED.signal(());
             event(UsbEvent::CommandClosed).await;
         }
     };
@@ -91,12 +105,22 @@ pub async fn usb_task(driver: Driver<'static, USB>, serial: u32) {
         let mut buf = [0u8; PACKET];
         loop {
             let n = state::USB_TX.read(&mut buf).await;
-            if tx.write_packet(buf.get(..n).unwrap_or(&[])).await.is_err() {
+            if !COMMAND_OPEN.load(Ordering::Relaxed) {
+                // no host holds the port: nobody takes it
+                continue;
+            }
+            // a packet the closed port's host will not take is given up, not kept for the next
+            let sent = select(
+                tx.write_packet(buf.get(..n).unwrap_or(&[])),
+                COMMAND_CLOSED.wait(),
+            )
+            .await;
+            if !matches!(sent, Either::First(Ok(()))) {
                 continue;
             }
             // a full last packet is followed by a zero-length one: the host sees the end
             if n == PACKET && state::USB_TX.is_empty() {
-                let _ = tx.write_packet(&[]).await;
+                let _ = select(tx.write_packet(&[]), COMMAND_CLOSED.wait()).await;
             }
         }
     };

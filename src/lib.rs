@@ -38,6 +38,11 @@
 // longer and easier to get wrong.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
 
+/// The firmware's version: the crate's version and the commit it was built from
+/// (`0.2.0+1a2b3c4d5e6f`; `+unknown` outside a git checkout) — CANopen 0x100A (after
+/// `ballpod `), `*IDN?`'s fourth field.
+pub const FIRMWARE_VERSION: &str = concat!(env!("CARGO_PKG_VERSION"), "+", env!("BALLPOD_COMMIT"));
+
 pub mod acquisition;
 pub mod app;
 pub mod boot;

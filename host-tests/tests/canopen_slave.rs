@@ -513,12 +513,10 @@ fn segmented_upload_of_names_and_versions() {
     assert_eq!(s[0], 0x00);
     assert_eq!(&s[1..8], &name[..7]);
     assert_eq!(b.upload(0x1008, 0).unwrap(), name);
-    let sw = b.upload(0x100A, 0).unwrap();
-    assert!(
-        String::from_utf8(sw)
-            .unwrap()
-            .contains(env!("CARGO_PKG_VERSION"))
-    );
+    // the release and the commit (scpi_protocol.rs asks git for it), as *IDN?'s version
+    let sw = String::from_utf8(b.upload(0x100A, 0).unwrap()).unwrap();
+    assert_eq!(sw, format!("ballpod {}", ballpod::FIRMWARE_VERSION));
+    assert!(sw.starts_with(concat!("ballpod ", env!("CARGO_PKG_VERSION"), "+")));
     let hw = b.upload(0x1009, 0).unwrap();
     assert!(hw.len() > 4);
 }

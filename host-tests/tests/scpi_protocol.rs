@@ -178,7 +178,16 @@ fn idn_has_the_four_fields_of_ieee488_2_10_14() {
     let fields: Vec<&str> = idn.split(',').collect();
     assert_eq!(fields.len(), 4, "{idn}");
     assert!(fields.iter().all(|f| !f.is_empty()));
-    assert_eq!(fields[3], env!("CARGO_PKG_VERSION"));
+    // the crate's version and the commit this build comes from, asked of git here
+    let head = std::process::Command::new("git")
+        .args(["rev-parse", "--short=12", "HEAD"])
+        .output()
+        .unwrap();
+    let head = String::from_utf8(head.stdout).unwrap();
+    assert_eq!(
+        fields[3],
+        format!("{}+{}", env!("CARGO_PKG_VERSION"), head.trim())
+    );
     // common command headers are case-insensitive (§7.6.1.3)
     assert_eq!(b.send("*idn?"), idn);
     // the serial: 0 until the shell sets it, then eight hex digits (as std formats them)

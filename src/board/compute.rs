@@ -124,9 +124,8 @@ pub async fn compute_task(
             state::CAN_TX_OVERRUNS.count();
         }
     };
-    // a piece of a response goes out whole or not at all (never cut inside); with the input
-    // taken only while the pipe is empty (below), only a packet of queries whose answers
-    // exceed the pipe (2 KiB) loses the pieces that do not fit, counted
+    // a piece of a response goes out whole or not at all (never cut inside): a host that does
+    // not read its answers loses whole pieces once the pipe (2 KiB) is full, counted
     let usb_out = &mut |b: &[u8]| {
         if state::USB_TX.free_capacity() < b.len()
             || state::write_all_now(&state::USB_TX, b) < b.len()
@@ -141,20 +140,10 @@ pub async fn compute_task(
     let mut can_rx_lost = 0u32;
     let mut packet = [0u8; state::PACKET];
     loop {
-        // USB input only once the answers to the last input have left the pipe: the host that
-        // does not read its answers is not sent more (its writes wait: `usb` flow control)
-        let usb_in = async {
-            if state::USB_TX.is_empty() {
-                state::USB_RX.receive().await
-            } else {
-                // (the 1 ms tick comes first and looks again)
-                core::future::pending().await
-            }
-        };
         let event = select5(
             block::BLOCKS.receive(),
             state::CAN_RX.receive(),
-            usb_in,
+            state::USB_RX.receive(),
             ticker.next(),
             worker::DONE.receive(),
         )

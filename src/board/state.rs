@@ -61,9 +61,9 @@ pub enum UsbEvent {
     StreamClosed,
 }
 
-/// USB events, for the application task: four, since the STM32 board's USB task waits for
-/// room (flow control) and the application task takes one each turn.
-pub static USB_RX: Channel<CriticalSectionRawMutex, UsbEvent, 4> = Channel::new();
+/// USB events, for the application task (the STM32 board's USB task waits for room: flow
+/// control; the emulated board's drops and counts, as its UART cannot hold the host back).
+pub static USB_RX: Channel<CriticalSectionRawMutex, UsbEvent, 8> = Channel::new();
 /// USB events dropped because the application task had not taken the previous ones.
 pub static USB_RX_OVERRUNS: Overruns = Overruns::new();
 /// SCPI responses and log downloads, for the command port.

@@ -8,9 +8,8 @@
 //! (the command port locks the configuration again, a pending download ends; the stream
 //! stops). On opening, what an earlier host left unread is cleared. **Flow control**: a
 //! received packet waits for room in `state::USB_RX` (the endpoint is not read meanwhile, so
-//! the host's next packet is NAKed and retried by its USB stack) — none is dropped; the
-//! application task takes the next packet only once the responses to the last ones have left
-//! `state::USB_TX` (`compute`).
+//! the host's next packet is NAKed and retried by its USB stack) — none is dropped. A response
+//! goes into `state::USB_TX` piece by piece, each whole or not at all (`compute`).
 
 use core::sync::atomic::{AtomicBool, Ordering};
 

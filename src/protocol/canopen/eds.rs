@@ -142,6 +142,12 @@ pub fn write_default(
     app: &App,
     around: (&str, &str),
 ) -> fmt::Result {
+    if e.index == 0x100A {
+        // the release: what a pod answers also names its commit (od::SW_VERSION)
+        w.write_str(around.0)?;
+        w.write_str(od::SW_RELEASE)?;
+        return w.write_str(around.1);
+    }
     let mut buf = [0u8; MAX_VALUE_LEN];
     match od::read(comm, app, e.var, &mut buf) {
         Ok(n) => {

@@ -67,8 +67,16 @@ pub const REVISION: u32 = 0x0001_0001;
 pub const DEVICE_NAME: &str = "ballpod measurement pod";
 /// Manufacturer hardware version 0x1009.
 pub const HW_VERSION: &str = "NUCLEO-G474RE rev A";
-/// Manufacturer software version 0x100A.
-pub const SW_VERSION: &str = concat!("ballpod ", env!("CARGO_PKG_VERSION"));
+/// Manufacturer software version 0x100A: `ballpod ` and [`crate::FIRMWARE_VERSION`].
+pub const SW_VERSION: &str = concat!(
+    "ballpod ",
+    env!("CARGO_PKG_VERSION"),
+    "+",
+    env!("BALLPOD_COMMIT")
+);
+/// 0x100A as the EDS gives it: the release, without the commit a pod was built from (the EDS
+/// describes the device's release, and stays the committed one across commits).
+pub const SW_RELEASE: &str = concat!("ballpod ", env!("CARGO_PKG_VERSION"));
 /// The "save" signature of 0x1010 (ASCII `s a v e`, CiA 301 §7.5.2.13).
 pub const SAVE_SIGNATURE: u32 = 0x6576_6173;
 /// The "load" signature of 0x1011 (ASCII `l o a d`, CiA 301 §7.5.2.14).

@@ -81,8 +81,8 @@ pub const LINE_CAPACITY: usize = 256;
 /// `*IDN?` response (IEEE 488.2 §10.14): manufacturer and model, then the serial number (eight
 /// hex digits, [`ScpiServer::set_serial`]; 0 while not set), then the firmware version.
 pub const IDN_MAKER_MODEL: &str = "BALLPOD,BP-1,";
-/// The firmware version of `*IDN?`.
-pub const IDN_VERSION: &str = env!("CARGO_PKG_VERSION");
+/// The firmware version of `*IDN?` ([`crate::FIRMWARE_VERSION`]).
+pub const IDN_VERSION: &str = crate::FIRMWARE_VERSION;
 
 /// Decimals of values in µm (and µrad, °C…) in responses: 0.1 nm.
 const RESPONSE_DECIMALS: u32 = 4;

@@ -89,7 +89,7 @@ const fn doc(c: Command) -> CommandDoc {
     match c {
         Idn => d(
             "*IDN?",
-            "`BALLPOD,BP-1,<serial>,<firmware version>`; the serial is the CRC-32 of the MCU's 96-bit unique ID as eight hex digits — the same number as CANopen 0x1018:4 and the USB iSerialNumber (the simulated pod: 0BA11000)",
+            "`BALLPOD,BP-1,<serial>,<firmware version>`: the version is the release and the commit the firmware was built from (`0.2.0+1a2b3c4d5e6f`, as CANopen 0x100A); the serial is the CRC-32 of the MCU's 96-bit unique ID as eight hex digits — the same number as CANopen 0x1018:4 and the USB iSerialNumber (the simulated pod: 0BA11000)",
             "*IDN?",
         ),
         Rst => d(

@@ -23,6 +23,17 @@ COMMAND = {"arm": 1, "start": 2, "stop": 3, "abort": 4, "clear": 5, "reset": 6, 
 LIVE = ["delta_l", "ssm_ex", "ssm_ey", "ssm_ez", "ecc_u", "ecc_v", "r0", "temp", "u_ssm_ex", "u_ssm_ey",
         "u_ssm_ez", "u_ecc_u", "u_ecc_v", "u_r0"]  # 0x2100:k+1
 STATUS_RUNNING, STATUS_RESULTS_READY, STATUS_IDENTIFYING = 1 << 9, 1 << 10, 1 << 13
+def firmware_version(root):
+    """The version the pod's firmware was built as: the crate's version (Cargo.toml) and the
+    commit, asked of git (`0.2.0+1a2b3c4d5e6f`; `*IDN?`, CANopen 0x100A after `ballpod `)."""
+    import re
+    import subprocess
+    version = re.search(r'^version\s*=\s*"([^"]+)"', (root / "Cargo.toml").read_text(), re.M).group(1)
+    commit = subprocess.run(["git", "rev-parse", "--short=12", "HEAD"], cwd=root, check=True,
+                            capture_output=True, text=True).stdout.strip()
+    return f"{version}+{commit}"
+
+
 # SYST:COUN? / 0x2110, in order (src/app/device.rs DEVICE_COUNTERS)
 DEVICE_COUNTERS = ["adc_blocks_lost", "block_queue_overruns", "probe_queue_overruns",
                    "thermistor_queue_overruns", "can_rx_overruns", "can_tx_overruns", "can_tx_dropped",

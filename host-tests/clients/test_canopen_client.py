@@ -5,7 +5,6 @@ the simulator's truth (the JSON line) and numpy fits of the samples the pod stre
 the pod's own output."""
 import math
 import pathlib
-import re
 import struct
 import time
 
@@ -17,7 +16,8 @@ from podlib import (ABORT_DEVICE_STATE, ABORT_INVALID_VALUE, ABORT_LENGTH, ABORT
                     ABORT_NO_SUB_INDEX, ABORT_PARAMETER_INCOMPATIBLE, ABORT_READ_ONLY, ABORT_TOO_HIGH,
                     ABORT_TOO_LOW, ABORT_WRITE_ONLY, BOOLEAN, COMMAND, LIVE, PATTERN, REAL32,
                     STATUS_RUNNING, TYPE_SIZE, UNSIGNED8, UNSIGNED16, UNSIGNED32, StreamCapture,
-                    abort_code, assert_invalid, assert_refused, configure_circle, connect, fit_run, iso230_4,
+                    abort_code, assert_invalid, assert_refused, configure_circle, connect, firmware_version,
+                    fit_run, iso230_4,
                     limacon_fit, result, run, tpdo_snapshots)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -34,9 +34,8 @@ def test_identity_heartbeat_and_nmt(pod, eds):
         assert node.sdo["Identity object"]["Revision number"].raw == od.device_information.revision_number
         name = node.sdo["Manufacturer device name"].raw  # segmented upload (> 4 bytes)
         assert name == od.device_information.product_name
-        # the software version is the crate's
-        version = re.search(r'^version\s*=\s*"([^"]+)"', (ROOT / "Cargo.toml").read_text(), re.M).group(1)
-        assert node.sdo["Manufacturer software version"].raw.endswith(version)
+        # the software version is the crate's and the commit the firmware was built from
+        assert node.sdo["Manufacturer software version"].raw == "ballpod " + firmware_version(ROOT)
         assert node.sdo["Producer heartbeat time"].raw == 1000
         # NMT transitions, seen in the heartbeat (CiA 301: 0x04 stopped, 0x05 operational, 0x7F pre-op)
         for state in ("OPERATIONAL", "STOPPED", "PRE-OPERATIONAL"):

@@ -16,7 +16,7 @@ import serial
 
 from conftest import host_binary
 from podlib import (LIVE, SCPI_ERROR, wait_results_scpi, StreamCapture, connect, fit_run, iso230_4, scpi_nan, scpi_result,
-                    wait_until, arm_then_start, RUN_TIMEOUT)
+                    wait_until, arm_then_start, RUN_TIMEOUT, firmware_version)
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 
@@ -56,10 +56,10 @@ def test_pyvisa_circle_session(pod, eds):
     rm, inst = open_visa(pod)
     q, w = inst.query, inst.write
     try:
-        # IEEE 488.2 §10.14: manufacturer, model, serial, firmware version (the crate's)
+        # IEEE 488.2 §10.14: manufacturer, model, serial, firmware version (the crate's and the
+        # commit the firmware was built from)
         idn = q("*IDN?").split(",")
-        version = re.search(r'^version\s*=\s*"([^"]+)"', (ROOT / "Cargo.toml").read_text(), re.M).group(1)
-        assert len(idn) == 4 and idn[0] == "BALLPOD" and idn[3] == version
+        assert len(idn) == 4 and idn[0] == "BALLPOD" and idn[3] == firmware_version(ROOT)
         assert error(q) == (0, "No error")
         # nothing computed yet: no answer, -230 naming the result
         w("FETC:RES? ecc_u")

@@ -1526,6 +1526,12 @@ impl Config {
                 });
             }
         }
+        self.check_counter_reach()
+    }
+
+    /// The counter-reach rule alone ([`Config::counter_reach`] of every input that reads an
+    /// axis), the first input beyond it named.
+    pub fn check_counter_reach(&self) -> Result<(), ConfigError> {
         for (i, a) in (0u8..).zip(self.axes.iter()) {
             let reach = self.counter_reach(usize::from(i));
             if a.name != AxisName::Unused && !(reach.counts_per_read <= reach.max_counts_per_read) {

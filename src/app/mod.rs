@@ -726,7 +726,7 @@ impl App {
         }
         // until the reset the counters are read at the sample rate the pod runs with: the
         // counter-reach rule holds there too
-        if let Err(e) = self.running(next).validate() {
+        if let Err(e) = self.running(next).check_counter_reach() {
             return self.refuse(CommandError::Config(e));
         }
         self.apply_config(next);

@@ -81,6 +81,9 @@ unsafe fn UART5() {
 
 #[embassy_executor::main]
 async fn main(spawner: Spawner) {
+    // Before anything is set up: the ROM bootloader, if the last run asked for it (a field
+    // update, `SYSTem:BOOTloader`).
+    board::rom_bootloader::enter_if_asked();
     let p = embassy_stm32::init(clocks());
     board::diagnostics::start_cycle_counter();
     // The watchdog first: a boot that hangs reading the flash is reset, not stuck.

@@ -66,8 +66,9 @@ def check_emulated_figures(request, info, seconds):
         EMU_FIGURES.write_text(
             "| test (emulated board) | s | heartbeat gaps: n, least / most (ms) | SDO answers: n, worst (ms) "
             "| boots (watchdog) | periods lost / blocks dropped (in runs and jobs) | stack high water (B) "
-            "| CPU while running: mean / busiest 100 ms (%) | longest turn (µs, of) |\n"
-            "|---|---|---|---|---|---|---|---|---|\n")
+            "| CPU while running: mean / busiest 100 ms (%) | longest turn (µs, of) "
+            "| periods delivered late / most owed at a tick |\n"
+            "|---|---|---|---|---|---|---|---|---|---|\n")
     gaps = f.get("heartbeat_gaps", 0)
     measured, peak = f.get("run_measured_us", 0), f.get("run_load_peak_permille", 0)
     load = f"{100 * f['run_busy_us'] / measured:.1f} / {peak / 10:.1f}" if measured else "no run"
@@ -77,7 +78,8 @@ def check_emulated_figures(request, info, seconds):
                   f"{f.get('sdo_worst_us', 0) / 1e3:.3f} | {f.get('boots')} ({f.get('watchdog_resets')}) | "
                   f"{f.get('adc_blocks_lost')} / {f.get('block_queue_overruns')} ({f.get('run_blocks_dropped')}) | "
                   f"{'not measured yet' if stack in (0, NOT_MEASURED) else stack} | {load} | "
-                  f"{f.get('longest_turn_us', 0)} ({TURN_KINDS.get(f.get('longest_turn_kind', 0), hex(f.get('longest_turn_kind', 0)))}) |\n")
+                  f"{f.get('longest_turn_us', 0)} ({TURN_KINDS.get(f.get('longest_turn_kind', 0), hex(f.get('longest_turn_kind', 0)))}) | "
+                  f"{f.get('periods_delivered_late', 0)} / {f.get('most_periods_owed', 0)} |\n")
     assert f["watchdog_resets"] == 0, f"the watchdog reset the firmware during the test: {f}"
     # a heartbeat leaves at the 1 ms tick nearest its time, and a tick waits for the application
     # task's turn in front of it: 2 ms, or the longest turn + 1 ms where a turn between runs is

@@ -77,3 +77,34 @@ def test_acquisition_whole_and_heartbeat_while_clients_talk(pod):
     assert len(gaps) >= 2, beats
     assert all(abs(g - 1000) <= 50 for g in gaps), gaps
     assert last - first >= 3000, (first, last)
+
+
+def test_syst_boot_restarts_the_firmware_into_the_rom_bootloader(pod):
+    """`SYSTem:BOOTloader` (book: Hardware, "Updating the firmware"): refused on a locked port,
+    then the firmware answers, marks retained RAM and resets; the next boot finds the mark
+    first thing (on the STM32 it jumps into ST's DFU bootloader; QEMU's board has none, so the
+    emulated board counts it and boots on, as a pod left by `dfu-util -e`)."""
+    s, q = scpi(pod["usb_port"])
+    try:
+        s.sendall(b"SYST:BOOT\n")
+        assert q("SYST:ERR?") == '-203,"Command protected;SYST:BOOT: CONF:UNL first"'
+        assert pod["figures"]().get("rom_bootloader_entries", 0) == 0
+        s.sendall(b"CONF:UNL;:SYST:BOOT\n")
+        end = time.time() + 20
+        while pod["figures"]().get("rom_bootloader_entries", 0) == 0 and time.time() < end:
+            time.sleep(0.1)
+        f = pod["figures"]()
+        assert f["rom_bootloader_entries"] == 1 and f["boots"] == 2 and f["watchdog_resets"] == 0, f
+        # an ordinary boot after it: the command port answers, locked again
+        end = time.time() + 10
+        while True:
+            try:
+                assert q("*IDN?").startswith("BALLPOD,")
+                break
+            except (OSError, AssertionError):
+                if time.time() > end:
+                    raise
+                time.sleep(0.2)
+        assert q("CONF:LOCK?") == "1"
+    finally:
+        s.close()

@@ -218,7 +218,10 @@ def test_pyserial_ssm_session_and_log_download(pod):
         log = read_block(port)
         lines = log.split("\n")
         assert lines[0].startswith("# ballpod run v") and "# pattern=SSM" in lines and "# end=DONE" in lines
+        # the firmware that made it, in the log and in the stream's header
+        assert "# firmware=" + firmware_version(ROOT) in lines
         (run,) = stream.runs(1)
+        assert run.meta["firmware"] == firmware_version(ROOT), run.meta
         rows = [l for l in lines if l and not l.startswith("#")]
         assert rows[0].split(",") == run.cols
         streamed = {int(r[0]): r for r in run.data}

@@ -38,6 +38,8 @@ pub struct RecordedRun {
     pub end: Option<RunEnd>,
     /// One sample in this many was kept (a decimated log; 1 for the stream).
     pub decimation: u32,
+    /// The firmware that made the text (`# firmware=`; `None`: not named).
+    pub firmware: Option<String>,
 }
 
 impl RecordedRun {
@@ -48,6 +50,7 @@ impl RecordedRun {
             events: Vec::new(),
             end: None,
             decimation: 1,
+            firmware: None,
         }
     }
 
@@ -73,6 +76,11 @@ impl RecordedRun {
         let _ = extra.extend_from_slice(b"# source=stream\n");
         put(&extra);
         if csv::flags_line(&mut line) {
+            put(&line);
+        }
+        if let Some(v) = &self.firmware
+            && csv::firmware_line(v, &mut line)
+        {
             put(&line);
         }
         if csv::columns_line(&self.meta, &mut line) {
@@ -225,6 +233,8 @@ struct Header {
     meta: RunMeta,
     decimation: u32,
     records: Option<usize>,
+    /// `firmware=`: the firmware that made the text.
+    firmware: Option<String>,
     /// `source=stream`: every sample of the run is a row, and the end block is complete.
     stream: bool,
 }
@@ -268,6 +278,7 @@ fn header_line(h: &mut Header, key: &str, value: &str) -> Result<(), String> {
         "decimation" => h.decimation = value.parse().map_err(|_| "not a count".to_string())?,
         "records" => h.records = Some(value.parse().map_err(|_| "not a count".to_string())?),
         "source" => h.stream = value == "stream",
+        "firmware" => h.firmware = Some(value.to_string()),
         "overwritten" | "flags" => {}
         k if k.starts_with("axis_name") || k.starts_with("axis_reversed") => {
             let (name, rest) = if let Some(r) = k.strip_prefix("axis_name") {
@@ -480,6 +491,7 @@ pub fn parse_runs(file: &Path, text: &str) -> Result<Vec<RecordedRun>, LogError>
                     },
                     decimation: 1,
                     records: None,
+                    firmware: None,
                     stream: false,
                 });
                 cols = None;
@@ -628,6 +640,7 @@ pub fn parse_runs(file: &Path, text: &str) -> Result<Vec<RecordedRun>, LogError>
             cols = Some(v);
             current = Some(RecordedRun {
                 decimation: h.decimation,
+                firmware: h.firmware.clone(),
                 ..RecordedRun::new(h.meta)
             });
             continue;

@@ -532,6 +532,42 @@ fn a_57_s_circle_at_1_khz_is_logged_at_1_khz_over_256() {
 }
 
 #[test]
+fn a_run_longer_than_the_low_time_word_keeps_its_full_times() {
+    // 80 min at 1 kHz: the records' low 32-bit µs words wrap at 71.6 min; the pod's clock runs
+    // 50 ppm fast of the nominal period, a stretch of 2 000 periods is lost (sample numbers
+    // skip it) and the run starts 3 h after boot. Every logged time must be the sample's own.
+    let m = default_meta();
+    let mut log = Box::new(SampleLog::<LOG_CAPACITY>::new());
+    log.begin_run(&m);
+    let t0_us = 3 * 3_600_000_000u64;
+    let time_of = |seq: u32| t0_us + (f64::from(seq - 7) * 1000.05) as u64;
+    let mut truth = std::collections::HashMap::new();
+    for k in 0..4_800_000u32 {
+        let seq = 7 + k + if k >= 1_000_000 { 2_000 } else { 0 };
+        let t_us = time_of(seq);
+        truth.insert(seq, t_us);
+        log.sample(&Sample {
+            seq,
+            t_us,
+            ..Sample::default()
+        });
+    }
+    let last = log.iter().last().expect("records");
+    assert!(
+        last.t_us - t0_us > (1u64 << 32),
+        "the run spans the low word's wrap"
+    );
+    for r in log.iter() {
+        assert_eq!(r.t_us, truth[&r.record.seq], "sample {}", r.record.seq);
+    }
+    // the CSV's times are the same
+    let run = replay_one(&csv_of(&*log, &m));
+    for s in run.samples() {
+        assert_eq!(s.t_us, truth[&s.seq], "sample {} in the CSV", s.seq);
+    }
+}
+
+#[test]
 fn decimation_counts_from_the_run_s_first_sample_and_lost_samples_leave_gaps() {
     // sample numbers with gaps (lost upstream): the kept ones are those a multiple of d after
     // the run's first

@@ -315,6 +315,36 @@ fn sav_0_stores_settings() {
     assert_eq!(b.app.take_settings_request(), Some(SettingsRequest::Store));
 }
 
+#[test]
+fn syst_boot_asks_for_the_rom_bootloader_on_an_unlocked_port_between_runs() {
+    let mut b = Bench::new();
+    b.rejected_with(
+        "SYST:BOOT",
+        -203,
+        "Command protected;SYST:BOOT: CONF:UNL first",
+    );
+    assert!(!b.app.take_bootloader_request());
+    b.send("CONF:UNL");
+    for state in ["ARMED", "RUNNING"] {
+        b.send("SESS:PATT PROBE;:SESS:ARM");
+        if state == "RUNNING" {
+            b.send("SESS:STAR");
+        }
+        b.rejected_with(
+            "SYST:BOOT",
+            -221,
+            "Settings conflict;not while a run is armed or running",
+        );
+        assert!(!b.app.take_bootloader_request());
+        b.send("SESS:ABOR");
+    }
+    assert_eq!(b.send("SYSTem:BOOTloader"), "");
+    assert_eq!(b.errors(), Vec::<i32>::new());
+    // asked once: the shell restarts into the bootloader
+    assert!(b.app.take_bootloader_request());
+    assert!(!b.app.take_bootloader_request());
+}
+
 // ---------------------------------------------------------------------------------------------
 // SCPI-99 error queue and syntax
 // ---------------------------------------------------------------------------------------------
@@ -1315,6 +1345,13 @@ fn log_download_is_a_definite_length_block_of_csv() {
     ] {
         assert!(csv.lines().any(|l| l == line), "{line} in\n{csv}");
     }
+    // the firmware that made it: *IDN?'s fourth field (the client tests check it against git)
+    let idn = b.send("*IDN?");
+    let version = idn.split(',').nth(3).unwrap();
+    assert!(
+        csv.lines().any(|l| l == format!("# firmware={version}")),
+        "{version} in\n{csv}"
+    );
     let rows: Vec<&str> = csv.lines().filter(|l| !l.starts_with('#')).collect();
     assert_eq!(rows.len(), 1 + 20);
     assert!(rows[0].starts_with("seq,t_s,dl_um,"), "{}", rows[0]);

@@ -229,6 +229,9 @@ fn records_decode_to_the_log_s_text_and_replay_bit_for_bit() {
     // the replay reader gives back every event, bit for bit (temperature at 0.01 °C)
     let runs = parse_runs(Path::new("stream.bin"), &text).unwrap();
     assert_eq!(runs.len(), 1);
+    // both texts name the firmware that made them, and the reader keeps it
+    assert!(text.contains(&format!("\n# firmware={}\n", ballpod::FIRMWARE_VERSION)));
+    assert_eq!(runs[0].firmware.as_deref(), Some(ballpod::FIRMWARE_VERSION));
     let got = &runs[0].events;
     assert_eq!(got.len(), ev.len());
     let columns = [1usize, 3, 4]; // X, A, Z … and C: input 0

@@ -314,16 +314,37 @@ impl<const N: usize> SampleLog<N> {
         }
     }
 
-    /// The `k`-th record, oldest first, with its full time stamp.
+    /// The `k`-th record, oldest first, with its full time stamp, µs since boot: of the times
+    /// whose low 32 bits are the record's, the one nearest to the time its sample number gives
+    /// (the first record's time plus the sample periods between them; lost periods advance
+    /// the sample number too). So a run of any length comes back exact, where the low word
+    /// alone wraps every 71.6 min. Without a header (no sample rate) the time runs forward from
+    /// the first record's, exact for 71.6 min.
     pub fn get(&self, k: usize) -> Option<LoggedRecord> {
-        let r = *self.records.get(..self.len)?.get(k)?;
-        let first_lo = self.first_t_us as u32;
-        Some(LoggedRecord {
-            t_us: self
+        let records = self.records.get(..self.len)?;
+        let r = *records.get(k)?;
+        let first_seq = records.first().map_or(r.seq, |f| f.seq);
+        let t_us = match self.period_us() {
+            Some(period_us) => {
+                let periods = u64::from(r.seq.wrapping_sub(first_seq));
+                let expected = self
+                    .first_t_us
+                    .saturating_add(periods.saturating_mul(period_us));
+                // (the low words' difference read as signed: ±35.8 min around the expected)
+                let off = i64::from(r.t_lo_us.wrapping_sub(expected as u32) as i32);
+                expected.saturating_add_signed(off)
+            }
+            None => self
                 .first_t_us
-                .wrapping_add(u64::from(r.t_lo_us.wrapping_sub(first_lo))),
-            record: r,
-        })
+                .wrapping_add(u64::from(r.t_lo_us.wrapping_sub(self.first_t_us as u32))),
+        };
+        Some(LoggedRecord { t_us, record: r })
+    }
+
+    /// The run's sample period, whole µs, from its header's sample rate (`None`: no header).
+    fn period_us(&self) -> Option<u64> {
+        let rate = self.meta.config.sample_rate_hz;
+        (self.has_meta && rate >= 1.0).then(|| (1e6 / f64::from(rate)) as u64)
     }
 
     /// The records, oldest first.

@@ -482,6 +482,8 @@ pub struct App {
     /// The armed CIRCLE run's own start and stop (`run_trigger = FEED_IN`).
     trigger: Option<ArcTrigger>,
     settings_request: Option<SettingsRequest>,
+    /// A client asked for the ROM bootloader ([`App::request_bootloader`]).
+    bootloader_request: bool,
     settings_failures: u32,
     /// Settings slots the boot found unreadable.
     settings_unreadable: u32,
@@ -553,6 +555,7 @@ impl App {
             procedure_note: None,
             trigger: None,
             settings_request: None,
+            bootloader_request: false,
             settings_failures: 0,
             settings_unreadable: 0,
             device: DeviceCounters::START,
@@ -843,6 +846,28 @@ impl App {
                 Ok(())
             }
         }
+    }
+
+    /// A client asks to update the firmware: the shell restarts the pod into the STM32's ROM
+    /// bootloader (USB DFU, `dfu-util`; book: Hardware, "Updating the firmware") once a
+    /// settings save in progress has ended. Not while a run is armed or running, nor while a
+    /// job computes (its result would be lost with the restart).
+    pub fn request_bootloader(&mut self) -> Result<(), CommandError> {
+        if !self.idle() {
+            return self.refuse(CommandError::Busy);
+        }
+        if self.job.is_some() {
+            return self.refuse(CommandError::WrongState(
+                "not while a computation runs: ask again when it has ended",
+            ));
+        }
+        self.bootloader_request = true;
+        Ok(())
+    }
+
+    /// The ROM bootloader was asked for ([`App::request_bootloader`]; taken once).
+    pub fn take_bootloader_request(&mut self) -> bool {
+        core::mem::take(&mut self.bootloader_request)
     }
 
     /// The settings the shell is asked to store (taken once).

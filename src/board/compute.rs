@@ -241,6 +241,10 @@ pub async fn compute_task(
             hand_over(Work::Store(cfg));
             storing = true;
         }
+        // a firmware update: after a save in progress, once the answer is out
+        if !storing && pod.app.take_bootloader_request() {
+            restart_into_bootloader().await;
+        }
         if let Some(slot) = jobs.take() {
             if pod.start_job(slot) {
                 hand_over(Work::Job(slot));
@@ -254,6 +258,17 @@ pub async fn compute_task(
             LONGEST_TURN_KIND.store(kind as u32, Ordering::Relaxed);
         }
     }
+}
+
+/// Lets the command port's host read what is queued (at most 100 ms), then restarts into the
+/// ROM bootloader (`rom_bootloader`).
+async fn restart_into_bootloader() -> ! {
+    let until = Instant::now() + Duration::from_millis(100);
+    while !state::USB_TX.is_empty() && Instant::now() < until {
+        embassy_time::Timer::after_millis(1).await;
+    }
+    embassy_time::Timer::after_millis(10).await;
+    super::rom_bootloader::restart_into()
 }
 
 /// What a turn of the application task handled.

@@ -20,6 +20,7 @@
 //! # records=3
 //! # overwritten=0
 //! # flags=bit0 lvdt_over_range|bit1 lvdt_open|bit2 quadrature_error|bit3 probe_event|bit4 overrun|bit5 temperature_fault|bit15 touch
+//! # firmware=0.2.0+1a2b3c4d5e6f  the firmware that made the text (crate version + commit)
 //! seq,t_s,dl_um,x_mm,y_mm,z_mm,b_deg,c_deg,temp_c,flags
 //! 12344,12.345678,0.123456791,150,0,-20,0,90,20.12,0
 //! 12345,12.346678,nan,150.000015,0.0100000007,-20,0,90,20.12,32768
@@ -208,6 +209,13 @@ pub fn meta_line(index: usize, meta: &RunMeta, line: &mut Line) -> bool {
         }
     }
     push_bytes(line, b"\n")
+}
+
+/// The line naming the firmware that made the text (`# firmware=0.2.0+1a2b3c4d5e6f`:
+/// [`crate::FIRMWARE_VERSION`] on the pod), after the flags legend.
+pub fn firmware_line(version: &str, line: &mut Line) -> bool {
+    line.clear();
+    kv(line, "firmware") && push_bytes(line, version.as_bytes()) && push_bytes(line, b"\n")
 }
 
 /// The flags legend line.

@@ -13,7 +13,7 @@ use crate::protocol::scpi::number::{push_bytes, push_u64};
 
 /// Lines between the run header and the column header: source, decimation, records,
 /// overwritten, flags legend.
-const LOG_LINES: usize = 5;
+const LOG_LINES: usize = 6;
 
 /// Position in the CSV text of a log: which line comes next. The log and the metadata must not
 /// change while a cursor is in use (the file would not be one snapshot).
@@ -59,7 +59,8 @@ fn format_line<const N: usize>(
             1 => (b"# decimation=", u64::from(log.decimation())),
             2 => (b"# records=", log.len() as u64),
             3 => (b"# overwritten=", u64::from(log.overwritten())),
-            _ => return csv::flags_line(line),
+            4 => return csv::flags_line(line),
+            _ => return csv::firmware_line(crate::FIRMWARE_VERSION, line),
         };
         return push_bytes(line, key) && push_u64(line, v) && push_bytes(line, b"\n");
     }

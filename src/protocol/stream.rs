@@ -273,6 +273,9 @@ impl<const N: usize> Recorder for SampleStream<N> {
         if csv::flags_line(&mut line) {
             self.push(&line);
         }
+        if csv::firmware_line(crate::FIRMWARE_VERSION, &mut line) {
+            self.push(&line);
+        }
         if csv::columns_line(meta, &mut line) {
             self.push(&line);
         }

@@ -66,6 +66,8 @@ fn main() -> ! {
 
 /// Boots the pod: the settings, the pod's state, the executors and their tasks.
 fn init(spawner: Spawner) {
+    // (the STM32 board's first step: the ROM bootloader if the last run asked for it)
+    board::rom_bootloader::enter_if_asked();
     board::time::start();
     let watchdog = board::watchdog::take_reset_flag();
     if watchdog {

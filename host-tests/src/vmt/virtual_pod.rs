@@ -243,6 +243,12 @@ impl<const N: usize> VirtualPod<N> {
             let ok = settings::store(&mut self.flash, &cfg).is_ok();
             pod.app.settings_stored(ok);
         }
+        if pod.app.take_bootloader_request() {
+            // (the firmware restarts into the STM32's ROM bootloader here)
+            eprintln!(
+                "SYST:BOOT: the simulated pod has no ROM bootloader to restart into; it goes on"
+            );
+        }
         pod.app.run_jobs(&mut self.jobs);
     }
 

@@ -414,6 +414,7 @@ enum Command {
     SystErr,
     SystVersion,
     SystCount,
+    SystBootloader,
     ConfUnlock,
     ConfLock,
     ConfField(Field, &'static FieldInfo),
@@ -452,8 +453,8 @@ const fn forms(c: Command) -> (bool, bool) {
         | FetchBudget | FetchCatalog | FetchTouch | FetchTouchCount | DataLogCount | DataLog => {
             (true, false)
         }
-        Rst | Cls | Wai | Sav | ConfUnlock | SessArm | SessStart | SessStop | SessAbort
-        | SessClear => (false, true),
+        Rst | Cls | Wai | Sav | SystBootloader | ConfUnlock | SessArm | SessStart | SessStop
+        | SessAbort | SessClear => (false, true),
         Opc | Ese | Sre | ConfLock | ConfField(..) | ConfAxisName(_) | AxisPosition(_)
         | SessPattern | SessDirection => (true, true),
     }
@@ -530,6 +531,7 @@ fn resolve(path: &[Mnemonic<'_>]) -> Result<Command, ScpiError> {
         [s, e, n] if s.is("SYSTem") && e.is("ERRor") && n.is("NEXT") => Command::SystErr,
         [s, v] if s.is("SYSTem") && v.is("VERSion") => Command::SystVersion,
         [s, c] if s.is("SYSTem") && c.is("COUNt") => Command::SystCount,
+        [s, b] if s.is("SYSTem") && b.is("BOOTloader") => Command::SystBootloader,
         [c, a, n] if c.is("CONFigure") && a.is_with_suffix("AXIS") && n.is("NAME") => {
             Command::ConfAxisName(axis_input(a)?)
         }
@@ -836,6 +838,11 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                 }
                 self.unlocked_for("*SAV: CONF:UNL first")?;
                 self.act(AppCommand::StoreSettings)?;
+            }
+            Command::SystBootloader => {
+                none()?;
+                self.unlocked_for("SYST:BOOT: CONF:UNL first")?;
+                self.app.request_bootloader().map_err(refusal)?;
             }
             Command::ConfUnlock => {
                 none()?;

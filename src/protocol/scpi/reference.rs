@@ -27,7 +27,7 @@ const CONF_FIELD: Command = match FIELDS.first() {
 };
 
 /// Every command the server resolves, in the reference's order.
-const ALL: [Command; 40] = {
+const ALL: [Command; 41] = {
     use Command::*;
     [
         Idn,
@@ -70,6 +70,7 @@ const ALL: [Command; 40] = {
         SystCount,
         SystErr,
         SystVersion,
+        SystBootloader,
     ]
 };
 
@@ -283,6 +284,11 @@ const fn doc(c: Command) -> CommandDoc {
             "the SCPI version, `1999.0`",
             "SYST:VERS?",
         ),
+        SystBootloader => d(
+            "SYSTem:BOOTloader",
+            "restart into the STM32's ROM bootloader to [update the firmware](../hardware.md#updating-the-firmware) with `dfu-util` (the USB ports close; the settings stay); needs `CONF:UNL`, not while a run is armed or running or a computation runs",
+            "CONF:UNL;:SYST:BOOT",
+        ),
     }
 }
 
@@ -355,7 +361,7 @@ pub const ERRORS: &[(i16, &str)] = &[
     ),
     (
         code::COMMAND_PROTECTED,
-        "a configuration write or `*SAV` before `CONFigure:UNLock`",
+        "a configuration write, `*SAV` or `SYSTem:BOOTloader` before `CONFigure:UNLock`",
     ),
     (
         code::SETTINGS_CONFLICT,

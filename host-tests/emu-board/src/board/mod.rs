@@ -14,6 +14,7 @@
 //! | IWDG | the CMSDK watchdog |
 //! | the settings pages in flash | two RAM pages with the G4's erase and double-word rules |
 //! | embassy-stm32's time driver (TIM15) | CMSDK timers 0 (time base) and 1 (alarm) |
+//! | ST's ROM bootloader (system memory) | an entry counted, the boot goes on |
 //!
 //! Priorities as on the STM32 board: probe 0, block latch 1, UARTs and timers 2, the I/O
 //! executor 3, the pod executor 4, the worker in thread mode.
@@ -26,6 +27,8 @@ pub mod compute;
 pub mod overruns;
 #[path = "../../../../src/board/probe_queue.rs"]
 pub mod probe_queue;
+#[path = "../../../../src/board/rom_bootloader.rs"]
+pub mod rom_bootloader;
 #[path = "../../../../src/board/safety.rs"]
 pub mod safety;
 #[path = "../../../../src/board/spawn.rs"]
@@ -47,6 +50,7 @@ pub mod lvdt;
 pub mod probe;
 pub mod settings;
 pub mod shared;
+pub mod system_memory;
 pub mod thermistor;
 pub mod time;
 pub mod uart;

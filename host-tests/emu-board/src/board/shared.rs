@@ -15,7 +15,7 @@ use ballpod::config::Config;
 use super::block::BLOCK_MAX;
 
 /// Words of [`Shared::figures`].
-pub const FIGURES: usize = 16;
+pub const FIGURES: usize = 19;
 
 /// What the emulated CAN adapter measures in emulated time, at the bus side of the node (the
 /// word of [`Shared::figures`] each is in).
@@ -56,12 +56,35 @@ pub enum Figure {
     /// Blocks dropped on the way to the application task while a run ran or a job computed
     /// (`load`).
     RunBlocksDropped = 15,
+    /// Sample periods delivered at a later tick than their own (the harness had not written
+    /// their records yet, or a late tick's periods waited for room in the tick queue; they keep
+    /// their times: not a loss; `lvdt::block_latch`).
+    PeriodsDeliveredLate = 16,
+    /// The most periods owed at one tick of the sample clock (QEMU delivering the timer's
+    /// interrupt late after a stall on the host, or the harness behind).
+    MostPeriodsOwed = 17,
+    /// Boots that would have entered the STM32's ROM bootloader (`SYSTem:BOOTloader`).
+    RomBootloaderEntries = 18,
 }
 
 /// Sets a figure.
 pub fn set_figure(f: Figure, v: u32) {
     if let Some(w) = region().figures.get(f as usize) {
         w.store(v, Ordering::Relaxed);
+    }
+}
+
+/// Adds `n` to a figure.
+pub fn add_figure(f: Figure, n: u32) {
+    if let Some(w) = region().figures.get(f as usize) {
+        w.fetch_add(n, Ordering::Relaxed);
+    }
+}
+
+/// Raises a figure to `v` if it is below.
+pub fn raise_figure(f: Figure, v: u32) {
+    if let Some(w) = region().figures.get(f as usize) {
+        w.fetch_max(v, Ordering::Relaxed);
     }
 }
 
@@ -78,7 +101,7 @@ pub const BASE: usize = 0x2100_0000;
 /// `magic` once the firmware has booted ("BPOD").
 pub const MAGIC: u32 = 0x444F_5042;
 /// Layout version (`version`).
-pub const VERSION: u32 = 3;
+pub const VERSION: u32 = 4;
 /// Block records in the ring (the harness keeps 48 ms of them ahead: 480 at 10 kHz).
 pub const RING: usize = 512;
 /// Bytes of the configuration's encoding the session carries.

@@ -57,8 +57,11 @@ def check_emulated_figures(request, info, seconds):
     than 10 ms, a sample period was lost (by the ADC or on the way to the application task while
     a run ran or a job computed), a watchdog look
     missed a task, the stack came within
-    2 KiB of the STM32 board's, or the CPU was busy more than half of any 100 ms while a run ran
-    (the interrupts and the application task; a job in the worker is left out)."""
+    2 KiB of the STM32 board's, or the CPU was busy more than 55 % of any 100 ms while a run ran
+    (the interrupts and the application task; a job in the worker and the windows where the
+    board caught up on periods owed after a QEMU stall are left out: board/load.rs). 55 % of the
+    emulated CPU (125 M instructions a second) is 40 % of the G474 at 170 MHz; the highest
+    sample rate's test runs at 47-49 % here."""
     f = info["figures"]()
     stack = f.get("stack_high_water_bytes", NOT_MEASURED)
     if not EMU_FIGURES.exists():
@@ -94,7 +97,7 @@ def check_emulated_figures(request, info, seconds):
     # (blocks dropped between runs, with no job, are counted in the table but lose no sample
     # of a measurement: a command burst's turn)
     assert f["run_blocks_dropped"] == 0, f
-    assert peak <= 500, f
+    assert peak <= 550, f
     if STM32_STACK_BYTES and stack != NOT_MEASURED:
         assert stack <= STM32_STACK_BYTES - 2048, stack
 

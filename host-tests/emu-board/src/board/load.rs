@@ -7,7 +7,9 @@
 //!
 //! Measured while a run runs (the session state the firmware publishes for the virtual CNC),
 //! over 100 ms windows of measured time: the totals ([`Figure::RunBusyUs`],
-//! [`Figure::RunMeasuredUs`]) and the busiest window ([`Figure::RunLoadPeakPermille`]). With
+//! [`Figure::RunMeasuredUs`]) and the busiest window ([`Figure::RunLoadPeakPermille`]) of those
+//! in which no owed sample period was delivered (`lvdt::block_latch`: after QEMU stalled on the
+//! host, the firmware catches up at 1.5 times the sample rate — work the pod never sees). With
 //! them the blocks the application task dropped while a run ran or a job computed
 //! ([`Figure::RunBlocksDropped`]: `block_queue_overruns` grown in such a stretch).
 //! Another board's sleep has no such hook: this is the emulated board's figure.
@@ -34,6 +36,8 @@ struct State {
     work: u32,
     /// [`BLOCK_QUEUE_OVERRUNS`] then.
     dropped: u32,
+    /// [`Figure::PeriodsDeliveredLate`] when the window began.
+    late: u32,
     /// The window so far: busy and measured µs.
     busy_us: u64,
     measured_us: u64,
@@ -59,6 +63,7 @@ pub fn sleep() {
             woke_us,
             work,
             dropped,
+            late: figure(Figure::PeriodsDeliveredLate),
             busy_us: 0,
             measured_us: 0,
         });
@@ -80,9 +85,11 @@ pub fn sleep() {
                 add(Figure::RunBusyUs, s.busy_us);
                 add(Figure::RunMeasuredUs, s.measured_us);
                 let permille = (s.busy_us * 1000 / s.measured_us) as u32;
-                if permille > figure(Figure::RunLoadPeakPermille) {
+                let late = figure(Figure::PeriodsDeliveredLate);
+                if late == s.late && permille > figure(Figure::RunLoadPeakPermille) {
                     set_figure(Figure::RunLoadPeakPermille, permille);
                 }
+                s.late = late;
                 s.busy_us = 0;
                 s.measured_us = 0;
             }

@@ -184,7 +184,19 @@ pub async fn lvdt_task(len: usize, period_us: u32) {
     let len = len.min(BLOCK_MAX);
     loop {
         super::safety::check_in(super::safety::Task::Lvdt);
-        let tick = TICKS.receive().await;
+        // A block, or a check-in every `CHECK_IN_MS` without one (as CAN and USB do): the
+        // watchdog watches that the task runs; on the STM32 a block comes every half period,
+        // here the harness on the host can stall (owed periods, `block_latch`) and the task
+        // would miss a look for want of input.
+        let tick = match embassy_futures::select::select(
+            TICKS.receive(),
+            embassy_time::Timer::after_millis(super::safety::CHECK_IN_MS),
+        )
+        .await
+        {
+            embassy_futures::select::Either::First(tick) => tick,
+            embassy_futures::select::Either::Second(()) => continue,
+        };
         let rec = shared::record(tick.record);
         // SAFETY: the record is the harness's until the firmware marks it taken (below): the
         // harness writes at most `RING` records ahead of `taken`.

@@ -244,8 +244,8 @@ impl Region {
     /// the blocks dropped while a run ran or a job computed; the periods delivered at a later
     /// tick than their own, the most periods owed at one tick (QEMU's stalls on the host); the
     /// boots that would have entered the ROM bootloader.
-    pub fn figures(&self) -> io::Result<[u32; 19]> {
-        let mut f = [0u32; 19];
+    pub fn figures(&self) -> io::Result<[u32; SharedLayout::FIGURES as usize]> {
+        let mut f = [0u32; SharedLayout::FIGURES as usize];
         for (k, v) in f.iter_mut().enumerate() {
             *v = self.u32_at(SharedLayout::FIGURES_AT + 4 * k as u64)?;
         }

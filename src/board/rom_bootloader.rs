@@ -13,17 +13,15 @@
 use core::cell::UnsafeCell;
 use core::mem::MaybeUninit;
 
+use super::safety::Retained;
+
 /// The mark: "BOOT LOAD".
 const MARK: u32 = 0xB007_10AD;
 
-/// Retained RAM: `.uninit` is NOLOAD and not zeroed by cortex-m-rt, so it survives a reset.
-struct Retained(UnsafeCell<MaybeUninit<u32>>);
-// SAFETY: written only by `restart_into` (interrupts disabled, the reset follows) and by
-// `enter_if_asked` at boot before any task or interrupt runs.
-unsafe impl Sync for Retained {}
-
+/// Written by `restart_into` (interrupts disabled, the reset follows), read and cleared by
+/// `enter_if_asked` at boot before any task or interrupt runs.
 #[unsafe(link_section = ".uninit.ballpod_bootloader")]
-static ASKED: Retained = Retained(UnsafeCell::new(MaybeUninit::uninit()));
+static ASKED: Retained<u32> = Retained(UnsafeCell::new(MaybeUninit::uninit()));
 
 /// Marks retained RAM and resets: the next boot enters the ROM bootloader.
 pub fn restart_into() -> ! {

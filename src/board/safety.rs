@@ -127,14 +127,16 @@ struct PanicRecord {
     text: [u8; PANIC_TEXT_BYTES],
 }
 
-/// Retained RAM: `.uninit` is NOLOAD and not zeroed by cortex-m-rt, so it survives a reset.
-struct Retained(UnsafeCell<MaybeUninit<PanicRecord>>);
-// SAFETY: written only by the panic handler (interrupts disabled, nothing runs after it) and
-// read once at boot before any task or interrupt runs.
-unsafe impl Sync for Retained {}
+/// Retained RAM: in `.uninit`, NOLOAD and not zeroed by cortex-m-rt, a value survives a reset
+/// (the panic record here, the ROM bootloader's mark in `rom_bootloader`). Every bit pattern
+/// must be a valid `T`: after a power-on the bytes are arbitrary.
+pub struct Retained<T>(pub UnsafeCell<MaybeUninit<T>>);
+// SAFETY: each static is written only just before a reset (interrupts disabled, nothing runs
+// after it) and read at boot before any task or interrupt runs.
+unsafe impl<T> Sync for Retained<T> {}
 
 #[unsafe(link_section = ".uninit.ballpod_panic")]
-static PANIC_RECORD: Retained = Retained(UnsafeCell::new(MaybeUninit::uninit()));
+static PANIC_RECORD: Retained<PanicRecord> = Retained(UnsafeCell::new(MaybeUninit::uninit()));
 
 /// A bounded writer into the panic text (drops what does not fit).
 struct Bounded<'a> {

@@ -38,6 +38,9 @@ struct Tick {
 
 /// Sample clock → LVDT task (64 ms at 1 kHz, 6.4 ms at 10 kHz).
 static TICKS: Channel<CriticalSectionRawMutex, Tick, TICKS_HELD> = Channel::new();
+/// A tick delivered nothing (the harness is behind): wakes the LVDT task to check in.
+static STARVED: embassy_sync::signal::Signal<CriticalSectionRawMutex, ()> =
+    embassy_sync::signal::Signal::new();
 /// Periods the tick queue holds.
 const TICKS_HELD: usize = 64;
 /// Time owed before the oldest period is given up as lost, µs (the harness keeps 48 ms of
@@ -133,6 +136,9 @@ pub extern "C" fn block_latch() {
         next_t += period;
         owed -= 1;
     }
+    if sent == 0 {
+        STARVED.signal(());
+    }
     SINCE_CATCH_UP.store(
         if sent > 1 {
             0
@@ -184,16 +190,10 @@ pub async fn lvdt_task(len: usize, period_us: u32) {
     let len = len.min(BLOCK_MAX);
     loop {
         super::safety::check_in(super::safety::Task::Lvdt);
-        // A block, or a check-in every `CHECK_IN_MS` without one (as CAN and USB do): the
-        // watchdog watches that the task runs; on the STM32 a block comes every half period,
-        // here the harness on the host can stall (owed periods, `block_latch`) and the task
-        // would miss a look for want of input.
-        let tick = match embassy_futures::select::select(
-            TICKS.receive(),
-            embassy_time::Timer::after_millis(super::safety::CHECK_IN_MS),
-        )
-        .await
-        {
+        // A block, or a tick that had none to deliver (`STARVED`): the watchdog watches that
+        // the task runs; on the STM32 a block comes every half period, here the harness on the
+        // host can stall (owed periods) and the task would miss a look for want of input.
+        let tick = match embassy_futures::select::select(TICKS.receive(), STARVED.wait()).await {
             embassy_futures::select::Either::First(tick) => tick,
             embassy_futures::select::Either::Second(()) => continue,
         };

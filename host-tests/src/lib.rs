@@ -14,6 +14,7 @@ pub mod forward_seed002;
 pub mod forward_seed003;
 pub mod forward_seed004;
 pub mod forward_siemens_carr;
+pub mod fw_image;
 pub mod gum;
 pub mod lvdt_model;
 pub mod ncgen;

@@ -26,7 +26,7 @@
 //!   but the harness goes on at the first boot's rate.
 //! - `--figures FILE`: what the board measures of itself in emulated time (its CAN adapter's
 //!   SDO answer times and heartbeat gaps, the boots) with the records and `positioned`, a JSON
-//!   object rewritten as it changes.
+//!   object rewritten as it changes (at most every 100 ms while only a run's CPU time grows).
 
 use std::fs::{File, OpenOptions};
 use std::io::{self, Write};
@@ -94,6 +94,8 @@ impl SharedLayout {
     const RUN_AT: u64 = 28;
     const FIGURES_AT: u64 = 32;
     const FIGURES: u64 = 19;
+    /// Figures `RunBusyUs` and `RunMeasuredUs` (board/shared.rs `Figure`): a run's CPU time.
+    const RUN_CPU_FIGURES: [usize; 2] = [10, 11];
     const CONFIG_LEN_AT: u64 = Self::FIGURES_AT + 4 * Self::FIGURES;
     const CONFIG_AT: u64 = Self::CONFIG_LEN_AT + 4;
     const CONFIG_BYTES: u64 = 512;
@@ -320,7 +322,8 @@ impl Drop for Region {
 /// self-triggered circle (`run_trigger = FEED_IN`) gets its whole part program at once and
 /// the pod starts and ends the run itself. Between runs the machine stands where it stopped.
 ///
-/// The harness writes records ahead of the firmware and sees the session a few periods late:
+/// The harness writes records ahead of the firmware and sees the session a few periods late,
+/// and it plans a run's motion beside its record loop (10–30 ms; the machine rests meanwhile):
 /// a run started in the same turn as it was armed (`SESS:ARM;STAR`) starts where the machine
 /// stands, and the machine is put at the start a few periods into it. A client acting as the
 /// CNC therefore starts a run once the machine is at its start, as a CNC starts a run after
@@ -337,6 +340,9 @@ pub struct VirtualCnc {
     motion: Motion,
     /// The run the motion is planned for.
     planned: Option<u32>,
+    /// The plan being made for it (`Motion::plan_run` takes 10–30 ms, on a loaded host more
+    /// than the records written ahead of the firmware last).
+    planning: Option<std::thread::JoinHandle<Result<Motion, String>>>,
     /// The motion is playing (the run runs, or a self-triggered program).
     playing: bool,
     self_triggered: bool,
@@ -370,6 +376,7 @@ impl VirtualCnc {
             dl_um: 0.0,
             motion: Motion::none(),
             planned: None,
+            planning: None,
             playing: false,
             self_triggered: false,
             ended: false,
@@ -388,12 +395,15 @@ impl VirtualCnc {
             None => {
                 self.planned = None;
                 self.playing = false;
+                // (a plan still being made is left to finish alone)
+                self.planning = None;
             }
             Some(s) if self.planned != Some(s.run) => {
                 self.planned = Some(s.run);
                 self.ended = false;
                 let cfg = s.config.unwrap_or_default();
                 sensors.set_bar_length(f64::from(cfg.bar_length_mm));
+                let pattern_code = s.pattern;
                 let pattern = Pattern::from_u8(s.pattern);
                 let direction = if s.direction == Direction::Cw as u8 {
                     Direction::Cw
@@ -403,38 +413,55 @@ impl VirtualCnc {
                 self.self_triggered = s.state == ARMED
                     && pattern == Some(Pattern::Circle)
                     && cfg.setup.run_trigger == RunTrigger::FeedIn;
-                let planned = match pattern {
-                    Some(p) => Motion::plan_run(
-                        &self.truth,
-                        &cfg,
-                        p,
-                        direction,
-                        self.self_triggered,
-                        self.probe_runs,
-                    ),
-                    None => Err(format!("pattern {} unknown", s.pattern)),
-                };
-                match planned {
-                    Ok(m) => {
-                        if pattern == Some(Pattern::Probe) {
-                            self.probe_runs += 1;
-                        }
-                        if let Some((start, dl_um)) = m.start_step() {
-                            self.at = start;
-                            self.dl_um = dl_um;
-                        }
-                        self.motion = m;
-                    }
-                    Err(e) => {
-                        eprintln!("emu: the virtual CNC has no program for run {}: {e}", s.run);
-                        self.motion = Motion::none();
-                    }
+                let (truth, probe_runs, self_triggered) =
+                    (self.truth, self.probe_runs, self.self_triggered);
+                let run = s.run;
+                if pattern == Some(Pattern::Probe) {
+                    self.probe_runs += 1;
                 }
-                // homed where the program starts (or, without one, where the machine stands)
-                homed = true;
-                self.playing = self.self_triggered || s.state == RUNNING;
+                // planned beside the record loop, which goes on writing the machine at rest
+                self.planning = Some(std::thread::spawn(move || {
+                    let planning = Instant::now();
+                    let planned = match pattern {
+                        Some(p) => {
+                            Motion::plan_run(&truth, &cfg, p, direction, self_triggered, probe_runs)
+                        }
+                        None => Err(format!("pattern {pattern_code} unknown")),
+                    };
+                    eprintln!(
+                        "emu: the virtual CNC planned run {run} in {:.1} ms",
+                        planning.elapsed().as_secs_f64() * 1e3
+                    );
+                    planned.map_err(|e| format!("no program for run {run}: {e}"))
+                }));
+                self.playing = false;
             }
-            Some(s) => self.playing |= s.state == RUNNING,
+            Some(s) => self.playing |= self.planning.is_none() && s.state == RUNNING,
+        }
+        // a plan that has come in: the machine is put at its start (homed there, or where it
+        // stands without one) and plays if the run runs or triggers itself
+        if let (Some(s), Some(p)) = (active, &self.planning)
+            && p.is_finished()
+            && let Some(planning) = self.planning.take()
+        {
+            let planned = planning
+                .join()
+                .unwrap_or_else(|_| Err("the planning thread panicked".into()));
+            match planned {
+                Ok(m) => {
+                    if let Some((start, dl_um)) = m.start_step() {
+                        self.at = start;
+                        self.dl_um = dl_um;
+                    }
+                    self.motion = m;
+                }
+                Err(e) => {
+                    eprintln!("emu: the virtual CNC has {e}");
+                    self.motion = Motion::none();
+                }
+            }
+            homed = true;
+            self.playing = self.self_triggered || s.state == RUNNING;
         }
         let mut step = CncStep {
             dl_um: self.dl_um,
@@ -465,6 +492,22 @@ impl VirtualCnc {
         }
         step
     }
+}
+
+/// How often the figures file is rewritten while only the steadily growing CPU-time figures
+/// change (every loop while a run runs: 2 000 writes a second competed with QEMU for the host).
+const FIGURES_EVERY: Duration = Duration::from_millis(100);
+
+/// The figures with the steadily growing ones (a run's busy and measured µs) left out: any
+/// other change — a count, a worst case, a boot, a positioned program — is written at once.
+type Figures = ([u32; SharedLayout::FIGURES as usize], u32, u32);
+fn steady_masked((mut f, boots, positioned): Figures) -> Figures {
+    for i in SharedLayout::RUN_CPU_FIGURES {
+        if let Some(v) = f.get_mut(i) {
+            *v = 0;
+        }
+    }
+    (f, boots, positioned)
 }
 
 /// A free loopback port (for QEMU's TCP servers, which cannot report the one they took).
@@ -557,6 +600,7 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
     let mut last_boots = region.boots()?.unwrap_or(0);
     let mut session: Option<PublishedSession> = None;
     let mut last_figures = None;
+    let mut last_written = Instant::now();
     // the record that homed the machine for the latest program, until the firmware takes it
     let mut homing: Option<u32> = None;
     let mut positioned = 0u32;
@@ -611,6 +655,8 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
         let figures = (region.figures()?, region.boots()?.unwrap_or(0), positioned);
         if let Some(path) = &opts.figures
             && last_figures != Some(figures)
+            && (last_written.elapsed() >= FIGURES_EVERY
+                || last_figures.map(steady_masked) != Some(steady_masked(figures)))
         {
             let (
                 [
@@ -646,6 +692,7 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
             std::fs::write(&tmp, json)?;
             std::fs::rename(&tmp, path)?;
             last_figures = Some(figures);
+            last_written = Instant::now();
         }
         std::thread::sleep(Duration::from_micros(500));
     }

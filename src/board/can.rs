@@ -14,6 +14,13 @@
 //! bus-off and error passive however brief ([`BUS_OFF_ENTRIES`], [`ERROR_PASSIVE_ENTRIES`]; a
 //! bus-off that recovered between two looks of the task is still reported, entry and
 //! recovery).
+//!
+//! **Who empties the FIFO**: [`can_task`], on the I/O interrupt executor (above the application
+//! and the worker; woken by embassy's IT0 handler), not IT0 itself. embassy-stm32's buffered
+//! mode would drain the FIFO in IT0, but into a channel whose overflow it drops uncounted; with
+//! the filters passing only the node's own frames (a master waits for each SDO answer; SYNC at
+//! most every millisecond), three frames in the FIFO outlast any turn of this task, and a frame
+//! lost anyway is counted by the hardware's RF0L flag above.
 
 use core::num::{NonZeroU8, NonZeroU16};
 use core::sync::atomic::{AtomicU32, Ordering};

@@ -53,7 +53,9 @@ def check_emulated_figures(request, info, seconds):
     time (its CAN adapter's SDO answer times and heartbeat gaps, the boots, the device counters
     the application task last set), one row of EMU_FIGURES; fails the test if the watchdog reset
     the firmware (a lock-up ends QEMU and the test with it), a heartbeat came more than 2 ms off
-    its 1000 ms (or the longest turn + 1 ms, where a turn was longer), an SDO answer took longer
+    its 1000 ms (or the longest turn + 1 ms, where a turn was longer; the gaps around a QEMU stall
+    on the host, which the sample clock's late tick shows, are left out and counted), an SDO
+    answer took longer
     than 10 ms, a sample period was lost (by the ADC or on the way to the application task while
     a run ran or a job computed), a watchdog look
     missed a task, the stack came within
@@ -67,7 +69,7 @@ def check_emulated_figures(request, info, seconds):
     if not EMU_FIGURES.exists():
         EMU_FIGURES.parent.mkdir(exist_ok=True)
         EMU_FIGURES.write_text(
-            "| test (emulated board) | s | heartbeat gaps: n, least / most (ms) | SDO answers: n, worst (ms) "
+            "| test (emulated board) | s | heartbeat gaps: n (left out), least / most (ms) | SDO answers: n, worst (ms) "
             "| boots (watchdog) | periods lost / blocks dropped (in runs and jobs) | stack high water (B) "
             "| CPU while running: mean / busiest 100 ms (%) | longest turn (µs, of) "
             "| periods delivered late / most owed at a tick |\n"
@@ -76,7 +78,8 @@ def check_emulated_figures(request, info, seconds):
     measured, peak = f.get("run_measured_us", 0), f.get("run_load_peak_permille", 0)
     load = f"{100 * f['run_busy_us'] / measured:.1f} / {peak / 10:.1f}" if measured else "no run"
     with EMU_FIGURES.open("a") as out:
-        out.write(f"| {request.node.name} | {seconds:.0f} | {gaps}, {f.get('heartbeat_gap_min_us', 0) / 1e3:.3f} / "
+        out.write(f"| {request.node.name} | {seconds:.0f} | {gaps} ({f.get('heartbeat_gaps_left_out', 0)}), "
+                  f"{f.get('heartbeat_gap_min_us', 0) / 1e3:.3f} / "
                   f"{f.get('heartbeat_gap_max_us', 0) / 1e3:.3f} | {f.get('sdo_answers', 0)}, "
                   f"{f.get('sdo_worst_us', 0) / 1e3:.3f} | {f.get('boots')} ({f.get('watchdog_resets')}) | "
                   f"{f.get('adc_blocks_lost')} / {f.get('block_queue_overruns')} ({f.get('run_blocks_dropped')}) | "

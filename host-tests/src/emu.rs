@@ -83,7 +83,7 @@ impl SharedLayout {
     /// "BPOD" once the firmware has booted.
     pub const MAGIC: u32 = 0x444F_5042;
     /// Layout version.
-    pub const VERSION: u32 = 4;
+    pub const VERSION: u32 = 5;
     const MAGIC_AT: u64 = 0;
     const VERSION_AT: u64 = 4;
     const BOOTS_AT: u64 = 8;
@@ -93,7 +93,7 @@ impl SharedLayout {
     const SESSION_AT: u64 = 24;
     const RUN_AT: u64 = 28;
     const FIGURES_AT: u64 = 32;
-    const FIGURES: u64 = 19;
+    const FIGURES: u64 = 20;
     /// Figures `RunBusyUs` and `RunMeasuredUs` (board/shared.rs `Figure`): a run's CPU time.
     const RUN_CPU_FIGURES: [usize; 2] = [10, 11];
     const CONFIG_LEN_AT: u64 = Self::FIGURES_AT + 4 * Self::FIGURES;
@@ -679,13 +679,14 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
                     delivered_late,
                     most_owed,
                     rom_bootloader,
+                    heartbeat_gaps_left_out,
                 ],
                 boots,
                 positioned,
             ) = figures;
             let (written, taken) = region.counts()?;
             let json = format!(
-                "{{\"sdo_answers\":{answers},\"sdo_worst_us\":{worst},\"heartbeat_gaps\":{gaps},\"heartbeat_gap_min_us\":{gap_min},\"heartbeat_gap_max_us\":{gap_max},\"boots\":{boots},\"watchdog_resets\":{watchdog},\"records_written\":{written},\"records_taken\":{taken},\"adc_blocks_lost\":{adc_lost},\"block_queue_overruns\":{queue},\"watchdog_misses\":{misses},\"stack_high_water_bytes\":{stack},\"run_busy_us\":{run_busy},\"run_measured_us\":{run_measured},\"run_load_peak_permille\":{run_peak},\"longest_turn_us\":{longest_turn},\"longest_turn_kind\":{longest_turn_kind},\"run_blocks_dropped\":{run_dropped},\"periods_delivered_late\":{delivered_late},\"most_periods_owed\":{most_owed},\"rom_bootloader_entries\":{rom_bootloader},\"positioned\":{positioned}}}\n"
+                "{{\"sdo_answers\":{answers},\"sdo_worst_us\":{worst},\"heartbeat_gaps\":{gaps},\"heartbeat_gap_min_us\":{gap_min},\"heartbeat_gap_max_us\":{gap_max},\"boots\":{boots},\"watchdog_resets\":{watchdog},\"records_written\":{written},\"records_taken\":{taken},\"adc_blocks_lost\":{adc_lost},\"block_queue_overruns\":{queue},\"watchdog_misses\":{misses},\"stack_high_water_bytes\":{stack},\"run_busy_us\":{run_busy},\"run_measured_us\":{run_measured},\"run_load_peak_permille\":{run_peak},\"longest_turn_us\":{longest_turn},\"longest_turn_kind\":{longest_turn_kind},\"run_blocks_dropped\":{run_dropped},\"periods_delivered_late\":{delivered_late},\"most_periods_owed\":{most_owed},\"rom_bootloader_entries\":{rom_bootloader},\"heartbeat_gaps_left_out\":{heartbeat_gaps_left_out},\"positioned\":{positioned}}}\n"
             );
             // written whole, then renamed over the old (a reader never sees half of it)
             let tmp = path.with_extension("tmp");

@@ -8,7 +8,8 @@
 //!
 //! As the bus side of the node it measures, in emulated time, what a CAN analyser on the bus
 //! would: each SDO request's answer time (its frame received → the answer's frame sent) and
-//! the time between heartbeats ([`BusFigures`], in the shared region's figures).
+//! the time between heartbeats ([`BusFigures`], in the shared region's figures), leaving out
+//! the gaps a stall of QEMU on the host made late (the sample clock's late tick shows it).
 
 use embassy_futures::select::{Either, select};
 
@@ -68,6 +69,13 @@ pub async fn can_task(bit_rate: ballpod::config::CanBitrate) {
     }
 }
 
+/// A late tick of the sample clock this late or later (a QEMU stall on the host) leaves the
+/// heartbeat gaps around it out, µs: half the 1 ms granularity of the heartbeat's own tick.
+const STALL_LEFT_OUT_US: u32 = 500;
+/// ... if the heartbeat went out at most this long after that tick, µs: its due time fell in
+/// the stall, and it waited for the tick turn after it (a turn in front, the 1 ms tick).
+const STALL_REACH_US: u64 = 3_000;
+
 /// What the bus side measures (emulated time, µs).
 #[derive(Default)]
 struct BusFigures {
@@ -81,6 +89,9 @@ struct BusFigures {
     heartbeats: u32,
     gap_min_us: u32,
     gap_max_us: u32,
+    /// The last heartbeat came after a late tick of the sample clock (a QEMU stall).
+    stalled_before: bool,
+    left_out: u32,
 }
 
 impl BusFigures {
@@ -93,6 +104,7 @@ impl BusFigures {
             heartbeats: figure(Figure::Heartbeats),
             gap_min_us: figure(Figure::HeartbeatGapMinUs),
             gap_max_us: figure(Figure::HeartbeatGapMaxUs),
+            left_out: figure(Figure::HeartbeatGapsLeftOut),
             ..Self::default()
         }
     }
@@ -121,12 +133,21 @@ impl BusFigures {
             set_figure(Figure::SdoWorstUs, self.sdo_worst_us);
         }
         if f.id & 0x780 == 0x700 {
+            // a stall of QEMU on the host that ended just before this heartbeat made it late,
+            // and so the gap before it long and the gap after it short: both are left out
+            let (stall_end, stall_us) = super::lvdt::last_stall();
+            let stalled =
+                stall_us >= STALL_LEFT_OUT_US && now.saturating_sub(stall_end) <= STALL_REACH_US;
+            let stalled_before = core::mem::replace(&mut self.stalled_before, stalled);
             if f.data[0] == 0 {
                 // boot-up: the heartbeat starts again
                 self.heartbeat_us = None;
                 return;
             }
-            if let Some(t) = self.heartbeat_us {
+            if self.heartbeat_us.is_some() && (stalled || stalled_before) {
+                self.left_out = self.left_out.wrapping_add(1);
+                set_figure(Figure::HeartbeatGapsLeftOut, self.left_out);
+            } else if let Some(t) = self.heartbeat_us {
                 let gap = us(t);
                 self.gap_min_us = if self.heartbeats == 0 {
                     gap

@@ -52,6 +52,17 @@ const OWED_MAX_US: u64 = 1_000_000;
 const CATCH_UP_EVERY: u32 = 2;
 /// Ticks since the last owed period went.
 static SINCE_CATCH_UP: AtomicU32 = AtomicU32::new(0);
+/// The sample clock's latest late tick: when it came and how late, µs (QEMU stalled on the
+/// host and its timers fired late in emulated time; 0, 0: none yet).
+static LAST_STALL: critical_section::Mutex<core::cell::Cell<(u64, u32)>> =
+    critical_section::Mutex::new(core::cell::Cell::new((0, 0)));
+
+/// When the sample clock's latest late tick came and how late it was, µs. A stall of QEMU on
+/// the host delays every emulated timer alike: the CAN adapter leaves out the heartbeat gaps
+/// it made late (`can::BusFigures`).
+pub fn last_stall() -> (u64, u32) {
+    critical_section::with(|cs| LAST_STALL.borrow(cs).get())
+}
 /// The record the next period takes.
 static NEXT: AtomicU32 = AtomicU32::new(0);
 /// The sample period, µs.
@@ -99,8 +110,15 @@ pub extern "C" fn block_latch() {
         (next_t, due_t) = (now, now);
     }
     let carried = (due_t - next_t) / period;
+    let mut fell_due = 0u64;
     while due_t <= now + period / 2 {
         due_t += period;
+        fell_due += 1;
+    }
+    if fell_due > 1 {
+        // this tick came (fell_due - 1) periods late
+        let late_us = u32::try_from((fell_due - 1) * period).unwrap_or(u32::MAX);
+        critical_section::with(|cs| LAST_STALL.borrow(cs).set((now, late_us)));
     }
     let mut owed = (due_t - next_t) / period;
     shared::raise_figure(shared::Figure::MostPeriodsOwed, owed as u32);

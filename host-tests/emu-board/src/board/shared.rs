@@ -15,7 +15,7 @@ use ballpod::config::Config;
 use super::block::BLOCK_MAX;
 
 /// Words of [`Shared::figures`].
-pub const FIGURES: usize = 19;
+pub const FIGURES: usize = 20;
 
 /// What the emulated CAN adapter measures in emulated time, at the bus side of the node (the
 /// word of [`Shared::figures`] each is in).
@@ -65,6 +65,11 @@ pub enum Figure {
     MostPeriodsOwed = 17,
     /// Boots that would have entered the STM32's ROM bootloader (`SYSTem:BOOTloader`).
     RomBootloaderEntries = 18,
+    /// Heartbeat gaps left out of [`Figure::HeartbeatGapMinUs`] and
+    /// [`Figure::HeartbeatGapMaxUs`]: the heartbeat between them went out just after a late
+    /// tick of the sample clock (QEMU stalled on the host, its timers late in emulated time;
+    /// `lvdt::last_stall`).
+    HeartbeatGapsLeftOut = 19,
 }
 
 /// Sets a figure.
@@ -101,7 +106,7 @@ pub const BASE: usize = 0x2100_0000;
 /// `magic` once the firmware has booted ("BPOD").
 pub const MAGIC: u32 = 0x444F_5042;
 /// Layout version (`version`).
-pub const VERSION: u32 = 4;
+pub const VERSION: u32 = 5;
 /// Block records in the ring (the harness keeps 48 ms of them ahead: 480 at 10 kHz).
 pub const RING: usize = 512;
 /// Bytes of the configuration's encoding the session carries.

@@ -58,7 +58,55 @@ pub fn pages() -> Vec<Page> {
             file: "session-m-codes.md",
             text: session_m_codes(),
         },
+        Page {
+            file: "module-layers.md",
+            text: module_layers(),
+        },
     ]
+}
+
+/// The core's layers (`layers::LAYERS`) with who imports whom, read from the sources.
+fn module_layers() -> String {
+    use crate::layers::{LAYERS, core_imports, importers};
+    let src = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../src"));
+    let imports = core_imports(src).unwrap_or_default();
+    let mut s = String::new();
+    let _ = writeln!(s, "{GENERATED}\n");
+    let _ = writeln!(s, "# Module layers\n");
+    let _ = writeln!(
+        s,
+        "The modules of the core (`src/`) from the bottom up. A module imports only from lower \
+         levels, and exactly what its row says: `host-tests/tests/layers.rs` reads the sources \
+         (`crate::` paths in code) and fails otherwise, so there is no import circle and no \
+         arrow up. The table is `ballpod_host::layers::LAYERS`; the firmware (`src/main.rs`, \
+         `src/board/`) and the host crate stand on top of every row. \
+         [Architecture](../architecture.md) says what each module holds.\n"
+    );
+    let _ = writeln!(s, "| level | module | its job | imports | imported by |");
+    let _ = writeln!(s, "|---|---|---|---|---|");
+    let list = |v: &[String]| {
+        if v.is_empty() {
+            "–".to_string()
+        } else {
+            v.iter()
+                .map(|m| format!("`{m}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        }
+    };
+    for row in LAYERS {
+        let own: Vec<String> = row.imports.iter().map(|m| m.to_string()).collect();
+        let _ = writeln!(
+            s,
+            "| {} | `{}` | {} | {} | {} |",
+            row.level,
+            row.module,
+            row.job,
+            list(&own),
+            list(&importers(&imports, row.module))
+        );
+    }
+    s
 }
 
 /// The M-codes a program with its session carries (`ncgen circle --session`), from

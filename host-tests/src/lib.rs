@@ -16,6 +16,7 @@ pub mod forward_seed004;
 pub mod forward_siemens_carr;
 pub mod fw_image;
 pub mod gum;
+pub mod layers;
 pub mod lvdt_model;
 pub mod ncgen;
 pub mod oracle;

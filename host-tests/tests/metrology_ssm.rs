@@ -2,8 +2,9 @@
 //! models of the ball bar: station mode, dwell detection, streaming mode, bad input.
 
 use ballpod::acquisition::{Sample, SampleFlags};
-use ballpod::app::ssm::{FIXED_POSITION_U_UM, SsmMeasurement, TwoStep, U_SOCKET_UM};
+use ballpod::app::ssm::{FIXED_POSITION_U_UM, SsmMeasurement, TwoStep};
 use ballpod::app::{Contributor, ResultId, Results};
+use ballpod::config::U_SOCKET_UM;
 use ballpod::config::{TestSetup, TwoStepMachine};
 use ballpod::metrology::bar_budget::BarBudget;
 use ballpod::metrology::ssm::station::{

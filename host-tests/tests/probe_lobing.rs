@@ -11,7 +11,7 @@
 use std::collections::BTreeMap;
 
 use ballpod::app::Contributor;
-use ballpod::identify::multitasking::lobing::U_LOBING_UM;
+use ballpod::config::U_LOBING_UM;
 use ballpod_host::rng::Rng;
 use ballpod_host::scenario::{self, Scenario};
 

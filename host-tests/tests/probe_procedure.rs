@@ -4,7 +4,7 @@
 //! HTM model (`vmt::motion::probe_target`) and touched at sensor level (`vmt::probe_rig`); the
 //! identified values are held against the machine's deviations.
 
-use ballpod::app::{CommandError, ResultId};
+use ballpod::app::{ProcedureNote, ResultId};
 use ballpod::config::Field;
 use ballpod::identify::multitasking::urad_to_arcsec;
 use ballpod_host::vmt::machine::Machine002;
@@ -92,7 +92,7 @@ fn a_b_axis_sphere_without_a_tool_length_names_the_field() {
     probe(&mut rig, f64::NAN, 5); // B = 90°
     assert_eq!(
         rig.pod.app.procedure_note(),
-        Some(CommandError::Missing(Field::ProbeLengthMm))
+        Some(ProcedureNote::Missing(Field::ProbeLengthMm))
     );
     assert!(!rig.pod.app.result(ResultId::ProbeDxBt).valid);
     // the sphere itself is reported (in axis positions: no tool length to take off)

@@ -1,7 +1,6 @@
 //! The calibrated sample: what acquisition hands to metrology, once per sample period.
 
-/// Number of encoder axes the pod reads (X, Y, Z and two rotary axes; DESIGN §1).
-pub const MAX_AXES: usize = 5;
+pub use crate::config::MAX_AXES;
 
 /// Validity flags of one [`Sample`] (a bit set; a hand-written newtype because six constants do
 /// not justify a dependency).

@@ -19,13 +19,6 @@ use crate::metrology::iso230_4::{self, CircularTest, IsoError};
 use crate::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
 use core::mem::MaybeUninit;
 
-/// Default standard uncertainty of each in-plane coordinate of the circle's centre as entered
-/// (`circle_centre`) against the centre the part program circles about (`circle_u_centre`),
-/// µm: the program's centre entered to the micrometre (`ncgen circle` writes both from one
-/// set-up). Where the socket truly is does not enter: the path's centre relative to the
-/// socket's ball is what e measures.
-pub const U_CENTRE_UM: f64 = 1.0;
-
 /// Angular bins of the ISO 230-4 profile (1° each; 14.3 KiB of state: each bin its sums of
 /// ΔL, n and the traced radius, and its count).
 pub const ISO_BINS: usize = 360;

@@ -268,11 +268,12 @@ impl Command {
     }
 }
 
-/// Why a command was refused (nothing changed).
+/// Why a command was refused (nothing changed). Its words are the protocols'
+/// (`protocol::text`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum CommandError {
-    /// The command does not fit the session state; the text says what it needs.
-    WrongState(&'static str),
+    /// The command does not fit the state of the session or the pod.
+    WrongState(Needs),
     /// Pattern, direction, configuration and procedures do not change while a run is armed
     /// or running.
     Busy,
@@ -282,41 +283,54 @@ pub enum CommandError {
     Config(ConfigError),
 }
 
-impl CommandError {
-    /// The refusal in words, as two static parts to print one after the other (a field name
-    /// and what is wrong with it): e.g. `("circle_radius", " not set")`.
-    pub fn text(&self) -> (&'static str, &'static str) {
-        match *self {
-            CommandError::WrongState(needs) => (needs, ""),
-            CommandError::Busy => ("not while a run is armed or running", ""),
-            CommandError::Missing(f) => (field_name(f), " not set"),
-            CommandError::Config(ConfigError::OutOfRange { field, .. }) => {
-                (field_name(field), " out of range")
-            }
-            CommandError::Config(ConfigError::Duplicate { .. }) => ("axis name used twice", ""),
-            CommandError::Config(_) => ("configuration refused", ""),
-        }
-    }
+/// What a refused command needed that the pod did not offer ([`CommandError::WrongState`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Needs {
+    /// ARM: the session IDLE, DONE or ABORTED.
+    Idle,
+    /// START: a run armed.
+    Armed,
+    /// STOP: a run running.
+    Running,
+    /// ABORT: a run armed or running.
+    ArmedOrRunning,
+    /// A seed 002 step: its procedure (the set-up armed first).
+    Procedure,
+    /// The worker free (no computation running).
+    NoComputation,
+    /// An axis position: within the axis' range, the axis read at least once.
+    AxisReadable,
 }
 
-/// The procedure note of an armed self-triggered run that has not seen the feed-in.
-const WAITING_FOR_FEED_IN: CommandError =
-    CommandError::WrongState("FEED_IN: waiting for the feed-in");
+/// What the last procedure step could not do although its run had results, or what an armed
+/// self-triggered run waits for (`procedure_note`). Its words are the protocols'
+/// (`protocol::text`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ProcedureNote {
+    /// The step needs this set-up field, which is not set.
+    Missing(Field),
+    /// An armed FEED_IN run waits for the feed-in.
+    WaitingForFeedIn,
+    /// A FEED_IN run fed in waits for its data arc.
+    WaitingForDataArc,
+    /// The touch-probe C-axis identification gave no result.
+    CAxisFailed,
+    /// The touch-probe B-axis identification gave no result.
+    BAxisFailed,
+    /// The seed 002 identification gave no result.
+    Seed002Failed,
+    /// The SSM two-step identification gave no result.
+    TwoStepFailed,
+}
+
 /// The procedure note of a touch-probe method that gave no result.
-fn probe_note(e: probe::ProbeFailure) -> CommandError {
+fn probe_note(e: probe::ProbeFailure) -> ProcedureNote {
     match e {
-        probe::ProbeFailure::Missing(f) => CommandError::Missing(f),
-        probe::ProbeFailure::CAxis(_) => CommandError::WrongState("C-axis identification failed"),
-        probe::ProbeFailure::BAxis(_) => CommandError::WrongState("B-axis identification failed"),
+        probe::ProbeFailure::Missing(f) => ProcedureNote::Missing(f),
+        probe::ProbeFailure::CAxis(_) => ProcedureNote::CAxisFailed,
+        probe::ProbeFailure::BAxis(_) => ProcedureNote::BAxisFailed,
     }
 }
-
-/// The procedure note of a seed 002 identification that failed.
-const IDENTIFICATION_FAILED: CommandError =
-    CommandError::WrongState("seed 002 identification failed");
-/// The procedure note of an armed self-triggered run fed in, before the data arc.
-const WAITING_FOR_DATA_ARC: CommandError =
-    CommandError::WrongState("FEED_IN: fed in, waiting for the data arc");
 
 /// The user-facing name of a field.
 pub fn field_name(f: Field) -> &'static str {
@@ -478,7 +492,7 @@ pub struct App {
     results: Results,
     pending: heapless::Deque<Pending, 4>,
     refusal: Option<CommandError>,
-    procedure_note: Option<CommandError>,
+    procedure_note: Option<ProcedureNote>,
     /// The armed CIRCLE run's own start and stop (`run_trigger = FEED_IN`).
     trigger: Option<ArcTrigger>,
     settings_request: Option<SettingsRequest>,
@@ -649,7 +663,7 @@ impl App {
     }
     /// What the last procedure step could not do although its run had results (e.g. the
     /// two-step or C-axis identification lacked a set-up field).
-    pub fn procedure_note(&self) -> Option<CommandError> {
+    pub fn procedure_note(&self) -> Option<ProcedureNote> {
         self.procedure_note
     }
     /// Seed 002 runs with results that were not kept because the step already held
@@ -790,28 +804,27 @@ impl App {
         match cmd {
             Command::Arm => {
                 if !self.idle() {
-                    return self
-                        .refuse(CommandError::WrongState("ARM needs IDLE, DONE or ABORTED"));
+                    return self.refuse(CommandError::WrongState(Needs::Idle));
                 }
                 self.arm()
             }
             Command::Start => {
                 if self.session != S::Armed {
-                    return self.refuse(CommandError::WrongState("START needs ARMED"));
+                    return self.refuse(CommandError::WrongState(Needs::Armed));
                 }
                 self.begin_running();
                 Ok(())
             }
             Command::Stop => {
                 if self.session != S::Running {
-                    return self.refuse(CommandError::WrongState("STOP needs RUNNING"));
+                    return self.refuse(CommandError::WrongState(Needs::Running));
                 }
                 self.stop();
                 Ok(())
             }
             Command::Abort => {
                 if self.idle() {
-                    return self.refuse(CommandError::WrongState("ABORT needs ARMED or RUNNING"));
+                    return self.refuse(CommandError::WrongState(Needs::ArmedOrRunning));
                 }
                 self.abort(AbortReason::ByCommand);
                 Ok(())
@@ -857,9 +870,7 @@ impl App {
             return self.refuse(CommandError::Busy);
         }
         if self.job.is_some() {
-            return self.refuse(CommandError::WrongState(
-                "not while a computation runs: ask again when it has ended",
-            ));
+            return self.refuse(CommandError::WrongState(Needs::NoComputation));
         }
         self.bootloader_request = true;
         Ok(())
@@ -953,7 +964,7 @@ impl App {
                 }
                 let fit = match self.seed002() {
                     Some(p) => p.run_fit(step),
-                    None => return self.refuse(CommandError::WrongState("no procedure")),
+                    None => return self.refuse(CommandError::WrongState(Needs::Procedure)),
                 };
                 self.live_u_at = u32::MAX;
                 RunEstimator::Step(step, fit)
@@ -962,7 +973,7 @@ impl App {
         self.estimator = est;
         self.trigger = trigger;
         if trigger.is_some() {
-            self.procedure_note = Some(WAITING_FOR_FEED_IN);
+            self.procedure_note = Some(ProcedureNote::WaitingForFeedIn);
         }
         self.session = SessionState::Armed;
         self.abort_reason = None;
@@ -1064,11 +1075,10 @@ impl App {
                         .on_measurement(&setup, &m, &bar, &mut self.results)
                     {
                         Err(ssm::TwoStepFailure::Missing(f)) => {
-                            self.procedure_note = Some(CommandError::Missing(f));
+                            self.procedure_note = Some(ProcedureNote::Missing(f));
                         }
                         Err(ssm::TwoStepFailure::Identify(_)) => {
-                            self.procedure_note =
-                                Some(CommandError::WrongState("two-step identification failed"));
+                            self.procedure_note = Some(ProcedureNote::TwoStepFailed);
                         }
                         Ok(_) => {}
                     }
@@ -1191,7 +1201,7 @@ impl App {
                     self.update_status();
                     return true;
                 }
-                _ => self.procedure_note = Some(IDENTIFICATION_FAILED),
+                _ => self.procedure_note = Some(ProcedureNote::Seed002Failed),
             }
         }
         self.update_status();
@@ -1221,7 +1231,7 @@ impl App {
             }
             JobOutcome::Identification(epoch, Err(())) => {
                 if epoch == self.seed002_epoch {
-                    self.procedure_note = Some(IDENTIFICATION_FAILED);
+                    self.procedure_note = Some(ProcedureNote::Seed002Failed);
                 }
             }
             JobOutcome::Probe(epoch, result) if epoch == self.spheres_epoch => match result {
@@ -1267,9 +1277,7 @@ impl App {
             return self.refuse(CommandError::Busy);
         }
         if !self.acq.reference_axis(k, position) {
-            return self.refuse(CommandError::WrongState(
-                "axis position out of range, or the axis not read yet",
-            ));
+            return self.refuse(CommandError::WrongState(Needs::AxisReadable));
         }
         self.clear_procedures();
         Ok(())
@@ -1473,7 +1481,7 @@ impl App {
             (TriggerEvent::None, SessionState::Armed)
                 if self.trigger.is_some_and(|t| t.fed_in()) =>
             {
-                self.procedure_note = Some(WAITING_FOR_DATA_ARC);
+                self.procedure_note = Some(ProcedureNote::WaitingForDataArc);
             }
             _ => {}
         }

@@ -51,13 +51,6 @@ pub const REFINE_ITERATIONS: u32 = 10;
 /// position the 12-bit quantisation of the LVDT secondaries gives the same error in every
 /// block (up to ≈ 0.12 µm), and the encoders count 0.1 µm.
 pub const FIXED_POSITION_U_UM: f64 = 0.1;
-/// Default standard uncertainty of each coordinate of the socket's centre as entered
-/// (`ssm_socket`) against its true centre (`ssm_u_socket`), µm: the socket found by docking
-/// the spindle's setting cup on its ball, which seats within about 1 µm. E is read against P0
-/// as entered (seed 000 B.2 item 5: an error of P0 is a common offset of every E), so this
-/// moves each component of E one to one. What the machine's own error at the docking pose
-/// adds is the reference E is read against (the socket side), not an uncertainty.
-pub const U_SOCKET_UM: f64 = 1.0;
 
 /// An SSM run in progress (state ≈ 7.6 KiB).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -14,16 +14,6 @@
 
 use crate::config::Config;
 
-/// Default standard uncertainty of the bar's calibrated length, µm: a calibration
-/// certificate's U = 1 µm at k = 2 (state the bar's own: `bar_u_length`).
-pub const DEFAULT_U_LENGTH_UM: f32 = 0.5;
-/// Default standard uncertainty of the bar's temperature as measured, K: the thermistor's
-/// tolerance and the gradient along a hand-warmed bar.
-pub const DEFAULT_U_TEMP_K: f32 = 0.2;
-/// Default relative standard uncertainty of the LVDT's scale, ppm of ΔL: a 0.1 % calibration
-/// and linearity.
-pub const DEFAULT_U_SCALE_PPM: f32 = 1000.0;
-
 /// How a figure depends on the bar (module doc).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FigureKind {

@@ -12,7 +12,8 @@
 //! - [`csv`]: the text of a recorded run (header, samples, touch points, end);
 //! - [`download`]: the log download (`DATA:LOG?`) in that text;
 //! - [`stream`]: the USB sample stream in that text;
-//! - [`slcan`]: CAN frames as SLCAN text lines (the simulated and the emulated pod's CAN port).
+//! - [`slcan`]: CAN frames as SLCAN text lines (the simulated and the emulated pod's CAN port);
+//! - [`text`]: the words of the application's refusals and procedure notes.
 
 pub mod canopen;
 pub mod csv;
@@ -20,6 +21,7 @@ pub mod download;
 pub mod scpi;
 pub mod slcan;
 pub mod stream;
+pub mod text;
 
 use crate::app::CommandError;
 use crate::config::ConfigError;

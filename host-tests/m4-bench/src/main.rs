@@ -656,7 +656,7 @@ fn main() -> ! {
     // The ball-bar diagnoses of one direction at the end of its run (the joint fit for each
     // cyclic order 3..=16 on the bin profile, with u and the centre's share at the pod's
     // default `circle_u_centre`): once per run, in the application task.
-    let u_centre_um = ballpod::app::circle::U_CENTRE_UM as f32;
+    let u_centre_um = ballpod::config::U_CENTRE_UM as f32;
     let lo = stack::paint(top);
     let (dg, n) = measure_long(|| iso.diagnostics(Direction::Ccw, u_centre_um));
     record_stack("ISO 230-4 diagnostics (CircularTest::diagnostics)", lo);

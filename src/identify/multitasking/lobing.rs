@@ -23,7 +23,7 @@
 //! 3rd, 9th and 15th move it across, the 12th and d along the stylus.
 //!
 //! **Budget.** The [`LOBING_COMPONENTS`] components (c₁, s₁ … c₆, s₆, d) are unknown,
-//! independent, each with standard uncertainty `probe_u_lobing` ([`U_LOBING_UM`] by default),
+//! independent, each with standard uncertainty `probe_u_lobing` ([`crate::config::U_LOBING_UM`] by default),
 //! and the same at every sphere of a procedure (one probe and stylus set, the spindle oriented
 //! alike): a sphere's shift is not random from sphere to sphere. [`lobing_share`] moves all
 //! four spheres of a method at once by each component's u and takes the identification's
@@ -33,13 +33,6 @@
 
 #[cfg(doc)]
 use super::probe::SphereFit;
-
-/// Default standard uncertainty of each lobing component, µm (the third harmonic's two and
-/// the axial difference d; the higher harmonics in proportion): kinematic machine-tool probes
-/// state a 2D lobing of ±1 µm and a 3D lobing of ±1–2 µm at a 50 mm stylus (e.g. Renishaw's
-/// OMP40-2 and RMP60 data sheets). A probe qualified per direction on a reference sphere, or a
-/// strain-gauge probe, is better: enter what its qualification leaves.
-pub const U_LOBING_UM: f64 = 1.0;
 
 /// Lobing components of the budget: six harmonics' cosine and sine, and d.
 pub const LOBING_COMPONENTS: usize = 13;

@@ -20,6 +20,7 @@
 //!   the first tool length's offset);
 //! - the balls' mounting offsets are not identifiable at all (no redundancy): their effect is
 //!   budgeted ([`MountingUncertainty`], [`ModelLsq::identify_propagated`]).
+use crate::config;
 use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError, LsqSolution};
 use crate::metrology::bar_budget::BarBudget;
 
@@ -172,27 +173,15 @@ pub struct MountingUncertainty {
 }
 
 impl MountingUncertainty {
-    /// The defaults, from the procedure of spec seed-002 §2.7 and §5.2:
-    /// - W-ball 22 µm: it shifts 10–60 µm in a random direction at every clamping (measured
-    ///   in the thesis); a magnitude uniform in 10–60 µm gives an rms per component of
-    ///   √((60³ − 10³) / (3 · 50) / 3) = 21.9 µm;
-    /// - T-ball radial 0.5 µm: centred until the bar's length change stays within ±1 µm as
-    ///   the spindle turns, an offset uniform in a disc of 1 µm radius (rms per component
-    ///   1/2 µm);
-    /// - T-ball axial 22 µm: the T-ball's clamping shift along the spindle, taken as the
-    ///   W-ball's (the dummy sphere, not the T-ball, sets R_B);
-    /// - R_C and Z_C 10 µm: Z_C transferred with a dial gauge (§5.2 item 4: two readings of
-    ///   a 1 µm gauge, the sphere's top found by hand, its diameter from its certificate), R_C
-    ///   the X at which the W-ball is docked to the dummy sphere; a few µm each, taken as 10;
-    /// - R_B and R′_B 10 µm: each tool length from the spindle nose and the dummy sphere's
-    ///   top with a lever dial gauge (§5.2 item 2), as Z_C.
+    /// The set-up's defaults (the `s002_u_*` configuration fields' defaults: why each, at
+    /// [`crate::config::S002_U_W_CLAMP_UM`] and the constants beside it).
     pub const SEED002: Self = Self {
-        w_clamp_um: 22.0,
-        t_centring_um: 0.5,
-        t_axial_um: 22.0,
-        r_c_um: 10.0,
-        z_c_um: 10.0,
-        r_b_um: 10.0,
+        w_clamp_um: config::S002_U_W_CLAMP_UM,
+        t_centring_um: config::S002_U_T_CENTRING_UM,
+        t_axial_um: config::S002_U_T_AXIAL_UM,
+        r_c_um: config::S002_U_R_C_Z_C_UM,
+        z_c_um: config::S002_U_R_C_Z_C_UM,
+        r_b_um: config::S002_U_R_B_UM,
     };
 
     /// No mounting uncertainty: the eccentricities' u alone.

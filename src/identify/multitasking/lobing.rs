@@ -23,10 +23,11 @@
 //! 3rd, 9th and 15th move it across, the 12th and d along the stylus.
 //!
 //! **Budget.** The [`LOBING_COMPONENTS`] components (c₁, s₁ … c₆, s₆, d) are unknown,
-//! independent, each with standard uncertainty `probe_u_lobing` ([`crate::config::U_LOBING_UM`] by default),
-//! and the same at every sphere of a procedure (one probe and stylus set, the spindle oriented
-//! alike): a sphere's shift is not random from sphere to sphere. [`lobing_share`] moves all
-//! four spheres of a method at once by each component's u and takes the identification's
+//! independent, each with standard uncertainty `probe_u_lobing`
+//! ([`crate::config::U_LOBING_UM`] by default), and the same at every sphere of a procedure
+//! (one probe and stylus set, the spindle oriented alike): a sphere's shift is not random
+//! from sphere to sphere. [`lobing_share`] moves all four spheres of a method at once by
+//! each component's u and takes the identification's
 //! secant, so a shift common to the spheres goes into what it moves (δx_CZ, δy_CZ take the C
 //! spheres' common shift whole; the C tilts see only its differences) and the aliasing of the
 //! lobes by the touch pattern actually probed is counted.

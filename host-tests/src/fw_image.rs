@@ -46,6 +46,8 @@ pub enum ImageError {
     NoVectorTable,
     /// Longer than the flash the guard accepts.
     TooLong(usize),
+    /// The sealed image would not pass the guard (its stack pointer or reset vector).
+    Refused(ballpod_guard::Refusal),
 }
 
 impl std::fmt::Display for ImageError {
@@ -59,6 +61,7 @@ impl std::fmt::Display for ImageError {
             ),
             Self::NoVectorTable => write!(f, "nothing loads at {APP_BASE:#010x}"),
             Self::TooLong(n) => write!(f, "the image is {n} bytes, longer than the flash holds"),
+            Self::Refused(r) => write!(f, "the guard would not start this image: {r:?}"),
         }
     }
 }
@@ -120,12 +123,10 @@ pub fn image_of(elf: &[u8]) -> Result<Image, ImageError> {
         |i| ballpod_guard::word_at(&bytes, i),
         &mut SoftCrc::default(),
     );
-    assert_eq!(
-        verdict,
-        Verdict::Start,
-        "a sealed image must pass the guard"
-    );
-    Ok(Image { bytes, crc })
+    match verdict {
+        Verdict::Start => Ok(Image { bytes, crc }),
+        Verdict::Refuse(r) => Err(ImageError::Refused(r)),
+    }
 }
 
 /// Writes `image`'s header words into the ELF `elf` (in the segment holding the vector table).

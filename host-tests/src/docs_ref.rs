@@ -11,9 +11,7 @@ use ballpod::acquisition::{MAX_AXES, SampleFlags};
 use ballpod::app::results::{RESULT_MEANINGS, ResultInfo};
 use ballpod::app::run::AbortReason;
 use ballpod::app::{App, Direction, Pattern, SessionState};
-use ballpod::config::{
-    AT_RESET, AxisName, CanBitrate, Config, FIELDS, FieldInfo, FieldType, LvdtInput,
-};
+use ballpod::config::{AxisName, CanBitrate, Config, FIELDS, FieldInfo, FieldType, LvdtInput};
 use ballpod::protocol::canopen::eds::{object_meaning, write_default};
 use ballpod::protocol::canopen::emcy;
 use ballpod::protocol::canopen::od::{self, CommParams, DataType, Entry};
@@ -183,14 +181,16 @@ fn configuration_fields() -> String {
          (`CONFigure:<header>`, after `CONFigure:UNLock`). How a change takes effect, the encoding and the \
          flash slots: [Configuration](../configuration.md). A field marked *optional* is **not set** until \
          written (NaN over CANopen, `9.91E+37` over SCPI); a pattern that needs it is refused at arm, naming it. \
-         Fields marked *at reset* are kept, read back and saved at once but take effect at the next reset \
-         (status word bit 14).\n"
+         *Takes effect* says when a written value is used (the rule: `ballpod::config`'s module doc): at the \
+         *next sample* (the acquisition follows at once), at the *next run* armed (set-up and uncertainty budget, \
+         frozen with the run), at the next *reset* (kept, read back and saved at once; status word bit 14 until \
+         then) or at the next *reset communication* (NMT). No field changes while a run is armed or running.\n"
     );
     let _ = writeln!(
         s,
-        "| field | CANopen | SCPI | unit | default | range | what |"
+        "| field | CANopen | SCPI | unit | default | range | takes effect | what |"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|---|");
     for (row, i) in FIELDS.iter().enumerate() {
         let index = od::config_index(row);
         let canopen = match i.elements {
@@ -222,9 +222,6 @@ fn configuration_fields() -> String {
         if i.optional {
             range.push_str("; optional");
         }
-        if i.fields().any(|f| AT_RESET.contains(&f)) {
-            range.push_str("; at reset");
-        }
         let elements = match i.elements {
             0 => String::new(),
             n if i.name.starts_with("axis") => format!(" (encoder input n = 1…{n})"),
@@ -232,12 +229,13 @@ fn configuration_fields() -> String {
         };
         let _ = writeln!(
             s,
-            "| `{}` | {canopen} | `{}` | {} | {} | {} | {}{} |",
+            "| `{}` | {canopen} | `{}` | {} | {} | {} | {} | {}{} |",
             i.name,
             scpi_name(i),
             i.unit.as_str(),
             default,
             cell(&range),
+            i.field.takes_effect().as_str(),
             cell(i.field.meaning()),
             elements
         );

@@ -193,20 +193,9 @@ fn record_layout_is_the_documented_one() {
     assert!(same(&Config::decode(&page[12..12 + n]).unwrap(), &cfg));
     // The record CRC: CRC-32/ISO-HDLC (the zlib CRC) over header + payload, computed here by
     // a bitwise implementation independent of the `crc` crate.
-    let mut crc = 0xFFFF_FFFFu32;
-    for &b in &page[..12 + n] {
-        crc ^= u32::from(b);
-        for _ in 0..8 {
-            crc = if crc & 1 != 0 {
-                (crc >> 1) ^ 0xEDB8_8320
-            } else {
-                crc >> 1
-            };
-        }
-    }
     assert_eq!(
         u32::from_le_bytes(page[12 + n..16 + n].try_into().unwrap()),
-        !crc
+        ballpod_host::oracle::crc32_bitwise(&page[..12 + n])
     );
     // Programmed in whole double-words; the rest of the page stays erased.
     assert!(RECORD_LEN.is_multiple_of(8) && RECORD_LEN >= 16 + n);

@@ -498,6 +498,10 @@ pub struct App {
     settings_request: Option<SettingsRequest>,
     /// A client asked for the ROM bootloader ([`App::request_bootloader`]).
     bootloader_request: bool,
+    /// The LVDT input mode the board is to acquire in, until the shell takes it
+    /// ([`App::take_lvdt_input`]): at start, and whenever a change of the configuration
+    /// changes it.
+    lvdt_input_change: Option<LvdtInput>,
     settings_failures: u32,
     /// Settings slots the boot found unreadable.
     settings_unreadable: u32,
@@ -570,6 +574,7 @@ impl App {
             trigger: None,
             settings_request: None,
             bootloader_request: false,
+            lvdt_input_change: Some(config.lvdt_input),
             settings_failures: 0,
             settings_unreadable: 0,
             device: DeviceCounters::START,
@@ -760,6 +765,9 @@ impl App {
     }
 
     fn apply_config(&mut self, next: Config) {
+        if next.lvdt_input != self.config.lvdt_input {
+            self.lvdt_input_change = Some(next.lvdt_input);
+        }
         self.config = next;
         let running = self.running_config();
         self.acq.reconfigure(&running, self.counter_bits);
@@ -874,6 +882,13 @@ impl App {
         }
         self.bootloader_request = true;
         Ok(())
+    }
+
+    /// The LVDT input mode the board must acquire in, once after start and once after each
+    /// configuration change that changes it (taken once; the firmware's LVDT task demodulates
+    /// in this mode from its next block on).
+    pub fn take_lvdt_input(&mut self) -> Option<LvdtInput> {
+        self.lvdt_input_change.take()
     }
 
     /// The ROM bootloader was asked for ([`App::request_bootloader`]; taken once).

@@ -24,12 +24,12 @@ pub struct RunMeta {
 }
 
 impl RunMeta {
-    /// All-zero placeholder (an empty log's header; not a valid configuration).
+    /// Placeholder (an empty log's header: run 0, the default configuration).
     pub const ZERO: Self = Self {
         run: 0,
         pattern: Pattern::Circle,
         direction: Direction::Ccw,
-        config: Config::ZERO,
+        config: Config::DEFAULT,
     };
 }
 

@@ -192,8 +192,6 @@ pub async fn compute_task(
             Either5::Third(UsbEvent::StreamClosed) => pod.stream_reader(false),
             Either5::Fourth(()) => {
                 ticks = ticks.wrapping_add(1);
-                // the LVDT task acquires in the mode the configuration names now
-                block::MODE.store(pod.app.config().lvdt_input as u8, Ordering::Relaxed);
                 if ticks.is_multiple_of(DEVICE_COUNTERS_EVERY_MS) {
                     pod.set_device_counters(diagnostics::device_counters());
                 }
@@ -236,6 +234,10 @@ pub async fn compute_task(
                 let _ = state::write_all_now(&state::STREAM_TX, b);
             },
         );
+        // the LVDT task acquires in the mode the configuration names, from the next block
+        if let Some(mode) = pod.app.take_lvdt_input() {
+            block::MODE.store(mode as u8, Ordering::Relaxed);
+        }
         // long work to the worker: the command that asked for it is answered already
         if !storing && let Some(cfg) = pod.settings_to_store() {
             hand_over(Work::Store(cfg));

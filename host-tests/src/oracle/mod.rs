@@ -1,6 +1,6 @@
 //! Independent f64 oracles for the metrology tests: batch least squares by Householder QR on the
 //! full design matrix (never the normal equations the core accumulates), a seeded normal random
-//! generator, and forward models of the ball bar.
+//! generator, forward models of the ball bar, and a bit-by-bit CRC-32.
 
 /// Batch linear least squares min ‖A x − y‖ by Householder QR, f64. `rows` are the design rows.
 /// Returns (x, residual sum of squares). Panics on rank deficiency (a test oracle).
@@ -51,3 +51,20 @@ pub fn lstsq(rows: &[Vec<f64>], y: &[f64]) -> (Vec<f64>, f64) {
 
 /// The seeded generator of the host tests (SplitMix64 + Box–Muller).
 pub use crate::rng::Rng;
+
+/// CRC-32/ISO-HDLC (the zlib CRC) bit by bit, reflected polynomial 0xEDB8_8320: independent of
+/// the `crc` crate the core uses.
+pub fn crc32_bitwise(bytes: &[u8]) -> u32 {
+    let mut crc = 0xFFFF_FFFFu32;
+    for &b in bytes {
+        crc ^= u32::from(b);
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 {
+                (crc >> 1) ^ 0xEDB8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    !crc
+}

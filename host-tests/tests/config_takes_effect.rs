@@ -145,3 +145,29 @@ fn the_simulated_pod_keeps_its_period_until_a_reset_with_the_saved_rate() {
     let status: u16 = scpi(&mut after, "STAT:POD?").parse().unwrap();
     assert_eq!(status & StatusWord::RESET_PENDING, 0);
 }
+
+#[test]
+fn the_lvdt_mode_is_handed_to_the_board_once_at_start_and_once_per_change() {
+    let mut app = App::new(Config::default(), [16; MAX_AXES]);
+    // the board's LVDT task is told the mode once at start …
+    assert_eq!(app.take_lvdt_input(), Some(LvdtInput::AcRatiometric));
+    assert_eq!(app.take_lvdt_input(), None);
+    // … not when another field changes …
+    app.set_field(Field::BarLengthMm, 200.0).unwrap();
+    assert_eq!(app.take_lvdt_input(), None);
+    // … and once when the mode changes
+    app.set_field(Field::LvdtMinSignal, 1.0).unwrap();
+    app.configure(|c| c.lvdt_input = LvdtInput::DcConditioner)
+        .unwrap();
+    assert_eq!(app.take_lvdt_input(), Some(LvdtInput::DcConditioner));
+    assert_eq!(app.take_lvdt_input(), None);
+    // a refused change hands nothing over
+    assert!(
+        app.configure(|c| {
+            c.lvdt_input = LvdtInput::AcRatiometric;
+            c.bar_length_mm = -1.0;
+        })
+        .is_err()
+    );
+    assert_eq!(app.take_lvdt_input(), None);
+}

@@ -28,12 +28,12 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-use ballpod::identify::volumetric::Squareness;
-use ballpod::identify::volumetric::compensation::{
+use crate::methods::volumetric::Squareness;
+use crate::methods::volumetric::compensation::{
     Axis, Controller, TableKind, fill_compensation_table_from_curve_mm, table_point_count,
 };
-use ballpod::identify::volumetric::metrics::diagonal_figures;
-use ballpod::identify::volumetric::vector::{identify_vector_method, invert_step};
+use crate::methods::volumetric::metrics::diagonal_figures;
+use crate::methods::volumetric::vector::{identify_vector_method, invert_step};
 
 use crate::recording::{CsvTable, LogError, excerpt};
 use crate::replay::Figure;
@@ -232,7 +232,7 @@ fn step_counts(file: &Path, stops: &Stops) -> Result<[usize; 3], LogError> {
 /// that runs in −u covers forward interval N_u − 1 − k and reads minus the forward increment.
 fn step_readings(stops: &Stops, n: [usize; 3]) -> [Vec<[Option<f64>; 4]>; 3] {
     let mut out = n.map(|k| vec![[None; 4]; k]);
-    let signs = ballpod::identify::volumetric::vector::DIAGONAL_SIGNS;
+    let signs = crate::methods::volumetric::vector::DIAGONAL_SIGNS;
     for (d, (s, sign)) in stops.iter().zip(signs).enumerate() {
         let mut k = [0usize; 3];
         for w in s.windows(2) {

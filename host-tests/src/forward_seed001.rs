@@ -1,7 +1,7 @@
 //! Independent forward model of seed 001: the matrix forms 8.55–8.66 of the four
 //! configurations, literally, with R(u) of eq 8.62 and RI = Rᵀ (the first-order inverse), in
 //! f64 SI-like units: positions mm, D in mm, A in rad. Used to check the first-order formulas
-//! 8.68–8.82 of `identify::volumetric` and to generate diagonal readings.
+//! 8.68–8.82 of `methods::volumetric` and to generate diagonal readings.
 
 /// 3×3 matrix.
 pub type M3 = [[f64; 3]; 3];

@@ -18,6 +18,7 @@ pub mod fw_image;
 pub mod gum;
 pub mod layers;
 pub mod lvdt_model;
+pub mod methods;
 pub mod ncgen;
 pub mod oracle;
 pub mod recording;

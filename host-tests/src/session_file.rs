@@ -88,7 +88,7 @@ pub struct RtestEntry {
     #[serde(default)]
     pub zero: Option<String>,
     /// The head's calibration: relative standard uncertainty of each axis's reading scale, ppm
-    /// (default `ballpod::identify::rtest::U_READING_SCALE`, 5000 ppm).
+    /// (default `crate::methods::rtest::U_READING_SCALE`, 5000 ppm).
     #[serde(default)]
     pub u_reading_scale_ppm: Option<f64>,
 }
@@ -109,7 +109,7 @@ pub struct DialEntry {
     #[serde(default)]
     pub sense: Option<String>,
     /// The gauge's calibration: its scale's relative standard uncertainty, ppm (default
-    /// `ballpod::identify::centreline::U_GAUGE_SCALE`, 10 000 ppm).
+    /// `crate::methods::centreline::U_GAUGE_SCALE`, 10 000 ppm).
     #[serde(default)]
     pub u_gauge_scale_ppm: Option<f64>,
 }
@@ -129,11 +129,11 @@ pub struct VertexEntry {
     #[serde(default)]
     pub sense: Option<String>,
     /// One touched coordinate's repeatability, µm (default
-    /// `ballpod::identify::centreline::U_TOUCH_UM`).
+    /// `crate::methods::centreline::U_TOUCH_UM`).
     #[serde(default)]
     pub u_touch_um: Option<f64>,
     /// The touch-off's offset (reference tool and block), µm (default
-    /// `ballpod::identify::centreline::U_TOUCH_OFFSET_UM`).
+    /// `crate::methods::centreline::U_TOUCH_OFFSET_UM`).
     #[serde(default)]
     pub u_touch_offset_um: Option<f64>,
 }
@@ -506,7 +506,7 @@ pub fn rtest(
     path: &Path,
     e: &RtestEntry,
 ) -> Result<(Vec<Figure>, crate::replay::DeviationCovariance), LogError> {
-    use ballpod::identify::rtest::{
+    use crate::methods::rtest::{
         ReadingZero, RtestConfig, RtestGeometry, RtestParam, RtestSample, U_READING_SCALE, identify,
     };
     let file = path.parent().unwrap_or(Path::new(".")).join(&e.readings);
@@ -592,8 +592,8 @@ fn rotation_sense(
     path: &Path,
     field: &str,
     sense: Option<&str>,
-) -> Result<ballpod::identify::centreline::RotationSense, LogError> {
-    use ballpod::identify::centreline::RotationSense;
+) -> Result<crate::methods::centreline::RotationSense, LogError> {
+    use crate::methods::centreline::RotationSense;
     match sense {
         None | Some("primed") => Ok(RotationSense::Primed),
         Some("right_handed") => Ok(RotationSense::RightHanded),
@@ -606,7 +606,7 @@ fn rotation_sense(
 
 /// The seed 004 dial-gauge axis direction of `[dial]`: the tilts of the axis.
 pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
-    use ballpod::identify::centreline::{
+    use crate::methods::centreline::{
         DialPoint, GaugeFrame, NormalAtAngle, RotationSense, U_GAUGE_SCALE, axis_direction_lsq,
         plane_normal,
     };
@@ -683,9 +683,9 @@ pub fn dial(path: &Path, e: &DialEntry) -> Result<Vec<Figure>, LogError> {
 }
 
 /// The seed 004 axis centre of `[vertex]`: one block vertex touched off at each axis
-/// position (`ballpod::identify::centreline::axis_centre_budget`).
+/// position (`crate::methods::centreline::axis_centre_budget`).
 pub fn vertex(path: &Path, e: &VertexEntry) -> Result<Vec<Figure>, LogError> {
-    use ballpod::identify::centreline::{
+    use crate::methods::centreline::{
         NominalAxis, PointAtAngle, TouchUncertainty, U_TOUCH_OFFSET_UM, U_TOUCH_UM,
         axis_centre_budget,
     };

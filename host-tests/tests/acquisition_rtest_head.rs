@@ -1,8 +1,8 @@
-//! The R-test head's combination of three LVDT channels (`ballpod::acquisition::rtest_head`)
+//! The R-test head's combination of three LVDT channels (`ballpod_host::methods::rtest_head`)
 //! against an independent f64 forward projection `r_k = n_k · q`.
 
 use ballpod::acquisition::lvdt::{LvdtCalibration, LvdtReading, LvdtStatus};
-use ballpod::acquisition::rtest_head::{RtestHead, RtestHeadError};
+use ballpod_host::methods::rtest_head::{RtestHead, RtestHeadError};
 use ballpod_host::rng::Rng;
 use ballpod_host::vmt::rtest_rig::RtestRig;
 

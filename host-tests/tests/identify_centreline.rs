@@ -3,13 +3,13 @@
 //! spec, i.e. from the paper and the spec's check script), the paper's printed formulas
 //! transcribed here to show they are NOT what the pod computes, and round trips through the
 //! independent forward model `ballpod_host::forward_seed004`.
-use ballpod::identify::centreline::{
+use ballpod_host::forward_seed004 as fw;
+use ballpod_host::methods::centreline::{
     AxisCentre, AxisLine, CentrelineError, DialPoint, GaugeFrame, NominalAxis, NormalAtAngle,
     PointAtAngle, RotationSense, TableAxes, axis_centre, axis_centre_budget,
     axis_direction_half_turn, axis_direction_lsq, axis_direction_two_positions,
     nc_command_correction, nc_correction, paper, plane_normal,
 };
-use ballpod_host::forward_seed004 as fw;
 
 fn assert_close(got: &[f64], want: &[f64], tol: f64, what: &str) {
     assert_eq!(got.len(), want.len(), "{what}: length");
@@ -1050,8 +1050,8 @@ fn touch_off_corner(
 /// touches are all across the spindle, and the offset turns with the faces).
 #[test]
 fn the_touch_offs_are_in_the_centres_u() {
-    use ballpod::identify::centreline::{TouchUncertainty, U_TOUCH_UM};
     use ballpod_host::gum::coverage_factor;
+    use ballpod_host::methods::centreline::{TouchUncertainty, U_TOUCH_UM};
     let cases: [(&str, NominalAxis, RotationSense, &[f64]); 3] = [
         (
             "A half turn",

@@ -252,7 +252,7 @@ fn repeated_identical_rows_of_a_rank_deficient_design_converge() {
 fn r_test_gain_rows_repeated_converge_with_their_rank() {
     // Reported by the R-test work: ten copies of the three rows of the seed 003 reduced gains at
     // A = C = 0 (rank 3 of 11) made the Jacobi SVD stop without converging.
-    use ballpod::identify::rtest::{RtestGeometry, reduced_gains};
+    use ballpod_host::methods::rtest::{RtestGeometry, reduced_gains};
     let h = reduced_gains(&RtestGeometry::SEED003_TABLE3, 0.0, 0.0);
     let mut l = GivensLsq::<11>::new();
     for _ in 0..10 {

@@ -3,15 +3,15 @@
 //! Independent sources: the paper's printed Table 1 and Table 2 (transcribed below, OCR repaired
 //! as in spec A5), the spec's test vectors C1–C9 (copied numbers), and the literal 4×4 HTM
 //! chain `ballpod_host::forward_seed003` (exact rotations, all 44 errors).
-use ballpod::identify::centreline::axis_direction_half_turn;
-use ballpod::identify::rtest::{
+use ballpod_host::forward_seed003 as fw;
+use ballpod_host::forward_seed004 as fw4;
+use ballpod_host::forward_seed004::SplitMix;
+use ballpod_host::methods::centreline::axis_direction_half_turn;
+use ballpod_host::methods::rtest::{
     ARCSEC_RAD, ChainGeometry, ChainPose, IsoError, LocationErrors, RankPolicy, ReadingZero,
     RtestConfig, RtestError, RtestGeometry, RtestParam, RtestSample, axis_lines, identify,
     predict_um, reduced_gains_si, table1_gains, verify,
 };
-use ballpod_host::forward_seed003 as fw;
-use ballpod_host::forward_seed004 as fw4;
-use ballpod_host::forward_seed004::SplitMix;
 
 const NAMES11: [&str; 11] = [
     "XOW", "YOW", "ZOW", "YOA", "ZOA", "BOA", "COA", "XOC", "YOC", "AOC", "BOC",

@@ -1,15 +1,15 @@
-//! Seed 001 volumetric model (`identify::volumetric`): TV-STACK (first-order formulas vs the
+//! Seed 001 volumetric model (`methods::volumetric`): TV-STACK (first-order formulas vs the
 //! literal matrix forms in `ballpod_host::forward_seed001`), TV-DIAG, TV-VECTOR, TV-GRID,
 //! TV-THERM, TV-DEF, TV-ED, TV-SIEMENS, TV-T82 (spec C.5), controller table conventions, and
 //! round trips of the vector method.
-use ballpod::identify::volumetric::{
+use ballpod_host::forward_seed000::Rng;
+use ballpod_host::forward_seed001 as fwd;
+use ballpod_host::methods::volumetric::{
     self, AxisErrors, Configuration, RigidBodyErrors, Squareness, VolumetricError,
     compensation::{self, Axis, Controller, Grid3, TableKind},
     metrics::{self, VolumetricPoint},
     vector,
 };
-use ballpod_host::forward_seed000::Rng;
-use ballpod_host::forward_seed001 as fwd;
 
 const CFGS: [Configuration; 4] = [
     Configuration::Fxyz,

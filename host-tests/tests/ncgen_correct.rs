@@ -365,7 +365,7 @@ fn dial_procedure(
     sigma_um: f64,
     (a_cmds, b_cmds): (&[f64], &[f64]),
 ) -> ballpod_host::ncgen::CentrelinesFile {
-    use ballpod::identify::centreline::{
+    use ballpod_host::methods::centreline::{
         DialPoint, GaugeFrame, NominalAxis, NormalAtAngle, PointAtAngle, RotationSense,
         axis_centre, axis_direction_lsq, plane_normal,
     };

@@ -6,11 +6,11 @@
 //! R-test and seed 004's centrelines, and type M (seed 002's B head and C table) against seed
 //! 002's HTM chain and in a closed loop through the pod's seed 002 procedure.
 
-use ballpod::identify::rtest::{
-    LocationErrors, RtestConfig, RtestGeometry, RtestSample, identify, predict_um,
-};
 use ballpod_host::forward_linuxcnc_trt::{self as lcnc, Pins};
 use ballpod_host::forward_seed003 as fw;
+use ballpod_host::methods::rtest::{
+    LocationErrors, RtestConfig, RtestGeometry, RtestSample, identify, predict_um,
+};
 use ballpod_host::ncgen::kins::{
     Dispersion, DispersionGrid, KinsCorrection, Pin, TrtKins, TrtPins, correct, rtest_deviations,
     rtest_nominal_pins, rtest_work_point, turned,
@@ -122,7 +122,7 @@ struct Identified {
 }
 
 impl Identified {
-    fn of(id: &ballpod::identify::rtest::RtestIdentification) -> Self {
+    fn of(id: &ballpod_host::methods::rtest::RtestIdentification) -> Self {
         let c = &id.covariance;
         Self {
             e: id.errors,

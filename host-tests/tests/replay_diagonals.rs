@@ -46,7 +46,7 @@ fn error_um(p: [f64; 3]) -> [f64; 3] {
 /// The readings file: for each diagonal its stops from its start corner, x, y, z stepped in
 /// turn, the deviation along the beam (laser zeroed at the start) plus N(0, σ) per stop.
 fn readings_csv(rng: &mut Rng, sigma_um: f64, skip_diagonal: Option<usize>) -> String {
-    let signs = ballpod::identify::volumetric::vector::DIAGONAL_SIGNS;
+    let signs = ballpod_host::methods::volumetric::vector::DIAGONAL_SIGNS;
     let names = ["PPP", "NPP", "PNP", "PPN"];
     let r = STEP_MM.iter().map(|s| s * s).sum::<f64>().sqrt();
     let mut csv = String::from("diagonal,axis,deviation_um\n");

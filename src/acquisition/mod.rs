@@ -5,7 +5,6 @@
 //! - [`encoder`]: hardware counter → exact 64-bit count → mm / degrees, glitch detection;
 //! - [`probe`]: touch-trigger latch, debounce, re-seat lock-out;
 //! - [`thermal`]: thermistor → °C, bar expansion correction;
-//! - [`rtest_head`]: the R-test head's three LVDT channels → sphere-centre displacement;
 //! - [`rings`]: the two secondaries' DMA rings realigned together after an overrun;
 //! - [`pipeline`]: all of the above → one flagged [`Sample`] per sample period;
 //! - [`sample`]: the sample and its validity flags.
@@ -16,7 +15,6 @@ pub mod pipeline;
 pub mod probe;
 pub mod projection;
 pub mod rings;
-pub mod rtest_head;
 pub mod sample;
 pub mod thermal;
 

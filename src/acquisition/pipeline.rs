@@ -127,7 +127,7 @@ impl Acquisition {
     }
 
     /// The LVDT calibration in use (from the configuration), e.g. for the R-test head's
-    /// three channels ([`super::rtest_head::RtestHead::read`]).
+    /// three channels (the host's `ballpod_host::methods::rtest_head`).
     pub fn lvdt_calibration(&self) -> LvdtCalibration {
         self.lvdt
     }

@@ -529,7 +529,7 @@ fn finite(text: &str) -> Option<f64> {
 
 /// `ncgen kins`: an R-test's or seed 004's lines into the kinematics' pins or record.
 fn kins(k: &KinsArgs) -> Result<String, String> {
-    use ballpod::identify::rtest::RtestGeometry;
+    use ballpod_host::methods::rtest::RtestGeometry;
     use ballpod_host::ncgen::carr::{self, SwivelTable};
     use ballpod_host::ncgen::kins::{
         DispersionGrid, Pin, TrtKins, centreline_deviations, correct, hal_lines, rtest_ball,

@@ -20,8 +20,8 @@
 //! (`$TC_CARR41…60`) are left as they are and must be 0 for the base values to be the whole
 //! truth (said in the output).
 
-use ballpod::identify::centreline::AxisLine;
-use ballpod::identify::rtest::{ARCSEC_RAD, RtestGeometry};
+use crate::methods::centreline::AxisLine;
+use crate::methods::rtest::{ARCSEC_RAD, RtestGeometry};
 
 use super::NcError;
 use super::kins::{

@@ -29,7 +29,7 @@
 //! present record), so a record corrected once and measured again takes the second run's
 //! deviations on top of the first's.
 
-use ballpod::identify::centreline::AxisLine;
+use crate::methods::centreline::AxisLine;
 use ballpod::identify::multitasking::{Deviations, Parameter, urad_to_arcsec};
 use nalgebra::{Rotation3, Unit, Vector3};
 

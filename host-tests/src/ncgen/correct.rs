@@ -20,7 +20,7 @@
 
 use std::fmt::Write as _;
 
-use ballpod::identify::centreline::{AxisLine, RotationSense, TableAxes, nc_command_correction};
+use crate::methods::centreline::{AxisLine, RotationSense, TableAxes, nc_command_correction};
 use ballpod::identify::multitasking::compensation::{CompensationMode, compensate};
 use ballpod::identify::multitasking::patterns::NcBlock;
 use ballpod::identify::multitasking::{Deviations, Parameter, arcsec_to_urad};

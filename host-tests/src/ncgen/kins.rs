@@ -16,12 +16,12 @@
 //!
 //! The lines come as deviations from the control's own ([`LineDeviations`]): what a test
 //! measures is the machine against the model the control commanded it with. From the R-test
-//! ([`rtest_deviations`]): seed 003's location errors through `identify::rtest::axis_lines`.
+//! ([`rtest_deviations`]): seed 003's location errors through `methods::rtest::axis_lines`.
 //! A correction that would move a pin by more than the guard is refused with both numbers
 //! (KinematicsOpt's maximum correction).
 
-use ballpod::identify::centreline::AxisLine;
-use ballpod::identify::rtest::{ARCSEC_RAD, LocationErrors, RtestGeometry, RtestParam, axis_lines};
+use crate::methods::centreline::AxisLine;
+use crate::methods::rtest::{ARCSEC_RAD, LocationErrors, RtestGeometry, RtestParam, axis_lines};
 use nalgebra::{Rotation3, Unit, Vector3};
 
 use super::NcError;
@@ -635,7 +635,7 @@ pub fn rtest_ball(g: &RtestGeometry, lines: &TableLines) -> [f64; 3] {
     [o[0] + g.x_w_mm, o[1] + g.y_w_mm, o[2] + g.z_w_mm]
 }
 
-/// The R-test's location errors as line deviations (`identify::rtest::axis_lines`, each
+/// The R-test's location errors as line deviations (`methods::rtest::axis_lines`, each
 /// against the nominal line of `g`), with each moved by its u and their correlations
 /// (`correlation`, [`RtestParam::ALL`] order; `None`: taken as uncorrelated, and said so), and
 /// the generic table's rows.

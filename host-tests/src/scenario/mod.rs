@@ -15,12 +15,12 @@
 //!   pod's probe latch and debouncer, the core's sphere fit) → `identify::multitasking::probe`;
 //! - `seed003_rtest`: the R-test head on path K4 of the A/C table-tilting machine
 //!   ([`crate::vmt::rtest_rig`]: the exact chain of [`crate::forward_seed003`], three noisy
-//!   sensors through LVDT channels, the core's `acquisition::rtest_head`) → the readings file
-//!   → `identify::rtest`;
+//!   sensors through LVDT channels, `methods::rtest_head`) → the readings file
+//!   → `methods::rtest`;
 //! - `seed004_dial_gauge`: dial-gauge readings on a face turned by a tilted axis
 //!   ([`crate::forward_seed004`]) plus noise, read by a contact LVDT on one of the pod's
 //!   channels ([`crate::vmt::lvdt_channel::LvdtProbe`]) → the readings file →
-//!   `identify::centreline`;
+//!   `methods::centreline`;
 //! - `seed000_two_step`: the SSM after the translation and after the rotation of an RRTTT
 //!   head, a TTTRR table, or an RTTTR spindle head or table ([`crate::forward_seed000`]), at
 //!   sensor level ([`crate::vmt::ssm_rig`]: three dwells on the bar's sphere through the pod
@@ -490,8 +490,8 @@ fn seed002_probe(s: &Scenario, runs: std::ops::Range<u32>) -> Result<Vec<Check>,
 }
 
 fn seed003_rtest(s: &Scenario) -> Result<Vec<Check>, String> {
+    use crate::methods::rtest::RtestParam;
     use crate::vmt::rtest_rig::{RtestRig, path_k4, seed003_table3_kinematics};
-    use ballpod::identify::rtest::RtestParam;
     let truth = s.rtest_errors.ok_or("seed003_rtest needs rtest_errors")?;
     // sensor level: the exact chain → three LVDT channels → the core's head combination
     let mut rig = RtestRig::new(s.noise_um, s.seed);

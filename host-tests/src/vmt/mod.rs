@@ -6,7 +6,7 @@
 //! - [`machine`]: the seed 002 multi-tasking machine (literal HTM model of
 //!   [`crate::forward_seed002`]) and an XY machine with linear-axis faults for circular tests;
 //! - [`rtest_rig`]: the seed 003 A/C table-tilting machine under an R-test head (three LVDT
-//!   channels → the core's `acquisition::rtest_head`);
+//!   channels → `methods::rtest_head`);
 //! - [`ssm_rig`]: single-socket-method stations around a tool point (seed 000), through the
 //!   pod and the core's station collector;
 //! - [`probe_rig`]: touch-probe measurement of a sphere (pre-travel, repeatability, bounce)

@@ -3,14 +3,14 @@
 //! identification among them) gives the sphere-centre displacement at each pose; each of the
 //! head's three flat-tip sensors reads its component along its measuring direction plus noise,
 //! through its own LVDT channel ([`super::lvdt_channel`]: ADC blocks → the core's
-//! `demodulate`); the core's `ballpod::acquisition::rtest_head::RtestHead` turns the three
-//! channels back into the displacement vector that `ballpod::identify::rtest::identify` takes.
+//! `demodulate`); the core's `crate::methods::rtest_head::RtestHead` turns the three
+//! channels back into the displacement vector that `crate::methods::rtest::identify` takes.
 
+use crate::methods::rtest::{ARCSEC_RAD, RtestSample};
+use crate::methods::rtest_head::{HeadReading, RtestHead};
 use ballpod::acquisition::lvdt::LvdtCalibration;
-use ballpod::acquisition::rtest_head::{HeadReading, RtestHead};
 use ballpod::acquisition::{Acquisition, MAX_AXES};
 use ballpod::config::Config;
-use ballpod::identify::rtest::{ARCSEC_RAD, RtestSample};
 
 use super::lvdt_channel::LvdtChannel;
 use crate::forward_seed003 as fw;

@@ -1,7 +1,7 @@
 //! R-test head (seed 003, DESIGN §1): three displacement sensors (LVDTs with flat tips) around
 //! a precision sphere, read as three LVDT channels of the acquisition and combined into the
 //! sphere-centre displacement vector the R-test identification takes
-//! (`identify::rtest::RtestSample::reading_um`).
+//! (`methods::rtest::RtestSample::reading_um`).
 //!
 //! Model: a flat tip touching the sphere reads the component of the sphere-centre displacement
 //! along its measuring direction, `r_k = n_k · q` (k = 1…3, `n_k` unit vectors in the head
@@ -14,7 +14,7 @@
 //! taken from nalgebra: the per-sample path stays f32 and allocation-free, and the
 //! constructor needs only a 3×3 cofactor inverse.
 
-use super::lvdt::{LvdtCalibration, LvdtReading, LvdtStatus};
+use ballpod::acquisition::lvdt::{LvdtCalibration, LvdtReading, LvdtStatus};
 
 /// cos of the tilt of each default sensor axis from the head axis: 1/√3 (54.7356°).
 const COS_TILT: f32 = 0.577_350_26;
@@ -72,7 +72,7 @@ impl RtestHead {
     pub fn new(directions: [[f32; 3]; 3]) -> Result<Self, RtestHeadError> {
         for (sensor, n) in directions.iter().enumerate() {
             let norm2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
-            if !norm2.is_finite() || libm::fabsf(crate::num::sqrtf(norm2) - 1.0) > 1e-3 {
+            if !norm2.is_finite() || libm::fabsf(ballpod::num::sqrtf(norm2) - 1.0) > 1e-3 {
                 return Err(RtestHeadError::NotUnit { sensor });
             }
         }

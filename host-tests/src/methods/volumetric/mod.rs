@@ -26,7 +26,7 @@ pub mod compensation;
 pub mod metrics;
 pub mod vector;
 
-use crate::identify::lsq::LsqError;
+use ballpod::identify::lsq::LsqError;
 
 /// Why a volumetric computation could not be done.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -205,7 +205,7 @@ pub fn body_diagonal_reading_um(
     offset_mm: [f64; 3],
 ) -> Result<f64, VolumetricError> {
     let [a, b, c] = offset_mm;
-    let r = crate::num::sqrt(a * a + b * b + c * c);
+    let r = ballpod::num::sqrt(a * a + b * b + c * c);
     if !r.is_finite() {
         return Err(VolumetricError::NonFinite);
     }

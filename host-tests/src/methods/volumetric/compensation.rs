@@ -12,7 +12,7 @@ use super::VolumetricError;
 /// (the numbering the printed weights imply, spec A.5); `frac` = (x, y, z) ∈ [0, 1]³ from
 /// [`cell_fraction`]. Works per component: call it for C_x, C_y and C_z.
 pub fn trilinear(corners: &[f64; 8], frac: [f64; 3]) -> Result<f64, VolumetricError> {
-    if !(crate::num::all_finite(corners) && crate::num::all_finite(&frac)) {
+    if !(ballpod::num::all_finite(corners) && ballpod::num::all_finite(&frac)) {
         return Err(VolumetricError::NonFinite);
     }
     for (axis, f) in frac.iter().enumerate() {

@@ -40,7 +40,7 @@
 
 use nalgebra::{Rotation3, Unit, Vector3};
 
-use super::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError};
+use ballpod::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError};
 
 /// Why a centreline estimate could not be made.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -337,7 +337,7 @@ fn arr(v: &Vector3<f64>) -> [f64; 3] {
 
 /// Normalises `v`, or `ZeroVector` if |v| < 1e-12 (or non-finite).
 fn unit(v: Vector3<f64>) -> Result<Unit<Vector3<f64>>, CentrelineError> {
-    let n = crate::num::sqrt(v.dot(&v));
+    let n = ballpod::num::sqrt(v.dot(&v));
     if !n.is_finite() {
         return Err(CentrelineError::NonFinite);
     }
@@ -386,7 +386,7 @@ fn perpendicular_pair(e: &Unit<Vector3<f64>>) -> (Vector3<f64>, Vector3<f64>) {
         Vector3::z()
     };
     let p = seed - e.into_inner() * e.dot(&seed);
-    let p = p / crate::num::sqrt(p.dot(&p));
+    let p = p / ballpod::num::sqrt(p.dot(&p));
     let q = e.cross(&p);
     (p, q)
 }
@@ -415,9 +415,9 @@ pub fn plane_normal(
         v3(frame.lateral_v),
         v3(frame.reading_dir),
     );
-    if !(crate::num::all_finite(&frame.lateral_u)
-        && crate::num::all_finite(&frame.lateral_v)
-        && crate::num::all_finite(&frame.reading_dir))
+    if !(ballpod::num::all_finite(&frame.lateral_u)
+        && ballpod::num::all_finite(&frame.lateral_v)
+        && ballpod::num::all_finite(&frame.reading_dir))
     {
         return Err(CentrelineError::NonFinite);
     }
@@ -481,9 +481,9 @@ pub fn axis_direction_half_turn(
     nominal: [f64; 3],
     normal_std_urad: f64,
 ) -> Result<AxisDirection, CentrelineError> {
-    if !(crate::num::all_finite(&n1)
-        && crate::num::all_finite(&n2)
-        && crate::num::all_finite(&nominal))
+    if !(ballpod::num::all_finite(&n1)
+        && ballpod::num::all_finite(&n2)
+        && ballpod::num::all_finite(&nominal))
     {
         return Err(CentrelineError::NonFinite);
     }
@@ -532,9 +532,9 @@ pub fn axis_direction_two_positions(
     nominal: [f64; 3],
     normal_std_urad: f64,
 ) -> Result<TwoPositionAxis, CentrelineError> {
-    if !(crate::num::all_finite(&n3)
-        && crate::num::all_finite(&n4)
-        && crate::num::all_finite(&nominal)
+    if !(ballpod::num::all_finite(&n3)
+        && ballpod::num::all_finite(&n4)
+        && ballpod::num::all_finite(&nominal)
         && commanded_deg.is_finite())
     {
         return Err(CentrelineError::NonFinite);
@@ -543,23 +543,26 @@ pub fn axis_direction_two_positions(
     let (n3, n4) = (unit(v3(n3))?, unit(v3(n4))?);
     let e = unit(v3(nominal))?;
     let theta = sense.physical_deg(commanded_deg).to_radians();
-    let cos_t = crate::num::cos(theta);
+    let cos_t = ballpod::num::cos(theta);
     if 1.0 - cos_t < 1e-12 {
         return Err(CentrelineError::NoRotation);
     }
     let c = n3.dot(&n4);
     let k2 = (c - cos_t) / (1.0 - cos_t);
-    let u_k2 = sigma * crate::num::sqrt(2.0 * (1.0 - c * c).max(0.0)) / (1.0 - cos_t);
+    let u_k2 = sigma * ballpod::num::sqrt(2.0 * (1.0 - c * c).max(0.0)) / (1.0 - cos_t);
     // n3·n4 = k² + (1 − k²)·cos θ ≥ cos θ: a more negative k² means the normals moved more
     // than a rotation by θ can move them (small negative values are measurement noise).
     if k2 < -3.0 * u_k2 - 1e-12 {
         return Err(CentrelineError::InconsistentAngle { k2, u_k2 });
     }
-    let (ch, sh) = (crate::num::cos(theta / 2.0), crate::num::sin(theta / 2.0));
+    let (ch, sh) = (
+        ballpod::num::cos(theta / 2.0),
+        ballpod::num::sin(theta / 2.0),
+    );
     let solve = |a: &Vector3<f64>, b: &Vector3<f64>, sign: f64, k: Option<f64>| {
         let k = k.unwrap_or_else(|| {
             let k2 = (a.dot(b) - cos_t) / (1.0 - cos_t);
-            crate::num::sqrt(k2.clamp(0.0, 1.0))
+            ballpod::num::sqrt(k2.clamp(0.0, 1.0))
         });
         let v = a.cross(b) * ch + (a + b) * (sh * k * sign);
         orient(unit(v)?.into_inner(), &e)
@@ -573,9 +576,9 @@ pub fn axis_direction_two_positions(
         Err(_) => plus,
     };
     // k within the noise: k² ± 2u(k²), at least 0
-    let k = crate::num::sqrt(k2.clamp(0.0, 1.0));
-    let k_lo = crate::num::sqrt((k2 - 2.0 * u_k2).clamp(0.0, 1.0));
-    let k_wide = crate::num::sqrt((k2.max(0.0) + 2.0 * u_k2).min(1.0));
+    let k = ballpod::num::sqrt(k2.clamp(0.0, 1.0));
+    let k_lo = ballpod::num::sqrt((k2 - 2.0 * u_k2).clamp(0.0, 1.0));
+    let k_wide = ballpod::num::sqrt((k2.max(0.0) + 2.0 * u_k2).min(1.0));
     let wide = [1.0, -1.0].map(|sign| solve(&n3v, &n4v, sign, Some(k_wide)));
     let ambiguity = match wide {
         [Ok(p), Ok(m)] => libm::atan2(p.cross(&m).norm(), p.dot(&m)),
@@ -594,7 +597,7 @@ pub fn axis_direction_two_positions(
         let mut u = [0.0; 2];
         for (((u, a), t), (l, h)) in u.iter_mut().zip(at_k).zip(t).zip(lo.into_iter().zip(hi)) {
             let from_k = libm::fabs(h - t).max(libm::fabs(t - l)) / 2.0 * 1e6;
-            *u = crate::num::sqrt(a * a + from_k * from_k);
+            *u = ballpod::num::sqrt(a * a + from_k * from_k);
         }
         Ok(u)
     };
@@ -654,9 +657,9 @@ fn propagate(
             cov += dv[0] * dv[1];
         }
     }
-    let d = crate::num::sqrt(var[0] * var[1]);
+    let d = ballpod::num::sqrt(var[0] * var[1]);
     let rho = if d > 0.0 { cov / d } else { 0.0 };
-    Ok((var.map(|v| crate::num::sqrt(v) * 1e6), rho))
+    Ok((var.map(|v| ballpod::num::sqrt(v) * 1e6), rho))
 }
 
 /// Signed angle (rad) from `a` to `b` about unit `d`, after projecting both onto the plane
@@ -699,10 +702,10 @@ pub fn axis_direction_lsq(
             needed: 3,
         });
     }
-    if !crate::num::all_finite(&nominal)
+    if !ballpod::num::all_finite(&nominal)
         || positions
             .iter()
-            .any(|p| !(crate::num::all_finite(&p.normal) && p.commanded_deg.is_finite()))
+            .any(|p| !(ballpod::num::all_finite(&p.normal) && p.commanded_deg.is_finite()))
     {
         return Err(CentrelineError::NonFinite);
     }
@@ -754,7 +757,7 @@ pub fn axis_direction_lsq(
         } else {
             0.0
         },
-        angle_rms_deg: crate::num::sqrt(sum_sq / (positions.len() - 1) as f64),
+        angle_rms_deg: ballpod::num::sqrt(sum_sq / (positions.len() - 1) as f64),
         positions: positions.len(),
     })
 }
@@ -765,7 +768,7 @@ pub fn axis_direction_lsq(
 /// About Z on (X, Y): [[c, −s], [s, c]]; about Y on (X, Z): [[c, s], [−s, c]];
 /// about X on (Y, Z): [[c, −s], [s, c]].
 fn in_plane_rotation(axis: NominalAxis, theta_rad: f64) -> [[f64; 2]; 2] {
-    let (s, c) = (crate::num::sin(theta_rad), crate::num::cos(theta_rad));
+    let (s, c) = (ballpod::num::sin(theta_rad), ballpod::num::cos(theta_rad));
     match axis {
         NominalAxis::Z | NominalAxis::X => [[c, -s], [s, c]],
         NominalAxis::Y => [[c, s], [-s, c]],
@@ -785,7 +788,7 @@ impl AxisCentre {
         direction: [f64; 3],
         vertex_mm: [f64; 3],
     ) -> Result<[f64; 3], CentrelineError> {
-        if !(crate::num::all_finite(&direction) && crate::num::all_finite(&vertex_mm)) {
+        if !(ballpod::num::all_finite(&direction) && ballpod::num::all_finite(&vertex_mm)) {
             return Err(CentrelineError::NonFinite);
         }
         // (in-plane indices, out-of-plane index) in the order of `NominalAxis`
@@ -845,7 +848,7 @@ pub fn axis_centre(
             0.0
         },
         centre_degrees_of_freedom: sol.rows.saturating_sub(4),
-        radius_mm: crate::num::hypot(sol.x[2], sol.x[3]),
+        radius_mm: ballpod::num::hypot(sol.x[2], sol.x[3]),
         residual_rms_um: if redundant {
             sol.residual_rms * 1e3
         } else {
@@ -872,7 +875,7 @@ fn centre_rows(
     }
     if positions
         .iter()
-        .any(|p| !(p.commanded_deg.is_finite() && crate::num::all_finite(&p.point_mm)))
+        .any(|p| !(p.commanded_deg.is_finite() && ballpod::num::all_finite(&p.point_mm)))
     {
         return Err(CentrelineError::NonFinite);
     }
@@ -894,7 +897,9 @@ fn centre_rows(
 }
 
 /// Solves [`centre_rows`]; positions that do not turn the vertex are `NoRotation`.
-fn solve_centre(lsq: &GivensLsq<4>) -> Result<super::lsq::LsqSolution<4>, CentrelineError> {
+fn solve_centre(
+    lsq: &GivensLsq<4>,
+) -> Result<ballpod::identify::lsq::LsqSolution<4>, CentrelineError> {
     match lsq.solve_full_rank(DEFAULT_RANK_TOL) {
         Ok(s) => Ok(s),
         Err(LsqError::RankDeficient { .. }) => Err(CentrelineError::NoRotation),
@@ -1003,7 +1008,7 @@ pub fn axis_centre_budget(
         let sol = solve_centre(&centre_rows(positions, axis, sense, |_, _| 0.0)?)?;
         let u2 = touch.repeatability_um * touch.repeatability_um;
         (
-            [0, 1].map(|k| crate::num::sqrt(u2 * sol.cofactor(k, k))),
+            [0, 1].map(|k| ballpod::num::sqrt(u2 * sol.cofactor(k, k))),
             u2 * sol.cofactor(0, 1),
         )
     };
@@ -1039,7 +1044,7 @@ pub fn axis_centre_budget(
         offset_cov += shift[0] * shift[1];
     }
     let offset_um = if quarter_turns {
-        offset_sq.map(crate::num::sqrt)
+        offset_sq.map(ballpod::num::sqrt)
     } else {
         [f64::NAN; 2]
     };
@@ -1050,7 +1055,7 @@ pub fn axis_centre_budget(
             random_um.get(k).copied().unwrap_or(0.0),
             offset_um.get(k).copied().unwrap_or(0.0),
         );
-        let u = crate::num::hypot(a, b);
+        let u = ballpod::num::hypot(a, b);
         if let Some(slot) = u_um.get_mut(k) {
             *slot = u;
         }
@@ -1117,7 +1122,8 @@ pub fn nc_correction(
         nominal.tilt.point_mm,
         work_point_mm,
     ];
-    if !(crate::num::all_finite(all.as_flattened()) && eps_deg.is_finite() && phi_deg.is_finite()) {
+    if !(ballpod::num::all_finite(all.as_flattened()) && eps_deg.is_finite() && phi_deg.is_finite())
+    {
         return Err(CentrelineError::NonFinite);
     }
     let p = v3(work_point_mm);
@@ -1159,7 +1165,7 @@ pub fn nc_command_correction(
     eps_deg: f64,
     phi_deg: f64,
 ) -> Result<NcPointCorrection, CentrelineError> {
-    if !(crate::num::all_finite(&command_mm) && eps_deg.is_finite() && phi_deg.is_finite()) {
+    if !(ballpod::num::all_finite(&command_mm) && eps_deg.is_finite() && phi_deg.is_finite()) {
         return Err(CentrelineError::NonFinite);
     }
     let untilted = rotate_about_line(&nominal.tilt, &v3(command_mm), -phi_deg.to_radians())?;

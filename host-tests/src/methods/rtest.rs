@@ -38,7 +38,7 @@
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 use super::centreline::AxisLine;
-use super::lsq::{GivensLsq, LsqError};
+use ballpod::identify::lsq::{GivensLsq, LsqError};
 
 /// One arc-second in radians (π / 648 000).
 pub const ARCSEC_RAD: f64 = core::f64::consts::PI / 648_000.0;
@@ -606,7 +606,7 @@ pub fn predict_um(
     c_deg: f64,
 ) -> Result<[f64; 3], RtestError> {
     let x = e.to_array();
-    if !(g.is_finite() && crate::num::all_finite(&x) && a_deg.is_finite() && c_deg.is_finite()) {
+    if !(g.is_finite() && ballpod::num::all_finite(&x) && a_deg.is_finite() && c_deg.is_finite()) {
         return Err(RtestError::BadParameter);
     }
     let h = reduced_gains(g, a_deg, c_deg);
@@ -867,7 +867,8 @@ fn check_inputs(g: &RtestGeometry, samples: &[RtestSample]) -> Result<(), RtestE
         return Err(RtestError::BadParameter);
     }
     for (i, s) in samples.iter().enumerate() {
-        if !(s.a_deg.is_finite() && s.c_deg.is_finite() && crate::num::all_finite(&s.reading_um)) {
+        if !(s.a_deg.is_finite() && s.c_deg.is_finite() && ballpod::num::all_finite(&s.reading_um))
+        {
             return Err(RtestError::NonFiniteSample { sample: i });
         }
     }
@@ -985,7 +986,7 @@ fn identify_about(
     check_inputs(g, samples)?;
     if !(cfg.rank_tol.is_finite()
         && cfg.rank_tol > 0.0
-        && crate::num::all_finite(&cfg.fixed_values.to_array())
+        && ballpod::num::all_finite(&cfg.fixed_values.to_array())
         && cfg.u_reading_scale.is_finite()
         && cfg.u_reading_scale >= 0.0)
     {
@@ -1071,7 +1072,7 @@ fn identify_about(
     };
     let correlation_a: [[f64; 11]; 11] = core::array::from_fn(|i| {
         core::array::from_fn(|j| {
-            let d = crate::num::sqrt(inv(i, i) * inv(j, j));
+            let d = ballpod::num::sqrt(inv(i, i) * inv(j, j));
             if d > 0.0 { inv(i, j) / d } else { 0.0 }
         })
     });
@@ -1080,7 +1081,7 @@ fn identify_about(
         // the centred rows also spent one degree of freedom per axis on the offsets, which the
         // solver's s² = RSS/(m − 11) does not know of
         let dof = f64::from(sol.rows) - 11.0;
-        let scale = crate::num::sqrt(dof / (dof - 3.0));
+        let scale = ballpod::num::sqrt(dof / (dof - 3.0));
         u.iter_mut().for_each(|v| *v *= scale);
     }
     // The head's calibration: each axis's readings scaled by 1 + u through the same least
@@ -1100,11 +1101,11 @@ fn identify_about(
                 *v += (a - b) * (a - b);
             }
         }
-        u_scale.iter_mut().for_each(|v| *v = crate::num::sqrt(*v));
+        u_scale.iter_mut().for_each(|v| *v = ballpod::num::sqrt(*v));
     }
     let mut u_type_a = u;
     for ((v, a), b) in u.iter_mut().zip(u_type_a).zip(u_scale) {
-        *v = crate::num::sqrt(a * a + b * b);
+        *v = ballpod::num::sqrt(a * a + b * b);
     }
     let mut covariance = correlation_a;
     for ((row, ui), i) in covariance.iter_mut().zip(u_type_a).zip(0..) {
@@ -1207,9 +1208,9 @@ fn residuals(
     }
     let n = samples.len() as f64;
     for (r, s) in out.rms_um.iter_mut().zip(ss.iter()) {
-        *r = crate::num::sqrt(s / n);
+        *r = ballpod::num::sqrt(s / n);
     }
-    out.rms_total_um = crate::num::sqrt(ss.iter().sum::<f64>() / (3.0 * n));
+    out.rms_total_um = ballpod::num::sqrt(ss.iter().sum::<f64>() / (3.0 * n));
     Ok(out)
 }
 
@@ -1231,7 +1232,7 @@ pub fn axis_lines(
     g: &RtestGeometry,
     e: &LocationErrors,
 ) -> Result<(AxisLine, AxisLine), RtestError> {
-    if !(g.is_finite() && crate::num::all_finite(&e.to_array())) {
+    if !(g.is_finite() && ballpod::num::all_finite(&e.to_array())) {
         return Err(RtestError::BadParameter);
     }
     let um = 1e-3;
@@ -1245,7 +1246,7 @@ pub fn axis_lines(
     let c_dir = s_a * Vector3::new(boc, -aoc, 1.0);
     let c_point = s_a * c_point_a + t_a;
     let unit = |v: Vector3<f64>| {
-        let n = crate::num::sqrt(v.dot(&v));
+        let n = ballpod::num::sqrt(v.dot(&v));
         [v.x / n, v.y / n, v.z / n]
     };
     Ok((
@@ -1271,7 +1272,7 @@ pub fn verify(
     zero: ReadingZero,
 ) -> Result<Residuals, RtestError> {
     check_inputs(g, samples)?;
-    if !crate::num::all_finite(&errors.to_array()) {
+    if !ballpod::num::all_finite(&errors.to_array()) {
         return Err(RtestError::BadParameter);
     }
     residuals(g, errors, samples, zero)

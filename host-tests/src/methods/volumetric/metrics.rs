@@ -58,7 +58,7 @@ pub struct Definition82 {
 }
 
 fn norm3(v: &[f64; 3]) -> f64 {
-    crate::num::sqrt(v.iter().map(|x| x * x).sum())
+    ballpod::num::sqrt(v.iter().map(|x| x * x).sum())
 }
 
 fn check_points(points: &[VolumetricPoint]) -> Result<(), VolumetricError> {

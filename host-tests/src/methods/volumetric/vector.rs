@@ -15,7 +15,7 @@
 //! the forward step index (spec A.6).
 
 use super::VolumetricError;
-use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError};
+use ballpod::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError};
 
 /// Sign patterns (s_x, s_y, s_z) of the four body diagonals, in the order of the readings:
 /// ppp, npp, pnp, ppn.
@@ -49,7 +49,8 @@ pub fn invert_step(
     diagonal_mm: [f64; 3],
     readings_um: [Option<f64>; 4],
 ) -> Result<StepIncrements, VolumetricError> {
-    if !crate::num::all_finite(&diagonal_mm) || readings_um.iter().flatten().any(|m| !m.is_finite())
+    if !ballpod::num::all_finite(&diagonal_mm)
+        || readings_um.iter().flatten().any(|m| !m.is_finite())
     {
         return Err(VolumetricError::NonFinite);
     }
@@ -57,7 +58,7 @@ pub fn invert_step(
         return Err(VolumetricError::LengthNotPositive);
     }
     let [a, b, c] = diagonal_mm;
-    let r = crate::num::sqrt(a * a + b * b + c * c);
+    let r = ballpod::num::sqrt(a * a + b * b + c * c);
     let mut lsq = GivensLsq::<3>::new();
     for (s, m) in DIAGONAL_SIGNS.iter().zip(readings_um.iter()) {
         if let Some(m) = m {

@@ -274,9 +274,9 @@ impl CircleTest {
             refreshed = self.refresh_live_centre(d, config.setup.circle_u_centre_um);
         }
         // the u at its interval, and at once when a refresh is complete
-        let with_u = super::live_u_due(used, last_u_at) || refreshed;
+        let with_u = super::live_fit::live_u_due(used, last_u_at) || refreshed;
         let (noise, socket) = (self.live_noise_um, self.live_centre_um);
-        super::live_fit(self.test.fit(d), noise, socket, with_u, config)
+        super::live_fit::live_fit(self.test.fit(d), noise, socket, with_u, config)
     }
 
     /// Takes the sample noise of the run of direction `d` from its profile
@@ -379,7 +379,7 @@ impl CircleTest {
         let u_run = if d == Direction::Ccw { u_ccw } else { u_cw };
         if let (Ok(e), Ok(socket)) = (self.test.fit_estimate(d), self.test.centre_shares(d, u_run))
         {
-            super::publish_fit(results, &e, self.arc_deg(d), bar, socket);
+            super::live_fit::publish_fit(results, &e, self.arc_deg(d), bar, socket);
         }
         let (g, fmax, fmin) = figure_ids(d);
         if let Ok(f) = self.test.direction_figures(d, u_run) {

@@ -28,7 +28,10 @@
 use super::circle::{CircleTest, FiguresRequest};
 use super::probe::{ProbeAxis, ProbeFailure, Spheres};
 use super::results::ResultPatch;
+use super::seed002::Procedure;
 use super::seed002::{IdentificationInput, Setup, StepEccentricity, publish_identification};
+use super::session::{ProcedureNote, probe_note};
+use super::{App, ResultId};
 use crate::config::TestSetup;
 use crate::identify::multitasking::model_lsq::IdentificationScratch;
 use crate::in_place::{self, init_in_place};
@@ -295,5 +298,121 @@ fn probe(p: &ProbeInput, axis: ProbeAxis, patch: &mut ResultPatch) -> Result<boo
 impl Default for JobSlot {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+// ------------------------------------------------------------- the application's side
+
+impl App {
+    /// True while a job is wanted or running ([`job`](super::job): the ISO 230-4 figures of a run that
+    /// ended, a touch-probe method, the seed 002 identification): the results it publishes are
+    /// invalid until then (status bit [`StatusWord::COMPUTING`](super::StatusWord::COMPUTING)).
+    pub fn job_pending(&self) -> bool {
+        self.job.is_some()
+            || self.figures_requests.iter().any(Option::is_some)
+            || self.probe_requests.iter().any(|&r| r)
+            || self.identify_pending
+    }
+
+    /// Hands the next wanted job to `slot` (empty: no job of this application is running), with
+    /// a copy of its inputs; returns whether it did. The shell then runs
+    /// [`JobSlot::run`] where a long computation does no harm (the pod: the lowest priority)
+    /// and gives the slot back with [`App::finish_job`]. Shortest first: the figures of a run
+    /// (tenths of a second), a touch-probe method, then the seed 002 identification (seconds).
+    #[inline(never)] // off the command's and the sample's chains of calls (stack)
+    pub fn start_job(&mut self, slot: &mut JobSlot) -> bool {
+        if self.job.is_some() || !slot.is_empty() {
+            return false;
+        }
+        for k in 0..self.figures_requests.len() {
+            let Some(request) = self.figures_requests.get_mut(k).and_then(Option::take) else {
+                continue;
+            };
+            // a run begun again since (or a new test) replaced the runs the request read
+            if self.circle.current(&request) {
+                slot.load_figures(&self.circle, request);
+                self.job = Some(JobKind::CircleFigures);
+                self.update_status();
+                return true;
+            }
+        }
+        for axis in [ProbeAxis::B, ProbeAxis::C] {
+            if self
+                .probe_requests
+                .get_mut(axis as usize)
+                .is_some_and(core::mem::take)
+            {
+                let epoch = self.spheres_epoch;
+                slot.load_probe(&self.spheres, &self.config.setup, axis, epoch);
+                self.job = Some(JobKind::ProbeIdentification);
+                self.update_status();
+                return true;
+            }
+        }
+        if core::mem::take(&mut self.identify_pending) {
+            let input = self.seed002().map(Procedure::identification_input);
+            self.results.clear(ResultId::DxBt, ResultId::CorrBetaCz);
+            match input {
+                Some(Ok(input)) => {
+                    let bar = BarBudget::from_config(&self.config);
+                    slot.load_identification(input, bar, self.seed002_epoch);
+                    self.job = Some(JobKind::Seed002Identification);
+                    self.update_status();
+                    return true;
+                }
+                _ => self.procedure_note = Some(ProcedureNote::Seed002Failed),
+            }
+        }
+        self.update_status();
+        false
+    }
+
+    /// Takes back a slot whose job ran ([`JobSlot::run`]): its results are published if the runs
+    /// they came from are still the latest (a run of the same direction begun again, a new
+    /// test or procedure, `CLEAR` or `RESET` since the job started make them stale: they are
+    /// dropped, and the newer runs' own jobs publish theirs); the slot is empty after. A slot
+    /// whose job has not run is left as it is.
+    #[inline(never)] // off the command's and the sample's chains of calls (stack)
+    pub fn finish_job(&mut self, slot: &mut JobSlot) {
+        let Some(outcome) = slot.take_outcome() else {
+            return;
+        };
+        match outcome {
+            JobOutcome::Figures(request, patch) => {
+                if self.circle.current(&request) {
+                    patch.apply(&mut self.results);
+                }
+            }
+            JobOutcome::Identification(epoch, Ok(patch)) => {
+                if epoch == self.seed002_epoch {
+                    patch.apply(&mut self.results);
+                }
+            }
+            JobOutcome::Identification(epoch, Err(())) => {
+                if epoch == self.seed002_epoch {
+                    self.procedure_note = Some(ProcedureNote::Seed002Failed);
+                }
+            }
+            JobOutcome::Probe(epoch, result) if epoch == self.spheres_epoch => match result {
+                Ok(patch) => patch.apply(&mut self.results),
+                Err(e) => self.procedure_note = Some(probe_note(e)),
+            },
+            JobOutcome::Probe(..) => {}
+        }
+        self.job = None;
+        self.update_status();
+    }
+
+    /// Runs every wanted job here and now in `slot` ([`App::start_job`], [`JobSlot::run`],
+    /// [`App::finish_job`]): the host's and replay's way (the pod runs them at the lowest
+    /// priority). Returns whether there was one.
+    pub fn run_jobs(&mut self, slot: &mut JobSlot) -> bool {
+        let mut any = false;
+        while self.start_job(slot) {
+            slot.run();
+            self.finish_job(slot);
+            any = true;
+        }
+        any
     }
 }

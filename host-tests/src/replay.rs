@@ -118,7 +118,7 @@ pub struct Report {
 }
 
 /// The covariance of the seed 002 model mode's identified deviations
-/// (`ballpod::app::seed002::Procedure::model_covariance`), in their results' units: its
+/// (`ballpod::app::bc_ballbar::Procedure::model_covariance`), in their results' units: its
 /// diagonal is the square of each result's u.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct DeviationCovariance {
@@ -133,13 +133,13 @@ pub struct DeviationCovariance {
 impl DeviationCovariance {
     /// The covariance of the procedure on `app`, if it is complete.
     pub fn of(app: &App) -> Option<Self> {
-        use ballpod::identify::multitasking::model_lsq::ModelLsq;
-        use ballpod::identify::multitasking::urad_to_arcsec;
+        use ballpod::identify::mill_turn::model_lsq::ModelLsq;
+        use ballpod::identify::mill_turn::urad_to_arcsec;
         let bar = ballpod::metrology::bar_budget::BarBudget::from_config(app.config());
         let cov = app.seed002()?.model_covariance(&bar).ok()?;
         let params: Vec<_> = ModelLsq::without_squareness().free_parameters().collect();
         // µrad → arcsec on an angular row or column
-        let unit = |p: &ballpod::identify::multitasking::Parameter| {
+        let unit = |p: &ballpod::identify::mill_turn::Parameter| {
             if p.is_positional() {
                 ("um", 1.0)
             } else {

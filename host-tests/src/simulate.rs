@@ -6,7 +6,7 @@
 //! so a replay of them reports the same, byte for byte.
 
 use ballpod::acquisition::MAX_AXES;
-use ballpod::app::seed002::Setup;
+use ballpod::app::bc_ballbar::Setup;
 use ballpod::app::{Command, Direction, Pattern};
 use ballpod::config::CirclePlane;
 

@@ -226,9 +226,9 @@ fn pipeline_builds_a_calibrated_sample() {
     let mut acq = Acquisition::new(&cfg, [16; 5]);
     let t = f64::from(acq.update_temperature(code_for(23.0)).unwrap());
     let raw = [0, 0, 0, 0, 0];
-    let s0 = acq.sample(0, good_reading(0.0), raw, 0, false);
+    let s0 = acq.calibrate(0, good_reading(0.0), raw, 0, false);
     assert_eq!(s0.flags, SampleFlags::NONE);
-    let s = acq.sample(
+    let s = acq.calibrate(
         1_000,
         good_reading(0.005),
         [10_000, 65_536 - 20_000, 5, 0, 0],
@@ -254,10 +254,10 @@ fn standing_axes_keep_their_position_and_follow_a_new_scale() {
     let mut cfg = Config::default(); // 10 000 counts/mm
     let mut acq = Acquisition::new(&cfg, [16; 5]);
     let raw = [10_000, 65_536 - 20_000, 5, 0, 1];
-    acq.sample(0, good_reading(0.0), [0; 5], 0, false); // the first read is count 0
-    let first = acq.sample(500, good_reading(0.0), raw, 0, false);
+    acq.calibrate(0, good_reading(0.0), [0; 5], 0, false); // the first read is count 0
+    let first = acq.calibrate(500, good_reading(0.0), raw, 0, false);
     for k in 1..4 {
-        let s = acq.sample(k * 1000, good_reading(0.0), raw, 0, false);
+        let s = acq.calibrate(k * 1000, good_reading(0.0), raw, 0, false);
         assert_eq!(s.axes, first.axes);
     }
     assert_eq!(first.axes, [1.0, -2.0, 0.0005, 0.0, 0.0001]);
@@ -265,11 +265,11 @@ fn standing_axes_keep_their_position_and_follow_a_new_scale() {
         a.counts_per_unit = 4_000.0;
     }
     acq.reconfigure(&cfg, [16; 5]);
-    let s = acq.sample(9_000, good_reading(0.0), raw, 0, false);
+    let s = acq.calibrate(9_000, good_reading(0.0), raw, 0, false);
     let want = [10_000.0, -20_000.0, 5.0, 0.0, 1.0].map(|c: f64| (c / 4_000.0) as f32);
     assert_eq!(s.axes, want);
     // and an axis that moves again is scaled again
-    let s = acq.sample(
+    let s = acq.calibrate(
         10_000,
         good_reading(0.0),
         [10_004, 65_536 - 20_000, 5, 0, 1],
@@ -297,26 +297,26 @@ fn every_bad_input_sets_its_flag() {
     let mut acq = Acquisition::new(&cfg, [16; 5]);
     let raw = [0u32; 5];
     // no temperature yet: flagged, 20 °C used
-    let s = acq.sample(0, good_reading(0.0), raw, 0, false);
+    let s = acq.calibrate(0, good_reading(0.0), raw, 0, false);
     assert!(s.flags.contains(SampleFlags::TEMPERATURE_FAULT));
     assert_eq!(s.temp_c, 20.0);
     acq.update_temperature(code_for(21.0)).unwrap();
     assert_eq!(
-        acq.sample(1, good_reading(0.0), raw, 0, false).flags,
+        acq.calibrate(1, good_reading(0.0), raw, 0, false).flags,
         SampleFlags::NONE
     );
     // thermistor open: flagged, last good temperature kept
     assert!(acq.update_temperature(4095).is_err());
-    let s = acq.sample(2, good_reading(0.0), raw, 0, false);
+    let s = acq.calibrate(2, good_reading(0.0), raw, 0, false);
     assert!(s.flags.contains(SampleFlags::TEMPERATURE_FAULT));
     assert!((s.temp_c - 21.0).abs() < 0.05);
     acq.update_temperature(code_for(21.0)).unwrap();
     // over-range
-    let s = acq.sample(3, good_reading(0.7), raw, 0, false);
+    let s = acq.calibrate(3, good_reading(0.7), raw, 0, false);
     assert_eq!(s.flags, SampleFlags::LVDT_OVER_RANGE);
     assert!(s.delta_l_um.is_finite());
     // open
-    let s = acq.sample(
+    let s = acq.calibrate(
         4,
         Ok(LvdtReading {
             ratio: 0.1,
@@ -329,21 +329,21 @@ fn every_bad_input_sets_its_flag() {
         false,
     );
     assert_eq!(s.flags, SampleFlags::LVDT_OPEN);
-    let s = acq.sample(5, Err(DemodError::LengthMismatch), raw, 0, false);
+    let s = acq.calibrate(5, Err(DemodError::LengthMismatch), raw, 0, false);
     assert_eq!(s.flags, SampleFlags::LVDT_OPEN);
     // NaN from a broken conditioner
-    let s = acq.sample(6, Ok(acq.dc_reading(f32::NAN)), raw, 0, false);
+    let s = acq.calibrate(6, Ok(acq.dc_reading(f32::NAN)), raw, 0, false);
     assert!(!s.flags.is_valid_for_metrology() && s.delta_l_um.is_finite());
     // quadrature glitch: 1000 mm/s · 10 000 counts/mm / 1000 Hz · 2 = 20 000 counts max step
-    let s = acq.sample(7, good_reading(0.0), [25_000, 0, 0, 0, 0], 0, false);
+    let s = acq.calibrate(7, good_reading(0.0), [25_000, 0, 0, 0, 0], 0, false);
     assert_eq!(s.flags, SampleFlags::QUADRATURE_ERROR);
     // overrun: the queue lost 3 items since the last sample
-    let s = acq.sample(8, good_reading(0.0), [25_000, 0, 0, 0, 0], 3, false);
+    let s = acq.calibrate(8, good_reading(0.0), [25_000, 0, 0, 0, 0], 3, false);
     assert_eq!(s.flags, SampleFlags::OVERRUN);
-    let s = acq.sample(9, good_reading(0.0), [25_000, 0, 0, 0, 0], 3, false);
+    let s = acq.calibrate(9, good_reading(0.0), [25_000, 0, 0, 0, 0], 3, false);
     assert_eq!(s.flags, SampleFlags::NONE);
     // probe event
-    let s = acq.sample(10, good_reading(0.0), [25_000, 0, 0, 0, 0], 3, true);
+    let s = acq.calibrate(10, good_reading(0.0), [25_000, 0, 0, 0, 0], 3, true);
     assert_eq!(s.flags, SampleFlags::PROBE_EVENT);
     assert!(s.flags.is_valid_for_metrology());
     let c = acq.counters;

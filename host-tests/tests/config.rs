@@ -333,7 +333,7 @@ fn a_settings_record_of_encoding_version_3_is_read_and_migrated() {
 #[test]
 fn a_settings_record_of_encoding_version_4_is_read_and_migrated() {
     use ballpod::config::{CirclePlane, RunTrigger};
-    use ballpod::identify::multitasking::model_lsq::MountingUncertainty;
+    use ballpod::identify::mill_turn::model_lsq::MountingUncertainty;
     let got = read_fixture(include_str!("data/settings_record_v4.hex"), 21, 50);
     // what the file's header says it holds; the fields version 5 added keep their defaults,
     // the seed 002 mounting uncertainties of the core's budget

@@ -8,7 +8,7 @@ use ballpod_host::forward_seed004 as fw4;
 use ballpod_host::forward_seed004::SplitMix;
 use ballpod_host::methods::centreline::axis_direction_half_turn;
 use ballpod_host::methods::rtest::{
-    ARCSEC_RAD, ChainGeometry, ChainPose, IsoError, LocationErrors, RankPolicy, ReadingZero,
+    ARCSEC_RAD, ChainGeometry, ChainPose, ErrorTerm, LocationErrors, RankPolicy, ReadingZero,
     RtestConfig, RtestError, RtestGeometry, RtestParam, RtestSample, axis_lines, identify,
     predict_um, reduced_gains_si, table1_gains, verify,
 };
@@ -345,7 +345,7 @@ fn random_sym(rng: &mut SplitMix) -> (Sym, ChainGeometry, ChainPose) {
 #[test]
 fn c7_table1_42_of_44_rows_match_print_and_ecx_cox_dx_are_typos() {
     assert_eq!(
-        IsoError::ALL.len(),
+        ErrorTerm::ALL.len(),
         44,
         "41 ISO 230 errors + 3 ball position errors (C9)"
     );
@@ -353,7 +353,7 @@ fn c7_table1_42_of_44_rows_match_print_and_ecx_cox_dx_are_typos() {
     let mut rng = SplitMix(3);
     for _ in 0..200 {
         let (s, g, pose) = random_sym(&mut rng);
-        for (k, err) in IsoError::ALL.iter().enumerate() {
+        for (k, err) in ErrorTerm::ALL.iter().enumerate() {
             let name = fw::NAMES[k];
             assert_eq!(format!("{err:?}"), name, "row order");
             let ours = table1_gains(*err, &g, &pose);
@@ -426,7 +426,7 @@ fn c7_table1_all_44_rows_match_the_htm_chain_including_offset_axes() {
             ..pose
         };
         let num = fw::numeric_gains(&k, a, c, xm, ym, zm, 1e-6);
-        for (n, err) in IsoError::ALL.iter().enumerate() {
+        for (n, err) in ErrorTerm::ALL.iter().enumerate() {
             let ours = table1_gains(*err, &g, &pose);
             for col in 0..6 {
                 assert!(

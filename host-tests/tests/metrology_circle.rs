@@ -413,7 +413,7 @@ fn seed002_tv7_cr_sign_anchor() {
 #[test]
 fn seed002_tv7_cr_sign_anchor_through_the_pod() {
     use ballpod::acquisition::MAX_AXES;
-    use ballpod::app::seed002::Setup;
+    use ballpod::app::bc_ballbar::Setup;
     use ballpod::app::{App, Command, Direction, Pattern, ResultId, SessionState};
     use ballpod::config::Config;
 
@@ -571,8 +571,8 @@ fn the_live_u_is_the_f64_fits_u() {
 #[test]
 fn the_pods_live_u_is_what_its_results_state() {
     use ballpod::acquisition::MAX_AXES;
+    use ballpod::app::bc_ballbar::Setup;
     use ballpod::app::circle::{LIVE_NOISE_EVERY, LIVE_NOISE_RETRY};
-    use ballpod::app::seed002::Setup;
     use ballpod::app::{App, Command, Direction, Live, Pattern, ResultId, SessionState};
     use ballpod::config::Config;
     // the noise is first told at LIVE_NOISE_RETRY samples, then refreshed every

@@ -6,9 +6,7 @@ use std::path::Path;
 
 use ballpod::app::Direction;
 use ballpod::config::{CirclePlane, Config, RunTrigger};
-use ballpod_host::ncgen::{
-    CircleOptions, CircleTest, DEFAULT_M_BASE, Dialect, Session, SphereTest,
-};
+use ballpod_host::ncgen::{CircleOptions, CircleRun, DEFAULT_M_BASE, Dialect, Session, SphereTest};
 
 fn setup(plane: CirclePlane, centre: [f32; 3], radius: f32, feed: f32) -> Config {
     let mut c = Config {
@@ -53,7 +51,7 @@ fn fanuc_programs_match_their_reviewed_golden_files() {
     let zx = cases()[1].clone();
     all.push((("circle_zx_220_session", zx.1, zx.2), Some(session)));
     for ((stem, cfg, options), session) in all {
-        let program = CircleTest::from_config(&cfg, options)
+        let program = CircleRun::from_config(&cfg, options)
             .unwrap()
             .program_with(Dialect::Fanuc, session.as_ref());
         let path = dir.join(format!("{stem}.{}", Dialect::Fanuc.extension()));
@@ -103,7 +101,7 @@ fn linuxcnc_programs_differ_only_in_the_dialect() {
         (9, 9)
     );
     for (stem, cfg, options) in cases() {
-        let t = CircleTest::from_config(&cfg, options).unwrap();
+        let t = CircleRun::from_config(&cfg, options).unwrap();
         let (l, f) = (t.program(Dialect::LinuxCnc), t.program(Dialect::Fanuc));
         assert_eq!(body(&l), body(&f), "{stem}");
         assert!(l.ends_with("M2\n") && f.ends_with("M30\n%\n"), "{stem}");
@@ -114,7 +112,7 @@ fn linuxcnc_programs_differ_only_in_the_dialect() {
 #[test]
 fn a_set_up_the_machine_cannot_run_is_refused_with_the_field() {
     let ok = setup(CirclePlane::XY, [0.0, 0.0, 0.0], 150.0, 1000.0);
-    let field = |cfg: &Config, o: CircleOptions| CircleTest::from_config(cfg, o).unwrap_err().field;
+    let field = |cfg: &Config, o: CircleOptions| CircleRun::from_config(cfg, o).unwrap_err().field;
     let d = CircleOptions::default;
     let mut c = ok;
     c.setup.circle_radius_mm = 0.0;
@@ -130,10 +128,10 @@ fn a_set_up_the_machine_cannot_run_is_refused_with_the_field() {
     c.setup.circle_radius_mm = 151.2;
     assert_eq!(field(&c, d()), "circle_radius");
     c.setup.circle_radius_mm = 151.0;
-    assert!(CircleTest::from_config(&c, d()).is_ok());
+    assert!(CircleRun::from_config(&c, d()).is_ok());
     c = ok;
     c.setup.circle_centre_mm[1] = f32::NAN;
-    let e = CircleTest::from_config(&c, d()).unwrap_err();
+    let e = CircleRun::from_config(&c, d()).unwrap_err();
     assert_eq!(
         (e.field, e.what.as_str()),
         ("circle_centre", "circle_centre_y not set")
@@ -141,7 +139,7 @@ fn a_set_up_the_machine_cannot_run_is_refused_with_the_field() {
     // the out-of-plane coordinate may be unknown: that axis is not moved
     c = ok;
     c.setup.circle_centre_mm[2] = f32::NAN;
-    let p = CircleTest::from_config(&c, d())
+    let p = CircleRun::from_config(&c, d())
         .unwrap()
         .program(Dialect::LinuxCnc);
     assert!(!p.lines().any(|l| l.starts_with("G0 Z")), "{p}");
@@ -318,7 +316,7 @@ fn an_ssm_set_up_the_machine_cannot_run_is_refused_with_the_field() {
 /// CW, F1000 — small enough to review line by line.
 fn pattern(step: ballpod::app::Pattern) -> ballpod_host::ncgen::PatternTest {
     let mut cfg = Config::default();
-    ballpod::app::seed002::Setup::thesis_table_4_3().to_config(&mut cfg.setup);
+    ballpod::app::bc_ballbar::Setup::thesis_table_4_3().to_config(&mut cfg.setup);
     ballpod_host::ncgen::PatternTest::from_config(
         &cfg,
         step,
@@ -562,7 +560,7 @@ fn program_extents_follow_the_arcs() {
 fn programs_beyond_the_travel_are_refused_naming_the_axis() {
     use ballpod_host::ncgen::{Travel, check_travel};
     let (_, cfg, options) = cases().into_iter().next().unwrap(); // the XY circle, R 150 about 0
-    let circle = CircleTest::from_config(&cfg, options)
+    let circle = CircleRun::from_config(&cfg, options)
         .unwrap()
         .program(Dialect::LinuxCnc);
     let tight = Travel {
@@ -602,7 +600,7 @@ fn a_b_pattern_program_and_the_served_pods_motion_turn_b_alike_for_each_directio
     use ballpod::app::Pattern;
     use ballpod_host::vmt::motion::{Motion, ServeTruth};
     let mut cfg = Config::default();
-    ballpod::app::seed002::Setup::thesis_table_4_3().to_config(&mut cfg.setup);
+    ballpod::app::bc_ballbar::Setup::thesis_table_4_3().to_config(&mut cfg.setup);
     for d in Direction::ALL {
         let program =
             ballpod_host::ncgen::PatternTest::from_config(&cfg, Pattern::Bx, 8, 1000.0, vec![d])

@@ -6,7 +6,7 @@
 //! within the identification's accuracy, where the uncorrected program misses by tens of µm.
 //! Bad programs are refused with the line named.
 use ballpod::app::Pattern;
-use ballpod::identify::multitasking::Deviations;
+use ballpod::identify::mill_turn::Deviations;
 use ballpod_host::forward_seed002 as fwd;
 use ballpod_host::forward_seed004 as fw4;
 use ballpod_host::ncgen::{
@@ -92,7 +92,7 @@ fn corrected_programs_reach_the_ideal_points() {
     }
     let cfg = {
         let mut c = ballpod::config::Config::default();
-        ballpod::app::seed002::Setup::thesis_table_4_3().to_config(&mut c.setup);
+        ballpod::app::bc_ballbar::Setup::thesis_table_4_3().to_config(&mut c.setup);
         c
     };
     for step in Pattern::SEED002 {
@@ -216,8 +216,8 @@ fn bad_programs_and_results_are_refused_naming_what() {
     .unwrap();
     let c = ok.covariance.unwrap();
     // arc-seconds to µrad on the angular row and column
-    let k = 1.0 / ballpod::identify::multitasking::urad_to_arcsec(1.0);
-    use ballpod::identify::multitasking::Parameter as P;
+    let k = 1.0 / ballpod::identify::mill_turn::urad_to_arcsec(1.0);
+    use ballpod::identify::mill_turn::Parameter as P;
     assert_eq!(c[P::DxBt.index()][P::DxBt.index()], 4.0);
     assert!((c[P::DxBt.index()][P::AlphaBt.index()] - k).abs() < 1e-9);
     assert!((c[P::AlphaBt.index()][P::AlphaBt.index()] - 9.0 * k * k).abs() < 1e-6);
@@ -600,13 +600,13 @@ fn the_u_of_a_corrected_point_covers_its_miss() {
 /// deviations' u alone, without their correlations, covers 90 % with u 21 % short.)
 #[test]
 fn the_u_of_a_seed002_corrected_point_covers_its_miss() {
-    use ballpod::identify::multitasking::Parameter;
-    use ballpod::identify::multitasking::compensation::{CompensationMode, compensate};
-    use ballpod::identify::multitasking::model_lsq::{
+    use ballpod::identify::mill_turn::Parameter;
+    use ballpod::identify::mill_turn::compensation::{CompensationMode, compensate};
+    use ballpod::identify::mill_turn::model_lsq::{
         ModelLsq, MountingUncertainty, PatternMeasurement,
     };
-    use ballpod::identify::multitasking::patterns::NcBlock;
-    use ballpod::identify::multitasking::patterns::{Pattern as ModelPattern, PatternGeometry};
+    use ballpod::identify::mill_turn::patterns::NcBlock;
+    use ballpod::identify::mill_turn::patterns::{Pattern as ModelPattern, PatternGeometry};
     use ballpod::metrology::bar_budget::BarBudget;
     use ballpod_host::ncgen::IdentifiedDeviations;
     const U_ECC_UM: f64 = 0.05;

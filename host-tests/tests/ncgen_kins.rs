@@ -762,8 +762,8 @@ fn seed004s_centrelines_into_a_sinumerik_record_leave_no_dispersion() {
 // ---------------------------------------------------------------------------------------------
 
 use ballpod::app::Pattern;
-use ballpod::app::seed002::Setup;
-use ballpod::identify::multitasking::{Deviations, Parameter, arcsec_to_urad};
+use ballpod::app::bc_ballbar::Setup;
+use ballpod::identify::mill_turn::{Deviations, Parameter, arcsec_to_urad};
 use ballpod_host::forward_seed002 as f2;
 use ballpod_host::ncgen::carr_mixed::{self, MixedGrid, MixedRecord, Seed002Deviations};
 use ballpod_host::simulate::{SimOptions, simulate_commanded};
@@ -1092,7 +1092,7 @@ fn seed002s_correction_into_a_type_m_record_leaves_only_the_spindles_tilt() {
         seed002: ballpod_host::vmt::machine::Machine002::perfect(),
         ..MachineFile::default()
     };
-    tilted.seed002.alpha_bt_arcsec = ballpod::identify::multitasking::urad_to_arcsec(tilt_true);
+    tilted.seed002.alpha_bt_arcsec = ballpod::identify::mill_turn::urad_to_arcsec(tilt_true);
     let (_, rms_tilt) = seed002_through(&tilted, &nominal);
     eprintln!(
         "readings rms: {rms1:.3} → {rms2:.3} µm; the tilt alone {rms_tilt:.3} µm; dispersion {:?} → {:?}",
@@ -1189,8 +1189,8 @@ fn the_books_type_m_example_is_what_ncgen_prints_and_what_does_not_fit_is_refuse
 /// mode's as well takes those unless asked for the probe's.
 #[test]
 fn the_touch_probes_figures_correct_a_type_m_record_as_its_truth() {
-    use ballpod::identify::multitasking::lobing::LOBING_COMPONENTS;
-    use ballpod::identify::multitasking::probe::{
+    use ballpod::identify::mill_turn::lobing::LOBING_COMPONENTS;
+    use ballpod::identify::mill_turn::probe::{
         BAxisProbe, CAxisProbe, ProbeMode, identify_b_axis, identify_c_axis,
     };
     let mut d = [0.0; 13];

@@ -1,4 +1,4 @@
-//! The touch probe's lobing in the chapter 5 budget (issue 14; `identify::multitasking::lobing`):
+//! The touch probe's lobing in the chapter 5 budget (issue 14; `identify::mill_turn::lobing`):
 //! Monte Carlo of the whole procedure at sensor level. Each procedure draws a machine (the
 //! literal HTM model's deviations) and a probe whose pre-travel varies with the direction of
 //! approach as a kinematic probe's does (`Instrument::probe_pretravel_at`: 1/cos lobes, all their

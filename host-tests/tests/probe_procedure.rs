@@ -6,7 +6,7 @@
 
 use ballpod::app::{ProcedureNote, ResultId};
 use ballpod::config::Field;
-use ballpod::identify::multitasking::urad_to_arcsec;
+use ballpod::identify::mill_turn::urad_to_arcsec;
 use ballpod_host::vmt::machine::Machine002;
 use ballpod_host::vmt::motion::probe_target;
 use ballpod_host::vmt::probe_rig::ProbeRig;

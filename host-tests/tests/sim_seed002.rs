@@ -4,11 +4,11 @@
 //! machine's deviations. Truth: the machine preset (thesis Table 4.5 values, spec seed-002
 //! §5.7), simulated by the independent forward model `forward_seed002`.
 
-use ballpod::app::seed002::Setup;
-use ballpod::identify::multitasking::compensation::{CompensationMode, compensate};
-use ballpod::identify::multitasking::model_lsq::ModelLsq;
-use ballpod::identify::multitasking::patterns::NcBlock;
-use ballpod::identify::multitasking::{Deviations, Parameter, arcsec_to_urad, urad_to_arcsec};
+use ballpod::app::bc_ballbar::Setup;
+use ballpod::identify::mill_turn::compensation::{CompensationMode, compensate};
+use ballpod::identify::mill_turn::model_lsq::ModelLsq;
+use ballpod::identify::mill_turn::patterns::NcBlock;
+use ballpod::identify::mill_turn::{Deviations, Parameter, arcsec_to_urad, urad_to_arcsec};
 use ballpod_host::forward_seed002::actual_and_ideal;
 use ballpod_host::replay::{Figure, Report, replay};
 use ballpod_host::simulate::{SimOptions, SimSession, simulate};

@@ -266,7 +266,7 @@ impl Acquisition {
     ///   dropped); if it grew since the previous sample, this one carries
     ///   [`SampleFlags::OVERRUN`] and its `seq` skips the lost ones.
     /// - `probe_event`: a probe trigger was accepted since the previous sample.
-    pub fn sample(
+    pub fn calibrate(
         &mut self,
         t_us: u64,
         lvdt: Result<LvdtReading, DemodError>,

@@ -99,8 +99,8 @@ pub(crate) const fn dir_index(d: Direction) -> usize {
 
 /// The circular test: both directions' latest runs (state 11.9 KiB).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct CircleTest {
-    /// The test's geometry; `None` before the first run (and after [`CircleTest::clear`]).
+pub struct CircleRun {
+    /// The test's geometry; `None` before the first run (and after [`CircleRun::clear`]).
     geometry: Option<CircleGeometry>,
     test: CircularTest<ISO_BINS>,
     /// A completed run (with a fit) of each direction, CCW and CW.
@@ -122,14 +122,14 @@ pub struct CircleTest {
     /// The centre's u the shares are taken for (step [`CentreStep::Shares`]), µm.
     centre_u_um: f32,
     /// Runs begun in each direction (CCW, CW) since boot, and both at a new test or
-    /// [`CircleTest::clear`]: a [`FiguresRequest`] computes and publishes only while the runs it
+    /// [`CircleRun::clear`]: a [`FiguresRequest`] computes and publishes only while the runs it
     /// read are still the latest.
     epochs: [u32; 2],
 }
 
 /// What a run's end leaves to a job ([`super::job`]): the ISO 230-4 figures of the run's
 /// direction (G, F) and, once both directions are complete, the bi-directional figures and the
-/// diagnoses ([`CircleTest::figures`]: 0.1–0.3 s on the pod).
+/// diagnoses ([`CircleRun::figures`]: 0.1–0.3 s on the pod).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FiguresRequest {
     /// The run's direction.
@@ -142,7 +142,7 @@ pub struct FiguresRequest {
     pub both_directions: bool,
     /// The bar's budget as configured when the run ended.
     pub bar: BarBudget,
-    /// [`CircleTest`]'s run epochs when the run ended.
+    /// [`CircleRun`]'s run epochs when the run ended.
     epochs: [u32; 2],
 }
 
@@ -184,7 +184,7 @@ const NO_TEST: CircleFitConfig = CircleFitConfig {
     min_arc_deg: 360.0,
 };
 
-impl CircleTest {
+impl CircleRun {
     /// No test yet, built in place in `slot` (the state never passes through the stack).
     pub fn init(slot: &mut MaybeUninit<Self>) -> &mut Self {
         init_in_place!(slot, Self {

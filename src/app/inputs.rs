@@ -125,7 +125,7 @@ impl App {
     ) -> Sample {
         let probe_event = core::mem::take(&mut self.probe_event);
         let lvdt = self.lvdt_reading(block);
-        let s = self.acq.sample(t_us, lvdt, raw, lost_total, probe_event);
+        let s = self.acq.calibrate(t_us, lvdt, raw, lost_total, probe_event);
         self.on_sample(&s, rec);
         s
     }

@@ -25,15 +25,15 @@
 //! ([`App::run_jobs`](super::App::run_jobs) runs them back to back), so the results are the
 //! same bit for bit wherever they run.
 
-use super::circle::{CircleTest, FiguresRequest};
+use super::bc_ballbar::Procedure;
+use super::bc_ballbar::{IdentificationInput, Setup, StepEccentricity, publish_identification};
+use super::circle::{CircleRun, FiguresRequest};
 use super::probe::{ProbeAxis, ProbeFailure, Spheres};
 use super::results::ResultPatch;
-use super::seed002::Procedure;
-use super::seed002::{IdentificationInput, Setup, StepEccentricity, publish_identification};
 use super::session::{ProcedureNote, probe_note};
 use super::{App, ResultId};
 use crate::config::TestSetup;
-use crate::identify::multitasking::model_lsq::IdentificationScratch;
+use crate::identify::mill_turn::model_lsq::IdentificationScratch;
 use crate::in_place::{self, init_in_place};
 use crate::metrology::bar_budget::BarBudget;
 use core::mem::MaybeUninit;
@@ -41,7 +41,7 @@ use core::mem::MaybeUninit;
 /// Which job a slot holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum JobKind {
-    /// The ISO 230-4 figures of a CIRCLE run ([`CircleTest::figures`]).
+    /// The ISO 230-4 figures of a CIRCLE run ([`CircleRun::figures`]).
     CircleFigures,
     /// The seed 002 identification ([`IdentificationInput::identify`]).
     Seed002Identification,
@@ -93,7 +93,7 @@ struct IdentificationJob {
 /// the largest).
 #[derive(Clone, Copy)]
 union Inputs {
-    circle: CircleTest,
+    circle: CircleRun,
     identification: IdentificationJob,
     probe: ProbeInput,
 }
@@ -167,7 +167,7 @@ impl JobSlot {
     }
 
     /// Takes a copy of `circle` (the test as its run ended) for `request`'s figures.
-    pub(crate) fn load_figures(&mut self, circle: &CircleTest, request: FiguresRequest) {
+    pub(crate) fn load_figures(&mut self, circle: &CircleRun, request: FiguresRequest) {
         // a place-to-place copy (memcpy): no temporary of the 14 KiB test on the stack
         self.inputs.circle = *circle;
         self.start(Work::Figures(request));
@@ -274,7 +274,7 @@ impl JobSlot {
 // not of all three (`.ci/stack-report`).
 
 #[inline(never)]
-fn figures(circle: &CircleTest, request: &FiguresRequest, patch: &mut ResultPatch) {
+fn figures(circle: &CircleRun, request: &FiguresRequest, patch: &mut ResultPatch) {
     circle.figures(request, patch);
 }
 

@@ -22,7 +22,7 @@
 //! | pattern | per sample (live) | at stop (results) | procedure |
 //! |---|---|---|---|
 //! | CIRCLE | e_u, e_v, r0 of the direction's limaçon fit | the run's fit, G, F; with both directions G(b), H, radial, diagnoses | latest CCW and CW runs ([`circle`]) |
-//! | BX BY CR CA CR2 | e, r0 of the step's fit | the run's fit; the step's CW/CCW eccentricity | seed 002 identification when every step has CW and CCW ([`seed002`]) |
+//! | BX BY CR CA CR2 | e, r0 of the step's fit | the run's fit; the step's CW/CCW eccentricity | seed 002 identification when every step has CW and CCW ([`bc_ballbar`]) |
 //! | SSM | E_x, E_y, E_z of the neighbourhood (each or none) | E from the dwell stations, u(E) | seed 000 two-step over two SSM runs ([`ssm`]) |
 //! | PROBE | – | the sphere through the touch points | touch-probe C axis over four spheres, B axis over B = 0/90° with two tool lengths ([`probe`]) |
 //!
@@ -33,6 +33,7 @@
 //! [`JobSlot::run`], [`App::finish_job`]).
 
 mod axes;
+pub mod bc_ballbar;
 pub mod circle;
 mod commands;
 mod configure;
@@ -48,7 +49,6 @@ pub mod probe;
 pub mod record;
 pub mod results;
 pub mod run;
-pub mod seed002;
 pub mod session;
 pub mod ssm;
 mod status;
@@ -71,12 +71,12 @@ pub use session::{
 use crate::acquisition::{Acquisition, AcquisitionCounters, MAX_AXES, SampleFlags};
 use crate::config::{Config, LvdtInput};
 use axes::AxisMap;
-use circle::{CircleTest, FiguresRequest};
+use bc_ballbar::{Procedure, Setup};
+use circle::{CircleRun, FiguresRequest};
 use job::JobKind;
 use patterns::RunEstimator;
 use probe::Spheres;
 use run::RunMonitor;
-use seed002::{Procedure, Setup};
 use ssm::{SsmRun, TwoStep};
 use trigger::ArcTrigger;
 
@@ -103,7 +103,7 @@ pub struct App {
     monitor: RunMonitor,
     estimator: RunEstimator,
     meta: RunMeta,
-    circle: CircleTest,
+    circle: CircleRun,
     ssm: SsmRun,
     /// The seed 002 procedure (meaningful once `seed002_begun`): in place, never rebuilt on
     /// the stack (3.3 KiB).
@@ -231,7 +231,7 @@ impl App {
             status_fixed: 0,
             last_flags: SampleFlags::NONE,
         } in place {
-            circle: CircleTest::init,
+            circle: CircleRun::init,
             ssm: |s| SsmRun::init(s, &config.setup),
         })
     }
@@ -316,7 +316,7 @@ impl App {
         self.procedure_note
     }
     /// Seed 002 runs with results that were not kept because the step already held
-    /// [`seed002::MAX_REPEATS`] runs of that direction.
+    /// [`bc_ballbar::MAX_REPEATS`] runs of that direction.
     pub fn seed002_runs_not_kept(&self) -> u32 {
         self.seed002_runs_not_kept
     }

@@ -3,6 +3,7 @@
 //! results (or abort when it has none). The estimators themselves are the pattern modules':
 //! [`super::circle`], [`super::seed002`], [`super::ssm`], [`super::probe`].
 
+use super::bc_ballbar::Setup;
 use super::circle::{self, CircleGeometry};
 use super::live::Live;
 use super::live_fit::{
@@ -12,7 +13,6 @@ use super::live_fit::{
 use super::probe::{self, ProbeRun};
 use super::results::ResultSink;
 use super::run::{AbortReason, RunMonitor};
-use super::seed002::Setup;
 use super::session::{CommandError, Needs, ProcedureNote, SessionState, probe_note};
 use super::ssm;
 use super::trigger::ArcTrigger;
@@ -121,7 +121,7 @@ impl App {
     }
 
     /// Publishes a run's circle fit with the bar's shares and the centre's (µm, for r0, e_u,
-    /// e_v: [`circle::CircleTest::finish_run`]; zero for a seed 002 step, whose centre's inputs
+    /// e_v: [`circle::CircleRun::finish_run`]; zero for a seed 002 step, whose centre's inputs
     /// are in the procedure's budget).
     pub(super) fn stop(&mut self) {
         if let Err(reason) = self.monitor.stop() {
@@ -135,7 +135,7 @@ impl App {
         self.procedure_note = None;
         let ok = match &mut self.estimator {
             RunEstimator::None => false,
-            // the run's fit and figures: a job (`CircleTest::figures`)
+            // the run's fit and figures: a job (`CircleRun::figures`)
             RunEstimator::Circle => {
                 match self
                     .circle

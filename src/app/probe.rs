@@ -22,8 +22,8 @@
 
 use super::results::{ResultId, ResultSink, Results};
 use crate::config::{Field, TestSetup, required, required3};
-use crate::identify::multitasking::lobing::{LOBING_COMPONENTS, lobing_share};
-use crate::identify::multitasking::probe::{
+use crate::identify::mill_turn::lobing::{LOBING_COMPONENTS, lobing_share};
+use crate::identify::mill_turn::probe::{
     BAxisProbe, CAxisProbe, ProbeError, ProbeMode, SphereFit, SphereFitError, fit_sphere,
     identify_b_axis, identify_c_axis,
 };
@@ -442,7 +442,7 @@ impl Spheres {
         };
         let r = identify_b_axis(&input, ProbeMode::Corrected).map_err(ProbeFailure::BAxis)?;
         // (β_XB, δx_BT, δz_BT, α_BT + α_XB, α_BT − γ_XB), in the order of the uncertainties
-        let outputs = |r: &crate::identify::multitasking::probe::BAxisResult| {
+        let outputs = |r: &crate::identify::mill_turn::probe::BAxisResult| {
             let or_nan = |v: Option<f64>| v.unwrap_or(f64::NAN);
             [
                 r.beta_xb_arcsec,

@@ -5,11 +5,11 @@
 //!   by every method.
 //! - [`two_step`]: seed 000 two-step orientation errors of RRTTT / TTTRR / RTTTR machines from two
 //!   SSM measurements (exact inversion and corrected paper formulas).
-//! - [`multitasking`]: seed 002 (B head + C table): ball-bar and touch-probe identification, NC fix.
+//! - [`mill_turn`]: seed 002 (B head + C table): ball-bar and touch-probe identification, NC fix.
 //!
 //! The methods that run on the host only (seeds 001, 003, 004) are in the host crate
 //! (`ballpod_host::methods`): the firmware never calls them.
 
 pub mod lsq;
-pub mod multitasking;
+pub mod mill_turn;
 pub mod two_step;

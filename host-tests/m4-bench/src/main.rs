@@ -36,7 +36,7 @@ use ballpod::acquisition::lvdt::{
 use ballpod::acquisition::projection::{Q14Sums, RailTest, add_periods, add_periods_portable};
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
-use ballpod::app::seed002::{Procedure, Setup};
+use ballpod::app::bc_ballbar::{Procedure, Setup};
 use ballpod::app::{App, Command, Direction as RunDirection, Pattern, Recorder, RunMeta};
 use ballpod::config::Config;
 use ballpod::identify::lsq::GivensLsq;
@@ -538,7 +538,7 @@ fn main() -> ! {
     for k in 0..ACQ_SAMPLES {
         raw.iter_mut().for_each(|r| *r = (*r + 37) & 0xFFFF);
         let (_, n) = measure(|| {
-            acq.sample(
+            acq.calibrate(
                 u64::from(k) * 1000,
                 Ok(black_box(reading)),
                 black_box(raw),

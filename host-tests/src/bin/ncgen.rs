@@ -23,7 +23,7 @@ use clap::{Parser, Subcommand, ValueEnum};
 use ballpod::app::Direction;
 use ballpod::config::RunTrigger;
 use ballpod_host::ncgen::{
-    CircleOptions, CircleTest, Dialect, PatternTest, Session, SphereTest, SsmTest, TwoStepTest,
+    CircleOptions, CircleRun, Dialect, PatternTest, Session, SphereTest, SsmTest, TwoStepTest,
     centrelines_from_toml, check_travel, correct_program, correct_program_centrelines,
     deviations_from_results, session_scripts, setup_file,
 };
@@ -382,7 +382,7 @@ fn run(args: &Args) -> Result<String, String> {
                 feed_in_mm: c.feed_in_mm,
                 directions: directions(c.direction),
             };
-            let test = CircleTest::from_config(&cfg, options)
+            let test = CircleRun::from_config(&cfg, options)
                 .map_err(|e| format!("{}: {e}", c.setup.display()))?;
             let a = &c.session;
             let trigger = match a.trigger {
@@ -768,7 +768,7 @@ fn carr_given(
 
 /// `ncgen kins sinumerik-m`: seed 002's deviations into a type-M record.
 fn kins_mixed(k: &KinsArgs) -> Result<String, String> {
-    use ballpod::app::seed002::Setup;
+    use ballpod::app::bc_ballbar::Setup;
     use ballpod_host::ncgen::carr_mixed::{self, MixedGrid, MixedRecord};
     let src = &k.source;
     let at = |e: String| format!("{}: {e}", src.display());

@@ -13,7 +13,7 @@ use std::time::Instant;
 
 use clap::Parser;
 
-use ballpod::identify::multitasking::{Parameter, urad_to_arcsec};
+use ballpod::identify::mill_turn::{Parameter, urad_to_arcsec};
 use ballpod_host::replay::Report;
 use ballpod_host::report;
 use ballpod_host::simulate::{SimOptions, simulate};
@@ -46,7 +46,7 @@ struct Args {
     #[arg(long, value_name = "DIR")]
     nc: Option<PathBuf>,
     /// Repeats of the seed 002 procedure.
-    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=ballpod::app::seed002::MAX_REPEATS as u64))]
+    #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=ballpod::app::bc_ballbar::MAX_REPEATS as u64))]
     repeats: u64,
     /// Serve the simulated pod to CANopen / SCPI clients on loopback TCP instead.
     #[arg(long)]

@@ -48,7 +48,7 @@ pub const ARCSEC_RAD: f64 = core::f64::consts::PI / 648_000.0;
 /// errors: (dir)O(axis) (ISO 230-1 writes E_(dir)0(axis)).
 #[allow(missing_docs)] // the variant names are the paper's symbols, explained above
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum IsoError {
+pub enum ErrorTerm {
     EXX,
     EYX,
     EZX,
@@ -95,10 +95,10 @@ pub enum IsoError {
     BOC,
 }
 
-impl IsoError {
+impl ErrorTerm {
     /// All 44 errors in Table 1 order.
     pub const ALL: [Self; 44] = {
-        use IsoError::*;
+        use ErrorTerm::*;
         [
             EXX, EYX, EZX, EAX, EBX, ECX, EXY, EYY, EZY, EAY, EBY, ECY, EXZ, EYZ, EZZ, EAZ, EBZ,
             ECZ, COX, AOZ, BOZ, XOW, YOW, ZOW, EXA, EYA, EZA, EAA, EBA, ECA, YOA, ZOA, BOA, COA,
@@ -135,9 +135,9 @@ enum Kind {
     Rot(usize),
 }
 
-impl IsoError {
+impl ErrorTerm {
     fn link_kind(self) -> (Link, Kind) {
-        use IsoError::*;
+        use ErrorTerm::*;
         use Kind::{Rot, Trans};
         match self {
             EXX => (Link::XComp, Trans(0)),
@@ -253,7 +253,7 @@ fn axis(i: usize) -> Vector3<f64> {
 /// Workpiece-side moves enter with −, probe-side with +. This reproduces 42 of the 44 printed
 /// rows; the printed ECX and COX ΔX rows carry a sign typo on `Ca·Sc·X_w + Ca·Cc·Y_w` (A5).
 /// Unlike the printed table, X_c, Y_c and Y_h need not be 0.
-pub fn table1_gains(err: IsoError, g: &ChainGeometry, pose: &ChainPose) -> [f64; 6] {
+pub fn table1_gains(err: ErrorTerm, g: &ChainGeometry, pose: &ChainPose) -> [f64; 6] {
     Levers::new(g, pose).gains(err)
 }
 
@@ -301,7 +301,7 @@ impl Levers {
         }
     }
 
-    fn gains(&self, err: IsoError) -> [f64; 6] {
+    fn gains(&self, err: ErrorTerm) -> [f64; 6] {
         let ident = Rotation3::identity();
         let (link, kind) = err.link_kind();
         // (sign: − workpiece side, + probe side; frame orientation; lever in frame axes)
@@ -402,19 +402,19 @@ impl RtestParam {
     }
 
     /// The full-model error this parameter is.
-    pub fn iso(self) -> IsoError {
+    pub fn iso(self) -> ErrorTerm {
         match self {
-            Self::Xow => IsoError::XOW,
-            Self::Yow => IsoError::YOW,
-            Self::Zow => IsoError::ZOW,
-            Self::Yoa => IsoError::YOA,
-            Self::Zoa => IsoError::ZOA,
-            Self::Boa => IsoError::BOA,
-            Self::Coa => IsoError::COA,
-            Self::Xoc => IsoError::XOC,
-            Self::Yoc => IsoError::YOC,
-            Self::Aoc => IsoError::AOC,
-            Self::Boc => IsoError::BOC,
+            Self::Xow => ErrorTerm::XOW,
+            Self::Yow => ErrorTerm::YOW,
+            Self::Zow => ErrorTerm::ZOW,
+            Self::Yoa => ErrorTerm::YOA,
+            Self::Zoa => ErrorTerm::ZOA,
+            Self::Boa => ErrorTerm::BOA,
+            Self::Coa => ErrorTerm::COA,
+            Self::Xoc => ErrorTerm::XOC,
+            Self::Yoc => ErrorTerm::YOC,
+            Self::Aoc => ErrorTerm::AOC,
+            Self::Boc => ErrorTerm::BOC,
         }
     }
 

@@ -30,7 +30,7 @@
 //! deviations on top of the first's.
 
 use crate::methods::centreline::AxisLine;
-use ballpod::identify::multitasking::{Deviations, Parameter, urad_to_arcsec};
+use ballpod::identify::mill_turn::{Deviations, Parameter, urad_to_arcsec};
 use nalgebra::{Rotation3, Unit, Vector3};
 
 use super::NcError;
@@ -420,7 +420,7 @@ fn probe_deviations(file: &Figures) -> Result<Seed002Deviations, NcError> {
                 if p.is_positional() {
                     x
                 } else {
-                    ballpod::identify::multitasking::arcsec_to_urad(x)
+                    ballpod::identify::mill_turn::arcsec_to_urad(x)
                 }
             };
             let i = p.index();
@@ -497,7 +497,7 @@ pub fn seed002_from_results(json: &str, probe: bool) -> Result<Seed002Deviations
                 let u = if p.is_positional() {
                     u
                 } else {
-                    ballpod::identify::multitasking::arcsec_to_urad(u)
+                    ballpod::identify::mill_turn::arcsec_to_urad(u)
                 };
                 if let Some(v) = c.get_mut(p.index()).and_then(|r| r.get_mut(p.index())) {
                     *v = u * u;

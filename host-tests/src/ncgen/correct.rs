@@ -9,7 +9,7 @@
 //!
 //! Seed 002:
 //! Every `G0`/`G1` block's X, Y, Z become the core's corrected command
-//! ([`ballpod::identify::multitasking::compensation::compensate`], applied once: `A·x_c = P`,
+//! ([`ballpod::identify::mill_turn::compensation::compensate`], applied once: `A·x_c = P`,
 //! eqs 3.4–3.10; compensation = −error) in the model frame (the block's position less the
 //! set-up's `s002_origin`), B and C stay as programmed, and a trailing comment says what moved
 //! and by how much (µm). The deviations are the pod's model-mode results by name (`dx_BT` …
@@ -21,9 +21,9 @@
 use std::fmt::Write as _;
 
 use crate::methods::centreline::{AxisLine, RotationSense, TableAxes, nc_command_correction};
-use ballpod::identify::multitasking::compensation::{CompensationMode, compensate};
-use ballpod::identify::multitasking::patterns::NcBlock;
-use ballpod::identify::multitasking::{Deviations, Parameter, arcsec_to_urad};
+use ballpod::identify::mill_turn::compensation::{CompensationMode, compensate};
+use ballpod::identify::mill_turn::patterns::NcBlock;
+use ballpod::identify::mill_turn::{Deviations, Parameter, arcsec_to_urad};
 
 use super::{NcError, WORD_RESOLUTION_MM, num};
 

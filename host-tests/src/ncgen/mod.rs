@@ -100,7 +100,7 @@ impl Default for CircleOptions {
 
 /// A circle test ready to be written: the set-up's geometry checked, the options checked.
 #[derive(Clone, Debug, PartialEq)]
-pub struct CircleTest {
+pub struct CircleRun {
     /// Plane of the circle.
     pub plane: CirclePlane,
     /// Centre (the socket), mm; the out-of-plane coordinate may be unknown (not moved).
@@ -124,7 +124,7 @@ pub fn plane_axes(plane: CirclePlane) -> (usize, usize, usize) {
     }
 }
 
-impl CircleTest {
+impl CircleRun {
     /// The test of the set-up in `cfg` with `options`: the circle's radius, feed and in-plane
     /// centre must be set and positive (finite); the options in their ranges.
     pub fn from_config(cfg: &Config, options: CircleOptions) -> Result<Self, NcError> {

@@ -1,6 +1,6 @@
 //! The seed 002 procedure's pattern programs (steps BX, BY, CR, CA, CR2) from the pod's own
 //! set-up (`s002_*` fields): the core's Table 2.2 / 2.3 commands
-//! ([`ballpod::identify::multitasking::patterns::PatternProgram`], the model frame moved by
+//! ([`ballpod::identify::mill_turn::patterns::PatternProgram`], the model frame moved by
 //! `s002_origin`) as simultaneous G1 blocks of X Y Z B C.
 //!
 //! A B pattern turns B over a quarter (0° → 90° is CW in the pod's XZ plane, 90° → 0° CCW: the
@@ -12,10 +12,10 @@
 
 use std::fmt::Write as _;
 
-use ballpod::app::seed002::{Setup, model_pattern};
+use ballpod::app::bc_ballbar::{Setup, model_pattern};
 use ballpod::app::{Direction, Pattern};
 use ballpod::config::{Config, TestSetup};
-use ballpod::identify::multitasking::patterns::PatternProgram;
+use ballpod::identify::mill_turn::patterns::PatternProgram;
 
 use super::{Dialect, NcError, Session, SessionStep, SetupField, field_lines, num, session_line};
 
@@ -96,7 +96,7 @@ impl PatternTest {
     fn run(
         &self,
         d: Direction,
-    ) -> Result<PatternProgram, ballpod::identify::multitasking::patterns::PatternError> {
+    ) -> Result<PatternProgram, ballpod::identify::mill_turn::patterns::PatternError> {
         let span = if model_pattern(self.step).is_b() {
             90.0
         } else {
@@ -125,7 +125,7 @@ impl PatternTest {
         let Ok(blocks) = self.run(Direction::Ccw) else {
             return f64::NAN;
         };
-        let axes = |b: &ballpod::identify::multitasking::patterns::NcBlock| {
+        let axes = |b: &ballpod::identify::mill_turn::patterns::NcBlock| {
             [b.x_mm, b.y_mm, b.z_mm, b.b_deg, b.c_deg]
         };
         let blocks: Vec<[f64; 5]> = blocks.map(|b| axes(&b)).collect();
@@ -225,7 +225,7 @@ impl PatternTest {
             let Some(start) = blocks.next() else {
                 continue;
             };
-            let words = |b: &ballpod::identify::multitasking::patterns::NcBlock| {
+            let words = |b: &ballpod::identify::mill_turn::patterns::NcBlock| {
                 format!(
                     "X{} Y{} Z{} B{} C{}",
                     num(b.x_mm),

@@ -4,7 +4,7 @@
 //! One table ([`STEPS`]) declares each step: its M-code (from a base, default M150: LinuxCNC's
 //! user M-codes are M100–M199), what the LinuxCNC script does and the hand-shake a PLC
 //! implements on the other controls (the CANopen writes, then the state it waits for). The
-//! program writer ([`super::CircleTest::program_with`]) places them; `ncgen m-codes DIR` writes
+//! program writer ([`super::CircleRun::program_with`]) places them; `ncgen m-codes DIR` writes
 //! the LinuxCNC scripts ([`scripts`]) and the set-up a program's `M150 P<n>` applies is the file
 //! [`setup_file`] writes (`ballpod-setup-<n>.toml`: the program's `[session]` pattern and
 //! `[setup]` fields, as the set-up files the generators read).

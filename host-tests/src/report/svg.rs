@@ -13,8 +13,8 @@
 use std::fmt::Write;
 
 use ballpod::acquisition::Sample;
+use ballpod::app::bc_ballbar::Setup;
 use ballpod::app::circle::CircleGeometry;
-use ballpod::app::seed002::Setup;
 use ballpod::app::{Direction, Pattern};
 use ballpod::metrology::pattern::PatternGeometry;
 

@@ -12,7 +12,7 @@
 //!   at B = 0/90° with two tool lengths, placed by the literal HTM model
 //!   ([`crate::vmt::motion::probe_target`]), each touched nine times at sensor level
 //!   ([`crate::vmt::probe_rig`]: pre-travel, repeatability σ = `noise_um`, bounce edges, the
-//!   pod's probe latch and debouncer, the core's sphere fit) → `identify::multitasking::probe`;
+//!   pod's probe latch and debouncer, the core's sphere fit) → `identify::mill_turn::probe`;
 //! - `seed003_rtest`: the R-test head on path K4 of the A/C table-tilting machine
 //!   ([`crate::vmt::rtest_rig`]: the exact chain of [`crate::forward_seed003`], three noisy
 //!   sensors through LVDT channels, `methods::rtest_head`) → the readings file
@@ -270,7 +270,7 @@ pub fn run(s: &Scenario) -> Result<Vec<Check>, String> {
 }
 
 fn seed002_ballbar(s: &Scenario) -> Result<Vec<Check>, String> {
-    use ballpod::identify::multitasking::{Parameter, urad_to_arcsec};
+    use ballpod::identify::mill_turn::{Parameter, urad_to_arcsec};
     let mut m = s.machine;
     m.instrument.bar_noise_um = s.noise_um;
     let o = SimOptions {
@@ -363,7 +363,7 @@ fn iso230_4(s: &Scenario) -> Result<Vec<Check>, String> {
 /// (runs 4–7) → the B axis.
 fn seed002_probe(s: &Scenario, runs: std::ops::Range<u32>) -> Result<Vec<Check>, String> {
     use crate::vmt::motion::probe_target;
-    use ballpod::identify::multitasking::urad_to_arcsec;
+    use ballpod::identify::mill_turn::urad_to_arcsec;
     let d = s.machine.seed002.deviations();
     let da = d.to_array();
     let (rc, zc) = (100.0, 64.838);

@@ -2,15 +2,15 @@
 //!
 //! - [`Machine002`]: the seed 002 multi-tasking machine `w-C'bZYXB(C1)-t`, all 13 deviations,
 //!   on the literal HTM chain of [`crate::forward_seed002`] (eqs 2.10–2.21); the commands are
-//!   the NC program's (`ballpod::identify::multitasking::patterns::command`, Tables 2.2/2.3).
+//!   the NC program's (`ballpod::identify::mill_turn::patterns::command`, Tables 2.2/2.3).
 //! - [`CircleMachine`]: an XY machine for the ISO 230-4 circular test with linear-axis faults
 //!   (squareness, scale, reversal/backlash, cyclic error, servo lag per axis).
 
 use ballpod::acquisition::Sample;
 use ballpod::app::Pattern;
-use ballpod::app::seed002::{Setup, model_pattern};
-use ballpod::identify::multitasking::patterns::command;
-use ballpod::identify::multitasking::{Deviations, arcsec_to_urad};
+use ballpod::app::bc_ballbar::{Setup, model_pattern};
+use ballpod::identify::mill_turn::patterns::command;
+use ballpod::identify::mill_turn::{Deviations, arcsec_to_urad};
 use serde::{Deserialize, Serialize};
 
 use crate::forward_seed002 as fwd;

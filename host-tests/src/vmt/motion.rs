@@ -18,7 +18,7 @@
 
 use ballpod::acquisition::MAX_AXES;
 use ballpod::app::Pattern;
-use ballpod::app::seed002::Setup;
+use ballpod::app::bc_ballbar::Setup;
 use ballpod::config::{CirclePlane, Config};
 use serde::{Deserialize, Serialize};
 

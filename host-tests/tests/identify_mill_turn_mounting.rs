@@ -9,11 +9,11 @@
 //! The stated U = 2u must cover the truth — the machine's deviations plus what the
 //! identification absorbs of the first tool length's T-ball offset — in ≥ 95 % of the runs,
 //! and u must match the scatter.
-use ballpod::identify::multitasking::Parameter;
-use ballpod::identify::multitasking::model_lsq::{
+use ballpod::identify::mill_turn::Parameter;
+use ballpod::identify::mill_turn::model_lsq::{
     ModelLsq, ModelLsqError, MountingInput, MountingUncertainty, PatternMeasurement,
 };
-use ballpod::identify::multitasking::patterns::{Pattern, PatternGeometry};
+use ballpod::identify::mill_turn::patterns::{Pattern, PatternGeometry};
 use ballpod::metrology::bar_budget::BarBudget;
 use ballpod_host::forward_seed002 as fwd;
 use ballpod_host::rng::Rng;

@@ -1,6 +1,7 @@
-//! Seed 002 (Yao 2022 thesis): identification of the inherent geometric deviations of a
-//! multi-tasking machine tool `w-C'bZYXB(C1)-t` (turning C axis on the workpiece side, swivel
-//! B head on the tool side) from ball-bar patterns and from touch-probe sphere centres.
+//! The mill-turn machine's geometry (seed 002, Yao 2022 thesis): identification of the inherent
+//! geometric deviations of a multi-tasking machine tool `w-C'bZYXB(C1)-t` (turning C axis on
+//! the workpiece side, swivel B head on the tool side) from ball-bar patterns and from
+//! touch-probe sphere centres.
 //!
 //! Spec: `../shared/spec/seed-002.md`. Submodules:
 //! - [`model`]: the literal HTM forward model, eqs 2.1–2.21, and the ball-bar reading 2.17;

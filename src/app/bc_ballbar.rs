@@ -1,4 +1,4 @@
-//! The seed 002 ball-bar procedure (spec seed-002 §5.3, Table 4.3): steps BX, BY, CR, CA and CR′
+//! The B/C ball-bar procedure of a mill-turn machine, seed 002's (spec seed-002 §5.3, Table 4.3): steps BX, BY, CR, CA and CR′
 //! (`CR2`: CR with the second tool length R′_B), each run CW and CCW, the whole procedure
 //! repeated. The steps are the seed 002 [`Pattern`]s ([`Pattern::SEED002`]).
 //!
@@ -24,15 +24,15 @@ use super::pattern::{Direction, Pattern};
 use super::results::{ResultId, ResultSink};
 use crate::acquisition::Sample;
 use crate::config::{Field, TestSetup};
-use crate::identify::multitasking::ballbar::{
+use crate::identify::mill_turn::ballbar::{
     BallBarError, ThesisEccentricities, ThesisGeometry, ThesisResult, identify_thesis,
 };
-use crate::identify::multitasking::model_lsq::{
+use crate::identify::mill_turn::model_lsq::{
     DeviationUncertainty, IdentificationScratch, ModelLsq, ModelLsqError, ModelLsqResult,
     MountingUncertainty, PatternMeasurement,
 };
-use crate::identify::multitasking::patterns::{NcOffset, Pattern as ModelPattern, PatternGeometry};
-use crate::identify::multitasking::{Parameter, urad_to_arcsec};
+use crate::identify::mill_turn::patterns::{NcOffset, Pattern as ModelPattern, PatternGeometry};
+use crate::identify::mill_turn::{Parameter, urad_to_arcsec};
 use crate::metrology::bar_budget::{BarBudget, FigureKind};
 use crate::metrology::circle_fit::{
     self, CircleEstimate, CircleFit, CircleFitConfig, CircleFitError, SampleUse,
@@ -50,7 +50,7 @@ pub const MIN_ARC_DEG: f32 = 80.0;
 /// depends on the sampling only through its second-order (non-limaçon) part, so predicting it
 /// from 37 equally spaced points moves the identified deviations by ≤ 3e-4 µm / µrad against
 /// a 3601-point measurement of ~100 µm deviations (test `coarse_model_sampling_is_exact_enough`
-/// in host-tests/tests/identify_multitasking_lsq.rs), while each model simulation — the cost
+/// in host-tests/tests/identify_mill_turn_lsq.rs), while each model simulation — the cost
 /// of the identification on the pod, soft f64 on the M4 — is 20× cheaper than at 721 points.
 pub const MODEL_SAMPLES_MAX: usize = 37;
 
@@ -499,7 +499,7 @@ impl Procedure {
     }
 
     /// The full covariance of the model mode's deviations (µm², µm·µrad, µrad²; rows and
-    /// columns in [`crate::identify::multitasking::Parameter::ALL`] order) from the same inputs
+    /// columns in [`crate::identify::mill_turn::Parameter::ALL`] order) from the same inputs
     /// as [`Self::identify`]'s u: what a compensation of several deviations needs (the host's
     /// part programs; the pod reports each deviation's u).
     pub fn model_covariance(&self, bar: &BarBudget) -> Result<[[f64; 13]; 13], SessionError> {

@@ -1,8 +1,8 @@
-//! Seed 002 chapter 5 touch-probe method (`identify::multitasking::probe`): TV-12 (eqs 5.1–5.19
+//! Seed 002 chapter 5 touch-probe method (`identify::mill_turn::probe`): TV-12 (eqs 5.1–5.19
 //! on the Table 5.2 averages, spec §6.6/§8.2) in paper mode, and round trips through the
 //! independent literal HTM chain of `ballpod_host::forward_seed002` in corrected mode.
-use ballpod::identify::multitasking::lobing::LOBING_COMPONENTS;
-use ballpod::identify::multitasking::probe::{
+use ballpod::identify::mill_turn::lobing::LOBING_COMPONENTS;
+use ballpod::identify::mill_turn::probe::{
     BAxisProbe, CAxisProbe, ProbeError, ProbeMode, SphereFitError, fit_sphere, identify_b_axis,
     identify_c_axis,
 };
@@ -633,7 +633,7 @@ fn sphere_fit_round_trip_and_bad_input() {
 }
 
 /// The sphere fit's response to the probe's lobing (`SphereFit::lobing_um_per_um`, row j per µm
-/// of component j: `identify::multitasking::lobing`) against a refit: nine touches on a sphere,
+/// of component j: `identify::mill_turn::lobing`) against a refit: nine touches on a sphere,
 /// each moved inward by 1 µm of one component computed here from θ and φ (acos, atan2, cos,
 /// sin in the probe's frame: stylus up (sin B, 0, cos B), x (cos B, 0, −sin B)) and refitted.
 #[test]

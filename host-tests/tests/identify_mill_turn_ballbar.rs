@@ -1,8 +1,8 @@
-//! Seed 002 ball-bar procedure, thesis mode (`identify::multitasking::ballbar`): TV-1 to TV-4
+//! Seed 002 ball-bar procedure, thesis mode (`identify::mill_turn::ballbar`): TV-1 to TV-4
 //! (Tables 4.4, 4.5, 4.7 of the thesis, spec seed-002 §8.1), a round trip through the thesis
 //! relations 4.1–4.9 written independently in `ballpod_host::forward_seed002`, uncertainty
 //! propagation and bad input.
-use ballpod::identify::multitasking::ballbar::{
+use ballpod::identify::mill_turn::ballbar::{
     BallBarError, ThesisEccentricities, ThesisGeometry, identify_thesis, run_statistics,
 };
 use ballpod_host::forward_seed002 as fwd;
@@ -134,7 +134,7 @@ fn tv4_unit_conversion() {
     let d = identify_thesis(&e, &T43, None).unwrap().deviations;
     assert!((d.alpha_xb_arcsec / 206_264.806 - (-1.01292e-4)).abs() < 5e-10);
     assert!((d.alpha_xb_arcsec - (-20.893)).abs() < 5e-4);
-    assert!((ballpod::identify::multitasking::ARCSEC_PER_RAD - 206_264.806).abs() < 5e-4);
+    assert!((ballpod::identify::mill_turn::ARCSEC_PER_RAD - 206_264.806).abs() < 5e-4);
 }
 
 /// Round trip: random deviations → thesis relations 4.1–4.9 → eqs 4.10–4.18 recover them (linear:

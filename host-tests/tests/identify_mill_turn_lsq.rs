@@ -1,12 +1,12 @@
 //! Seed 002 model-based least squares on the literal HTM model
-//! (`identify::multitasking::model_lsq`): random deviations → the independent forward model of
+//! (`identify::mill_turn::model_lsq`): random deviations → the independent forward model of
 //! `ballpod_host::forward_seed002` (literal 4×4 products + §3.5 fit) → identification recovers
 //! them; rank-deficient set-ups are reported with the combination they cannot separate.
-use ballpod::identify::multitasking::model_lsq::{
+use ballpod::identify::mill_turn::model_lsq::{
     ModelLsq, ModelLsqError, MountingUncertainty, PatternMeasurement,
 };
-use ballpod::identify::multitasking::patterns::{Pattern, PatternError, PatternGeometry};
-use ballpod::identify::multitasking::{Deviations, Parameter};
+use ballpod::identify::mill_turn::patterns::{Pattern, PatternError, PatternGeometry};
+use ballpod::identify::mill_turn::{Deviations, Parameter};
 use ballpod::metrology::bar_budget::BarBudget;
 use ballpod_host::forward_seed002 as fwd;
 
@@ -92,7 +92,7 @@ fn round_trip_recovers_ten_deviations() {
 /// deviations stay within 1e-3 µm / µrad (1 nm, 0.0002″) of the truth.
 #[test]
 fn coarse_model_sampling_is_exact_enough() {
-    use ballpod::app::seed002::MODEL_SAMPLES_MAX;
+    use ballpod::app::bc_ballbar::MODEL_SAMPLES_MAX;
     let mut r = fwd::Rng(0x5a3b_1e02);
     for _ in 0..3 {
         let mut d = r.deviations();

@@ -1,12 +1,12 @@
-//! Seed 002 chapter 3 compensation (`identify::multitasking::compensation`), checked with the
+//! Seed 002 chapter 3 compensation (`identify::mill_turn::compensation`), checked with the
 //! independent 4×4 products of `ballpod_host::forward_seed002` and the spec's check-script
 //! vector for the literal eq 3.13.
-use ballpod::identify::multitasking::ballbar::ThesisDeviations;
-use ballpod::identify::multitasking::compensation::{
+use ballpod::identify::mill_turn::ballbar::ThesisDeviations;
+use ballpod::identify::mill_turn::compensation::{
     CompensationError, CompensationMode, DxSplit, compensate, deviations_for_compensation,
 };
-use ballpod::identify::multitasking::patterns::NcBlock;
-use ballpod::identify::multitasking::{Deviations, Parameter};
+use ballpod::identify::mill_turn::patterns::NcBlock;
+use ballpod::identify::mill_turn::{Deviations, Parameter};
 use ballpod_host::forward_seed002 as fwd;
 
 const AS: f64 = 206_264.806_247_096_36;

@@ -104,7 +104,7 @@ pub enum ModelLsqError {
 
 /// What the identified deviations absorb of the first tool length's T-ball offset (x_T, y_T,
 /// z_T in the spindle frame): x_T acts as δx_BT, y_T as −δy_CZ, z_T as δz_BT, exactly to first
-/// order (`identify_multitasking_model.rs::t_ball_offsets_alias_spindle_offsets`).
+/// order (`identify_mill_turn_model.rs::t_ball_offsets_alias_spindle_offsets`).
 const T_BALL_ALIAS: [(Parameter, f64); 3] = [
     (Parameter::DxBt, 1.0),
     (Parameter::DyCz, -1.0),

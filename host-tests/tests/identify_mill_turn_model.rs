@@ -1,12 +1,12 @@
-//! Seed 002 literal HTM model and patterns (`identify::multitasking::{model, patterns}`):
+//! Seed 002 literal HTM model and patterns (`identify::mill_turn::{model, patterns}`):
 //! TV-5 to TV-9 of spec seed-002 §8.1, Fig 4.30's original BX program, and the core model
 //! against the independent forward model of `ballpod_host::forward_seed002`.
-use ballpod::identify::multitasking::model::{AxisCommand, r_bt_mm, r_ct_mm, t_ball_mm, w_ball_mm};
-use ballpod::identify::multitasking::patterns::{
+use ballpod::identify::mill_turn::model::{AxisCommand, r_bt_mm, r_ct_mm, t_ball_mm, w_ball_mm};
+use ballpod::identify::mill_turn::patterns::{
     Mounting, NcOffset, Pattern, PatternError, PatternGeometry, PatternProgram, command,
     simulate_eccentricity,
 };
-use ballpod::identify::multitasking::{Deviations, Parameter};
+use ballpod::identify::mill_turn::{Deviations, Parameter};
 use ballpod_host::forward_seed002 as fwd;
 
 /// Chapter-2 simulation set-up (spec §3.7): L_B 100, Z_C 100, R_B 200, R_C 50 mm.
@@ -307,7 +307,7 @@ fn bad_pattern_input_is_typed() {
 
 #[test]
 fn nc_block_validates() {
-    use ballpod::identify::multitasking::patterns::nc_block;
+    use ballpod::identify::mill_turn::patterns::nc_block;
     let off = NcOffset {
         x_mm: -490.0,
         y_mm: 0.0,

@@ -85,3 +85,46 @@ fn the_reader_finds_imports_in_every_form_and_none_in_comments() {
     let app: Vec<&str> = imports["app"].keys().map(String::as_str).collect();
     assert_eq!(app, ["config", "metrology", "num"]);
 }
+
+/// Longest source file of the core without a reason, lines.
+const LONGEST_WITHOUT_REASON: usize = 800;
+
+/// Every `.rs` file under `dir`.
+fn rust_files(dir: &Path, out: &mut Vec<std::path::PathBuf>) {
+    for entry in std::fs::read_dir(dir).expect("a source directory") {
+        let path = entry.expect("an entry").path();
+        if path.is_dir() {
+            rust_files(&path, out);
+        } else if path.extension().is_some_and(|e| e == "rs") {
+            out.push(path);
+        }
+    }
+}
+
+#[test]
+fn a_file_longer_than_800_lines_says_why_in_its_module_doc() {
+    let mut files = Vec::new();
+    rust_files(src(), &mut files);
+    assert!(
+        files.len() > 50,
+        "the core's sources: {} files",
+        files.len()
+    );
+    let mut unexplained = Vec::new();
+    for f in files {
+        let text = std::fs::read_to_string(&f).unwrap();
+        let lines = text.lines().count();
+        let doc: String = text
+            .lines()
+            .filter(|l| l.starts_with("//!"))
+            .collect::<Vec<_>>()
+            .join(" ");
+        if lines > LONGEST_WITHOUT_REASON && !doc.contains("on purpose") {
+            unexplained.push(format!("{} ({lines} lines)", f.display()));
+        }
+    }
+    assert!(
+        unexplained.is_empty(),
+        "split these, or say in the module doc why the file is long \"on purpose\": {unexplained:?}"
+    );
+}

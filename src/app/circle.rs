@@ -147,9 +147,9 @@ pub struct FiguresRequest {
 }
 
 /// Samples between two refreshes of the sample noise the live u of a CIRCLE run takes (the
-/// profile's third differences, as the run's results: 62 058 instructions on the bench's
-/// profile, 61 per sample at this interval, 1 s at 1 kHz; the noise is the instrument's and
-/// the machine's and moves slowly). While the profile is too short to tell it, the noise is
+/// profile's third differences, as the run's results: a whole profile's work, spread to a few
+/// dozen instructions a sample at this interval, 1 s at 1 kHz (`cargo bench-m4` counts it);
+/// the noise is the instrument's and the machine's and moves slowly). While the profile is too short to tell it, the noise is
 /// tried every [`LIVE_NOISE_RETRY`] samples instead. Counted from the run's start.
 pub const LIVE_NOISE_EVERY: u32 = 1024;
 
@@ -321,7 +321,7 @@ impl CircleRun {
     /// samples — the run is aborted), and what is left to a job ([`Self::figures`]): the run's
     /// results, which are invalid until it publishes them (cleared here). The centre's entered
     /// standard uncertainty is `u_centre_um`. A least-squares solve: what is longer runs in the
-    /// job (the traced centre and the centre's shares took ≈ 600 000 instructions here).
+    /// job (the traced centre and the centre's shares).
     pub fn finish_run(
         &mut self,
         d: Direction,

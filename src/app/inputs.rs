@@ -219,8 +219,8 @@ impl App {
     }
 
     /// The self-triggered run's decision at a sample, carried out before the sample is used:
-    /// the run starts with it or ends before it. Inlined: as a call it cost every sample 17
-    /// instructions of the live pipeline (bench-m4), inlined 11, and 40 B less flash.
+    /// the run starts with it or ends before it. Inlined: it is on every sample's path (the
+    /// live pipeline's row of `cargo bench-m4` counts it).
     #[inline(always)]
     pub(super) fn on_trigger(&mut self, raw_axes: &[f32; MAX_AXES]) {
         let axes = self.axes.canonical(raw_axes);

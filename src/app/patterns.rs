@@ -1,7 +1,13 @@
 //! Each pattern's run, the one place that dispatches on the armed pattern: arm from its set-up
 //! (a missing field named), feed the used samples, refresh the live values, finish into the
 //! results (or abort when it has none). The estimators themselves are the pattern modules':
-//! [`super::circle`], [`super::seed002`], [`super::ssm`], [`super::probe`].
+//! [`super::circle`], [`super::bc_ballbar`], [`super::ssm`], [`super::probe`].
+//!
+//! One enum ([`RunEstimator`]) with a match per phase, not a trait object per pattern: the
+//! phases of the four patterns touch different procedure state of the [`App`] (the circle's
+//! figure requests, the seed 002 procedure, the two-step, the probe spheres), which a trait
+//! would have to take as one context of everything; here each phase shows every pattern's
+//! step side by side, and the enum costs no allocation or vtable on the sample path.
 
 use super::bc_ballbar::Setup;
 use super::circle::{self, CircleGeometry};

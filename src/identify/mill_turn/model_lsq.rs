@@ -20,6 +20,10 @@
 //!   the first tool length's offset);
 //! - the balls' mounting offsets are not identifiable at all (no redundancy): their effect is
 //!   budgeted ([`MountingUncertainty`], [`ModelLsq::identify_propagated`]).
+//!
+//! One file of about a thousand lines on purpose: one solver — the iteration, its propagated
+//! uncertainty and the identifiability report share the Jacobian and the scratch it lives in
+//! ([`IdentificationScratch`]); split, each part would reach into the others' internals.
 use crate::config;
 use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError, LsqSolution};
 use crate::metrology::bar_budget::BarBudget;

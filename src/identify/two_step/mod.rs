@@ -34,6 +34,13 @@
 //! unknowns for RRTTT/TTTRR, three rows and one unknown for RTTTR), and the first-order standard
 //! uncertainty of each angle propagated from the SSM component uncertainties of ΔV1 and ΔV2,
 //! `dv_std_um` (each run its own: the pod states each SSM run's u).
+mod rrttt;
+mod rtttr;
+mod tttrr;
+
+pub use rrttt::*;
+pub use rtttr::*;
+pub use tttrr::*;
 
 use core::f64::consts::PI;
 
@@ -132,39 +139,39 @@ pub enum TwoStepError {
 }
 
 /// Nominal rotation of a 3-vector by Rx(a) (right-handed, radians).
-fn rot_x(a: f64, v: [f64; 3]) -> [f64; 3] {
+pub(super) fn rot_x(a: f64, v: [f64; 3]) -> [f64; 3] {
     let (s, c) = crate::num::sin_cos(a);
     let [x, y, z] = v;
     [x, c * y - s * z, s * y + c * z]
 }
 
 /// Rotation by Ry(b) (right-handed, radians).
-fn rot_y(b: f64, v: [f64; 3]) -> [f64; 3] {
+pub(super) fn rot_y(b: f64, v: [f64; 3]) -> [f64; 3] {
     let (s, c) = crate::num::sin_cos(b);
     let [x, y, z] = v;
     [c * x + s * z, y, -s * x + c * z]
 }
 
 /// Rotation by Rz(g) (right-handed, radians).
-fn rot_z(g: f64, v: [f64; 3]) -> [f64; 3] {
+pub(super) fn rot_z(g: f64, v: [f64; 3]) -> [f64; 3] {
     let (s, c) = crate::num::sin_cos(g);
     let [x, y, z] = v;
     [c * x - s * y, s * x + c * y, z]
 }
 
-fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+pub(super) fn add(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     let [a0, a1, a2] = a;
     let [b0, b1, b2] = b;
     [a0 + b0, a1 + b1, a2 + b2]
 }
 
-fn scale(k: f64, a: [f64; 3]) -> [f64; 3] {
+pub(super) fn scale(k: f64, a: [f64; 3]) -> [f64; 3] {
     let [a0, a1, a2] = a;
     [k * a0, k * a1, k * a2]
 }
 
 /// Wraps an angle difference to (−π, π].
-fn wrap_pi(a: f64) -> f64 {
+pub(super) fn wrap_pi(a: f64) -> f64 {
     // a − 2π·round(a/2π): exact to rounding for the few turns an angle difference spans, and
     // a tenth of libm::remainder's flash
     let r = a - 2.0 * PI * libm::round(a / (2.0 * PI));
@@ -172,7 +179,11 @@ fn wrap_pi(a: f64) -> f64 {
 }
 
 /// Refuses a result with a non-finite figure (DESIGN §9: never a NaN result).
-fn all_finite(angles: &[f64], stds: &[f64], residual: &[f64; 3]) -> Result<(), TwoStepError> {
+pub(super) fn all_finite(
+    angles: &[f64],
+    stds: &[f64],
+    residual: &[f64; 3],
+) -> Result<(), TwoStepError> {
     if angles
         .iter()
         .chain(stds.iter())
@@ -185,12 +196,12 @@ fn all_finite(angles: &[f64], stds: &[f64], residual: &[f64; 3]) -> Result<(), T
     }
 }
 
-fn single_result(r: SingleAxisResult) -> Result<SingleAxisResult, TwoStepError> {
+pub(super) fn single_result(r: SingleAxisResult) -> Result<SingleAxisResult, TwoStepError> {
     all_finite(&[r.delta_urad], &[r.std_uncertainty_urad], &r.residual_um)?;
     Ok(r)
 }
 
-fn check_std(dv_std_um: [f64; 2]) -> Result<(), TwoStepError> {
+pub(super) fn check_std(dv_std_um: [f64; 2]) -> Result<(), TwoStepError> {
     if dv_std_um.iter().any(|u| *u < 0.0) {
         Err(TwoStepError::NegativeUncertainty)
     } else {
@@ -201,12 +212,12 @@ fn check_std(dv_std_um: [f64; 2]) -> Result<(), TwoStepError> {
 /// First-order standard uncertainty (µrad) of an angle read on a lever arm (mm) from the
 /// difference of two independent SSM vectors with component uncertainties σ₁, σ₂ (µm):
 /// √(σ₁² + σ₂²)/lever (µm/mm = mrad, hence ×1e3).
-fn angle_std_urad(dv_std_um: [f64; 2], lever_mm: f64) -> f64 {
+pub(super) fn angle_std_urad(dv_std_um: [f64; 2], lever_mm: f64) -> f64 {
     let [a, b] = dv_std_um;
     crate::num::hypot(a, b) / libm::fabs(lever_mm) * 1e3
 }
 
-fn check_lever(min_lever_arm_mm: f64) -> Result<(), TwoStepError> {
+pub(super) fn check_lever(min_lever_arm_mm: f64) -> Result<(), TwoStepError> {
     if min_lever_arm_mm.is_finite() && min_lever_arm_mm > 0.0 {
         Ok(())
     } else {
@@ -215,7 +226,7 @@ fn check_lever(min_lever_arm_mm: f64) -> Result<(), TwoStepError> {
 }
 
 /// `(measured actual − model actual)` in µm, the residual of the full 3-row model.
-fn residual_um(measured_rel_mm: [f64; 3], model_rel_mm: [f64; 3]) -> [f64; 3] {
+pub(super) fn residual_um(measured_rel_mm: [f64; 3], model_rel_mm: [f64; 3]) -> [f64; 3] {
     let [m0, m1, m2] = measured_rel_mm;
     let [p0, p1, p2] = model_rel_mm;
     [(m0 - p0) * 1e3, (m1 - p1) * 1e3, (m2 - p2) * 1e3]
@@ -351,576 +362,4 @@ pub mod paper {
         }
         Ok((y1_mm - y2_mm + (dy_v1_um - dy_v2_um) * 1e-3 + ytr * c - ztr * s) / den)
     }
-}
-
-// ---------------------------------------------------------------------------------------- RRTTT
-
-/// RRTTT machine geometry and conventions (seed 000 eqs 2–4).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RrtttConfig {
-    /// Signed tool vector along the spindle-frame z axis, from the pivot (rotation centre) to
-    /// the tool-ball centre, mm (z_r of eq 2; −250 for seed 000 Table 1, tool pointing down).
-    pub tool_z_mm: f64,
-    /// Order of the two head rotations.
-    pub rotation_order: RotationOrder,
-    /// Where the SSM socket sits (Table 1 / section 3: on the table, [`ReferenceEnd::OtherMember`]).
-    pub reference_end: ReferenceEnd,
-    /// Smallest usable lever arm, mm (see [`DEFAULT_MIN_LEVER_ARM_MM`]).
-    pub min_lever_arm_mm: f64,
-}
-
-/// One RRTTT two-step measurement.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RrtttMeasurement {
-    /// Nominal pivot (rotation-centre) position after the translation, mm ((x_1, y_1, z_1) of
-    /// Table 1 = (−50, −15, 500)).
-    pub pivot_mm: [f64; 3],
-    /// Nominal α (rotation about x) of the second step, degrees.
-    pub alpha_deg: f64,
-    /// Nominal β (rotation about y) of the second step, degrees.
-    pub beta_deg: f64,
-    /// SSM total position error after the translation (ΔV1), µm.
-    pub dv1_um: [f64; 3],
-    /// SSM total position error after the rotation (ΔV2), µm.
-    pub dv2_um: [f64; 3],
-    /// Standard uncertainty of each SSM component of ΔV1 and of ΔV2 (independent runs), µm;
-    /// 0 if unknown. Propagated to the angles' `std_uncertainty_urad`.
-    pub dv_std_um: [f64; 2],
-}
-
-/// Identified RRTTT orientation errors.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RrtttResult {
-    /// Δα = α_actual − α_nominal, µrad.
-    pub delta_alpha_urad: f64,
-    /// Δβ = β_actual − β_nominal, µrad.
-    pub delta_beta_urad: f64,
-    /// Standard uncertainties of (Δα, Δβ) from `dv_std_um`, µrad: √(σ₁² + σ₂²) / lever arm, the lever
-    /// being |z_r| for the inner rotation (β for Rx·Ry) and |z_r|·cos(inner angle) for the
-    /// outer one (first order).
-    pub std_uncertainty_urad: [f64; 2],
-    /// Measured minus modelled tool-tip position with the identified angles, µm (exact mode:
-    /// only the radial component, |v| − |z_r|, can be non-zero).
-    pub residual_um: [f64; 3],
-    /// The formulas used.
-    pub mode: Mode,
-}
-
-/// Tool vector of an RRTTT head rotated by (α, β) in radians, mm.
-fn rrttt_tool(cfg: &RrtttConfig, alpha: f64, beta: f64) -> [f64; 3] {
-    let t = [0.0, 0.0, cfg.tool_z_mm];
-    match cfg.rotation_order {
-        RotationOrder::AlphaThenBeta => rot_x(alpha, rot_y(beta, t)),
-        RotationOrder::BetaThenAlpha => rot_y(beta, rot_x(alpha, t)),
-    }
-}
-
-/// Nominal RRTTT tool-tip position, mm: pivot + R(α, β)·(0, 0, z_r) (eq 2).
-pub fn rrttt_nominal_tip_mm(
-    cfg: &RrtttConfig,
-    pivot_mm: [f64; 3],
-    alpha_deg: f64,
-    beta_deg: f64,
-) -> [f64; 3] {
-    add(
-        pivot_mm,
-        rrttt_tool(cfg, alpha_deg.to_radians(), beta_deg.to_radians()),
-    )
-}
-
-/// Identifies Δα and Δβ of an RRTTT head (seed 000 §2.1.1, eqs 4–7).
-///
-/// Exact mode: with v = R(α, β)t + ΔV2 − ΔV1 (the actual rotated tool vector, mm) and
-/// w = v / z_r (signed), for Rx·Ry: β′ = atan2(w_x, hypot(w_y, w_z)), α′ = atan2(−w_y, w_z);
-/// for Ry·Rx: α′ = atan2(−w_y, hypot(w_x, w_z)), β′ = atan2(w_x, w_z).
-/// Paper mode: Δβ from eq 6 (signed z_r), Δα from eq 7 as printed (Rx·Ry only).
-pub fn identify_rrttt(
-    cfg: &RrtttConfig,
-    m: &RrtttMeasurement,
-    mode: Mode,
-) -> Result<RrtttResult, TwoStepError> {
-    check_lever(cfg.min_lever_arm_mm)?;
-    if !(cfg.tool_z_mm.is_finite()
-        && crate::num::all_finite(&m.pivot_mm)
-        && m.alpha_deg.is_finite()
-        && m.beta_deg.is_finite()
-        && crate::num::all_finite(&m.dv1_um)
-        && crate::num::all_finite(&m.dv2_um)
-        && m.dv_std_um.iter().all(|u| u.is_finite()))
-    {
-        return Err(TwoStepError::NonFinite);
-    }
-    check_std(m.dv_std_um)?;
-    if cfg.tool_z_mm == 0.0 {
-        return Err(TwoStepError::ZeroLength);
-    }
-    let sgn = cfg.reference_end.sign();
-    let dv1 = scale(sgn, m.dv1_um);
-    let dv2 = scale(sgn, m.dv2_um);
-    let (alpha, beta) = (m.alpha_deg.to_radians(), m.beta_deg.to_radians());
-    let t_nom = rrttt_tool(cfg, alpha, beta);
-    // actual rotated tool vector: tip_actual − (pivot + ΔV1), with tip_actual = tip_nom + ΔV2
-    let v = add(t_nom, scale(1e-3, add(dv2, scale(-1.0, dv1))));
-    let (d_alpha, d_beta) = match mode {
-        Mode::Exact => {
-            let [wx, wy, wz] = scale(1.0 / cfg.tool_z_mm, v);
-            let (a1, b1, lever) = match cfg.rotation_order {
-                RotationOrder::AlphaThenBeta => (
-                    libm::atan2(-wy, wz),
-                    libm::atan2(wx, crate::num::hypot(wy, wz)),
-                    crate::num::hypot(wy, wz),
-                ),
-                RotationOrder::BetaThenAlpha => (
-                    libm::atan2(-wy, crate::num::hypot(wx, wz)),
-                    libm::atan2(wx, wz),
-                    crate::num::hypot(wx, wz),
-                ),
-            };
-            if !(lever * libm::fabs(cfg.tool_z_mm) >= cfg.min_lever_arm_mm) {
-                return Err(TwoStepError::Singular(Singularity::ToolAlongFirstAxis));
-            }
-            (wrap_pi(a1 - alpha), wrap_pi(b1 - beta))
-        }
-        Mode::Paper => {
-            if cfg.rotation_order != RotationOrder::AlphaThenBeta {
-                return Err(TwoStepError::PaperModeUnsupported);
-            }
-            let p2 = add(m.pivot_mm, t_nom);
-            let [x1, _, _] = m.pivot_mm;
-            let [x2, _, _] = p2;
-            let [dx1, _, _] = dv1;
-            let [dx2, _, _] = dv2;
-            let db = paper::eq6_delta_beta_rad(
-                x1,
-                x2,
-                dx1,
-                dx2,
-                cfg.tool_z_mm,
-                beta,
-                cfg.min_lever_arm_mm,
-            )
-            .map_err(|_| TwoStepError::Singular(Singularity::ToolAlongFirstAxis))?;
-            let da =
-                paper::eq7_delta_alpha_rad(m.pivot_mm, p2, dv1, dv2, alpha, cfg.min_lever_arm_mm)?;
-            (da, db)
-        }
-    };
-    let model = rrttt_tool(cfg, alpha + d_alpha, beta + d_beta);
-    // ∂v/∂(inner angle) has length |z_r|; ∂v/∂(outer angle) has length |z_r|·cos(inner angle)
-    let sd_z = angle_std_urad(m.dv_std_um, cfg.tool_z_mm);
-    let std_uncertainty_urad = match cfg.rotation_order {
-        RotationOrder::AlphaThenBeta => [
-            angle_std_urad(m.dv_std_um, cfg.tool_z_mm * crate::num::cos(beta + d_beta)),
-            sd_z,
-        ],
-        RotationOrder::BetaThenAlpha => [
-            sd_z,
-            angle_std_urad(
-                m.dv_std_um,
-                cfg.tool_z_mm * crate::num::cos(alpha + d_alpha),
-            ),
-        ],
-    };
-    let out = RrtttResult {
-        delta_alpha_urad: d_alpha * 1e6,
-        delta_beta_urad: d_beta * 1e6,
-        std_uncertainty_urad,
-        residual_um: residual_um(v, model),
-        mode,
-    };
-    all_finite(
-        &[out.delta_alpha_urad, out.delta_beta_urad],
-        &out.std_uncertainty_urad,
-        &out.residual_um,
-    )?;
-    Ok(out)
-}
-
-// ---------------------------------------------------------------------------------------- TTTRR
-
-/// TTTRR machine geometry (seed 000 eq 8): table frame at the α (x-axis) rotation centre, the γ
-/// (z-axis) centre `z_alpha_gamma_mm` above it along the α-rotated z, rotation order
-/// point = origin + Rx(α)·((0, 0, z_αγ) + Rz(γ)·r).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TttrrConfig {
-    /// z distance from the α centre to the γ centre, mm (z_αγ).
-    pub z_alpha_gamma_mm: f64,
-    /// Reference point (x_r, y_r, z_r) in the γ-centre frame, mm.
-    pub reference_point_mm: [f64; 3],
-    /// Where the SSM socket sits (seed 000 sections 3–4: on the spindle,
-    /// [`ReferenceEnd::OtherMember`] for the table point).
-    pub reference_end: ReferenceEnd,
-    /// Smallest usable lever arm, mm.
-    pub min_lever_arm_mm: f64,
-}
-
-/// One TTTRR two-step measurement.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TttrrMeasurement {
-    /// Nominal position of the α rotation centre after the translation, mm ((x_1, y_1, z_1)).
-    pub origin_mm: [f64; 3],
-    /// Nominal α (table tilt about x), degrees.
-    pub alpha_deg: f64,
-    /// Nominal γ (table rotation about z), degrees.
-    pub gamma_deg: f64,
-    /// SSM error after the translation (ΔV1), µm.
-    pub dv1_um: [f64; 3],
-    /// SSM error after the rotation (ΔV2), µm.
-    pub dv2_um: [f64; 3],
-    /// Standard uncertainty of each SSM component of ΔV1 and of ΔV2 (independent runs), µm;
-    /// 0 if unknown. Propagated to the angles' `std_uncertainty_urad`.
-    pub dv_std_um: [f64; 2],
-}
-
-/// Identified TTTRR orientation errors.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct TttrrResult {
-    /// Δα = α_actual − α_nominal, µrad.
-    pub delta_alpha_urad: f64,
-    /// Δγ = γ_actual − γ_nominal, µrad.
-    pub delta_gamma_urad: f64,
-    /// Standard uncertainties of (Δα, Δγ) from `dv_std_um`, µrad (first order: Δγ lever
-    /// |Q′|; Δα lever hypot(H, Q′) plus the Δγ coupling through Q′).
-    pub std_uncertainty_urad: [f64; 2],
-    /// Measured minus modelled reference-point position with the identified angles, µm.
-    pub residual_um: [f64; 3],
-    /// The formulas used.
-    pub mode: Mode,
-}
-
-fn tttrr_offset(cfg: &TttrrConfig, alpha: f64, gamma: f64) -> [f64; 3] {
-    rot_x(
-        alpha,
-        add(
-            [0.0, 0.0, cfg.z_alpha_gamma_mm],
-            rot_z(gamma, cfg.reference_point_mm),
-        ),
-    )
-}
-
-/// Nominal TTTRR reference-point position, mm (eq 8, rows derived in spec B.4).
-pub fn tttrr_nominal_point_mm(
-    cfg: &TttrrConfig,
-    origin_mm: [f64; 3],
-    alpha_deg: f64,
-    gamma_deg: f64,
-) -> [f64; 3] {
-    add(
-        origin_mm,
-        tttrr_offset(cfg, alpha_deg.to_radians(), gamma_deg.to_radians()),
-    )
-}
-
-/// Identifies Δα and Δγ of a TTTRR table (seed 000 §2.1.2, eqs 8–12).
-///
-/// Exact mode (spec B.4): with v = actual offset from the α centre (mm), ρ = hypot(x_r, y_r),
-/// φ = atan2(y_r, x_r): γ′ = ±acos(v_x/ρ) − φ (root nearest γ), Q′ = x_r sin γ′ + y_r cos γ′,
-/// α′ = atan2(v_z, v_y) − atan2(H, Q′), H = z_r + z_αγ. Paper mode: corrected eqs 11 and 12.
-pub fn identify_tttrr(
-    cfg: &TttrrConfig,
-    m: &TttrrMeasurement,
-    mode: Mode,
-) -> Result<TttrrResult, TwoStepError> {
-    check_lever(cfg.min_lever_arm_mm)?;
-    if !(cfg.z_alpha_gamma_mm.is_finite()
-        && crate::num::all_finite(&cfg.reference_point_mm)
-        && crate::num::all_finite(&m.origin_mm)
-        && m.alpha_deg.is_finite()
-        && m.gamma_deg.is_finite()
-        && crate::num::all_finite(&m.dv1_um)
-        && crate::num::all_finite(&m.dv2_um)
-        && m.dv_std_um.iter().all(|u| u.is_finite()))
-    {
-        return Err(TwoStepError::NonFinite);
-    }
-    check_std(m.dv_std_um)?;
-    let [xr, yr, zr] = cfg.reference_point_mm;
-    let rho = crate::num::hypot(xr, yr);
-    if rho == 0.0 {
-        return Err(TwoStepError::ZeroLength);
-    }
-    let sgn = cfg.reference_end.sign();
-    let dv1 = scale(sgn, m.dv1_um);
-    let dv2 = scale(sgn, m.dv2_um);
-    let (alpha, gamma) = (m.alpha_deg.to_radians(), m.gamma_deg.to_radians());
-    let nom = tttrr_offset(cfg, alpha, gamma);
-    let v = add(nom, scale(1e-3, add(dv2, scale(-1.0, dv1))));
-    let h = zr + cfg.z_alpha_gamma_mm;
-    let q0 = xr * crate::num::sin(gamma) + yr * crate::num::cos(gamma);
-    if !(libm::fabs(q0) >= cfg.min_lever_arm_mm) {
-        return Err(TwoStepError::Singular(Singularity::GammaLever));
-    }
-    let (d_alpha, d_gamma) = match mode {
-        Mode::Exact => {
-            let [vx, vy, vz] = v;
-            let ratio = vx / rho;
-            if libm::fabs(ratio) > 1.0 {
-                return Err(TwoStepError::Inconsistent {
-                    excess: libm::fabs(ratio) - 1.0,
-                });
-            }
-            let phi = libm::atan2(yr, xr);
-            let ac = crate::num::acos(ratio);
-            let g_a = wrap_pi(ac - phi - gamma);
-            let g_b = wrap_pi(-ac - phi - gamma);
-            let d_gamma = if libm::fabs(g_a) <= libm::fabs(g_b) {
-                g_a
-            } else {
-                g_b
-            };
-            let g1 = gamma + d_gamma;
-            let q1 = xr * crate::num::sin(g1) + yr * crate::num::cos(g1);
-            if !(crate::num::hypot(h, q1) >= cfg.min_lever_arm_mm) {
-                return Err(TwoStepError::Singular(Singularity::AlphaLever));
-            }
-            let a1 = libm::atan2(vz, vy) - libm::atan2(h, q1);
-            (wrap_pi(a1 - alpha), d_gamma)
-        }
-        Mode::Paper => {
-            let p2 = add(m.origin_mm, nom);
-            let [x1, y1, _] = m.origin_mm;
-            let [x2, y2, _] = p2;
-            let [dx1, dy1, _] = dv1;
-            let [dx2, dy2, _] = dv2;
-            let dg = paper::eq11_delta_gamma_rad(
-                x1,
-                x2,
-                dx1,
-                dx2,
-                cfg.reference_point_mm,
-                gamma,
-                cfg.min_lever_arm_mm,
-            )?;
-            let da = paper::eq12_delta_alpha_rad(
-                y1,
-                y2,
-                dy1,
-                dy2,
-                cfg.reference_point_mm,
-                cfg.z_alpha_gamma_mm,
-                alpha,
-                gamma,
-                dg,
-                cfg.min_lever_arm_mm,
-            )?;
-            (da, dg)
-        }
-    };
-    let model = tttrr_offset(cfg, alpha + d_alpha, gamma + d_gamma);
-    let g1 = gamma + d_gamma;
-    let q1 = xr * crate::num::sin(g1) + yr * crate::num::cos(g1);
-    let c1 = xr * crate::num::cos(g1) - yr * crate::num::sin(g1);
-    // the actual lever arm must be usable too (data far off the nominal can drive it to zero)
-    if !(libm::fabs(q1) >= cfg.min_lever_arm_mm) {
-        return Err(TwoStepError::Singular(Singularity::GammaLever));
-    }
-    let sd_gamma = angle_std_urad(m.dv_std_um, q1);
-    // α′ = atan2(v_z, v_y) − atan2(H, Q′): direct term on hypot(H, Q′), plus Q′ = Q′(γ′)
-    let h2q2 = h * h + q1 * q1;
-    let sd_direct = angle_std_urad(m.dv_std_um, crate::num::sqrt(h2q2));
-    let coupling = h * c1 / h2q2 * sd_gamma;
-    let sd_alpha = crate::num::sqrt(sd_direct * sd_direct + coupling * coupling);
-    let out = TttrrResult {
-        delta_alpha_urad: d_alpha * 1e6,
-        delta_gamma_urad: d_gamma * 1e6,
-        std_uncertainty_urad: [sd_alpha, sd_gamma],
-        residual_um: residual_um(v, model),
-        mode,
-    };
-    all_finite(
-        &[out.delta_alpha_urad, out.delta_gamma_urad],
-        &out.std_uncertainty_urad,
-        &out.residual_um,
-    )?;
-    Ok(out)
-}
-
-// ---------------------------------------------------------------------------------------- RTTTR
-
-/// RTTTR spindle head (β about y, seed 000 eqs 13, 15, 17): tip = pivot + Ry(β)·(0, 0, z_r).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RtttrSpindleConfig {
-    /// Signed tool vector along the spindle-frame z axis, mm (z_r).
-    pub tool_z_mm: f64,
-    /// Where the SSM socket sits (on the turning table for the β procedure).
-    pub reference_end: ReferenceEnd,
-    /// Smallest usable lever arm, mm.
-    pub min_lever_arm_mm: f64,
-}
-
-/// RTTTR table (α about x, seed 000 eqs 14, 16, 18): point = origin + Rx(α)·r_t.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct RtttrTableConfig {
-    /// Reference point (x_tr, y_tr, z_tr) in the table frame, mm.
-    pub reference_point_mm: [f64; 3],
-    /// Where the SSM socket sits (on the spindle for the α procedure).
-    pub reference_end: ReferenceEnd,
-    /// Smallest usable lever arm, mm.
-    pub min_lever_arm_mm: f64,
-}
-
-/// One single-axis two-step measurement (RTTTR spindle β or table α).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SingleAxisMeasurement {
-    /// Nominal pivot (spindle) or table-frame origin (table) after the translation, mm.
-    pub origin_mm: [f64; 3],
-    /// Nominal rotation angle of the second step (β or α), degrees.
-    pub angle_deg: f64,
-    /// SSM error after the translation (ΔV1 or ΔtV1), µm.
-    pub dv1_um: [f64; 3],
-    /// SSM error after the rotation (ΔV2 or ΔtV2), µm.
-    pub dv2_um: [f64; 3],
-    /// Standard uncertainty of each SSM component of ΔV1 and of ΔV2 (independent runs), µm;
-    /// 0 if unknown. Propagated to the angles' `std_uncertainty_urad`.
-    pub dv_std_um: [f64; 2],
-}
-
-/// Identified orientation error of one rotary axis.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct SingleAxisResult {
-    /// Δθ = θ_actual − θ_nominal, µrad.
-    pub delta_urad: f64,
-    /// Standard uncertainty of Δθ from `dv_std_um`, µrad: √(σ₁² + σ₂²) / lever arm (|z_r| for the
-    /// spindle, hypot(y_tr, z_tr) for the table).
-    pub std_uncertainty_urad: f64,
-    /// Measured minus modelled position with the identified angle, µm (three rows, one
-    /// unknown: the axial row and the radial length are unused by the inversion).
-    pub residual_um: [f64; 3],
-    /// The formulas used.
-    pub mode: Mode,
-}
-
-fn single_inputs_ok(m: &SingleAxisMeasurement) -> bool {
-    crate::num::all_finite(&m.origin_mm)
-        && m.angle_deg.is_finite()
-        && crate::num::all_finite(&m.dv1_um)
-        && crate::num::all_finite(&m.dv2_um)
-        && m.dv_std_um.iter().all(|u| u.is_finite())
-}
-
-/// Nominal RTTTR tool-tip position, mm (eq 13).
-pub fn rtttr_spindle_nominal_tip_mm(
-    cfg: &RtttrSpindleConfig,
-    pivot_mm: [f64; 3],
-    beta_deg: f64,
-) -> [f64; 3] {
-    add(
-        pivot_mm,
-        rot_y(beta_deg.to_radians(), [0.0, 0.0, cfg.tool_z_mm]),
-    )
-}
-
-/// Nominal RTTTR table reference-point position, mm (eq 14).
-pub fn rtttr_table_nominal_point_mm(
-    cfg: &RtttrTableConfig,
-    origin_mm: [f64; 3],
-    alpha_deg: f64,
-) -> [f64; 3] {
-    add(
-        origin_mm,
-        rot_x(alpha_deg.to_radians(), cfg.reference_point_mm),
-    )
-}
-
-/// Identifies Δβ of the RTTTR spindle head. Exact: β′ = atan2(v_x / z_r, v_z / z_r) with v the
-/// actual rotated tool vector; paper: eq 17 (= eq 6, signed z_r).
-pub fn identify_rtttr_spindle(
-    cfg: &RtttrSpindleConfig,
-    m: &SingleAxisMeasurement,
-    mode: Mode,
-) -> Result<SingleAxisResult, TwoStepError> {
-    check_lever(cfg.min_lever_arm_mm)?;
-    if !(cfg.tool_z_mm.is_finite() && single_inputs_ok(m)) {
-        return Err(TwoStepError::NonFinite);
-    }
-    check_std(m.dv_std_um)?;
-    if !(libm::fabs(cfg.tool_z_mm) >= cfg.min_lever_arm_mm) {
-        return Err(TwoStepError::ZeroLength);
-    }
-    let sgn = cfg.reference_end.sign();
-    let dv1 = scale(sgn, m.dv1_um);
-    let dv2 = scale(sgn, m.dv2_um);
-    let beta = m.angle_deg.to_radians();
-    let t_nom = rot_y(beta, [0.0, 0.0, cfg.tool_z_mm]);
-    let v = add(t_nom, scale(1e-3, add(dv2, scale(-1.0, dv1))));
-    let d_beta = match mode {
-        Mode::Exact => {
-            let [vx, _, vz] = scale(1.0 / cfg.tool_z_mm, v);
-            wrap_pi(libm::atan2(vx, vz) - beta)
-        }
-        Mode::Paper => {
-            let [x1, _, _] = m.origin_mm;
-            let [tx, _, _] = t_nom;
-            let [dx1, _, _] = dv1;
-            let [dx2, _, _] = dv2;
-            paper::eq6_delta_beta_rad(
-                x1,
-                x1 + tx,
-                dx1,
-                dx2,
-                cfg.tool_z_mm,
-                beta,
-                cfg.min_lever_arm_mm,
-            )?
-        }
-    };
-    let model = rot_y(beta + d_beta, [0.0, 0.0, cfg.tool_z_mm]);
-    single_result(SingleAxisResult {
-        delta_urad: d_beta * 1e6,
-        std_uncertainty_urad: angle_std_urad(m.dv_std_um, cfg.tool_z_mm),
-        residual_um: residual_um(v, model),
-        mode,
-    })
-}
-
-/// Identifies Δα of the RTTTR table. Exact: α′ = atan2(v_z, v_y) − atan2(z_tr, y_tr) with v the
-/// actual rotated reference vector; paper: eq 18.
-pub fn identify_rtttr_table(
-    cfg: &RtttrTableConfig,
-    m: &SingleAxisMeasurement,
-    mode: Mode,
-) -> Result<SingleAxisResult, TwoStepError> {
-    check_lever(cfg.min_lever_arm_mm)?;
-    if !(crate::num::all_finite(&cfg.reference_point_mm) && single_inputs_ok(m)) {
-        return Err(TwoStepError::NonFinite);
-    }
-    check_std(m.dv_std_um)?;
-    let [_, ytr, ztr] = cfg.reference_point_mm;
-    let sgn = cfg.reference_end.sign();
-    let dv1 = scale(sgn, m.dv1_um);
-    let dv2 = scale(sgn, m.dv2_um);
-    let alpha = m.angle_deg.to_radians();
-    let r_nom = rot_x(alpha, cfg.reference_point_mm);
-    let v = add(r_nom, scale(1e-3, add(dv2, scale(-1.0, dv1))));
-    let d_alpha = match mode {
-        Mode::Exact => {
-            if !(crate::num::hypot(ytr, ztr) >= cfg.min_lever_arm_mm) {
-                return Err(TwoStepError::Singular(Singularity::TableAlphaLever));
-            }
-            let [_, vy, vz] = v;
-            wrap_pi(libm::atan2(vz, vy) - libm::atan2(ztr, ytr) - alpha)
-        }
-        Mode::Paper => {
-            let [_, y1, _] = m.origin_mm;
-            let [_, ry, _] = r_nom;
-            let [_, dy1, _] = dv1;
-            let [_, dy2, _] = dv2;
-            paper::eq18_delta_alpha_rad(
-                y1,
-                y1 + ry,
-                dy1,
-                dy2,
-                cfg.reference_point_mm,
-                alpha,
-                cfg.min_lever_arm_mm,
-            )?
-        }
-    };
-    let model = rot_x(alpha + d_alpha, cfg.reference_point_mm);
-    single_result(SingleAxisResult {
-        delta_urad: d_alpha * 1e6,
-        std_uncertainty_urad: angle_std_urad(m.dv_std_um, crate::num::hypot(ytr, ztr)),
-        residual_um: residual_um(v, model),
-        mode,
-    })
 }

@@ -205,8 +205,9 @@ impl<const BINS: usize> CircularTest<BINS> {
 
     /// The limaçon fit of direction `d` (r0, e) with its u from the samples' noise (the
     /// profile's third differences, as G's), σ·√((AᵀA)⁻¹ᵢᵢ), rather than from the fit's
-    /// residual: the profile's shape is what is measured, not noise (on a circle with the
-    /// faults above the residual's u(e) was 6–7 times the scatter). The residual's u where the
+    /// residual: the profile's shape is what is measured, not noise (the residual of a circle
+    /// with machine faults holds those faults, so its u(e) would be several times the
+    /// scatter). The residual's u where the
     /// profile is too short to tell its noise.
     pub fn fit_estimate(&self, d: Direction) -> Result<CircleEstimate, CircleFitError> {
         let run = self.run(d);

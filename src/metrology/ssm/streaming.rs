@@ -34,6 +34,9 @@
 //! Precision: positions arrive as f32 mm (61 nm ulp at 1000 mm) and y uses |P − P0| in f32
 //! (~15 nm at 150 mm); E is therefore good to a few tens of nm times the condition number,
 //! which is what a 0.1 µm streaming target needs. Use stations for nm work.
+//!
+//! One file of about 900 lines on purpose: the window's add, remove, re-reference and solve
+//! keep one invariant together (the sums stay exact integers), and each is read with the others.
 
 use super::{
     OBSERVABLE_AXIS_TOL, SsmError, SsmGeometry, SsmSolution, UNOBSERVABLE_EIG_RATIO, solve_normal,

@@ -2,9 +2,9 @@
 //!
 //! The FDCAN kernel clock is the NUCLEO-G474RE's 24 MHz HSE crystal ([`FDCAN_KERNEL_HZ`];
 //! `src/main.rs` selects it): 24 MHz divides into 125, 250, 500 kbit/s and 1 Mbit/s with
-//! 24 time quanta per bit, so every offered rate is exact. (From the 42.5 MHz PLL Q output
-//! used before, 1 Mbit/s has no exact timing; embassy's `set_bitrate` then unwrapped a
-//! failed calculation in `main` and the pod reset for ever.) [`CanBitrate`] is the only way
+//! 24 time quanta per bit, so every offered rate is exact (from a 42.5 MHz PLL output,
+//! 1 Mbit/s has none, and embassy's `set_bitrate` would unwrap a failed calculation).
+//! [`CanBitrate`] is the only way
 //! a bit rate enters the configuration, and the build fails if one of its values has no exact
 //! timing at the kernel clock — so no stored or written configuration can ask for a rate the
 //! hardware cannot realise.

@@ -43,7 +43,7 @@ pub const LAYERS: &[Layer] = &[
         level: 2,
         module: "config",
         imports: &["num", "units"],
-        job: "the configuration: every field with unit, default (and why), range; its encoding",
+        job: "the configuration: every field declared once (unit, default, range, when it takes effect); its encoding",
     },
     Layer {
         level: 3,

@@ -5,7 +5,7 @@
 use ballpod::identify::mill_turn::model_lsq::{
     ModelLsq, ModelLsqError, MountingUncertainty, PatternMeasurement,
 };
-use ballpod::identify::mill_turn::patterns::{Pattern, PatternError, PatternGeometry};
+use ballpod::identify::mill_turn::patterns::{BallbarLengths, BallbarPattern, PatternError};
 use ballpod::identify::mill_turn::{Deviations, Parameter};
 use ballpod::metrology::bar_budget::BarBudget;
 use ballpod_host::forward_seed002 as fwd;
@@ -17,8 +17,8 @@ const RB: f64 = 356.4;
 const RB2: f64 = 406.5;
 const RC: f64 = 50.0;
 
-fn geo(rb: f64) -> PatternGeometry {
-    PatternGeometry {
+fn geo(rb: f64) -> BallbarLengths {
+    BallbarLengths {
         l_b_mm: LB,
         r_b_mm: rb,
         r_c_mm: RC,
@@ -29,11 +29,11 @@ fn geo(rb: f64) -> PatternGeometry {
 /// The five steps of §5.3 measured on the independent forward model for deviations `d`.
 fn procedure(d: &[f64; 13]) -> Vec<PatternMeasurement> {
     let steps = [
-        (Pattern::Bx, fwd::Pat::Bx, RB),
-        (Pattern::By, fwd::Pat::By, RB),
-        (Pattern::Cr, fwd::Pat::Cr, RB),
-        (Pattern::Ca, fwd::Pat::Ca, RB),
-        (Pattern::Cr, fwd::Pat::Cr, RB2),
+        (BallbarPattern::Bx, fwd::Pat::Bx, RB),
+        (BallbarPattern::By, fwd::Pat::By, RB),
+        (BallbarPattern::Cr, fwd::Pat::Cr, RB),
+        (BallbarPattern::Ca, fwd::Pat::Ca, RB),
+        (BallbarPattern::Cr, fwd::Pat::Cr, RB2),
     ];
     steps
         .iter()
@@ -295,7 +295,7 @@ fn bad_input_is_typed() {
     m[1].geometry.r_b_mm = -1.0;
     assert_eq!(
         s.identify(&m),
-        Err(ModelLsqError::Pattern {
+        Err(ModelLsqError::BallbarPattern {
             index: 1,
             cause: PatternError::NonPositiveLength { what: "R_B" }
         })
@@ -304,7 +304,7 @@ fn bad_input_is_typed() {
     m[0].samples = 1;
     assert_eq!(
         s.identify(&m),
-        Err(ModelLsqError::Pattern {
+        Err(ModelLsqError::BallbarPattern {
             index: 0,
             cause: PatternError::TooFewSamples { samples: 1 }
         })

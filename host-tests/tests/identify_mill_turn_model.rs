@@ -3,14 +3,14 @@
 //! against the independent forward model of `ballpod_host::forward_seed002`.
 use ballpod::identify::mill_turn::model::{AxisCommand, r_bt_mm, r_ct_mm, t_ball_mm, w_ball_mm};
 use ballpod::identify::mill_turn::patterns::{
-    Mounting, NcOffset, Pattern, PatternError, PatternGeometry, PatternProgram, command,
+    BallbarLengths, BallbarPattern, Mounting, NcOffset, PatternError, PatternProgram, command,
     simulate_eccentricity,
 };
 use ballpod::identify::mill_turn::{Deviations, Parameter};
 use ballpod_host::forward_seed002 as fwd;
 
 /// Chapter-2 simulation set-up (spec §3.7): L_B 100, Z_C 100, R_B 200, R_C 50 mm.
-const SIM: PatternGeometry = PatternGeometry {
+const SIM: BallbarLengths = BallbarLengths {
     l_b_mm: 100.0,
     r_b_mm: 200.0,
     r_c_mm: 50.0,
@@ -26,7 +26,7 @@ fn one(p: Parameter, v: f64) -> Deviations {
     Deviations::from_array(&a)
 }
 
-fn ecc(p: Pattern, d: &Deviations, m: &Mounting) -> (f64, f64) {
+fn ecc(p: BallbarPattern, d: &Deviations, m: &Mounting) -> (f64, f64) {
     let e = simulate_eccentricity(p, &SIM, d, m, N).unwrap();
     (e.e1_um, e.e2_um)
 }
@@ -41,7 +41,7 @@ fn tv5_tangential_radii() {
 /// 324 steps over 90°; the ten printed original blocks within 0.3 µm.
 #[test]
 fn tv6_bx_program_matches_fig_4_30() {
-    let g = PatternGeometry {
+    let g = BallbarLengths {
         l_b_mm: 100.0,
         r_b_mm: 356.3945,
         r_c_mm: 50.0,
@@ -65,9 +65,9 @@ fn tv6_bx_program_matches_fig_4_30() {
         (-376.1807, -112.5285, 2.2222),
         (-374.4543, -112.5997, 2.5000),
     ];
-    let prog = PatternProgram::new(Pattern::Bx, g, off, 0.0, 90.0, 324).unwrap();
+    let prog = PatternProgram::new(BallbarPattern::Bx, g, off, 0.0, 90.0, 324).unwrap();
     assert_eq!(prog.count(), 325);
-    let prog = PatternProgram::new(Pattern::Bx, g, off, 0.0, 90.0, 324).unwrap();
+    let prog = PatternProgram::new(BallbarPattern::Bx, g, off, 0.0, 90.0, 324).unwrap();
     for (blk, (x, z, b)) in prog.zip(fig.iter()) {
         assert!((blk.x_mm - x).abs() < 3e-4, "{blk:?} vs {x}");
         assert!((blk.z_mm - z).abs() < 3e-4, "{blk:?} vs {z}");
@@ -75,7 +75,7 @@ fn tv6_bx_program_matches_fig_4_30() {
         assert_eq!(blk.y_mm, 0.0);
         assert_eq!(blk.c_deg, 0.0);
     }
-    let last = PatternProgram::new(Pattern::Bx, g, off, 0.0, 90.0, 324)
+    let last = PatternProgram::new(BallbarPattern::Bx, g, off, 0.0, 90.0, 324)
         .unwrap()
         .last()
         .unwrap();
@@ -89,17 +89,17 @@ fn tv6_bx_program_matches_fig_4_30() {
 fn nominal_patterns_keep_bar_length() {
     let z = Deviations::default();
     for p in [
-        Pattern::Br,
-        Pattern::Bt,
-        Pattern::Ba,
-        Pattern::Bx,
-        Pattern::By,
-        Pattern::Bz,
-        Pattern::Cr,
-        Pattern::Ct,
-        Pattern::Ca,
-        Pattern::Cx,
-        Pattern::Cy,
+        BallbarPattern::Br,
+        BallbarPattern::Bt,
+        BallbarPattern::Ba,
+        BallbarPattern::Bx,
+        BallbarPattern::By,
+        BallbarPattern::Bz,
+        BallbarPattern::Cr,
+        BallbarPattern::Ct,
+        BallbarPattern::Ca,
+        BallbarPattern::Cx,
+        BallbarPattern::Cy,
     ] {
         let e = simulate_eccentricity(p, &SIM, &z, &Mounting::default(), 73).unwrap();
         assert!(
@@ -107,7 +107,7 @@ fn nominal_patterns_keep_bar_length() {
             "{p:?} {e:?}"
         );
     }
-    let c = command(Pattern::Bx, &SIM, 0.7);
+    let c = command(BallbarPattern::Bx, &SIM, 0.7);
     let t = t_ball_mm(&z, &c, SIM.r_b_mm, [0.0; 3]);
     assert!((t.x - 100.0).abs() < 1e-12 && t.y.abs() < 1e-12 && (t.z - 100.0).abs() < 1e-12);
 }
@@ -116,9 +116,9 @@ fn nominal_patterns_keep_bar_length() {
 #[test]
 fn tv7_sign_anchor() {
     let m = Mounting::default();
-    let (ex, ey) = ecc(Pattern::Cr, &one(Parameter::DxCz, 20.0), &m);
+    let (ex, ey) = ecc(BallbarPattern::Cr, &one(Parameter::DxCz, 20.0), &m);
     assert!((ex + 20.0).abs() < 0.01 && ey.abs() < 0.01);
-    let (ex, _) = ecc(Pattern::Cr, &one(Parameter::DxCz, -20.0), &m);
+    let (ex, _) = ecc(BallbarPattern::Cr, &one(Parameter::DxCz, -20.0), &m);
     assert!((ex - 20.0).abs() < 0.01);
 }
 
@@ -144,7 +144,12 @@ fn tv8_single_deviation_table() {
         (AlphaCz, ANG, [z, z, (0.0, 8.727), (0.0, -4.363)]),
         (BetaCz, ANG, [z, z, (-8.727, 0.0), (4.363, 0.0)]),
     ];
-    let pats = [Pattern::Bx, Pattern::By, Pattern::Cr, Pattern::Ca];
+    let pats = [
+        BallbarPattern::Bx,
+        BallbarPattern::By,
+        BallbarPattern::Cr,
+        BallbarPattern::Ca,
+    ];
     for (p, v, exp) in table {
         for (pat, (e1, e2)) in pats.iter().zip(exp) {
             let (a, b) = ecc(*pat, &one(p, v), &Mounting::default());
@@ -165,16 +170,21 @@ fn tv9_w_ball_mounting_invariance() {
         t_offset_um: [0.0; 3],
         w_offset_um: [20.0; 3],
     };
-    for p in [Pattern::Bx, Pattern::By, Pattern::Cr, Pattern::Ca] {
+    for p in [
+        BallbarPattern::Bx,
+        BallbarPattern::By,
+        BallbarPattern::Cr,
+        BallbarPattern::Ca,
+    ] {
         let (a, b) = ecc(p, &z, &m);
         assert!(a.abs() < 0.01 && b.abs() < 0.01, "{p:?}");
     }
-    let (a, b) = ecc(Pattern::Br, &z, &m);
+    let (a, b) = ecc(BallbarPattern::Br, &z, &m);
     assert!(
         (a + 20.0).abs() < 0.01 && (b + 20.0).abs() < 0.01,
         "BR ({a}, {b})"
     );
-    let (a, b) = ecc(Pattern::Cx, &z, &m);
+    let (a, b) = ecc(BallbarPattern::Cx, &z, &m);
     assert!(
         (a + 20.0).abs() < 0.01 && (b - 20.0).abs() < 0.01,
         "CX ({a}, {b})"
@@ -186,7 +196,12 @@ fn tv9_w_ball_mounting_invariance() {
 /// as those deviations includes them (`model_lsq::MountingUncertainty`).
 #[test]
 fn t_ball_offsets_alias_spindle_offsets() {
-    for p in [Pattern::Bx, Pattern::By, Pattern::Cr, Pattern::Ca] {
+    for p in [
+        BallbarPattern::Bx,
+        BallbarPattern::By,
+        BallbarPattern::Cr,
+        BallbarPattern::Ca,
+    ] {
         let by_offset = ecc(
             p,
             &Deviations::default(),
@@ -252,10 +267,10 @@ fn core_model_equals_independent_forward_model() {
             rc: 50.0,
         };
         for (p, pf) in [
-            (Pattern::Bx, fwd::Pat::Bx),
-            (Pattern::By, fwd::Pat::By),
-            (Pattern::Cr, fwd::Pat::Cr),
-            (Pattern::Ca, fwd::Pat::Ca),
+            (BallbarPattern::Bx, fwd::Pat::Bx),
+            (BallbarPattern::By, fwd::Pat::By),
+            (BallbarPattern::Cr, fwd::Pat::Cr),
+            (BallbarPattern::Ca, fwd::Pat::Ca),
         ] {
             let a = ecc(p, &dev, &Mounting::default());
             let b = fwd::ecc(pf, &d, &g, N, [0.0; 3], [0.0; 3]);
@@ -274,23 +289,23 @@ fn bad_pattern_input_is_typed() {
     let mut g = SIM;
     g.r_b_mm = 0.0;
     assert_eq!(
-        simulate_eccentricity(Pattern::Bx, &g, &z, &m, 10),
+        simulate_eccentricity(BallbarPattern::Bx, &g, &z, &m, 10),
         Err(PatternError::NonPositiveLength { what: "R_B" })
     );
     let mut g = SIM;
     g.l_b_mm = -1.0;
     assert_eq!(
-        simulate_eccentricity(Pattern::Ca, &g, &z, &m, 10),
+        simulate_eccentricity(BallbarPattern::Ca, &g, &z, &m, 10),
         Err(PatternError::NonPositiveLength { what: "L_B" })
     );
     let mut g = SIM;
     g.r_c_mm = 100.0;
     assert_eq!(
-        simulate_eccentricity(Pattern::Cr, &g, &z, &m, 10),
+        simulate_eccentricity(BallbarPattern::Cr, &g, &z, &m, 10),
         Err(PatternError::DegenerateRadialPattern)
     );
     assert_eq!(
-        simulate_eccentricity(Pattern::Cr, &SIM, &z, &m, 2),
+        simulate_eccentricity(BallbarPattern::Cr, &SIM, &z, &m, 2),
         Err(PatternError::TooFewSamples { samples: 2 })
     );
     let nan = Deviations {
@@ -298,11 +313,23 @@ fn bad_pattern_input_is_typed() {
         ..z
     };
     assert_eq!(
-        simulate_eccentricity(Pattern::Cr, &SIM, &nan, &m, 10),
+        simulate_eccentricity(BallbarPattern::Cr, &SIM, &nan, &m, 10),
         Err(PatternError::NonFinite)
     );
-    assert!(PatternProgram::new(Pattern::Bx, SIM, NcOffset::default(), 0.0, 90.0, 0).is_err());
-    assert!(PatternProgram::new(Pattern::Bx, SIM, NcOffset::default(), f64::NAN, 90.0, 3).is_err());
+    assert!(
+        PatternProgram::new(BallbarPattern::Bx, SIM, NcOffset::default(), 0.0, 90.0, 0).is_err()
+    );
+    assert!(
+        PatternProgram::new(
+            BallbarPattern::Bx,
+            SIM,
+            NcOffset::default(),
+            f64::NAN,
+            90.0,
+            3
+        )
+        .is_err()
+    );
 }
 
 #[test]
@@ -313,7 +340,7 @@ fn nc_block_validates() {
         y_mm: 0.0,
         z_mm: 0.0,
     };
-    let b = nc_block(Pattern::Ca, &SIM, &off, 90.0).unwrap();
+    let b = nc_block(BallbarPattern::Ca, &SIM, &off, 90.0).unwrap();
     // CA at θ = 90°: (R_C cos θ, R_C sin θ, Z_C + L_B + R_B) + offset.
     assert!(
         (b.x_mm + 490.0).abs() < 1e-12
@@ -322,13 +349,13 @@ fn nc_block_validates() {
     );
     assert_eq!((b.b_deg, b.c_deg), (0.0, 90.0));
     assert_eq!(
-        nc_block(Pattern::Ca, &SIM, &off, f64::NAN),
+        nc_block(BallbarPattern::Ca, &SIM, &off, f64::NAN),
         Err(PatternError::NonFinite)
     );
     let mut g = SIM;
     g.r_c_mm = 0.0;
     assert_eq!(
-        nc_block(Pattern::Ca, &g, &off, 0.0),
+        nc_block(BallbarPattern::Ca, &g, &off, 0.0),
         Err(PatternError::NonPositiveLength { what: "R_C" })
     );
 }

@@ -13,7 +13,7 @@ use ballpod::identify::mill_turn::Parameter;
 use ballpod::identify::mill_turn::model_lsq::{
     ModelLsq, ModelLsqError, MountingInput, MountingUncertainty, PatternMeasurement,
 };
-use ballpod::identify::mill_turn::patterns::{Pattern, PatternGeometry};
+use ballpod::identify::mill_turn::patterns::{BallbarLengths, BallbarPattern};
 use ballpod::metrology::bar_budget::BarBudget;
 use ballpod_host::forward_seed002 as fwd;
 use ballpod_host::rng::Rng;
@@ -64,11 +64,11 @@ struct Truth {
 /// The five steps of §5.3 measured on the forward model with the mounting errors and noise.
 fn procedure(truth: &Truth, rng: &mut Rng) -> Vec<PatternMeasurement> {
     let steps = [
-        (Pattern::Bx, fwd::Pat::Bx, RB, 0, 0),
-        (Pattern::By, fwd::Pat::By, RB, 0, 0),
-        (Pattern::Cr, fwd::Pat::Cr, RB, 1, 0),
-        (Pattern::Ca, fwd::Pat::Ca, RB, 1, 0),
-        (Pattern::Cr, fwd::Pat::Cr, RB2, 1, 1),
+        (BallbarPattern::Bx, fwd::Pat::Bx, RB, 0, 0),
+        (BallbarPattern::By, fwd::Pat::By, RB, 0, 0),
+        (BallbarPattern::Cr, fwd::Pat::Cr, RB, 1, 0),
+        (BallbarPattern::Ca, fwd::Pat::Ca, RB, 1, 0),
+        (BallbarPattern::Cr, fwd::Pat::Cr, RB2, 1, 1),
     ];
     steps
         .iter()
@@ -90,7 +90,7 @@ fn procedure(truth: &Truth, rng: &mut Rng) -> Vec<PatternMeasurement> {
             );
             PatternMeasurement {
                 pattern: p,
-                geometry: PatternGeometry {
+                geometry: BallbarLengths {
                     l_b_mm: LB,
                     r_b_mm: rb + if t == 0 { d_rb } else { d_rb2 },
                     r_c_mm: RC + d_rc,

@@ -5,7 +5,7 @@ use ballpod::acquisition::{Sample, SampleFlags};
 use ballpod::metrology::circle_fit::{
     CircleFit, CircleFitConfig, CircleFitError, SampleUse, combine,
 };
-use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use ballpod::metrology::pattern::{ArcGeometry, Plane, Sensitivity};
 use ballpod_host::oracle::{Rng, lstsq};
 
 struct Run {
@@ -85,7 +85,7 @@ fn oracle(run: &Run, samples: &[Sample]) -> (f64, f64, f64) {
 
 fn fit(run: &Run, samples: &[Sample]) -> CircleFit {
     let mut f = CircleFit::new(CircleFitConfig {
-        geometry: PatternGeometry {
+        geometry: ArcGeometry {
             plane: run.plane,
             centre_u_mm: run.centre_mm[0] as f32,
             centre_v_mm: run.centre_mm[1] as f32,
@@ -307,7 +307,7 @@ fn an_arc_a_sample_short_of_the_minimum_counts_one_well_short_does_not() {
 #[test]
 fn cw_ccw_combination_and_seed002_b_pattern_direction() {
     // BX pattern (seed 002 §3.2): X = L_B + R_B sin φ, Z = Z_C + R_B cos φ; n = (sin φ, cos φ)
-    let geom = PatternGeometry {
+    let geom = ArcGeometry {
         plane: Plane::XZ,
         centre_u_mm: 100.0,
         centre_v_mm: 65.5,
@@ -326,7 +326,7 @@ fn cw_ccw_combination_and_seed002_b_pattern_direction() {
         assert!((n[0] as f64 - p.sin()).abs() < 1e-6 && (n[1] as f64 - p.cos()).abs() < 1e-6);
     }
     // CR with R_C < L_B: sign(R_C − L_B) = −1
-    let inward = PatternGeometry {
+    let inward = ArcGeometry {
         sensitivity: Sensitivity::Inward,
         ..geom
     };
@@ -375,7 +375,7 @@ fn seed002_tv7_cr_sign_anchor() {
     let (rc, lb) = (50.0f64, 100.0f64);
     for (dx_um, want) in [(20.0, -20.0), (-20.0, 20.0)] {
         let mut f = CircleFit::new(CircleFitConfig {
-            geometry: PatternGeometry {
+            geometry: ArcGeometry {
                 plane: Plane::XY,
                 centre_u_mm: 0.0,
                 centre_v_mm: 0.0,

@@ -4,7 +4,7 @@
 
 use ballpod::acquisition::{Sample, SampleFlags};
 use ballpod::metrology::circle_fit::{CircleFit, CircleFitConfig};
-use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use ballpod::metrology::pattern::{ArcGeometry, Plane, Sensitivity};
 use ballpod_host::oracle::Rng;
 
 #[test]
@@ -19,7 +19,7 @@ fn monte_carlo_efficiency_and_reported_uncertainty() {
     let mut sum_rms = 0.0;
     for _ in 0..RUNS {
         let mut f = CircleFit::new(CircleFitConfig {
-            geometry: PatternGeometry {
+            geometry: ArcGeometry {
                 plane: Plane::XY,
                 centre_u_mm: cx as f32,
                 centre_v_mm: cy as f32,
@@ -90,7 +90,7 @@ fn monte_carlo_reported_uncertainty_on_a_90deg_arc() {
     let (mut ss, mut su) = ([0.0f64; 3], [0.0f64; 3]);
     for _ in 0..RUNS {
         let mut f = CircleFit::new(CircleFitConfig {
-            geometry: PatternGeometry {
+            geometry: ArcGeometry {
                 plane: Plane::XZ,
                 centre_u_mm: cx as f32,
                 centre_v_mm: cz as f32,

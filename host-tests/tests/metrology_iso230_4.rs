@@ -9,7 +9,7 @@ use ballpod::metrology::circle_fit::{CircleFitConfig, CircleFitError};
 use ballpod::metrology::iso230_4::{
     CircularTest, Diagnosed, Direction, IsoError, mean_diagnostics,
 };
-use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use ballpod::metrology::pattern::{ArcGeometry, Plane, Sensitivity};
 use ballpod_host::oracle::Rng;
 
 #[derive(Clone, Copy, Default)]
@@ -99,7 +99,7 @@ fn test_sensing(
 ) -> CircularTest<360> {
     CircularTest::<360>::new(
         CircleFitConfig {
-            geometry: PatternGeometry {
+            geometry: ArcGeometry {
                 plane: Plane::XY,
                 centre_u_mm: centre[0] as f32,
                 centre_v_mm: centre[1] as f32,

@@ -606,7 +606,7 @@ fn the_u_of_a_seed002_corrected_point_covers_its_miss() {
         ModelLsq, MountingUncertainty, PatternMeasurement,
     };
     use ballpod::identify::mill_turn::patterns::NcBlock;
-    use ballpod::identify::mill_turn::patterns::{Pattern as ModelPattern, PatternGeometry};
+    use ballpod::identify::mill_turn::patterns::{BallbarLengths, BallbarPattern as ModelPattern};
     use ballpod::metrology::bar_budget::BarBudget;
     use ballpod_host::ncgen::IdentifiedDeviations;
     const U_ECC_UM: f64 = 0.05;
@@ -662,7 +662,7 @@ fn the_u_of_a_seed002_corrected_point_covers_its_miss() {
                 let (e1, e2) = fwd::ecc(pf, &truth, &g, 181, [0.0; 3], w[wi]);
                 PatternMeasurement {
                     pattern: p,
-                    geometry: PatternGeometry {
+                    geometry: BallbarLengths {
                         l_b_mm: lb,
                         r_b_mm: r_b,
                         r_c_mm: rc,

@@ -31,7 +31,7 @@ use crate::identify::mill_turn::model_lsq::{
     DeviationUncertainty, IdentificationScratch, ModelLsq, ModelLsqError, ModelLsqResult,
     MountingUncertainty, PatternMeasurement,
 };
-use crate::identify::mill_turn::patterns::{NcOffset, Pattern as ModelPattern, PatternGeometry};
+use crate::identify::mill_turn::patterns::{BallbarLengths, BallbarPattern, NcOffset};
 use crate::identify::mill_turn::{Parameter, urad_to_arcsec};
 use crate::metrology::bar_budget::{BarBudget, FigureKind};
 use crate::metrology::circle_fit::{
@@ -56,12 +56,12 @@ pub const MODEL_SAMPLES_MAX: usize = 37;
 
 /// The model pattern (Tables 2.2/2.3) a step runs: CR′ is CR with R′_B (a pattern that is no
 /// seed 002 step is taken as CR).
-pub const fn model_pattern(step: Pattern) -> ModelPattern {
+pub const fn model_pattern(step: Pattern) -> BallbarPattern {
     match step {
-        Pattern::Bx => ModelPattern::Bx,
-        Pattern::By => ModelPattern::By,
-        Pattern::Ca => ModelPattern::Ca,
-        _ => ModelPattern::Cr,
+        Pattern::Bx => BallbarPattern::Bx,
+        Pattern::By => BallbarPattern::By,
+        Pattern::Ca => BallbarPattern::Ca,
+        _ => BallbarPattern::Cr,
     }
 }
 
@@ -175,8 +175,8 @@ impl Setup {
     }
 
     /// The pattern geometry of a step (R′_B for CR2).
-    pub fn geometry(&self, step: Pattern) -> PatternGeometry {
-        PatternGeometry {
+    pub fn geometry(&self, step: Pattern) -> BallbarLengths {
+        BallbarLengths {
             l_b_mm: self.l_b_mm,
             r_b_mm: if step == Pattern::Cr2 {
                 self.r_b2_mm
@@ -190,14 +190,14 @@ impl Setup {
 
     /// The metrology geometry of a step in machine coordinates: the commanded T-ball path's
     /// centre and plane, n outward (which is sign(R_C − L_B)(cos θ, sin θ) for CR, §3.5).
-    pub fn fit_geometry(&self, step: Pattern) -> pattern::PatternGeometry {
+    pub fn fit_geometry(&self, step: Pattern) -> pattern::ArcGeometry {
         let o = &self.offset;
         let (plane, cu, cv) = match step {
             Pattern::Bx => (Plane::XZ, self.l_b_mm + o.x_mm, self.z_c_mm + o.z_mm),
             Pattern::By => (Plane::XZ, o.x_mm, self.z_c_mm + o.z_mm),
             _ => (Plane::XY, o.x_mm, o.y_mm),
         };
-        pattern::PatternGeometry {
+        pattern::ArcGeometry {
             plane,
             centre_u_mm: cu as f32,
             centre_v_mm: cv as f32,
@@ -572,7 +572,7 @@ impl IdentificationInput {
     fn measurements(&self) -> [PatternMeasurement; 5] {
         let steps = &self.steps;
         let mut m = [PatternMeasurement {
-            pattern: ModelPattern::Bx,
+            pattern: BallbarPattern::Bx,
             geometry: self.setup.geometry(Pattern::Bx),
             samples: 0,
             e1_um: 0.0,

@@ -16,7 +16,7 @@ use crate::metrology::bar_budget::BarBudget;
 use crate::metrology::bar_budget::FigureKind::{Radial, Shape};
 use crate::metrology::circle_fit::{CircleFitConfig, CircleFitError, SampleUse};
 use crate::metrology::iso230_4::{self, CircularTest, IsoError};
-use crate::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use crate::metrology::pattern::{ArcGeometry, Plane, Sensitivity};
 use core::mem::MaybeUninit;
 
 /// Angular bins of the ISO 230-4 profile (1° each; 14.3 KiB of state: each bin its sums of
@@ -56,7 +56,7 @@ impl CircleGeometry {
         }
         Ok(Self {
             fit: CircleFitConfig {
-                geometry: PatternGeometry {
+                geometry: ArcGeometry {
                     plane,
                     centre_u_mm: cu,
                     centre_v_mm: cv,
@@ -175,7 +175,7 @@ enum CentreStep {
 
 /// The fit the state holds before the first run (never fed: the test has no geometry).
 const NO_TEST: CircleFitConfig = CircleFitConfig {
-    geometry: PatternGeometry {
+    geometry: ArcGeometry {
         plane: Plane::XY,
         centre_u_mm: 0.0,
         centre_v_mm: 0.0,

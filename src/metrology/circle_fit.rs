@@ -1,7 +1,7 @@
 //! Running limaçon circle fit of a measuring pattern (seed 002 §3.5, DESIGN §7 "Eccentricity").
 //!
 //! Model: ΔL_i = r0 + e·n_i, with n_i the pattern's sensitive direction at sample i (see
-//! [`PatternGeometry::direction`]), e = (e_u, e_v) the eccentricity (the centre of the measured
+//! [`ArcGeometry::direction`]), e = (e_u, e_v) the eccentricity (the centre of the measured
 //! trajectory relative to the commanded one, in the pattern plane, µm) and r0 the mean radius
 //! change (µm). This is the small-deviation limit of a least-squares circle fit; it holds for
 //! full circles and for partial arcs (the 90° B arcs), where Fourier orthogonality does not,
@@ -15,7 +15,7 @@
 //! [`super::compensated`] for why Kahan sums.
 
 use super::compensated::KahanF32;
-use super::pattern::PatternGeometry;
+use super::pattern::ArcGeometry;
 use super::solve3::Sym3;
 use crate::acquisition::Sample;
 
@@ -60,7 +60,7 @@ pub enum SampleUse {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct CircleFitConfig {
     /// The pattern's geometry (plane, centre, sign of n).
-    pub geometry: PatternGeometry,
+    pub geometry: ArcGeometry,
     /// Minimum arc, degrees, before an estimate is given (issue 3: ≥ 60°).
     pub min_arc_deg: f32,
 }

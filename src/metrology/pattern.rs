@@ -105,7 +105,7 @@ pub enum Sensitivity {
 
 /// Geometry of a circular measuring pattern.
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct PatternGeometry {
+pub struct ArcGeometry {
     /// Plane of the pattern.
     pub plane: Plane,
     /// Centre of the commanded circle or arc, u coordinate, mm (machine coordinates).
@@ -126,7 +126,7 @@ impl Sensitivity {
     }
 }
 
-impl PatternGeometry {
+impl ArcGeometry {
     /// The sensitive unit direction n = ±(p − c)/|p − c| in the pattern plane at the axis
     /// positions `axes` (mm), or `None` if the position is at the centre (|p − c| < 1 µm) or not
     /// finite. The difference p − c is formed first so that only the deviation (≤ the radius) is

@@ -35,8 +35,8 @@ use ballpod::acquisition::lvdt::{
 };
 use ballpod::acquisition::projection::{Q14Sums, RailTest, add_periods, add_periods_portable};
 use ballpod::acquisition::{Acquisition, MAX_AXES, Sample};
-use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::bc_ballbar::{Procedure, Setup};
+use ballpod::app::log::{LOG_CAPACITY, SampleLog};
 use ballpod::app::{App, Command, Direction as RunDirection, Pattern, Recorder, RunMeta};
 use ballpod::config::Config;
 use ballpod::identify::lsq::GivensLsq;
@@ -44,7 +44,7 @@ use ballpod::metrology::bar_budget::BarBudget;
 use ballpod::metrology::circle_fit::CircleEstimate;
 use ballpod::metrology::circle_fit::{CircleFit, CircleFitConfig};
 use ballpod::metrology::iso230_4::{CircularTest, Direction};
-use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use ballpod::metrology::pattern::{ArcGeometry, Plane, Sensitivity};
 use ballpod::metrology::ssm::SsmGeometry;
 use ballpod::metrology::ssm::streaming::{StreamingConfig, StreamingSsm};
 use ballpod::pod::{Block, BootReport, Pod};
@@ -561,7 +561,7 @@ fn main() -> ! {
 
     // ---- metrology --------------------------------------------------------------------------
     let samples = data::circle_samples();
-    let geometry = PatternGeometry {
+    let geometry = ArcGeometry {
         plane: Plane::XY,
         centre_u_mm: data::SOCKET_MM[0],
         centre_v_mm: data::SOCKET_MM[1],

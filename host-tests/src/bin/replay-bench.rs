@@ -15,7 +15,7 @@ use std::time::Instant;
 use ballpod::acquisition::{Sample, SampleFlags};
 use ballpod::metrology::circle_fit::CircleFitConfig;
 use ballpod::metrology::iso230_4::{CircularTest, Direction};
-use ballpod::metrology::pattern::{PatternGeometry, Plane, Sensitivity};
+use ballpod::metrology::pattern::{ArcGeometry, Plane, Sensitivity};
 use ballpod::metrology::ssm::SsmGeometry;
 use ballpod::metrology::ssm::streaming::{StreamingConfig, StreamingSsm};
 use ballpod_host::rng::Rng;
@@ -75,7 +75,7 @@ fn main() {
     let (n, repeat) = (args.samples as usize, args.repeat as usize);
     let samples = log(n);
     let fit_cfg = CircleFitConfig {
-        geometry: PatternGeometry {
+        geometry: ArcGeometry {
             plane: Plane::XY,
             centre_u_mm: SOCKET_MM[0] as f32,
             centre_v_mm: SOCKET_MM[1] as f32,

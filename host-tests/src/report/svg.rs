@@ -3,7 +3,7 @@
 //! legend with the figures (G, F, H, diagnoses or eccentricities).
 //!
 //! Each trace point is a 1° bin mean of the run's samples, placed along the sample's
-//! sensitive direction n (`ballpod::metrology::pattern::PatternGeometry::direction`, the
+//! sensitive direction n (`ballpod::metrology::pattern::ArcGeometry::direction`, the
 //! core's own) at radius `R_px + k·ΔL`. The fitted curve is r0 + e·n for n around the arc.
 //! The root `<svg>` carries the plot's scale as data attributes (`data-cx`, `data-cy`,
 //! `data-nominal-px`, `data-px-per-um`) so a reader can turn points back into µm; traces are
@@ -16,7 +16,7 @@ use ballpod::acquisition::Sample;
 use ballpod::app::bc_ballbar::Setup;
 use ballpod::app::circle::CircleGeometry;
 use ballpod::app::{Direction, Pattern};
-use ballpod::metrology::pattern::PatternGeometry;
+use ballpod::metrology::pattern::ArcGeometry;
 
 use crate::recording::RecordedRun;
 use crate::replay::{Report, RunReport};
@@ -42,7 +42,7 @@ struct Fit {
 }
 
 /// 1° bin means of the run's (n, ΔL), bins by the angle of n.
-fn bin_means(g: &PatternGeometry, samples: &[Sample]) -> Vec<(f64, f64, f64)> {
+fn bin_means(g: &ArcGeometry, samples: &[Sample]) -> Vec<(f64, f64, f64)> {
     let mut bins = vec![(0.0f64, 0.0f64, 0.0f64, 0usize); 360];
     for s in samples {
         if !s.flags.is_valid_for_metrology() {

@@ -35,7 +35,9 @@ pub const DAMPING: f64 = 1e-7;
 /// largest (condition number up to 1e5; a damped null direction sits at ≈ [`DAMPING`]).
 pub const RANK_REL_TOL: f64 = 1e-5;
 
-use super::patterns::{Mounting, Pattern, PatternError, PatternGeometry, simulate_eccentricity};
+use super::patterns::{
+    BallbarLengths, BallbarPattern, Mounting, PatternError, simulate_eccentricity,
+};
 use super::{Deviations, Parameter};
 
 /// One measured pattern: its eccentricity in the §3.5 sign convention of
@@ -43,9 +45,9 @@ use super::{Deviations, Parameter};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PatternMeasurement {
     /// The pattern (Tables 2.2/2.3).
-    pub pattern: Pattern,
+    pub pattern: BallbarPattern,
     /// Its set-up lengths (mm).
-    pub geometry: PatternGeometry,
+    pub geometry: BallbarLengths,
     /// Number of equally spaced samples the model uses to predict the eccentricity (B arcs
     /// 0..=90°, C circles 0..360°; ≥ 3). Use the sampling of the measurement's fit.
     pub samples: usize,
@@ -72,7 +74,7 @@ pub enum ModelLsqError {
         index: usize,
     },
     /// A pattern could not be simulated (bad geometry, sampling).
-    Pattern {
+    BallbarPattern {
         /// Index of the measurement.
         index: usize,
         /// The cause.
@@ -351,7 +353,7 @@ impl ModelLsq {
             }
             p.geometry
                 .validate(p.pattern)
-                .map_err(|cause| ModelLsqError::Pattern { index, cause })?;
+                .map_err(|cause| ModelLsqError::BallbarPattern { index, cause })?;
         }
         Ok(())
     }
@@ -980,7 +982,7 @@ fn predict_with(
         p.samples,
     )
     .map(|e| [e.e1_um, e.e2_um])
-    .map_err(|cause| ModelLsqError::Pattern { index, cause })
+    .map_err(|cause| ModelLsqError::BallbarPattern { index, cause })
 }
 
 impl PatternMeasurement {

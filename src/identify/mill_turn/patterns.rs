@@ -17,7 +17,7 @@ use super::model::{AxisCommand, bar_deviation_um, r_bt_mm, r_ct_mm, t_ball_mm, w
 
 /// A measuring pattern of Tables 2.2 (B, φ ∈ [0°, 90°], C = 0) and 2.3 (C, θ ∈ [0°, 360°), B = 0).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Pattern {
+pub enum BallbarPattern {
     /// B radial: T-ball on a radius-L_B arc about the W-ball.
     Br,
     /// B tangential.
@@ -42,19 +42,24 @@ pub enum Pattern {
     Cy,
 }
 
-impl Pattern {
+impl BallbarPattern {
     /// True for the B-axis patterns (quarter arc, E_B moves), false for the C-axis ones.
     pub const fn is_b(self) -> bool {
         matches!(
             self,
-            Pattern::Br | Pattern::Bt | Pattern::Ba | Pattern::Bx | Pattern::By | Pattern::Bz
+            BallbarPattern::Br
+                | BallbarPattern::Bt
+                | BallbarPattern::Ba
+                | BallbarPattern::Bx
+                | BallbarPattern::By
+                | BallbarPattern::Bz
         )
     }
 }
 
 /// Set-up lengths of a pattern (mm), thesis §2.2 symbols.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PatternGeometry {
+pub struct BallbarLengths {
     /// L_B: ball-bar reference length (mm).
     pub l_b_mm: f64,
     /// R_B: B rotation centre → T-ball centre ("tool length", mm).
@@ -86,9 +91,9 @@ pub enum PatternError {
     Fit(LsqError),
 }
 
-impl PatternGeometry {
+impl BallbarLengths {
     /// Checks every length: L_B, R_B > 0, R_C > 0 for C patterns, Z_C finite.
-    pub fn validate(&self, pattern: Pattern) -> Result<(), PatternError> {
+    pub fn validate(&self, pattern: BallbarPattern) -> Result<(), PatternError> {
         let pos = |v: f64, what| {
             if v.is_finite() && v > 0.0 {
                 Ok(())
@@ -104,7 +109,7 @@ impl PatternGeometry {
         if !self.z_c_mm.is_finite() {
             return Err(PatternError::NonFinite);
         }
-        if pattern == Pattern::Cr && self.r_c_mm == self.l_b_mm {
+        if pattern == BallbarPattern::Cr && self.r_c_mm == self.l_b_mm {
             return Err(PatternError::DegenerateRadialPattern);
         }
         Ok(())
@@ -113,10 +118,10 @@ impl PatternGeometry {
 
 /// Model-frame axis command of `pattern` at angle `angle_rad` (φ for B patterns, θ for C),
 /// Tables 2.2 and 2.3 (mm from O_M). Raw equations: inputs are not validated here (see
-/// [`PatternGeometry::validate`]; [`nc_block`], [`PatternProgram`] and
+/// [`BallbarLengths::validate`]; [`nc_block`], [`PatternProgram`] and
 /// [`simulate_eccentricity`] validate).
 #[inline(never)] // flash: one body for the model's callers
-pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCommand {
+pub fn command(pattern: BallbarPattern, g: &BallbarLengths, angle_rad: f64) -> AxisCommand {
     let (s, c) = (crate::num::sin(angle_rad), crate::num::cos(angle_rad));
     let (lb, rb, rc, zc) = (g.l_b_mm, g.r_b_mm, g.r_c_mm, g.z_c_mm);
     let b = |x, y, z| AxisCommand {
@@ -134,8 +139,8 @@ pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCom
         c_rad: angle_rad,
     };
     match pattern {
-        Pattern::Br => b((lb + rb) * s, 0.0, zc + (lb + rb) * c),
-        Pattern::Bt => {
+        BallbarPattern::Br => b((lb + rb) * s, 0.0, zc + (lb + rb) * c),
+        BallbarPattern::Bt => {
             let (rbt, a) = (r_bt_mm(rb, lb), libm::atan2(lb, rb));
             b(
                 rbt * crate::num::sin(angle_rad + a),
@@ -143,11 +148,11 @@ pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCom
                 zc + rbt * crate::num::cos(angle_rad + a),
             )
         }
-        Pattern::Ba | Pattern::By => b(rb * s, lb, zc + rb * c),
-        Pattern::Bx => b(lb + rb * s, 0.0, zc + rb * c),
-        Pattern::Bz => b(rb * s, 0.0, lb + zc + rb * c),
-        Pattern::Cr => cc((rc - lb) * c, (rc - lb) * s, zc + rb),
-        Pattern::Ct => {
+        BallbarPattern::Ba | BallbarPattern::By => b(rb * s, lb, zc + rb * c),
+        BallbarPattern::Bx => b(lb + rb * s, 0.0, zc + rb * c),
+        BallbarPattern::Bz => b(rb * s, 0.0, lb + zc + rb * c),
+        BallbarPattern::Cr => cc((rc - lb) * c, (rc - lb) * s, zc + rb),
+        BallbarPattern::Ct => {
             let (rct, a) = (r_ct_mm(rc, lb), libm::atan2(lb, rc));
             cc(
                 rct * crate::num::cos(angle_rad + a),
@@ -155,19 +160,23 @@ pub fn command(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> AxisCom
                 zc + rb,
             )
         }
-        Pattern::Ca => cc(rc * c, rc * s, zc + lb + rb),
-        Pattern::Cx => cc(lb + rc * c, rc * s, zc + rb),
-        Pattern::Cy => cc(rc * c, lb + rc * s, zc + rb),
+        BallbarPattern::Ca => cc(rc * c, rc * s, zc + lb + rb),
+        BallbarPattern::Cx => cc(lb + rc * c, rc * s, zc + rb),
+        BallbarPattern::Cy => cc(rc * c, lb + rc * s, zc + rb),
     }
 }
 
 /// Sensitive direction (n1, n2) of `pattern` at `angle_rad` (§3.5; see the module doc).
 #[inline(never)] // flash: one body for the model's callers
-pub fn sensitive_direction(pattern: Pattern, g: &PatternGeometry, angle_rad: f64) -> (f64, f64) {
+pub fn sensitive_direction(
+    pattern: BallbarPattern,
+    g: &BallbarLengths,
+    angle_rad: f64,
+) -> (f64, f64) {
     let (s, c) = (crate::num::sin(angle_rad), crate::num::cos(angle_rad));
     if pattern.is_b() {
         (s, c)
-    } else if pattern == Pattern::Cr && g.r_c_mm < g.l_b_mm {
+    } else if pattern == BallbarPattern::Cr && g.r_c_mm < g.l_b_mm {
         (-c, -s)
     } else {
         (c, s)
@@ -176,7 +185,7 @@ pub fn sensitive_direction(pattern: Pattern, g: &PatternGeometry, angle_rad: f64
 
 /// Angle (rad) of sample `i` of `samples`: B arcs from 0 to 90° inclusive, C circles
 /// `2π·i/samples` (end point excluded so no angle counts twice).
-pub fn sample_angle_rad(pattern: Pattern, i: usize, samples: usize) -> f64 {
+pub fn sample_angle_rad(pattern: BallbarPattern, i: usize, samples: usize) -> f64 {
     if pattern.is_b() {
         core::f64::consts::FRAC_PI_2 * i as f64 / (samples.max(2) - 1) as f64
     } else {
@@ -212,8 +221,8 @@ pub struct Eccentricity {
 /// convention. This is the forward map the model-based identification inverts.
 #[inline(never)] // flash: one body for the model's callers
 pub fn simulate_eccentricity(
-    pattern: Pattern,
-    g: &PatternGeometry,
+    pattern: BallbarPattern,
+    g: &BallbarLengths,
     dev: &Deviations,
     mounting: &Mounting,
     samples: usize,
@@ -294,8 +303,8 @@ pub struct NcBlock {
 /// NC block of `pattern` at angle `angle_deg` (B angle for B patterns, C angle for C
 /// patterns): Table 2.2/2.3 command plus `offset`. Validates the geometry and the inputs.
 pub fn nc_block(
-    pattern: Pattern,
-    g: &PatternGeometry,
+    pattern: BallbarPattern,
+    g: &BallbarLengths,
     offset: &NcOffset,
     angle_deg: f64,
 ) -> Result<NcBlock, PatternError> {
@@ -311,8 +320,8 @@ pub fn nc_block(
 }
 
 fn nc_block_unchecked(
-    pattern: Pattern,
-    g: &PatternGeometry,
+    pattern: BallbarPattern,
+    g: &BallbarLengths,
     offset: &NcOffset,
     angle_deg: f64,
 ) -> NcBlock {
@@ -331,8 +340,8 @@ fn nc_block_unchecked(
 /// 0.2778°). Run it reversed (start 90, end 0) for the CCW direction.
 #[derive(Clone, Copy, Debug)]
 pub struct PatternProgram {
-    pattern: Pattern,
-    geometry: PatternGeometry,
+    pattern: BallbarPattern,
+    geometry: BallbarLengths,
     offset: NcOffset,
     start_deg: f64,
     end_deg: f64,
@@ -343,8 +352,8 @@ pub struct PatternProgram {
 impl PatternProgram {
     /// Validates the geometry (lengths > 0, finite angles, ≥ 1 step) and builds the program.
     pub fn new(
-        pattern: Pattern,
-        geometry: PatternGeometry,
+        pattern: BallbarPattern,
+        geometry: BallbarLengths,
         offset: NcOffset,
         start_deg: f64,
         end_deg: f64,

@@ -216,7 +216,7 @@ impl<const BINS: usize> CircularTest<BINS> {
     /// u_centre·|∂x/∂(δ_u, δ_v)|.
     ///
     /// The pod takes from the centre as entered only each sample's direction n about it
-    /// ([`crate::metrology::pattern::PatternGeometry::direction`]). Entered δ off, n moves by
+    /// ([`crate::metrology::pattern::ArcGeometry::direction`]). Entered δ off, n moves by
     /// dn = −s (δ − (δ·n) n) / R (s the pattern's sign, R the radius), so the rows (1, n) of
     /// the least squares move by (0, dn), and x = (r0, e) by
     /// dx = (AᵀA)⁻¹ Σ [(0, dn) r − (1, n)(dn·e)], r each sample's residual. The sums run over

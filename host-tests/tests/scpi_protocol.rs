@@ -1230,7 +1230,7 @@ fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
 #[test]
 fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid() {
     let mut b = Bench::with_circle();
-    assert_eq!(ResultInfo::all().count(), 88);
+    assert_eq!(ResultInfo::all().count(), 102);
     // nothing computed yet: -230 naming the result
     b.rejected_with(
         "FETC:RES? ecc_u",
@@ -1255,7 +1255,13 @@ fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid()
         -230,
         "Data corrupt or stale;G_bidir has no valid value",
     );
-    b.rejected("FETC:RES? 88", -222);
+    // a diagnosis says why it has no value
+    b.rejected_with(
+        "FETC:RES? squareness",
+        -230,
+        "Data corrupt or stale;squareness not determinable yet: needs the latest CCW and CW runs, both complete",
+    );
+    b.rejected("FETC:RES? 102", -222);
     b.rejected("FETC:RES? -1", -222);
     b.rejected("FETC:RES? 1.5", -222);
     b.rejected("FETC:RES? nonsense", -224);

@@ -15,7 +15,7 @@ use crate::in_place::init_in_place;
 use crate::metrology::bar_budget::BarBudget;
 use crate::metrology::bar_budget::FigureKind::{Radial, Shape};
 use crate::metrology::circle_fit::{CircleFitConfig, CircleFitError, SampleUse};
-use crate::metrology::iso230_4::{self, CircularTest, IsoError};
+use crate::metrology::iso230_4::{self, CircularTest, Diagnosis, Fault, NotDeterminable};
 use crate::metrology::pattern::{ArcGeometry, Plane, Sensitivity};
 use core::mem::MaybeUninit;
 
@@ -416,22 +416,27 @@ impl CircleRun {
         }
         let diag = |d| self.test.diagnostics(d, u_centre_um);
         let (Ok(ccw), Ok(cw)) = (diag(Direction::Ccw), diag(Direction::Cw)) else {
-            // a partial arc: no diagnoses (IsoError::NotFullCircle)
+            // an arc short of a quadrant: no diagnoses (IsoError::NotFullCircle)
             return;
         };
         let m = iso230_4::mean_diagnostics(&ccw, &cw);
-        for (id, v) in [
-            (ResultId::Squareness, m.squareness_urad),
-            (ResultId::ScaleMismatch, m.scale_mismatch_um_per_m),
-            (ResultId::ReversalU, m.reversal_step_u_um),
-            (ResultId::ReversalV, m.reversal_step_v_um),
-            (ResultId::CyclicAmplitude, m.cyclic_amplitude_um),
-        ] {
-            results.set_with_bar(id, v.value, [v.std_uncertainty, v.centre_um], bar, Shape);
+        // what the arcs do not determine stays invalid ([`CircleRun::not_determinable`])
+        for (id, which) in DIAGNOSIS_RESULTS {
+            if let Ok(v) = m.determined(which) {
+                results.set_with_bar(id, v.value, [v.std_uncertainty, v.centre_um], bar, Shape);
+            }
         }
-        // 0: no harmonic of order 3–16 is significant (none named)
-        let order = m.named_cyclic_order().unwrap_or(0);
-        results.set(ResultId::CyclicOrder, f64::from(order), 0.0);
+        if m.determined(Diagnosis::Cyclic).is_ok() {
+            // 0: no harmonic of order 4–16 is significant (none named)
+            let order = m.named_cyclic_order().unwrap_or(0);
+            results.set(ResultId::CyclicOrder, f64::from(order), 0.0);
+        }
+        for (id, fault) in SHARE_RESULTS {
+            if let Some(v) = m.share_of_g(fault, self.test.radius_mm()) {
+                results.set_with_bar(id, v.value, [v.std_uncertainty, v.centre_um], bar, Shape);
+            }
+        }
+        results.set(ResultId::FaultsNamed, f64::from(m.named_faults()), 0.0);
         let tau = self.geometry.and_then(|g| {
             servo_mismatch_ms(
                 &ccw,
@@ -452,11 +457,57 @@ impl CircleRun {
         }
     }
 
-    /// Why the diagnoses of direction `d` are not available (e.g. a partial arc).
-    pub fn diagnostics_error(&self, d: Direction) -> Option<IsoError> {
-        self.test.diagnostics(d, 0.0).err()
+    /// Why the diagnosis result `id` is not determinable from the latest runs (`None`: it is,
+    /// or `id` is not a diagnosis): the text after the result's name that the protocols give
+    /// for an invalid result.
+    pub fn not_determinable(&self, id: ResultId) -> Option<NotDeterminable> {
+        let which = DIAGNOSIS_RESULTS
+            .iter()
+            .find(|(r, _)| *r == id)
+            .map(|(_, w)| *w)
+            .or_else(|| {
+                SHARE_RESULTS
+                    .iter()
+                    .find(|(r, _)| *r == id)
+                    .map(|(_, f)| Diagnosis::of_fault(*f))
+            })
+            .or((id == ResultId::CyclicOrder).then_some(Diagnosis::Cyclic))?;
+        if self.complete != [true; 2] {
+            return Some(NotDeterminable::NeedsBothDirections);
+        }
+        let both = self
+            .test
+            .support(Direction::Ccw)
+            .both(&self.test.support(Direction::Cw));
+        both.determinable(which).err()
     }
 }
+
+/// The diagnosis results and the diagnosis each publishes (the mean of the two directions).
+const DIAGNOSIS_RESULTS: [(ResultId, Diagnosis); 11] = [
+    (ResultId::Squareness, Diagnosis::Squareness),
+    (ResultId::ScaleMismatch, Diagnosis::ScaleMismatch),
+    (ResultId::ReversalU, Diagnosis::ReversalU),
+    (ResultId::ReversalV, Diagnosis::ReversalV),
+    (ResultId::CyclicAmplitude, Diagnosis::Cyclic),
+    (ResultId::ReversalUPos, Diagnosis::ReversalUPos),
+    (ResultId::ReversalUNeg, Diagnosis::ReversalUNeg),
+    (ResultId::ReversalVPos, Diagnosis::ReversalVPos),
+    (ResultId::ReversalVNeg, Diagnosis::ReversalVNeg),
+    (ResultId::StraightnessU, Diagnosis::StraightnessU),
+    (ResultId::StraightnessV, Diagnosis::StraightnessV),
+];
+
+/// The ranking results: each fault's share of G ([`iso230_4::Diagnostics::share_of_g`]).
+const SHARE_RESULTS: [(ResultId, Fault); 7] = [
+    (ResultId::ShareSquareness, Fault::Squareness),
+    (ResultId::ShareScaleMismatch, Fault::ScaleMismatch),
+    (ResultId::ShareReversalU, Fault::ReversalU),
+    (ResultId::ShareReversalV, Fault::ReversalV),
+    (ResultId::ShareStraightnessU, Fault::StraightnessU),
+    (ResultId::ShareStraightnessV, Fault::StraightnessV),
+    (ResultId::ShareCyclic, Fault::Cyclic),
+];
 
 /// Servo mismatch τ_u − τ_v, its standard uncertainty from the noise and the centre's share
 /// (ms; from the two directions' signed squareness changes, `Diagnostics::centre_moves`) from

@@ -282,6 +282,15 @@ impl App {
     pub fn result(&self, id: ResultId) -> ResultEntry {
         self.results.get(id)
     }
+    /// Why the invalid result `id` has no value, where the application can tell: a ball-bar
+    /// diagnosis the latest circle runs do not determine (the text after its name), else
+    /// `None`.
+    pub fn why_invalid(&self, id: ResultId) -> Option<&'static str> {
+        if self.results.get(id).valid {
+            return None;
+        }
+        self.circle.not_determinable(id).map(|r| r.as_str())
+    }
     /// What the acquisition counted (samples, faults, lost upstream).
     pub fn acquisition_counters(&self) -> AcquisitionCounters {
         self.acq.counters

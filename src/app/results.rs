@@ -66,7 +66,7 @@ results! {
     ScaleMismatch => ("scale_mismatch", UmPerM, "Ball-bar diagnosis: scale mismatch k_u − k_v"),
     ReversalU => ("reversal_u", Um, "Ball-bar diagnosis: reversal step (backlash) of the first axis"),
     ReversalV => ("reversal_v", Um, "Ball-bar diagnosis: reversal step (backlash) of the second axis"),
-    CyclicAmplitude => ("cyclic_amplitude", Um, "Ball-bar diagnosis: amplitude of the cyclic error, the harmonic of order 3–16 that, fitted jointly with the other diagnoses, explains most of the profile"),
+    CyclicAmplitude => ("cyclic_amplitude", Um, "Ball-bar diagnosis: amplitude of the cyclic error, the harmonic of order 4–16 that, fitted jointly with the other diagnoses, explains most of the profile (full circle only; a third-order shape is the straightness)"),
     CyclicOrder => ("cyclic_order", One, "Ball-bar diagnosis: order of that harmonic (cycles per revolution) when its amplitude is at least 4 standard uncertainties; 0: no cyclic error named"),
     ServoMismatch => ("servo_mismatch", Ms, "Ball-bar diagnosis: servo mismatch τ_u − τ_v (needs circle_feed)"),
     CentreDu => ("centre_du", Um, "Last CIRCLE run: the centre of the circle the axis positions traced less circle_centre, along the plane's first axis (the first harmonic of their distance from it)"),
@@ -136,6 +136,20 @@ results! {
     ProbeAlphaBtPlusAlphaXb => ("probe_alpha_BT_plus_alpha_XB", Arcsec, "Touch-probe B axis: α_BT + α_XB (not separable with B = 0/90° alone)"),
     ProbeAlphaBtMinusGammaXb => ("probe_alpha_BT_minus_gamma_XB", Arcsec, "Touch-probe B axis: α_BT − γ_XB"),
     ProbeBResidualRms => ("probe_B_residual_rms", Um, "Touch-probe B axis: RMS residual of the X/Z equations (8 equations, 3 unknowns)"),
+    ReversalUPos => ("reversal_u_pos", Um, "Ball-bar diagnosis: reversal step (backlash) of the first axis at its + end (θ = 0°; the arcs must cross it)"),
+    ReversalUNeg => ("reversal_u_neg", Um, "Ball-bar diagnosis: reversal step of the first axis at its − end (θ = 180°)"),
+    ReversalVPos => ("reversal_v_pos", Um, "Ball-bar diagnosis: reversal step of the second axis at its + end (θ = 90°)"),
+    ReversalVNeg => ("reversal_v_neg", Um, "Ball-bar diagnosis: reversal step of the second axis at its − end (θ = 270°)"),
+    StraightnessU => ("straightness_u", Um, "Ball-bar diagnosis: straightness of the first axis over the test diameter, its path's bow across it (end-point reference; > 0: the ends lie towards +v of the middle; full circle only)"),
+    StraightnessV => ("straightness_v", Um, "Ball-bar diagnosis: straightness of the second axis over the test diameter (> 0: the ends lie towards +u of the middle; full circle only)"),
+    ShareSquareness => ("share_squareness", Um, "Ball-bar ranking: the out-of-squareness's share of the circular deviation, the peak-to-valley its signature alone gives (S·R)"),
+    ShareScaleMismatch => ("share_scale_mismatch", Um, "Ball-bar ranking: the scale mismatch's share (Δk·R)"),
+    ShareReversalU => ("share_reversal_u", Um, "Ball-bar ranking: the first axis's reversal steps' share (the larger of its two points)"),
+    ShareReversalV => ("share_reversal_v", Um, "Ball-bar ranking: the second axis's reversal steps' share"),
+    ShareStraightnessU => ("share_straightness_u", Um, "Ball-bar ranking: the first axis's straightness's share (half of it: the third-order shape)"),
+    ShareStraightnessV => ("share_straightness_v", Um, "Ball-bar ranking: the second axis's straightness's share"),
+    ShareCyclic => ("share_cyclic", Um, "Ball-bar ranking: the cyclic error's share (twice its amplitude)"),
+    FaultsNamed => ("faults_named", One, "Ball-bar diagnoses named as faults (at least 3 standard uncertainties from zero, the cyclic error 4), the sum of: 1 squareness, 2 scale mismatch, 4 reversal of the first axis (either point or the mean), 8 of the second, 16 straightness of the first, 32 of the second, 64 cyclic error"),
 }
 
 /// Number of results.
@@ -443,8 +457,8 @@ impl ResultSink for Results {
 }
 
 /// Results a job computed, in the order it set them, for [`Results`] when the job ends
-/// ([`ResultPatch::apply`]). Sized for the job that sets the most (the seed 002 identification:
-/// 31); a set beyond it is counted, never dropped silently ([`ResultPatch::overflowed`]).
+/// ([`ResultPatch::apply`]). Sized for the job that sets the most (a circle's figures with both
+/// directions: 34); a set beyond it is counted, never dropped silently ([`ResultPatch::overflowed`]).
 #[derive(Clone, Debug, Default)]
 pub struct ResultPatch {
     sets: heapless::Vec<(ResultId, f64, [f32; CONTRIBUTOR_COUNT]), RESULT_PATCH_LEN>,
@@ -452,7 +466,7 @@ pub struct ResultPatch {
 }
 
 /// Results one job sets at most ([`ResultPatch`]).
-pub const RESULT_PATCH_LEN: usize = 32;
+pub const RESULT_PATCH_LEN: usize = 40;
 
 impl ResultPatch {
     /// No results.

@@ -183,7 +183,7 @@ pub struct CircleMachine {
     pub backlash_y_um: f64,
     /// Cyclic radial error amplitude, µm (radial error A·cos(order·θ + φ)).
     pub cyclic_amplitude_um: f64,
-    /// Cyclic error order (cycles per revolution, 3..=16).
+    /// Cyclic error order (cycles per revolution, 4..=16 diagnosed: a third order is read as straightness).
     pub cyclic_order: u32,
     /// Cyclic error phase φ, degrees (not 0 by default: at φ = 0 an even order is the one
     /// phase the reversal-step shapes do not see, which hid a leak, issue 14).

@@ -26,11 +26,14 @@
 //!   with their bootstrap uncertainty;
 //! - `centre`: the centre as entered — its shares in every figure, the centre the axes traced;
 //! - `diagnostics`: the joint fit of the machine faults (squareness, scale mismatch, reversal
-//!   steps, cyclic error) with their uncertainties.
+//!   steps at each reversal point, straightness, cyclic error) with their uncertainties;
+//! - `support`: what an arc determines (and why not), when a fault is named, each fault's
+//!   share of G.
 
 mod centre;
 mod diagnostics;
 mod figures;
+mod support;
 
 pub use centre::TracedCentre;
 pub use diagnostics::{
@@ -38,6 +41,10 @@ pub use diagnostics::{
     RESOLUTION_UM, mean_diagnostics,
 };
 pub use figures::{BidirectionalFigures, DirectionFigures};
+pub use support::{
+    ArcSupport, DIAGNOSES, Diagnosis, FAULT_SIGNIFICANCE, FULL_CIRCLE_GAP_DEG, Fault,
+    NotDeterminable, REVERSAL_SIDE_DEG,
+};
 
 use super::angle::quadrant_angle;
 use super::circle_fit::{CircleEstimate, CircleFit, CircleFitConfig, CircleFitError};

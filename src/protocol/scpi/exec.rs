@@ -581,7 +581,7 @@ impl<F: FnMut(&[u8]), const N: usize> Exec<'_, F, N> {
                     return Err(ScpiError::with_suffix(
                         code::DATA_CORRUPT_OR_STALE,
                         info.name,
-                        " has no valid value",
+                        self.app.why_invalid(id).unwrap_or(" has no valid value"),
                     ));
                 }
                 if matches!(cmd, Command::FetchBudget) {

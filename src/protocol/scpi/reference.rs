@@ -377,7 +377,7 @@ pub const ERRORS: &[(i16, &str)] = &[
     ),
     (
         code::DATA_CORRUPT_OR_STALE,
-        "`FETCh:RESult?` of a result that is not valid (`<name> has no valid value`)",
+        "`FETCh:RESult?` of a result that is not valid (`<name> has no valid value`; a ball-bar diagnosis the arcs do not determine: `<name> not determinable…` with the reason)",
     ),
     (
         code::DEVICE_SPECIFIC_ERROR,

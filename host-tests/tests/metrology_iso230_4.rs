@@ -7,7 +7,7 @@ use ballpod::acquisition::{Sample, SampleFlags};
 use ballpod::app::circle::servo_mismatch_ms;
 use ballpod::metrology::circle_fit::{CircleFitConfig, CircleFitError};
 use ballpod::metrology::iso230_4::{
-    CircularTest, Diagnosed, Direction, IsoError, mean_diagnostics,
+    CircularTest, Diagnosed, Diagnosis, Direction, IsoError, mean_diagnostics,
 };
 use ballpod::metrology::pattern::{ArcGeometry, Plane, Sensitivity};
 use ballpod_host::oracle::Rng;
@@ -139,10 +139,16 @@ fn squareness_shows_as_45deg_ovality() {
     let t = test_of(&m);
     for dir in [Direction::Ccw, Direction::Cw] {
         let dg = t.diagnostics(dir, 0.0).unwrap();
-        close(dg.squareness_urad.value, 20.0, 0.05, "squareness");
-        assert!(dg.scale_mismatch_um_per_m.value.abs() < 1.0, "{dg:?}"); // 5 % of the 20 µrad ovality
+        close(
+            dg.get(Diagnosis::Squareness).value,
+            20.0,
+            0.05,
+            "squareness",
+        );
+        assert!(dg.get(Diagnosis::ScaleMismatch).value.abs() < 1.0, "{dg:?}"); // 5 % of the 20 µrad ovality
         assert!(
-            dg.reversal_step_u_um.value.abs() < 0.05 && dg.reversal_step_v_um.value.abs() < 0.05
+            dg.get(Diagnosis::ReversalU).value.abs() < 0.05
+                && dg.get(Diagnosis::ReversalV).value.abs() < 0.05
         );
         let f = t.direction_figures(dir, 0.0).unwrap();
         // ΔL = (R S / 2) sin 2θ: G = R·S = 3 µm, F = ±1.5 µm
@@ -177,13 +183,16 @@ fn scale_mismatch_shows_as_0_90deg_ovality() {
         &t.diagnostics(Direction::Cw, 0.0).unwrap(),
     );
     close(
-        dg.scale_mismatch_um_per_m.value,
+        dg.get(Diagnosis::ScaleMismatch).value,
         10.0,
         0.05,
         "scale mismatch",
     );
-    assert!(dg.squareness_urad.value.abs() < 0.5);
-    assert!(dg.reversal_step_u_um.value.abs() < 0.05 && dg.reversal_step_v_um.value.abs() < 0.05);
+    assert!(dg.get(Diagnosis::Squareness).value.abs() < 0.5);
+    assert!(
+        dg.get(Diagnosis::ReversalU).value.abs() < 0.05
+            && dg.get(Diagnosis::ReversalV).value.abs() < 0.05
+    );
     // mean radius change R(kx + ky)/2 = 1.5 µm
     close(
         t.bidirectional_figures(0.0)
@@ -206,10 +215,11 @@ fn backlash_shows_as_reversal_steps_and_hysteresis() {
     let t = test_of(&m);
     for dir in [Direction::Ccw, Direction::Cw] {
         let dg = t.diagnostics(dir, 0.0).unwrap();
-        close(dg.reversal_step_u_um.value, 4.0, 0.05, "B_x");
-        close(dg.reversal_step_v_um.value, 2.0, 0.05, "B_y");
+        close(dg.get(Diagnosis::ReversalU).value, 4.0, 0.05, "B_x");
+        close(dg.get(Diagnosis::ReversalV).value, 2.0, 0.05, "B_y");
         assert!(
-            dg.squareness_urad.value.abs() < 0.5 && dg.scale_mismatch_um_per_m.value.abs() < 0.5,
+            dg.get(Diagnosis::Squareness).value.abs() < 0.5
+                && dg.get(Diagnosis::ScaleMismatch).value.abs() < 0.5,
             "{dg:?}"
         );
     }
@@ -245,16 +255,26 @@ fn all_together_with_noise_each_in_its_diagnostic() {
         &t.diagnostics(Direction::Cw, 0.0).unwrap(),
     );
     println!("{dg:?}");
-    close(dg.squareness_urad.value, -35.0, 0.05, "squareness");
     close(
-        dg.scale_mismatch_um_per_m.value,
+        dg.get(Diagnosis::Squareness).value,
+        -35.0,
+        0.05,
+        "squareness",
+    );
+    close(
+        dg.get(Diagnosis::ScaleMismatch).value,
         -12.0,
         0.05,
         "scale mismatch",
     );
-    close(dg.reversal_step_u_um.value, 3.0, 0.05, "B_x");
-    close(dg.reversal_step_v_um.value, 5.0, 0.05, "B_y");
-    close(dg.cyclic_amplitude_um.value, 0.6, 0.05, "cyclic amplitude");
+    close(dg.get(Diagnosis::ReversalU).value, 3.0, 0.05, "B_x");
+    close(dg.get(Diagnosis::ReversalV).value, 5.0, 0.05, "B_y");
+    close(
+        dg.get(Diagnosis::Cyclic).value,
+        0.6,
+        0.05,
+        "cyclic amplitude",
+    );
     assert_eq!(dg.named_cyclic_order(), Some(7));
 }
 
@@ -307,10 +327,10 @@ fn truth(m: &Machine) -> [f64; 4] {
 
 fn reported(dg: &ballpod::metrology::iso230_4::Diagnostics) -> [(f32, f32); 4] {
     [
-        dg.squareness_urad,
-        dg.scale_mismatch_um_per_m,
-        dg.reversal_step_u_um,
-        dg.reversal_step_v_um,
+        dg.get(Diagnosis::Squareness),
+        dg.get(Diagnosis::ScaleMismatch),
+        dg.get(Diagnosis::ReversalU),
+        dg.get(Diagnosis::ReversalV),
     ]
     .map(|d| (d.value, d.std_uncertainty))
 }
@@ -340,8 +360,8 @@ fn even_order_cyclic_error_does_not_leak_into_squareness_or_reversal() {
             }
             assert_eq!(dg.named_cyclic_order(), Some(6), "{dg:?}");
             let (a, u) = (
-                dg.cyclic_amplitude_um.value,
-                dg.cyclic_amplitude_um.std_uncertainty,
+                dg.get(Diagnosis::Cyclic).value,
+                dg.get(Diagnosis::Cyclic).std_uncertainty,
             );
             assert!(
                 (f64::from(a) - 1.45).abs() <= 2.0 * f64::from(u),
@@ -420,8 +440,8 @@ fn monte_carlo_diagnoses_cover_the_truth_within_their_u() {
         let mut want = truth(&m).to_vec();
         if m.cyc_amp_um > 0.0 {
             got.push((
-                dg.cyclic_amplitude_um.value,
-                dg.cyclic_amplitude_um.std_uncertainty,
+                dg.get(Diagnosis::Cyclic).value,
+                dg.get(Diagnosis::Cyclic).std_uncertainty,
             ));
             want.push(m.cyc_amp_um);
             if dg.named_cyclic_order() == Some(m.cyc_order) {
@@ -925,7 +945,7 @@ fn restart_and_direction_reset_forget_the_previous_samples() {
     );
     assert_eq!(got, want);
     assert!(
-        (got.unwrap().squareness_urad.value).abs() < 5.0,
+        (got.unwrap().get(Diagnosis::Squareness).value).abs() < 5.0,
         "the old squareness is gone"
     );
 
@@ -1204,8 +1224,8 @@ fn the_socket_offsets_second_order_term_is_not_read_as_squareness_or_scale() {
     for dir in [Direction::Ccw, Direction::Cw] {
         let dg = t.diagnostics(dir, 0.0).unwrap();
         for (what, v) in [
-            ("squareness", dg.squareness_urad.value),
-            ("scale mismatch", dg.scale_mismatch_um_per_m.value),
+            ("squareness", dg.get(Diagnosis::Squareness).value),
+            ("scale mismatch", dg.get(Diagnosis::ScaleMismatch).value),
         ] {
             assert!(v.abs() < 0.005, "{dir:?} {what}: {v}");
         }
@@ -1268,11 +1288,11 @@ fn every_circle_figure_covers_a_centre_entered_half_a_millimetre_off() {
             centre_um: centre_tau as f32,
         };
         got.extend([
-            dg.squareness_urad,
-            dg.scale_mismatch_um_per_m,
-            dg.reversal_step_u_um,
-            dg.reversal_step_v_um,
-            dg.cyclic_amplitude_um,
+            dg.get(Diagnosis::Squareness),
+            dg.get(Diagnosis::ScaleMismatch),
+            dg.get(Diagnosis::ReversalU),
+            dg.get(Diagnosis::ReversalV),
+            dg.get(Diagnosis::Cyclic),
             servo,
         ]);
         let faults = truth(&m);
@@ -1469,10 +1489,10 @@ fn a_centre_entered_off_its_budget_takes_the_traced_offset() {
             &t.diagnostics(Direction::Cw, u_c).unwrap(),
         );
         got.extend([
-            dg.squareness_urad,
-            dg.scale_mismatch_um_per_m,
-            dg.reversal_step_u_um,
-            dg.reversal_step_v_um,
+            dg.get(Diagnosis::Squareness),
+            dg.get(Diagnosis::ScaleMismatch),
+            dg.get(Diagnosis::ReversalU),
+            dg.get(Diagnosis::ReversalV),
         ]);
         let faults = truth(&m);
         let want = figures.iter().chain(&faults);

@@ -469,7 +469,7 @@ impl CircleRun {
                 SHARE_RESULTS
                     .iter()
                     .find(|(r, _)| *r == id)
-                    .map(|(_, f)| Diagnosis::of_fault(*f))
+                    .and_then(|(_, f)| f.diagnoses().first().copied())
             })
             .or((id == ResultId::CyclicOrder).then_some(Diagnosis::Cyclic))?;
         if self.complete != [true; 2] {
@@ -528,7 +528,10 @@ pub fn servo_mismatch_ms(
         return None;
     }
     let omega_rad_per_s = feed_mm_per_min / 60.0 / radius_mm;
-    let (a, b) = (ccw.squareness_urad, cw.squareness_urad);
+    let (a, b) = (
+        ccw.get(Diagnosis::Squareness),
+        cw.get(Diagnosis::Squareness),
+    );
     let ds_urad = f64::from(a.value) - f64::from(b.value);
     let u_ds_urad = f64::from(crate::num::sqrtf(
         a.std_uncertainty * a.std_uncertainty + b.std_uncertainty * b.std_uncertainty,

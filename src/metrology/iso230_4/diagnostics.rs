@@ -99,26 +99,14 @@ impl Diagnosed {
 /// and signs; [`Diagnostics::determined`] for what the arcs support).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Diagnostics {
-    /// Out-of-squareness of u and v (45° ovality), µrad.
-    pub squareness_urad: Diagnosed,
-    /// Scale mismatch k_u − k_v (0°/90° ovality), µm/m.
-    pub scale_mismatch_um_per_m: Diagnosed,
-    /// Reversal step (backlash) of u, the mean of its two points (θ = 0°, 180°), µm.
-    pub reversal_step_u_um: Diagnosed,
-    /// Reversal step (backlash) of v, the mean of its two points (θ = 90°, 270°), µm.
-    pub reversal_step_v_um: Diagnosed,
-    /// Amplitude (half peak-to-peak) of the harmonic of order [`Self::cyclic_order`] fitted
-    /// jointly with the rest, µm.
-    pub cyclic_amplitude_um: Diagnosed,
+    /// Each [`Diagnosis`], its discriminant the index ([`Diagnostics::get`]): out-of-squareness
+    /// (45° ovality, µrad), scale mismatch k_u − k_v (0°/90° ovality, µm/m), each axis's
+    /// reversal step (the mean of its two points, µm), the cyclic amplitude (half
+    /// peak-to-peak of the harmonic of order [`Self::cyclic_order`], µm), the step at each
+    /// reversal point (µm), each axis's straightness over the test diameter (µm).
+    pub values: [Diagnosed; DIAGNOSES],
     /// The order (cycles per revolution, 4..=16) whose joint fit explains most of the profile.
     pub cyclic_order: u32,
-    /// The reversal step at each reversal point, in angle order: u at 0° (its + end), v at
-    /// 90°, u at 180°, v at 270°, µm.
-    pub reversal_points_um: [Diagnosed; 4],
-    /// Straightness of u over the test diameter (its path's bow across, in v), µm.
-    pub straightness_u_um: Diagnosed,
-    /// Straightness of v over the test diameter (its path's bow across, in u), µm.
-    pub straightness_v_um: Diagnosed,
     /// What the run's coverage (the mean's: both runs') determines.
     pub support: ArcSupport,
     /// Standard uncertainty of one sample's ΔL the uncertainties rest on, µm.
@@ -138,30 +126,18 @@ impl Diagnostics {
     /// square of the ± moves along each axis, in quadrature.
     pub(super) fn set_centre_moves(&mut self, moves: [[f32; DIAGNOSES]; 4]) {
         self.centre_moves = moves;
-        for which in Diagnosis::ALL {
-            let k = which as usize;
+        for (k, d) in self.values.iter_mut().enumerate() {
             let s2: f32 = moves.iter().map(|m| m.get(k).map_or(0.0, |v| v * v)).sum();
-            if let Some(d) = self.get_mut(which) {
-                d.centre_um = crate::num::sqrtf(0.5 * s2);
-            }
+            d.centre_um = crate::num::sqrtf(0.5 * s2);
         }
     }
 
-    fn get_mut(&mut self, which: Diagnosis) -> Option<&mut Diagnosed> {
-        use Diagnosis as D;
-        match which {
-            D::Squareness => Some(&mut self.squareness_urad),
-            D::ScaleMismatch => Some(&mut self.scale_mismatch_um_per_m),
-            D::ReversalU => Some(&mut self.reversal_step_u_um),
-            D::ReversalV => Some(&mut self.reversal_step_v_um),
-            D::Cyclic => Some(&mut self.cyclic_amplitude_um),
-            D::ReversalUPos => self.reversal_points_um.get_mut(0),
-            D::ReversalVPos => self.reversal_points_um.get_mut(1),
-            D::ReversalUNeg => self.reversal_points_um.get_mut(2),
-            D::ReversalVNeg => self.reversal_points_um.get_mut(3),
-            D::StraightnessU => Some(&mut self.straightness_u_um),
-            D::StraightnessV => Some(&mut self.straightness_v_um),
-        }
+    /// The estimate of `which` (determinable or not: [`Self::determined`]).
+    pub fn get(&self, which: Diagnosis) -> Diagnosed {
+        self.values
+            .get(which as usize)
+            .copied()
+            .unwrap_or(not_evaluated(f32::NAN))
     }
 
     /// The cyclic error's order if it is named ([`Self::is_named`]: a full circle, amplitude
@@ -302,38 +278,23 @@ impl<const BINS: usize> CircularTest<BINS> {
         let to_urad = 2e3 / self.radius_mm;
         let mut centre_moves = [[0.0f32; DIAGNOSES]; 4];
         for ((m, f), j) in centre_moves.iter_mut().zip(fit_moved).zip(joint_moved) {
-            let values = Parameters::of(&f, &[0.0; DIAGNOSTIC_PARAMETERS], [0.0; 2], to_urad);
-            for (m, v) in m.iter_mut().zip(values.diagnoses(&not_evaluated(0.0))) {
+            let values = diagnoses(
+                &f,
+                &[0.0; DIAGNOSTIC_PARAMETERS],
+                [0.0; 2],
+                to_urad,
+                &not_evaluated(0.0),
+            );
+            for (m, v) in m.iter_mut().zip(values) {
                 *m = v.value;
             }
             if let Some(c) = m.get_mut(Diagnosis::Cyclic as usize) {
                 *c = (c_cyc * j[col::CYC_COS] + s_cyc * j[col::CYC_SIN]) / gain;
             }
         }
-        let values = Parameters::of(&fit.p, &fit.var, fit.cov_steps, to_urad);
-        let [
-            squareness,
-            scale,
-            rev_u,
-            rev_v,
-            _,
-            p0,
-            p1,
-            p2,
-            p3,
-            st_u,
-            st_v,
-        ] = values.diagnoses(&cyclic);
         let mut out = Diagnostics {
-            squareness_urad: squareness,
-            scale_mismatch_um_per_m: scale,
-            reversal_step_u_um: rev_u,
-            reversal_step_v_um: rev_v,
-            cyclic_amplitude_um: cyclic,
+            values: diagnoses(&fit.p, &fit.var, fit.cov_steps, to_urad, &cyclic),
             cyclic_order: nk.order,
-            reversal_points_um: [p0, p1, p2, p3],
-            straightness_u_um: st_u,
-            straightness_v_um: st_v,
             support,
             sample_std_um: crate::num::sqrtf(fit.s2),
             residual_rms_um: crate::num::sqrtf(fit.rss / nk.weight),
@@ -366,67 +327,47 @@ fn estimate(value: f32, var: f32, scale: f32) -> Diagnosed {
     }
 }
 
-/// A fit's parameters and variances, read as the diagnoses.
-struct Parameters<'a> {
-    p: &'a [f32; DIAGNOSTIC_PARAMETERS],
-    var: &'a [f32; DIAGNOSTIC_PARAMETERS],
-    /// Covariance of each axis's two reversal points ([`DiagnosticFit::cov_steps`]).
+/// A fit's parameters `p` and variances `var` read as every [`Diagnosis`], in discriminant
+/// order (squareness and scale mismatch × `to_urad`), `cyclic` as given; an axis's reversal
+/// step the mean of its two points', var = (v₁ + v₂ + 2 cov)/4 with `cov_steps` (the two points
+/// correlate through the circle and the other shapes).
+fn diagnoses(
+    p: &[f32; DIAGNOSTIC_PARAMETERS],
+    var: &[f32; DIAGNOSTIC_PARAMETERS],
     cov_steps: [f32; 2],
     to_urad: f32,
-}
-
-impl<'a> Parameters<'a> {
-    fn of(
-        p: &'a [f32; DIAGNOSTIC_PARAMETERS],
-        var: &'a [f32; DIAGNOSTIC_PARAMETERS],
-        cov_steps: [f32; 2],
-        to_urad: f32,
-    ) -> Self {
-        Self {
-            p,
-            var,
-            cov_steps,
-            to_urad,
-        }
-    }
-
-    fn at(&self, c: usize, scale: f32) -> Diagnosed {
+    cyclic: &Diagnosed,
+) -> [Diagnosed; DIAGNOSES] {
+    let at = |c: usize, scale: f32| {
         let (p, v) = (
-            self.p.get(c).copied().unwrap_or(f32::NAN),
-            self.var.get(c).copied().unwrap_or(f32::NAN),
+            p.get(c).copied().unwrap_or(f32::NAN),
+            var.get(c).copied().unwrap_or(f32::NAN),
         );
         estimate(p, v, scale)
-    }
-
-    /// Every [`Diagnosis`] in discriminant order, `cyclic` as given; an axis's reversal step
-    /// the mean of its two points', var = (v₁ + v₂ + 2 cov)/4 (the two points correlate
-    /// through the circle and the other shapes).
-    fn diagnoses(&self, cyclic: &Diagnosed) -> [Diagnosed; DIAGNOSES] {
-        let point = |k: usize| self.at(col::STEP + k, 1.0);
-        let [p0, p1, p2, p3] = [0, 1, 2, 3].map(point);
-        let mean = |a: Diagnosed, b: Diagnosed, cov: f32| {
-            let (ua, ub) = (a.std_uncertainty, b.std_uncertainty);
-            estimate(
-                a.value + b.value,
-                (ua * ua + ub * ub + 2.0 * cov).max(0.0),
-                0.5,
-            )
-        };
-        let [cov_u, cov_v] = self.cov_steps;
-        [
-            self.at(col::SIN2, self.to_urad),
-            self.at(col::COS2, self.to_urad),
-            mean(p0, p2, cov_u),
-            mean(p1, p3, cov_v),
-            *cyclic,
-            p0,
-            p1,
-            p2,
-            p3,
-            self.at(col::STRAIGHT_U, 1.0),
-            self.at(col::STRAIGHT_V, 1.0),
-        ]
-    }
+    };
+    let [p0, p1, p2, p3] = [0, 1, 2, 3].map(|k| at(col::STEP + k, 1.0));
+    let mean = |a: Diagnosed, b: Diagnosed, cov: f32| {
+        let (ua, ub) = (a.std_uncertainty, b.std_uncertainty);
+        estimate(
+            a.value + b.value,
+            (ua * ua + ub * ub + 2.0 * cov).max(0.0),
+            0.5,
+        )
+    };
+    let [cov_u, cov_v] = cov_steps;
+    [
+        at(col::SIN2, to_urad),
+        at(col::COS2, to_urad),
+        mean(p0, p2, cov_u),
+        mean(p1, p3, cov_v),
+        *cyclic,
+        p0,
+        p1,
+        p2,
+        p3,
+        at(col::STRAIGHT_U, 1.0),
+        at(col::STRAIGHT_V, 1.0),
+    ]
 }
 
 /// Resolution of the bar's length reading, µm (DESIGN §1, the QC20-W class): its uniform
@@ -689,7 +630,8 @@ pub(super) fn dot(a: &[f32], b: &[f32]) -> f32 {
 /// two directions' changes (one centre for both); what both runs support
 /// ([`ArcSupport::both`]). The cyclic error is the more significant direction's.
 pub fn mean_diagnostics(a: &Diagnostics, b: &Diagnostics) -> Diagnostics {
-    let cyclic = if a.cyclic_amplitude_um.significance() >= b.cyclic_amplitude_um.significance() {
+    let significance = |d: &Diagnostics| d.get(Diagnosis::Cyclic).significance();
+    let cyclic = if significance(a) >= significance(b) {
         a
     } else {
         b
@@ -704,11 +646,15 @@ pub fn mean_diagnostics(a: &Diagnostics, b: &Diagnostics) -> Diagnostics {
         }
     }
     let mut mean = *cyclic;
-    for which in Diagnosis::ALL {
-        if which != Diagnosis::Cyclic
-            && let Some(m) = mean.get_mut(which)
-        {
-            *m = a.get(which).mean(&b.get(which));
+    for (k, ((m, x), y)) in mean
+        .values
+        .iter_mut()
+        .zip(a.values)
+        .zip(b.values)
+        .enumerate()
+    {
+        if k != Diagnosis::Cyclic as usize {
+            *m = x.mean(&y);
         }
     }
     mean.support = a.support.both(&b.support);

@@ -200,20 +200,6 @@ impl Diagnosis {
         Self::StraightnessV,
     ];
 
-    /// The diagnosis whose determinability decides `fault`'s share (a reversal's: its mean,
-    /// both points crossed).
-    pub const fn of_fault(fault: Fault) -> Self {
-        match fault {
-            Fault::Squareness => Self::Squareness,
-            Fault::ScaleMismatch => Self::ScaleMismatch,
-            Fault::ReversalU => Self::ReversalU,
-            Fault::ReversalV => Self::ReversalV,
-            Fault::StraightnessU => Self::StraightnessU,
-            Fault::StraightnessV => Self::StraightnessV,
-            Fault::Cyclic => Self::Cyclic,
-        }
-    }
-
     /// The reversal point diagnoses, in angle order (0°, 90°, 180°, 270°).
     pub const REVERSAL_POINTS: [Diagnosis; 4] = [
         Self::ReversalUPos,
@@ -255,29 +241,24 @@ impl Fault {
         Self::StraightnessV,
         Self::Cyclic,
     ];
+
+    /// The diagnoses that make up the fault, the one whose determinability decides its share
+    /// first (a reversal's: its mean, then its two points).
+    pub const fn diagnoses(self) -> &'static [Diagnosis] {
+        use Diagnosis as D;
+        match self {
+            Self::Squareness => &[D::Squareness],
+            Self::ScaleMismatch => &[D::ScaleMismatch],
+            Self::ReversalU => &[D::ReversalU, D::ReversalUPos, D::ReversalUNeg],
+            Self::ReversalV => &[D::ReversalV, D::ReversalVPos, D::ReversalVNeg],
+            Self::StraightnessU => &[D::StraightnessU],
+            Self::StraightnessV => &[D::StraightnessV],
+            Self::Cyclic => &[D::Cyclic],
+        }
+    }
 }
 
 impl Diagnostics {
-    /// The estimate of `which` (determinable or not: [`Self::determined`]).
-    pub fn get(&self, which: Diagnosis) -> Diagnosed {
-        use Diagnosis as D;
-        let point = |p: usize| self.reversal_points_um.get(p).copied();
-        match which {
-            D::Squareness => Some(self.squareness_urad),
-            D::ScaleMismatch => Some(self.scale_mismatch_um_per_m),
-            D::ReversalU => Some(self.reversal_step_u_um),
-            D::ReversalV => Some(self.reversal_step_v_um),
-            D::Cyclic => Some(self.cyclic_amplitude_um),
-            D::ReversalUPos => point(0),
-            D::ReversalVPos => point(1),
-            D::ReversalUNeg => point(2),
-            D::ReversalVNeg => point(3),
-            D::StraightnessU => Some(self.straightness_u_um),
-            D::StraightnessV => Some(self.straightness_v_um),
-        }
-        .unwrap_or(super::diagnostics::not_evaluated(f32::NAN))
-    }
-
     /// The estimate of `which` if the runs' coverage determines it, else why not.
     pub fn determined(&self, which: Diagnosis) -> Result<Diagnosed, NotDeterminable> {
         self.support.determinable(which).map(|()| self.get(which))
@@ -297,28 +278,15 @@ impl Diagnostics {
         } else {
             FAULT_SIGNIFICANCE
         };
-        d.value.is_finite() && (u == 0.0 || libm::fabsf(d.value) >= k * u)
-    }
-
-    /// The diagnoses that make up `fault` (a reversal's: its two points and their mean).
-    fn parts(fault: Fault) -> &'static [Diagnosis] {
-        use Diagnosis as D;
-        match fault {
-            Fault::Squareness => &[D::Squareness],
-            Fault::ScaleMismatch => &[D::ScaleMismatch],
-            Fault::ReversalU => &[D::ReversalU, D::ReversalUPos, D::ReversalUNeg],
-            Fault::ReversalV => &[D::ReversalV, D::ReversalVPos, D::ReversalVNeg],
-            Fault::StraightnessU => &[D::StraightnessU],
-            Fault::StraightnessV => &[D::StraightnessV],
-            Fault::Cyclic => &[D::Cyclic],
-        }
+        let v = libm::fabsf(d.value);
+        v.is_finite() && v > 0.0 && v >= k * u
     }
 
     /// The faults named ([`Self::is_named`] for any of their diagnoses), bit `1 << Fault as u8`.
     pub fn named_faults(&self) -> u32 {
         Fault::ALL
             .iter()
-            .filter(|f| Self::parts(**f).iter().any(|d| self.is_named(*d)))
+            .filter(|f| f.diagnoses().iter().any(|d| self.is_named(*d)))
             .fold(0, |m, f| m | 1 << (*f as u8))
     }
 

@@ -411,55 +411,23 @@ fn the_shares_of_g_rank_the_faults_by_their_signature_alone() {
     assert_eq!(ranked[0].0, Fault::StraightnessV, "{ranked:?}");
 }
 
-/// G of samples about their least-squares limaçon (r0 + e·n), µm (f64, this file's own fit).
+/// G of samples about their least-squares limaçon (r0 + e·n), µm (the host's f64 QR oracle).
 fn g_about_lsq(samples: &[Sample]) -> f64 {
-    let rows: Vec<([f64; 3], f64)> = samples
+    let (rows, y): (Vec<Vec<f64>>, Vec<f64>) = samples
         .iter()
         .map(|s| {
             let (u, v) = (f64::from(s.axes[0]) - P0[0], f64::from(s.axes[1]) - P0[1]);
             let r = (u * u + v * v).sqrt();
-            ([1.0, u / r, v / r], f64::from(s.delta_l_um))
+            (vec![1.0, u / r, v / r], f64::from(s.delta_l_um))
         })
-        .collect();
-    let mut a = [[0.0f64; 3]; 3];
-    let mut b = [0.0f64; 3];
-    for (g, y) in &rows {
-        for i in 0..3 {
-            for j in 0..3 {
-                a[i][j] += g[i] * g[j];
-            }
-            b[i] += g[i] * y;
-        }
-    }
-    let x = solve3(a, b);
+        .unzip();
+    let (x, _) = ballpod_host::oracle::lstsq(&rows, &y);
     let res: Vec<f64> = rows
         .iter()
-        .map(|(g, y)| y - (x[0] * g[0] + x[1] * g[1] + x[2] * g[2]))
+        .zip(&y)
+        .map(|(g, y)| y - g.iter().zip(&x).map(|(g, x)| g * x).sum::<f64>())
         .collect();
     res.iter().cloned().fold(f64::MIN, f64::max) - res.iter().cloned().fold(f64::MAX, f64::min)
-}
-
-/// Gaussian elimination of a 3 × 3 system.
-fn solve3(mut a: [[f64; 3]; 3], mut b: [f64; 3]) -> [f64; 3] {
-    for c in 0..3 {
-        let p = (c..3)
-            .max_by(|i, j| a[*i][c].abs().total_cmp(&a[*j][c].abs()))
-            .unwrap();
-        a.swap(c, p);
-        b.swap(c, p);
-        for r in c + 1..3 {
-            let f = a[r][c] / a[c][c];
-            for k in c..3 {
-                a[r][k] -= f * a[c][k];
-            }
-            b[r] -= f * b[c];
-        }
-    }
-    let mut x = [0.0; 3];
-    for c in (0..3).rev() {
-        x[c] = (b[c] - (c + 1..3).map(|k| a[c][k] * x[k]).sum::<f64>()) / a[c][c];
-    }
-    x
 }
 
 /// On the pod's application: a 220° arc in both directions publishes squareness and the steps

@@ -16,18 +16,18 @@ use core::mem::MaybeUninit;
 /// The field list is checked complete by the compiler: a struct literal of the same fields,
 /// never built, fails to compile if one is missing, repeated or unknown.
 macro_rules! init_in_place {
-    ($slot:expr, $T:ident { $($field:ident : $value:expr),+ $(,)? }
+    ($slot:expr, $T:ident { $($field:ident : $value:expr),* $(,)? }
         $(in place { $($nested:ident : $init:expr),+ $(,)? })?) => {{
         let slot: &mut core::mem::MaybeUninit<$T> = $slot;
         #[allow(unreachable_code, clippy::empty_loop)]
-        let _every_field_once = || $T { $($field: loop {},)+ $($($nested: loop {},)+)? };
+        let _every_field_once = || $T { $($field: loop {},)* $($($nested: loop {},)+)? };
         let p = slot.as_mut_ptr();
         $(
             let value = $value;
             // SAFETY: `p` comes from a `&mut MaybeUninit<$T>`, so the field is valid for writes
             // and aligned.
             unsafe { (&raw mut (*p).$field).write(value) };
-        )+
+        )*
         $($(
             // SAFETY: as above; the field is borrowed by nothing else while it is initialised.
             let field = unsafe { crate::in_place::uninit(&raw mut (*p).$nested) };

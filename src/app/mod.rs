@@ -211,7 +211,6 @@ impl App {
             last_touch: None,
             live: LiveValues::default(),
             live_u_at: u32::MAX,
-            results: Results::new(),
             pending: heapless::Deque::new(),
             refusal: None,
             procedure_note: None,
@@ -233,6 +232,7 @@ impl App {
         } in place {
             circle: CircleRun::init,
             ssm: |s| SsmRun::init(s, &config.setup),
+            results: Results::init,
         })
     }
 

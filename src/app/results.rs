@@ -362,6 +362,14 @@ impl Results {
         }
     }
 
+    /// [`Results::new`] built in place in `slot` (no stack copy of the 4 KiB table: the
+    /// application's construction runs at the bottom of the stack every job runs on).
+    pub fn init(slot: &mut core::mem::MaybeUninit<Self>) -> &mut Self {
+        crate::in_place::init_in_place!(slot, Self {} in place {
+            entries: |s| crate::in_place::fill(s, ResultEntry::INVALID),
+        })
+    }
+
     /// The entry of `id`.
     pub fn get(&self, id: ResultId) -> ResultEntry {
         self.entries.get(id.index()).copied().unwrap_or_default()

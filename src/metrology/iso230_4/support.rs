@@ -98,26 +98,31 @@ impl ArcSupport {
         if !self.quadrants {
             return Err(NotDeterminable::NotEveryQuadrant);
         }
-        let crossed = |p: usize| self.reversal_crossed.get(p).copied().unwrap_or(false);
-        let ok = match which {
-            D::Squareness => true,
-            D::ScaleMismatch | D::Cyclic | D::StraightnessU | D::StraightnessV => {
-                if !self.full_circle {
-                    return Err(NotDeterminable::NeedsFullCircle);
-                }
-                true
+        let crossed = |points: &[usize]| {
+            let all = points
+                .iter()
+                .all(|p| self.reversal_crossed.get(*p).copied().unwrap_or(false));
+            if all {
+                Ok(())
+            } else {
+                Err(NotDeterminable::ReversalNotCrossed)
             }
-            D::ReversalU => crossed(0) && crossed(2),
-            D::ReversalV => crossed(1) && crossed(3),
-            D::ReversalUPos => crossed(0),
-            D::ReversalVPos => crossed(1),
-            D::ReversalUNeg => crossed(2),
-            D::ReversalVNeg => crossed(3),
         };
-        if ok {
-            Ok(())
-        } else {
-            Err(NotDeterminable::ReversalNotCrossed)
+        match which {
+            D::Squareness => Ok(()),
+            D::ScaleMismatch | D::Cyclic | D::StraightnessU | D::StraightnessV => {
+                if self.full_circle {
+                    Ok(())
+                } else {
+                    Err(NotDeterminable::NeedsFullCircle)
+                }
+            }
+            D::ReversalU => crossed(&[0, 2]),
+            D::ReversalV => crossed(&[1, 3]),
+            D::ReversalUPos => crossed(&[0]),
+            D::ReversalVPos => crossed(&[1]),
+            D::ReversalUNeg => crossed(&[2]),
+            D::ReversalVNeg => crossed(&[3]),
         }
     }
 }
@@ -153,7 +158,8 @@ impl NotDeterminable {
     }
 }
 
-/// A ball-bar diagnosis (the column of [`Diagnostics::centre_moves`] is its discriminant).
+/// A ball-bar diagnosis (its discriminant indexes [`Diagnostics::values`] and the columns of
+/// [`Diagnostics::centre_moves`]).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 #[repr(u8)]
 pub enum Diagnosis {

@@ -12,7 +12,7 @@ use ballpod::config::CirclePlane;
 
 use crate::recording::RecordedRun;
 use crate::replay::Report;
-use crate::vmt::machine::MachineFile;
+use crate::vmt::machine::{MachineFile, ThreePlaneMachine};
 use crate::vmt::motion::ServeTruth;
 use crate::vmt::nc_motion::{self, NcRun};
 use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
@@ -30,6 +30,9 @@ pub struct SimOptions {
     pub seed002: bool,
     /// Run the ISO 230-4 circle.
     pub circle: bool,
+    /// Run the three-plane test: arcs in YZ and ZX (the machine file's `[planes]`,
+    /// `vertical_arc_deg`) before the ISO 230-4 circle, which is its XY plane.
+    pub three_planes: bool,
     /// The seed 002 steps from part programs: `BX.ngc`, `BY.ngc`, `CR.ngc`, `CA.ngc`,
     /// `CR2.ngc` in this directory (`cargo ncgen -- pattern`), and the ISO 230-4 circle from
     /// `CIRCLE.ngc` if it is there (`cargo ncgen -- circle`), through LinuxCNC's interpreter
@@ -45,6 +48,7 @@ impl Default for SimOptions {
             feed_mm_per_min: 1000.0,
             seed002: true,
             circle: true,
+            three_planes: true,
             nc_dir: None,
         }
     }
@@ -173,7 +177,9 @@ pub fn simulate_commanded(
     });
     let mut report = Report::default();
     let mut names = Vec::new();
-    let total = if o.seed002 { o.repeats * 10 } else { 0 } + if o.circle { 2 } else { 0 };
+    let total = if o.seed002 { o.repeats * 10 } else { 0 }
+        + if o.circle { 2 } else { 0 }
+        + if o.three_planes { 4 } else { 0 };
     let rate = m.instrument.sample_rate_hz;
     let bad = |e: ballpod::app::CommandError| {
         let (a, b) = e.text();
@@ -243,6 +249,51 @@ pub fn simulate_commanded(
                     run_poses(&mut vp, &mut report, &name, step, dir, poses)?;
                     names.push(name);
                 }
+            }
+        }
+    }
+    if o.three_planes {
+        // the vertical planes first: the XY plane is the ISO 230-4 circle's (run last, so the
+        // final table holds its figures and the summary it completes)
+        let (xy, m) = (&m.circle, &m.planes);
+        vp.sensors.set_bar_length(xy.radius_mm);
+        let (start_deg, arc_deg) = m.arc();
+        for plane in [CirclePlane::YZ, CirclePlane::ZX] {
+            vp.app
+                .configure(|cfg| {
+                    cfg.bar_length_mm = xy.radius_mm as f32;
+                    let s = &mut cfg.setup;
+                    s.circle_plane = plane;
+                    s.circle_centre_mm = [0.0; 3];
+                    s.circle_radius_mm = xy.radius_mm as f32;
+                    s.circle_feed_mm_per_min = xy.feed_mm_per_min as f32;
+                    // the samples span the arc less one step: a little below it
+                    s.circle_min_arc_deg = (arc_deg - 5.0).min(300.0) as f32;
+                })
+                .map_err(bad)?;
+            let c = m.plane(xy, plane);
+            let n = (c.samples_per_rev(rate) as f64 * arc_deg / 360.0).round() as usize;
+            for dir in [Direction::Ccw, Direction::Cw] {
+                let name = format!(
+                    "planes_{}_{}.csv",
+                    CirclePlane::NAMES[plane as usize].to_lowercase(),
+                    dir.name()
+                );
+                progress(names.len(), total, &name);
+                // CCW from the arc's start, CW back from its end
+                let s = dir.sign();
+                let from = if s > 0.0 {
+                    start_deg
+                } else {
+                    start_deg + arc_deg
+                };
+                let poses = (0..n).map(|i| {
+                    let theta = (from + s * arc_deg * i as f64 / n as f64).to_radians();
+                    let (dl, uv) = c.pose(theta, s);
+                    (dl, ThreePlaneMachine::axes(plane, uv))
+                });
+                run_poses(&mut vp, &mut report, &name, Pattern::Circle, dir, poses)?;
+                names.push(name);
             }
         }
     }

@@ -136,6 +136,8 @@ fn truth(m: &Machine, which: Diagnosis) -> f64 {
         D::ReversalVNeg => m.b_v[1],
         D::StraightnessU => m.s_u,
         D::StraightnessV => m.s_v,
+        // R·(k_u + k_v)/2, mm → µm (the bar is the radius: no length offset)
+        D::Radius => m.radius_mm * (m.k_u + m.k_v) / 2.0 * 1e3,
     }
 }
 
@@ -250,7 +252,7 @@ fn monte_carlo_reversal_points_and_straightness_cover_the_truth_within_their_u()
         // the group where the fault is alone, and where everything is present
         let (alone, all): (&[usize], &[usize]) = match which {
             Diagnosis::StraightnessU | Diagnosis::StraightnessV => (&[1], &[2]),
-            Diagnosis::Squareness => (&[], &[2, 3]),
+            Diagnosis::Squareness | Diagnosis::Radius => (&[], &[2, 3]),
             Diagnosis::ScaleMismatch | Diagnosis::Cyclic => (&[], &[2]),
             _ => (&[0], &[2, 3]),
         };
@@ -458,23 +460,43 @@ fn the_pod_leaves_what_the_arc_cannot_support_invalid_and_says_why() {
     let mut app = ballpod::app::App::new(cfg, [16; MAX_AXES]);
     app.set_pattern(ballpod::app::Pattern::Circle).unwrap();
     let mut rng = Rng::new(5);
-    for (k, d) in [Direction::Ccw, Direction::Cw].into_iter().enumerate() {
-        app.set_direction(d).unwrap();
-        app.execute(Command::Arm).unwrap();
-        app.execute(Command::Start).unwrap();
-        for s in run(&m, d, &mut rng) {
-            app.on_sample(&s, &mut ());
+    // a full circle first: what the partial arc then cannot support must not stay from it
+    let full = Machine {
+        start_deg: 0.0,
+        arc_deg: 360.0,
+        ..m
+    };
+    for (machine, arc) in [(full, "full"), (m, "partial")] {
+        for (k, d) in [Direction::Ccw, Direction::Cw].into_iter().enumerate() {
+            app.set_direction(d).unwrap();
+            app.execute(Command::Arm).unwrap();
+            app.execute(Command::Start).unwrap();
+            for s in run(&machine, d, &mut rng) {
+                app.on_sample(&s, &mut ());
+            }
+            app.execute(Command::Stop).unwrap();
+            ballpod_host::run_jobs(&mut app);
+            if k == 0 && arc == "full" {
+                assert_eq!(
+                    app.why_invalid(ResultId::Squareness),
+                    Some(NotDeterminable::NeedsBothDirections.as_str())
+                );
+            }
+            if k == 0 {
+                // partial: the new CCW arc with the full circle's CW run
+                for id in [ResultId::StraightnessU, ResultId::ReversalVNeg] {
+                    assert!(!app.result(id).valid, "{id:?} after one {arc} run");
+                }
+            }
         }
-        app.execute(Command::Stop).unwrap();
-        ballpod_host::run_jobs(&mut app);
-        if k == 0 {
-            assert_eq!(
-                app.why_invalid(ResultId::Squareness),
-                Some(NotDeterminable::NeedsBothDirections.as_str())
-            );
+        if arc == "full" {
+            for id in [ResultId::StraightnessU, ResultId::ScaleMismatch] {
+                assert!(app.result(id).valid, "{id:?} of the full circle");
+            }
         }
     }
     for id in [
+        ResultId::ScaleMean,
         ResultId::Squareness,
         ResultId::ReversalUPos,
         ResultId::ReversalUNeg,

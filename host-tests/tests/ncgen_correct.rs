@@ -59,6 +59,7 @@ fn corrected_programs_reach_the_ideal_points() {
     let o = SimOptions {
         repeats: 1,
         circle: false,
+        three_planes: false,
         ..SimOptions::default()
     };
     let sim = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");

@@ -982,6 +982,7 @@ fn seed002_through(m: &MachineFile, rec: &MixedRecord) -> (String, f64) {
         feed_mm_per_min: 4000.0,
         seed002: true,
         circle: false,
+        three_planes: false,
         nc_dir: None,
     };
     let setup = Setup::thesis_table_4_3();

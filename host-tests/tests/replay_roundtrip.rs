@@ -73,20 +73,28 @@ fn replay_of_the_simulators_recorded_runs_reproduces_its_report_byte_for_byte() 
         feed_mm_per_min: 8000.0,
         seed002: true,
         circle: true,
+        three_planes: true,
         nc_dir: None,
     };
     let s = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");
     let sim = &s.report;
-    // the session ran what was asked: ten seed 002 runs and two circles, all done, and the
-    // procedures' results are there
-    assert_eq!(s.runs.len(), 12);
-    assert_eq!(sim.runs.len(), 12);
+    // the session ran what was asked: ten seed 002 runs, the three-plane test's four vertical
+    // arcs and two circles, all done, and the procedures' results are there
+    assert_eq!(s.runs.len(), 16);
+    assert_eq!(sim.runs.len(), 16);
     assert!(
         sim.runs.iter().all(|r| r.outcome == "DONE"),
         "{:?}",
         sim.runs
     );
-    for name in ["dx_CZ", "th_alpha_CZ", "e_CR2_y", "G_bidir", "squareness"] {
+    for name in [
+        "dx_CZ",
+        "th_alpha_CZ",
+        "e_CR2_y",
+        "G_bidir",
+        "squareness",
+        "scale_z",
+    ] {
         assert!(sim.result(name).is_some(), "{name} missing");
     }
 

@@ -38,6 +38,7 @@ fn run(m: &MachineFile) -> SimSession {
         feed_mm_per_min: 4000.0,
         seed002: false,
         circle: true,
+        three_planes: false,
         nc_dir: None,
     };
     let s = simulate(m, &o, &mut |_, _, _| {}).expect("simulated session");

@@ -16,6 +16,7 @@ fn session() -> (MachineFile, SimSession) {
         feed_mm_per_min: 1000.0,
         seed002: false,
         circle: true,
+        three_planes: false,
         nc_dir: None,
     };
     let s = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");

@@ -31,6 +31,7 @@ fn session(seed: u64, feed_mm_per_min: f64) -> SimSession {
         feed_mm_per_min,
         seed002: true,
         circle: false,
+        three_planes: false,
         nc_dir: None,
     };
     simulate(&MachineFile::default(), &o, &mut |_, _, _| {}).expect("simulated session")

@@ -142,6 +142,10 @@ pub struct FiguresRequest {
     pub both_directions: bool,
     /// The bar's budget as configured when the run ended.
     pub bar: BarBudget,
+    /// The bar's calibrated length when the run ended, mm (the mean scale's reference).
+    pub bar_length_mm: f32,
+    /// The circle's plane (the three-plane summary files the run's results under it).
+    pub plane: Plane,
     /// [`CircleRun`]'s run epochs when the run ended.
     epochs: [u32; 2],
 }
@@ -328,8 +332,10 @@ impl CircleRun {
         results: &mut Results,
         u_centre_um: f32,
         bar: BarBudget,
+        bar_length_mm: f32,
     ) -> Result<FiguresRequest, CircleFitError> {
         results.clear(ResultId::GBidir, ResultId::CentreDv);
+        results.clear(ResultId::ReversalUPos, ResultId::ScaleMean);
         let (g, fmax, fmin) = figure_ids(d);
         for id in [
             g,
@@ -352,6 +358,8 @@ impl CircleRun {
             u_centre_entered_um: u_centre_um,
             both_directions: self.complete == [true, true],
             bar,
+            bar_length_mm,
+            plane: self.geometry.map_or(Plane::XY, |g| g.fit.geometry.plane),
             epochs: self.epochs,
         })
     }
@@ -392,11 +400,18 @@ impl CircleRun {
             }
         }
         if request.both_directions {
-            self.bidirectional(results, bar, if u_ccw > u_cw { u_ccw } else { u_cw });
+            let u_centre = if u_ccw > u_cw { u_ccw } else { u_cw };
+            self.bidirectional(results, request, u_centre);
         }
     }
 
-    fn bidirectional(&self, results: &mut impl ResultSink, bar: &BarBudget, u_centre_um: f32) {
+    fn bidirectional(
+        &self,
+        results: &mut impl ResultSink,
+        request: &FiguresRequest,
+        u_centre_um: f32,
+    ) {
+        let bar = &request.bar;
         if let Ok(b) = self.test.bidirectional_figures(u_centre_um) {
             for (id, v, kind) in [
                 (
@@ -437,6 +452,9 @@ impl CircleRun {
             }
         }
         results.set(ResultId::FaultsNamed, f64::from(m.named_faults()), 0.0);
+        if let Ok(r) = m.determined(Diagnosis::Radius) {
+            publish_scale_mean(results, &r, self.test.radius_mm(), request);
+        }
         let tau = self.geometry.and_then(|g| {
             servo_mismatch_ms(
                 &ccw,
@@ -471,7 +489,8 @@ impl CircleRun {
                     .find(|(r, _)| *r == id)
                     .and_then(|(_, f)| f.diagnoses().first().copied())
             })
-            .or((id == ResultId::CyclicOrder).then_some(Diagnosis::Cyclic))?;
+            .or((id == ResultId::CyclicOrder).then_some(Diagnosis::Cyclic))
+            .or((id == ResultId::ScaleMean).then_some(Diagnosis::Radius))?;
         if self.complete != [true; 2] {
             return Some(NotDeterminable::NeedsBothDirections);
         }
@@ -508,6 +527,39 @@ const SHARE_RESULTS: [(ResultId, Fault); 7] = [
     (ResultId::ShareStraightnessV, Fault::StraightnessV),
     (ResultId::ShareCyclic, Fault::Cyclic),
 ];
+
+/// Publishes the mean scale (k_u + k_v)/2 of the plane's axes, µm/m, from the joint fit's
+/// radius change `r0` (µm) on radius `radius_mm`: r0 = (R − L)·10³ + R·k̄ with L the bar's
+/// calibrated length (the circle's radius may differ from it within the bar's stroke), so
+/// k̄ = (r0 − (R − L)·10³)/R. Its u: the fit's and the centre's, the bar's offset (length and
+/// temperature, δL/R) and the LVDT scale's (on r0), each over R.
+fn publish_scale_mean(
+    results: &mut impl ResultSink,
+    r0: &iso230_4::Diagnosed,
+    radius_mm: f32,
+    request: &FiguresRequest,
+) {
+    if !(radius_mm > 0.0) {
+        return;
+    }
+    // µm over mm is 10⁻³: × 10³ for µm/m
+    let per_r = 1e3 / radius_mm;
+    let offset_um = (radius_mm - request.bar_length_mm) * 1e3;
+    let [bar_offset, lvdt] = request.bar.shares(Radial, r0.value);
+    results.set_budget(
+        ResultId::ScaleMean,
+        f64::from((r0.value - offset_um) * per_r),
+        [
+            r0.std_uncertainty * per_r,
+            bar_offset * per_r,
+            lvdt * per_r,
+            0.0,
+            0.0,
+            0.0,
+            r0.centre_um * per_r,
+        ],
+    );
+}
 
 /// Servo mismatch τ_u − τ_v, its standard uncertainty from the noise and the centre's share
 /// (ms; from the two directions' signed squareness changes, `Diagnostics::centre_moves`) from

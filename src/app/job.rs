@@ -381,6 +381,9 @@ impl App {
             JobOutcome::Figures(request, patch) => {
                 if self.circle.current(&request) {
                     patch.apply(&mut self.results);
+                    if request.both_directions {
+                        self.planes.file(request.plane, &mut self.results);
+                    }
                 }
             }
             JobOutcome::Identification(epoch, Ok(patch)) => {

@@ -45,6 +45,7 @@ mod live_fit;
 pub mod log;
 pub mod pattern;
 mod patterns;
+pub mod planes;
 pub mod probe;
 pub mod record;
 pub mod results;
@@ -75,6 +76,7 @@ use bc_ballbar::{Procedure, Setup};
 use circle::{CircleRun, FiguresRequest};
 use job::JobKind;
 use patterns::RunEstimator;
+use planes::PlaneRecords;
 use probe::Spheres;
 use run::RunMonitor;
 use ssm::{SsmRun, TwoStep};
@@ -104,6 +106,8 @@ pub struct App {
     estimator: RunEstimator,
     meta: RunMeta,
     circle: CircleRun,
+    /// The three-plane summary's latest complete circle of each plane.
+    planes: PlaneRecords,
     ssm: SsmRun,
     /// The seed 002 procedure (meaningful once `seed002_begun`): in place, never rebuilt on
     /// the stack (3.3 KiB).
@@ -201,6 +205,7 @@ impl App {
             seed002_epoch: 0,
             identify_pending: false,
             figures_requests: [None; 2],
+            planes: PlaneRecords::default(),
             probe_requests: [false; 2],
             spheres_epoch: 0,
             job: None,
@@ -283,13 +288,16 @@ impl App {
         self.results.get(id)
     }
     /// Why the invalid result `id` has no value, where the application can tell: a ball-bar
-    /// diagnosis the latest circle runs do not determine (the text after its name), else
-    /// `None`.
+    /// diagnosis the latest circle runs do not determine, a three-plane summary result whose
+    /// planes have not all run (the text after its name), else `None`.
     pub fn why_invalid(&self, id: ResultId) -> Option<&'static str> {
         if self.results.get(id).valid {
             return None;
         }
-        self.circle.not_determinable(id).map(|r| r.as_str())
+        self.circle
+            .not_determinable(id)
+            .map(|r| r.as_str())
+            .or_else(|| self.planes.why_invalid(id))
     }
     /// What the acquisition counted (samples, faults, lost upstream).
     pub fn acquisition_counters(&self) -> AcquisitionCounters {

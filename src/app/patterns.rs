@@ -143,10 +143,13 @@ impl App {
             RunEstimator::None => false,
             // the run's fit and figures: a job (`CircleRun::figures`)
             RunEstimator::Circle => {
-                match self
-                    .circle
-                    .finish_run(d, &mut self.results, setup.circle_u_centre_um, bar)
-                {
+                match self.circle.finish_run(
+                    d,
+                    &mut self.results,
+                    setup.circle_u_centre_um,
+                    bar,
+                    self.config.bar_length_mm,
+                ) {
                     Ok(request) => {
                         if let Some(r) = self.figures_requests.get_mut(circle::dir_index(d)) {
                             *r = Some(request);

@@ -150,6 +150,13 @@ results! {
     ShareStraightnessV => ("share_straightness_v", Um, "Ball-bar ranking: the second axis's straightness's share"),
     ShareCyclic => ("share_cyclic", Um, "Ball-bar ranking: the cyclic error's share (twice its amplitude)"),
     FaultsNamed => ("faults_named", One, "Ball-bar diagnoses named as faults (at least 3 standard uncertainties from zero, the cyclic error 4), the sum of: 1 squareness, 2 scale mismatch, 4 reversal of the first axis (either point or the mean), 8 of the second, 16 straightness of the first, 32 of the second, 64 cyclic error"),
+    ScaleMean => ("scale_mean", UmPerM, "Ball-bar diagnosis: mean scale error (k_u + k_v)/2 of the plane's two axes relative to the bar's calibrated length, from the radius of the joint fit (every quadrant; u with the bar's length and temperature)"),
+    SquarenessXy => ("squareness_xy", Urad, "Three-plane summary: out-of-squareness of X and Y, from the latest complete XY circle since the session was cleared (> 0: the angle between +X and +Y is less than 90°)"),
+    SquarenessYz => ("squareness_yz", Urad, "Three-plane summary: out-of-squareness of Y and Z, from the latest YZ circle or arc (> 0: the angle between +Y and +Z is less than 90°)"),
+    SquarenessZx => ("squareness_zx", Urad, "Three-plane summary: out-of-squareness of Z and X, from the latest ZX circle or arc (> 0: the angle between +Z and +X is less than 90°)"),
+    ScaleX => ("scale_x", UmPerM, "Three-plane summary: scale error of X relative to the bar's calibrated length, from the three planes' radii and scale mismatches (needs a circle or arc in each of XY, YZ and ZX)"),
+    ScaleY => ("scale_y", UmPerM, "Three-plane summary: scale error of Y"),
+    ScaleZ => ("scale_z", UmPerM, "Three-plane summary: scale error of Z"),
 }
 
 /// Number of results.

@@ -170,6 +170,7 @@ fn run(args: &Args) -> Result<(), String> {
     let report = &session.report;
     print_seed002(&machine, report);
     print_iso(&machine, report);
+    print_planes(&machine, report);
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let write = |dir: &PathBuf, name: &str, text: &str| -> Result<(), String> {
         let p = dir.join(name);
@@ -363,4 +364,48 @@ fn print_iso(m: &MachineFile, r: &Report) {
         c.cyclic_order,
         f("cyclic_order")
     );
+}
+
+fn print_planes(m: &MachineFile, r: &Report) {
+    if r.result("squareness_yz").is_none() {
+        return;
+    }
+    let (xy, p) = (&m.circle, &m.planes);
+    println!(
+        "\nthree-plane summary, R = {} mm, XY full circle, YZ and ZX {}° arcs (from the pod's results; scales relative to the bar's calibrated length, whose u is most of theirs): truth vs summary, U = 2u",
+        xy.radius_mm, p.vertical_arc_deg
+    );
+    println!(
+        "{:<14} {:>9} {:>10} {:>8} {:>14}  check",
+        "", "injected", "summary", "U", "U without bar"
+    );
+    let scales = p.scales_um_per_m(xy);
+    let rows = [
+        ("squareness_xy", xy.squareness_urad, "µrad"),
+        ("squareness_yz", p.squareness_yz_urad, "µrad"),
+        ("squareness_zx", p.squareness_zx_urad, "µrad"),
+        ("scale_x", scales[0], "µm/m"),
+        ("scale_y", scales[1], "µm/m"),
+        ("scale_z", scales[2], "µm/m"),
+    ];
+    for (name, truth, unit) in rows {
+        match r.result(name) {
+            Some(v) => {
+                let big_u = 2.0 * f64::from(v.u.unwrap_or(f32::NAN));
+                let bar = v
+                    .contributors
+                    .iter()
+                    .find(|c| c.name == "bar_offset")
+                    .map_or(0.0, |c| f64::from(c.u));
+                let without = (big_u * big_u - 4.0 * bar * bar).max(0.0).sqrt();
+                let ok = (f64::from(v.value) - truth).abs() <= big_u;
+                println!(
+                    "{name:<14} {truth:>9.3} {:>10.3} {big_u:>8.3} {without:>14.3}  {} {unit}",
+                    v.value,
+                    if ok { "ok" } else { "outside U" }
+                );
+            }
+            None => println!("{name:<14} {truth:>9.3} {:>10}", "invalid"),
+        }
+    }
 }

@@ -279,6 +279,7 @@ fn seed002_ballbar(s: &Scenario) -> Result<Vec<Check>, String> {
         feed_mm_per_min: s.feed_mm_per_min.unwrap_or(1000.0),
         seed002: true,
         circle: false,
+        three_planes: false,
         nc_dir: None,
     };
     let sim = simulate(&m, &o, &mut |_, _, _| {})?;
@@ -318,6 +319,7 @@ fn iso230_4(s: &Scenario) -> Result<Vec<Check>, String> {
         feed_mm_per_min: 1000.0,
         seed002: false,
         circle: true,
+        three_planes: false,
         nc_dir: None,
     };
     let sim = simulate(&m, &o, &mut |_, _, _| {})?;

@@ -9,6 +9,7 @@
 use ballpod::acquisition::Sample;
 use ballpod::app::Pattern;
 use ballpod::app::bc_ballbar::{Setup, model_pattern};
+use ballpod::config::CirclePlane;
 use ballpod::identify::mill_turn::patterns::command;
 use ballpod::identify::mill_turn::{Deviations, arcsec_to_urad};
 use serde::{Deserialize, Serialize};
@@ -298,6 +299,100 @@ impl CircleMachine {
     }
 }
 
+/// The Z axis and the vertical planes of the machine whose XY plane is the [`CircleMachine`]:
+/// with it, the three-plane summary's machine. Its circles in YZ and ZX (socket at the origin,
+/// the circle machine's radius and feed) are each a [`CircleMachine`] of the plane's (u, v)
+/// axes: E_u = S_uv·v, E_u = k_u·u, E_v = k_v·v, each axis's reversal step and servo lag (X
+/// and Y as in the XY circle, Z here); the out-of-plane axis stands still (its errors are
+/// second order on the bar).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ThreePlaneMachine {
+    /// Out-of-squareness of Y and Z, µrad: E_y = S_yz·z (> 0: the angle between +Y and +Z is
+    /// less than 90°).
+    pub squareness_yz_urad: f64,
+    /// Out-of-squareness of Z and X, µrad: E_z = S_zx·x.
+    pub squareness_zx_urad: f64,
+    /// Z scale error, µm/m (E_z = k_z·z).
+    pub scale_z_um_per_m: f64,
+    /// Z reversal step, µm.
+    pub backlash_z_um: f64,
+    /// The arc of the YZ and ZX tests, degrees (Ballbar 20's 220°: from −20° to 200°, above
+    /// the table); 360: full circles.
+    pub vertical_arc_deg: f64,
+}
+
+impl Default for ThreePlaneMachine {
+    /// Z out of square with both, its scale apart from X's and Y's.
+    fn default() -> Self {
+        Self {
+            squareness_yz_urad: -15.0,
+            squareness_zx_urad: 30.0,
+            scale_z_um_per_m: 25.0,
+            backlash_z_um: 3.0,
+            vertical_arc_deg: 220.0,
+        }
+    }
+}
+
+impl ThreePlaneMachine {
+    /// The squareness of `plane`, µrad (XY: the circle machine's).
+    pub fn squareness_urad(&self, xy: &CircleMachine, plane: CirclePlane) -> f64 {
+        match plane {
+            CirclePlane::XY => xy.squareness_urad,
+            CirclePlane::YZ => self.squareness_yz_urad,
+            CirclePlane::ZX => self.squareness_zx_urad,
+        }
+    }
+
+    /// The scale errors of X, Y, Z, µm/m.
+    pub fn scales_um_per_m(&self, xy: &CircleMachine) -> [f64; 3] {
+        [
+            xy.scale_x_um_per_m,
+            xy.scale_y_um_per_m,
+            self.scale_z_um_per_m,
+        ]
+    }
+
+    /// The circle machine of the vertical `plane` (YZ or ZX; XY is `xy` itself).
+    pub fn plane(&self, xy: &CircleMachine, plane: CirclePlane) -> CircleMachine {
+        let (u, v, _) = crate::ncgen::plane_axes(plane);
+        let scale = self.scales_um_per_m(xy);
+        let backlash = [xy.backlash_x_um, xy.backlash_y_um, self.backlash_z_um];
+        let lag = [xy.servo_lag_x_ms, xy.servo_lag_y_ms, 0.0];
+        CircleMachine {
+            radius_mm: xy.radius_mm,
+            feed_mm_per_min: xy.feed_mm_per_min,
+            squareness_urad: self.squareness_urad(xy, plane),
+            scale_x_um_per_m: scale[u],
+            scale_y_um_per_m: scale[v],
+            backlash_x_um: backlash[u],
+            backlash_y_um: backlash[v],
+            servo_lag_x_ms: lag[u],
+            servo_lag_y_ms: lag[v],
+            ..CircleMachine::perfect()
+        }
+    }
+
+    /// The data arc of a vertical plane's test: start and span, degrees.
+    pub fn arc(&self) -> (f64, f64) {
+        if self.vertical_arc_deg >= 360.0 {
+            (0.0, 360.0)
+        } else {
+            (-20.0, self.vertical_arc_deg)
+        }
+    }
+
+    /// A [`CircleMachine::pose`]'s axes (u, v in X, Y) moved to `plane`'s axes.
+    pub fn axes(plane: CirclePlane, uv: [f64; 5]) -> [f64; 5] {
+        let (u, v, _) = crate::ncgen::plane_axes(plane);
+        let mut a = [0.0; 5];
+        a[u] = uv[0];
+        a[v] = uv[1];
+        a
+    }
+}
+
 /// The machine description file: any section may be left out (defaults above).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
@@ -306,6 +401,8 @@ pub struct MachineFile {
     pub seed002: Machine002,
     /// The circular-test machine.
     pub circle: CircleMachine,
+    /// Its Z axis and vertical planes (the three-plane summary, with `circle` as XY).
+    pub planes: ThreePlaneMachine,
     /// The instrument.
     pub instrument: super::sensors::Instrument,
 }

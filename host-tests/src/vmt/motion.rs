@@ -290,7 +290,7 @@ pub fn circle_machine_at(
 }
 
 /// The circle the served CNC runs: the pod's set-up (centre, radius, plane, feed) on the
-/// circular-test machine's faults.
+/// circular-test machine's faults (XY) or its vertical planes' ([`super::machine::ThreePlaneMachine`]).
 struct CircleProgram {
     machine: super::machine::CircleMachine,
     centre_mm: [f64; 3],
@@ -310,7 +310,11 @@ impl CircleProgram {
         {
             return Err("circle set-up not complete".into());
         }
-        let mut machine = truth.machine.circle;
+        // XY: the circular-test machine; YZ, ZX: its vertical planes (the three-plane test)
+        let mut machine = match t.circle_plane {
+            CirclePlane::XY => truth.machine.circle,
+            p => truth.machine.planes.plane(&truth.machine.circle, p),
+        };
         machine.radius_mm = r;
         if t.circle_feed_mm_per_min > 0.0 {
             machine.feed_mm_per_min = f64::from(t.circle_feed_mm_per_min);

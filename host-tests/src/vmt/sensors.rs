@@ -57,6 +57,9 @@ pub struct Instrument {
     pub probe_lobing_deg: f64,
     /// Touch-probe pre-travel along the stylus less its mean across, µm (weighted by cos²θ).
     pub probe_axial_um: f64,
+    /// The bar's calibrated length (`bar_length`) less its true length, µm: a miscalibrated
+    /// bar, whose every ΔL reads this much more than the balls' distance less `bar_length`.
+    pub bar_calibration_error_um: f64,
 }
 
 impl Default for Instrument {
@@ -75,6 +78,7 @@ impl Default for Instrument {
             probe_lobing_um: 0.0,
             probe_lobing_deg: 0.0,
             probe_axial_um: 0.0,
+            bar_calibration_error_um: 0.0,
         }
     }
 }
@@ -244,8 +248,8 @@ impl Sensors {
             temp_c as f32,
         ));
         let f = &mut self.faults;
-        let mut x =
-            dl_um + f.bar_offset_um - expansion + self.inst.bar_noise_um * self.rng.normal();
+        let mut x = dl_um + f.bar_offset_um + self.inst.bar_calibration_error_um - expansion
+            + self.inst.bar_noise_um * self.rng.normal();
         x += self.inst.lvdt_nonlinearity_per_um * x * x;
         let mut lvdt = self.lvdt.model;
         if f.lvdt_open_samples > 0 {

@@ -23,6 +23,9 @@
 //!   s_u cos²θ sin θ = s_u (sin θ + sin 3θ)/4 and s_v sin²θ cos θ = s_v (cos θ − cos 3θ)/4, whose
 //!   first-order part moves the circle: straightness is the third-order shape, so the cyclic
 //!   search starts at order 4 (a third-order cyclic error and a bow are one shape on a circle);
+//! - the radius change r0 (the circle's plus the joint fit's correction), µm: the mean of the
+//!   two axes' scale errors times R, with the bar's length error (a partial arc's plain circle
+//!   fit takes part of the 2θ and step shapes into its r0; the joint fit does not);
 //! - cyclic error: amplitude √(a_k² + b_k²) of the kept order, divided by the bins' averaging
 //!   gain sinc(kπ/BINS), **named** only when it is at least `CYCLIC_SIGNIFICANCE` (4)
 //!   standard uncertainties.
@@ -103,7 +106,8 @@ pub struct Diagnostics {
     /// (45° ovality, µrad), scale mismatch k_u − k_v (0°/90° ovality, µm/m), each axis's
     /// reversal step (the mean of its two points, µm), the cyclic amplitude (half
     /// peak-to-peak of the harmonic of order [`Self::cyclic_order`], µm), the step at each
-    /// reversal point (µm), each axis's straightness over the test diameter (µm).
+    /// reversal point (µm), each axis's straightness over the test diameter (µm), the joint
+    /// fit's radius change r0 (µm).
     pub values: [Diagnosed; DIAGNOSES],
     /// The order (cycles per revolution, 4..=16) whose joint fit explains most of the profile.
     pub cyclic_order: u32,
@@ -301,6 +305,10 @@ impl<const BINS: usize> CircularTest<BINS> {
             centre_moves,
         };
         out.set_centre_moves(centre_moves);
+        // the joint fit's radius: the circle's r0 plus the fit's correction to it
+        if let Some(r) = out.values.get_mut(Diagnosis::Radius as usize) {
+            r.value += model.x[0];
+        }
         // a point whose column is dropped is not determinable (and reads NaN)
         let finite = Diagnosis::ALL
             .iter()
@@ -367,6 +375,7 @@ fn diagnoses(
         p3,
         at(col::STRAIGHT_U, 1.0),
         at(col::STRAIGHT_V, 1.0),
+        at(col::R0, 1.0),
     ]
 }
 
@@ -566,7 +575,7 @@ pub(super) struct NormalEquations {
 pub(super) struct DiagnosticFit {
     /// The parameters (module doc order; a dropped column's 0).
     p: [f32; DIAGNOSTIC_PARAMETERS],
-    /// Their variances (the circle's, not evaluated: 0; a dropped column's NaN).
+    /// Their variances (e_u, e_v, not evaluated: 0; a dropped column's NaN).
     var: [f32; DIAGNOSTIC_PARAMETERS],
     /// Covariance of the cyclic pair (cos kθ, sin kθ).
     cov_cs: f32,
@@ -591,7 +600,11 @@ impl NormalEquations {
         let mut var = [0.0f32; DIAGNOSTIC_PARAMETERS];
         let mut cov_cs = 0.0;
         let mut cov_steps = [0.0f32; 2];
-        for (j, v) in var.iter_mut().enumerate().skip(col::R0 + 3) {
+        for (j, v) in var.iter_mut().enumerate() {
+            // e_u, e_v: the circle's, not a diagnosis
+            if j == col::R0 + 1 || j == col::R0 + 2 {
+                continue;
+            }
             if self.dropped.get(j).copied().unwrap_or(true) {
                 *v = f32::NAN;
                 continue;

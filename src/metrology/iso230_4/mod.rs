@@ -28,11 +28,13 @@
 //! - `diagnostics`: the joint fit of the machine faults (squareness, scale mismatch, reversal
 //!   steps at each reversal point, straightness, cyclic error) with their uncertainties;
 //! - `support`: what an arc determines (and why not), when a fault is named, each fault's
-//!   share of G.
+//!   share of G;
+//! - `planes`: the machine's three axis scales from circles in its three planes.
 
 mod centre;
 mod diagnostics;
 mod figures;
+mod planes;
 mod support;
 
 pub use centre::TracedCentre;
@@ -41,6 +43,10 @@ pub use diagnostics::{
     RESOLUTION_UM, mean_diagnostics,
 };
 pub use figures::{BidirectionalFigures, DirectionFigures};
+pub use planes::{
+    AxisScales, AxisScalesError, PlaneScales, SCALE_READINGS, SUMMARY_PLANES, ScaleReading,
+    axis_scales,
+};
 pub use support::{
     ArcSupport, DIAGNOSES, Diagnosis, FAULT_SIGNIFICANCE, FULL_CIRCLE_GAP_DEG, Fault,
     NotDeterminable, REVERSAL_SIDE_DEG,

@@ -109,7 +109,7 @@ impl ArcSupport {
             }
         };
         match which {
-            D::Squareness => Ok(()),
+            D::Squareness | D::Radius => Ok(()),
             D::ScaleMismatch | D::Cyclic | D::StraightnessU | D::StraightnessV => {
                 if self.full_circle {
                     Ok(())
@@ -185,10 +185,14 @@ pub enum Diagnosis {
     StraightnessU = 9,
     /// Straightness of v over the test diameter (its path's bow in u), µm.
     StraightnessV = 10,
+    /// The radius change r0 of the joint fit, µm: R·(k_u + k_v)/2 plus the bar's length error
+    /// (every fault's shape fitted alongside, so a partial arc reads it without the others'
+    /// bias; the mean scale of the plane's axes, [`crate::app`]'s `scale_mean`).
+    Radius = 11,
 }
 
 /// Number of [`Diagnosis`] kinds.
-pub const DIAGNOSES: usize = 11;
+pub const DIAGNOSES: usize = 12;
 
 impl Diagnosis {
     /// Every diagnosis, in discriminant order.
@@ -204,6 +208,7 @@ impl Diagnosis {
         Self::ReversalVNeg,
         Self::StraightnessU,
         Self::StraightnessV,
+        Self::Radius,
     ];
 
     /// The reversal point diagnoses, in angle order (0°, 90°, 180°, 270°).

@@ -51,6 +51,30 @@ fn the_committed_reference_pages_are_what_the_code_generates() {
     );
 }
 
+#[test]
+fn the_committed_signature_plots_are_what_the_forward_model_draws() {
+    use ballpod_host::report::svg::{SIGNATURE_DIR, signature_plots};
+    let dir = root().join(SIGNATURE_DIR);
+    let plots = signature_plots();
+    let stale: Vec<&String> = plots
+        .iter()
+        .filter(|(file, svg)| std::fs::read_to_string(dir.join(file)).unwrap_or_default() != *svg)
+        .map(|(file, _)| file)
+        .collect();
+    assert!(
+        stale.is_empty(),
+        "signature plots out of date: {stale:?}; run `{REGENERATE}`"
+    );
+    // each is shown on the circle page
+    let circle = std::fs::read_to_string(root().join("docs/src/methods/circle.md")).unwrap();
+    for (file, _) in &plots {
+        assert!(
+            circle.contains(&format!("images/signatures/{file}")),
+            "circle.md does not show {file}"
+        );
+    }
+}
+
 /// mdBook's heading id (`normalize_id`): alphanumerics, `_` and `-` kept (lower-cased),
 /// whitespace to `-`, everything else dropped; inline code and emphasis marks are not text.
 fn slug(heading: &str) -> String {

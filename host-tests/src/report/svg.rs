@@ -20,6 +20,7 @@ use ballpod::metrology::pattern::ArcGeometry;
 
 use crate::recording::RecordedRun;
 use crate::replay::{Report, RunReport};
+use crate::vmt::machine::CircleMachine;
 
 const SIZE: f64 = 640.0;
 const CX: f64 = 320.0;
@@ -371,4 +372,167 @@ pub fn plots(runs: &[(String, RecordedRun)], report: &Report) -> Vec<(String, St
         out.push((format!("seed002_{name}.svg"), svg));
     }
     out
+}
+
+/// One fault alone on the virtual machine's circle ([`CircleMachine`]) for the book's
+/// signature plots: (file stem, title, the machine, whether the plot keeps the circle's radius
+/// change, and the legend: model, signature, what the pod reports).
+type Signature = (
+    &'static str,
+    &'static str,
+    CircleMachine,
+    bool,
+    [&'static str; 3],
+);
+
+/// The faults of the book's signature plots, each alone on a 150 mm circle at F1000.
+fn signatures() -> Vec<Signature> {
+    let p = CircleMachine::perfect;
+    vec![
+        (
+            "squareness",
+            "Out-of-squareness 20 µrad",
+            CircleMachine {
+                squareness_urad: 20.0,
+                ..p()
+            },
+            false,
+            [
+                "Model: E_x = S·y (Y leans towards +X)",
+                "Signature: (S·R/2)·sin 2θ, a 45° ellipse, the same both directions",
+                "Reported: squareness S, µrad",
+            ],
+        ),
+        (
+            "scale_mismatch",
+            "Scale mismatch 20 µm/m",
+            CircleMachine {
+                scale_x_um_per_m: 10.0,
+                scale_y_um_per_m: -10.0,
+                ..p()
+            },
+            false,
+            [
+                "Model: E_x = k_x·x, E_y = k_y·y, k_x − k_y = 20 µm/m",
+                "Signature: ((k_x − k_y)·R/2)·cos 2θ, an ellipse along the axes",
+                "Reported: scale_mismatch k_u − k_v, µm/m (full circle only)",
+            ],
+        ),
+        (
+            "reversal",
+            "Reversal steps of X, 4 µm",
+            CircleMachine {
+                backlash_x_um: 4.0,
+                ..p()
+            },
+            false,
+            [
+                "Model: X lags B/2 behind its direction of travel",
+                "Signature: a step of B where X reverses (0°, 180°), opposite in CW",
+                "Reported: reversal_u_pos, reversal_u_neg (each point), reversal_u (mean), µm",
+            ],
+        ),
+        (
+            "straightness",
+            "Straightness of X, 4 µm over the diameter",
+            CircleMachine {
+                straightness_y_along_x_um: 4.0,
+                ..p()
+            },
+            false,
+            [
+                "Model: X's path bows across it, E_y = s·(x/R)²",
+                "Signature: (s/4)·sin 3θ about the fitted circle, the same both directions",
+                "Reported: straightness_u s, µm (full circle only)",
+            ],
+        ),
+        (
+            "cyclic",
+            "Cyclic error 1 µm, 8 per revolution",
+            CircleMachine {
+                cyclic_amplitude_um: 1.0,
+                ..p()
+            },
+            false,
+            [
+                "Model: a radial error periodic in angle, A·cos(kθ + φ)",
+                "Signature: k lobes, the same both directions",
+                "Reported: cyclic_amplitude A, µm; cyclic_order k (4–16, full circle only)",
+            ],
+        ),
+        (
+            "servo_mismatch",
+            "Servo mismatch 1 ms",
+            CircleMachine {
+                servo_lag_x_ms: 1.0,
+                ..p()
+            },
+            false,
+            [
+                "Model: X follows its command 1 ms later than Y",
+                "Signature: a 45° ellipse whose sign flips with the direction",
+                "Reported: servo_mismatch τ_u − τ_v, ms (needs circle_feed)",
+            ],
+        ),
+        (
+            "mean_scale",
+            "Mean scale 20 µm/m (both axes)",
+            CircleMachine {
+                scale_x_um_per_m: 20.0,
+                scale_y_um_per_m: 20.0,
+                ..p()
+            },
+            true,
+            [
+                "Model: E_x = k·x, E_y = k·y",
+                "Signature: a larger circle, r0 = R·k (about the nominal circle)",
+                "Reported: scale_mean (k_u + k_v)/2, µm/m, relative to the bar's length",
+            ],
+        ),
+    ]
+}
+
+/// Where the book keeps the signature plots ([`signature_plots`]), from the repository's root.
+pub const SIGNATURE_DIR: &str = "docs/src/images/signatures";
+
+/// The book's polar plot of each ball-bar diagnosis's signature ([`SIGNATURE_DIR`]):
+/// each fault alone on the virtual machine's circle ([`CircleMachine::pose`], the forward
+/// model, noise-free), CCW and CW, one point a degree, about each direction's least-squares
+/// circle (the mean scale's about the nominal one).
+pub fn signature_plots() -> Vec<(String, String)> {
+    signatures()
+        .into_iter()
+        .map(|(stem, title, m, keep_r0, legend)| {
+            let trace = |id: &'static str, colour: &'static str, dir: f64| {
+                let th: Vec<f64> = (0..360).map(|d| f64::from(d).to_radians()).collect();
+                let dl: Vec<f64> = th.iter().map(|t| m.pose(dir * t, dir).0).collect();
+                let rows: Vec<Vec<f64>> = th
+                    .iter()
+                    .map(|t| vec![1.0, (dir * t).cos(), (dir * t).sin()])
+                    .collect();
+                let (x, _) = crate::oracle::lstsq(&rows, &dl);
+                let r0 = if keep_r0 { 0.0 } else { x[0] };
+                let points = rows
+                    .iter()
+                    .zip(&dl)
+                    .map(|(g, d)| (g[1], g[2], d - r0 - x[1] * g[1] - x[2] * g[2]))
+                    .collect();
+                Trace { id, colour, points }
+            };
+            let svg = render(
+                title,
+                &[
+                    trace("trace-ccw", "#1f4fd1", 1.0),
+                    trace("trace-cw", "#d12a1f", -1.0),
+                ],
+                &[],
+                &legend
+                    .iter()
+                    .map(|s| s.to_string())
+                    .chain(["CCW blue, CW red; R 150 mm, F1000, noise-free".to_string()])
+                    .collect::<Vec<_>>(),
+            );
+            (format!("{stem}.svg"), svg)
+        })
+        .collect()
 }

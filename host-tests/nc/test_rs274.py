@@ -9,6 +9,7 @@ plane normal's positive end).
 Run by .ci/run: BALLPOD_NCGEN=<the ncgen binary> python3 -m pytest host-tests/nc
 """
 import math
+import tomllib
 import os
 import pathlib
 import re
@@ -111,6 +112,12 @@ def test_programs_are_accepted_and_trace_the_nominal_circle(tmp_path, plane, cen
             setup[f"circle_centre_{k}"] = c
     rc, program, err = ncgen(tmp_path, setup, "--start-deg", str(start), "--arc-deg", str(arc))
     assert rc == 0, err
+    check_circle_program(tmp_path, program, plane, centre, radius, feed, start, arc)
+
+
+def check_circle_program(tmp_path, program, plane, centre, radius, feed, start, arc):
+    """Through rs274: the data arcs and overshoots on the nominal circle in the plane, CCW then
+    CW, the feed-ins and feed-outs radial, no rapid once the bar is on."""
     moves = motion(interpret(tmp_path, program))
     u, v, w = POD_PLANES[plane]
     canon_plane = {"XY": "CANON_PLANE_XY", "YZ": "CANON_PLANE_YZ", "ZX": "CANON_PLANE_XZ"}[plane]
@@ -154,6 +161,35 @@ def test_programs_are_accepted_and_trace_the_nominal_circle(tmp_path, plane, cen
             assert math.hypot(outside[u] - c[u], outside[v] - c[v]) == pytest.approx(radius + 1.0, abs=TOL_MM)
             assert math.hypot(on_circle[u] - c[u], on_circle[v] - c[v]) == pytest.approx(radius, abs=TOL_MM)
             assert angle(outside, c, plane) == pytest.approx(angle(on_circle, c, plane), abs=1e-4), "radial"
+
+
+def test_the_three_plane_programs_trace_each_plane_and_name_its_set_up(tmp_path):
+    """`ncgen three-planes`: XY full circle, YZ and ZX 220° arcs from −20°, each program through
+    rs274 on its nominal circle, each set-up file the pod's fields for that plane."""
+    assert NCGEN, "set BALLPOD_NCGEN to the ncgen binary"
+    centre, radius, feed = (10.0, -20.0, 250.0), 150.0, 1000.0
+    f = tmp_path / "setup.toml"
+    f.write_text(f"[setup]\ncircle_centre_x = {centre[0]}\ncircle_centre_y = {centre[1]}\n"
+                 f"circle_centre_z = {centre[2]}\ncircle_radius = {radius}\nbar_length = {radius}\n"
+                 f"circle_feed = {feed}\n")
+    out = tmp_path / "planes"
+    p = subprocess.run([NCGEN, "three-planes", str(f), "--out-dir", str(out)],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode == 0, p.stderr
+    for k, (plane, start, arc) in enumerate([("XY", 0.0, 360.0), ("YZ", -20.0, 220.0),
+                                             ("ZX", -20.0, 220.0)]):
+        check_circle_program(tmp_path, (out / f"{plane}.ngc").read_text(), plane, centre, radius,
+                             feed, start, arc)
+        fields = tomllib.loads((out / f"ballpod-setup-{1000 + k}.toml").read_text())["setup"]
+        assert fields["circle_plane"] == k and fields["circle_arc"] == arc, fields
+        if arc < 360.0:
+            assert fields["circle_min_arc"] == arc, fields
+    # a set-up without the Z of the centre cannot run YZ: refused, nothing written
+    f.write_text(f.read_text().replace(f"circle_centre_z = {centre[2]}\n", ""))
+    p = subprocess.run([NCGEN, "three-planes", str(f), "--out-dir", str(tmp_path / "none")],
+                       capture_output=True, text=True, timeout=60)
+    assert p.returncode != 0 and "circle_centre_z" in p.stderr, p.stderr
+    assert not (tmp_path / "none").exists()
 
 
 @pytest.mark.parametrize("setup,field", [

@@ -21,7 +21,7 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand, ValueEnum};
 
 use ballpod::app::Direction;
-use ballpod::config::RunTrigger;
+use ballpod::config::{CirclePlane, RunTrigger};
 use ballpod_host::ncgen::{
     CircleOptions, CircleRun, Dialect, PatternTest, Session, SphereTest, SsmTest, TwoStepTest,
     centrelines_from_toml, check_travel, correct_program, correct_program_centrelines,
@@ -68,6 +68,11 @@ struct Args {
 enum Test {
     /// An ISO 230-4 circle from the pod's set-up file.
     Circle(CircleArgs),
+    /// The three-plane test from the pod's set-up file (every circle_centre coordinate set):
+    /// an XY full circle, YZ and ZX arcs (default 220° from −20°), CCW then CW each, as
+    /// `DIR/XY.ngc`, `DIR/YZ.ngc`, `DIR/ZX.ngc` with each plane's set-up
+    /// (`DIR/ballpod-setup-<n>.toml`, n = --setup-number, +1, +2) to write to the pod before it.
+    ThreePlanes(ThreePlanesArgs),
     /// A seed 002 procedure pattern (BX, BY, CR, CA, CR2) from the pod's set-up file.
     Pattern(PatternArgs),
     /// A touch-probe sphere measurement (pattern PROBE): nine touches along the normals.
@@ -308,6 +313,27 @@ struct CircleArgs {
     session: SessionArgs,
 }
 
+/// The three-plane test's options (the geometry is the set-up's).
+#[derive(clap::Args, Debug)]
+struct ThreePlanesArgs {
+    /// Set-up file (.toml or .json) with a `[setup]` table of configuration fields.
+    setup: PathBuf,
+    /// Directory for the three programs and their set-up files.
+    #[arg(long)]
+    out_dir: PathBuf,
+    /// Start of the YZ and ZX data arcs, degrees from the plane's first axis.
+    #[arg(long, default_value_t = -20.0, allow_negative_numbers = true)]
+    vertical_start_deg: f64,
+    /// Span of the YZ and ZX data arcs, degrees (220 … 360: the summary needs every quadrant).
+    #[arg(long, default_value_t = 220.0, allow_negative_numbers = true)]
+    vertical_arc_deg: f64,
+    /// Radial feed-in / feed-out distance, mm (0.1 … 10).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    feed_in_mm: f64,
+    #[command(flatten)]
+    session: SessionArgs,
+}
+
 /// The pattern and its options (the geometry is the set-up's `s002_*` fields).
 #[derive(clap::Args, Debug)]
 struct PatternArgs {
@@ -405,6 +431,13 @@ fn run(args: &Args) -> Result<String, String> {
             }
             Ok(program)
         }
+        Test::ThreePlanes(t) => three_planes(t, dialect).map(|files| {
+            let mut listing = String::new();
+            for f in files {
+                listing.push_str(&format!("{}\n", f.display()));
+            }
+            listing
+        }),
         Test::MCodes(m) => {
             Session::new(m.m_base, 0, RunTrigger::Command)?;
             let d = &m.dir;
@@ -863,6 +896,70 @@ fn kins_mixed(k: &KinsArgs) -> Result<String, String> {
 
 /// `program` if it stays within the travel the set-up file gives (`[travel]`), else the
 /// refusal naming the axis: nothing is written.
+/// Writes the three-plane test's programs and set-up files ([`ThreePlanesArgs`]); returns the
+/// files written. Nothing is written unless every plane's program is valid.
+fn three_planes(t: &ThreePlanesArgs, dialect: Dialect) -> Result<Vec<PathBuf>, String> {
+    if !(220.0..=360.0).contains(&t.vertical_arc_deg) {
+        return Err(format!(
+            "--vertical-arc-deg: {} outside [220, 360] (the summary needs every quadrant)",
+            t.vertical_arc_deg
+        ));
+    }
+    let text = read_text(&t.setup).map_err(|e| e.to_string())?;
+    let cfg = setup_config(&t.setup, &text).map_err(|e| e.to_string())?;
+    let a = &t.session;
+    let trigger = match a.trigger {
+        TriggerArg::Command => RunTrigger::Command,
+        TriggerArg::FeedIn => RunTrigger::FeedIn,
+    };
+    let mut files = Vec::new();
+    for (k, plane) in [CirclePlane::XY, CirclePlane::YZ, CirclePlane::ZX]
+        .into_iter()
+        .enumerate()
+    {
+        let mut c = cfg;
+        c.setup.circle_plane = plane;
+        let (start_deg, arc_deg) = match plane {
+            CirclePlane::XY => (0.0, 360.0),
+            _ => (t.vertical_start_deg, t.vertical_arc_deg),
+        };
+        let options = CircleOptions {
+            start_deg,
+            arc_deg,
+            feed_in_mm: t.feed_in_mm,
+            ..CircleOptions::default()
+        };
+        let name = CirclePlane::NAMES[plane as usize];
+        let test = CircleRun::from_config(&c, options)
+            .map_err(|e| format!("{} ({name}): {e}", t.setup.display()))?;
+        let number = a.setup_number + k as u32;
+        let session = if a.session {
+            Some(Session::new(a.m_base, number, trigger)?)
+        } else {
+            None
+        };
+        let program = within_travel(&t.setup, test.program_with(dialect, session.as_ref()))?;
+        let setup = setup_file(
+            "CIRCLE",
+            &test.setup_fields(trigger),
+            &format!("ballpod set-up {number} (ncgen three-planes, {name})"),
+        );
+        files.push((t.out_dir.join(format!("{name}.ngc")), program));
+        files.push((
+            t.out_dir.join(format!("ballpod-setup-{number}.toml")),
+            setup,
+        ));
+    }
+    std::fs::create_dir_all(&t.out_dir).map_err(|e| format!("{}: {e}", t.out_dir.display()))?;
+    files
+        .into_iter()
+        .map(|(path, text)| {
+            std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
+            Ok(path)
+        })
+        .collect()
+}
+
 fn within_travel(setup: &std::path::Path, program: String) -> Result<String, String> {
     let text = read_text(setup).map_err(|e| e.to_string())?;
     if let Some(t) = setup_travel(setup, &text).map_err(|e| e.to_string())? {

@@ -7,12 +7,12 @@
 
 use ballpod::acquisition::MAX_AXES;
 use ballpod::app::bc_ballbar::Setup;
-use ballpod::app::{Command, Direction, Pattern};
+use ballpod::app::{Command, Direction, Pattern, ResultId};
 use ballpod::config::CirclePlane;
 
 use crate::recording::RecordedRun;
 use crate::replay::Report;
-use crate::vmt::machine::{MachineFile, ThreePlaneMachine};
+use crate::vmt::machine::{CircleMachine, MachineFile, ThreePlaneMachine};
 use crate::vmt::motion::ServeTruth;
 use crate::vmt::nc_motion::{self, NcRun};
 use crate::vmt::virtual_pod::{VirtualPod, VirtualSetup};
@@ -33,6 +33,9 @@ pub struct SimOptions {
     /// Run the three-plane test: arcs in YZ and ZX (the machine file's `[planes]`,
     /// `vertical_arc_deg`) before the ISO 230-4 circle, which is its XY plane.
     pub three_planes: bool,
+    /// Before the three-plane test and the ISO 230-4 circle, the same circle at each of these
+    /// feeds (mm/min; empty: no feed-rate sweep).
+    pub feed_sweep: Vec<f64>,
     /// The seed 002 steps from part programs: `BX.ngc`, `BY.ngc`, `CR.ngc`, `CA.ngc`,
     /// `CR2.ngc` in this directory (`cargo ncgen -- pattern`), and the ISO 230-4 circle from
     /// `CIRCLE.ngc` if it is there (`cargo ncgen -- circle`), through LinuxCNC's interpreter
@@ -49,6 +52,7 @@ impl Default for SimOptions {
             seed002: true,
             circle: true,
             three_planes: true,
+            feed_sweep: Vec::new(),
             nc_dir: None,
         }
     }
@@ -60,6 +64,20 @@ pub struct SimSession {
     pub report: Report,
     /// The recorded runs with their file names (for `--write-logs`, the plots and replay).
     pub runs: Vec<(String, RecordedRun)>,
+    /// The feed-rate sweep: each feed's G(b) and servo mismatch as the pod published them
+    /// after that feed's circle (value, u; NaN if invalid).
+    pub sweep: Vec<SweepRow>,
+}
+
+/// One feed of a simulated feed-rate sweep, as the pod published it.
+#[derive(Clone, Copy, Debug)]
+pub struct SweepRow {
+    /// Feed, mm/min.
+    pub feed_mm_per_min: f64,
+    /// G(b) and its u, µm.
+    pub g_bidir_um: [f64; 2],
+    /// Servo mismatch and its u, ms.
+    pub servo_mismatch_ms: [f64; 2],
 }
 
 /// Samples of a seed 002 step run at `rate_hz`: B arcs 0..=90° (n points), C circles
@@ -179,7 +197,9 @@ pub fn simulate_commanded(
     let mut names = Vec::new();
     let total = if o.seed002 { o.repeats * 10 } else { 0 }
         + if o.circle { 2 } else { 0 }
-        + if o.three_planes { 4 } else { 0 };
+        + if o.three_planes { 4 } else { 0 }
+        + 2 * o.feed_sweep.len();
+    let mut sweep = Vec::new();
     let rate = m.instrument.sample_rate_hz;
     let bad = |e: ballpod::app::CommandError| {
         let (a, b) = e.text();
@@ -251,6 +271,48 @@ pub fn simulate_commanded(
                 }
             }
         }
+    }
+    // the feed-rate sweep before the three-plane test and the ISO 230-4 circle (whose
+    // figures the final table then holds); the sweep is kept per plane
+    for &feed in &o.feed_sweep {
+        let c = CircleMachine {
+            feed_mm_per_min: feed,
+            ..m.circle
+        };
+        vp.sensors.set_bar_length(c.radius_mm);
+        vp.app
+            .configure(|cfg| {
+                cfg.bar_length_mm = c.radius_mm as f32;
+                let s = &mut cfg.setup;
+                s.circle_plane = CirclePlane::XY;
+                s.circle_centre_mm = [0.0; 3];
+                s.circle_radius_mm = c.radius_mm as f32;
+                s.circle_feed_mm_per_min = feed as f32;
+                s.circle_min_arc_deg = 300.0;
+            })
+            .map_err(bad)?;
+        let n = c.samples_per_rev(rate);
+        for dir in [Direction::Ccw, Direction::Cw] {
+            let name = format!("sweep_f{feed}_{}.csv", dir.name());
+            progress(names.len(), total, &name);
+            let s = dir.sign();
+            let poses = (0..n).map(|i| c.pose(s * std::f64::consts::TAU * i as f64 / n as f64, s));
+            run_poses(&mut vp, &mut report, &name, Pattern::Circle, dir, poses)?;
+            names.push(name);
+        }
+        let r = |id| {
+            let e = vp.app.result(id);
+            if e.valid {
+                [f64::from(e.value), f64::from(e.std_uncertainty)]
+            } else {
+                [f64::NAN; 2]
+            }
+        };
+        sweep.push(SweepRow {
+            feed_mm_per_min: feed,
+            g_bidir_um: r(ResultId::GBidir),
+            servo_mismatch_ms: r(ResultId::ServoMismatch),
+        });
     }
     if o.three_planes {
         // the vertical planes first: the XY plane is the ISO 230-4 circle's (run last, so the
@@ -355,5 +417,9 @@ pub fn simulate_commanded(
     report.finish(&vp.app);
     progress(total, total, "done");
     let runs = names.into_iter().zip(vp.recording.runs).collect();
-    Ok(SimSession { report, runs })
+    Ok(SimSession {
+        report,
+        runs,
+        sweep,
+    })
 }

@@ -983,6 +983,7 @@ fn seed002_through(m: &MachineFile, rec: &MixedRecord) -> (String, f64) {
         seed002: true,
         circle: false,
         three_planes: false,
+        feed_sweep: Vec::new(),
         nc_dir: None,
     };
     let setup = Setup::thesis_table_4_3();

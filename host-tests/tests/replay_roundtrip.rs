@@ -74,6 +74,7 @@ fn replay_of_the_simulators_recorded_runs_reproduces_its_report_byte_for_byte() 
         seed002: true,
         circle: true,
         three_planes: true,
+        feed_sweep: Vec::new(),
         nc_dir: None,
     };
     let s = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");

@@ -640,6 +640,7 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::SsmUSocketUm => g(s.ssm_u_socket_um),
         Field::CircleUCentreUm => g(s.circle_u_centre_um),
         Field::S002URbUm => g(s.s002_u_r_b_um),
+        Field::SweepGGrowth => g(s.sweep_g_growth),
         Field::PeriodsPerSample | Field::AxisNameDuplicate(_) | Field::AxisCounterReach(_) => {
             unreachable!()
         }
@@ -768,7 +769,9 @@ fn table_limits_without_an_exact_f32_are_writable_by_value_and_keyword() {
             }
         }
     }
-    assert_eq!(inexact, 5);
+    // lvdt_max_ratio, lvdt_min_signal, lvdt_dc_span, ssm_window_radius, ssm_dwell_speed,
+    // sweep_g_growth (the minimum 0.01 of each)
+    assert_eq!(inexact, 6);
 }
 
 #[test]
@@ -1230,7 +1233,7 @@ fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
 #[test]
 fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid() {
     let mut b = Bench::with_circle();
-    assert_eq!(ResultInfo::all().count(), 109);
+    assert_eq!(ResultInfo::all().count(), 112);
     // nothing computed yet: -230 naming the result
     b.rejected_with(
         "FETC:RES? ecc_u",
@@ -1267,7 +1270,7 @@ fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid()
         -230,
         "Data corrupt or stale;scale_x not available yet: needs a complete circle or arc (both directions, every quadrant) in each of XY, YZ and ZX since the session was cleared",
     );
-    b.rejected("FETC:RES? 109", -222);
+    b.rejected("FETC:RES? 112", -222);
     b.rejected("FETC:RES? -1", -222);
     b.rejected("FETC:RES? 1.5", -222);
     b.rejected("FETC:RES? nonsense", -224);

@@ -39,6 +39,7 @@ fn run(m: &MachineFile) -> SimSession {
         seed002: false,
         circle: true,
         three_planes: false,
+        feed_sweep: Vec::new(),
         nc_dir: None,
     };
     let s = simulate(m, &o, &mut |_, _, _| {}).expect("simulated session");

@@ -17,6 +17,7 @@ fn session() -> (MachineFile, SimSession) {
         seed002: false,
         circle: true,
         three_planes: false,
+        feed_sweep: Vec::new(),
         nc_dir: None,
     };
     let s = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");

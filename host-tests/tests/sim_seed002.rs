@@ -32,6 +32,7 @@ fn session(seed: u64, feed_mm_per_min: f64) -> SimSession {
         seed002: true,
         circle: false,
         three_planes: false,
+        feed_sweep: Vec::new(),
         nc_dir: None,
     };
     simulate(&MachineFile::default(), &o, &mut |_, _, _| {}).expect("simulated session")

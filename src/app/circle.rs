@@ -144,8 +144,9 @@ pub struct FiguresRequest {
     pub bar: BarBudget,
     /// The bar's calibrated length when the run ended, mm (the mean scale's reference).
     pub bar_length_mm: f32,
-    /// The circle's plane (the three-plane summary files the run's results under it).
-    pub plane: Plane,
+    /// The test's geometry (the three-plane summary and the feed sweep file the results
+    /// under it).
+    pub geometry: Option<CircleGeometry>,
     /// [`CircleRun`]'s run epochs when the run ended.
     epochs: [u32; 2],
 }
@@ -359,7 +360,7 @@ impl CircleRun {
             both_directions: self.complete == [true, true],
             bar,
             bar_length_mm,
-            plane: self.geometry.map_or(Plane::XY, |g| g.fit.geometry.plane),
+            geometry: self.geometry,
             epochs: self.epochs,
         })
     }

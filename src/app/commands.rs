@@ -106,6 +106,7 @@ impl App {
     pub(super) fn clear_procedures(&mut self) {
         self.circle.clear();
         self.planes.clear();
+        self.sweep.clear();
         self.seed002_begun = false;
         self.seed002_epoch = self.seed002_epoch.wrapping_add(1);
         self.identify_pending = false;

@@ -381,8 +381,10 @@ impl App {
             JobOutcome::Figures(request, patch) => {
                 if self.circle.current(&request) {
                     patch.apply(&mut self.results);
-                    if request.both_directions {
-                        self.planes.file(request.plane, &mut self.results);
+                    if let (true, Some(g)) = (request.both_directions, request.geometry) {
+                        self.planes.file(g.fit.geometry.plane, &mut self.results);
+                        let growth = self.config.setup.sweep_g_growth;
+                        self.sweep.file(g, &mut self.results, growth);
                     }
                 }
             }

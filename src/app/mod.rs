@@ -53,6 +53,7 @@ pub mod run;
 pub mod session;
 pub mod ssm;
 mod status;
+pub mod sweep;
 pub mod trigger;
 
 pub use device::{DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, DeviceCounter, DeviceCounters};
@@ -80,6 +81,7 @@ use planes::PlaneRecords;
 use probe::Spheres;
 use run::RunMonitor;
 use ssm::{SsmRun, TwoStep};
+use sweep::FeedSweep;
 use trigger::ArcTrigger;
 
 /// Recorder events waiting for the next sample (commands arrive between samples, without the
@@ -108,6 +110,8 @@ pub struct App {
     circle: CircleRun,
     /// The three-plane summary's latest complete circle of each plane.
     planes: PlaneRecords,
+    /// The feed-rate sweep's circle and its feeds.
+    sweep: FeedSweep,
     ssm: SsmRun,
     /// The seed 002 procedure (meaningful once `seed002_begun`): in place, never rebuilt on
     /// the stack (3.3 KiB).
@@ -206,6 +210,7 @@ impl App {
             identify_pending: false,
             figures_requests: [None; 2],
             planes: PlaneRecords::default(),
+            sweep: FeedSweep::default(),
             probe_requests: [false; 2],
             spheres_epoch: 0,
             job: None,
@@ -289,7 +294,7 @@ impl App {
     }
     /// Why the invalid result `id` has no value, where the application can tell: a ball-bar
     /// diagnosis the latest circle runs do not determine, a three-plane summary result whose
-    /// planes have not all run (the text after its name), else `None`.
+    /// planes have not all run, a feed sweep's (the text after its name), else `None`.
     pub fn why_invalid(&self, id: ResultId) -> Option<&'static str> {
         if self.results.get(id).valid {
             return None;
@@ -298,6 +303,7 @@ impl App {
             .not_determinable(id)
             .map(|r| r.as_str())
             .or_else(|| self.planes.why_invalid(id))
+            .or_else(|| self.sweep.why_invalid(id))
     }
     /// What the acquisition counted (samples, faults, lost upstream).
     pub fn acquisition_counters(&self) -> AcquisitionCounters {

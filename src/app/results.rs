@@ -157,6 +157,9 @@ results! {
     ScaleX => ("scale_x", UmPerM, "Three-plane summary: scale error of X relative to the bar's calibrated length, from the three planes' radii and scale mismatches (needs a circle or arc in each of XY, YZ and ZX)"),
     ScaleY => ("scale_y", UmPerM, "Three-plane summary: scale error of Y"),
     ScaleZ => ("scale_z", UmPerM, "Three-plane summary: scale error of Z"),
+    SweepFeeds => ("sweep_feeds", One, "Feed-rate sweep: the feeds at which the same circle (centre, radius, arc) in the latest complete circle's plane has run, both directions, since the session was cleared; at most 8 (the latest kept)"),
+    SweepServoMismatch => ("sweep_servo_mismatch", Ms, "Feed-rate sweep: servo mismatch τ_u − τ_v over the feeds (their servo_mismatch weighted by 1/u²; needs two feeds)"),
+    SweepFeedLimit => ("sweep_feed_limit", MmPerMin, "Feed-rate sweep: the feed at which G(b) first exceeds the lowest feed's by sweep_g_growth, linear between the feeds about the crossing"),
 }
 
 /// Number of results.

@@ -45,6 +45,10 @@ struct Args {
     /// linuxcnc-uspace) instead of the built-in motion.
     #[arg(long, value_name = "DIR")]
     nc: Option<PathBuf>,
+    /// A feed-rate sweep: the ISO 230-4 circle at each of these feeds too (mm/min, comma
+    /// separated, e.g. 500,1000,2000,4000), before the three-plane test and the circle.
+    #[arg(long, value_delimiter = ',', value_name = "F,F,…")]
+    feed_sweep: Vec<f64>,
     /// Repeats of the seed 002 procedure.
     #[arg(long, default_value_t = 3, value_parser = clap::value_parser!(u64).range(1..=ballpod::app::bc_ballbar::MAX_REPEATS as u64))]
     repeats: u64,
@@ -148,6 +152,7 @@ fn run(args: &Args) -> Result<(), String> {
         seed: args.seed,
         repeats: args.repeats as usize,
         nc_dir: args.nc.clone(),
+        feed_sweep: args.feed_sweep.clone(),
         ..SimOptions::default()
     };
     // a progress bar on a terminal (indicatif draws nothing when stderr is not one)
@@ -171,6 +176,7 @@ fn run(args: &Args) -> Result<(), String> {
     print_seed002(&machine, report);
     print_iso(&machine, report);
     print_planes(&machine, report);
+    print_sweep(&machine, &session);
     std::fs::create_dir_all(&args.out).map_err(|e| format!("{}: {e}", args.out.display()))?;
     let write = |dir: &PathBuf, name: &str, text: &str| -> Result<(), String> {
         let p = dir.join(name);
@@ -407,5 +413,46 @@ fn print_planes(m: &MachineFile, r: &Report) {
             }
             None => println!("{name:<14} {truth:>9.3} {:>10}", "invalid"),
         }
+    }
+}
+
+fn print_sweep(m: &MachineFile, s: &ballpod_host::simulate::SimSession) {
+    if s.sweep.is_empty() {
+        return;
+    }
+    println!(
+        "\nfeed-rate sweep, R = {} mm, injected servo mismatch {:.3} ms (from the pod's results after each feed's circle)",
+        m.circle.radius_mm,
+        m.circle.servo_mismatch_ms()
+    );
+    println!(
+        "{:>10} {:>18} {:>22}",
+        "feed", "G(b) µm", "servo mismatch ms"
+    );
+    for r in &s.sweep {
+        println!(
+            "{:>10.0} {:>9.3} ± {:<6.3} {:>11.4} ± {:<7.4}",
+            r.feed_mm_per_min,
+            r.g_bidir_um[0],
+            r.g_bidir_um[1],
+            r.servo_mismatch_ms[0],
+            r.servo_mismatch_ms[1]
+        );
+    }
+    let f = |n: &str| s.report.result(n);
+    if let Some(t) = f("sweep_servo_mismatch") {
+        println!(
+            "sweep servo mismatch {:.4} ± {:.4} ms",
+            t.value,
+            t.u.unwrap_or(f32::NAN)
+        );
+    }
+    match f("sweep_feed_limit") {
+        Some(l) => println!(
+            "feed limit (G(b) past the lowest feed's by sweep_g_growth) {:.0} ± {:.0} mm/min",
+            l.value,
+            l.u.unwrap_or(f32::NAN)
+        ),
+        None => println!("feed limit: not reached up to the highest feed"),
     }
 }

@@ -280,6 +280,7 @@ fn seed002_ballbar(s: &Scenario) -> Result<Vec<Check>, String> {
         seed002: true,
         circle: false,
         three_planes: false,
+        feed_sweep: Vec::new(),
         nc_dir: None,
     };
     let sim = simulate(&m, &o, &mut |_, _, _| {})?;
@@ -320,6 +321,7 @@ fn iso230_4(s: &Scenario) -> Result<Vec<Check>, String> {
         seed002: false,
         circle: true,
         three_planes: false,
+        feed_sweep: Vec::new(),
         nc_dir: None,
     };
     let sim = simulate(&m, &o, &mut |_, _, _| {})?;

@@ -29,10 +29,13 @@
 //!   steps at each reversal point, straightness, cyclic error) with their uncertainties;
 //! - `support`: what an arc determines (and why not), when a fault is named, each fault's
 //!   share of G;
-//! - `planes`: the machine's three axis scales from circles in its three planes.
+//! - `planes`: the machine's three axis scales from circles in its three planes;
+//! - `feed_sweep`: the servo mismatch and the feed limit of G(b) from one circle at several
+//!   feeds.
 
 mod centre;
 mod diagnostics;
+mod feed_sweep;
 mod figures;
 mod planes;
 mod support;
@@ -42,6 +45,7 @@ pub use diagnostics::{
     CYCLIC_SIGNIFICANCE, DIAGNOSTIC_PARAMETERS, Diagnosed, Diagnostics, MAX_CYCLIC_ORDER,
     RESOLUTION_UM, mean_diagnostics,
 };
+pub use feed_sweep::{FeedLimitError, FeedPoint, feed_limit, sweep_servo_mismatch};
 pub use figures::{BidirectionalFigures, DirectionFigures};
 pub use planes::{
     AxisScales, AxisScalesError, PlaneScales, SCALE_READINGS, SUMMARY_PLANES, ScaleReading,

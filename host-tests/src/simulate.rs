@@ -279,18 +279,7 @@ pub fn simulate_commanded(
             feed_mm_per_min: feed,
             ..m.circle
         };
-        vp.sensors.set_bar_length(c.radius_mm);
-        vp.app
-            .configure(|cfg| {
-                cfg.bar_length_mm = c.radius_mm as f32;
-                let s = &mut cfg.setup;
-                s.circle_plane = CirclePlane::XY;
-                s.circle_centre_mm = [0.0; 3];
-                s.circle_radius_mm = c.radius_mm as f32;
-                s.circle_feed_mm_per_min = feed as f32;
-                s.circle_min_arc_deg = 300.0;
-            })
-            .map_err(bad)?;
+        configure_circle(&mut vp, CirclePlane::XY, c.radius_mm, feed, 300.0)?;
         let n = c.samples_per_rev(rate);
         for dir in [Direction::Ccw, Direction::Cw] {
             let name = format!("sweep_f{feed}_{}.csv", dir.name());
@@ -318,21 +307,11 @@ pub fn simulate_commanded(
         // the vertical planes first: the XY plane is the ISO 230-4 circle's (run last, so the
         // final table holds its figures and the summary it completes)
         let (xy, m) = (&m.circle, &m.planes);
-        vp.sensors.set_bar_length(xy.radius_mm);
         let (start_deg, arc_deg) = m.arc();
         for plane in [CirclePlane::YZ, CirclePlane::ZX] {
-            vp.app
-                .configure(|cfg| {
-                    cfg.bar_length_mm = xy.radius_mm as f32;
-                    let s = &mut cfg.setup;
-                    s.circle_plane = plane;
-                    s.circle_centre_mm = [0.0; 3];
-                    s.circle_radius_mm = xy.radius_mm as f32;
-                    s.circle_feed_mm_per_min = xy.feed_mm_per_min as f32;
-                    // the samples span the arc less one step: a little below it
-                    s.circle_min_arc_deg = (arc_deg - 5.0).min(300.0) as f32;
-                })
-                .map_err(bad)?;
+            // the samples span the arc less one step: the minimum a little below it
+            let min_arc = (arc_deg - 5.0).min(300.0);
+            configure_circle(&mut vp, plane, xy.radius_mm, xy.feed_mm_per_min, min_arc)?;
             let c = m.plane(xy, plane);
             let n = (c.samples_per_rev(rate) as f64 * arc_deg / 360.0).round() as usize;
             for dir in [Direction::Ccw, Direction::Cw] {
@@ -361,18 +340,13 @@ pub fn simulate_commanded(
     }
     if o.circle {
         let c = &m.circle;
-        vp.sensors.set_bar_length(c.radius_mm);
-        vp.app
-            .configure(|cfg| {
-                cfg.bar_length_mm = c.radius_mm as f32;
-                let s = &mut cfg.setup;
-                s.circle_plane = CirclePlane::XY;
-                s.circle_centre_mm = [0.0; 3];
-                s.circle_radius_mm = c.radius_mm as f32;
-                s.circle_feed_mm_per_min = c.feed_mm_per_min as f32;
-                s.circle_min_arc_deg = 300.0;
-            })
-            .map_err(bad)?;
+        configure_circle(
+            &mut vp,
+            CirclePlane::XY,
+            c.radius_mm,
+            c.feed_mm_per_min,
+            300.0,
+        )?;
         let n = c.samples_per_rev(rate);
         // the data arcs of the circle's program, if the directory has one (`CIRCLE.ngc`,
         // `ncgen circle` of this circle: XY about the origin)
@@ -422,4 +396,30 @@ pub fn simulate_commanded(
         runs,
         sweep,
     })
+}
+
+/// Writes the set-up of a circle about the origin in `plane` (radius = bar length, `feed`,
+/// `min_arc_deg`) to the simulated pod and its bar.
+fn configure_circle(
+    vp: &mut VirtualPod,
+    plane: CirclePlane,
+    radius_mm: f64,
+    feed_mm_per_min: f64,
+    min_arc_deg: f64,
+) -> Result<(), String> {
+    vp.sensors.set_bar_length(radius_mm);
+    vp.app
+        .configure(|cfg| {
+            cfg.bar_length_mm = radius_mm as f32;
+            let s = &mut cfg.setup;
+            s.circle_plane = plane;
+            s.circle_centre_mm = [0.0; 3];
+            s.circle_radius_mm = radius_mm as f32;
+            s.circle_feed_mm_per_min = feed_mm_per_min as f32;
+            s.circle_min_arc_deg = min_arc_deg as f32;
+        })
+        .map_err(|e| {
+            let (a, b) = e.text();
+            format!("set-up refused: {a}{b}")
+        })
 }

@@ -423,13 +423,7 @@ fn g_about_lsq(samples: &[Sample]) -> f64 {
             (vec![1.0, u / r, v / r], f64::from(s.delta_l_um))
         })
         .unzip();
-    let (x, _) = ballpod_host::oracle::lstsq(&rows, &y);
-    let res: Vec<f64> = rows
-        .iter()
-        .zip(&y)
-        .map(|(g, y)| y - g.iter().zip(&x).map(|(g, x)| g * x).sum::<f64>())
-        .collect();
-    res.iter().cloned().fold(f64::MIN, f64::max) - res.iter().cloned().fold(f64::MAX, f64::min)
+    ballpod_host::oracle::peak_to_valley_about_lstsq(&rows, &y)
 }
 
 /// On the pod's application: a 220° arc in both directions publishes squareness and the steps

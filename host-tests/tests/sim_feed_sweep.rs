@@ -66,13 +66,7 @@ fn g_bidir_oracle(c: &CircleMachine, feed: f64) -> f64 {
             y.push(sum / count as f64);
         }
     }
-    let (x, _) = ballpod_host::oracle::lstsq(&rows, &y);
-    let res: Vec<f64> = rows
-        .iter()
-        .zip(&y)
-        .map(|(g, y)| y - g.iter().zip(&x).map(|(g, x)| g * x).sum::<f64>())
-        .collect();
-    res.iter().cloned().fold(f64::MIN, f64::max) - res.iter().cloned().fold(f64::MAX, f64::min)
+    ballpod_host::oracle::peak_to_valley_about_lstsq(&rows, &y)
 }
 
 #[test]

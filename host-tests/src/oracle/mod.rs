@@ -49,6 +49,18 @@ pub fn lstsq(rows: &[Vec<f64>], y: &[f64]) -> (Vec<f64>, f64) {
     (x, rss)
 }
 
+/// Peak-to-valley of the residuals of `y` about its least-squares fit on `rows` ([`lstsq`]):
+/// with rows [1, cos θ, sin θ], G about the least-squares circle (ISO 230-4).
+pub fn peak_to_valley_about_lstsq(rows: &[Vec<f64>], y: &[f64]) -> f64 {
+    let (x, _) = lstsq(rows, y);
+    let res: Vec<f64> = rows
+        .iter()
+        .zip(y)
+        .map(|(g, y)| y - g.iter().zip(&x).map(|(g, x)| g * x).sum::<f64>())
+        .collect();
+    res.iter().cloned().fold(f64::MIN, f64::max) - res.iter().cloned().fold(f64::MAX, f64::min)
+}
+
 /// The seeded generator of the host tests (SplitMix64 + Box–Muller).
 pub use crate::rng::Rng;
 

@@ -383,8 +383,7 @@ impl App {
                     patch.apply(&mut self.results);
                     if let (true, Some(g)) = (request.both_directions, request.geometry) {
                         self.planes.file(g.fit.geometry.plane, &mut self.results);
-                        let growth = self.config.setup.sweep_g_growth;
-                        self.sweep.file(g, &mut self.results, growth);
+                        self.sweep.file(g, &mut self.results);
                     }
                 }
             }

@@ -4,7 +4,7 @@
 //! the feeds of a sweep does not end it; a circle of the same plane with another centre,
 //! radius or arc starts a new one; a feed run again replaces its point). Published, for the
 //! plane of the latest complete circle: the feeds kept, the servo mismatch over them and the
-//! feed limit of G(b) at `sweep_g_growth` ([`iso230_4::feed_limit`]).
+//! feed limit of G(b) at [`SWEEP_G_GROWTH`] ([`iso230_4::feed_limit`]).
 
 use super::circle::CircleGeometry;
 use super::results::{ResultId, ResultSink, Results};
@@ -14,9 +14,16 @@ use crate::metrology::pattern::Plane;
 /// Feeds a sweep keeps (the latest; an older one is forgotten when a ninth feed is run).
 pub const SWEEP_FEEDS: usize = 8;
 
+/// The growth of G(b) over the lowest feed's at which the feed limit is read: 20 %. A
+/// constant, not a configuration field: a field's line in every run's header would not leave
+/// the stream ring room (`protocol::stream::FIRMWARE_RING_BYTES`); each feed's G(b) is
+/// published, so a client reads any other fraction from them.
+pub const SWEEP_G_GROWTH: f32 = 0.2;
+
 /// Why `sweep_feed_limit` is invalid, by [`FeedLimitError`].
 const TOO_FEW: &str = " not available yet: needs the same circle complete at two feeds or more since the session was cleared";
-const NOT_REACHED: &str = " not reached: G(b) stays within sweep_g_growth of the lowest feed's up to the highest feed run";
+const NOT_REACHED: &str =
+    " not reached: G(b) stays within 20 % of the lowest feed's up to the highest feed run";
 
 /// One plane's sweep: its circle and its feeds.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -44,8 +51,8 @@ impl FeedSweep {
 
     /// Files the complete circle of `geometry` whose results `results` now holds (its G(b)
     /// and servo mismatch; a circle without a programmed feed, or in XZ, files nothing) and
-    /// publishes its plane's sweep, whose G(b) growth threshold is `growth` (a fraction).
-    pub fn file(&mut self, geometry: CircleGeometry, results: &mut Results, growth: f32) {
+    /// publishes its plane's sweep.
+    pub fn file(&mut self, geometry: CircleGeometry, results: &mut Results) {
         let feed = geometry.feed_mm_per_min;
         let g = results.get(ResultId::GBidir);
         let k = match geometry.fit.geometry.plane {
@@ -86,10 +93,10 @@ impl FeedSweep {
         // room was made above: the push cannot fail
         let _ = sweep.points.push(point);
         self.latest = k;
-        self.publish(results, growth);
+        self.publish(results);
     }
 
-    fn publish(&mut self, results: &mut Results, growth: f32) {
+    fn publish(&mut self, results: &mut Results) {
         let points = self
             .sweeps
             .get(self.latest)
@@ -99,7 +106,7 @@ impl FeedSweep {
         if let Some([tau, u]) = iso230_4::sweep_servo_mismatch(points) {
             results.set(ResultId::SweepServoMismatch, f64::from(tau), f64::from(u));
         }
-        match iso230_4::feed_limit(points, growth) {
+        match iso230_4::feed_limit(points, SWEEP_G_GROWTH) {
             Ok([f, u]) => {
                 self.limit = None;
                 results.set(ResultId::SweepFeedLimit, f64::from(f), f64::from(u));

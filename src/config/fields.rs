@@ -221,14 +221,11 @@ config_fields! {
         S002URbUm = setup.s002_u_r_b_um (f32) "s002_u_r_b" = S002_U_R_B_UM as f32;
             Um [0.0, 1000.0] needed since 10 at NextRun
             "Seed 002 uncertainty budget: the tool lengths R_B and R′_B as entered, standard uncertainty of each one's difference from the length the steps ran with (default: a tool length measured to a few µm)",
-        SweepGGrowth = setup.sweep_g_growth (f32) "sweep_g_growth" = 0.2;
-            One [0.01, 10.0] needed since 11 at NextRun
-            "Feed-rate sweep: the growth of G(b) over the lowest feed's, as a fraction (0.2 = 20 %), at which the sweep's feed limit is read (sweep_feed_limit)",
         // a field that exists only in the test build of the `one-more-field` feature: the host
         // test `config_one_row` checks that this one row is all a new field needs
         #[cfg(feature = "one-more-field")]
         TestExtraUm = setup.test_extra_um (f32) "test_extra" = 2.5;
-            Um [0.0, 10.0] needed since 12 at NextRun
+            Um [0.0, 10.0] needed since 11 at NextRun
             "Test build only: a field added by one row",
     }
 }

@@ -449,7 +449,7 @@ fn print_sweep(m: &MachineFile, s: &ballpod_host::simulate::SimSession) {
     }
     match f("sweep_feed_limit") {
         Some(l) => println!(
-            "feed limit (G(b) past the lowest feed's by sweep_g_growth) {:.0} ± {:.0} mm/min",
+            "feed limit (G(b) 20 % past the lowest feed's) {:.0} ± {:.0} mm/min",
             l.value,
             l.u.unwrap_or(f32::NAN)
         ),

@@ -377,7 +377,7 @@ pub const ERRORS: &[(i16, &str)] = &[
     ),
     (
         code::DATA_CORRUPT_OR_STALE,
-        "`FETCh:RESult?` of a result that is not valid (`<name> has no valid value`; a ball-bar diagnosis the arcs do not determine: `<name> not determinable…` with the reason)",
+        "`FETCh:RESult?` of a result that is not valid (`<name> has no valid value`; a ball-bar diagnosis the arcs do not determine: `<name> not determinable…` with the reason; a three-plane summary or feed-sweep result still waiting for its circles: `<name> not available yet…`, a feed limit G(b) does not reach: `sweep_feed_limit not reached…`)",
     ),
     (
         code::DEVICE_SPECIFIC_ERROR,

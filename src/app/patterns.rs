@@ -26,7 +26,6 @@ use super::{App, Direction, Pattern, Pending, ResultId, RunMeta};
 use crate::acquisition::Sample;
 use crate::config::RunTrigger;
 use crate::metrology::bar_budget::{BarBudget, FigureKind};
-use crate::metrology::circle_fit::SampleUse;
 use crate::metrology::circle_fit::{CircleEstimate, CircleFit};
 
 /// The armed run's estimator.
@@ -59,7 +58,6 @@ impl App {
                     trigger = Some(ArcTrigger::new(&g, self.direction, setup.circle_arc_deg));
                 }
                 self.circle.begin_run(g, self.direction);
-                self.spikes.begin_run(g, self.direction);
                 self.live_u_at = u32::MAX;
                 RunEstimator::Circle
             }
@@ -156,7 +154,6 @@ impl App {
                         if let Some(r) = self.figures_requests.get_mut(circle::dir_index(d)) {
                             *r = Some(request);
                         }
-                        self.spikes.finish_run(d, &mut self.results);
                         true
                     }
                     Err(_) => false,
@@ -261,11 +258,7 @@ impl App {
         let d = self.direction;
         match &mut self.estimator {
             RunEstimator::Circle => {
-                if self.circle.update(s, d) == SampleUse::Used
-                    && let Some(n) = self.circle.direction_of(&s.axes)
-                {
-                    self.spikes.update(s.delta_l_um, n, s.t_us);
-                }
+                self.circle.update(s, d);
             }
             RunEstimator::Step(_, fit) => {
                 fit.update(s);

@@ -31,15 +31,13 @@
 //!   share of G;
 //! - `planes`: the machine's three axis scales from circles in its three planes;
 //! - `feed_sweep`: the servo mismatch and the feed limit of G(b) from one circle at several
-//!   feeds;
-//! - `spikes`: the reversal spikes from the samples about each reversal point.
+//!   feeds.
 
 mod centre;
 mod diagnostics;
 mod feed_sweep;
 mod figures;
 mod planes;
-mod spikes;
 mod support;
 
 pub use centre::TracedCentre;
@@ -53,7 +51,6 @@ pub use planes::{
     AxisScales, AxisScalesError, PlaneScales, SCALE_READINGS, SUMMARY_PLANES, ScaleReading,
     axis_scales,
 };
-pub use spikes::{SPIKE_POST, SPIKE_PRE, SPIKE_WINDOW, Spike, SpikeCapture, TAU_SPAN};
 pub use support::{
     ArcSupport, DIAGNOSES, Diagnosis, FAULT_SIGNIFICANCE, FULL_CIRCLE_GAP_DEG, Fault,
     NotDeterminable, REVERSAL_SIDE_DEG,

@@ -85,13 +85,22 @@ impl FeedSweep {
                 [f32::NAN; 2]
             },
         };
-        if let Some(i) = sweep.points.iter().position(|p| p.feed_mm_per_min == feed) {
-            sweep.points.remove(i);
-        } else if sweep.points.is_full() {
-            sweep.points.remove(0);
+        // the feed's earlier point goes, or (a new feed, the sweep full) the oldest; rebuilt
+        // rather than `Vec::remove`, whose index check is a panic path in the firmware
+        let replaces = sweep.points.iter().any(|p| p.feed_mm_per_min == feed);
+        let drop_oldest = usize::from(sweep.points.is_full() && !replaces);
+        let mut kept = heapless::Vec::<FeedPoint, SWEEP_FEEDS>::new();
+        for p in sweep
+            .points
+            .iter()
+            .skip(drop_oldest)
+            .filter(|p| p.feed_mm_per_min != feed)
+        {
+            // at most SWEEP_FEEDS − 1 kept: the pushes cannot fail
+            let _ = kept.push(*p);
         }
-        // room was made above: the push cannot fail
-        let _ = sweep.points.push(point);
+        let _ = kept.push(point);
+        sweep.points = kept;
         self.latest = k;
         self.publish(results);
     }

@@ -429,11 +429,24 @@ fn g_about_lsq(samples: &[Sample]) -> f64 {
 /// On the pod's application: a 220° arc in both directions publishes squareness and the steps
 /// at the points it crosses; the rest stays invalid and the application says why, as SCPI
 /// queues it after the result's name.
+/// The pod's application set for a CIRCLE test of radius 100 mm about `P0` with a 100 mm bar,
+/// arcs of `min_arc_deg` or more.
+fn circle_app(min_arc_deg: f32) -> ballpod::app::App {
+    let mut cfg = ballpod::config::Config {
+        bar_length_mm: 100.0,
+        ..ballpod::config::Config::default()
+    };
+    cfg.setup.circle_centre_mm = [P0[0] as f32, P0[1] as f32, 88.0];
+    cfg.setup.circle_radius_mm = 100.0;
+    cfg.setup.circle_min_arc_deg = min_arc_deg;
+    let mut app = ballpod::app::App::new(cfg, [16; ballpod::acquisition::MAX_AXES]);
+    app.set_pattern(ballpod::app::Pattern::Circle).unwrap();
+    app
+}
+
 #[test]
 fn the_pod_leaves_what_the_arc_cannot_support_invalid_and_says_why() {
-    use ballpod::acquisition::MAX_AXES;
     use ballpod::app::{Command, ResultId};
-    use ballpod::config::Config;
     let m = Machine {
         radius_mm: 100.0,
         squareness: 30e-6,
@@ -444,15 +457,7 @@ fn the_pod_leaves_what_the_arc_cannot_support_invalid_and_says_why() {
         arc_deg: 220.0,
         ..Default::default()
     };
-    let mut cfg = Config {
-        bar_length_mm: 100.0,
-        ..Config::default()
-    };
-    cfg.setup.circle_centre_mm = [P0[0] as f32, P0[1] as f32, 88.0];
-    cfg.setup.circle_radius_mm = 100.0;
-    cfg.setup.circle_min_arc_deg = 200.0;
-    let mut app = ballpod::app::App::new(cfg, [16; MAX_AXES]);
-    app.set_pattern(ballpod::app::Pattern::Circle).unwrap();
+    let mut app = circle_app(200.0);
     let mut rng = Rng::new(5);
     // a full circle first: what the partial arc then cannot support must not stay from it
     let full = Machine {
@@ -527,4 +532,70 @@ fn the_pod_leaves_what_the_arc_cannot_support_invalid_and_says_why() {
     }
     // a result that is no diagnosis has no such reason
     assert_eq!(app.why_invalid(ResultId::SsmEx), None);
+}
+
+/// A run's reversal spikes are fitted in its figures job from the samples about its reversal
+/// points: when the next run begins before that job took them (the slot busy with a longer
+/// job), the pod says so instead of serving the other direction's spikes alone, and the next
+/// complete pair of runs serves them again.
+#[test]
+fn spikes_of_a_run_whose_samples_were_replaced_are_not_determinable() {
+    use ballpod::app::{Command, ResultId};
+    let m = Machine {
+        radius_mm: 100.0,
+        noise_um: 0.2,
+        start_deg: 0.0,
+        arc_deg: 360.0,
+        ..Default::default()
+    };
+    let mut app = circle_app(300.0);
+    let mut rng = Rng::new(9);
+    let spikes = [
+        ResultId::SpikeUPos,
+        ResultId::SpikeUNeg,
+        ResultId::SpikeVPos,
+        ResultId::SpikeVNeg,
+        ResultId::SpikeTimeUPos,
+    ];
+    let mut one_run = |app: &mut ballpod::app::App, d: Direction, jobs: bool| {
+        app.set_direction(d).unwrap();
+        app.execute(Command::Arm).unwrap();
+        app.execute(Command::Start).unwrap();
+        for s in run(&m, d, &mut rng) {
+            app.on_sample(&s, &mut ());
+        }
+        app.execute(Command::Stop).unwrap();
+        if jobs {
+            ballpod_host::run_jobs(app);
+        }
+    };
+    // CCW's job not run before CW begins: its samples are gone
+    one_run(&mut app, Direction::Ccw, false);
+    one_run(&mut app, Direction::Cw, true);
+    assert!(app.result(ResultId::Squareness).valid);
+    for id in spikes {
+        assert!(!app.result(id).valid, "{id:?}");
+        assert_eq!(
+            app.why_invalid(id),
+            Some(NotDeterminable::SamplesReplaced.as_str()),
+            "{id:?}"
+        );
+    }
+    // CCW again, its job run: both directions' spikes, each a fault-free machine's (within 3u:
+    // three points; 0° is the runs' start and end: not crossed)
+    one_run(&mut app, Direction::Ccw, true);
+    for id in &spikes[1..4] {
+        let r = app.result(*id);
+        assert!(r.valid, "{id:?}");
+        assert!(
+            r.value.abs() < 3.0 * r.std_uncertainty,
+            "{id:?}: {} ± {}",
+            r.value,
+            r.std_uncertainty
+        );
+    }
+    assert_eq!(
+        app.why_invalid(ResultId::SpikeUPos),
+        Some(NotDeterminable::ReversalNotCrossed.as_str())
+    );
 }

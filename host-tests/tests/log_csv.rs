@@ -516,7 +516,7 @@ fn a_full_log_decimates_and_the_text_says_so() {
 fn a_57_s_circle_at_1_khz_is_logged_at_1_khz_over_256() {
     // app::log's own example: 57 000 samples in LOG_CAPACITY = 432 records: 57 000 / 128 =
     // 446 records would not fit, 57 000 / 256 = 223 do.
-    assert_eq!(LOG_CAPACITY, 432);
+    assert_eq!(LOG_CAPACITY, 416);
     let m = default_meta();
     let mut log = Box::new(SampleLog::<LOG_CAPACITY>::new());
     log.begin_run(&m);

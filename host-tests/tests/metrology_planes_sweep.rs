@@ -81,16 +81,65 @@ fn the_feed_limit_is_the_linear_crossing_of_the_stated_growth() {
     let want = (d0 * d0 + d1 * d1 + d2 * d2).sqrt();
     assert!((u - want).abs() < 0.01 * want, "{u} vs {want}");
     assert_eq!(feed_limit(&p, 0.5), Err(FeedLimitError::NotReached));
-    assert_eq!(feed_limit(&p[..1], 0.2), Err(FeedLimitError::TooFewFeeds));
+    // two feeds are no sweep (SWEEP_MIN_FEEDS)
+    assert_eq!(feed_limit(&p[..2], 0.2), Err(FeedLimitError::TooFewFeeds));
 }
 
 #[test]
 fn the_sweeps_servo_mismatch_is_the_weighted_mean() {
-    let mut p = [point(500.0, 1.0, 1.0), point(1000.0, 1.0, 2.0)];
+    let mut p = [
+        point(500.0, 1.0, 1.0),
+        point(1000.0, 1.0, 2.0),
+        point(2000.0, 1.0, 1.5),
+    ];
     p[1].servo_mismatch_ms[1] = 0.02;
+    p[2].servo_mismatch_ms[1] = 0.02;
     let [tau, u] = sweep_servo_mismatch(&p).unwrap();
-    // weights 1/0.01² and 1/0.02²: 4 : 1
-    assert!((tau - 1.2).abs() < 1e-5, "{tau}");
-    assert!((u - (1.0f32 / (1e4 + 2.5e3)).sqrt()).abs() < 1e-6, "{u}");
-    assert_eq!(sweep_servo_mismatch(&p[..1]), None);
+    // weights 1/0.01², 1/0.02², 1/0.02²: 4 : 1 : 1, (4·1 + 2 + 1.5)/6
+    assert!((tau - 7.5 / 6.0).abs() < 1e-5, "{tau}");
+    assert!(
+        (u - (1.0f32 / (1e4 + 2.5e3 + 2.5e3)).sqrt()).abs() < 1e-6,
+        "{u}"
+    );
+    // two feeds are no sweep (SWEEP_MIN_FEEDS)
+    assert_eq!(sweep_servo_mismatch(&p[..2]), None);
+}
+
+/// Planes run with different bars are no one set-up: the scales, which rest on one bar's
+/// length, are refused with the reason; each plane's squareness stays.
+#[test]
+fn planes_run_with_different_bars_give_no_scales() {
+    use ballpod::app::planes::PlaneRecords;
+    use ballpod::app::results::{ResultId, ResultSink, Results};
+    use ballpod::metrology::pattern::Plane;
+    let file = |records: &mut PlaneRecords, results: &mut Results, plane, bar_mm| {
+        results.set(ResultId::Squareness, 10.0, 1.0);
+        results.set(ResultId::ScaleMean, 5.0, 0.5);
+        results.set(ResultId::ScaleMismatch, 2.0, 0.5);
+        records.file(plane, bar_mm, results);
+    };
+    let mut results = Results::new();
+    let mut one_bar = PlaneRecords::default();
+    for plane in [Plane::XY, Plane::YZ, Plane::ZX] {
+        file(&mut one_bar, &mut results, plane, 150.0);
+    }
+    assert!(results.get(ResultId::ScaleZ).valid);
+    let mut results = Results::new();
+    let mut two_bars = PlaneRecords::default();
+    file(&mut two_bars, &mut results, Plane::XY, 150.0);
+    file(&mut two_bars, &mut results, Plane::YZ, 150.0);
+    file(&mut two_bars, &mut results, Plane::ZX, 100.0);
+    for id in [ResultId::ScaleX, ResultId::ScaleY, ResultId::ScaleZ] {
+        assert!(!results.get(id).valid, "{id:?}");
+        assert!(
+            two_bars
+                .why_invalid(id)
+                .is_some_and(|w| w.contains("different bar lengths")),
+            "{id:?}"
+        );
+    }
+    assert!(results.get(ResultId::SquarenessZx).valid);
+    // the ZX arc run again with the first bar: one set-up again
+    file(&mut two_bars, &mut results, Plane::ZX, 150.0);
+    assert!(results.get(ResultId::ScaleZ).valid);
 }

@@ -187,3 +187,39 @@ fn the_polar_plot_is_well_formed_and_shows_what_its_legend_says() {
     assert!(legend.contains("Squareness") && legend.contains("Reversal"));
     assert!(by_id("nominal").attribute("r").is_some());
 }
+
+/// Reversal spikes on the virtual machine (X 4 µm, τ 8 ms; Y none) come back at each point of
+/// X with their height and time constant, and none at Y's, from the pod's results table.
+#[test]
+fn reversal_spikes_come_back_at_each_point_with_their_height() {
+    let mut m = MachineFile::default();
+    m.circle.reversal_spike_x_um = 4.0;
+    m.circle.reversal_spike_ms = 8.0;
+    let o = SimOptions {
+        seed: 12,
+        repeats: 1,
+        seed002: false,
+        circle: true,
+        three_planes: false,
+        ..SimOptions::default()
+    };
+    let s = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");
+    let r = &s.report;
+    let get = |n: &str| {
+        let v = r.result(n).unwrap_or_else(|| panic!("{n} not valid"));
+        (f64::from(v.value), v.u.map(f64::from))
+    };
+    // X reverses at 180° in both runs (a full turn from 0°: 0°/360° is its start and end)
+    let (h, u) = get("spike_u_neg");
+    let u = u.expect("u");
+    assert!((h - 4.0).abs() <= 3.0 * u, "spike_u_neg {h} ± {u}");
+    let (tau, _) = get("spike_time_u_neg");
+    assert!((tau / 8.0 - 1.0).abs() < 0.2, "τ {tau} ms");
+    for n in ["spike_v_pos", "spike_v_neg"] {
+        let (h, u) = get(n);
+        let u = u.expect("u");
+        assert!(h.abs() <= 3.0 * u, "{n} {h} ± {u}");
+    }
+    // 0° is the runs' start and end: no window about it
+    assert!(r.result("spike_u_pos").is_none());
+}

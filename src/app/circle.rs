@@ -252,6 +252,12 @@ impl CircleRun {
         self.test.update(s, d)
     }
 
+    /// The direction n (u, v) of a sample at `axes` from the test's centre (`None` before the
+    /// first run, or at the centre).
+    pub fn direction_of(&self, axes: &[f32; crate::acquisition::MAX_AXES]) -> Option<[f32; 2]> {
+        self.geometry?.fit.geometry.direction(axes)
+    }
+
     /// The arc turned by the latest run of direction `d`, degrees.
     pub fn arc_deg(&self, d: Direction) -> f32 {
         self.test.fit(d).arc_deg()

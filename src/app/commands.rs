@@ -107,6 +107,7 @@ impl App {
         self.circle.clear();
         self.planes.clear();
         self.sweep.clear();
+        self.spikes.clear();
         self.seed002_begun = false;
         self.seed002_epoch = self.seed002_epoch.wrapping_add(1);
         self.identify_pending = false;

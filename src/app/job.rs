@@ -3,7 +3,7 @@
 //!
 //! | job | wanted when | publishes | on the pod (170 MHz) |
 //! |---|---|---|---|
-//! | circle figures | a CIRCLE run ends | G, F of its direction; once both directions are complete G(b), H, the radial deviation, the diagnoses | 0.1–0.3 s |
+//! | circle figures | a CIRCLE run ends | G, F of its direction; once both directions are complete G(b), H, the radial deviation, the diagnoses; the run's reversal spikes | 0.1–0.3 s |
 //! | seed 002 identification | every step has its CW and CCW runs | the model mode's deviations and corrections, the thesis mode's | 2.6 s |
 //! | touch-probe identification | a PROBE run files the last sphere of the B or the C method | that axis's deviations with their lobing shares | tens of ms |
 //!
@@ -14,7 +14,8 @@
 //! steps, so that the middle one can run at the lowest priority while the application goes
 //! on with samples, frames and bytes:
 //! 1. [`App::start_job`](super::App::start_job) copies the job's inputs into a [`JobSlot`]
-//!    (the circle test, 14.4 KiB; the procedure's eccentricities, 0.6 KiB; the spheres, 2.8
+//!    (the circle test, 14.4 KiB, with the run's samples about its reversal points, 0.8 KiB;
+//!    the procedure's eccentricities, 0.6 KiB; the spheres, 2.8
 //!    KiB — one at a time, in one place);
 //! 2. [`JobSlot::run`] computes on that copy into a [`ResultPatch`] and touches nothing of the
 //!    application;
@@ -31,11 +32,13 @@ use super::circle::{CircleRun, FiguresRequest};
 use super::probe::{ProbeAxis, ProbeFailure, Spheres};
 use super::results::ResultPatch;
 use super::session::{ProcedureNote, probe_note};
+use super::spikes::RunSpikes;
 use super::{App, ResultId};
 use crate::config::TestSetup;
 use crate::identify::mill_turn::model_lsq::IdentificationScratch;
 use crate::in_place::{self, init_in_place};
 use crate::metrology::bar_budget::BarBudget;
+use crate::metrology::iso230_4::SpikeCapture;
 use core::mem::MaybeUninit;
 
 /// Which job a slot holds.
@@ -60,7 +63,8 @@ enum Work {
 
 /// What [`super::App::finish_job`] takes from a slot whose job ran.
 pub(crate) enum JobOutcome<'a> {
-    Figures(FiguresRequest, &'a mut ResultPatch),
+    /// The figures, and the run's spikes (`None`: the job had no capture of the run).
+    Figures(FiguresRequest, &'a mut ResultPatch, Option<RunSpikes>),
     Identification(u32, Result<&'a mut ResultPatch, ()>),
     Probe(u32, Result<&'a mut ResultPatch, ProbeFailure>),
 }
@@ -89,11 +93,19 @@ struct IdentificationJob {
     scratch: IdentificationScratch,
 }
 
+/// The circle figures' inputs: the test, and the ended run's samples about its reversal points
+/// (`None`: replaced by the next run before the job began).
+#[derive(Clone, Copy)]
+struct FiguresJob {
+    circle: CircleRun,
+    capture: Option<SpikeCapture>,
+}
+
 /// A job's copy of its inputs: one job at a time, so one place for all (the circle test is
 /// the largest).
 #[derive(Clone, Copy)]
 union Inputs {
-    circle: CircleRun,
+    figures: FiguresJob,
     identification: IdentificationJob,
     probe: ProbeInput,
 }
@@ -118,7 +130,7 @@ impl Inputs {
     }
 }
 
-/// The place a job runs in: a copy of its inputs and the results it computes (16 KiB: on the
+/// The place a job runs in: a copy of its inputs and the results it computes (17.4 KiB: on the
 /// pod a `static` in CCM SRAM beside the sample log, built in place).
 pub struct JobSlot {
     work: Option<Work>,
@@ -131,6 +143,8 @@ pub struct JobSlot {
     /// The bar's budget (identification; the figures carry theirs).
     bar: BarBudget,
     patch: ResultPatch,
+    /// The circle run's spikes (figures; `None`: no capture).
+    spikes: Option<RunSpikes>,
 }
 
 impl JobSlot {
@@ -142,6 +156,7 @@ impl JobSlot {
             failed: None,
             bar: BarBudget::NONE,
             patch: ResultPatch::new(),
+            spikes: None,
         } in place {
             inputs: Inputs::init,
         })
@@ -166,10 +181,23 @@ impl JobSlot {
         })
     }
 
-    /// Takes a copy of `circle` (the test as its run ended) for `request`'s figures.
-    pub(crate) fn load_figures(&mut self, circle: &CircleRun, request: FiguresRequest) {
-        // a place-to-place copy (memcpy): no temporary of the 14 KiB test on the stack
-        self.inputs.circle = *circle;
+    /// Takes a copy of `circle` (the test as its run ended) and of the run's `capture` for
+    /// `request`'s figures and spikes.
+    pub(crate) fn load_figures(
+        &mut self,
+        circle: &CircleRun,
+        capture: Option<&SpikeCapture>,
+        request: FiguresRequest,
+    ) {
+        let p = &raw mut self.inputs;
+        // SAFETY: `p` is valid for writes and aligned (from `&mut self.inputs`); writing the
+        // union's `figures` variant field by field (place-to-place copies, memcpy: no
+        // temporary of the 14 KiB test on the stack) initialises it, and the slot's `work`
+        // names that variant from here on.
+        unsafe {
+            (&raw mut (*p).figures.circle).write(*circle);
+            (&raw mut (*p).figures.capture).write(capture.copied());
+        }
         self.start(Work::Figures(request));
     }
 
@@ -205,6 +233,7 @@ impl JobSlot {
 
     fn start(&mut self, work: Work) {
         self.patch.clear();
+        self.spikes = None;
         self.ran = false;
         self.failed = None;
         self.work = Some(work);
@@ -220,7 +249,9 @@ impl JobSlot {
         match self.work {
             None => return,
             Some(Work::Figures(request)) => {
-                figures(unsafe { &self.inputs.circle }, &request, &mut self.patch);
+                let job = unsafe { &self.inputs.figures };
+                figures(&job.circle, &request, &mut self.patch);
+                self.spikes = job.capture.as_ref().map(spikes);
             }
             Some(Work::Identification(_)) => {
                 let job = unsafe { &mut self.inputs.identification };
@@ -246,7 +277,7 @@ impl JobSlot {
         let work = self.work.take()?;
         let (patch, failed) = (&mut self.patch, self.failed);
         Some(match work {
-            Work::Figures(request) => JobOutcome::Figures(request, patch),
+            Work::Figures(request) => JobOutcome::Figures(request, patch, self.spikes),
             Work::Identification(epoch) => JobOutcome::Identification(
                 epoch,
                 match failed {
@@ -276,6 +307,12 @@ impl JobSlot {
 #[inline(never)]
 fn figures(circle: &CircleRun, request: &FiguresRequest, patch: &mut ResultPatch) {
     circle.figures(request, patch);
+}
+
+/// The spikes at the four reversal points of a run's `capture`.
+#[inline(never)]
+fn spikes(capture: &SpikeCapture) -> RunSpikes {
+    [0, 1, 2, 3].map(|p| capture.spike(p))
 }
 
 /// Whether the identification gave a result.
@@ -330,7 +367,8 @@ impl App {
             };
             // a run begun again since (or a new test) replaced the runs the request read
             if self.circle.current(&request) {
-                slot.load_figures(&self.circle, request);
+                let capture = self.spikes.take_capture(request.direction);
+                slot.load_figures(&self.circle, capture, request);
                 self.job = Some(JobKind::CircleFigures);
                 self.update_status();
                 return true;
@@ -378,11 +416,17 @@ impl App {
             return;
         };
         match outcome {
-            JobOutcome::Figures(request, patch) => {
+            JobOutcome::Figures(request, patch, spikes) => {
                 if self.circle.current(&request) {
                     patch.apply(&mut self.results);
+                    self.spikes
+                        .file(request.direction, spikes, &mut self.results);
                     if let (true, Some(g)) = (request.both_directions, request.geometry) {
-                        self.planes.file(g.fit.geometry.plane, &mut self.results);
+                        self.planes.file(
+                            g.fit.geometry.plane,
+                            request.bar_length_mm,
+                            &mut self.results,
+                        );
                         self.sweep.file(g, &mut self.results);
                     }
                 }

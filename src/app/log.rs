@@ -6,7 +6,7 @@
 //! The log holds one run (a new run clears it). While the run fits, every sample is kept; when
 //! the log is full it keeps every other sample and from then on logs one in two, then one in
 //! four, … (`decimation`, a power of two, counted from the run's first sample number), so it
-//! always spans the whole run: a 57 s circle at 1 kHz in 432 records is logged at 1 kHz / 256.
+//! always spans the whole run: a 57 s circle at 1 kHz in 416 records is logged at 1 kHz / 256.
 //! Touch points are never dropped by the decimation. What could not be kept is counted
 //! ([`SampleLog::overwritten`]). The USB sample stream has every sample; replaying a decimated
 //! log gives the results of the logged samples, not the pod's own.
@@ -25,9 +25,9 @@ use crate::acquisition::{MAX_AXES, Sample, SampleFlags};
 use crate::in_place::{self, init_in_place};
 use core::mem::MaybeUninit;
 
-/// Records the firmware's log holds (36 bytes each: 15.2 KiB, in the 32 KiB CCM SRAM of the
-/// pod, `memory.x`, beside the 16.6 KiB job slot, `app::job`).
-pub const LOG_CAPACITY: usize = 432;
+/// Records the firmware's log holds (36 bytes each: 14.6 KiB, in the 32 KiB CCM SRAM of the
+/// pod, `memory.x`, beside the 17.4 KiB job slot, `app::job`).
+pub const LOG_CAPACITY: usize = 416;
 
 /// Temperature stored when the sample's temperature is not finite or beyond ±327 °C.
 const TEMP_INVALID: i16 = i16::MIN;

@@ -51,6 +51,7 @@ pub mod record;
 pub mod results;
 pub mod run;
 pub mod session;
+pub mod spikes;
 pub mod ssm;
 mod status;
 pub mod sweep;
@@ -80,6 +81,7 @@ use patterns::RunEstimator;
 use planes::PlaneRecords;
 use probe::Spheres;
 use run::RunMonitor;
+use spikes::Spikes;
 use ssm::{SsmRun, TwoStep};
 use sweep::FeedSweep;
 use trigger::ArcTrigger;
@@ -112,6 +114,8 @@ pub struct App {
     planes: PlaneRecords,
     /// The feed-rate sweep's circle and its feeds.
     sweep: FeedSweep,
+    /// The circle test's reversal spikes.
+    spikes: Spikes,
     ssm: SsmRun,
     /// The seed 002 procedure (meaningful once `seed002_begun`): in place, never rebuilt on
     /// the stack (3.3 KiB).
@@ -211,6 +215,7 @@ impl App {
             figures_requests: [None; 2],
             planes: PlaneRecords::default(),
             sweep: FeedSweep::default(),
+            spikes: Spikes::default(),
             probe_requests: [false; 2],
             spheres_epoch: 0,
             job: None,
@@ -301,6 +306,7 @@ impl App {
         }
         self.circle
             .not_determinable(id)
+            .or_else(|| self.spikes.why_invalid(id))
             .map(|r| r.as_str())
             .or_else(|| self.planes.why_invalid(id))
             .or_else(|| self.sweep.why_invalid(id))

@@ -26,6 +26,7 @@ use super::{App, Direction, Pattern, Pending, ResultId, RunMeta};
 use crate::acquisition::Sample;
 use crate::config::RunTrigger;
 use crate::metrology::bar_budget::{BarBudget, FigureKind};
+use crate::metrology::circle_fit::SampleUse;
 use crate::metrology::circle_fit::{CircleEstimate, CircleFit};
 
 /// The armed run's estimator.
@@ -58,6 +59,7 @@ impl App {
                     trigger = Some(ArcTrigger::new(&g, self.direction, setup.circle_arc_deg));
                 }
                 self.circle.begin_run(g, self.direction);
+                self.spikes.begin_run(g, self.direction);
                 self.live_u_at = u32::MAX;
                 RunEstimator::Circle
             }
@@ -154,6 +156,7 @@ impl App {
                         if let Some(r) = self.figures_requests.get_mut(circle::dir_index(d)) {
                             *r = Some(request);
                         }
+                        self.spikes.end_run(d, &mut self.results);
                         true
                     }
                     Err(_) => false,
@@ -258,7 +261,11 @@ impl App {
         let d = self.direction;
         match &mut self.estimator {
             RunEstimator::Circle => {
-                self.circle.update(s, d);
+                if self.circle.update(s, d) == SampleUse::Used
+                    && let Some(n) = self.circle.direction_of(&s.axes)
+                {
+                    self.spikes.update(s.delta_l_um, n, s.t_us);
+                }
             }
             RunEstimator::Step(_, fit) => {
                 fit.update(s);

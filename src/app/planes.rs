@@ -8,7 +8,9 @@
 //! all three planes have a mean scale ([`iso230_4::axis_scales`]). Every share of a reading's
 //! u propagates through the solution in quadrature, except the bar's length and temperature
 //! (`bar_offset`): one bar, one error, the same in every plane's radius, so it propagates
-//! linearly (as δL/R it reads as the same scale on every axis).
+//! linearly (as δL/R it reads as the same scale on every axis). That needs one bar: planes run
+//! with different calibrated bar lengths are no one set-up, and the scales are refused
+//! (the squarenesses, which do not depend on the bar's length, stay).
 
 use super::results::{CONTRIBUTOR_COUNT, Contributor, ResultEntry, ResultId, Results};
 use crate::metrology::iso230_4::{self, PlaneScales, ScaleReading};
@@ -26,6 +28,8 @@ const SCALES: [ResultId; 3] = [ResultId::ScaleX, ResultId::ScaleY, ResultId::Sca
 
 /// Why a summary result is invalid (the text after its name).
 const NOT_YET: &str = " not available yet: needs a complete circle or arc (both directions, every quadrant) in each of XY, YZ and ZX since the session was cleared";
+/// Why the scales are invalid when the planes' circles were run with different bars.
+const MIXED_BARS: &str = " not determinable: the planes' circles were run with different bar lengths (bar_length), not in one set-up; run XY, YZ and ZX with one bar";
 /// Why a plane's squareness is invalid.
 const NO_PLANE: &str = " not available yet: needs a complete circle or arc (both directions, every quadrant) in that plane since the session was cleared";
 
@@ -35,23 +39,28 @@ struct PlaneRecord {
     squareness: ResultEntry,
     scale_mean: ResultEntry,
     scale_mismatch: ResultEntry,
+    /// The bar's calibrated length the circle was run with, mm.
+    bar_length_mm: f32,
 }
 
 /// The latest complete circle of each plane (XY, YZ, ZX).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct PlaneRecords {
     records: [Option<PlaneRecord>; 3],
+    /// The three planes' circles were run with different bar lengths.
+    mixed_bars: bool,
 }
 
 impl PlaneRecords {
     /// Forgets every plane (a cleared session).
     pub fn clear(&mut self) {
-        self.records = [None; 3];
+        *self = Self::default();
     }
 
-    /// Files the complete circle in `plane` whose results `results` now holds, and publishes
-    /// the summary into it (a plane outside the summary, XZ, files nothing).
-    pub fn file(&mut self, plane: Plane, results: &mut Results) {
+    /// Files the complete circle in `plane`, run with a bar of `bar_length_mm`, whose results
+    /// `results` now holds, and publishes the summary into it (a plane outside the summary, XZ,
+    /// files nothing).
+    pub fn file(&mut self, plane: Plane, bar_length_mm: f32, results: &mut Results) {
         let k = match plane {
             Plane::XY => 0,
             Plane::YZ => 1,
@@ -63,13 +72,14 @@ impl PlaneRecords {
                 squareness: results.get(ResultId::Squareness),
                 scale_mean: results.get(ResultId::ScaleMean),
                 scale_mismatch: results.get(ResultId::ScaleMismatch),
+                bar_length_mm,
             });
         }
         self.publish(results);
     }
 
     /// Every summary result from the records (invalid where they do not give it).
-    fn publish(&self, results: &mut Results) {
+    fn publish(&mut self, results: &mut Results) {
         for (record, id) in self.records.iter().zip(SQUARENESS) {
             match record.map(|r| r.squareness).filter(|e| e.valid) {
                 Some(e) => results.set_budget(id, f64::from(e.value), e.shares),
@@ -77,6 +87,12 @@ impl PlaneRecords {
             }
         }
         results.clear(ResultId::ScaleX, ResultId::ScaleZ);
+        let mut bars = self.records.iter().flatten().map(|r| r.bar_length_mm);
+        let first = bars.next();
+        self.mixed_bars = bars.any(|b| Some(b) != first);
+        if self.mixed_bars {
+            return;
+        }
         let mut readings = [PlaneScales {
             mean: ScaleReading {
                 value: f32::NAN,
@@ -130,7 +146,7 @@ impl PlaneRecords {
         if SQUARENESS.contains(&id) {
             Some(NO_PLANE)
         } else if SCALES.contains(&id) {
-            Some(NOT_YET)
+            Some(if self.mixed_bars { MIXED_BARS } else { NOT_YET })
         } else {
             None
         }

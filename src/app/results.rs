@@ -158,8 +158,16 @@ results! {
     ScaleY => ("scale_y", UmPerM, "Three-plane summary: scale error of Y"),
     ScaleZ => ("scale_z", UmPerM, "Three-plane summary: scale error of Z"),
     SweepFeeds => ("sweep_feeds", One, "Feed-rate sweep: the feeds at which the same circle (centre, radius, arc) in the latest complete circle's plane has run, both directions, since the session was cleared; at most 8 (the latest kept)"),
-    SweepServoMismatch => ("sweep_servo_mismatch", Ms, "Feed-rate sweep: servo mismatch τ_u − τ_v over the feeds (their servo_mismatch weighted by 1/u²; needs two feeds)"),
+    SweepServoMismatch => ("sweep_servo_mismatch", Ms, "Feed-rate sweep: servo mismatch τ_u − τ_v over the feeds (their servo_mismatch weighted by 1/u²; needs three feeds)"),
     SweepFeedLimit => ("sweep_feed_limit", MmPerMin, "Feed-rate sweep: the feed at which G(b) first exceeds the lowest feed's by 20 %, linear between the feeds about the crossing"),
+    SpikeUPos => ("spike_u_pos", Um, "Ball-bar diagnosis: reversal spike of the first axis at its + end (θ = 0°), its height h (the spike e^(−Δt/τ) after the reversal, outward > 0; the mean of the latest CCW and CW runs, each crossing the point with 12 samples before and 64 from it)"),
+    SpikeUNeg => ("spike_u_neg", Um, "Ball-bar diagnosis: reversal spike of the first axis at its − end (θ = 180°), height"),
+    SpikeVPos => ("spike_v_pos", Um, "Ball-bar diagnosis: reversal spike of the second axis at its + end (θ = 90°), height"),
+    SpikeVNeg => ("spike_v_neg", Um, "Ball-bar diagnosis: reversal spike of the second axis at its − end (θ = 270°), height"),
+    SpikeTimeUPos => ("spike_time_u_pos", Ms, "Ball-bar diagnosis: reversal spike of the first axis at its + end, its time constant τ (u not evaluated)"),
+    SpikeTimeUNeg => ("spike_time_u_neg", Ms, "Ball-bar diagnosis: reversal spike of the first axis at its − end, time constant"),
+    SpikeTimeVPos => ("spike_time_v_pos", Ms, "Ball-bar diagnosis: reversal spike of the second axis at its + end, time constant"),
+    SpikeTimeVNeg => ("spike_time_v_neg", Ms, "Ball-bar diagnosis: reversal spike of the second axis at its − end, time constant"),
 }
 
 /// Number of results.

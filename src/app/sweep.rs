@@ -21,7 +21,7 @@ pub const SWEEP_FEEDS: usize = 8;
 pub const SWEEP_G_GROWTH: f32 = 0.2;
 
 /// Why `sweep_feed_limit` is invalid, by [`FeedLimitError`].
-const TOO_FEW: &str = " not available yet: needs the same circle complete at two feeds or more since the session was cleared";
+const TOO_FEW: &str = " not available yet: a sweep needs the same circle (centre, radius, arc, plane) complete at three feeds or more since the session was cleared";
 const NOT_REACHED: &str =
     " not reached: G(b) stays within 20 % of the lowest feed's up to the highest feed run";
 

@@ -207,6 +207,13 @@ pub struct CircleMachine {
     /// The served CNC's radial feed-in (and feed-out) of a self-triggered circle run
     /// (`run_trigger = FEED_IN`), mm; 0: a program without a feed-in.
     pub feed_in_mm: f64,
+    /// X reversal spike, µm: after X reverses it stays behind its command at the end of its
+    /// travel by h·e^(−Δt/τ) (Δt from the reversal; not at the run's start).
+    pub reversal_spike_x_um: f64,
+    /// Y reversal spike, µm.
+    pub reversal_spike_y_um: f64,
+    /// The spikes' time constant τ, ms.
+    pub reversal_spike_ms: f64,
 }
 
 impl Default for CircleMachine {
@@ -231,6 +238,9 @@ impl Default for CircleMachine {
             thermal_growth_x_um_per_min: 0.0,
             thermal_growth_y_um_per_min: 0.0,
             feed_in_mm: 1.0,
+            reversal_spike_x_um: 0.0,
+            reversal_spike_y_um: 0.0,
+            reversal_spike_ms: 10.0,
         }
     }
 }
@@ -282,6 +292,20 @@ impl CircleMachine {
         let ey_um = ey_um
             + self.straightness_y_along_x_um * (xa / r).powi(2)
             + self.thermal_growth_y_um_per_min * t_min * ya / r;
+        // reversal spikes: X reverses at |θ| = π, 2π, …, Y at π/2, 3π/2, … (the run's start
+        // at θ = 0 is no reversal); outward, decaying from the latest
+        let spike = |h: f64, first: f64| {
+            let turned = theta.abs();
+            if h == 0.0 || turned < first {
+                return 0.0;
+            }
+            let since = (turned - first).rem_euclid(std::f64::consts::PI);
+            h * (-since / omega.abs() / (self.reversal_spike_ms * 1e-3)).exp()
+        };
+        let ex_um =
+            ex_um + theta.cos().signum() * spike(self.reversal_spike_x_um, std::f64::consts::PI);
+        let ey_um = ey_um
+            + theta.sin().signum() * spike(self.reversal_spike_y_um, std::f64::consts::FRAC_PI_2);
         let (x, y) = (
             xa + ex_um * 1e-3 - self.socket_offset_um[0] * 1e-3,
             ya + ey_um * 1e-3 - self.socket_offset_um[1] * 1e-3,

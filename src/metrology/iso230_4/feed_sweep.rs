@@ -6,6 +6,11 @@
 //! limit** is the feed at which G(b) first exceeds the lowest feed's G(b) by a stated fraction,
 //! interpolated linearly between the two feeds about the crossing.
 
+/// Feeds a sweep needs before it reports (its servo mismatch and feed limit): three, so that a
+/// limit is read against more than the two feeds that bound it and a mismatch that is not a
+/// pure lag (τ moving with the feed) shows as scatter rather than as a line through two points.
+pub const SWEEP_MIN_FEEDS: usize = 3;
+
 /// One feed's circle as the sweep reads it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FeedPoint {
@@ -20,14 +25,15 @@ pub struct FeedPoint {
 /// Why the feed limit is not available.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum FeedLimitError {
-    /// Fewer than two feeds.
+    /// Fewer than [`SWEEP_MIN_FEEDS`] feeds.
     TooFewFeeds,
     /// G(b) stays within the stated growth up to the highest feed run.
     NotReached,
 }
 
 /// The servo mismatch of the sweep, ms, with its standard uncertainty: the mean of the feeds'
-/// weighted by 1/u² (those with a finite τ and u > 0); `None` with fewer than two.
+/// weighted by 1/u² (those with a finite τ and u > 0); `None` with fewer than
+/// [`SWEEP_MIN_FEEDS`].
 pub fn sweep_servo_mismatch(points: &[FeedPoint]) -> Option<[f32; 2]> {
     let (mut sw, mut swx, mut n) = (0.0f32, 0.0f32, 0u32);
     for p in points {
@@ -39,7 +45,7 @@ pub fn sweep_servo_mismatch(points: &[FeedPoint]) -> Option<[f32; 2]> {
             n += 1;
         }
     }
-    (n >= 2 && sw > 0.0).then(|| [swx / sw, crate::num::sqrtf(1.0 / sw)])
+    (n as usize >= SWEEP_MIN_FEEDS && sw > 0.0).then(|| [swx / sw, crate::num::sqrtf(1.0 / sw)])
 }
 
 /// The feed limit and its standard uncertainty, mm/min: the feed at which G(b) first exceeds
@@ -50,7 +56,7 @@ pub fn sweep_servo_mismatch(points: &[FeedPoint]) -> Option<[f32; 2]> {
 pub fn feed_limit(points: &[FeedPoint], growth: f32) -> Result<[f32; 2], FeedLimitError> {
     // ascending feed, by index (no allocation: at most a few feeds)
     let n = points.len();
-    if n < 2 {
+    if n < SWEEP_MIN_FEEDS {
         return Err(FeedLimitError::TooFewFeeds);
     }
     let nth = |k: usize| -> Option<&FeedPoint> {

@@ -31,13 +31,15 @@
 //!   share of G;
 //! - `planes`: the machine's three axis scales from circles in its three planes;
 //! - `feed_sweep`: the servo mismatch and the feed limit of G(b) from one circle at several
-//!   feeds.
+//!   feeds;
+//! - `spikes`: the reversal spikes from the samples about each reversal point.
 
 mod centre;
 mod diagnostics;
 mod feed_sweep;
 mod figures;
 mod planes;
+mod spikes;
 mod support;
 
 pub use centre::TracedCentre;
@@ -45,12 +47,15 @@ pub use diagnostics::{
     CYCLIC_SIGNIFICANCE, DIAGNOSTIC_PARAMETERS, Diagnosed, Diagnostics, MAX_CYCLIC_ORDER,
     RESOLUTION_UM, mean_diagnostics,
 };
-pub use feed_sweep::{FeedLimitError, FeedPoint, feed_limit, sweep_servo_mismatch};
+pub use feed_sweep::{
+    FeedLimitError, FeedPoint, SWEEP_MIN_FEEDS, feed_limit, sweep_servo_mismatch,
+};
 pub use figures::{BidirectionalFigures, DirectionFigures};
 pub use planes::{
     AxisScales, AxisScalesError, PlaneScales, SCALE_READINGS, SUMMARY_PLANES, ScaleReading,
     axis_scales,
 };
+pub use spikes::{SPIKE_POST, SPIKE_PRE, SPIKE_WINDOW, Spike, SpikeCapture, TAU_SPAN};
 pub use support::{
     ArcSupport, DIAGNOSES, Diagnosis, FAULT_SIGNIFICANCE, FULL_CIRCLE_GAP_DEG, Fault,
     NotDeterminable, REVERSAL_SIDE_DEG,

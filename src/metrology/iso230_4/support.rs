@@ -138,6 +138,9 @@ pub enum NotDeterminable {
     NeedsFullCircle,
     /// The arcs do not cross the reversal point (both sides of it, in both directions).
     ReversalNotCrossed,
+    /// The next run began before the run's job read its samples about the reversal points
+    /// (reversal spikes: the job slot was busy with a longer job).
+    SamplesReplaced,
 }
 
 impl NotDeterminable {
@@ -153,6 +156,9 @@ impl NotDeterminable {
             Self::NeedsFullCircle => " not determinable from a partial arc: needs a full circle",
             Self::ReversalNotCrossed => {
                 " not determinable: the arcs do not cross that reversal point"
+            }
+            Self::SamplesReplaced => {
+                " not determinable: the next run began before the last run's samples were read; run that direction again"
             }
         }
     }

@@ -266,7 +266,7 @@ const fn doc(c: Command) -> CommandDoc {
         ),
         DataLog => d(
             "DATA:LOG?",
-            "the pod's log of the last run (at most 432 records, decimated by powers of two) as a definite-length block `#<n><length><text>` then `\\n`, in the text of the [sample stream](../sample-stream.md); must end its line",
+            "the pod's log of the last run (at most 416 records, decimated by powers of two) as a definite-length block `#<n><length><text>` then `\\n`, in the text of the [sample stream](../sample-stream.md); must end its line",
             "DATA:LOG?",
         ),
         SystCount => d(

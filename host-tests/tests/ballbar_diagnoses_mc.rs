@@ -15,7 +15,7 @@
 use ballpod::acquisition::{Sample, SampleFlags};
 use ballpod::metrology::circle_fit::CircleFitConfig;
 use ballpod::metrology::iso230_4::{
-    CircularTest, Diagnosis, Diagnostics, Direction, NotDeterminable, mean_diagnostics,
+    CircularTest, Diagnosis, Diagnostics, Direction, NotDeterminable,
 };
 use ballpod::metrology::pattern::{ArcGeometry, Plane, Sensitivity};
 use ballpod_host::oracle::Rng;
@@ -48,6 +48,9 @@ struct Machine {
     cyc_um: f64,
     cyc_order: u32,
     cyc_phase: f64,
+    /// Lateral play of u's and v's carriages, µm: E_v = (p_u/2)·sign(u̇), E_u = (p_v/2)·sign(v̇).
+    p_u: f64,
+    p_v: f64,
     noise_um: f64,
     /// The arc: its start angle and length, degrees (360: a full circle).
     start_deg: f64,
@@ -78,8 +81,12 @@ fn run(m: &Machine, dir: Direction, rng: &mut Rng) -> Vec<Sample> {
             let (su, sv) = ((-d * th.sin()).signum(), (d * th.cos()).signum());
             let b_u = if u > 0.0 { m.b_u[0] } else { m.b_u[1] } * 1e-3;
             let b_v = if v > 0.0 { m.b_v[0] } else { m.b_v[1] } * 1e-3;
-            let eu = m.squareness * v + m.k_u * u - su * b_u / 2.0 + m.s_v * 1e-3 * (v / r).powi(2);
-            let ev = m.k_v * v - sv * b_v / 2.0 + m.s_u * 1e-3 * (u / r).powi(2);
+            let eu = m.squareness * v + m.k_u * u - su * b_u / 2.0
+                + m.s_v * 1e-3 * (v / r).powi(2)
+                + sv * m.p_v * 1e-3 / 2.0;
+            let ev = m.k_v * v - sv * b_v / 2.0
+                + m.s_u * 1e-3 * (u / r).powi(2)
+                + su * m.p_u * 1e-3 / 2.0;
             let len = ((u + eu).powi(2) + (v + ev).powi(2)).sqrt();
             let dl = (len - r) * 1e3
                 + m.cyc_um * (f64::from(m.cyc_order) * th + m.cyc_phase).cos()
@@ -116,9 +123,7 @@ fn diagnose(m: &Machine, seed: u64) -> [Diagnostics; 3] {
             t.update(&s, dir);
         }
     }
-    let ccw = t.diagnostics(Direction::Ccw, 0.0).expect("ccw diagnoses");
-    let cw = t.diagnostics(Direction::Cw, 0.0).expect("cw diagnoses");
-    [ccw, cw, mean_diagnostics(&ccw, &cw)]
+    t.both_directions(0.0).expect("diagnoses")
 }
 
 /// The injected value of `which` (the mean of the two directions), in its unit.
@@ -138,6 +143,8 @@ fn truth(m: &Machine, which: Diagnosis) -> f64 {
         D::StraightnessV => m.s_v,
         // R·(k_u + k_v)/2, mm → µm (the bar is the radius: no length offset)
         D::Radius => m.radius_mm * (m.k_u + m.k_v) / 2.0 * 1e3,
+        D::LateralPlayU => m.p_u,
+        D::LateralPlayV => m.p_v,
     }
 }
 
@@ -172,7 +179,10 @@ fn machine(rng: &mut Rng, backlash: bool, straightness: bool, others: bool, full
         noise_um: 0.2,
         start_deg: rng.range(0.0, 360.0),
         arc_deg: 360.0,
+        ..Default::default()
     };
+    m.p_u = on(others, rng.range(-4.0, 4.0));
+    m.p_v = on(others, rng.range(-4.0, 4.0));
     if !full {
         // 220–300° reaching into every quadrant by 5° at least (the diagnoses need all four)
         m.arc_deg = rng.range(220.0, 300.0);
@@ -215,12 +225,13 @@ fn verdict(errors: &[(f64, f64)]) -> (f64, f64, bool) {
     )
 }
 
-/// 300 circles in each of four groups: reversal steps alone (half full circles, half partial
-/// arcs), straightness alone (full), every fault together on full circles, and on partial arcs.
+/// 300 circles in each of five groups: reversal steps alone (half full circles, half partial
+/// arcs), straightness alone (full), every fault together on full circles, and on partial arcs,
+/// lateral play alone (full).
 #[test]
 fn monte_carlo_reversal_points_and_straightness_cover_the_truth_within_their_u() {
     let mut rng = Rng::new(20_261_130);
-    let groups = 4;
+    let groups = 5;
     let per_group = 300;
     // [group][diagnosis]
     let mut errors: Vec<Errors> = vec![vec![Vec::new(); Diagnosis::ALL.len()]; groups];
@@ -230,7 +241,13 @@ fn monte_carlo_reversal_points_and_straightness_cover_the_truth_within_their_u()
                 0 => machine(&mut rng, true, false, false, i % 2 == 0),
                 1 => machine(&mut rng, false, true, false, true),
                 2 => machine(&mut rng, true, true, true, true),
-                _ => machine(&mut rng, true, true, true, false),
+                3 => machine(&mut rng, true, true, true, false),
+                _ => {
+                    let mut m = machine(&mut rng, false, false, false, true);
+                    m.p_u = rng.range(-6.0, 6.0);
+                    m.p_v = rng.range(-6.0, 6.0);
+                    m
+                }
             };
             let [.., mean] = diagnose(&m, (g * 1000 + i) as u64);
             // the pod's reading of the arc agrees with the geometry's
@@ -254,6 +271,7 @@ fn monte_carlo_reversal_points_and_straightness_cover_the_truth_within_their_u()
             Diagnosis::StraightnessU | Diagnosis::StraightnessV => (&[1], &[2]),
             Diagnosis::Squareness | Diagnosis::Radius => (&[], &[2, 3]),
             Diagnosis::ScaleMismatch | Diagnosis::Cyclic => (&[], &[2]),
+            Diagnosis::LateralPlayU | Diagnosis::LateralPlayV => (&[4], &[2]),
             _ => (&[0], &[2, 3]),
         };
         for (label, set) in [("alone", alone), ("with every fault", all)] {

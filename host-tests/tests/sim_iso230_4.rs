@@ -223,3 +223,51 @@ fn reversal_spikes_come_back_at_each_point_with_their_height() {
     // 0° is the runs' start and end: no window about it
     assert!(r.result("spike_u_pos").is_none());
 }
+
+/// Lateral play on the virtual machine (X 3 µm, Y −2 µm, with the default machine's other
+/// faults and the full sensor chain) comes back for each axis within 3u (the u of the pod's
+/// results table, its own and the bar's), is named, and leaves the other diagnoses where the
+/// machine without it puts them (within their u).
+#[test]
+fn lateral_play_comes_back_per_axis_and_moves_no_other_diagnosis() {
+    let o = SimOptions {
+        seed: 14,
+        repeats: 1,
+        seed002: false,
+        circle: true,
+        three_planes: false,
+        ..SimOptions::default()
+    };
+    let run = |m: &MachineFile| {
+        simulate(m, &o, &mut |_, _, _| {})
+            .expect("simulated session")
+            .report
+    };
+    let mut m = MachineFile::default();
+    let without = run(&m);
+    m.circle.lateral_play_x_um = 3.0;
+    m.circle.lateral_play_y_um = -2.0;
+    let with = run(&m);
+    for (n, truth) in [("lateral_play_u", 3.0), ("lateral_play_v", -2.0)] {
+        let v = with.result(n).unwrap_or_else(|| panic!("{n} not valid"));
+        let u = f64::from(v.u.expect("u"));
+        let got = f64::from(v.value);
+        assert!((got - truth).abs() <= 3.0 * u, "{n} {got} ± {u}");
+    }
+    let named = with.result("faults_named").expect("faults_named").value as u32;
+    assert_eq!(named & (128 | 256), 128 | 256, "faults_named {named}");
+    for n in [
+        "squareness",
+        "scale_mismatch",
+        "reversal_u",
+        "reversal_v",
+        "cyclic_amplitude",
+        "straightness_u",
+        "straightness_v",
+    ] {
+        let (a, b) = (without.result(n).expect(n), with.result(n).expect(n));
+        let u = f64::from(a.u.expect("u")).hypot(f64::from(b.u.expect("u")));
+        let d = f64::from(b.value) - f64::from(a.value);
+        assert!(d.abs() <= 3.0 * u, "{n} moved by {d} (u {u})");
+    }
+}

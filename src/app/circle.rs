@@ -343,6 +343,7 @@ impl CircleRun {
     ) -> Result<FiguresRequest, CircleFitError> {
         results.clear(ResultId::GBidir, ResultId::CentreDv);
         results.clear(ResultId::ReversalUPos, ResultId::ScaleMean);
+        results.clear(ResultId::LateralPlayU, ResultId::ShareLateralPlayV);
         let (g, fmax, fmin) = figure_ids(d);
         for id in [
             g,
@@ -436,12 +437,10 @@ impl CircleRun {
                 results.set_with_bar(id, v.value, [v.std_uncertainty, v.centre_um], bar, kind);
             }
         }
-        let diag = |d| self.test.diagnostics(d, u_centre_um);
-        let (Ok(ccw), Ok(cw)) = (diag(Direction::Ccw), diag(Direction::Cw)) else {
+        let Ok([ccw, cw, m]) = self.test.both_directions(u_centre_um) else {
             // an arc short of a quadrant: no diagnoses (IsoError::NotFullCircle)
             return;
         };
-        let m = iso230_4::mean_diagnostics(&ccw, &cw);
         // what the arcs do not determine stays invalid ([`CircleRun::not_determinable`])
         for (id, which) in DIAGNOSIS_RESULTS {
             if let Ok(v) = m.determined(which) {
@@ -510,7 +509,7 @@ impl CircleRun {
 }
 
 /// The diagnosis results and the diagnosis each publishes (the mean of the two directions).
-const DIAGNOSIS_RESULTS: [(ResultId, Diagnosis); 11] = [
+const DIAGNOSIS_RESULTS: [(ResultId, Diagnosis); 13] = [
     (ResultId::Squareness, Diagnosis::Squareness),
     (ResultId::ScaleMismatch, Diagnosis::ScaleMismatch),
     (ResultId::ReversalU, Diagnosis::ReversalU),
@@ -522,10 +521,12 @@ const DIAGNOSIS_RESULTS: [(ResultId, Diagnosis); 11] = [
     (ResultId::ReversalVNeg, Diagnosis::ReversalVNeg),
     (ResultId::StraightnessU, Diagnosis::StraightnessU),
     (ResultId::StraightnessV, Diagnosis::StraightnessV),
+    (ResultId::LateralPlayU, Diagnosis::LateralPlayU),
+    (ResultId::LateralPlayV, Diagnosis::LateralPlayV),
 ];
 
 /// The ranking results: each fault's share of G ([`iso230_4::Diagnostics::share_of_g`]).
-const SHARE_RESULTS: [(ResultId, Fault); 7] = [
+const SHARE_RESULTS: [(ResultId, Fault); 9] = [
     (ResultId::ShareSquareness, Fault::Squareness),
     (ResultId::ShareScaleMismatch, Fault::ScaleMismatch),
     (ResultId::ShareReversalU, Fault::ReversalU),
@@ -533,6 +534,8 @@ const SHARE_RESULTS: [(ResultId, Fault); 7] = [
     (ResultId::ShareStraightnessU, Fault::StraightnessU),
     (ResultId::ShareStraightnessV, Fault::StraightnessV),
     (ResultId::ShareCyclic, Fault::Cyclic),
+    (ResultId::ShareLateralPlayU, Fault::LateralPlayU),
+    (ResultId::ShareLateralPlayV, Fault::LateralPlayV),
 ];
 
 /// Publishes the mean scale (k_u + k_v)/2 of the plane's axes, µm/m, from the joint fit's

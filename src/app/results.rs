@@ -149,7 +149,7 @@ results! {
     ShareStraightnessU => ("share_straightness_u", Um, "Ball-bar ranking: the first axis's straightness's share (half of it: the third-order shape)"),
     ShareStraightnessV => ("share_straightness_v", Um, "Ball-bar ranking: the second axis's straightness's share"),
     ShareCyclic => ("share_cyclic", Um, "Ball-bar ranking: the cyclic error's share (twice its amplitude)"),
-    FaultsNamed => ("faults_named", One, "Ball-bar diagnoses named as faults (at least 3 standard uncertainties from zero, the cyclic error 4), the sum of: 1 squareness, 2 scale mismatch, 4 reversal of the first axis (either point or the mean), 8 of the second, 16 straightness of the first, 32 of the second, 64 cyclic error"),
+    FaultsNamed => ("faults_named", One, "Ball-bar diagnoses named as faults (at least 3 standard uncertainties from zero, the cyclic error 4), the sum of: 1 squareness, 2 scale mismatch, 4 reversal of the first axis (either point or the mean), 8 of the second, 16 straightness of the first, 32 of the second, 64 cyclic error, 128 lateral play of the first, 256 of the second"),
     ScaleMean => ("scale_mean", UmPerM, "Ball-bar diagnosis: mean scale error (k_u + k_v)/2 of the plane's two axes relative to the bar's calibrated length, from the radius of the joint fit (every quadrant; u with the bar's length and temperature)"),
     SquarenessXy => ("squareness_xy", Urad, "Three-plane summary: out-of-squareness of X and Y, from the latest complete XY circle since the session was cleared (> 0: the angle between +X and +Y is less than 90°)"),
     SquarenessYz => ("squareness_yz", Urad, "Three-plane summary: out-of-squareness of Y and Z, from the latest YZ circle or arc (> 0: the angle between +Y and +Z is less than 90°)"),
@@ -168,6 +168,10 @@ results! {
     SpikeTimeUNeg => ("spike_time_u_neg", Ms, "Ball-bar diagnosis: reversal spike of the first axis at its − end, time constant"),
     SpikeTimeVPos => ("spike_time_v_pos", Ms, "Ball-bar diagnosis: reversal spike of the second axis at its + end, time constant"),
     SpikeTimeVNeg => ("spike_time_v_neg", Ms, "Ball-bar diagnosis: reversal spike of the second axis at its − end, time constant"),
+    LateralPlayU => ("lateral_play_u", Um, "Ball-bar diagnosis: lateral play of the first axis, its carriage moving across its guideway when its own direction reverses (> 0: it runs on the +v side while travelling +u), from the cusp the two directions' profiles differ by (full circle only)"),
+    LateralPlayV => ("lateral_play_v", Um, "Ball-bar diagnosis: lateral play of the second axis (> 0: it runs on the +u side while travelling +v; full circle only)"),
+    ShareLateralPlayU => ("share_lateral_play_u", Um, "Ball-bar ranking: the first axis's lateral play's share (half of it: its cusp)"),
+    ShareLateralPlayV => ("share_lateral_play_v", Um, "Ball-bar ranking: the second axis's lateral play's share"),
 }
 
 /// Number of results.

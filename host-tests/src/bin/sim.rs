@@ -353,14 +353,30 @@ fn print_iso(m: &MachineFile, r: &Report) {
             f("servo_mismatch"),
         ),
         // each reversal point (the machine's step is the same at both ends of an axis)
-        ("reversal X at 0° (µm)", c.backlash_x_um, f("reversal_u_pos")),
-        ("reversal X at 180° (µm)", c.backlash_x_um, f("reversal_u_neg")),
-        ("reversal Y at 90° (µm)", c.backlash_y_um, f("reversal_v_pos")),
-        ("reversal Y at 270° (µm)", c.backlash_y_um, f("reversal_v_neg")),
+        (
+            "reversal X at 0° (µm)",
+            c.backlash_x_um,
+            f("reversal_u_pos"),
+        ),
+        (
+            "reversal X at 180° (µm)",
+            c.backlash_x_um,
+            f("reversal_u_neg"),
+        ),
+        (
+            "reversal Y at 90° (µm)",
+            c.backlash_y_um,
+            f("reversal_v_pos"),
+        ),
+        (
+            "reversal Y at 270° (µm)",
+            c.backlash_y_um,
+            f("reversal_v_neg"),
+        ),
     ];
     // the faults the default machine leaves out, where this one has them: straightness (E_y =
     // s·(x/R)² is X's, `straightness_u`), spikes (X's at 180°, Y's at 90° and 270°; a run's
-    // start and end at 0° is no reversal)
+    // start and end at 0° is no reversal), lateral play
     for (name, injected, result) in [
         (
             "straightness X (µm)",
@@ -372,13 +388,11 @@ fn print_iso(m: &MachineFile, r: &Report) {
             c.straightness_x_along_y_um,
             "straightness_v",
         ),
-        (
-            "spike X at 180° (µm)",
-            c.reversal_spike_x_um,
-            "spike_u_neg",
-        ),
+        ("spike X at 180° (µm)", c.reversal_spike_x_um, "spike_u_neg"),
         ("spike Y at 90° (µm)", c.reversal_spike_y_um, "spike_v_pos"),
         ("spike Y at 270° (µm)", c.reversal_spike_y_um, "spike_v_neg"),
+        ("lateral play X (µm)", c.lateral_play_x_um, "lateral_play_u"),
+        ("lateral play Y (µm)", c.lateral_play_y_um, "lateral_play_v"),
     ] {
         if injected != 0.0 {
             rows.push((name, injected, f(result)));

@@ -214,6 +214,11 @@ pub struct CircleMachine {
     pub reversal_spike_y_um: f64,
     /// The spikes' time constant τ, ms.
     pub reversal_spike_ms: f64,
+    /// X's lateral play, µm: its carriage runs p/2 towards +Y while X travels +, towards −Y
+    /// while it travels − (E_y = (p/2)·sign(ẋ)).
+    pub lateral_play_x_um: f64,
+    /// Y's lateral play, µm (E_x = (p/2)·sign(ẏ)).
+    pub lateral_play_y_um: f64,
 }
 
 impl Default for CircleMachine {
@@ -241,6 +246,8 @@ impl Default for CircleMachine {
             reversal_spike_x_um: 0.0,
             reversal_spike_y_um: 0.0,
             reversal_spike_ms: 10.0,
+            lateral_play_x_um: 0.0,
+            lateral_play_y_um: 0.0,
         }
     }
 }
@@ -281,8 +288,10 @@ impl CircleMachine {
             * (f64::from(self.cyclic_order) * theta + self.cyclic_phase_deg.to_radians()).cos();
         let ex_um = self.squareness_urad * 1e-3 * ya + self.scale_x_um_per_m * 1e-3 * xa
             - vx.signum() * self.backlash_x_um / 2.0
+            + vy.signum() * self.lateral_play_y_um / 2.0
             + radial * theta.cos();
         let ey_um = self.scale_y_um_per_m * 1e-3 * ya - vy.signum() * self.backlash_y_um / 2.0
+            + vx.signum() * self.lateral_play_x_um / 2.0
             + radial * theta.sin();
         // time since the run's start: every run starts at θ = 0 and turns at |ω|
         let t_min = theta.abs() / omega.abs() / 60.0;

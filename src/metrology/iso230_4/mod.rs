@@ -32,12 +32,14 @@
 //! - `planes`: the machine's three axis scales from circles in its three planes;
 //! - `feed_sweep`: the servo mismatch and the feed limit of G(b) from one circle at several
 //!   feeds;
-//! - `spikes`: the reversal spikes from the samples about each reversal point.
+//! - `spikes`: the reversal spikes from the samples about each reversal point;
+//! - `lateral`: each axis's lateral play from the difference of the two directions.
 
 mod centre;
 mod diagnostics;
 mod feed_sweep;
 mod figures;
+mod lateral;
 mod planes;
 mod spikes;
 mod support;

@@ -6,8 +6,8 @@
 //! extend it to the cyclic error, whose orders are orthogonal only on the full circle):
 //! - every diagnosis needs bins in all four quadrants ([`super::IsoError::NotFullCircle`]);
 //! - squareness: that alone (its u grows as the arc shrinks);
-//! - scale mismatch, straightness, cyclic error: a full circle (no gap wider than
-//!   [`FULL_CIRCLE_GAP_DEG`]);
+//! - scale mismatch, straightness, cyclic error, lateral play: a full circle (no gap wider
+//!   than [`FULL_CIRCLE_GAP_DEG`]);
 //! - a reversal point's step: the arc crosses it ([`REVERSAL_SIDE_DEG`] each side, half covered);
 //!   an axis's mean step: both of its points crossed.
 //!
@@ -110,7 +110,12 @@ impl ArcSupport {
         };
         match which {
             D::Squareness | D::Radius => Ok(()),
-            D::ScaleMismatch | D::Cyclic | D::StraightnessU | D::StraightnessV => {
+            D::ScaleMismatch
+            | D::Cyclic
+            | D::StraightnessU
+            | D::StraightnessV
+            | D::LateralPlayU
+            | D::LateralPlayV => {
                 if self.full_circle {
                     Ok(())
                 } else {
@@ -195,10 +200,16 @@ pub enum Diagnosis {
     /// (every fault's shape fitted alongside, so a partial arc reads it without the others'
     /// bias; the mean scale of the plane's axes, [`crate::app`]'s `scale_mean`).
     Radius = 11,
+    /// Lateral play of u's carriage across its guideway, switching with u's direction, µm
+    /// ([`CircularTest::lateral_play`](super::CircularTest::lateral_play): from the difference of the two directions; not a column of one
+    /// direction's fit, where it reads NaN).
+    LateralPlayU = 12,
+    /// Lateral play of v's carriage, µm.
+    LateralPlayV = 13,
 }
 
 /// Number of [`Diagnosis`] kinds.
-pub const DIAGNOSES: usize = 12;
+pub const DIAGNOSES: usize = 14;
 
 impl Diagnosis {
     /// Every diagnosis, in discriminant order.
@@ -215,6 +226,8 @@ impl Diagnosis {
         Self::StraightnessU,
         Self::StraightnessV,
         Self::Radius,
+        Self::LateralPlayU,
+        Self::LateralPlayV,
     ];
 
     /// The reversal point diagnoses, in angle order (0°, 90°, 180°, 270°).
@@ -245,11 +258,15 @@ pub enum Fault {
     StraightnessV = 5,
     /// Cyclic error.
     Cyclic = 6,
+    /// Lateral play of u.
+    LateralPlayU = 7,
+    /// Lateral play of v.
+    LateralPlayV = 8,
 }
 
 impl Fault {
     /// Every fault, in discriminant order.
-    pub const ALL: [Fault; 7] = [
+    pub const ALL: [Fault; 9] = [
         Self::Squareness,
         Self::ScaleMismatch,
         Self::ReversalU,
@@ -257,6 +274,8 @@ impl Fault {
         Self::StraightnessU,
         Self::StraightnessV,
         Self::Cyclic,
+        Self::LateralPlayU,
+        Self::LateralPlayV,
     ];
 
     /// The diagnoses that make up the fault, the one whose determinability decides its share
@@ -271,6 +290,8 @@ impl Fault {
             Self::StraightnessU => &[D::StraightnessU],
             Self::StraightnessV => &[D::StraightnessV],
             Self::Cyclic => &[D::Cyclic],
+            Self::LateralPlayU => &[D::LateralPlayU],
+            Self::LateralPlayV => &[D::LateralPlayV],
         }
     }
 }
@@ -312,7 +333,8 @@ impl Diagnostics {
     /// share scales with |value|, so u is the value's u times the same factor) — squareness
     /// S·R, scale mismatch Δk·R (µm/m × m), a reversal the larger |B| of its two points, a
     /// straightness |s|/2 (its sin 3θ/4 part; the sin θ part moves the circle), a cyclic
-    /// error twice its amplitude. `None` where the fault's diagnosis is not determinable (a
+    /// error twice its amplitude, a lateral play |p|/2 (its cusp (p/2)·|sin θ|: 0 at the
+    /// axis's reversal points, p/2 at the other axis's). `None` where the fault's diagnosis is not determinable (a
     /// reversal: either point). Shares do not add up to G: the signatures overlap.
     pub fn share_of_g(&self, fault: Fault, radius_mm: f32) -> Option<Diagnosed> {
         use Diagnosis as D;
@@ -330,6 +352,8 @@ impl Diagnostics {
             Fault::StraightnessU => scaled(D::StraightnessU, 0.5),
             Fault::StraightnessV => scaled(D::StraightnessV, 0.5),
             Fault::Cyclic => scaled(D::Cyclic, 2.0),
+            Fault::LateralPlayU => scaled(D::LateralPlayU, 0.5),
+            Fault::LateralPlayV => scaled(D::LateralPlayV, 0.5),
             Fault::ReversalU | Fault::ReversalV => {
                 let (pos, neg) = if fault == Fault::ReversalU {
                     (D::ReversalUPos, D::ReversalUNeg)

@@ -396,6 +396,17 @@ pub fn strip_block_header<'a>(file: &Path, text: &'a str) -> Result<&'a str, Log
 /// crate: its `# key=value` lines interleave with the rows and carry the run's state (the
 /// plain logs and the readings tables are read with `csv`).
 pub fn parse_runs(file: &Path, text: &str) -> Result<Vec<RecordedRun>, LogError> {
+    parse_runs_with(file, text, true)
+}
+
+/// [`parse_runs`]; `every_axis`: each configured encoder input must have its column (a pod's
+/// file; a plain log's synthetic header names the default inputs, and [`parse_plain`] checks
+/// the columns its pattern needs).
+fn parse_runs_with(
+    file: &Path,
+    text: &str,
+    every_axis: bool,
+) -> Result<Vec<RecordedRun>, LogError> {
     let err = |line: usize, field: Option<&str>, what: String| LogError {
         file: file.to_path_buf(),
         line,
@@ -629,6 +640,17 @@ pub fn parse_runs(file: &Path, text: &str) -> Result<Vec<RecordedRun>, LogError>
                     return Err(err(n, Some(need.name()), "column missing".into()));
                 }
             }
+            // every configured encoder input has its column (the pod writes them all; a run
+            // without one would replay as an axis fault, not as recorded)
+            for (i, column) in csv::axis_columns(&h.meta).filter(|_| every_axis) {
+                if !v.iter().any(|c| matches!(c, Col::Axis(j, _) if *j == i)) {
+                    return Err(err(
+                        n,
+                        Some(column),
+                        "column missing (the run's configuration has this encoder input)".into(),
+                    ));
+                }
+            }
             if let Err(e) = h.meta.config.validate() {
                 let (what, why) = ballpod::app::CommandError::Config(e).text();
                 return Err(err(
@@ -840,7 +862,7 @@ pub fn parse_plain(file: &Path, text: &str, meta: RunMeta) -> Result<RecordedRun
     // the synthetic text has one line per input line (+1 for the version line, +config lines
     // ahead): report errors on the input's own line numbers
     let offset = csv::meta_lines();
-    let mut runs = parse_runs(file, &body).map_err(|mut e| {
+    let mut runs = parse_runs_with(file, &body, false).map_err(|mut e| {
         e.line = e.line.saturating_sub(offset);
         e
     })?;

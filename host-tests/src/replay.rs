@@ -231,8 +231,28 @@ pub fn replay_run(app: &mut App, r: &RecordedRun) -> Result<(), String> {
     app.execute(Command::Arm).map_err(|e| refused("arm", e))?;
     app.execute(Command::Start)
         .map_err(|e| refused("start", e))?;
+    // a decimated log (`# decimation=d`: the pod's DATA:LOG? of a run longer than it holds)
+    // keeps the run's samples first + k·d: they are numbered first + k here, so the
+    // application counts a gap the log has as lost and not the samples it thinned out (the
+    // results are those of the logged samples)
+    let d = r.decimation.max(1);
+    let first = r.samples().next().map_or(0, |s| s.seq);
     for e in &r.events {
         match e {
+            Event::Sample(s) if d > 1 => {
+                let k = s.seq.wrapping_sub(first);
+                if k % d != 0 {
+                    return Err(format!(
+                        "{name}: sample {} is not one the log keeps (1 in {d} from {first})",
+                        s.seq
+                    ));
+                }
+                let s = ballpod::acquisition::Sample {
+                    seq: first.wrapping_add(k / d),
+                    ..*s
+                };
+                app.on_sample(&s, &mut ());
+            }
             Event::Sample(s) => app.on_sample(s, &mut ()),
             Event::Touch(t) => app.on_recorded_touch(t, &mut ()),
         }

@@ -251,7 +251,32 @@ pub fn parse_session(path: &Path, text: &str) -> Result<SessionFile, LogError> {
         ));
     }
     check_runs(path, text, &s)?;
+    // every `[setup]` value against the pod's configuration, with its line (applied to each
+    // run later, where the text is no longer at hand)
+    apply_setup(path, &s.setup, &mut Config::default()).map_err(|mut e| {
+        if let Some(key) = e.field.as_deref().and_then(|f| f.strip_prefix("setup.")) {
+            e.line = line_of_key(text, key);
+        }
+        e
+    })?;
     Ok(s)
+}
+
+/// The line (1-based) where `key` is given a value in a session file's text (TOML `key =`,
+/// JSON `"key":`), 0 if none is found.
+fn line_of_key(text: &str, key: &str) -> usize {
+    let json = format!("\"{key}\"");
+    text.lines()
+        .position(|l| {
+            let l = l.trim_start();
+            l.strip_prefix(key)
+                .or_else(|| l.strip_prefix(json.as_str()))
+                .is_some_and(|rest| {
+                    let rest = rest.trim_start();
+                    rest.starts_with('=') || rest.starts_with(':')
+                })
+        })
+        .map_or(0, |k| k + 1)
 }
 
 /// The configuration a set-up file gives (`ncgen`): the defaults with its `[setup]` applied. A
@@ -342,10 +367,17 @@ fn apply_setup(
         let info = Config::field_info(f).ok_or(bad("unknown configuration field".into()))?;
         let x = match v {
             SetupValue::Number(x) => *x,
+            SetupValue::Text(t) if info.choices().is_empty() => {
+                return Err(bad(format!(
+                    "{} is not a number: the field takes a number ({})",
+                    excerpt(t),
+                    info.unit.as_str()
+                )));
+            }
             SetupValue::Text(t) => f64::from(info.choice(t.as_bytes()).ok_or(bad(format!(
-                "{} is not one of {:?}",
+                "{} is not one of {}",
                 excerpt(t),
-                info.choices()
+                info.choices().join(", ")
             )))?),
         };
         c.set(f, x).map_err(|e| bad(format!("refused: {e:?}")))?;
@@ -368,7 +400,9 @@ pub fn read_runs(path: &Path, s: &SessionFile) -> Result<Vec<(String, RecordedRu
             .direction
             .as_ref()
             .and_then(|d| Direction::from_name(d.as_bytes()));
-        let runs = if text.trim_start().starts_with("# ballpod run v") {
+        // a saved `DATA:LOG?` download keeps its block header (`#<n><length>`) before the run
+        let body = crate::recording::strip_block_header(&file, &text)?;
+        let runs = if body.trim_start().starts_with("# ballpod run v") {
             let mut runs = parse_runs(&file, &text)?;
             for r in &mut runs {
                 let disagree = |what: &str, rec: &str| LogError {

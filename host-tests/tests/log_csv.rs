@@ -871,3 +871,41 @@ fn metadata_of_the_run_survives_later_setting_changes() {
     assert_eq!(end.abort, Some(AbortReason::NotObservable));
     assert_eq!((end.counters.seen, end.counters.used), (5, 5));
 }
+
+/// A log whose column header lacks a configured axis (`y_mm` cut out of every line) is refused
+/// with the file, the header's line and the column, not replayed as an axis fault.
+#[test]
+fn a_log_missing_a_configured_axis_column_is_refused_with_line_and_column() {
+    let mut rng = Rng(9);
+    let m = default_meta();
+    let text = csv_of(&log_of::<64>(&m, &random_samples(20, 1, 0, &mut rng)), &m);
+    let header_line = text
+        .lines()
+        .position(|l| l.starts_with("seq,"))
+        .expect("column header")
+        + 1;
+    let y = columns(&text)
+        .iter()
+        .position(|c| c == "y_mm")
+        .expect("a y_mm column");
+    let cut: String = text
+        .lines()
+        .enumerate()
+        .map(|(i, l)| {
+            if i + 1 >= header_line && !l.starts_with('#') {
+                let mut f: Vec<&str> = l.split(',').collect();
+                f.remove(y);
+                f.join(",") + "\n"
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let e = parse_runs(Path::new("log.csv"), &cut).expect_err("y_mm is missing");
+    assert_eq!(
+        e.to_string(),
+        format!(
+            "log.csv:{header_line}: field `y_mm`: column missing (the run's configuration has this encoder input)"
+        )
+    );
+}

@@ -652,6 +652,32 @@ fn a_session_file_checks_its_logs_against_what_they_recorded() {
     let e = read("[setup]\ncircle_plane = \"XZ\"\n[[runs]]\nlog = \"ca.csv\"\n")
         .expect_err("no such plane");
     assert_eq!(e.field.as_deref(), Some("setup.circle_plane"), "{e}");
+    // … each on its own line, with what the field takes
+    assert_eq!(e.line, 2, "{e}");
+    assert!(e.what.contains("is not one of XY, YZ, ZX"), "{e}");
+    let e =
+        read("[setup]\ncircle_radius = 150\nbar_length = \"long\"\n[[runs]]\nlog = \"ca.csv\"\n")
+            .expect_err("text for a number");
+    assert_eq!(
+        (e.field.as_deref(), e.line),
+        (Some("setup.bar_length"), 3),
+        "{e}"
+    );
+    assert!(
+        e.what
+            .contains("is not a number: the field takes a number (mm)"),
+        "{e}"
+    );
+    // a saved `DATA:LOG?` download keeps its block header: listed in a session, it is a pod
+    // file as it is given alone
+    let block = format!("#{}{}{GOOD}", GOOD.len().to_string().len(), GOOD.len());
+    std::fs::write(dir.join("download.csv"), &block).expect("write");
+    let runs = read("[[runs]]\nlog = \"download.csv\"\n").expect("a saved download");
+    let alone = parse_runs(Path::new("ca.csv"), GOOD).expect("GOOD");
+    assert_eq!(
+        (runs[0].1.meta.run, runs[0].1.events.len()),
+        (alone[0].meta.run, alone[0].events.len())
+    );
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -382,3 +382,86 @@ fn the_readme_session_file_replays_a_pod_file_and_a_plain_log() {
         assert!(report.result(name).is_some(), "{name}");
     }
 }
+
+/// The pod's own log of a run longer than it holds (`DATA:LOG?`: 1 sample in 32 here) replays
+/// as the run ended, DONE (the samples it thinned out are not lost ones), and the replayed fit
+/// is the f64 fit of the logged samples; the same log with a sample off its 1-in-d grid is
+/// refused with the sample named.
+#[test]
+fn the_pods_decimated_log_replays_as_done_with_the_fit_of_its_samples() {
+    use ballpod::app::log::{LOG_CAPACITY, SampleLog};
+    use ballpod::protocol::download::write_csv;
+    let (radius, feed_mm_per_s, rate_hz) = (150.0f64, 6000.0 / 60.0, 1000.0);
+    let centre = [120.5f32, -40.25, -310.0];
+    let mut cfg = Config {
+        bar_length_mm: radius as f32,
+        ..Config::default()
+    };
+    cfg.setup.circle_centre_mm = centre;
+    cfg.setup.circle_radius_mm = radius as f32;
+    let mut app = App::new(cfg, [16; MAX_AXES]);
+    let mut log = Box::new(SampleLog::<LOG_CAPACITY>::new());
+    app.set_pattern(Pattern::Circle).expect("pattern");
+    app.execute(Command::Arm).expect("arm");
+    app.execute(Command::Start).expect("start");
+    let mut rng = Rng::new(0xDEC1);
+    let e_um = [3.0, -2.0];
+    let n = (radius * std::f64::consts::TAU / feed_mm_per_s * rate_hz) as usize;
+    for i in 0..=n {
+        let th = std::f64::consts::TAU * i as f64 / n as f64;
+        let (s, c) = th.sin_cos();
+        let len = (radius * c + e_um[0] * 1e-3).hypot(radius * s + e_um[1] * 1e-3);
+        let mut axes = [0.0f32; MAX_AXES];
+        axes[..3].copy_from_slice(&centre);
+        axes[0] = (f64::from(centre[0]) + radius * c) as f32;
+        axes[1] = (f64::from(centre[1]) + radius * s) as f32;
+        let sample = Sample {
+            seq: 7 + i as u32,
+            t_us: 5_000_000 + i as u64 * 1000,
+            delta_l_um: ((len - radius) * 1e3 + 0.2 * rng.normal()) as f32,
+            axes,
+            temp_c: 20.0,
+            flags: SampleFlags::NONE,
+        };
+        app.on_sample(&sample, &mut *log);
+    }
+    app.execute(Command::Stop).expect("stop");
+    app.flush(&mut *log);
+    assert_eq!(app.session(), SessionState::Done);
+    assert_eq!(
+        log.decimation(),
+        32,
+        "{n} samples in {LOG_CAPACITY} records"
+    );
+    let mut text = Vec::new();
+    write_csv(&log, app.run_meta(), &mut |c: &[u8]| {
+        text.extend_from_slice(c)
+    });
+    let text = String::from_utf8(text).expect("utf-8");
+    let runs = parse_runs(Path::new("log.csv"), &text).expect("parse");
+    let logged: Vec<Sample> = runs[0].samples().copied().collect();
+    let report =
+        replay(&[("log.csv".to_string(), runs[0].clone())]).expect("a decimated log replays");
+    assert_eq!(report.runs[0].outcome, "DONE");
+    assert_eq!(report.runs[0].samples, logged.len());
+    let [r0, eu, ev] = oracle_fit(CirclePlane::XY, centre, &logged);
+    for (name, oracle) in [("r0", r0), ("ecc_u", eu), ("ecc_v", ev)] {
+        let got = report.runs[0]
+            .results
+            .iter()
+            .find(|f| f.name == name)
+            .unwrap_or_else(|| panic!("{name} not in the run's results"));
+        assert!(
+            (f64::from(got.value) - oracle).abs() <= 1e-3,
+            "{name}: replay {} oracle {oracle} µm",
+            got.value
+        );
+    }
+    // a row off the grid: refused, the sample named
+    let mut off = runs[0].clone();
+    if let Some(Event::Sample(s)) = off.events.get_mut(3) {
+        s.seq += 1;
+    }
+    let e = replay(&[("log.csv".to_string(), off)]).expect_err("a sample off the grid");
+    assert!(e.contains("is not one the log keeps (1 in 32"), "{e}");
+}

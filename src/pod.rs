@@ -255,9 +255,14 @@ impl<'a, const LOG: usize, const STREAM: usize> Pod<'a, LOG, STREAM> {
         self.scpi.connection_closed();
     }
 
-    /// A reader opened (`true`) or closed the stream port.
+    /// A reader opened (`true`) or closed the stream port. A reader that opens while a run is
+    /// recorded gets that run's header at once, marked partial if samples of it went before
+    /// (a client that connects and arms at once may be taken after the run began).
     pub fn stream_reader(&mut self, open: bool) {
         self.stream.set_enabled(open);
+        if let (true, Some((meta, partial))) = (open, self.app.recording()) {
+            self.stream.join_run(meta, partial);
+        }
     }
 
     /// The protocols' timers at `now_us` (heartbeat, event timers, SDO timeouts, a log

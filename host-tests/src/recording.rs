@@ -38,6 +38,9 @@ pub struct RecordedRun {
     pub end: Option<RunEnd>,
     /// One sample in this many was kept (a decimated log; 1 for the stream).
     pub decimation: u32,
+    /// `# partial=1`: the stream's reader joined the run after samples of it went (replay
+    /// refuses it: its results are not the pod's).
+    pub partial: bool,
     /// The firmware that made the text (`# firmware=`; `None`: not named).
     pub firmware: Option<String>,
 }
@@ -50,6 +53,7 @@ impl RecordedRun {
             events: Vec::new(),
             end: None,
             decimation: 1,
+            partial: false,
             firmware: None,
         }
     }
@@ -237,6 +241,8 @@ struct Header {
     firmware: Option<String>,
     /// `source=stream`: every sample of the run is a row, and the end block is complete.
     stream: bool,
+    /// `partial=1` (the stream's reader joined mid-run).
+    partial: bool,
 }
 
 /// What of a run's end block has been read.
@@ -278,6 +284,7 @@ fn header_line(h: &mut Header, key: &str, value: &str) -> Result<(), String> {
         "decimation" => h.decimation = value.parse().map_err(|_| "not a count".to_string())?,
         "records" => h.records = Some(value.parse().map_err(|_| "not a count".to_string())?),
         "source" => h.stream = value == "stream",
+        "partial" => h.partial = value == "1",
         "firmware" => h.firmware = Some(value.to_string()),
         "overwritten" | "flags" => {}
         k if k.starts_with("axis_name") || k.starts_with("axis_reversed") => {
@@ -449,7 +456,9 @@ fn parse_runs_with(
                 }
                 let rows = r.samples().count();
                 let seen = r.end.map_or(0, |e| e.counters.seen) as usize;
-                if rows != seen {
+                // a partial run (`# partial=1`) lacks its first samples by design: replay
+                // refuses it with that reason
+                if rows != seen && !r.partial {
                     return Err(err(
                         end_block.seen_line,
                         Some("seen"),
@@ -501,6 +510,7 @@ fn parse_runs_with(
                         ..RunMeta::ZERO
                     },
                     decimation: 1,
+                    partial: false,
                     records: None,
                     firmware: None,
                     stream: false,
@@ -662,6 +672,7 @@ fn parse_runs_with(
             cols = Some(v);
             current = Some(RecordedRun {
                 decimation: h.decimation,
+                partial: h.partial,
                 firmware: h.firmware.clone(),
                 ..RecordedRun::new(h.meta)
             });

@@ -219,6 +219,12 @@ pub fn replay_run(app: &mut App, r: &RecordedRun) -> Result<(), String> {
         let (a, b) = e.text();
         format!("{name}: {what} refused: {a}{b}")
     };
+    if r.partial {
+        return Err(format!(
+            "{name}: the stream's reader joined the run after its first samples (`# partial=1`): \
+             its samples are not the whole run, so not replayed (open the stream port before arming)"
+        ));
+    }
     let cfg = r.meta.config;
     if *app.config() != cfg {
         app.configure(|c| *c = cfg)

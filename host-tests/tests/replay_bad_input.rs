@@ -277,17 +277,21 @@ fn a_run_with_dropped_stream_lines_cannot_be_replayed() {
 /// not fit the stream's ring).
 const SLOW_ROWS: usize = 6000;
 
-/// A CIRCLE run on the simulated pod whose stream reader does not read while it runs: the ring
-/// (`STREAM_BYTES`) fills and lines are dropped. With `catch_up` the reader drains the ring
-/// before the run ends (its end lines get through), else only after. Returns the stream text,
-/// the lines the pod dropped, and the host's own (never dropped) record of the run as text.
-fn slow_reader_stream(catch_up: bool) -> (String, u32, String) {
-    use ballpod::acquisition::MAX_AXES;
+/// A simulated pod set for a CIRCLE about (0, 0) of R 150 mm, armed and started with the reader
+/// `reading` the stream, homed at the first of the circle machine's `n` poses a turn (F6000,
+/// 1 kHz; `pose(i)` gives sample i's ΔL and axes).
+fn circle_run_started(
+    reading: bool,
+) -> (
+    ballpod_host::vmt::virtual_pod::VirtualPod<1024>,
+    impl Fn(usize) -> (f64, [f64; ballpod::acquisition::MAX_AXES]),
+    usize,
+) {
     use ballpod::app::Command;
     use ballpod_host::vmt::machine::CircleMachine;
-    use ballpod_host::vmt::virtual_pod::{STREAM_BYTES, VirtualPod, VirtualSetup};
-
+    use ballpod_host::vmt::virtual_pod::{VirtualPod, VirtualSetup};
     let mut vp: VirtualPod<1024> = VirtualPod::new(VirtualSetup::default());
+    vp.stream_reader(reading);
     vp.app
         .configure(|c| {
             c.setup.circle_centre_mm = [0.0, 0.0, 0.0];
@@ -299,10 +303,23 @@ fn slow_reader_stream(catch_up: bool) -> (String, u32, String) {
         ..CircleMachine::default()
     };
     let n = m.samples_per_rev(1000.0);
-    let pose = |i: usize| m.pose(2.0 * std::f64::consts::PI * i as f64 / n as f64, 1.0);
+    let pose = move |i: usize| m.pose(2.0 * std::f64::consts::PI * i as f64 / n as f64, 1.0);
     vp.home(&pose(0).1);
     vp.app.execute(Command::Arm).expect("arm");
     vp.app.execute(Command::Start).expect("start");
+    (vp, pose, n)
+}
+
+/// A CIRCLE run on the simulated pod whose stream reader does not read while it runs: the ring
+/// (`STREAM_BYTES`) fills and lines are dropped. With `catch_up` the reader drains the ring
+/// before the run ends (its end lines get through), else only after. Returns the stream text,
+/// the lines the pod dropped, and the host's own (never dropped) record of the run as text.
+fn slow_reader_stream(catch_up: bool) -> (String, u32, String) {
+    use ballpod::acquisition::MAX_AXES;
+    use ballpod::app::Command;
+    use ballpod_host::vmt::virtual_pod::{STREAM_BYTES, VirtualPod};
+
+    let (mut vp, pose, _) = circle_run_started(true);
     const { assert!(SLOW_ROWS * 60 > STREAM_BYTES) };
     let mut text = Vec::new();
     let drain = |vp: &mut VirtualPod<1024>, text: &mut Vec<u8>| loop {
@@ -754,4 +771,51 @@ fn a_negative_head_calibration_u_is_refused_by_name() {
     .unwrap();
     let e = read_inputs(std::slice::from_ref(&session)).expect_err("rejected");
     assert_eq!(e.field.as_deref(), Some("rtest.u_reading_scale_ppm"), "{e}");
+}
+
+/// A stream reader that connects while a run is recorded gets that run's header at once: before
+/// its first sample the run arrives whole and replays; after it, the header says
+/// `# partial=1` and replay refuses the run with the reason (the samples before it are not on
+/// this stream).
+#[test]
+fn a_reader_that_joins_a_run_gets_its_header_and_a_late_one_is_told_partial() {
+    use ballpod::acquisition::MAX_AXES;
+    use ballpod::app::Command;
+    use ballpod_host::replay::replay;
+
+    let stream_of = |join_after: usize| {
+        let (mut vp, pose, n) = circle_run_started(false);
+        let mut bytes = Vec::new();
+        for i in 0..=n {
+            if i == join_after {
+                vp.stream_reader(true);
+            }
+            let (dl, axes): (f64, [f64; MAX_AXES]) = pose(i);
+            vp.sample_at(dl, &axes);
+            bytes.extend(vp.pull_stream(1 << 16));
+        }
+        vp.app.execute(Command::Stop).expect("stop");
+        vp.sample_at(pose(n + 1).0, &pose(n + 1).1);
+        bytes.extend(vp.pull_stream(1 << 16));
+        let mut text = Vec::new();
+        ballpod::protocol::stream::decode(&bytes, |l| text.extend_from_slice(l)).expect("records");
+        String::from_utf8(text).expect("text")
+    };
+    // armed and started, no sample yet when the reader joins (a client that connects and arms
+    // at once): the whole run
+    let whole = stream_of(0);
+    let runs = parse_runs(Path::new("stream.csv"), &whole).expect("a whole run");
+    assert!(!runs[0].partial && runs[0].end.is_some());
+    let report = replay(&[("stream.csv".into(), runs[0].clone())]).expect("replays");
+    assert_eq!(report.runs[0].outcome, "DONE");
+    // a hundred samples in: the header, marked partial; replay says why it does not replay it
+    let late = stream_of(100);
+    assert!(
+        late.contains("# source=stream\n# partial=1\n"),
+        "{late:.300}"
+    );
+    let runs = parse_runs(Path::new("stream.csv"), &late).expect("a partial run parses");
+    assert!(runs[0].partial);
+    let e = replay(&[("stream.csv".into(), runs[0].clone())]).expect_err("partial");
+    assert!(e.contains("joined the run after its first samples"), "{e}");
 }

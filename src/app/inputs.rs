@@ -106,6 +106,9 @@ impl App {
                     at(self.axes.c),
                 );
                 rec.touch(t);
+                if let Some(n) = &mut self.recorded {
+                    *n = n.saturating_add(1);
+                }
             }
             _ => self.touches_outside_run = self.touches_outside_run.saturating_add(1),
         }
@@ -161,10 +164,16 @@ impl App {
         let mut skipped_run = None;
         while let Some(p) = self.pending.pop_front() {
             match p {
-                Pending::Begin(run) if run == self.meta.run => rec.begin_run(&self.meta),
+                Pending::Begin(run) if run == self.meta.run => {
+                    rec.begin_run(&self.meta);
+                    self.recorded = Some(0);
+                }
                 // armed and over before its first sample, then re-armed: nothing to record
                 Pending::Begin(run) => skipped_run = Some(run),
-                Pending::End(end) if Some(end.run) != skipped_run => rec.end_run(&end),
+                Pending::End(end) if Some(end.run) != skipped_run => {
+                    rec.end_run(&end);
+                    self.recorded = None;
+                }
                 Pending::End(_) => {}
             }
         }
@@ -193,6 +202,9 @@ impl App {
             let verdict = self.monitor.on_sample(s);
             if verdict != Verdict::NotRunning {
                 rec.sample(s);
+                if let Some(n) = &mut self.recorded {
+                    *n = n.saturating_add(1);
+                }
             }
             match verdict {
                 Verdict::Use => {

@@ -147,6 +147,9 @@ pub struct App {
     live_u_at: u32,
     results: Results,
     pending: heapless::Deque<Pending, 4>,
+    /// The recorders are inside a run (its begin flushed, its end not), with the samples and
+    /// touch points recorded so far ([`App::recording`]).
+    recorded: Option<u32>,
     refusal: Option<CommandError>,
     procedure_note: Option<ProcedureNote>,
     /// The armed CIRCLE run's own start and stop (`run_trigger = FEED_IN`).
@@ -227,6 +230,7 @@ impl App {
             live: LiveValues::default(),
             live_u_at: u32::MAX,
             pending: heapless::Deque::new(),
+            recorded: None,
             refusal: None,
             procedure_note: None,
             trigger: None,
@@ -377,6 +381,14 @@ impl App {
     /// The header of the current / last run.
     pub fn run_meta(&self) -> &RunMeta {
         &self.meta
+    }
+
+    /// The run the recorders are inside (its header written to them, its end not), and whether
+    /// samples or touch points of it have been recorded already: a recorder that joins now
+    /// (a stream reader connecting) writes this header, marked partial if so
+    /// ([`crate::protocol::stream::SampleStream::join_run`]).
+    pub fn recording(&self) -> Option<(&RunMeta, bool)> {
+        self.recorded.map(|n| (&self.meta, n > 0))
     }
 
     // ------------------------------------------------------------------ commands

@@ -15,7 +15,8 @@
 //! # circle_radius=150         element number from 0), then lvdt_input, can_bitrate and per
 //! # circle_centre_x=nan       encoder input axis_name<k>, axis_reversed<k>
 //! …
-//! # source=log               log: source, decimation, records, overwritten; stream: source
+//! # source=log               log: source, decimation, records, overwritten; stream: source,
+//!                             and partial=1 when the reader joined after the run's first samples
 //! # decimation=1
 //! # records=3
 //! # overwritten=0

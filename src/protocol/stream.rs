@@ -31,9 +31,10 @@
 //!
 //! Nothing is lost silently: a line or record that does not fit the ring is dropped whole and
 //! counted; the count of the run is written in its end lines (`# stream_dropped=`), and in
-//! total by [`SampleStream::dropped_lines`]. A run header written while the ring is full is
-//! dropped too, so a PC that connects mid-run sees the next run complete. Replay refuses a
-//! recorded run with dropped lines. With no reader attached the stream does nothing.
+//! total by [`SampleStream::dropped_lines`]. A reader that connects while a run is recorded
+//! gets its header at once ([`SampleStream::join_run`]), with `# partial=1` if samples of it
+//! went before. Replay refuses a recorded run with dropped lines or marked partial. With no
+//! reader attached the stream does nothing.
 
 use super::csv::{self, Line, Row};
 use crate::acquisition::{MAX_AXES, Sample};
@@ -257,8 +258,14 @@ fn encode(
     put(temp_c.to_bits());
 }
 
-impl<const N: usize> Recorder for SampleStream<N> {
-    fn begin_run(&mut self, meta: &RunMeta) {
+impl<const N: usize> SampleStream<N> {
+    /// A reader joined while the run of `meta` is recorded: its header, with `# partial=1` if
+    /// samples of it went before (replay refuses such a run: its results are not the pod's).
+    pub fn join_run(&mut self, meta: &RunMeta, partial: bool) {
+        self.header(meta, partial);
+    }
+
+    fn header(&mut self, meta: &RunMeta, partial: bool) {
         self.run_dropped = 0;
         self.n_columns = 0;
         for ((input, _), slot) in csv::axis_columns(meta).zip(self.columns.iter_mut()) {
@@ -277,6 +284,11 @@ impl<const N: usize> Recorder for SampleStream<N> {
         line.clear();
         push_bytes(&mut line, b"# source=stream\n");
         self.push(&line);
+        if partial {
+            line.clear();
+            push_bytes(&mut line, b"# partial=1\n");
+            self.push(&line);
+        }
         if csv::flags_line(&mut line) {
             self.push(&line);
         }
@@ -286,6 +298,12 @@ impl<const N: usize> Recorder for SampleStream<N> {
         if csv::columns_line(meta, &mut line) {
             self.push(&line);
         }
+    }
+}
+
+impl<const N: usize> Recorder for SampleStream<N> {
+    fn begin_run(&mut self, meta: &RunMeta) {
+        self.header(meta, false);
     }
 
     fn sample(&mut self, s: &Sample) {

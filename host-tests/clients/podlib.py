@@ -171,13 +171,15 @@ def parse_runs(text):
 class StreamCapture:
     """Reads the stream port in a thread (the pod blocks on a full socket, so keep reading)."""
 
-    def __init__(self, port):
+    def __init__(self, port, settle=0.3):
         self.sock = socket.create_connection(("127.0.0.1", port))
         self.buf = bytearray()
         self.lock = threading.Lock()
         threading.Thread(target=self._read, daemon=True).start()
-        # the pod takes the reader on its next loop turn; runs armed from then on arrive whole
-        time.sleep(0.3)
+        # the pod takes the reader on its next loop turn: runs armed from then on arrive whole
+        # (one armed before gets its header when the reader is taken, `# partial=1` if samples
+        # of it went before)
+        time.sleep(settle)
 
     def _read(self):
         while True:

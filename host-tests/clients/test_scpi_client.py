@@ -299,3 +299,36 @@ def test_replay_of_the_stream_gives_the_pods_results(pod, tmp_path):
         inst.close()
         rm.close()
         stream.close()
+
+
+@pytest.mark.sim_only
+def test_a_reader_that_connects_and_arms_at_once_gets_the_runs_header(pod, tmp_path):
+    """A client that opens the stream port and arms at once (no pause for the pod to take the
+    reader) gets the run with its header: whole, and `replay` gives DONE; or, if the served pod
+    took the reader after samples of the run went, marked `# partial=1`, and `replay` refuses it
+    saying so — never a run without its header. (The race is the served pod's TCP accept against
+    the command port; on the firmware the stream port opens with DTR, as the book says.)"""
+    rm, inst = open_visa(pod)
+    q, w = inst.query, inst.write
+    try:
+        w("CONF:UNL")
+        configure_circle(w, pod["truth"]["machine"]["circle"])
+        assert q("*OPC?") == "1"
+        stream = StreamCapture(pod["stream_port"], settle=0.0)
+        run_circle(q, w, "CCW")
+        wait_until(lambda: b"# end=" in stream.raw(), 10.0, "the run's end on the stream")
+        text = stream.text()
+        assert text.startswith("# ballpod run v2\n"), text[:200]
+        (tmp_path / "run.stream").write_bytes(stream.raw())
+        out = subprocess.run([host_binary("replay"), str(tmp_path / "run.stream"), "--out", str(tmp_path / "out")],
+                             capture_output=True, text=True)
+        if "# partial=1\n" in text:
+            assert out.returncode == 1 and "joined the run after its first samples" in out.stderr, out.stderr
+        else:
+            assert out.returncode == 0, out.stderr
+            replayed = json.loads((tmp_path / "out" / "results.json").read_text())
+            assert [r["outcome"] for r in replayed["runs"]] == ["DONE"]
+        stream.close()
+    finally:
+        inst.close()
+        rm.close()

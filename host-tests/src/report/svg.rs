@@ -489,6 +489,35 @@ fn signatures() -> Vec<Signature> {
                 "Reported: scale_mean (k_u + k_v)/2, µm/m, relative to the bar's length",
             ],
         ),
+        (
+            "lateral_play",
+            "Lateral play of X, 4 µm",
+            CircleMachine {
+                lateral_play_x_um: 4.0,
+                ..p()
+            },
+            false,
+            [
+                "Model: X's carriage runs p/2 towards +Y while X travels +, −Y while −",
+                "Signature: a cusp (p/2)·|sin θ| at X's reversal points, its sign flipping with the direction",
+                "Reported: lateral_play_u p, µm (full circle only)",
+            ],
+        ),
+        (
+            "spike",
+            "Reversal spike of X, 4 µm (τ 400 ms: drawn wide)",
+            CircleMachine {
+                reversal_spike_x_um: 4.0,
+                reversal_spike_ms: 400.0,
+                ..p()
+            },
+            false,
+            [
+                "Model: after X reverses it stays behind its command by h·e^(−Δt/τ)",
+                "Signature: an outward spike where X reverses (180°), usually narrower than 1°",
+                "Reported: spike_u_neg h, µm; spike_time_u_neg τ, ms (from the samples themselves)",
+            ],
+        ),
     ]
 }
 

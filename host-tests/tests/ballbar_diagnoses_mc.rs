@@ -447,6 +447,19 @@ fn g_about_lsq(samples: &[Sample]) -> f64 {
 /// On the pod's application: a 220° arc in both directions publishes squareness and the steps
 /// at the points it crosses; the rest stays invalid and the application says why, as SCPI
 /// queues it after the result's name.
+/// One CIRCLE run of `m` in direction `d` on `app`: arm, start, its samples, stop (the run's
+/// jobs are the caller's).
+fn circle_run(app: &mut ballpod::app::App, m: &Machine, d: Direction, rng: &mut Rng) {
+    use ballpod::app::Command;
+    app.set_direction(d).unwrap();
+    app.execute(Command::Arm).unwrap();
+    app.execute(Command::Start).unwrap();
+    for s in run(m, d, rng) {
+        app.on_sample(&s, &mut ());
+    }
+    app.execute(Command::Stop).unwrap();
+}
+
 /// The pod's application set for a CIRCLE test of radius 100 mm about `P0` with a 100 mm bar,
 /// arcs of `min_arc_deg` or more.
 fn circle_app(min_arc_deg: f32) -> ballpod::app::App {
@@ -464,7 +477,7 @@ fn circle_app(min_arc_deg: f32) -> ballpod::app::App {
 
 #[test]
 fn the_pod_leaves_what_the_arc_cannot_support_invalid_and_says_why() {
-    use ballpod::app::{Command, ResultId};
+    use ballpod::app::ResultId;
     let m = Machine {
         radius_mm: 100.0,
         squareness: 30e-6,
@@ -485,13 +498,7 @@ fn the_pod_leaves_what_the_arc_cannot_support_invalid_and_says_why() {
     };
     for (machine, arc) in [(full, "full"), (m, "partial")] {
         for (k, d) in [Direction::Ccw, Direction::Cw].into_iter().enumerate() {
-            app.set_direction(d).unwrap();
-            app.execute(Command::Arm).unwrap();
-            app.execute(Command::Start).unwrap();
-            for s in run(&machine, d, &mut rng) {
-                app.on_sample(&s, &mut ());
-            }
-            app.execute(Command::Stop).unwrap();
+            circle_run(&mut app, &machine, d, &mut rng);
             ballpod_host::run_jobs(&mut app);
             if k == 0 && arc == "full" {
                 assert_eq!(
@@ -558,7 +565,7 @@ fn the_pod_leaves_what_the_arc_cannot_support_invalid_and_says_why() {
 /// complete pair of runs serves them again.
 #[test]
 fn spikes_of_a_run_whose_samples_were_replaced_are_not_determinable() {
-    use ballpod::app::{Command, ResultId};
+    use ballpod::app::ResultId;
     let m = Machine {
         radius_mm: 100.0,
         noise_um: 0.2,
@@ -576,13 +583,7 @@ fn spikes_of_a_run_whose_samples_were_replaced_are_not_determinable() {
         ResultId::SpikeTimeUPos,
     ];
     let mut one_run = |app: &mut ballpod::app::App, d: Direction, jobs: bool| {
-        app.set_direction(d).unwrap();
-        app.execute(Command::Arm).unwrap();
-        app.execute(Command::Start).unwrap();
-        for s in run(&m, d, &mut rng) {
-            app.on_sample(&s, &mut ());
-        }
-        app.execute(Command::Stop).unwrap();
+        circle_run(app, &m, d, &mut rng);
         if jobs {
             ballpod_host::run_jobs(app);
         }

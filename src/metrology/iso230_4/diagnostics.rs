@@ -449,6 +449,13 @@ pub const RESOLUTION_UM: f32 = 0.1;
 /// passes with probability ≈ 13·exp(−4²/2) ≈ 0.4 %.
 pub const CYCLIC_SIGNIFICANCE: f32 = 4.0;
 
+/// Whether bin `i` (`per_q` bins a quadrant) lies on the half of the circle about reversal
+/// point `p` (0°, 90°, 180°, 270°): quadrants 3, 0 for p 0; 0, 1 for 1; 1, 2 for 2; 2, 3 for 3.
+pub(super) fn point_of(i: usize, per_q: usize, p: usize) -> bool {
+    let q = i / per_q.max(1);
+    q == p || (q + 1) % 4 == p
+}
+
 /// The diagnostic model on one direction's bin profile: what [`Model::normal_equations`] sums.
 #[derive(Clone, Copy)]
 struct Model<'a> {
@@ -485,17 +492,10 @@ impl Model<'_> {
             self.bins
                 .iter()
                 .enumerate()
-                .filter(|(i, b)| b.n > 0 && Self::point_of(*i, self.per_q, p))
+                .filter(|(i, b)| b.n > 0 && point_of(*i, self.per_q, p))
                 .count()
                 >= least
         })
-    }
-
-    /// Whether bin `i` lies on the half of the circle about reversal point `p` (0°, 90°,
-    /// 180°, 270°): quadrants 3, 0 for p 0; 0, 1 for 1; 1, 2 for 2; 2, 3 for 3.
-    fn point_of(i: usize, per_q: usize, p: usize) -> bool {
-        let q = i / per_q.max(1);
-        q == p || (q + 1) % 4 == p
     }
 
     /// The weighted normal equations with bin `i` moved by `shift(i)`. f32 throughout (the
@@ -545,7 +545,7 @@ impl Model<'_> {
             let g_v = -0.5 * dir * nv * scos;
             let step = |p: usize, g: f32| {
                 let on = self.steps.get(p).copied().unwrap_or(false);
-                if on && Self::point_of(i, self.per_q, p) {
+                if on && point_of(i, self.per_q, p) {
                     g
                 } else {
                     0.0

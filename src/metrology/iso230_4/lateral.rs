@@ -53,10 +53,7 @@ impl<const BINS: usize> CircularTest<BINS> {
         let per_q = Self::BINS_PER_QUADRANT;
         let both =
             |i: usize| ccw.get(i).is_some_and(|b| b.n > 0) && cw.get(i).is_some_and(|b| b.n > 0);
-        let half = |i: usize, k: usize| {
-            let quadrant = i / per_q.max(1);
-            quadrant == k || (quadrant + 1) % 4 == k
-        };
+        let half = |i: usize, k: usize| super::diagnostics::point_of(i, per_q, k);
         let least = ((super::support::REVERSAL_SIDE_DEG * BINS as f32 / 360.0) as usize).max(1);
         let fitted = [0usize, 1, 2, 3]
             .map(|k| (0..BINS).filter(|i| both(*i) && half(*i, k)).count() >= least);

@@ -26,6 +26,17 @@ struct Machine {
     start_deg: f64,
     /// +1 CCW, −1 CW.
     dir: f64,
+    /// Vibration of u and v: amplitude (µm) and phase (rad) of E = A·sin(2πf·t + φ), t from
+    /// the run's start, and its frequency f, Hz.
+    vib_um: [f64; 2],
+    vib_phase: [f64; 2],
+    vib_hz: f64,
+    /// Stick-slip of u and v: amplitude (µm) and phase of E = a·sin(2πf·Δt + φ), Δt from the
+    /// axis's latest reversal, for `slip_s`; its frequency, Hz.
+    slip_um: [f64; 2],
+    slip_phase: [f64; 2],
+    slip_hz: f64,
+    slip_s: f64,
 }
 
 const RATE_HZ: f64 = 1000.0;
@@ -74,6 +85,18 @@ fn capture(m: &Machine, rng: &mut Rng) -> SpikeCapture {
             let sgn = if p == 1 { 1.0 } else { -1.0 };
             sgn * spike(p, 90.0 * p as f64)
         });
+        // vibration, in time; stick-slip from the axis's latest reversal, for slip_s
+        let tau = std::f64::consts::TAU;
+        let vib = |i: usize| m.vib_um[i] * (tau * m.vib_hz * t + m.vib_phase[i]).sin();
+        let slip = |i: usize, p: Option<usize>| {
+            p.and_then(|p| since(90.0 * p as f64))
+                .filter(|dt| *dt < m.slip_s)
+                .map_or(0.0, |dt| {
+                    m.slip_um[i] * (tau * m.slip_hz * dt + m.slip_phase[i]).sin()
+                })
+        };
+        let e_spike_u = e_spike_u + vib(0) + slip(0, latest(0, 2));
+        let e_spike_v = e_spike_v + vib(1) + slip(1, latest(1, 3));
         // lost motion: the axis lags B/2 behind its direction of travel, B of the end it is at
         let (vu, vv) = (-m.dir * s, m.dir * co);
         let b_u = if co > 0.0 { m.step_um[0] } else { m.step_um[2] };
@@ -103,6 +126,33 @@ fn machine(rng: &mut Rng, others: bool) -> Machine {
         k_v: on(others, rng.range(-15e-6, 15e-6)),
         start_deg: rng.range(0.0, 360.0),
         dir: if rng.range(0.0, 1.0) < 0.5 { 1.0 } else { -1.0 },
+        ..Default::default()
+    }
+}
+
+/// `m` with a vibration and a stick-slip (amplitudes 0–2 µm where `others`, else none) at
+/// random frequencies and phases.
+fn oscillating(rng: &mut Rng, m: Machine, others: bool) -> Machine {
+    let on = |b: bool, x: f64| if b { x } else { 0.0 };
+    let phases = |rng: &mut Rng| [0.0; 2].map(|_| rng.range(0.0, std::f64::consts::TAU));
+    let vib_hz = rng.range(40.0, 400.0);
+    // two oscillations closer than twice the window's resolution (1/64 of the sample rate)
+    // are one to the fit: the pod's stated limit
+    let slip_hz = loop {
+        let f = rng.range(40.0, 250.0);
+        if (f - vib_hz).abs() >= 2.0 * RATE_HZ / 64.0 {
+            break f;
+        }
+    };
+    Machine {
+        vib_um: [0.0; 2].map(|_| on(others, rng.range(0.0, 2.0))),
+        vib_phase: phases(rng),
+        vib_hz,
+        slip_um: [0.0; 2].map(|_| on(others, rng.range(0.0, 2.0))),
+        slip_phase: phases(rng),
+        slip_hz,
+        slip_s: 0.2,
+        ..m
     }
 }
 
@@ -119,16 +169,31 @@ fn verdict(e: &[(f64, f64)]) -> (f64, f64) {
 fn monte_carlo_spike_heights_cover_the_truth_within_their_u() {
     let mut rng = Rng::new(20_261_201);
     let mut failed = Vec::new();
-    for (label, others) in [("alone", false), ("with every fault", true)] {
+    for (label, others, oscillations) in [
+        ("alone", false, false),
+        ("with every fault", true, false),
+        ("with every fault, a vibration and a stick-slip", true, true),
+    ] {
         let mut errors = Vec::new();
         let mut tau_ratio = Vec::new();
         for _ in 0..80 {
             let m = machine(&mut rng, others);
+            let m = if oscillations {
+                oscillating(&mut rng, m, true)
+            } else {
+                m
+            };
             let c = capture(&m, &mut rng);
-            for (p, truth) in m.spike_um.iter().enumerate() {
+            // the spikes alone, and as the pod reads them, jointly with the oscillations
+            let spikes = if oscillations {
+                c.reversals().spikes
+            } else {
+                [0, 1, 2, 3].map(|p| c.spike(p))
+            };
+            for (s, truth) in spikes.iter().zip(&m.spike_um) {
                 // a turn from a random start crosses every point once, each with its window
                 // (the start within a window's reach of a point leaves that one out)
-                let Some(s) = c.spike(p) else { continue };
+                let Some(s) = s else { continue };
                 errors.push((f64::from(s.height_um) - truth, f64::from(s.u_height_um)));
                 if *truth > 10.0 * f64::from(s.u_height_um) {
                     tau_ratio.push(f64::from(s.tau_ms) * 1e-3 / m.tau_s);
@@ -181,4 +246,115 @@ fn a_spike_narrower_than_a_bin_is_read_at_its_height() {
         f64::from(quiet.height_um).abs() <= 3.0 * f64::from(quiet.u_height_um),
         "{quiet:?}"
     );
+}
+
+/// One turn of `m` (without spikes unless `others`) through the pod's joint fit: its
+/// oscillations.
+fn oscillations(
+    m: &mut Machine,
+    others: bool,
+    rng: &mut Rng,
+) -> Option<ballpod::metrology::iso230_4::RunOscillations> {
+    if !others {
+        m.spike_um = [0.0; 4];
+    }
+    capture(m, rng).reversals().oscillations
+}
+
+/// Vibration and stick-slip (issue 45): each kind alone and with every other fault (steps,
+/// spikes, squareness, scales and the other kind, at least 31 Hz away), at random amplitude
+/// 0.3–3 µm, frequency, phase, radius, feed and start: per run and axis, U = 2u covers the
+/// injected amplitude in 95 % ± 3 % and u is within 20 % of the scatter; where the kind is
+/// named, U covers the frequency in ≥ 90 %: its u is a few per cent optimistic (the other
+/// axis's share, read with the growing sine of the bar's angle, is a phase ramp like a
+/// frequency offset, and the frequency is found without it: with it, it is not told).
+#[test]
+fn monte_carlo_oscillation_amplitudes_cover_the_truth_within_their_u() {
+    use ballpod::metrology::iso230_4::OscillationKind;
+    let mut rng = Rng::new(20_261_202);
+    let mut failed = Vec::new();
+    for kind in [OscillationKind::Vibration, OscillationKind::StickSlip] {
+        for (label, others) in [("alone", false), ("with every fault", true)] {
+            let (mut amplitudes, mut frequencies) = (Vec::new(), Vec::new());
+            let mut runs = 0;
+            while runs < 200 {
+                let m = machine(&mut rng, others);
+                let mut m = oscillating(&mut rng, m, others);
+                let size = [0.0; 2].map(|_| rng.range(0.3, 3.0));
+                let truth_hz = match kind {
+                    OscillationKind::Vibration => {
+                        m.vib_um = size;
+                        m.vib_hz
+                    }
+                    OscillationKind::StickSlip => {
+                        m.slip_um = size;
+                        m.slip_hz
+                    }
+                };
+                let Some(o) = oscillations(&mut m, others, &mut rng) else {
+                    continue;
+                };
+                runs += 1;
+                let o = o[kind as usize];
+                for (axis, truth) in o.axes.iter().zip(size) {
+                    let Some(axis) = axis else { continue };
+                    let (a, u) = axis.amplitude_um();
+                    amplitudes.push((f64::from(a) - truth, f64::from(u)));
+                }
+                if o.named() {
+                    let (f, u) = o.frequency_hz;
+                    frequencies.push((f64::from(f) - truth_hz, f64::from(u)));
+                }
+            }
+            let (cov, ratio) = verdict(&amplitudes);
+            let (f_cov, f_ratio) = verdict(&frequencies);
+            println!(
+                "{kind:?} {label}: {} amplitudes, coverage {cov:.3}, rms u / rms error {ratio:.3}; {} frequencies, coverage {f_cov:.3}, ratio {f_ratio:.3}",
+                amplitudes.len(),
+                frequencies.len()
+            );
+            if !(0.92..=0.98).contains(&cov) || !(0.8..=1.2).contains(&ratio) {
+                failed.push(format!(
+                    "{kind:?} {label}: amplitude coverage {cov:.3}, ratio {ratio:.3}"
+                ));
+            }
+            if frequencies.len() < 150 || !(0.90..=0.98).contains(&f_cov) {
+                failed.push(format!(
+                    "{kind:?} {label}: {} frequencies, coverage {f_cov:.3}, ratio {f_ratio:.3}",
+                    frequencies.len()
+                ));
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{failed:#?}");
+}
+
+/// 100 noisy circles without an oscillation — with no fault at all, and with every other
+/// fault (steps, spikes, squareness, scales) — name neither vibration nor stick-slip on either
+/// axis in ≥ 95 % (issue 45's "done when"; at the false-alarm rate chosen, ≈ 99.9 %).
+#[test]
+fn circles_without_an_oscillation_name_none() {
+    let mut rng = Rng::new(20_261_203);
+    let mut failed = Vec::new();
+    for (label, others) in [("fault-free", false), ("every other fault", true)] {
+        let (mut runs, mut named) = (0, 0);
+        while runs < 100 {
+            let m = machine(&mut rng, others);
+            let mut m = oscillating(&mut rng, m, others);
+            m.vib_um = [0.0; 2];
+            m.slip_um = [0.0; 2];
+            let Some(o) = oscillations(&mut m, others, &mut rng) else {
+                continue;
+            };
+            runs += 1;
+            if o.iter().any(|k| k.named()) {
+                named += 1;
+            }
+        }
+        println!("{label}: {named} of {runs} circles name an oscillation");
+        if named > 5 {
+            failed.push(format!("{label}: {named} of {runs} name an oscillation"));
+        }
+    }
+    assert!(failed.is_empty(), "{failed:#?}");
 }

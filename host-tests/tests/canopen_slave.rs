@@ -983,7 +983,7 @@ fn a_refusal_over_scpi_is_the_same_text_in_0x3006() {
 fn results_read_only_when_valid() {
     let mut b = Bench::new();
     let n = ResultInfo::all().count();
-    assert_eq!(n, 124);
+    assert_eq!(n, 131);
     for index in [0x4000u16, 0x4001, 0x4002] {
         assert_eq!(b.upload(index, 0).unwrap(), [n as u8], "{index:04X}:0");
         assert_eq!(b.upload(index, n as u8 + 1), Err(NO_SUB));

@@ -1230,7 +1230,7 @@ fn invalid_live_values_read_scpi_nan_and_leave_the_valid_list() {
 #[test]
 fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid() {
     let mut b = Bench::with_circle();
-    assert_eq!(ResultInfo::all().count(), 124);
+    assert_eq!(ResultInfo::all().count(), 131);
     // nothing computed yet: -230 naming the result
     b.rejected_with(
         "FETC:RES? ecc_u",
@@ -1267,7 +1267,7 @@ fn results_by_name_or_index_with_uncertainty_and_unit_and_no_data_when_invalid()
         -230,
         "Data corrupt or stale;scale_x not available yet: needs a complete circle or arc (both directions, every quadrant) in each of XY, YZ and ZX since the session was cleared",
     );
-    b.rejected("FETC:RES? 124", -222);
+    b.rejected("FETC:RES? 131", -222);
     b.rejected("FETC:RES? -1", -222);
     b.rejected("FETC:RES? 1.5", -222);
     b.rejected("FETC:RES? nonsense", -224);

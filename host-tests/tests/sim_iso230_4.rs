@@ -24,6 +24,21 @@ fn session() -> (MachineFile, SimSession) {
     (m, s)
 }
 
+/// The CCW and CW circle of machine `m` on the simulated pod (noise seed `seed`): its report.
+fn circle_pair(m: &MachineFile, seed: u64) -> Report {
+    let o = SimOptions {
+        seed,
+        repeats: 1,
+        seed002: false,
+        circle: true,
+        three_planes: false,
+        ..SimOptions::default()
+    };
+    simulate(m, &o, &mut |_, _, _| {})
+        .expect("simulated session")
+        .report
+}
+
 /// The value of result `name` of the pod's table (it must be valid).
 fn value(r: &Report, name: &str) -> f64 {
     f64::from(
@@ -195,16 +210,7 @@ fn reversal_spikes_come_back_at_each_point_with_their_height() {
     let mut m = MachineFile::default();
     m.circle.reversal_spike_x_um = 4.0;
     m.circle.reversal_spike_ms = 8.0;
-    let o = SimOptions {
-        seed: 12,
-        repeats: 1,
-        seed002: false,
-        circle: true,
-        three_planes: false,
-        ..SimOptions::default()
-    };
-    let s = simulate(&m, &o, &mut |_, _, _| {}).expect("simulated session");
-    let r = &s.report;
+    let r = &circle_pair(&m, 12);
     let get = |n: &str| {
         let v = r.result(n).unwrap_or_else(|| panic!("{n} not valid"));
         (f64::from(v.value), v.u.map(f64::from))
@@ -222,6 +228,42 @@ fn reversal_spikes_come_back_at_each_point_with_their_height() {
     }
     // 0° is the runs' start and end: no window about it
     assert!(r.result("spike_u_pos").is_none());
+}
+
+/// Vibration and stick-slip on the virtual machine (X vibrates 1.5 µm at 120 Hz, Y sticks and
+/// slips 2 µm at 60 Hz after each reversal; with the default machine's other faults and the
+/// full sensor chain) come back from the pod's results table: each amplitude and frequency
+/// within 3u, named on its axis (`oscillations_named` 1 + 8), the other axis's not.
+#[test]
+fn vibration_and_stick_slip_come_back_per_axis() {
+    let mut m = MachineFile::default();
+    m.circle.vibration_x_um = 1.5;
+    m.circle.vibration_hz = 120.0;
+    m.circle.stick_slip_y_um = 2.0;
+    m.circle.stick_slip_hz = 60.0;
+    let r = &circle_pair(&m, 13);
+    let get = |n: &str| {
+        let v = r.result(n).unwrap_or_else(|| panic!("{n} not valid"));
+        (f64::from(v.value), v.u.map(f64::from).expect("u"))
+    };
+    for (n, truth) in [
+        ("vibration_u", 1.5),
+        ("vibration_frequency", 120.0),
+        ("stick_slip_v", 2.0),
+        ("stick_slip_frequency", 60.0),
+    ] {
+        let (x, u) = get(n);
+        println!("{n}: {x:.3} ± {u:.3} (injected {truth})");
+        assert!(
+            (x - truth).abs() <= 3.0 * u,
+            "{n} {x} ± {u}, injected {truth}"
+        );
+    }
+    assert_eq!(get("oscillations_named").0, 9.0);
+    for n in ["vibration_v", "stick_slip_u"] {
+        let (x, u) = get(n);
+        assert!(x <= 3.0 * u, "{n} {x} ± {u}");
+    }
 }
 
 /// Lateral play on the virtual machine (X 3 µm, Y −2 µm, with the default machine's other

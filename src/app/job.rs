@@ -32,13 +32,12 @@ use super::circle::{CircleRun, FiguresRequest};
 use super::probe::{ProbeAxis, ProbeFailure, Spheres};
 use super::results::ResultPatch;
 use super::session::{ProcedureNote, probe_note};
-use super::spikes::RunSpikes;
 use super::{App, ResultId};
 use crate::config::TestSetup;
 use crate::identify::mill_turn::model_lsq::IdentificationScratch;
 use crate::in_place::{self, init_in_place};
 use crate::metrology::bar_budget::BarBudget;
-use crate::metrology::iso230_4::SpikeCapture;
+use crate::metrology::iso230_4::{RunReversals, SpikeCapture};
 use core::mem::MaybeUninit;
 
 /// Which job a slot holds.
@@ -63,8 +62,9 @@ enum Work {
 
 /// What [`super::App::finish_job`] takes from a slot whose job ran.
 pub(crate) enum JobOutcome<'a> {
-    /// The figures, and the run's spikes (`None`: the job had no capture of the run).
-    Figures(FiguresRequest, &'a mut ResultPatch, Option<RunSpikes>),
+    /// The figures, and the run's spikes and oscillations (`None`: the job had no capture of
+    /// the run).
+    Figures(FiguresRequest, &'a mut ResultPatch, Option<RunReversals>),
     Identification(u32, Result<&'a mut ResultPatch, ()>),
     Probe(u32, Result<&'a mut ResultPatch, ProbeFailure>),
 }
@@ -98,7 +98,20 @@ struct IdentificationJob {
 #[derive(Clone, Copy)]
 struct FiguresJob {
     circle: CircleRun,
-    capture: Option<SpikeCapture>,
+    reversals: Reversals,
+}
+
+/// The run's samples about its reversal points, then what the job found in them (in their
+/// place: the samples are not needed after).
+#[derive(Clone, Copy)]
+#[allow(clippy::large_enum_variant)] // one at a time, in the job slot: the point of the enum
+enum Reversals {
+    /// The job had no capture of the run.
+    None,
+    /// The capture, before the job ran.
+    Captured(SpikeCapture),
+    /// The spikes and oscillations the job found.
+    Found(RunReversals),
 }
 
 /// A job's copy of its inputs: one job at a time, so one place for all (the circle test is
@@ -143,8 +156,6 @@ pub struct JobSlot {
     /// The bar's budget (identification; the figures carry theirs).
     bar: BarBudget,
     patch: ResultPatch,
-    /// The circle run's spikes (figures; `None`: no capture).
-    spikes: Option<RunSpikes>,
 }
 
 impl JobSlot {
@@ -156,7 +167,6 @@ impl JobSlot {
             failed: None,
             bar: BarBudget::NONE,
             patch: ResultPatch::new(),
-            spikes: None,
         } in place {
             inputs: Inputs::init,
         })
@@ -196,7 +206,8 @@ impl JobSlot {
         // names that variant from here on.
         unsafe {
             (&raw mut (*p).figures.circle).write(*circle);
-            (&raw mut (*p).figures.capture).write(capture.copied());
+            (&raw mut (*p).figures.reversals)
+                .write(capture.map_or(Reversals::None, |c| Reversals::Captured(*c)));
         }
         self.start(Work::Figures(request));
     }
@@ -233,7 +244,6 @@ impl JobSlot {
 
     fn start(&mut self, work: Work) {
         self.patch.clear();
-        self.spikes = None;
         self.ran = false;
         self.failed = None;
         self.work = Some(work);
@@ -249,9 +259,12 @@ impl JobSlot {
         match self.work {
             None => return,
             Some(Work::Figures(request)) => {
-                let job = unsafe { &self.inputs.figures };
+                let job = unsafe { &mut self.inputs.figures };
                 figures(&job.circle, &request, &mut self.patch);
-                self.spikes = job.capture.as_ref().map(spikes);
+                if let Reversals::Captured(c) = &job.reversals {
+                    let found = c.reversals();
+                    job.reversals = Reversals::Found(found);
+                }
             }
             Some(Work::Identification(_)) => {
                 let job = unsafe { &mut self.inputs.identification };
@@ -277,7 +290,14 @@ impl JobSlot {
         let work = self.work.take()?;
         let (patch, failed) = (&mut self.patch, self.failed);
         Some(match work {
-            Work::Figures(request) => JobOutcome::Figures(request, patch, self.spikes),
+            Work::Figures(request) => {
+                // SAFETY: `work` names the figures variant, which `load_figures` wrote
+                let found = match unsafe { &self.inputs.figures.reversals } {
+                    Reversals::Found(r) => Some(*r),
+                    _ => None,
+                };
+                JobOutcome::Figures(request, patch, found)
+            }
             Work::Identification(epoch) => JobOutcome::Identification(
                 epoch,
                 match failed {
@@ -307,12 +327,6 @@ impl JobSlot {
 #[inline(never)]
 fn figures(circle: &CircleRun, request: &FiguresRequest, patch: &mut ResultPatch) {
     circle.figures(request, patch);
-}
-
-/// The spikes at the four reversal points of a run's `capture`.
-#[inline(never)]
-fn spikes(capture: &SpikeCapture) -> RunSpikes {
-    [0, 1, 2, 3].map(|p| capture.spike(p))
 }
 
 /// Whether the identification gave a result.

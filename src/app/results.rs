@@ -172,6 +172,13 @@ results! {
     LateralPlayV => ("lateral_play_v", Um, "Ball-bar diagnosis: lateral play of the second axis (> 0: it runs on the +u side while travelling +v; full circle only)"),
     ShareLateralPlayU => ("share_lateral_play_u", Um, "Ball-bar ranking: the first axis's lateral play's share (half of it: its cusp)"),
     ShareLateralPlayV => ("share_lateral_play_v", Um, "Ball-bar ranking: the second axis's lateral play's share"),
+    VibrationU => ("vibration_u", Um, "Ball-bar diagnosis: vibration of the first axis, amplitude A of A·sin(2πf·t + φ), from the samples about its reversal points"),
+    VibrationV => ("vibration_v", Um, "Ball-bar diagnosis: vibration of the second axis, amplitude"),
+    VibrationFrequency => ("vibration_frequency", Hz, "Ball-bar diagnosis: the vibration's frequency f (where it is named)"),
+    StickSlipU => ("stick_slip_u", Um, "Ball-bar diagnosis: stick-slip of the first axis, amplitude a of a·sin(2πf·Δt + φ) from its reversal on"),
+    StickSlipV => ("stick_slip_v", Um, "Ball-bar diagnosis: stick-slip of the second axis, amplitude"),
+    StickSlipFrequency => ("stick_slip_frequency", Hz, "Ball-bar diagnosis: the stick-slip's frequency (where it is named)"),
+    OscillationsNamed => ("oscillations_named", One, "Oscillations named as faults (χ² false-alarm probability under 1e-6), the sum of: 1 vibration of the first axis, 2 of the second, 4 stick-slip of the first, 8 of the second"),
 }
 
 /// Number of results.

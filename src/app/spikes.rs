@@ -4,12 +4,13 @@
 //! ([`super::job`]: the fit is a few hundred small solves a point, too long for the application
 //! task), and each direction's spikes as the job found them; the test's results, the mean over
 //! the latest complete CCW and CW runs at each reversal point, are published when the second
-//! direction's job is filed: the height (µm) and time constant (ms).
+//! direction's job is filed: the height (µm) and time constant (ms); and from the same samples
+//! the vibration and stick-slip of each axis (amplitude µm, frequency Hz, which are named).
 
 use super::circle::{CircleGeometry, dir_index};
 use super::pattern::Direction;
 use super::results::{ResultId, ResultSink, Results};
-use crate::metrology::iso230_4::{NotDeterminable, Spike, SpikeCapture};
+use crate::metrology::iso230_4::{NotDeterminable, Oscillation, RunReversals, SpikeCapture};
 
 /// Each reversal point's height and time-constant results, in angle order (0°, 90°, 180°,
 /// 270°).
@@ -20,9 +21,19 @@ const SPIKE_RESULTS: [(ResultId, ResultId); 4] = [
     (ResultId::SpikeVNeg, ResultId::SpikeTimeVNeg),
 ];
 
-/// One run's spikes at the four reversal points (`None`: the run did not cross the point with a
-/// whole window on each side, or no fit was possible).
-pub type RunSpikes = [Option<Spike>; 4];
+/// Each kind's results (by [`crate::metrology::iso230_4::OscillationKind`]): the amplitude along u, along v, the frequency.
+const OSCILLATION_RESULTS: [[ResultId; 3]; 2] = [
+    [
+        ResultId::VibrationU,
+        ResultId::VibrationV,
+        ResultId::VibrationFrequency,
+    ],
+    [
+        ResultId::StickSlipU,
+        ResultId::StickSlipV,
+        ResultId::StickSlipFrequency,
+    ],
+];
 
 /// A direction's latest run, as far as its spikes go.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -33,8 +44,8 @@ enum DirectionSpikes {
     /// The next run began before the run's job took its samples (the job slot was busy): the
     /// run's spikes are unknown.
     Lost,
-    /// The run's spikes.
-    Found(RunSpikes),
+    /// The run's spikes and oscillations.
+    Found(RunReversals),
 }
 
 /// The test's spikes: the running (or last ended) run's capture, each direction's latest
@@ -82,7 +93,7 @@ impl Spikes {
     /// the test's spike results are invalid until that job is filed.
     pub fn end_run(&mut self, d: Direction, results: &mut Results) {
         self.ended = Some(d);
-        results.clear(ResultId::SpikeUPos, ResultId::SpikeTimeVNeg);
+        clear(results);
     }
 
     /// The ended run's capture, for the figures job of its direction `d` (once: the job owns
@@ -94,18 +105,20 @@ impl Spikes {
         })
     }
 
-    /// Files the spikes the figures job found for the latest run of direction `d` (`None`: the
-    /// job had no capture) and publishes the test's results: the mean of both directions at each
-    /// point both crossed (u: the two runs' u in quadrature, halved; τ's u is not evaluated).
-    pub fn file(&mut self, d: Direction, run: Option<RunSpikes>, results: &mut Results) {
+    /// Files the spikes and oscillations the figures job found for the latest run of direction
+    /// `d` (`None`: the job had no capture) and publishes the test's results: the spikes' mean
+    /// of both directions at each point both crossed (u: the two runs' u in quadrature, halved;
+    /// τ's u is not evaluated), each axis's oscillations from both runs
+    /// ([`Oscillation::both`]), their frequency where one is named.
+    pub fn file(&mut self, d: Direction, run: Option<RunReversals>, results: &mut Results) {
         if let Some(s) = self.spikes.get_mut(dir_index(d)) {
             *s = run.map_or(DirectionSpikes::Lost, DirectionSpikes::Found);
         }
-        results.clear(ResultId::SpikeUPos, ResultId::SpikeTimeVNeg);
+        clear(results);
         let [DirectionSpikes::Found(ccw), DirectionSpikes::Found(cw)] = self.spikes else {
             return;
         };
-        for ((a, b), (height, time)) in ccw.iter().zip(cw.iter()).zip(SPIKE_RESULTS) {
+        for ((a, b), (height, time)) in ccw.spikes.iter().zip(cw.spikes.iter()).zip(SPIKE_RESULTS) {
             if let (Some(a), Some(b)) = (a, b) {
                 let u = crate::num::sqrtf(
                     a.u_height_um * a.u_height_um + b.u_height_um * b.u_height_um,
@@ -118,19 +131,61 @@ impl Spikes {
                 results.set(time, f64::from((a.tau_ms + b.tau_ms) * 0.5), f64::NAN);
             }
         }
+        let (Some(ccw), Some(cw)) = (ccw.oscillations, cw.oscillations) else {
+            return;
+        };
+        let mut named = 0u32;
+        for (k, ((a, b), [along_u, along_v, frequency])) in ccw
+            .iter()
+            .zip(cw.iter())
+            .zip(OSCILLATION_RESULTS)
+            .enumerate()
+        {
+            let o = Oscillation::both(a, b);
+            for (i, (axis, id)) in o.axes.iter().zip([along_u, along_v]).enumerate() {
+                if let Some(axis) = axis {
+                    let (amplitude, u) = axis.amplitude_um();
+                    results.set(id, f64::from(amplitude), f64::from(u));
+                    if axis.named() {
+                        named |= 1 << (2 * k + i);
+                    }
+                }
+            }
+            let (f, u) = o.frequency_hz;
+            if o.named() && f.is_finite() {
+                results.set(frequency, f64::from(f), f64::from(u));
+            }
+        }
+        results.set(ResultId::OscillationsNamed, f64::from(named), 0.0);
     }
 
-    /// Why the spike result `id` is invalid (`None`: not a spike result).
+    /// Why the spike or oscillation result `id` is invalid (`None`: not one of theirs).
     pub fn why_invalid(&self, id: ResultId) -> Option<NotDeterminable> {
-        if !SPIKE_RESULTS.iter().any(|(h, t)| *h == id || *t == id) {
+        let spike = SPIKE_RESULTS.iter().any(|(h, t)| *h == id || *t == id);
+        let oscillation = OSCILLATION_RESULTS.iter().flatten().any(|r| *r == id)
+            || id == ResultId::OscillationsNamed;
+        if !(spike || oscillation) {
             return None;
         }
         Some(match self.spikes {
-            [DirectionSpikes::Found(_), DirectionSpikes::Found(_)] => {
-                NotDeterminable::ReversalNotCrossed
+            [DirectionSpikes::Found(a), DirectionSpikes::Found(b)] => {
+                let frequency = OSCILLATION_RESULTS.iter().any(|[.., f]| *f == id);
+                if oscillation && (a.oscillations.is_none() || b.oscillations.is_none()) {
+                    NotDeterminable::ReversalNotCrossed
+                } else if frequency {
+                    NotDeterminable::NoOscillation
+                } else {
+                    NotDeterminable::ReversalNotCrossed
+                }
             }
             s if s.contains(&DirectionSpikes::Lost) => NotDeterminable::SamplesReplaced,
             _ => NotDeterminable::NeedsBothDirections,
         })
     }
+}
+
+/// Invalidates the spike and oscillation results.
+fn clear(results: &mut Results) {
+    results.clear(ResultId::SpikeUPos, ResultId::SpikeTimeVNeg);
+    results.clear(ResultId::VibrationU, ResultId::OscillationsNamed);
 }

@@ -99,6 +99,24 @@ impl<const N: usize> LsqSolution<N> {
 /// µrad scales of ~1e6 at most, so true rank deficiency sits many decades below this).
 pub const DEFAULT_RANK_TOL: f64 = 1e-10;
 
+/// The working arrays of [`GivensLsq::solve_in`]'s SVD (3·8·N² bytes; every element is
+/// written before it is read).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SvdScratch<const N: usize> {
+    cols: [[f64; N]; N],
+    v: [[f64; N]; N],
+    u_cols: [[f64; N]; N],
+}
+
+impl<const N: usize> SvdScratch<N> {
+    /// All zero (a memset, not an image in flash).
+    pub const EMPTY: Self = Self {
+        cols: [[0.0; N]; N],
+        v: [[0.0; N]; N],
+        u_cols: [[0.0; N]; N],
+    };
+}
+
 /// Givens-rotation accumulator for `A x ≈ b` with `N` unknowns (state: `8·(N² + N + 1)` bytes).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct GivensLsq<const N: usize> {
@@ -150,10 +168,22 @@ impl<const N: usize> GivensLsq<N> {
     /// Solves the accumulated problem. Rank-deficient problems are solved in the minimum-norm
     /// sense and reported through `rank`, `condition` and `right_singular_vectors`; callers
     /// that need every unknown use [`GivensLsq::solve_full_rank`].
-    // (stack: its 5 KB of SVD work stays out of the callers' frames, where the worker's
-    // deepest chain, the seed 002 identification, needs the room)
-    #[inline(never)]
+    #[inline(always)] // the SVD's frame is solve_in's; the scratch, 3·8·N² B, the caller's
     pub fn solve(&self, rel_tol: f64) -> Result<LsqSolution<N>, LsqError> {
+        let mut scratch = SvdScratch::EMPTY;
+        self.solve_in(rel_tol, &mut scratch)
+    }
+
+    /// [`GivensLsq::solve`] with the SVD's working arrays in the caller's `scratch` (the seed
+    /// 002 identification's: 4 KiB off the worker's deepest chain of calls).
+    // (stack: its SVD work stays out of the callers' frames, where the worker's deepest chain,
+    // the seed 002 identification, needs the room)
+    #[inline(never)]
+    pub fn solve_in(
+        &self,
+        rel_tol: f64,
+        scratch: &mut SvdScratch<N>,
+    ) -> Result<LsqSolution<N>, LsqError> {
         if (self.rows as usize) < N {
             return Err(LsqError::TooFewRows {
                 rows: self.rows,
@@ -170,9 +200,7 @@ impl<const N: usize> GivensLsq<N> {
             rows: self.rows,
             right_singular_vectors: [[0.0; N]; N],
         };
-        let mut cols = [[0.0f64; N]; N];
-        let mut v = [[0.0f64; N]; N];
-        let mut u_cols = [[0.0f64; N]; N];
+        let SvdScratch { cols, v, u_cols } = scratch;
         let mut norms = [0.0f64; N];
         let mut order = [0usize; N];
         let svd = Svd {

@@ -393,6 +393,10 @@ fn print_iso(m: &MachineFile, r: &Report) {
         ("spike Y at 270° (µm)", c.reversal_spike_y_um, "spike_v_neg"),
         ("lateral play X (µm)", c.lateral_play_x_um, "lateral_play_u"),
         ("lateral play Y (µm)", c.lateral_play_y_um, "lateral_play_v"),
+        ("vibration X (µm)", c.vibration_x_um, "vibration_u"),
+        ("vibration Y (µm)", c.vibration_y_um, "vibration_v"),
+        ("stick-slip X (µm)", c.stick_slip_x_um, "stick_slip_u"),
+        ("stick-slip Y (µm)", c.stick_slip_y_um, "stick_slip_v"),
     ] {
         if injected != 0.0 {
             rows.push((name, injected, f(result)));

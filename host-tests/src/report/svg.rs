@@ -518,6 +518,37 @@ fn signatures() -> Vec<Signature> {
                 "Reported: spike_u_neg h, µm; spike_time_u_neg τ, ms (from the samples themselves)",
             ],
         ),
+        (
+            "vibration",
+            "Vibration of X, 2 µm (at 0.5 Hz: drawn slow)",
+            CircleMachine {
+                vibration_x_um: 2.0,
+                vibration_hz: 0.5,
+                ..p()
+            },
+            false,
+            [
+                "Model: X oscillates in time, E_x = A·sin(2πf·t)",
+                "Signature: a wave along X (full at 0°/180°, none at 90°/270°), not tied to the angle",
+                "Reported: vibration_u A, µm; vibration_frequency f, Hz (31–450 Hz at 1 kHz)",
+            ],
+        ),
+        (
+            "stick_slip",
+            "Stick-slip of X, 2 µm (at 0.5 Hz for 6 s: drawn slow)",
+            CircleMachine {
+                stick_slip_x_um: 2.0,
+                stick_slip_hz: 0.5,
+                stick_slip_ms: 6000.0,
+                ..p()
+            },
+            false,
+            [
+                "Model: after X reverses it sticks and slips, E_x = a·sin(2πf·Δt)",
+                "Signature: an oscillation from X's reversal (180°) on, none before it",
+                "Reported: stick_slip_u a, µm; stick_slip_frequency f, Hz (from the samples)",
+            ],
+        ),
     ]
 }
 

@@ -219,6 +219,21 @@ pub struct CircleMachine {
     pub lateral_play_x_um: f64,
     /// Y's lateral play, µm (E_x = (p/2)·sign(ẏ)).
     pub lateral_play_y_um: f64,
+    /// X's vibration, µm: E_x = A·sin(2πf·t), t from the run's start.
+    pub vibration_x_um: f64,
+    /// Y's vibration, µm: E_y = A·sin(2πf·t + 1 rad).
+    pub vibration_y_um: f64,
+    /// The vibration's frequency f, Hz.
+    pub vibration_hz: f64,
+    /// X's stick-slip, µm: after X reverses, E_x = a·sin(2πf_s·Δt) for `stick_slip_ms`
+    /// (Δt from the reversal; not at the run's start).
+    pub stick_slip_x_um: f64,
+    /// Y's stick-slip, µm.
+    pub stick_slip_y_um: f64,
+    /// The stick-slip's frequency f_s, Hz.
+    pub stick_slip_hz: f64,
+    /// How long a stick-slip lasts after the reversal, ms.
+    pub stick_slip_ms: f64,
 }
 
 impl Default for CircleMachine {
@@ -248,6 +263,13 @@ impl Default for CircleMachine {
             reversal_spike_ms: 10.0,
             lateral_play_x_um: 0.0,
             lateral_play_y_um: 0.0,
+            vibration_x_um: 0.0,
+            vibration_y_um: 0.0,
+            vibration_hz: 120.0,
+            stick_slip_x_um: 0.0,
+            stick_slip_y_um: 0.0,
+            stick_slip_hz: 60.0,
+            stick_slip_ms: 200.0,
         }
     }
 }
@@ -315,6 +337,27 @@ impl CircleMachine {
             ex_um + theta.cos().signum() * spike(self.reversal_spike_x_um, std::f64::consts::PI);
         let ey_um = ey_um
             + theta.sin().signum() * spike(self.reversal_spike_y_um, std::f64::consts::FRAC_PI_2);
+        // vibration in time; stick-slip from each axis's latest reversal, for stick_slip_ms
+        let tau = std::f64::consts::TAU;
+        let t_s = t_min * 60.0;
+        let slip = |a: f64, first: f64| {
+            let turned = theta.abs();
+            if a == 0.0 || turned < first {
+                return 0.0;
+            }
+            let since = (turned - first).rem_euclid(std::f64::consts::PI) / omega.abs();
+            if since * 1e3 < self.stick_slip_ms {
+                a * (tau * self.stick_slip_hz * since).sin()
+            } else {
+                0.0
+            }
+        };
+        let ex_um = ex_um
+            + self.vibration_x_um * (tau * self.vibration_hz * t_s).sin()
+            + slip(self.stick_slip_x_um, std::f64::consts::PI);
+        let ey_um = ey_um
+            + self.vibration_y_um * (tau * self.vibration_hz * t_s + 1.0).sin()
+            + slip(self.stick_slip_y_um, std::f64::consts::FRAC_PI_2);
         let (x, y) = (
             xa + ex_um * 1e-3 - self.socket_offset_um[0] * 1e-3,
             ya + ey_um * 1e-3 - self.socket_offset_um[1] * 1e-3,

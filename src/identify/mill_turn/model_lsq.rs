@@ -25,7 +25,7 @@
 //! uncertainty and the identifiability report share the Jacobian and the scratch it lives in
 //! ([`IdentificationScratch`]); split, each part would reach into the others' internals.
 use crate::config;
-use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError, LsqSolution};
+use crate::identify::lsq::{DEFAULT_RANK_TOL, GivensLsq, LsqError, LsqSolution, SvdScratch};
 use crate::metrology::bar_budget::BarBudget;
 
 /// Relative damping λ of the free deviations (× the largest weighted sensitivity column).
@@ -818,7 +818,7 @@ impl ModelLsq {
             }
             let sol = self
                 .system(m, jac, &b)?
-                .solve(DEFAULT_RANK_TOL)
+                .solve_in(DEFAULT_RANK_TOL, &mut jac.svd)
                 .map_err(ModelLsqError::Lsq)?;
             if !checked_rank {
                 let rank = Self::rank_of(&sol);
@@ -896,6 +896,8 @@ struct Jacobian {
     scale: f64,
     singular_values: [f64; 13],
     right_singular_vectors: [[f64; 13]; 13],
+    /// The SVD's working arrays (off the worker's stack).
+    svd: SvdScratch<13>,
 }
 
 impl Jacobian {
@@ -905,6 +907,7 @@ impl Jacobian {
         scale: 0.0,
         singular_values: [0.0; 13],
         right_singular_vectors: [[0.0; 13]; 13],
+        svd: SvdScratch::EMPTY,
     };
 }
 

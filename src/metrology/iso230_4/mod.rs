@@ -40,6 +40,7 @@ mod diagnostics;
 mod feed_sweep;
 mod figures;
 mod lateral;
+mod oscillation;
 mod planes;
 mod spikes;
 mod support;
@@ -53,6 +54,10 @@ pub use feed_sweep::{
     FeedLimitError, FeedPoint, SWEEP_MIN_FEEDS, feed_limit, sweep_servo_mismatch,
 };
 pub use figures::{BidirectionalFigures, DirectionFigures};
+pub use oscillation::{
+    AxisOscillation, NU_SPAN, OSCILLATION_FALSE_ALARM, Oscillation, OscillationKind,
+    RunOscillations, RunReversals,
+};
 pub use planes::{
     AxisScales, AxisScalesError, PlaneScales, SCALE_READINGS, SUMMARY_PLANES, ScaleReading,
     axis_scales,

@@ -7,18 +7,22 @@
 //! each reversal point it crosses — [`SPIKE_PRE`] before the crossing and [`SPIKE_POST`] from it,
 //! 0.8 KiB a run — and fits the local model
 //!
-//! ΔL(k) = a + b·k + c·[k ≥ 0] + h·[k ≥ 0]·e^(−(k + φ)/τ), k the sample from the crossing,
+//! ΔL(k) = a + b·k + c·k² + d·[k ≥ 0] + h·[k ≥ 0]·e^(−(k + φ)/τ), k the sample from the crossing,
 //!
-//! (a, b: the circle and the slow shapes about the point; c: the reversal step, the axis's
-//! lost motion; φ the part of a sample period between the crossing and sample 0, from the two
-//! samples' directions): linear for a given τ, so τ is scanned over [`TAU_SPAN`] (10 % steps)
-//! and refined about the least residual. h's u: the larger of the first-order one with τ free
-//! (τ's derivative as a fifth column) and, where τ is poorly told (a long spike is much like a
-//! step over the window, and h is not linear in τ), h's u at fixed τ with the half-spread of h
-//! over the τ whose residual is within s² of the least (the profile likelihood). Why our own
-//! fit: the spike and the step share the crossing, a spike shorter than a sample is the one
-//! sample after it, and the fit is bounded in time (≈ 95 small solves a point, 17.5 ms for a
-//! run's four points on the pod: in the circle figures' job, `app::job`).
+//! (a, b, c: the circle and the slow shapes about the point, c its curvature over a window at
+//! high feeds; d: the reversal step, the axis's lost motion; φ the part of a sample period
+//! between the crossing and sample 0, from the two samples' directions): linear for a given τ,
+//! so τ is scanned over [`TAU_SPAN`] (10 % steps) and refined about the least residual
+//! (`super::oscillation`'s window model without its oscillations: one normal-equation build
+//! for both). h's u: the larger of its u at the τ kept and, where τ is poorly told (a long
+//! spike is much like a step over the window, and h is not linear in τ), the profile
+//! likelihood's: half of the two-standard-deviation interval's half-width, the h whose
+//! residual, τ free, is within 4s² of the least (a skewed likelihood's 2u is its 95 % interval,
+//! not twice its 1σ). Where the run vibrates or sticks and slips
+//! ([`SpikeCapture::reversals`]), the spike is fitted again on the window less the oscillations
+//! named. Why our own fit: the spike and the step share the crossing, a spike shorter than a
+//! sample is the one sample after it, and the fit is bounded in time (in the circle figures'
+//! job, `app::job`).
 
 /// Samples kept before a reversal point's crossing.
 pub const SPIKE_PRE: usize = 12;
@@ -38,9 +42,14 @@ const SCAN: usize = 40;
 /// in an i16 (a window spans a fraction of a degree).
 const STORE_UM: f32 = 0.01;
 
+/// `q` to the nearest i16 (half away from zero; `as` saturates beyond the range).
+fn round_i16(q: f32) -> i16 {
+    (q + if q >= 0.0 { 0.5 } else { -0.5 }) as i16
+}
+
 /// The samples about one reversal point.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Window {
+pub(super) struct Window {
     /// ΔL less `ref_um`, in [`STORE_UM`].
     dl: [i16; SPIKE_WINDOW],
     /// ΔL of the window's first sample, µm.
@@ -52,7 +61,7 @@ struct Window {
     t_us: [u32; 2],
     /// How long before the first sample from the crossing the run crossed the point, in
     /// sample periods (0 … 1, from the two samples' directions).
-    phase: f32,
+    pub(super) phase: f32,
 }
 
 impl Window {
@@ -73,20 +82,37 @@ impl Window {
             self.ref_um = dl_um;
             self.t_us[0] = t_us;
         }
-        let q = ((dl_um - self.ref_um) / STORE_UM).clamp(f32::from(i16::MIN), f32::from(i16::MAX));
+        let q = (dl_um - self.ref_um) / STORE_UM;
         if let Some(x) = self.dl.get_mut(k) {
-            *x = q as i16;
+            // rounded: truncation would pull every reading 0.005 µm towards the first, an
+            // oscillation's amplitude with it
+            *x = round_i16(q);
         }
         self.t_us[1] = t_us;
         self.filled = self.filled.saturating_add(1);
     }
 
-    fn complete(&self) -> bool {
+    pub(super) fn complete(&self) -> bool {
         usize::from(self.filled) == SPIKE_WINDOW
     }
 
+    /// The window's sample period, µs (its span over its samples).
+    pub(super) fn period_us(&self) -> f32 {
+        self.t_us[1].wrapping_sub(self.t_us[0]) as f32 / (SPIKE_WINDOW - 1) as f32
+    }
+
+    /// The window with `e(k)` (µm) taken off each sample `k`'s reading.
+    pub(super) fn less(&self, e: impl Fn(usize) -> f32) -> Self {
+        let mut w = *self;
+        for (k, x) in w.dl.iter_mut().enumerate() {
+            let q = f32::from(*x) - e(k) / STORE_UM;
+            *x = round_i16(q);
+        }
+        w
+    }
+
     /// Sample `k`'s reading less the first's, µm.
-    fn reading(&self, k: usize) -> f32 {
+    pub(super) fn reading(&self, k: usize) -> f32 {
         f32::from(self.dl.get(k).copied().unwrap_or(0)) * STORE_UM
     }
 }
@@ -212,170 +238,68 @@ impl SpikeCapture {
     /// with a whole window on each side (`None` otherwise, or if no fit is possible).
     #[inline(never)] // at a run's end, four times: one small frame, not in the caller's
     pub fn spike(&self, p: usize) -> Option<Spike> {
-        let w = self.windows.get(p).filter(|w| w.complete())?;
-        let period_us = w.t_us[1].wrapping_sub(w.t_us[0]) as f32 / (SPIKE_WINDOW - 1) as f32;
-        let base = Base::of(w);
-        let [lo_tau, hi_tau] = TAU_SPAN.map(libm::logf);
-        let at = |j: usize| lo_tau + (hi_tau - lo_tau) * j as f32 / (SCAN - 1) as f32;
-        // the scan's least residual, then refined between its neighbours (golden section on
-        // ln τ): a τ between two steps biases h
-        let mut best: Option<(f32, usize)> = None;
-        for j in 0..SCAN {
-            if let Some(f) = base.fit(w, libm::expf(at(j)))
-                && best.is_none_or(|(r, _)| f.rss < r)
-            {
-                best = Some((f.rss, j));
-            }
-        }
-        let (_, i) = best?;
-        let (mut lo, mut hi) = (at(i.saturating_sub(1)), at((i + 1).min(SCAN - 1)));
-        let rss_at = |ln_tau: f32| {
-            base.fit(w, libm::expf(ln_tau))
-                .map_or(f32::INFINITY, |f| f.rss)
-        };
-        const GOLD: f32 = 0.618_034;
-        let (mut x1, mut x2) = (hi - GOLD * (hi - lo), lo + GOLD * (hi - lo));
-        let (mut f1, mut f2) = (rss_at(x1), rss_at(x2));
-        for _ in 0..12 {
-            if f1 <= f2 {
-                hi = x2;
-                (x2, f2) = (x1, f1);
-                x1 = hi - GOLD * (hi - lo);
-                f1 = rss_at(x1);
-            } else {
-                lo = x1;
-                (x1, f1) = (x2, f2);
-                x2 = lo + GOLD * (hi - lo);
-                f2 = rss_at(x2);
-            }
-        }
-        let tau = libm::expf(if f1 <= f2 { x1 } else { x2 });
-        let f = base.fit(w, tau)?;
-        let (rss, h) = (f.rss, f.h);
-        let s2 = rss / (SPIKE_WINDOW - 5) as f32;
-        let var_fixed = s2 * f.c_hh;
-        let var_linear = base.var_h_tau_free(w, tau, h).map_or(var_fixed, |c| s2 * c);
-        // where τ is poorly told (a long spike is much like a step over the window) h is not
-        // linear in it: the profile likelihood's one-standard-deviation interval of h, the h
-        // whose residual, τ free, is within s² of the least — at each τ scanned, h(τ) ± its u
-        // at that τ times the share of s² its residual leaves
-        let (mut h_lo, mut h_hi) = (h, h);
-        for j in 0..SCAN {
-            if let Some(g) = base.fit(w, libm::expf(at(j)))
-                && g.rss <= rss + s2
-            {
-                let reach = crate::num::sqrtf((rss + s2 - g.rss).max(0.0) * g.c_hh);
-                h_lo = h_lo.min(g.h - reach);
-                h_hi = h_hi.max(g.h + reach);
-            }
-        }
-        let half = 0.5 * (h_hi - h_lo);
-        let var_h = var_linear.max(var_fixed).max(half * half);
-        Some(Spike {
-            height_um: h,
-            u_height_um: crate::num::sqrtf(var_h),
-            tau_ms: tau * period_us * 1e-3,
-        })
+        self.windows
+            .get(p)
+            .filter(|w| w.complete())
+            .and_then(spike_of)
+    }
+
+    /// The complete window about each reversal point (0°, 90°, 180°, 270°).
+    pub(super) fn windows(&self) -> [Option<&Window>; 4] {
+        [0, 1, 2, 3].map(|p| self.windows.get(p).filter(|w| w.complete()))
     }
 }
 
-/// One τ's fit of the local model.
-struct TauFit {
-    /// Residual sum of squares, µm².
-    rss: f32,
-    /// The spike's height, µm.
-    h: f32,
-    /// (A⁻¹)_hh of the normal matrix.
-    c_hh: f32,
-}
-
-/// The sums of the window that do not depend on τ: the columns 1, k, the step over all
-/// samples, and the readings (the spike's column is summed per τ over the samples from the
-/// crossing, by a recurrence: e^(−(k+1+φ)/τ) = e^(−(k+φ)/τ)·e^(−1/τ)).
-struct Base {
-    /// Σ g gᵀ of (1, k, step), Σ g·y, Σ y².
-    a: [[f32; 3]; 3],
-    b: [f32; 3],
-    yy: f32,
-}
-
-impl Base {
-    fn of(w: &Window) -> Self {
-        let mut a = [[0.0f32; 3]; 3];
-        let mut b = [0.0f32; 3];
-        let mut yy = 0.0;
-        for k in 0..SPIKE_WINDOW {
-            let [g0, g1, g2, _] = columns(k, 0.0, 1.0);
-            let g = [g0, g1, g2];
-            let y = w.reading(k);
-            for (row, (br, gr)) in a.iter_mut().zip(b.iter_mut().zip(g)) {
-                for (x, gc) in row.iter_mut().zip(g) {
-                    *x += gr * gc;
-                }
-                *br += gr * y;
-            }
-            yy += y * y;
-        }
-        Self { a, b, yy }
+/// The spike in a complete window.
+pub(super) fn spike_of(w: &Window) -> Option<Spike> {
+    let period_us = w.period_us();
+    let fit = |tau: f32| super::oscillation::spike_fit(w, tau);
+    let [lo_tau, hi_tau] = TAU_SPAN.map(libm::logf);
+    let at = |j: usize| lo_tau + (hi_tau - lo_tau) * j as f32 / (SCAN - 1) as f32;
+    // the scan's least residual, then refined between its neighbours (golden section on
+    // ln τ): a τ between two steps biases h
+    // (kept for the profile likelihood below: each is an 11 × 11 build and two solves)
+    let mut scanned: [Option<super::oscillation::TauFit>; SCAN] = [None; SCAN];
+    for (j, f) in scanned.iter_mut().enumerate() {
+        *f = fit(libm::expf(at(j)));
     }
-
-    /// The fit for time constant `tau` (samples).
-    fn fit(&self, w: &Window, tau: f32) -> Option<TauFit> {
-        let ratio = libm::expf(-1.0 / tau);
-        let mut e = libm::expf(-w.phase / tau);
-        // Σ e, Σ e·k, Σ e², Σ e·y over the samples from the crossing (the step is 1 there)
-        let (mut se, mut sxe, mut see, mut sye) = (0.0f32, 0.0f32, 0.0f32, 0.0f32);
-        for k in SPIKE_PRE..SPIKE_WINDOW {
-            let x = (k - SPIKE_PRE) as f32;
-            se += e;
-            sxe += x * e;
-            see += e * e;
-            sye += w.reading(k) * e;
-            e *= ratio;
-        }
-        let [[a00, a01, a02], [_, a11, a12], [_, _, a22]] = self.a;
-        let a = [
-            [a00, a01, a02, se],
-            [a01, a11, a12, sxe],
-            [a02, a12, a22, se],
-            [se, sxe, se, see],
-        ];
-        let [b0, b1, b2] = self.b;
-        let b = [b0, b1, b2, sye];
-        let p = crate::metrology::solve3::cholesky_solve(a, b)?;
-        let [.., c_hh] = crate::metrology::solve3::cholesky_solve(a, [0.0, 0.0, 0.0, 1.0])?;
-        let rss = (self.yy - p.iter().zip(b).map(|(p, b)| p * b).sum::<f32>()).max(0.0);
-        Some(TauFit { rss, h: p[3], c_hh })
-    }
-
-    /// (A⁻¹)_hh with τ free too, to first order: the model's derivative in τ,
-    /// h·e^(−(k+φ)/τ)·(k+φ)/τ², as a fifth column; `None` where it is singular (a spike too
-    /// small to tell its τ).
-    fn var_h_tau_free(&self, w: &Window, tau: f32, h: f32) -> Option<f32> {
-        let mut a = [[0.0f32; 5]; 5];
-        for k in 0..SPIKE_WINDOW {
-            let g4 = columns(k, w.phase, tau);
-            let x = (k as f32 - SPIKE_PRE as f32).max(0.0) + w.phase;
-            let g = [g4[0], g4[1], g4[2], g4[3], h * g4[3] * x / (tau * tau)];
-            for (row, gr) in a.iter_mut().zip(g) {
-                for (x, gc) in row.iter_mut().zip(g) {
-                    *x += gr * gc;
-                }
-            }
-        }
-        match crate::metrology::solve3::cholesky_solve(a, [0.0, 0.0, 0.0, 1.0, 0.0]) {
-            Some([.., c, _]) if c.is_finite() && c > 0.0 => Some(c),
-            _ => None,
+    let mut best: Option<(f32, usize)> = None;
+    for (j, f) in scanned.iter().enumerate() {
+        if let Some(f) = f
+            && best.is_none_or(|(r, _)| f.rss < r)
+        {
+            best = Some((f.rss, j));
         }
     }
-}
-
-/// The local model's columns at window sample `k` for a spike of time constant `tau` (samples)
-/// that began `phase` of a sample before the first sample from the crossing: 1, k, the step,
-/// the spike.
-fn columns(k: usize, phase: f32, tau: f32) -> [f32; 4] {
-    let x = k as f32 - SPIKE_PRE as f32;
-    let after = if k >= SPIKE_PRE { 1.0 } else { 0.0 };
-    let decay = libm::expf(-(x.max(0.0) + phase) / tau);
-    [1.0, x, after, after * decay]
+    let (_, i) = best?;
+    let ln_tau = super::oscillation::golden_min(
+        at(i.saturating_sub(1)),
+        at((i + 1).min(SCAN - 1)),
+        12,
+        &|ln_tau| fit(libm::expf(ln_tau)).map_or(f32::INFINITY, |f| f.rss),
+    );
+    let tau = libm::expf(ln_tau);
+    let f = fit(tau)?;
+    let (rss, h) = (f.rss, f.h);
+    // 1, t, t², the step, the spike and τ
+    let s2 = rss / (SPIKE_WINDOW - 6) as f32;
+    let var_fixed = s2 * f.c_hh;
+    // where τ is poorly told (a long spike is much like a step over the window) h is not
+    // linear in it: the profile likelihood's two-standard-deviation interval of h, the h
+    // whose residual, τ free, is within 4s² of the least — at each τ scanned, h(τ) ± its u
+    // at that τ times the share of 4s² its residual leaves; u is half its half-width
+    let (mut h_lo, mut h_hi) = (h, h);
+    for g in scanned.iter().flatten() {
+        if g.rss <= rss + 4.0 * s2 {
+            let reach = crate::num::sqrtf((rss + 4.0 * s2 - g.rss).max(0.0) * g.c_hh);
+            h_lo = h_lo.min(g.h - reach);
+            h_hi = h_hi.max(g.h + reach);
+        }
+    }
+    let half = 0.25 * (h_hi - h_lo);
+    Some(Spike {
+        height_um: h,
+        u_height_um: crate::num::sqrtf(var_fixed.max(half * half)),
+        tau_ms: tau * period_us * 1e-3,
+    })
 }

@@ -146,6 +146,8 @@ pub enum NotDeterminable {
     /// The next run began before the run's job read its samples about the reversal points
     /// (reversal spikes: the job slot was busy with a longer job).
     SamplesReplaced,
+    /// An oscillation's frequency: no oscillation of that kind is named on either axis.
+    NoOscillation,
 }
 
 impl NotDeterminable {
@@ -165,6 +167,7 @@ impl NotDeterminable {
             Self::SamplesReplaced => {
                 " not determinable: the next run began before the last run's samples were read; run that direction again"
             }
+            Self::NoOscillation => " not determinable: none is named",
         }
     }
 }

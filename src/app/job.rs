@@ -130,14 +130,15 @@ impl Inputs {
         // SAFETY: `p` comes from a `&mut MaybeUninit<Inputs>`: valid for writes and aligned;
         // a union's variants start at its start, so writing one initialises the union (its
         // other bytes are never read: a slot's `work` names the variant in use).
+        // The scratch (9 KiB of f64, all zero: `IdentificationScratch::EMPTY`) is zeroed in
+        // place: a value of it would be a temporary of its size in the caller's frame (main's,
+        // at boot).
         unsafe {
-            (&raw mut (*p).identification).write(IdentificationJob {
-                input: IdentificationInput {
-                    setup: Setup::thesis_table_4_3(),
-                    steps: [StepEccentricity::default(); 5],
-                },
-                scratch: IdentificationScratch::EMPTY,
+            (&raw mut (*p).identification.input).write(IdentificationInput {
+                setup: Setup::thesis_table_4_3(),
+                steps: [StepEccentricity::default(); 5],
             });
+            (&raw mut (*p).identification.scratch).write_bytes(0, 1);
             s.assume_init_mut()
         }
     }

@@ -370,3 +370,49 @@ fn a_cut_or_foreign_record_is_refused_with_its_byte_offset() {
     assert_eq!(read_recording(&f).unwrap(), decoded(&bytes));
     std::fs::remove_dir_all(&dir).unwrap();
 }
+
+/// The firmware's ring holds the longest header a run can have — every real-valued
+/// configuration field set to a value that prints long (no "nan" left where a field is
+/// optional), five axis columns — with room for 46 records after it, for every pattern; no
+/// line is dropped.
+#[test]
+fn the_firmware_ring_holds_the_longest_header_and_46_records() {
+    use ballpod::config::{FIELDS, FieldType};
+    use ballpod::protocol::stream::FIRMWARE_RING_BYTES;
+    let mut c = meta().config;
+    let mut set = 0;
+    for row in FIELDS {
+        if !matches!(row.ty, FieldType::F32 | FieldType::F64) {
+            continue;
+        }
+        let span = row.max - row.min;
+        let v = if span.is_finite() {
+            row.min + 0.712_345_678_9 * span
+        } else {
+            -12_345.678_912_3
+        };
+        for f in row.fields() {
+            // a cross-field rule may refuse one value: the field keeps its default then
+            if c.try_update(|c| c.set_field(f, v)).is_ok() {
+                set += 1;
+            }
+        }
+    }
+    assert!(set > 40, "only {set} fields took a long value");
+    for pattern in Pattern::ALL {
+        let m = RunMeta {
+            pattern,
+            config: c,
+            ..meta()
+        };
+        let mut s = Box::new(SampleStream::<FIRMWARE_RING_BYTES>::new());
+        s.set_enabled(true);
+        s.begin_run(&m);
+        assert_eq!(s.dropped_lines(), 0, "{pattern:?}: header lines dropped");
+        let header = s.pending();
+        assert!(
+            header + 46 * RECORD_MAX <= FIRMWARE_RING_BYTES,
+            "{pattern:?}: header {header} B leaves no room for 46 records in {FIRMWARE_RING_BYTES} B"
+        );
+    }
+}

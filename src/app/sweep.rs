@@ -15,9 +15,8 @@ use crate::metrology::pattern::Plane;
 pub const SWEEP_FEEDS: usize = 8;
 
 /// The growth of G(b) over the lowest feed's at which the feed limit is read: 20 %. A
-/// constant, not a configuration field: a field's line in every run's header would not leave
-/// the stream ring room (`protocol::stream::FIRMWARE_RING_BYTES`); each feed's G(b) is
-/// published, so a client reads any other fraction from them.
+/// constant, not a configuration field: each feed's G(b) is published, so a client reads any
+/// other fraction from them.
 pub const SWEEP_G_GROWTH: f32 = 0.2;
 
 /// Why `sweep_feed_limit` is invalid, by [`FeedLimitError`].

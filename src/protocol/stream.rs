@@ -53,18 +53,13 @@ pub const fn record_len(n: usize) -> usize {
 /// Bytes of the longest record (five axis columns).
 pub const RECORD_MAX: usize = record_len(MAX_AXES);
 
-/// Bytes of the firmware's ring: a run's header (1 987 bytes of text with the default axes,
-/// written at once when the run starts, between runs, when the ring has drained), then 46
-/// records (46 ms at 1 kHz) before the USB host must have read. More would come out of the
-/// stack, which the seed 002 identification needs (`.ci/stack-report`).
-///
-/// Known limit: with every set-up field of the circle, seed 002 and SSM set (numbers where the
-/// defaults say "nan") the header's configuration lines reach ~2 010 bytes and its last lines
-/// (firmware, columns) no longer fit: they are dropped and counted, and replay refuses the
-/// run. A configuration field added since (one for the feed sweep) made `cargo bench-m4`'s
-/// run drop its header and was taken out again; the header must be written as the ring drains,
-/// or shortened (values in their shortest form), before the configuration grows.
-pub const FIRMWARE_RING_BYTES: usize = 2048;
+/// Bytes of the firmware's ring: a run's header (up to 2 473 bytes of text with every
+/// real-valued set-up field set to a nine-digit value, any pattern — written at once when the
+/// run starts, between runs, when the ring has drained), then at least 46 records (46 ms at
+/// 1 kHz) before the USB host must have read; about 600 bytes to spare for new fields. `host-tests/tests/stream_records.rs` holds the longest
+/// header against it; a configuration field adds a line to every header, so a field that makes
+/// that test fail grows this ring (the stack pays for it: `.ci/stack-report`).
+pub const FIRMWARE_RING_BYTES: usize = 5120;
 
 /// A byte ring of `N` bytes holding whole lines and records of the stream (`N` a multiple of
 /// 4; the bytes past the last multiple are not used).

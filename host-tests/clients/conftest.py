@@ -35,6 +35,8 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "sim_args(*args): extra options of that test's `sim --serve`")
     config.addinivalue_line("markers", "emu_args(*args): extra options of that test's `emu --serve`")
     config.addinivalue_line("markers", "sim_only: a behaviour of sim --serve itself (its TCP server, its speed-up)")
+    config.addinivalue_line("markers", "desk: the desk's tests, against the simulated pod only (the emulated board "
+                            "speaks the same SCPI and stream, at real time: a circle pair takes two minutes)")
 
 
 EMU_ELF = ROOT / "host-tests/emu-board/target/thumbv7em-none-eabihf/release/ballpod-emu"
@@ -122,6 +124,8 @@ def pod(request, tmp_path_factory):
     if emulated():
         if request.node.get_closest_marker("sim_only"):
             pytest.skip("a behaviour of sim --serve itself (its TCP server, its speed-up)")
+        if request.node.get_closest_marker("desk"):
+            pytest.skip("the desk is tested against the simulated pod")
         figures = tmp_path_factory.mktemp("emu") / "figures.json"
         # (runs at real time: the seed 002 procedure's ten runs take about four minutes)
         cmd = [host_binary("emu"), "--serve", "--max-seconds", "900", "--elf", str(EMU_ELF),

@@ -15,6 +15,7 @@
 
 // ---- products
 pub mod cli;
+pub mod desk;
 pub mod diagonals;
 pub mod docs_ref;
 pub mod emu;

@@ -82,7 +82,7 @@ pub const IDN_MAKER_MODEL: &str = "BALLPOD,BP-1,";
 pub const IDN_VERSION: &str = crate::FIRMWARE_VERSION;
 
 /// Decimals of values in µm (and µrad, °C…) in responses: 0.1 nm.
-const RESPONSE_DECIMALS: u32 = 4;
+pub const RESPONSE_DECIMALS: u32 = 4;
 /// A response unit under construction.
 type Response = Text<256>;
 

@@ -1,0 +1,214 @@
+"""The technician's desk (`cargo desk`, host-tests/src/desk) against the served pod: machines,
+tolerances, an ISO 230-4 circle pair run from the desk with the live trace growing, the pod's
+results against the desk's replay of the recorded stream and against the `replay` binary on the
+stream the desk exports, ISO 14253-1 decisions against this file's own statement of the rule,
+the trend over three runs, the report, and bad input (fields named, a second desk refused,
+loopback only, a pod lost mid-run kept and marked)."""
+import json
+import os
+import pathlib
+import signal
+import subprocess
+import time
+import urllib.error
+import urllib.request
+
+import pytest
+
+from conftest import host_binary
+
+pytestmark = pytest.mark.desk
+
+
+class Desk:
+    """A desk process on a fresh history file, its page's URL, and JSON calls to its API."""
+
+    def __init__(self, tmp_path, pod=None):
+        cmd = [host_binary("desk"), "--db", str(tmp_path / "desk.sqlite"), "--port", "0"]
+        if pod:
+            cmd += ["--pod-usb", str(pod["usb_port"]), "--pod-stream", str(pod["stream_port"])]
+        self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                     start_new_session=True)
+        line = self.proc.stdout.readline()
+        assert line, self.proc.stderr.read()
+        self.url = json.loads(line)["url"]
+
+    def call(self, path, body=None, headers=None):
+        """(status, parsed JSON or text) of a GET, or a POST of `body` as JSON."""
+        data = None if body is None else json.dumps(body).encode()
+        req = urllib.request.Request(self.url + path.lstrip("/"), data=data, headers={
+            "content-type": "application/json", **(headers or {})})
+        try:
+            with urllib.request.urlopen(req, timeout=30) as r:
+                status, raw, kind = r.status, r.read(), r.headers.get("content-type", "")
+        except urllib.error.HTTPError as e:
+            status, raw, kind = e.code, e.read(), e.headers.get("content-type", "")
+        return status, json.loads(raw) if "json" in kind else raw.decode()
+
+    def ok(self, path, body=None):
+        status, j = self.call(path, body)
+        assert status == 200, (path, status, j)
+        return j
+
+    def close(self):
+        os.killpg(self.proc.pid, signal.SIGKILL)
+        self.proc.wait(timeout=10)
+
+
+def decision(value, big_u, lower, upper):
+    """ISO 14253-1:2017 §5 (the default rule), stated here independently of the desk's code."""
+    if (upper is not None and value - big_u > upper) or (lower is not None and value + big_u < lower):
+        return "does_not_conform"
+    if (upper is None or value + big_u <= upper) and (lower is None or value - big_u >= lower):
+        return "conforms"
+    return "undecided"
+
+
+def run_circle_pair(desk, machine_id, watch=False):
+    """Starts a circle pair from the desk and waits for its end; the live sample counts seen."""
+    run_id = desk.ok("/api/tests", {"machine_id": machine_id, "operator": "A. Tester", "test": "circle",
+                                    "circle": {"plane": "XY", "radius_mm": 150, "feed_mm_per_min": 1000}})["run_id"]
+    seen = []
+    t0 = time.time()
+    while True:
+        live = desk.ok("/api/live")
+        assert live["run_id"] == run_id
+        if live["finished"]:
+            break
+        if watch and live["trace"]["samples"]:
+            seen.append((live["step"].split()[0], live["trace"]["samples"], len(live["trace"]["points"]),
+                         live["trace"]["lost"]))
+        assert time.time() - t0 < 120, live
+        time.sleep(0.1)
+    return run_id, seen
+
+
+def test_a_circle_pair_from_the_desk_with_decisions_trend_and_report(pod, tmp_path):
+    desk = Desk(tmp_path, pod)
+    try:
+        assert desk.ok("/api/pod")["identity"].startswith("BALLPOD,")
+        # a second desk on the same pod is refused, as the pod refuses a second client
+        second = subprocess.run([host_binary("desk"), "--db", str(tmp_path / "other.sqlite"), "--port", "0",
+                                 "--pod-usb", str(pod["usb_port"]), "--pod-stream", str(pod["stream_port"])],
+                                capture_output=True, text=True, timeout=30)
+        assert second.returncode != 0 and "another program" in second.stderr, second
+
+        # machines: a missing name and a duplicate are named
+        assert desk.call("/api/machines", {"name": " "}) == (400, {"error": "machine name is missing"})
+        mid = desk.ok("/api/machines", {"name": "DMU 50 #3", "builder": "DMG MORI", "model": "DMU 50",
+                                        "serial": "12345", "kinematics": "table-table B/C",
+                                        "axes": "X Y Z B C", "travel": "X 500, Y 450, Z 400 mm"})["id"]
+        status, e = desk.call("/api/machines", {"name": "DMU 50 #3"})
+        assert status == 400 and "exists already" in e["error"]
+        # bad test input is named, nothing starts
+        for circle, words in [({"plane": "XZ"}, "plane"), ({"radius_mm": 5}, "radius"),
+                              ({"feed_mm_per_min": -1}, "feed")]:
+            status, e = desk.call("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle", "circle": circle})
+            assert status == 400 and words in e["error"], (circle, e)
+        assert desk.call("/api/tests", {"machine_id": 99, "operator": "A", "test": "circle"})[0] == 404
+        status, e = desk.call(f"/api/machines/{mid}/tolerances", {"figure": "G_nope", "upper": 1})
+        assert status == 400 and "G_nope" in e["error"]
+        status, e = desk.call(f"/api/machines/{mid}/tolerances", {"figure": "G_ccw", "lower": 2, "upper": 1})
+        assert status == 400 and "lower limit" in e["error"]
+
+        # the run, its trace growing while the machine moves
+        run_id, seen = run_circle_pair(desk, mid, watch=True)
+        for direction in ("CCW", "CW"):
+            counts = [n for d, n, _, _ in seen if d == direction]
+            assert len(set(counts)) >= 3 and counts == sorted(counts), (direction, seen)
+        assert max(p for _, _, p, _ in seen) > 100 and all(lost == 0 for *_, lost in seen), seen
+
+        view = desk.ok(f"/api/runs/{run_id}")
+        assert view["run"]["state"] == "done", view["run"]
+        # the desk's replay of the stream equals the pod's printed results, digit for digit
+        assert view["run"]["replay_check"] == "", view["run"]["replay_check"]
+        pod_results = {f["name"]: f for f in view["run"]["pod_results"]}
+        figures = {f["name"]: f for f in view["figures"]}
+        assert len(pod_results) >= 40 and set(pod_results) == set(figures)
+        for name, p in pod_results.items():
+            assert figures[name]["value"] == pytest.approx(p["value"], abs=6e-5), name
+        # the stream the desk kept, replayed by the replay binary: the same figures
+        (tmp_path / "run.stream").write_bytes(urllib.request.urlopen(desk.url + f"api/runs/{run_id}/stream").read())
+        out = subprocess.run([host_binary("replay"), str(tmp_path / "run.stream"), "--out", str(tmp_path / "out")],
+                             capture_output=True, text=True)
+        assert out.returncode == 0, out.stderr
+        replayed = {f["name"]: f for f in json.loads((tmp_path / "out" / "results.json").read_text())["results"]}
+        assert set(replayed) == set(figures)
+        for name, f in replayed.items():
+            assert figures[name]["value"] == pytest.approx(f["value"], rel=1e-6, abs=1e-9), name
+        # and the truth: the socket offset s reads as the eccentricity e = -s
+        s_u, s_v = pod["truth"]["machine"]["circle"]["socket_offset_um"]
+        for name, truth in [("ecc_u", -s_u), ("ecc_v", -s_v)]:
+            assert abs(figures[name]["value"] - truth) <= max(4 * figures[name]["u"], 0.05), name
+
+        # tolerances on each side of a figure and inside its U; the decisions follow the rule
+        def big_u(name):
+            return figures[name]["expanded_u"]
+        limits = {
+            "G_ccw": (None, figures["G_ccw"]["value"] + 3 * big_u("G_ccw")),   # inside by 2U
+            "G_cw": (None, figures["G_cw"]["value"] - 3 * big_u("G_cw")),      # outside by 2U
+            "F_max_ccw": (None, figures["F_max_ccw"]["value"] + 0.5 * big_u("F_max_ccw")),  # within U
+            "ecc_u": (figures["ecc_u"]["value"] - 2 * big_u("ecc_u"), figures["ecc_u"]["value"] + 2 * big_u("ecc_u")),
+            "ecc_v": (figures["ecc_v"]["value"] + 0.5 * big_u("ecc_v"), figures["ecc_v"]["value"] + 9 * big_u("ecc_v")),
+        }
+        for name, (lo, hi) in limits.items():
+            desk.ok(f"/api/machines/{mid}/tolerances", {"figure": name, "lower": lo, "upper": hi})
+        view = desk.ok(f"/api/runs/{run_id}")
+        decided = {f["name"]: f["decision"] for f in view["figures"] if f["decision"]}
+        expected = {n: decision(figures[n]["value"], big_u(n), lo, hi) for n, (lo, hi) in limits.items()}
+        assert decided == expected
+        assert sorted(set(expected.values())) == ["conforms", "does_not_conform", "undecided"]
+        # U = k·u: k = 2 where no degrees of freedom are stated
+        assert figures["G_ccw"]["expanded_u"] == pytest.approx(2 * figures["G_ccw"]["u"])
+
+        # two more runs: the trend shows three points
+        for _ in range(2):
+            assert desk.ok(f"/api/runs/{run_circle_pair(desk, mid)[0]}")["run"]["state"] == "done"
+        status, svg = desk.call(f"/api/trend.svg?machine={mid}&figure=G_ccw")
+        assert status == 200 and svg.count('class="point"') == 3 and 'class="limit"' in svg
+        assert len(desk.ok(f"/api/runs?machine={mid}")) == 3
+
+        # the report: conditions, polar plot, figures ± U with decisions, trend, traceability
+        status, html = desk.call(f"/report/{run_id}")
+        assert status == 200
+        assert "<svg" in html and 'id="figures"' in html and "DMU 50 #3" in html and "A. Tester" in html
+        assert desk.ok("/api/pod")["identity"] in html
+        assert html.count('class="point"') == 3 * len(limits)
+        for name, want in expected.items():
+            row = html.split(f'<tr data-name="{name}" class="{want}">', 1)
+            assert len(row) == 2, name
+            assert row[1].split('class="value">', 1)[1].startswith(f'{figures[name]["value"]:.4f}'[:-1]), name
+
+        # loopback only: a request naming another host is refused
+        assert desk.call("/api/machines", headers={"host": "desk.example.com"})[0] == 403
+    finally:
+        desk.close()
+
+
+def test_a_pod_lost_mid_run_is_kept_and_marked(tmp_path):
+    sim = subprocess.Popen([host_binary("sim"), "--serve", "--max-seconds", "60", "--speed", "5"],
+                           stdout=subprocess.PIPE, text=True, start_new_session=True)
+    try:
+        pod = json.loads(sim.stdout.readline())
+        desk = Desk(tmp_path, pod)
+        try:
+            mid = desk.ok("/api/machines", {"name": "VF-2"})["id"]
+            run_id = desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle"})["run_id"]
+            t0 = time.time()
+            while desk.ok("/api/live")["trace"]["samples"] < 200:
+                assert time.time() - t0 < 30
+                time.sleep(0.05)
+            os.killpg(sim.pid, signal.SIGKILL)
+            while not desk.ok("/api/live")["finished"]:
+                assert time.time() - t0 < 60
+                time.sleep(0.1)
+            run = desk.ok(f"/api/runs/{run_id}")["run"]
+            assert run["state"] == "cut", run
+            assert run["note"]
+            kept = urllib.request.urlopen(desk.url + f"api/runs/{run_id}/stream").read()
+            assert kept.startswith(b"# ballpod run") and kept.count(b"\xb5") > 200
+        finally:
+            desk.close()
+    finally:
+        os.killpg(sim.pid, signal.SIGKILL)
+        sim.wait(timeout=10)

@@ -1,0 +1,55 @@
+//! `cargo desk [--db FILE] [--port N] [--pod-usb PORT --pod-stream PORT]`: the technician's
+//! desk — a local web page (loopback only) that keeps machines and their tolerances, runs tests
+//! on a pod, draws the trace live, checks the pod's results against a replay of the recorded
+//! stream, decides each figure with its U (ISO 14253-1) and keeps the history with a report
+//! per run. Prints `{"url": …}` when it listens; open that in a browser.
+
+use std::path::PathBuf;
+
+use clap::Parser;
+
+use ballpod_host::desk::pod::Pod;
+use ballpod_host::desk::store::Store;
+use ballpod_host::desk::{Desk, web};
+
+/// The technician's desk: tests, history and reports in the browser.
+#[derive(Parser, Debug)]
+#[command(name = "cargo desk", version)]
+struct Args {
+    /// The history file (SQLite; created if missing).
+    #[arg(long, default_value = "desk.sqlite")]
+    db: PathBuf,
+    /// Port on 127.0.0.1 for the page (0: any free port).
+    #[arg(long, default_value_t = 8230)]
+    port: u16,
+    /// The pod's USB command port served on loopback TCP (`sim --serve`'s `usb_port`).
+    #[arg(long, requires = "pod_stream")]
+    pod_usb: Option<u16>,
+    /// The pod's stream port served on loopback TCP (`sim --serve`'s `stream_port`).
+    #[arg(long, requires = "pod_usb")]
+    pod_stream: Option<u16>,
+}
+
+fn main() {
+    let args: Args = ballpod_host::cli::parse();
+    if let Err(e) = run(args) {
+        eprintln!("desk: {e}");
+        std::process::exit(1);
+    }
+}
+
+fn run(args: Args) -> Result<(), String> {
+    let store = Store::open(&args.db)?;
+    let pod = match (args.pod_usb, args.pod_stream) {
+        (Some(u), Some(s)) => Some(Pod::connect_tcp(u, s)?),
+        _ => None,
+    };
+    let desk = Desk::new(store, pod);
+    tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .map_err(|e| e.to_string())?
+        .block_on(web::serve(desk, args.port))
+        .map_err(|e| format!("serving on 127.0.0.1:{}: {e}", args.port))
+}

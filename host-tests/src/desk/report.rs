@@ -1,0 +1,354 @@
+//! A run's figures with their decisions, and the self-contained HTML report (test conditions,
+//! polar plots in the ball-bar convention, figures ± U with the decision, the largest
+//! contributors, this machine's trend per toleranced figure, traceability).
+
+use std::collections::BTreeMap;
+use std::fmt::Write;
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::decision::{Decision, Tolerance, decide};
+use super::store::{Machine, RunRow, Store};
+use super::tests::stream_text;
+use crate::gum::coverage_factor;
+use crate::replay::{Figure, Report};
+
+/// One figure of a run with its expanded uncertainty and decision.
+#[derive(Clone, Debug, Serialize)]
+pub struct FigureView {
+    /// Result name.
+    pub name: String,
+    /// Value, `unit`.
+    pub value: f64,
+    /// Standard uncertainty (None: not evaluated).
+    pub u: Option<f64>,
+    /// Coverage factor for 95 % (2, or Student's t at the figure's degrees of freedom).
+    pub k: Option<f64>,
+    /// Expanded uncertainty U = k·u.
+    pub expanded_u: Option<f64>,
+    /// Unit.
+    pub unit: String,
+    /// The machine's tolerance for it, if set.
+    pub tolerance: Option<Tolerance>,
+    /// The ISO 14253-1 decision (only where a tolerance is set).
+    pub decision: Option<Decision>,
+    /// The largest contributors to u: (name, standard uncertainty in `unit`).
+    pub contributors: Vec<(String, f64)>,
+}
+
+/// A run as the desk shows it.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunView {
+    /// The stored row.
+    pub run: RunRow,
+    /// The machine.
+    pub machine: Machine,
+    /// Figures (the replay's, which equal the pod's printed results when `replay_check` is
+    /// empty; the pod's where the replay failed).
+    pub figures: Vec<FigureView>,
+}
+
+/// The figures of a stored run (replay first, else the pod's).
+pub fn figures_of(run: &RunRow) -> Vec<Figure> {
+    serde_json::from_value::<Report>(run.replay.clone())
+        .map(|r| r.results)
+        .or_else(|_| serde_json::from_value(run.pod_results.clone()))
+        .unwrap_or_default()
+}
+
+/// A run's figures with their decisions against the machine's tolerances.
+pub fn view(store: &Store, id: i64) -> Result<RunView, String> {
+    let run = store.run(id)?;
+    let machine = store.machine(run.machine_id)?;
+    let tol = store.tolerances(run.machine_id)?;
+    let figures = figures_of(&run)
+        .into_iter()
+        .map(|f| figure_view(&f, &tol))
+        .collect();
+    Ok(RunView {
+        run,
+        machine,
+        figures,
+    })
+}
+
+fn figure_view(f: &Figure, tol: &BTreeMap<String, Tolerance>) -> FigureView {
+    let u = f.u.map(f64::from);
+    let k = u.and(coverage_factor(f.dof.map(f64::from)));
+    let expanded_u = u.zip(k).map(|(u, k)| u * k);
+    let tolerance = tol.get(&f.name).copied();
+    FigureView {
+        name: f.name.clone(),
+        value: f64::from(f.value),
+        u,
+        k,
+        expanded_u,
+        unit: f.unit.clone(),
+        tolerance,
+        decision: tolerance.map(|t| decide(f64::from(f.value), expanded_u, t)),
+        contributors: f
+            .contributors
+            .iter()
+            .map(|c| (c.name.clone(), f64::from(c.u)))
+            .collect(),
+    }
+}
+
+/// One run's point of a trend.
+#[derive(Clone, Debug, Serialize)]
+pub struct TrendPoint {
+    /// The run.
+    pub run_id: i64,
+    /// When it started (RFC 3339).
+    pub started: String,
+    /// The figure's value.
+    pub value: f64,
+    /// Its expanded uncertainty.
+    pub expanded_u: Option<f64>,
+}
+
+/// One figure over a machine's completed runs, oldest first.
+pub fn trend(store: &Store, machine: i64, figure: &str) -> Result<Vec<TrendPoint>, String> {
+    let tol = BTreeMap::new();
+    Ok(store
+        .runs(Some(machine))?
+        .iter()
+        .filter(|r| r.state == "done")
+        .filter_map(|r| {
+            let f = figures_of(r).into_iter().find(|f| f.name == figure)?;
+            let v = figure_view(&f, &tol);
+            Some(TrendPoint {
+                run_id: r.id,
+                started: r.started.clone(),
+                value: v.value,
+                expanded_u: v.expanded_u,
+            })
+        })
+        .collect())
+}
+
+/// Text for HTML.
+pub fn esc(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+        .replace('"', "&quot;")
+}
+
+/// A trend chart: the values with their U bars, the tolerance's limits as lines (SVG).
+pub fn trend_svg(
+    points: &[TrendPoint],
+    tol: Option<Tolerance>,
+    title: &str,
+    unit: &str,
+) -> String {
+    let (w, h, m) = (640.0, 260.0, 50.0);
+    let mut lo = f64::INFINITY;
+    let mut hi = f64::NEG_INFINITY;
+    for p in points {
+        let (v, u) = (p.value, p.expanded_u.unwrap_or(0.0));
+        lo = lo.min(v - u);
+        hi = hi.max(v + u);
+    }
+    for l in tol.iter().flat_map(|t| [t.lower, t.upper]).flatten() {
+        lo = lo.min(l);
+        hi = hi.max(l);
+    }
+    if !(lo.is_finite() && hi.is_finite()) {
+        lo = 0.0;
+        hi = 1.0;
+    }
+    if hi - lo < 1e-9 {
+        hi += 0.5;
+        lo -= 0.5;
+    }
+    let pad = 0.08 * (hi - lo);
+    let (lo, hi) = (lo - pad, hi + pad);
+    let n = points.len().max(1) as f64;
+    let x = |i: usize| m + (w - 2.0 * m) * (i as f64 + 0.5) / n;
+    let y = |v: f64| h - m - (h - 2.0 * m) * (v - lo) / (hi - lo);
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        r##"<svg xmlns="http://www.w3.org/2000/svg" class="trend" width="{w}" height="{h}" viewBox="0 0 {w} {h}"><rect width="{w}" height="{h}" fill="white"/><text x="{m}" y="20" font-size="14">{} ({})</text><line x1="{m}" y1="{}" x2="{}" y2="{}" stroke="#888"/>"##,
+        esc(title),
+        esc(unit),
+        h - m,
+        w - m,
+        h - m
+    );
+    for (l, name) in tol
+        .iter()
+        .flat_map(|t| [(t.lower, "lower limit"), (t.upper, "upper limit")])
+    {
+        if let Some(l) = l {
+            let _ = write!(
+                s,
+                r##"<line class="limit" x1="{m}" y1="{0:.1}" x2="{1}" y2="{0:.1}" stroke="#d12a1f" stroke-dasharray="6 4"/><text x="{1}" y="{2:.1}" font-size="11" text-anchor="end" fill="#d12a1f">{name} {l}</text>"##,
+                y(l),
+                w - m,
+                y(l) - 4.0
+            );
+        }
+    }
+    for (i, p) in points.iter().enumerate() {
+        let (id, started, v) = (p.run_id, &p.started, p.value);
+        if let Some(u) = p.expanded_u {
+            let _ = write!(
+                s,
+                r##"<line x1="{0:.1}" y1="{1:.1}" x2="{0:.1}" y2="{2:.1}" stroke="#1f4fd1"/>"##,
+                x(i),
+                y(v + u),
+                y(v - u)
+            );
+        }
+        let _ = write!(
+            s,
+            r##"<circle class="point" cx="{:.1}" cy="{:.1}" r="4" fill="#1f4fd1"><title>run {id}, {}: {v:.4}</title></circle><text x="{:.1}" y="{}" font-size="10" text-anchor="middle">{}</text>"##,
+            x(i),
+            y(v),
+            esc(started),
+            x(i),
+            h - m + 16.0,
+            esc(started.get(..10).unwrap_or(started))
+        );
+    }
+    let _ = write!(
+        s,
+        r##"<text x="8" y="{:.1}" font-size="10">{hi:.3}</text><text x="8" y="{:.1}" font-size="10">{lo:.3}</text></svg>"##,
+        y(hi) + 10.0,
+        y(lo)
+    );
+    s
+}
+
+/// The polar plots of a run's stream (the replay's own SVGs; none if it does not replay).
+fn plots(store: &Store, id: i64) -> Vec<(String, String)> {
+    let Ok(bytes) = store.stream(id) else {
+        return Vec::new();
+    };
+    let Ok(runs) = crate::recording::parse_runs(Path::new("stream"), &stream_text(&bytes)) else {
+        return Vec::new();
+    };
+    let named: Vec<(String, _)> = runs
+        .into_iter()
+        .map(|r| ("stream".to_string(), r))
+        .collect();
+    match crate::replay::replay(&named) {
+        Ok(report) => crate::report::plots(&named, &report),
+        Err(_) => Vec::new(),
+    }
+}
+
+fn num(v: Option<f64>) -> String {
+    v.map_or("—".into(), |v| format!("{v:.4}"))
+}
+
+/// The self-contained HTML report of one run.
+pub fn html(store: &Store, id: i64) -> Result<String, String> {
+    let v = view(store, id)?;
+    let r = &v.run;
+    let m = &v.machine;
+    let mut s = String::new();
+    let _ = write!(
+        s,
+        r#"<!doctype html><html lang="en"><head><meta charset="utf-8"><title>ballpod report — {name}, run {id}</title>
+<style>body{{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;text-align:left}}
+.conforms{{background:#d8f5d8}}.does_not_conform{{background:#f8d0d0}}.undecided{{background:#fff3c4}}svg{{max-width:100%;height:auto}}</style></head><body>
+<h1>Ball-bar test report</h1><p id="summary">Machine <b>{name}</b> · test <b>{test}</b> · run {id} · {started} · operator {op} · state <b id="state">{state}</b></p>"#,
+        name = esc(&m.name),
+        test = esc(&r.test),
+        started = esc(&r.started),
+        op = esc(&r.operator),
+        state = esc(&r.state)
+    );
+    if !r.note.is_empty() {
+        let _ = write!(s, r#"<p id="note"><b>Note:</b> {}</p>"#, esc(&r.note));
+    }
+    s.push_str("<h2>Test conditions (ISO 230-4)</h2><table id=\"setup\">");
+    if let Some(o) = r.setup.as_object() {
+        for (k, val) in o {
+            let _ = write!(
+                s,
+                "<tr><th>{}</th><td>{}</td></tr>",
+                esc(k),
+                esc(&val.to_string())
+            );
+        }
+    }
+    s.push_str("<tr><th>directions</th><td>CCW, then CW</td></tr></table>");
+    s.push_str("<h2>Polar plots</h2><div id=\"plots\">");
+    for (name, svg) in plots(store, id) {
+        let body = svg.find("<svg").map_or(svg.as_str(), |k| &svg[k..]);
+        let _ = write!(
+            s,
+            "<figure><figcaption>{}</figcaption>{body}</figure>",
+            esc(&name)
+        );
+    }
+    s.push_str("</div><h2>Figures</h2><p>U = k·u for about 95 % (k = 2, or Student's t at the figure's degrees of freedom). Decisions by ISO 14253-1: conformance proven when the value is inside the tolerance by more than U, non-conformance when outside by more than U, else undecided.</p>");
+    s.push_str("<table id=\"figures\"><tr><th>figure</th><th>value</th><th>U</th><th>unit</th><th>tolerance</th><th>decision</th><th>largest contributors to u</th></tr>");
+    for f in &v.figures {
+        let tol = f.tolerance.map_or(String::new(), |t| {
+            format!(
+                "{} … {}",
+                t.lower.map_or("".into(), |l| l.to_string()),
+                t.upper.map_or("".into(), |h| h.to_string())
+            )
+        });
+        let (class, words) = f.decision.map_or((String::new(), ""), |d| {
+            (
+                serde_json::to_value(d)
+                    .ok()
+                    .and_then(|x| x.as_str().map(String::from))
+                    .unwrap_or_default(),
+                d.words(),
+            )
+        });
+        let contributors: Vec<String> = f
+            .contributors
+            .iter()
+            .map(|(n, u)| format!("{} {u:.4}", esc(n)))
+            .collect();
+        let _ = write!(
+            s,
+            r#"<tr data-name="{n}" class="{class}"><td>{n}</td><td class="value">{}</td><td class="U">{}</td><td>{}</td><td>{tol}</td><td class="decision">{words}</td><td>{}</td></tr>"#,
+            format_args!("{:.4}", f.value),
+            num(f.expanded_u),
+            esc(&f.unit),
+            contributors.join(", "),
+            n = esc(&f.name)
+        );
+    }
+    s.push_str("</table><h2>Trend of this machine</h2>");
+    let tol = store.tolerances(m.id)?;
+    for (figure, t) in &tol {
+        let points = trend(store, m.id, figure)?;
+        let unit = v
+            .figures
+            .iter()
+            .find(|f| &f.name == figure)
+            .map_or("", |f| f.unit.as_str());
+        s.push_str(&trend_svg(&points, Some(*t), figure, unit));
+    }
+    let _ = write!(
+        s,
+        r#"<h2>Traceability</h2><table id="trace"><tr><th>machine</th><td>{} {} {}, serial {} ({})</td></tr><tr><th>pod</th><td>{}</td></tr><tr><th>replay of the recorded stream</th><td>{}</td></tr><tr><th>report made</th><td>{}</td></tr></table></body></html>"#,
+        esc(&m.builder),
+        esc(&m.model),
+        esc(&m.name),
+        esc(&m.serial),
+        esc(&m.kinematics),
+        esc(&r.pod_identity),
+        if r.state != "done" {
+            "not replayed".to_string()
+        } else if r.replay_check.is_empty() {
+            "equal to the pod's results, digit for digit".to_string()
+        } else {
+            esc(&r.replay_check)
+        },
+        super::store::now()
+    );
+    Ok(s)
+}

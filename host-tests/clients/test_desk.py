@@ -67,7 +67,7 @@ def decision(value, big_u, lower, upper):
 def run_circle_pair(desk, machine_id, watch=False):
     """Starts a circle pair from the desk and waits for its end; the live sample counts seen."""
     run_id = desk.ok("/api/tests", {"machine_id": machine_id, "operator": "A. Tester", "test": "circle",
-                                    "circle": {"plane": "XY", "radius_mm": 150, "feed_mm_per_min": 1000}})["run_id"]
+                                    "setup": {"circle_plane": "XY", "circle_radius": 150, "circle_feed": 1000}})["run_id"]
     seen = []
     t0 = time.time()
     while True:
@@ -76,7 +76,8 @@ def run_circle_pair(desk, machine_id, watch=False):
         if live["finished"]:
             break
         if watch and live["trace"]["samples"]:
-            seen.append((live["step"].split()[0], live["trace"]["samples"], len(live["trace"]["points"]),
+            # "run 1 of 2 (CIRCLE CCW): the machine moves"
+            seen.append((live["step"].split(":")[0], live["trace"]["samples"], len(live["trace"]["points"]),
                          live["trace"]["lost"]))
         assert time.time() - t0 < 120, live
         time.sleep(0.1)
@@ -101,10 +102,15 @@ def test_a_circle_pair_from_the_desk_with_decisions_trend_and_report(pod, tmp_pa
         status, e = desk.call("/api/machines", {"name": "DMU 50 #3"})
         assert status == 400 and "exists already" in e["error"]
         # bad test input is named, nothing starts
-        for circle, words in [({"plane": "XZ"}, "plane"), ({"radius_mm": 5}, "radius"),
-                              ({"feed_mm_per_min": -1}, "feed")]:
-            status, e = desk.call("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle", "circle": circle})
-            assert status == 400 and words in e["error"], (circle, e)
+        # (the set-up is checked by the core's own configuration rules, as the pod checks it)
+        for setup, words in [({"circle_plane": "XZ"}, "circle_plane = \"XZ\" is not one of XY, YZ, ZX"),
+                             ({"circle_radius": -5}, "circle_radius = -5 is outside"),
+                             ({"circle_feed": "fast"}, "circle_feed = \"fast\": the field takes a number"),
+                             ({"circle_radius_mm": 150}, "\"circle_radius_mm\" is not a configuration field")]:
+            status, e = desk.call("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle", "setup": setup})
+            assert status == 400 and words in e["error"], (setup, e)
+        status, e = desk.call("/api/tests", {"machine_id": mid, "operator": "A", "test": "spiral"})
+        assert status == 400 and "spiral" in e["error"], e
         assert desk.call("/api/tests", {"machine_id": 99, "operator": "A", "test": "circle"})[0] == 404
         status, e = desk.call(f"/api/machines/{mid}/tolerances", {"figure": "G_nope", "upper": 1})
         assert status == 400 and "G_nope" in e["error"]
@@ -113,9 +119,9 @@ def test_a_circle_pair_from_the_desk_with_decisions_trend_and_report(pod, tmp_pa
 
         # the run, its trace growing while the machine moves
         run_id, seen = run_circle_pair(desk, mid, watch=True)
-        for direction in ("CCW", "CW"):
-            counts = [n for d, n, _, _ in seen if d == direction]
-            assert len(set(counts)) >= 3 and counts == sorted(counts), (direction, seen)
+        for run in ("run 1 of 2 (CIRCLE CCW)", "run 2 of 2 (CIRCLE CW)"):
+            counts = [n for r, n, _, _ in seen if r == run]
+            assert len(set(counts)) >= 3 and counts == sorted(counts), (run, seen)
         assert max(p for _, _, p, _ in seen) > 100 and all(lost == 0 for *_, lost in seen), seen
 
         view = desk.ok(f"/api/runs/{run_id}")
@@ -212,3 +218,47 @@ def test_a_pod_lost_mid_run_is_kept_and_marked(tmp_path):
     finally:
         os.killpg(sim.pid, signal.SIGKILL)
         sim.wait(timeout=10)
+
+
+@pytest.mark.sim_args("--speed", "40")
+def test_the_seed002_procedure_from_the_desk(pod, tmp_path):
+    """The seed 002 template: the thesis Table 4.3 set-up, ten runs; the pod's identification
+    against the served machine's truth, the replay check, a decision on a deviation."""
+    from podlib import SEED002_DEVIATIONS, TABLE_4_3
+    desk = Desk(tmp_path, pod)
+    try:
+        mid = desk.ok("/api/machines", {"name": "Mill-turn B/C", "kinematics": "B head, C table"})["id"]
+        # without its set-up the pod refuses the first run, naming the field it lacks
+        rid = desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "seed002"})["run_id"]
+        while not desk.ok("/api/live")["finished"]:
+            time.sleep(0.05)
+        run = desk.ok(f"/api/runs/{rid}")["run"]
+        assert run["state"] == "failed" and "s002_l_b not set" in run["note"], run
+        # the machine's balls are mounted without offsets at the R_C and Z_C entered: no
+        # mounting uncertainty (as test_canopen_seed002.py)
+        setup = dict(TABLE_4_3, s002_u_w_clamp=0, s002_u_t_centring=0, s002_u_t_axial=0, s002_u_r_c_z_c=0,
+                     s002_u_r_b=0)
+        rid = desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "seed002", "setup": setup})["run_id"]
+        steps = set()
+        t0 = time.time()
+        while not (live := desk.ok("/api/live"))["finished"]:
+            steps.add(live["step"].split(":")[0])
+            assert time.time() - t0 < 240, live
+            time.sleep(0.1)
+        assert {"run 1 of 10 (BX CW)", "run 10 of 10 (CR2 CCW)"} <= steps, steps
+        view = desk.ok(f"/api/runs/{rid}")
+        assert view["run"]["state"] == "done" and view["run"]["replay_check"] == "", view["run"]
+        assert view["run"]["setup"]["BAR_LENGTH"] == view["run"]["setup"]["S002_L_B"]
+        figures = {f["name"]: f for f in view["figures"]}
+        truth = pod["truth"]["machine"]["seed002"]
+        for name, key in SEED002_DEVIATIONS.items():
+            f = figures[name]
+            assert abs(f["value"] - truth[key]) <= max(4 * f["u"], 0.05) and abs(f["value"] - truth[key]) <= 0.5, name
+        # a tolerance of ±5″ on alpha_XB (truth −20.89″): does not conform, by more than U
+        desk.ok(f"/api/machines/{mid}/tolerances", {"figure": "alpha_XB", "lower": -5, "upper": 5})
+        f = next(f for f in desk.ok(f"/api/runs/{rid}")["figures"] if f["name"] == "alpha_XB")
+        assert f["decision"] == decision(f["value"], f["expanded_u"], -5, 5) == "does_not_conform"
+        status, html = desk.call(f"/report/{rid}")
+        assert status == 200 and "BX CW, BX CCW" in html and html.count("<svg") >= 1
+    finally:
+        desk.close()

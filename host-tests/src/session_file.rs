@@ -51,7 +51,7 @@ use crate::recording::{LogError, RecordedRun, excerpt, parse_plain, parse_runs, 
 use crate::replay::{Figure, Share};
 
 /// A value of the `[setup]` table: a number or a code's name.
-#[derive(Clone, Debug, PartialEq, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Deserialize, serde::Serialize)]
 #[serde(untagged)]
 pub enum SetupValue {
     /// A number in the field's unit.

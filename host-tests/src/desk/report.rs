@@ -128,6 +128,14 @@ pub fn trend(store: &Store, machine: i64, figure: &str) -> Result<Vec<TrendPoint
         .collect())
 }
 
+/// A unit as a reader writes it (the protocols' ASCII `um`, `urad` → µm, µrad).
+pub fn unit_text(unit: &str) -> String {
+    match unit.strip_prefix('u') {
+        Some(rest) if rest.starts_with('m') || rest.starts_with("rad") => format!("µ{rest}"),
+        _ => unit.to_string(),
+    }
+}
+
 /// Text for HTML.
 pub fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
@@ -137,12 +145,7 @@ pub fn esc(s: &str) -> String {
 }
 
 /// A trend chart: the values with their U bars, the tolerance's limits as lines (SVG).
-pub fn trend_svg(
-    points: &[TrendPoint],
-    tol: Option<Tolerance>,
-    title: &str,
-    unit: &str,
-) -> String {
+pub fn trend_svg(points: &[TrendPoint], tol: Option<Tolerance>, title: &str, unit: &str) -> String {
     let (w, h, m) = (640.0, 260.0, 50.0);
     let mut lo = f64::INFINITY;
     let mut hi = f64::NEG_INFINITY;
@@ -173,7 +176,7 @@ pub fn trend_svg(
         s,
         r##"<svg xmlns="http://www.w3.org/2000/svg" class="trend" width="{w}" height="{h}" viewBox="0 0 {w} {h}"><rect width="{w}" height="{h}" fill="white"/><text x="{m}" y="20" font-size="14">{} ({})</text><line x1="{m}" y1="{}" x2="{}" y2="{}" stroke="#888"/>"##,
         esc(title),
-        esc(unit),
+        esc(&unit_text(unit)),
         h - m,
         w - m,
         h - m
@@ -255,7 +258,8 @@ pub fn html(store: &Store, id: i64) -> Result<String, String> {
         s,
         r#"<!doctype html><html lang="en"><head><meta charset="utf-8"><title>ballpod report — {name}, run {id}</title>
 <style>body{{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;text-align:left}}
-.conforms{{background:#d8f5d8}}.does_not_conform{{background:#f8d0d0}}.undecided{{background:#fff3c4}}svg{{max-width:100%;height:auto}}</style></head><body>
+.conforms{{background:#d8f5d8}}.does_not_conform{{background:#f8d0d0}}.undecided{{background:#fff3c4}}svg{{max-width:100%;height:auto}}figure{{margin:0}}
+@media print{{body{{margin:0;max-width:none}}figure svg{{max-height:14cm;width:auto}}figure,svg.trend,tr{{break-inside:avoid}}}}</style></head><body>
 <h1>Ball-bar test report</h1><p id="summary">Machine <b>{name}</b> · test <b>{test}</b> · run {id} · {started} · operator {op} · state <b id="state">{state}</b></p>"#,
         name = esc(&m.name),
         test = esc(&r.test),
@@ -266,18 +270,24 @@ pub fn html(store: &Store, id: i64) -> Result<String, String> {
     if !r.note.is_empty() {
         let _ = write!(s, r#"<p id="note"><b>Note:</b> {}</p>"#, esc(&r.note));
     }
-    s.push_str("<h2>Test conditions (ISO 230-4)</h2><table id=\"setup\">");
+    s.push_str("<h2>Test conditions</h2><table id=\"setup\">");
     if let Some(o) = r.setup.as_object() {
         for (k, val) in o {
             let _ = write!(
                 s,
                 "<tr><th>{}</th><td>{}</td></tr>",
                 esc(k),
-                esc(&val.to_string())
+                esc(&val.as_str().map_or_else(|| val.to_string(), String::from))
             );
         }
     }
-    s.push_str("<tr><th>directions</th><td>CCW, then CW</td></tr></table>");
+    if let Ok(t) =
+        serde_json::from_value::<super::tests::Template>(serde_json::Value::String(r.test.clone()))
+    {
+        let runs: Vec<String> = t.runs().iter().map(|(p, d)| format!("{p} {d}")).collect();
+        let _ = write!(s, "<tr><th>runs</th><td>{}</td></tr>", runs.join(", "));
+    }
+    s.push_str("</table>");
     s.push_str("<h2>Polar plots</h2><div id=\"plots\">");
     for (name, svg) in plots(store, id) {
         let body = svg.find("<svg").map_or(svg.as_str(), |k| &svg[k..]);
@@ -316,7 +326,7 @@ pub fn html(store: &Store, id: i64) -> Result<String, String> {
             r#"<tr data-name="{n}" class="{class}"><td>{n}</td><td class="value">{}</td><td class="U">{}</td><td>{}</td><td>{tol}</td><td class="decision">{words}</td><td>{}</td></tr>"#,
             format_args!("{:.4}", f.value),
             num(f.expanded_u),
-            esc(&f.unit),
+            esc(&unit_text(&f.unit)),
             contributors.join(", "),
             n = esc(&f.name)
         );

@@ -1,5 +1,6 @@
-//! The test templates: what each writes to the pod, how it runs it, and what it keeps. One
-//! template so far: the ISO 230-4 circular test as a pair of runs (CCW, then CW) in one plane.
+//! The test templates: what each writes to the pod, how it runs it, and what it keeps: the
+//! ISO 230-4 circular test as a pair of runs (CCW, then CW) in one plane, and the seed 002
+//! ball-bar procedure (ten runs).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -11,133 +12,220 @@ use ballpod::protocol::scpi::RESPONSE_DECIMALS;
 use ballpod::protocol::scpi::number::{SCPI_NAN, Text, push_fixed};
 use ballpod::protocol::stream::{DecodeError, decode};
 
+use std::collections::BTreeMap;
+
+use ballpod::config::{CirclePlane, Config, ConfigError};
+
 use super::pod::Pod;
 use super::{Desk, lock};
 use crate::replay::{Figure, Report, replay};
+use crate::session_file::SetupValue;
 
 /// The pod's status word bit: the last run's results are all there (`STAT:POD?`).
 const RESULTS_READY: u32 = 1 << 10;
 /// Longest a run may take before the desk gives up on it (a 150 mm circle at F100 is 9.4 min).
 const RUN_TIMEOUT: Duration = Duration::from_secs(900);
 
-/// An ISO 230-4 circular test's set-up (ISO 230-4:2022 §5: radius, feed, plane, centre).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(default)]
-pub struct CircleSetup {
-    /// `XY`, `YZ` or `ZX`.
-    pub plane: String,
-    /// The circle's centre, the plane's first and second axis (mm, machine coordinates).
-    pub centre_mm: [f64; 2],
-    /// Nominal radius, mm (the bar's calibrated length).
-    pub radius_mm: f64,
-    /// Feed, mm/min.
-    pub feed_mm_per_min: f64,
-}
-
-impl Default for CircleSetup {
-    fn default() -> Self {
-        Self {
-            plane: "XY".into(),
-            centre_mm: [0.0; 2],
-            radius_mm: 150.0,
-            feed_mm_per_min: 1000.0,
-        }
-    }
-}
-
-/// The two axis columns of a plane's trace in the run text, and the circle's centre.
+/// How a run's live trace is drawn: its angle from two axis columns about a centre (a circle
+/// in a plane) or from a rotary axis's column (the seed 002 steps' B arcs and C circles).
 #[derive(Clone, Debug, PartialEq)]
-pub struct TraceAxes {
-    /// Column of the plane's first axis (`x_mm`).
-    pub u: &'static str,
-    /// Column of the second (`y_mm`).
-    pub v: &'static str,
-    /// The centre in those columns, mm.
-    pub centre_mm: [f64; 2],
+pub enum TraceAxes {
+    /// The angle of (u, v) about the centre.
+    Plane {
+        /// Column of the plane's first axis (`x_mm`).
+        u: &'static str,
+        /// Column of the second (`y_mm`).
+        v: &'static str,
+        /// The centre in those columns, mm.
+        centre_mm: [f64; 2],
+    },
+    /// The angle is this column's value, degrees (`b_deg`, `c_deg`).
+    Rotary(&'static str),
 }
 
-impl CircleSetup {
-    /// The plane's axes, or the field that is wrong, named.
-    pub fn check(&self) -> Result<[&'static str; 2], String> {
-        let axes = match self.plane.as_str() {
-            "XY" => ["x", "y"],
-            "YZ" => ["y", "z"],
-            "ZX" => ["z", "x"],
-            p => return Err(format!("circle plane {p:?} is not one of XY, YZ, ZX")),
-        };
-        if !(self.radius_mm.is_finite() && (10.0..=1000.0).contains(&self.radius_mm)) {
-            return Err(format!(
-                "circle radius {} mm is outside 10 … 1000 mm",
-                self.radius_mm
-            ));
+/// A test template: its runs (pattern, direction, in order) and the set-up it writes, its
+/// defaults overridden by the request's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Template {
+    /// ISO 230-4 circular test: CCW, then CW, in one plane (circle_plane), radius
+    /// circle_radius (bar_length set to it), feed circle_feed.
+    Circle,
+    /// The seed 002 ball-bar procedure (B/C axes): BX, BY, CR, CA, CR2, each CW then CCW, with
+    /// the thesis Table 4.3 set-up fields `s002_*` (no defaults: the pod names the first it
+    /// lacks; bar_length set to s002_l_b).
+    Seed002,
+}
+
+impl Template {
+    /// The runs, in order.
+    pub fn runs(self) -> &'static [(&'static str, &'static str)] {
+        match self {
+            Self::Circle => &[("CIRCLE", "CCW"), ("CIRCLE", "CW")],
+            Self::Seed002 => &[
+                ("BX", "CW"),
+                ("BX", "CCW"),
+                ("BY", "CW"),
+                ("BY", "CCW"),
+                ("CR", "CW"),
+                ("CR", "CCW"),
+                ("CA", "CW"),
+                ("CA", "CCW"),
+                ("CR2", "CW"),
+                ("CR2", "CCW"),
+            ],
         }
-        if !(self.feed_mm_per_min.is_finite() && (1.0..=20_000.0).contains(&self.feed_mm_per_min)) {
-            return Err(format!(
-                "circle feed {} mm/min is outside 1 … 20000 mm/min",
-                self.feed_mm_per_min
-            ));
-        }
-        if !self.centre_mm.iter().all(|c| c.is_finite()) {
-            return Err("circle centre is not a number".into());
-        }
-        Ok(axes)
     }
 
-    /// The SCPI line that writes this set-up (bar length = radius: ΔL is read against it).
-    pub fn scpi(&self) -> Result<String, String> {
-        let [a, b] = self.check()?;
-        let r = self.radius_mm;
-        Ok(format!(
-            "CONF:BAR_LENGTH {r};CIRCLE_PLANE {};CIRCLE_CENTRE_{} {};CIRCLE_CENTRE_{} {};CIRCLE_RADIUS {r};CIRCLE_FEED {}",
-            self.plane,
-            a.to_uppercase(),
-            self.centre_mm[0],
-            b.to_uppercase(),
-            self.centre_mm[1],
-            self.feed_mm_per_min
-        ))
+    /// The set-up written when the request does not give a field.
+    fn defaults(self) -> Vec<(&'static str, SetupValue)> {
+        match self {
+            Self::Circle => vec![
+                ("circle_plane", SetupValue::Text("XY".into())),
+                ("circle_centre_x", SetupValue::Number(0.0)),
+                ("circle_centre_y", SetupValue::Number(0.0)),
+                ("circle_centre_z", SetupValue::Number(0.0)),
+                ("circle_radius", SetupValue::Number(150.0)),
+                ("circle_feed", SetupValue::Number(1000.0)),
+            ],
+            Self::Seed002 => Vec::new(),
+        }
     }
 
-    /// The columns the live trace reads.
-    pub fn trace(&self) -> Result<TraceAxes, String> {
-        let col = |a: &str| match a {
-            "x" => "x_mm",
-            "y" => "y_mm",
-            _ => "z_mm",
-        };
-        let [a, b] = self.check()?;
-        Ok(TraceAxes {
-            u: col(a),
-            v: col(b),
-            centre_mm: self.centre_mm,
-        })
+    /// The field `bar_length` follows unless the request sets it.
+    fn bar_length_from(self) -> &'static str {
+        match self {
+            Self::Circle => "circle_radius",
+            Self::Seed002 => "s002_l_b",
+        }
+    }
+
+    /// How a run of `pattern` is drawn, with this configuration.
+    fn trace(self, pattern: &str, c: &Config) -> TraceAxes {
+        match (self, pattern) {
+            (Self::Seed002, "BX" | "BY") => TraceAxes::Rotary("b_deg"),
+            (Self::Seed002, _) => TraceAxes::Rotary("c_deg"),
+            (Self::Circle, _) => {
+                let t = &c.setup;
+                let [x, y, z] = t.circle_centre_mm.map(f64::from);
+                match t.circle_plane {
+                    CirclePlane::XY => TraceAxes::Plane {
+                        u: "x_mm",
+                        v: "y_mm",
+                        centre_mm: [x, y],
+                    },
+                    CirclePlane::YZ => TraceAxes::Plane {
+                        u: "y_mm",
+                        v: "z_mm",
+                        centre_mm: [y, z],
+                    },
+                    CirclePlane::ZX => TraceAxes::Plane {
+                        u: "z_mm",
+                        v: "x_mm",
+                        centre_mm: [z, x],
+                    },
+                }
+            }
+        }
     }
 }
 
 /// A request for a test.
 #[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TestRequest {
     /// The machine (its id).
     pub machine_id: i64,
     /// Who runs it.
     pub operator: String,
-    /// The template: `circle`.
-    pub test: String,
-    /// The circle's set-up.
+    /// The template.
+    pub test: Template,
+    /// Configuration fields by the pod's names (numbers in the field's unit, codes by name):
+    /// the template's defaults overridden.
     #[serde(default)]
-    pub circle: CircleSetup,
+    pub setup: BTreeMap<String, SetupValue>,
+}
+
+/// Why the core's configuration refuses a value, in words.
+fn refusal(name: &str, e: ConfigError) -> String {
+    match e {
+        ConfigError::OutOfRange {
+            value, min, max, ..
+        } => {
+            format!("set-up {name} = {value} is outside {min} … {max}")
+        }
+        ConfigError::Duplicate { .. } => format!("set-up {name} names an axis another input has"),
+        e => format!("set-up {name}: {e:?}"),
+    }
+}
+
+/// The set-up a request writes, in order, checked by the core's own configuration rules
+/// (`ballpod::config`, as the pod checks it): each field's name and value as the pod takes
+/// them (`CONF:<NAME> <value>`), and the configuration they make.
+pub fn setup_lines(req: &TestRequest) -> Result<(Vec<(String, String)>, Config), String> {
+    let mut fields: BTreeMap<String, SetupValue> = req
+        .test
+        .defaults()
+        .into_iter()
+        .map(|(k, v)| (k.to_string(), v))
+        .collect();
+    fields.extend(req.setup.clone());
+    // bar_length follows the template's field, written last (its own refusal names the field
+    // it follows first)
+    let derived = (!fields.contains_key("bar_length"))
+        .then(|| fields.get(req.test.bar_length_from()).cloned())
+        .flatten()
+        .map(|v| ("bar_length".to_string(), v));
+    let mut c = Config::default();
+    let mut lines = Vec::new();
+    for (name, v) in fields
+        .iter()
+        .map(|(k, v)| (k.clone(), v.clone()))
+        .chain(derived)
+    {
+        let name = name.as_str();
+        let v = &v;
+        let f = Config::field_by_name(name).ok_or(format!(
+            "set-up {name:?} is not a configuration field of the pod"
+        ))?;
+        let info = Config::field_info(f).ok_or(format!(
+            "set-up {name:?} is not a configuration field of the pod"
+        ))?;
+        let (x, text) = match v {
+            SetupValue::Number(x) if info.choices().is_empty() => (*x, format!("{x}")),
+            SetupValue::Number(x) => {
+                return Err(format!(
+                    "set-up {name} = {x}: the field takes one of {}",
+                    info.choices().join(", ")
+                ));
+            }
+            SetupValue::Text(t) if info.choices().is_empty() => {
+                return Err(format!(
+                    "set-up {name} = {t:?}: the field takes a number ({})",
+                    info.unit.as_str()
+                ));
+            }
+            SetupValue::Text(t) => {
+                let code = info.choice(t.as_bytes()).ok_or(format!(
+                    "set-up {name} = {t:?} is not one of {}",
+                    info.choices().join(", ")
+                ))?;
+                (f64::from(code), t.clone())
+            }
+        };
+        c.set(f, x).map_err(|e| refusal(name, e))?;
+        lines.push((name.to_uppercase(), text));
+    }
+    Ok((lines, c))
 }
 
 /// Starts a test in a thread of its own; the run's id. Refused (named) when a field is wrong,
 /// the desk has no pod, or a test runs already.
 pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<i64, String> {
-    if req.test != "circle" {
-        return Err(format!("test {:?} is not one of: circle", req.test));
-    }
     if req.operator.trim().is_empty() {
         return Err("operator is missing".into());
     }
-    let trace = req.circle.trace()?;
+    let (lines, config) = setup_lines(&req)?;
     let identity = {
         let pod = lock(&desk.pod);
         pod.as_ref()
@@ -149,10 +237,15 @@ pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<i64, String> {
     if live.run_id.is_some() && !live.finished {
         return Err("a test is running: wait for its end".into());
     }
-    let setup = serde_json::to_value(&req.circle).map_err(|e| e.to_string())?;
+    let setup = serde_json::to_value(lines.iter().cloned().collect::<BTreeMap<_, _>>())
+        .map_err(|e| e.to_string())?;
+    let name = serde_json::to_value(req.test)
+        .ok()
+        .and_then(|v| v.as_str().map(String::from))
+        .unwrap_or_default();
     let id = lock(&desk.store).begin_run(
         req.machine_id,
-        &req.test,
+        &name,
         req.operator.trim(),
         &identity,
         &setup,
@@ -162,14 +255,14 @@ pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<i64, String> {
         step: "writing the set-up".into(),
         finished: false,
         stream_from: 0,
-        trace: Some(trace),
+        trace: None,
     };
     drop(live);
     let d = desk.clone();
     std::thread::spawn(move || {
         let mut guard = lock(&d.pod);
         let outcome = match guard.as_mut() {
-            Some(pod) => circle_pair(&d, pod, &req.circle),
+            Some(pod) => run_template(&d, pod, req.test, &lines, &config),
             None => Err(Outcome::failed("the pod went away".into())),
         };
         drop(guard);
@@ -206,8 +299,14 @@ fn step(desk: &Desk, s: String) {
     lock(&desk.live).step = s;
 }
 
-/// The circular test's two runs.
-fn circle_pair(desk: &Desk, pod: &mut Pod, setup: &CircleSetup) -> Result<Recorded, Outcome> {
+/// A template's runs, one after the other, each ended by the machine's motion.
+fn run_template(
+    desk: &Desk,
+    pod: &mut Pod,
+    template: Template,
+    lines: &[(String, String)],
+    config: &Config,
+) -> Result<Recorded, Outcome> {
     let start = pod.stream_len();
     let with_stream = |pod: &Pod, note: String| {
         let (stream, closed) = pod.stream_since(start);
@@ -217,19 +316,24 @@ fn circle_pair(desk: &Desk, pod: &mut Pod, setup: &CircleSetup) -> Result<Record
             stream,
         }
     };
-    let line = setup.scpi().map_err(Outcome::failed)?;
     pod.command("CONF:UNL").map_err(Outcome::failed)?;
-    pod.command(&line).map_err(Outcome::failed)?;
-    for dir in ["CCW", "CW"] {
+    for (name, value) in lines {
+        pod.command(&format!("CONF:{name} {value}"))
+            .map_err(Outcome::failed)?;
+    }
+    let runs = template.runs();
+    for (k, &(pattern, dir)) in runs.iter().enumerate() {
+        let what = format!("run {} of {} ({pattern} {dir})", k + 1, runs.len());
         {
             let mut live = lock(&desk.live);
             live.stream_from = pod.stream_len();
-            live.step = format!("{dir} run: armed, starting");
+            live.trace = Some(template.trace(pattern, config));
+            live.step = format!("{what}: armed, starting");
         }
-        pod.command(&format!("SESS:PATT CIRCLE;DIR {dir};:SESS:ARM"))
+        pod.command(&format!("SESS:PATT {pattern};DIR {dir};:SESS:ARM"))
             .map_err(|e| with_stream(pod, e))?;
         pod.command("SESS:STAR").map_err(|e| with_stream(pod, e))?;
-        step(desk, format!("{dir} run: the machine moves"));
+        step(desk, format!("{what}: the machine moves"));
         let t0 = Instant::now();
         let state = loop {
             let s = pod.query("SESS:STAT?").map_err(|e| with_stream(pod, e))?;
@@ -239,15 +343,15 @@ fn circle_pair(desk: &Desk, pod: &mut Pod, setup: &CircleSetup) -> Result<Record
             if t0.elapsed() > RUN_TIMEOUT {
                 return Err(with_stream(
                     pod,
-                    format!("the {dir} run did not end in {RUN_TIMEOUT:?}"),
+                    format!("{what} did not end in {RUN_TIMEOUT:?}"),
                 ));
             }
             std::thread::sleep(Duration::from_millis(100));
         };
         if state != "DONE" {
-            return Err(with_stream(pod, format!("the {dir} run ended {state}")));
+            return Err(with_stream(pod, format!("{what} ended {state}")));
         }
-        step(desk, format!("{dir} run: the pod computes its results"));
+        step(desk, format!("{what}: the pod computes its results"));
         let t0 = Instant::now();
         loop {
             let w: u32 = pod
@@ -269,12 +373,12 @@ fn circle_pair(desk: &Desk, pod: &mut Pod, setup: &CircleSetup) -> Result<Record
     }
     step(desk, "reading the pod's results".into());
     let pod_results = read_results(pod).map_err(|e| with_stream(pod, e))?;
-    // the stream's end lines follow the run's end: wait for both runs' last line
+    // the stream's end lines follow each run's end: wait for every run's last line
     let t0 = Instant::now();
     loop {
         let (bytes, closed) = pod.stream_since(start);
         let text = stream_text(&bytes);
-        if text.matches("# stream_dropped=").count() >= 2 {
+        if text.matches("# stream_dropped=").count() >= runs.len() {
             return Ok(Recorded {
                 pod_results,
                 stream: bytes,
@@ -283,7 +387,7 @@ fn circle_pair(desk: &Desk, pod: &mut Pod, setup: &CircleSetup) -> Result<Record
         if closed || t0.elapsed() > Duration::from_secs(10) {
             return Err(with_stream(
                 pod,
-                "the stream did not carry both runs' ends".into(),
+                "the stream did not carry every run's end".into(),
             ));
         }
         std::thread::sleep(Duration::from_millis(50));
@@ -441,42 +545,47 @@ pub fn trace(bytes: &[u8], axes: &TraceAxes, max: usize) -> Trace {
     let Some(start) = text.rfind("# ballpod run") else {
         return Trace::default();
     };
-    let mut cols: Option<(usize, usize, usize, usize)> = None;
+    let (cu, cv) = match axes {
+        TraceAxes::Plane { u, v, .. } => (*u, *v),
+        TraceAxes::Rotary(c) => (*c, *c),
+    };
+    let mut cols: Option<[usize; 4]> = None;
     let mut rows = Vec::new();
     let mut lost = 0;
     let mut last_seq: Option<u64> = None;
-    for line in text[start..].lines() {
+    for line in text.get(start..).unwrap_or("").lines() {
         if line.starts_with('#') {
             continue;
         }
         let f: Vec<&str> = line.split(',').collect();
-        match cols {
-            None if line.starts_with("seq,") => {
+        let Some([s, d, u, v]) = cols else {
+            if line.starts_with("seq,") {
                 let at = |n: &str| f.iter().position(|c| *c == n);
                 if let (Some(s), Some(d), Some(u), Some(v)) =
-                    (at("seq"), at("dl_um"), at(axes.u), at(axes.v))
+                    (at("seq"), at("dl_um"), at(cu), at(cv))
                 {
-                    cols = Some((s, d, u, v));
+                    cols = Some([s, d, u, v]);
                 }
             }
-            None => {}
-            Some((s, d, u, v)) => {
-                let num = |k: usize| f.get(k).and_then(|x| x.parse::<f64>().ok());
-                if let Some(seq) = num(s).map(|x| x as u64) {
-                    if let Some(l) = last_seq {
-                        lost += seq.saturating_sub(l + 1);
-                    }
-                    last_seq = Some(seq);
-                }
-                if let (Some(dl), Some(pu), Some(pv)) = (num(d), num(u), num(v))
-                    && dl.is_finite()
-                {
-                    let a = (pv - axes.centre_mm[1])
-                        .atan2(pu - axes.centre_mm[0])
-                        .to_degrees();
-                    rows.push([a as f32, dl as f32]);
-                }
+            continue;
+        };
+        let num = |k: usize| f.get(k).and_then(|x| x.parse::<f64>().ok());
+        if let Some(seq) = num(s).map(|x| x as u64) {
+            if let Some(l) = last_seq {
+                lost += seq.saturating_sub(l + 1);
             }
+            last_seq = Some(seq);
+        }
+        if let (Some(dl), Some(pu), Some(pv)) = (num(d), num(u), num(v))
+            && dl.is_finite()
+        {
+            let a = match axes {
+                TraceAxes::Plane { centre_mm, .. } => {
+                    (pv - centre_mm[1]).atan2(pu - centre_mm[0]).to_degrees()
+                }
+                TraceAxes::Rotary(_) => pu,
+            };
+            rows.push([a as f32, dl as f32]);
         }
     }
     let step = rows.len().div_ceil(max.max(1)).max(1);

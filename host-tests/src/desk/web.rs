@@ -117,8 +117,13 @@ async fn machines(State(d): Shared) -> Response {
     answer(lock(&d.store).machines())
 }
 
-async fn add_machine(State(d): Shared, Json(m): Json<Machine>) -> Response {
-    answer(lock(&d.store).add_machine(&m).map(|id| json!({ "id": id })))
+async fn add_machine(State(d): Shared, Json(m): Json<serde_json::Value>) -> Response {
+    answer(
+        serde_json::from_value::<Machine>(m)
+            .map_err(|e| format!("machine: {e}"))
+            .and_then(|m| lock(&d.store).add_machine(&m))
+            .map(|id| json!({ "id": id })),
+    )
 }
 
 async fn tolerances(State(d): Shared, Path(id): Path<i64>) -> Response {
@@ -135,17 +140,23 @@ struct ToleranceIn {
 async fn set_tolerance(
     State(d): Shared,
     Path(id): Path<i64>,
-    Json(t): Json<ToleranceIn>,
+    Json(t): Json<serde_json::Value>,
 ) -> Response {
     answer(
-        lock(&d.store)
-            .set_tolerance(id, &t.figure, t.tolerance)
+        serde_json::from_value::<ToleranceIn>(t)
+            .map_err(|e| format!("tolerance: {e}"))
+            .and_then(|t| lock(&d.store).set_tolerance(id, &t.figure, t.tolerance))
             .map(|()| json!({})),
     )
 }
 
-async fn start_test(State(d): Shared, Json(req): Json<TestRequest>) -> Response {
-    answer(super::tests::start(&d, req).map(|id| json!({ "run_id": id })))
+async fn start_test(State(d): Shared, Json(req): Json<serde_json::Value>) -> Response {
+    answer(
+        serde_json::from_value::<TestRequest>(req)
+            .map_err(|e| format!("test request: {e}"))
+            .and_then(|req| super::tests::start(&d, req))
+            .map(|id| json!({ "run_id": id })),
+    )
 }
 
 async fn live(State(d): Shared) -> Response {

@@ -1,0 +1,125 @@
+"""The desk's page in a real browser: headless Chromium (Debian's chromium and chromium-driver)
+driven over WebDriver (selenium) against the desk on the served pod — a machine created and a
+tolerance set through the page's forms, a circle pair run from it with screenshots of the live
+trace taken and checked for the trace's colour growing, the results and the report opened, the
+report printed to PDF and its first page checked as an image.
+
+$BALLPOD_DESK_SCREENS names a folder to keep the screenshots in (the book's tutorial takes
+them from there: `docs/src/images/desk`)."""
+import io
+import os
+import pathlib
+import shutil
+import subprocess
+import time
+import base64
+
+import pytest
+
+from test_desk import Desk
+
+pytestmark = pytest.mark.desk
+
+CHROMIUM, DRIVER = "/usr/bin/chromium", "/usr/bin/chromedriver"
+TRACE_BLUE = (0x1F, 0x4F, 0xD1)  # the live trace's and the CCW plot's colour (page.html, report/svg.rs)
+
+
+def browser():
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for a in ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+              "--disable-background-networking", "--disable-component-update", "--disable-sync",
+              "--window-size=1280,1800"]:
+        opts.add_argument(a)
+    return webdriver.Chrome(service=Service(DRIVER), options=opts)
+
+
+def pixels_near(png, rgb, tol=40):
+    """How many pixels of a PNG are within `tol` of colour `rgb` (each channel)."""
+    from PIL import Image
+    img = Image.open(io.BytesIO(png)).convert("RGB")
+    px = img.tobytes()
+    return sum(1 for k in range(0, len(px), 3) if all(abs(px[k + c] - rgb[c]) <= tol for c in range(3)))
+
+
+@pytest.mark.skipif(not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)),
+                    reason="Debian's chromium and chromium-driver are not installed")
+def test_the_page_in_a_browser_runs_a_circle_pair_and_prints_its_report(pod, tmp_path):
+    from selenium.webdriver.common.by import By
+    from selenium.webdriver.support.ui import Select, WebDriverWait
+    keep = os.environ.get("BALLPOD_DESK_SCREENS")
+    shots = pathlib.Path(keep) if keep else tmp_path
+    shots.mkdir(parents=True, exist_ok=True)
+    desk = Desk(tmp_path, pod)
+    b = browser()
+    try:
+        wait = WebDriverWait(b, 60)
+        b.get(desk.url)
+        wait.until(lambda b: b.find_element(By.ID, "pod").text.startswith("BALLPOD,"))
+        # a machine, through the form
+        b.find_element(By.CSS_SELECTOR, "#machines details summary").click()
+        for field, value in [("name", "DMU 50 #3"), ("builder", "DMG MORI"), ("model", "DMU 50"),
+                             ("serial", "12345"), ("kinematics", "table-table B/C"), ("axes", "X Y Z B C")]:
+            b.find_element(By.ID, f"m-{field}").send_keys(value)
+        b.find_element(By.ID, "m-add").click()
+        wait.until(lambda b: Select(b.find_element(By.ID, "machine")).first_selected_option.text == "DMU 50 #3")
+        # a tolerance on G_ccw that the machine's G (≈ 22 µm) breaks by more than U
+        b.find_elements(By.CSS_SELECTOR, "#machines details summary")[1].click()
+        b.find_element(By.ID, "t-figure").send_keys("G_ccw")
+        b.find_element(By.ID, "t-upper").send_keys("15")
+        b.find_element(By.ID, "t-set").click()
+        wait.until(lambda b: "G_ccw" in b.find_element(By.ID, "tolerances").text)
+        b.save_screenshot(str(shots / "desk-machine.png"))
+
+        # the run: the live trace grows on screen
+        b.find_element(By.ID, "c-operator").send_keys("A. Tester")
+        b.find_element(By.ID, "c-run").click()
+        blue = []
+        t0 = time.time()
+        while not b.find_element(By.ID, "live-step").text.startswith("done"):
+            assert time.time() - t0 < 120, b.find_element(By.ID, "live-step").text
+            step = b.find_element(By.ID, "live-step").text
+            if step == "run 1 of 2 (CIRCLE CCW): the machine moves":
+                png = b.find_element(By.ID, "trace").screenshot_as_png
+                blue.append((int(b.find_element(By.ID, "live-samples").text), pixels_near(png, TRACE_BLUE)))
+                if len(blue) == 3:
+                    (shots / "desk-live.png").write_bytes(b.get_screenshot_as_png())
+            time.sleep(0.2)
+        assert len(blue) >= 3, blue
+        samples = [n for n, _ in blue]
+        assert samples == sorted(samples) and samples[-1] > samples[0], blue
+        assert blue[-1][1] > blue[0][1] > 0, blue  # more of the trace drawn, screenshot by screenshot
+
+        # the results: the decision shown per the rule, the figures equal the desk's API
+        wait.until(lambda b: "G_ccw" in b.find_element(By.ID, "r-figures").text)
+        run_id = desk.ok("/api/runs")[-1]["id"]
+        view = desk.ok(f"/api/runs/{run_id}")
+        g = next(f for f in view["figures"] if f["name"] == "G_ccw")
+        row = b.find_element(By.CSS_SELECTOR, '#r-figures tr[data-name="G_ccw"]')
+        want = "does_not_conform" if g["value"] - g["expanded_u"] > 15 else "undecided"
+        assert row.get_attribute("class") == want
+        assert row.find_elements(By.TAG_NAME, "td")[1].text == f'{g["value"]:.4f}'
+        assert "replay equals the pod's results" in b.find_element(By.ID, "r-head").text
+        b.save_screenshot(str(shots / "desk-results.png"))
+
+        # the report, and its PDF's first page as an image
+        b.find_element(By.CSS_SELECTOR, "#h-runs a.report").click()
+        wait.until(lambda b: b.find_elements(By.ID, "figures"))
+        cell = b.find_element(By.CSS_SELECTOR, '#figures tr[data-name="G_ccw"] td.value')
+        assert cell.text == f'{g["value"]:.4f}'
+        b.save_screenshot(str(shots / "desk-report.png"))
+        pdf = base64.b64decode(b.print_page())
+        assert pdf.startswith(b"%PDF")
+        (tmp_path / "report.pdf").write_bytes(pdf)
+        subprocess.run(["pdftoppm", "-png", "-r", "60", "-f", "1", "-l", "1", str(tmp_path / "report.pdf"),
+                        str(tmp_path / "page")], check=True)
+        page = next(tmp_path.glob("page*.png")).read_bytes()
+        # the first page carries the title and the polar plot: its CCW trace in blue
+        assert pixels_near(page, TRACE_BLUE) > 200
+        if keep:
+            shutil.copy(next(tmp_path.glob("page*.png")), shots / "desk-report-pdf-page1.png")
+    finally:
+        b.quit()
+        desk.close()

@@ -4,11 +4,17 @@ results against the desk's replay of the recorded stream and against the `replay
 stream the desk exports, ISO 14253-1 decisions against this file's own statement of the rule,
 the trend over three runs, the report, and bad input (fields named, a second desk refused,
 loopback only, a pod lost mid-run kept and marked)."""
+import glob
+import itertools
 import json
 import os
 import pathlib
+import shutil
 import signal
+import socket
+import sqlite3
 import subprocess
+import tempfile
 import time
 import urllib.error
 import urllib.request
@@ -20,11 +26,78 @@ from conftest import host_binary
 pytestmark = pytest.mark.desk
 
 
-class Desk:
-    """A desk process on a fresh history file, its page's URL, and JSON calls to its API."""
+class Postgres:
+    """A private PostgreSQL server on loopback (Debian's postgresql: initdb and pg_ctl, run as
+    the postgres user when the tests run as root), stopped and started at will; each `database()`
+    is a new, empty database on it. .ci/run installs the package and sets
+    $BALLPOD_REQUIRE_POSTGRES, so that CI fails rather than skips when the server is missing."""
 
-    def __init__(self, tmp_path, pod=None):
-        cmd = [host_binary("desk"), "--db", str(tmp_path / "desk.sqlite"), "--port", "0"]
+    names = itertools.count(1)
+
+    def __init__(self):
+        bins = sorted(glob.glob("/usr/lib/postgresql/*/bin/pg_ctl"))
+        if not bins:
+            if os.environ.get("BALLPOD_REQUIRE_POSTGRES"):
+                raise AssertionError("PostgreSQL's server (Debian postgresql) is not installed")
+            pytest.skip("PostgreSQL's server (Debian postgresql) is not installed")
+        self.bin = pathlib.Path(bins[-1]).parent
+        self.dir = pathlib.Path(tempfile.mkdtemp(prefix="ballpod-pg-"))
+        self.dir.chmod(0o755)
+        self.as_user = []
+        if os.geteuid() == 0:
+            shutil.chown(self.dir, "postgres")
+            self.as_user = ["runuser", "-u", "postgres", "--"]
+        with socket.socket() as s:
+            s.bind(("127.0.0.1", 0))
+            self.port = s.getsockname()[1]
+        subprocess.run(self.as_user + [str(self.bin / "initdb"), "-D", str(self.dir / "data"), "-A", "trust",
+                                       "-U", "postgres", "--no-sync"], check=True, capture_output=True)
+        self.start()
+
+    def start(self):
+        subprocess.run(self.as_user + [str(self.bin / "pg_ctl"), "-D", str(self.dir / "data"), "-w", "-l",
+                                       str(self.dir / "log"), "-o",
+                                       f"-c listen_addresses=127.0.0.1 -p {self.port} -k {self.dir}", "start"],
+                       check=True, capture_output=True)
+
+    def stop(self):
+        subprocess.run(self.as_user + [str(self.bin / "pg_ctl"), "-D", str(self.dir / "data"), "-m", "immediate",
+                                       "-w", "stop"], check=True, capture_output=True)
+
+    def database(self):
+        name = f"desk{next(self.names)}"
+        subprocess.run([str(self.bin / "createdb"), "-h", "127.0.0.1", "-p", str(self.port), "-U", "postgres", name],
+                       check=True, capture_output=True)
+        return f"postgres://postgres@127.0.0.1:{self.port}/{name}"
+
+    def close(self):
+        subprocess.run(self.as_user + [str(self.bin / "pg_ctl"), "-D", str(self.dir / "data"), "-m", "immediate",
+                                       "stop"], capture_output=True)
+        shutil.rmtree(self.dir, ignore_errors=True)
+
+
+@pytest.fixture(scope="module")
+def postgres():
+    server = Postgres()
+    yield server
+    server.close()
+
+
+@pytest.fixture(params=["sqlite", "postgres"])
+def history(request, tmp_path):
+    """Where a desk keeps its history: an SQLite file, or a database on a PostgreSQL server."""
+    if request.param == "sqlite":
+        return str(tmp_path / "desk.sqlite")
+    return request.getfixturevalue("postgres").database()
+
+
+class Desk:
+    """A desk process on a history (a fresh SQLite file unless `db` names one), its page's URL,
+    and JSON calls to its API."""
+
+    def __init__(self, tmp_path, pod=None, db=None):
+        cmd = [host_binary("desk"), "--db", db or str(tmp_path / "desk.sqlite"), "--spool", str(tmp_path / "spool"),
+               "--port", "0"]
         if pod:
             cmd += ["--pod-usb", str(pod["usb_port"]), "--pod-stream", str(pod["stream_port"])]
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
@@ -66,14 +139,16 @@ def decision(value, big_u, lower, upper):
 
 def run_circle_pair(desk, machine_id, watch=False):
     """Starts a circle pair from the desk and waits for its end; the live sample counts seen."""
-    run_id = desk.ok("/api/tests", {"machine_id": machine_id, "operator": "A. Tester", "test": "circle",
-                                    "setup": {"circle_plane": "XY", "circle_radius": 150, "circle_feed": 1000}})["run_id"]
+    test = desk.ok("/api/tests", {"machine_id": machine_id, "operator": "A. Tester", "test": "circle",
+                                  "setup": {"circle_plane": "XY", "circle_radius": 150, "circle_feed": 1000}})["test"]
     seen = []
     t0 = time.time()
     while True:
         live = desk.ok("/api/live")
-        assert live["run_id"] == run_id
+        assert live["test"] == test
         if live["finished"]:
+            run_id = live["run_id"]
+            assert run_id is not None, live
             break
         if watch and live["trace"]["samples"]:
             # "run 1 of 2 (CIRCLE CCW): the machine moves"
@@ -84,8 +159,8 @@ def run_circle_pair(desk, machine_id, watch=False):
     return run_id, seen
 
 
-def test_a_circle_pair_from_the_desk_with_decisions_trend_and_report(pod, tmp_path):
-    desk = Desk(tmp_path, pod)
+def test_a_circle_pair_from_the_desk_with_decisions_trend_and_report(pod, tmp_path, history):
+    desk = Desk(tmp_path, pod, history)
     try:
         assert desk.ok("/api/pod")["identity"].startswith("BALLPOD,")
         # a second desk on the same pod is refused, as the pod refuses a second client
@@ -199,7 +274,7 @@ def test_a_pod_lost_mid_run_is_kept_and_marked(tmp_path):
         desk = Desk(tmp_path, pod)
         try:
             mid = desk.ok("/api/machines", {"name": "VF-2"})["id"]
-            run_id = desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle"})["run_id"]
+            desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle"})
             t0 = time.time()
             while desk.ok("/api/live")["trace"]["samples"] < 200:
                 assert time.time() - t0 < 30
@@ -208,6 +283,7 @@ def test_a_pod_lost_mid_run_is_kept_and_marked(tmp_path):
             while not desk.ok("/api/live")["finished"]:
                 assert time.time() - t0 < 60
                 time.sleep(0.1)
+            run_id = desk.ok("/api/live")["run_id"]
             run = desk.ok(f"/api/runs/{run_id}")["run"]
             assert run["state"] == "cut", run
             assert run["note"]
@@ -229,16 +305,16 @@ def test_the_seed002_procedure_from_the_desk(pod, tmp_path):
     try:
         mid = desk.ok("/api/machines", {"name": "Mill-turn B/C", "kinematics": "B head, C table"})["id"]
         # without its set-up the pod refuses the first run, naming the field it lacks
-        rid = desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "seed002"})["run_id"]
-        while not desk.ok("/api/live")["finished"]:
+        desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "seed002"})
+        while not (live := desk.ok("/api/live"))["finished"]:
             time.sleep(0.05)
-        run = desk.ok(f"/api/runs/{rid}")["run"]
+        run = desk.ok(f"/api/runs/{live['run_id']}")["run"]
         assert run["state"] == "failed" and "s002_l_b not set" in run["note"], run
         # the machine's balls are mounted without offsets at the R_C and Z_C entered: no
         # mounting uncertainty (as test_canopen_seed002.py)
         setup = dict(TABLE_4_3, s002_u_w_clamp=0, s002_u_t_centring=0, s002_u_t_axial=0, s002_u_r_c_z_c=0,
                      s002_u_r_b=0)
-        rid = desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "seed002", "setup": setup})["run_id"]
+        desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "seed002", "setup": setup})
         steps = set()
         t0 = time.time()
         while not (live := desk.ok("/api/live"))["finished"]:
@@ -246,6 +322,7 @@ def test_the_seed002_procedure_from_the_desk(pod, tmp_path):
             assert time.time() - t0 < 240, live
             time.sleep(0.1)
         assert {"run 1 of 10 (BX CW)", "run 10 of 10 (CR2 CCW)"} <= steps, steps
+        rid = live["run_id"]
         view = desk.ok(f"/api/runs/{rid}")
         assert view["run"]["state"] == "done" and view["run"]["replay_check"] == "", view["run"]
         assert view["run"]["setup"]["BAR_LENGTH"] == view["run"]["setup"]["S002_L_B"]
@@ -262,3 +339,78 @@ def test_the_seed002_procedure_from_the_desk(pod, tmp_path):
         assert status == 200 and "BX CW, BX CCW" in html and html.count("<svg") >= 1
     finally:
         desk.close()
+
+
+def wait_finished(desk, seconds=120):
+    t0 = time.time()
+    while not (live := desk.ok("/api/live"))["finished"]:
+        assert time.time() - t0 < seconds, live
+        time.sleep(0.1)
+    return live
+
+
+def test_a_locked_history_file_keeps_the_run_in_the_spool_once(pod, tmp_path):
+    """Another program holds the SQLite file locked when the run ends: the run waits in the
+    spool (said on the page) and is stored, once, when the lock goes."""
+    desk = Desk(tmp_path, pod)
+    try:
+        mid = desk.ok("/api/machines", {"name": "VF-2"})["id"]
+        desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle"})
+        while desk.ok("/api/live")["trace"]["samples"] < 100:
+            time.sleep(0.05)
+        other = sqlite3.connect(tmp_path / "desk.sqlite", timeout=1)
+        other.execute("BEGIN EXCLUSIVE")
+        live = wait_finished(desk)
+        assert "kept in the spool" in live["step"] and "locked" in live["step"], live
+        assert live["run_id"] is None and live["spooled"] == 1
+        other.rollback()
+        other.close()
+        t0 = time.time()
+        while (live := desk.ok("/api/live"))["run_id"] is None:
+            assert time.time() - t0 < 30, live
+            time.sleep(0.2)
+        assert live["spooled"] == 0 and not list((tmp_path / "spool").glob("*.json"))
+        runs = desk.ok(f"/api/runs?machine={mid}")
+        assert [r["state"] for r in runs] == ["done"] and runs[0]["replay_check"] == ""
+    finally:
+        desk.close()
+
+
+def test_a_database_server_that_is_down_keeps_runs_in_the_spool(pod, tmp_path, postgres):
+    """The PostgreSQL server goes down after the desk started: the run waits in the spool; the
+    server comes back: the run is stored once and reads back whole; a desk restarted on the same
+    spool stores nothing twice."""
+    url = postgres.database()
+    desk = Desk(tmp_path, pod, url)
+    try:
+        mid = desk.ok("/api/machines", {"name": "DMU 50 #3"})["id"]
+        desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle"})
+        while desk.ok("/api/live")["trace"]["samples"] < 100:
+            time.sleep(0.05)
+        postgres.stop()
+        try:
+            live = wait_finished(desk)
+            assert "kept in the spool" in live["step"], live
+            status, e = desk.call("/api/machines")
+            assert status == 400 and "database" in e["error"], e
+            # the spool's copy is the whole run
+            (spooled,) = (tmp_path / "spool").glob("*.json")
+            assert json.loads(spooled.read_text())["state"] == "done"
+        finally:
+            postgres.start()
+        t0 = time.time()
+        while (live := desk.ok("/api/live"))["run_id"] is None:
+            assert time.time() - t0 < 30, live
+            time.sleep(0.2)
+        run_id = live["run_id"]
+        assert desk.ok(f"/api/runs/{run_id}")["run"]["replay_check"] == ""
+        stream = urllib.request.urlopen(desk.url + f"api/runs/{run_id}/stream").read()
+        assert stream.count(b"# stream_dropped=0") == 2
+    finally:
+        desk.close()
+    again = Desk(tmp_path, None, url)
+    try:
+        time.sleep(1)
+        assert len(again.ok("/api/runs")) == 1
+    finally:
+        again.close()

@@ -9,16 +9,22 @@ use std::path::PathBuf;
 use clap::Parser;
 
 use ballpod_host::desk::pod::Pod;
-use ballpod_host::desk::store::Store;
+use ballpod_host::desk::spool::Spool;
+use ballpod_host::desk::store::StoreHandle;
 use ballpod_host::desk::{Desk, web};
 
 /// The technician's desk: tests, history and reports in the browser.
 #[derive(Parser, Debug)]
 #[command(name = "cargo desk", version)]
 struct Args {
-    /// The history file (SQLite; created if missing).
+    /// The history: an SQLite file (created if missing) or a PostgreSQL server's URL
+    /// (`postgres://user:password@host/database`).
     #[arg(long, default_value = "desk.sqlite")]
-    db: PathBuf,
+    db: String,
+    /// Where runs wait while the history cannot take them (default: `<db>.spool` beside an
+    /// SQLite file, `desk-spool` for a server).
+    #[arg(long)]
+    spool: Option<PathBuf>,
     /// Port on 127.0.0.1 for the page (0: any free port).
     #[arg(long, default_value_t = 8230)]
     port: u16,
@@ -39,12 +45,26 @@ fn main() {
 }
 
 fn run(args: Args) -> Result<(), String> {
-    let store = Store::open(&args.db)?;
+    let spool = args.spool.clone().unwrap_or_else(|| {
+        if args.db.contains("://") {
+            PathBuf::from("desk-spool")
+        } else {
+            PathBuf::from(format!("{}.spool", args.db))
+        }
+    });
+    let (store, first) = StoreHandle::spawn(args.db.clone());
+    if let Some(e) = first {
+        // the desk serves on: runs wait in the spool until the database takes them
+        eprintln!(
+            "desk: {e}; runs wait in {} until it can be reached",
+            spool.display()
+        );
+    }
     let pod = match (args.pod_usb, args.pod_stream) {
         (Some(u), Some(s)) => Some(Pod::connect_tcp(u, s)?),
         _ => None,
     };
-    let desk = Desk::new(store, pod);
+    let desk = Desk::new(store, Spool::new(spool), pod);
     tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()

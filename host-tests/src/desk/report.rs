@@ -58,7 +58,7 @@ pub fn figures_of(run: &RunRow) -> Vec<Figure> {
 }
 
 /// A run's figures with their decisions against the machine's tolerances.
-pub fn view(store: &Store, id: i64) -> Result<RunView, String> {
+pub fn view(store: &mut Store, id: i64) -> Result<RunView, String> {
     let run = store.run(id)?;
     let machine = store.machine(run.machine_id)?;
     let tol = store.tolerances(run.machine_id)?;
@@ -109,7 +109,7 @@ pub struct TrendPoint {
 }
 
 /// One figure over a machine's completed runs, oldest first.
-pub fn trend(store: &Store, machine: i64, figure: &str) -> Result<Vec<TrendPoint>, String> {
+pub fn trend(store: &mut Store, machine: i64, figure: &str) -> Result<Vec<TrendPoint>, String> {
     let tol = BTreeMap::new();
     Ok(store
         .runs(Some(machine))?
@@ -227,7 +227,7 @@ pub fn trend_svg(points: &[TrendPoint], tol: Option<Tolerance>, title: &str, uni
 }
 
 /// The polar plots of a run's stream (the replay's own SVGs; none if it does not replay).
-fn plots(store: &Store, id: i64) -> Vec<(String, String)> {
+fn plots(store: &mut Store, id: i64) -> Vec<(String, String)> {
     let Ok(bytes) = store.stream(id) else {
         return Vec::new();
     };
@@ -249,7 +249,7 @@ fn num(v: Option<f64>) -> String {
 }
 
 /// The self-contained HTML report of one run.
-pub fn html(store: &Store, id: i64) -> Result<String, String> {
+pub fn html(store: &mut Store, id: i64) -> Result<String, String> {
     let v = view(store, id)?;
     let r = &v.run;
     let m = &v.machine;

@@ -17,6 +17,7 @@ use std::collections::BTreeMap;
 use ballpod::config::{CirclePlane, Config, ConfigError};
 
 use super::pod::Pod;
+use super::store::RunRow;
 use super::{Desk, lock};
 use crate::replay::{Figure, Report, replay};
 use crate::session_file::SetupValue;
@@ -221,11 +222,13 @@ pub fn setup_lines(req: &TestRequest) -> Result<(Vec<(String, String)>, Config),
 
 /// Starts a test in a thread of its own; the run's id. Refused (named) when a field is wrong,
 /// the desk has no pod, or a test runs already.
-pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<i64, String> {
+pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<u64, String> {
     if req.operator.trim().is_empty() {
         return Err("operator is missing".into());
     }
     let (lines, config) = setup_lines(&req)?;
+    let machine_id = req.machine_id;
+    desk.store.call(move |s| s.machine(machine_id))?;
     let identity = {
         let pod = lock(&desk.pod);
         pod.as_ref()
@@ -234,26 +237,34 @@ pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<i64, String> {
             .clone()
     };
     let mut live = lock(&desk.live);
-    if live.run_id.is_some() && !live.finished {
+    if live.test != 0 && !live.finished {
         return Err("a test is running: wait for its end".into());
     }
-    let setup = serde_json::to_value(lines.iter().cloned().collect::<BTreeMap<_, _>>())
-        .map_err(|e| e.to_string())?;
-    let name = serde_json::to_value(req.test)
-        .ok()
-        .and_then(|v| v.as_str().map(String::from))
-        .unwrap_or_default();
-    let id = lock(&desk.store).begin_run(
-        req.machine_id,
-        &name,
-        req.operator.trim(),
-        &identity,
-        &setup,
-    )?;
+    let test = live.test + 1;
+    let started = super::store::now();
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.subsec_nanos());
+    let run = RunRow {
+        spool_key: format!("{started}-{:x}-{test}-{nanos:09}", std::process::id()),
+        machine_id,
+        test: serde_json::to_value(req.test)
+            .ok()
+            .and_then(|v| v.as_str().map(String::from))
+            .unwrap_or_default(),
+        operator: req.operator.trim().to_string(),
+        started,
+        pod_identity: identity,
+        setup: serde_json::to_value(lines.iter().cloned().collect::<BTreeMap<_, _>>())
+            .map_err(|e| e.to_string())?,
+        ..RunRow::default()
+    };
     *live = super::Live {
-        run_id: Some(id),
+        test,
+        run_id: None,
         step: "writing the set-up".into(),
         finished: false,
+        spool_key: run.spool_key.clone(),
         stream_from: 0,
         trace: None,
     };
@@ -266,9 +277,9 @@ pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<i64, String> {
             None => Err(Outcome::failed("the pod went away".into())),
         };
         drop(guard);
-        finish(&d, id, outcome);
+        finish(&d, run, outcome);
     });
-    Ok(id)
+    Ok(test)
 }
 
 /// What a test left: the pod's results, the stream of its runs.
@@ -496,7 +507,7 @@ pub fn replay_check(stream: &[u8], pod_results: &[Figure]) -> Result<(Report, St
 }
 
 /// Stores what a test left, checked against the replay.
-fn finish(desk: &Desk, id: i64, outcome: Result<Recorded, Outcome>) {
+fn finish(desk: &Desk, mut run: RunRow, outcome: Result<Recorded, Outcome>) {
     let (state, mut note, stream, pod_results) = match outcome {
         Ok(r) => ("done", String::new(), r.stream, r.pod_results),
         Err(o) => (o.state, o.note, o.stream, Vec::new()),
@@ -515,16 +526,37 @@ fn finish(desk: &Desk, id: i64, outcome: Result<Recorded, Outcome>) {
     if !check.is_empty() {
         note = format!("replay differs from the pod: {check}");
     }
-    let pod_json = serde_json::to_value(&pod_results).unwrap_or_default();
-    let stored =
-        lock(&desk.store).finish_run(id, state, &note, &pod_json, &replay_json, &check, &stream);
+    run.state = state.into();
+    run.note = note.clone();
+    run.pod_results = serde_json::to_value(&pod_results).unwrap_or_default();
+    run.replay = replay_json;
+    run.replay_check = check;
+    let said = if state == "done" {
+        "done".to_string()
+    } else {
+        format!("{state}: {note}")
+    };
+    // into the spool first, then the history: nothing is lost if the database is not there
+    let step = match desk.spool.put(&run, &stream) {
+        Err(e) => format!("{said}; NOT KEPT: {e}"),
+        Ok(()) => match desk.spool.flush(&desk.store) {
+            Ok(stored) => {
+                let id = stored
+                    .iter()
+                    .find(|(k, _)| *k == run.spool_key)
+                    .map(|(_, id)| *id);
+                lock(&desk.live).run_id = id;
+                said
+            }
+            Err(e) => format!(
+                "{said}; kept in the spool ({}) until the database takes it: {e}",
+                desk.spool.dir().display()
+            ),
+        },
+    };
     let mut live = lock(&desk.live);
     live.finished = true;
-    live.step = match stored {
-        Ok(()) if state == "done" => "done".into(),
-        Ok(()) => format!("{state}: {note}"),
-        Err(e) => format!("{state}; not stored: {e}"),
-    };
+    live.step = step;
 }
 
 /// The live trace of the run under way: its samples, samples lost (gaps in `seq`), and up to

@@ -17,7 +17,7 @@ use serde::Deserialize;
 use serde_json::json;
 
 use super::decision::Tolerance;
-use super::store::Machine;
+use super::store::{Machine, Store};
 use super::tests::{TestRequest, trace};
 use super::{Desk, lock, report};
 
@@ -113,28 +113,41 @@ async fn catalogue() -> Response {
     Json(names).into_response()
 }
 
+/// Runs `f` on the store off the async workers (its clients block).
+async fn db<R: Send + 'static>(
+    d: &Arc<Desk>,
+    f: impl FnOnce(&mut Store) -> Result<R, String> + Send + 'static,
+) -> Result<R, String> {
+    let store = d.store.clone();
+    tokio::task::spawn_blocking(move || store.call(f))
+        .await
+        .unwrap_or_else(|e| Err(e.to_string()))
+}
+
 async fn machines(State(d): Shared) -> Response {
-    answer(lock(&d.store).machines())
+    answer(db(&d, |s| s.machines()).await)
 }
 
 async fn add_machine(State(d): Shared, Json(m): Json<serde_json::Value>) -> Response {
-    answer(
-        serde_json::from_value::<Machine>(m)
-            .map_err(|e| format!("machine: {e}"))
-            .and_then(|m| lock(&d.store).add_machine(&m))
-            .map(|id| json!({ "id": id })),
-    )
+    let r = match serde_json::from_value::<Machine>(m) {
+        Ok(m) => db(&d, move |s| s.add_machine(&m)).await,
+        Err(e) => Err(format!("machine: {e}")),
+    };
+    answer(r.map(|id| json!({ "id": id })))
 }
 
 async fn tolerances(State(d): Shared, Path(id): Path<i64>) -> Response {
-    answer(lock(&d.store).tolerances(id))
+    answer(db(&d, move |s| s.tolerances(id)).await)
 }
 
 #[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
 struct ToleranceIn {
     figure: String,
-    #[serde(flatten)]
-    tolerance: Tolerance,
+    #[serde(default)]
+    lower: Option<f64>,
+    #[serde(default)]
+    upper: Option<f64>,
 }
 
 async fn set_tolerance(
@@ -142,21 +155,30 @@ async fn set_tolerance(
     Path(id): Path<i64>,
     Json(t): Json<serde_json::Value>,
 ) -> Response {
-    answer(
-        serde_json::from_value::<ToleranceIn>(t)
-            .map_err(|e| format!("tolerance: {e}"))
-            .and_then(|t| lock(&d.store).set_tolerance(id, &t.figure, t.tolerance))
-            .map(|()| json!({})),
-    )
+    let r = match serde_json::from_value::<ToleranceIn>(t) {
+        Ok(t) => {
+            let tol = Tolerance {
+                lower: t.lower,
+                upper: t.upper,
+            };
+            db(&d, move |s| s.set_tolerance(id, &t.figure, tol)).await
+        }
+        Err(e) => Err(format!("tolerance: {e}")),
+    };
+    answer(r.map(|()| json!({})))
 }
 
 async fn start_test(State(d): Shared, Json(req): Json<serde_json::Value>) -> Response {
-    answer(
-        serde_json::from_value::<TestRequest>(req)
-            .map_err(|e| format!("test request: {e}"))
-            .and_then(|req| super::tests::start(&d, req))
-            .map(|id| json!({ "run_id": id })),
-    )
+    let r = match serde_json::from_value::<TestRequest>(req) {
+        Ok(req) => {
+            let d = d.clone();
+            tokio::task::spawn_blocking(move || super::tests::start(&d, req))
+                .await
+                .unwrap_or_else(|e| Err(e.to_string()))
+        }
+        Err(e) => Err(format!("test request: {e}")),
+    };
+    answer(r.map(|test| json!({ "test": test })))
 }
 
 async fn live(State(d): Shared) -> Response {
@@ -170,8 +192,12 @@ async fn live(State(d): Shared) -> Response {
         .as_ref()
         .map(|a| trace(&bytes, a, 1440))
         .unwrap_or_default();
-    Json(json!({ "run_id": l.run_id, "step": l.step, "finished": l.finished, "trace": t }))
-        .into_response()
+    let spooled = d.spool.waiting().len();
+    Json(
+        json!({ "test": l.test, "run_id": l.run_id, "step": l.step, "finished": l.finished,
+                 "spooled": spooled, "trace": t }),
+    )
+    .into_response()
 }
 
 #[derive(Deserialize)]
@@ -180,15 +206,15 @@ struct RunsQuery {
 }
 
 async fn runs(State(d): Shared, Query(q): Query<RunsQuery>) -> Response {
-    answer(lock(&d.store).runs(q.machine))
+    answer(db(&d, move |s| s.runs(q.machine)).await)
 }
 
 async fn run(State(d): Shared, Path(id): Path<i64>) -> Response {
-    answer(report::view(&lock(&d.store), id))
+    answer(db(&d, move |s| report::view(s, id)).await)
 }
 
 async fn stream(State(d): Shared, Path(id): Path<i64>) -> Response {
-    match lock(&d.store).stream(id) {
+    match db(&d, move |s| s.stream(id)).await {
         Ok(b) => ([(header::CONTENT_TYPE, "application/octet-stream")], b).into_response(),
         Err(e) => bad(e),
     }
@@ -201,15 +227,16 @@ struct TrendQuery {
 }
 
 async fn trend(State(d): Shared, Query(q): Query<TrendQuery>) -> Response {
-    let store = lock(&d.store);
-    let r = report::trend(&store, q.machine, &q.figure).and_then(|points| {
-        let tol = store.tolerances(q.machine)?.get(&q.figure).copied();
+    let r = db(&d, move |s| {
+        let points = report::trend(s, q.machine, &q.figure)?;
+        let tol = s.tolerances(q.machine)?.get(&q.figure).copied();
         let unit = ballpod::app::ResultId::ALL
             .iter()
             .find(|r| r.info().name == q.figure)
             .map_or("", |r| r.info().unit.as_str());
         Ok(report::trend_svg(&points, tol, &q.figure, unit))
-    });
+    })
+    .await;
     match r {
         Ok(svg) => ([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response(),
         Err(e) => bad(e),
@@ -217,7 +244,7 @@ async fn trend(State(d): Shared, Query(q): Query<TrendQuery>) -> Response {
 }
 
 async fn report_page(State(d): Shared, Path(id): Path<i64>) -> Response {
-    match report::html(&lock(&d.store), id) {
+    match db(&d, move |s| report::html(s, id)).await {
         Ok(h) => Html(h).into_response(),
         Err(e) => bad(e),
     }

@@ -4,7 +4,9 @@ results against the desk's replay of the recorded stream and against the `replay
 stream the desk exports, ISO 14253-1 decisions against this file's own statement of the rule,
 the trend over three runs, the report, and bad input (fields named, a second desk refused,
 loopback only, a pod lost mid-run kept and marked)."""
+import csv
 import glob
+import io
 import itertools
 import json
 import os
@@ -126,6 +128,13 @@ class Desk:
     def close(self):
         os.killpg(self.proc.pid, signal.SIGKILL)
         self.proc.wait(timeout=10)
+
+
+def call_raw(desk, path, body):
+    """POSTs bytes as they are (a file import); the run id."""
+    req = urllib.request.Request(desk.url + path.lstrip("/"), data=body, method="POST")
+    with urllib.request.urlopen(req, timeout=60) as r:
+        return json.loads(r.read())["run_id"]
 
 
 def decision(value, big_u, lower, upper):
@@ -259,6 +268,54 @@ def test_a_circle_pair_from_the_desk_with_decisions_trend_and_report(pod, tmp_pa
             row = html.split(f'<tr data-name="{name}" class="{want}">', 1)
             assert len(row) == 2, name
             assert row[1].split('class="value">', 1)[1].startswith(f'{figures[name]["value"]:.4f}'[:-1]), name
+
+        # the part program the desk offers is ncgen's for the same set-up
+        setup = {"circle_plane": "XY", "circle_radius": 150, "circle_feed": 1000}
+        status, program = desk.call("/api/program", {"machine_id": mid, "operator": "A", "test": "circle",
+                                                     "setup": setup})
+        assert status == 200, program
+        (tmp_path / "setup.toml").write_text("[setup]\n" + "".join(
+            f"{k} = {json.dumps(v)}\n" for k, v in dict(setup, circle_centre_x=0, circle_centre_y=0,
+                                                          circle_centre_z=0, bar_length=150).items()))
+        ncgen = subprocess.run([host_binary("ncgen"), "circle", str(tmp_path / "setup.toml")],
+                               capture_output=True, text=True)
+        assert ncgen.returncode == 0, ncgen.stderr
+        assert program == ncgen.stdout
+        assert desk.call("/api/program?dialect=heidenhain", {"machine_id": mid, "operator": "A",
+                                                             "test": "circle"})[0] == 400
+
+        # two runs overlaid: each run's two traces in its own colour
+        ids = [r["id"] for r in desk.ok(f"/api/runs?machine={mid}")]
+        status, svg = desk.call(f"/api/overlay.svg?runs={ids[0]},{ids[2]}")
+        assert status == 200 and svg.count(f'class="run-{ids[0]}"') == 2 and svg.count(f'class="run-{ids[2]}"') == 2
+
+        # exports: CSV rows per figure with U and the decision, as the API states them
+        status, text = desk.call(f"/api/export.csv?machine={mid}")
+        rows = list(csv.DictReader(io.StringIO(text)))
+        assert status == 200 and {int(r["run_id"]) for r in rows} == set(ids)
+        mine = {r["figure"]: r for r in rows if int(r["run_id"]) == run_id}
+        for name in limits:
+            assert float(mine[name]["value"]) == pytest.approx(figures[name]["value"], abs=1e-9)
+            assert mine[name]["decision"] == expected[name]
+        assert [r["id"] for r in desk.ok(f"/api/export.json?machine={mid}")["runs"]] == ids
+
+        # imports: the kept stream into another machine's history replays to the same figures;
+        # the same file again is the same run; a results.json joins with its figures
+        other = desk.ok("/api/machines", {"name": "imported"})["id"]
+        body = (tmp_path / "run.stream").read_bytes()
+        first = call_raw(desk, f"/api/import?machine={other}&operator=B&name=run.stream", body)
+        assert call_raw(desk, f"/api/import?machine={other}&operator=B&name=run.stream", body) == first
+        imported = desk.ok(f"/api/runs/{first}")
+        assert imported["run"]["test"] == "circle" and "imported from run.stream" in imported["run"]["note"]
+        assert {f["name"]: f["value"] for f in imported["figures"]} == {n: f["value"] for n, f in figures.items()}
+        res = (tmp_path / "out" / "results.json").read_bytes()
+        jid = call_raw(desk, f"/api/import?machine={other}&operator=B&name=results.json", res)
+        assert len(desk.ok(f"/api/runs/{jid}")["figures"]) == len(figures)
+        # a file that is neither is refused with its name, and nothing joins
+        with pytest.raises(urllib.error.HTTPError) as bad:
+            call_raw(desk, f"/api/import?machine={other}&operator=B&name=notes.txt", b"seq,t_s\n1,2\n")
+        assert bad.value.code == 400 and "notes.txt" in json.loads(bad.value.read())["error"]
+        assert len(desk.ok(f"/api/runs?machine={other}")) == 2
 
         # loopback only: a request naming another host is refused
         assert desk.call("/api/machines", headers={"host": "desk.example.com"})[0] == 403

@@ -10,6 +10,7 @@
 //! runs), [`report`] (HTML), [`web`] (the HTTP server, thin).
 
 pub mod decision;
+pub mod exchange;
 pub mod pod;
 pub mod report;
 pub mod spool;

@@ -12,6 +12,7 @@ use super::decision::{Decision, Tolerance, decide};
 use super::store::{Machine, RunRow, Store};
 use super::tests::stream_text;
 use crate::gum::coverage_factor;
+use crate::recording::RecordedRun;
 use crate::replay::{Figure, Report};
 
 /// One figure of a run with its expanded uncertainty and decision.
@@ -226,22 +227,104 @@ pub fn trend_svg(points: &[TrendPoint], tol: Option<Tolerance>, title: &str, uni
     s
 }
 
-/// The polar plots of a run's stream (the replay's own SVGs; none if it does not replay).
-fn plots(store: &mut Store, id: i64) -> Vec<(String, String)> {
+/// The runs a stored run's stream holds, each named by the stream.
+fn recorded(store: &mut Store, id: i64) -> Vec<(String, RecordedRun)> {
     let Ok(bytes) = store.stream(id) else {
         return Vec::new();
     };
-    let Ok(runs) = crate::recording::parse_runs(Path::new("stream"), &stream_text(&bytes)) else {
-        return Vec::new();
-    };
-    let named: Vec<(String, _)> = runs
-        .into_iter()
-        .map(|r| ("stream".to_string(), r))
-        .collect();
-    match crate::replay::replay(&named) {
-        Ok(report) => crate::report::plots(&named, &report),
+    crate::recording::parse_runs(Path::new("stream"), &stream_text(&bytes))
+        .map(|runs| {
+            runs.into_iter()
+                .map(|r| ("stream".to_string(), r))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// The polar plots of a run's stream (the replay's own SVGs; none if it does not replay).
+fn plots(runs: &[(String, RecordedRun)]) -> Vec<(String, String)> {
+    match crate::replay::replay(runs) {
+        Ok(report) => crate::report::plots(runs, &report),
         Err(_) => Vec::new(),
     }
+}
+
+/// The bar's temperature over each run: (pattern and direction, mean, least, most, °C); a
+/// run whose thermistor gave no valid reading is left out.
+fn temperatures(runs: &[(String, RecordedRun)]) -> Vec<(String, f64, f64, f64)> {
+    runs.iter()
+        .filter_map(|(_, r)| {
+            let t: Vec<f64> = r
+                .samples()
+                .map(|s| f64::from(s.temp_c))
+                .filter(|t| t.is_finite())
+                .collect();
+            let n = t.len() as f64;
+            (!t.is_empty()).then(|| {
+                (
+                    format!("{} {}", r.meta.pattern.name(), r.meta.direction.name()),
+                    t.iter().sum::<f64>() / n,
+                    t.iter().copied().fold(f64::INFINITY, f64::min),
+                    t.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                )
+            })
+        })
+        .collect()
+}
+
+/// Colours of the overlaid runs, in order.
+const OVERLAY_COLOURS: [&str; 4] = ["#1f4fd1", "#d12a1f", "#1f9d3a", "#8a3fd1"];
+
+/// Stored runs drawn over each other: each recorded run's ΔL about its angle (a circle's
+/// angle in its plane, a seed 002 step's rotary axis), ΔL 0 on the grey circle, 5 px per µm
+/// (SVG).
+pub fn overlay_svg(store: &mut Store, ids: &[i64]) -> Result<String, String> {
+    let (size, r0, gain) = (520.0, 180.0, 5.0);
+    let c = size / 2.0;
+    let mut s = format!(
+        r##"<svg xmlns="http://www.w3.org/2000/svg" class="overlay" width="{size}" height="{}" viewBox="0 0 {size} {}"><rect width="100%" height="100%" fill="white"/><circle cx="{c}" cy="{c}" r="{r0}" fill="none" stroke="#bbb"/>"##,
+        size + 20.0 * ids.len() as f64,
+        size + 20.0 * ids.len() as f64
+    );
+    for (k, &id) in ids.iter().enumerate() {
+        let row = store.run(id)?;
+        let template = serde_json::from_value::<super::tests::Template>(serde_json::Value::String(
+            row.test.clone(),
+        ))
+        .map_err(|_| format!("run {id}: test {:?} has no trace", row.test))?;
+        let colour = OVERLAY_COLOURS[k % OVERLAY_COLOURS.len()];
+        for (_, r) in recorded(store, id) {
+            let axes = template.trace(r.meta.pattern.name(), &r.meta.config);
+            let t = super::tests::trace_of_text(&r.to_csv(), &axes, 1440);
+            let dash = if r.meta.direction.name() == "CW" {
+                r#" stroke-dasharray="4 2""#
+            } else {
+                ""
+            };
+            let points: Vec<String> = t
+                .points
+                .iter()
+                .map(|&[a, dl]| {
+                    let (rr, th) = (r0 + gain * f64::from(dl), f64::from(a).to_radians());
+                    format!("{:.1},{:.1}", c + rr * th.cos(), c - rr * th.sin())
+                })
+                .collect();
+            let _ = write!(
+                s,
+                r#"<polyline class="run-{id}" fill="none" stroke="{colour}" stroke-width="1.2"{dash} points="{}"/>"#,
+                points.join(" ")
+            );
+        }
+        let _ = write!(
+            s,
+            r#"<text x="10" y="{:.0}" font-size="13" fill="{colour}">run {id}, {} — {} (CW dashed)</text>"#,
+            size + 14.0 + 20.0 * k as f64,
+            esc(&row.started),
+            esc(&row.test)
+        );
+    }
+    s.push_str("</svg>");
+    Ok(s)
 }
 
 fn num(v: Option<f64>) -> String {
@@ -287,9 +370,17 @@ pub fn html(store: &mut Store, id: i64) -> Result<String, String> {
         let runs: Vec<String> = t.runs().iter().map(|(p, d)| format!("{p} {d}")).collect();
         let _ = write!(s, "<tr><th>runs</th><td>{}</td></tr>", runs.join(", "));
     }
+    let runs = recorded(store, id);
+    for (run, mean, lo, hi) in temperatures(&runs) {
+        let _ = write!(
+            s,
+            "<tr><th>bar temperature, {}</th><td>{mean:.2} °C ({lo:.2} … {hi:.2})</td></tr>",
+            esc(&run)
+        );
+    }
     s.push_str("</table>");
     s.push_str("<h2>Polar plots</h2><div id=\"plots\">");
-    for (name, svg) in plots(store, id) {
+    for (name, svg) in plots(&runs) {
         let body = svg.find("<svg").map_or(svg.as_str(), |k| &svg[k..]);
         let _ = write!(
             s,

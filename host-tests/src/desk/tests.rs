@@ -14,11 +14,13 @@ use ballpod::protocol::stream::{DecodeError, decode};
 
 use std::collections::BTreeMap;
 
+use ballpod::app::{Direction, Pattern};
 use ballpod::config::{CirclePlane, Config, ConfigError};
 
 use super::pod::Pod;
 use super::store::RunRow;
 use super::{Desk, lock};
+use crate::ncgen::{CircleOptions, CircleRun, Dialect, PatternTest};
 use crate::replay::{Figure, Report, replay};
 use crate::session_file::SetupValue;
 
@@ -102,7 +104,7 @@ impl Template {
     }
 
     /// How a run of `pattern` is drawn, with this configuration.
-    fn trace(self, pattern: &str, c: &Config) -> TraceAxes {
+    pub fn trace(self, pattern: &str, c: &Config) -> TraceAxes {
         match (self, pattern) {
             (Self::Seed002, "BX" | "BY") => TraceAxes::Rotary("b_deg"),
             (Self::Seed002, _) => TraceAxes::Rotary("c_deg"),
@@ -218,6 +220,42 @@ pub fn setup_lines(req: &TestRequest) -> Result<(Vec<(String, String)>, Config),
         lines.push((name.to_uppercase(), text));
     }
     Ok((lines, c))
+}
+
+/// The part program of a test, for the control to run (`ncgen`'s, from the same set-up): the
+/// circle's CCW and CW runs, or the seed 002 procedure's five steps, each CW then CCW, at
+/// 1000 mm/min, one after the other.
+pub fn part_program(req: &TestRequest, dialect: Dialect) -> Result<String, String> {
+    let (_, config) = setup_lines(req)?;
+    match req.test {
+        Template::Circle => CircleRun::from_config(&config, CircleOptions::default())
+            .map(|t| t.program(dialect))
+            .map_err(|e| format!("part program: {e}")),
+        Template::Seed002 => {
+            let mut out = String::new();
+            for step in [
+                Pattern::Bx,
+                Pattern::By,
+                Pattern::Cr,
+                Pattern::Ca,
+                Pattern::Cr2,
+            ] {
+                let feed = 1000.0;
+                let steps = PatternTest::default_steps(&config, step, feed)
+                    .map_err(|e| format!("part program {}: {e}", step.name()))?;
+                let t = PatternTest::from_config(
+                    &config,
+                    step,
+                    steps,
+                    feed,
+                    vec![Direction::Cw, Direction::Ccw],
+                )
+                .map_err(|e| format!("part program {}: {e}", step.name()))?;
+                out.push_str(&t.program(dialect));
+            }
+            Ok(out)
+        }
+    }
 }
 
 /// Starts a test in a thread of its own; the run's id. Refused (named) when a field is wrong,
@@ -571,9 +609,13 @@ pub struct Trace {
     pub points: Vec<[f32; 2]>,
 }
 
-/// The trace of the last run in `bytes` (a run's text from its header on).
+/// The trace of the last run in `bytes` (a run's stream from its header on).
 pub fn trace(bytes: &[u8], axes: &TraceAxes, max: usize) -> Trace {
-    let text = stream_text(bytes);
+    trace_of_text(&stream_text(bytes), axes, max)
+}
+
+/// The trace of the last run in a run text.
+pub fn trace_of_text(text: &str, axes: &TraceAxes, max: usize) -> Trace {
     let Some(start) = text.rfind("# ballpod run") else {
         return Trace::default();
     };

@@ -75,11 +75,21 @@ pub fn router(desk: Arc<Desk>) -> Router {
             get(tolerances).post(set_tolerance),
         )
         .route("/api/tests", post(start_test))
+        .route("/api/program", post(program))
         .route("/api/live", get(live))
         .route("/api/runs", get(runs))
         .route("/api/runs/{id}", get(run))
         .route("/api/runs/{id}/stream", get(stream))
         .route("/api/trend.svg", get(trend))
+        .route("/api/overlay.svg", get(overlay))
+        .route("/api/export.json", get(export_json))
+        .route("/api/export.csv", get(export_csv))
+        // a recorded stream is ~2.5 MB a minute of runs at 1 kHz: axum's 2 MB default would
+        // refuse a circle pair
+        .route(
+            "/api/import",
+            post(import).layer(axum::extract::DefaultBodyLimit::max(512 << 20)),
+        )
         .route("/report/{id}", get(report_page))
         .layer(middleware::from_fn(loopback_only))
         .with_state(desk)
@@ -181,6 +191,29 @@ async fn start_test(State(d): Shared, Json(req): Json<serde_json::Value>) -> Res
     answer(r.map(|test| json!({ "test": test })))
 }
 
+#[derive(Deserialize)]
+struct ProgramQuery {
+    #[serde(default)]
+    dialect: Option<String>,
+}
+
+/// The part program of a test request (text), for the control: `?dialect=linuxcnc` (default)
+/// or `fanuc`.
+async fn program(Query(q): Query<ProgramQuery>, Json(req): Json<serde_json::Value>) -> Response {
+    let dialect = match q.dialect.as_deref() {
+        None | Some("linuxcnc") => crate::ncgen::Dialect::LinuxCnc,
+        Some("fanuc") => crate::ncgen::Dialect::Fanuc,
+        Some(d) => return bad(format!("dialect {d:?} is not one of linuxcnc, fanuc")),
+    };
+    match serde_json::from_value::<TestRequest>(req)
+        .map_err(|e| format!("test request: {e}"))
+        .and_then(|r| super::tests::part_program(&r, dialect))
+    {
+        Ok(text) => ([(header::CONTENT_TYPE, "text/plain; charset=utf-8")], text).into_response(),
+        Err(e) => bad(e),
+    }
+}
+
 async fn live(State(d): Shared) -> Response {
     let l = lock(&d.live).clone();
     let bytes = match (&d.stream, l.finished) {
@@ -241,6 +274,72 @@ async fn trend(State(d): Shared, Query(q): Query<TrendQuery>) -> Response {
         Ok(svg) => ([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response(),
         Err(e) => bad(e),
     }
+}
+
+#[derive(Deserialize)]
+struct OverlayQuery {
+    /// Run ids, comma-separated.
+    runs: String,
+}
+
+async fn overlay(State(d): Shared, Query(q): Query<OverlayQuery>) -> Response {
+    let ids: Result<Vec<i64>, String> = q
+        .runs
+        .split(',')
+        .map(|x| {
+            x.trim()
+                .parse()
+                .map_err(|_| format!("runs: {x:?} is not a run id"))
+        })
+        .collect();
+    let r = match ids {
+        Ok(ids) if (1..=4).contains(&ids.len()) => {
+            db(&d, move |s| report::overlay_svg(s, &ids)).await
+        }
+        Ok(_) => Err("runs: one to four run ids".into()),
+        Err(e) => Err(e),
+    };
+    match r {
+        Ok(svg) => ([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response(),
+        Err(e) => bad(e),
+    }
+}
+
+#[derive(Deserialize)]
+struct MachineQuery {
+    machine: i64,
+}
+
+async fn export_json(State(d): Shared, Query(q): Query<MachineQuery>) -> Response {
+    answer(db(&d, move |s| super::exchange::export_json(s, q.machine)).await)
+}
+
+async fn export_csv(State(d): Shared, Query(q): Query<MachineQuery>) -> Response {
+    match db(&d, move |s| super::exchange::export_csv(s, q.machine)).await {
+        Ok(csv) => ([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], csv).into_response(),
+        Err(e) => bad(e),
+    }
+}
+
+#[derive(Deserialize)]
+struct ImportQuery {
+    machine: i64,
+    operator: String,
+    /// The file's name (for messages and the run's note).
+    name: String,
+}
+
+/// Imports the body (a recorded stream, a `DATA:LOG?` download or a `results.json`) as a run.
+async fn import(
+    State(d): Shared,
+    Query(q): Query<ImportQuery>,
+    body: axum::body::Bytes,
+) -> Response {
+    let r = db(&d, move |s| {
+        super::exchange::import(s, q.machine, &q.operator, &q.name, &body)
+    })
+    .await;
+    answer(r.map(|id| json!({ "run_id": id })))
 }
 
 async fn report_page(State(d): Shared, Path(id): Path<i64>) -> Response {

@@ -97,10 +97,12 @@ class Desk:
     """A desk process on a history (a fresh SQLite file unless `db` names one), its page's URL,
     and JSON calls to its API."""
 
-    def __init__(self, tmp_path, pod=None, db=None):
+    def __init__(self, tmp_path, pod=None, db=None, link=None):
         cmd = [host_binary("desk"), "--db", db or str(tmp_path / "desk.sqlite"), "--spool", str(tmp_path / "spool"),
                "--port", "0"]
-        if pod:
+        if link:
+            cmd += link
+        elif pod:
             cmd += ["--pod-usb", str(pod["usb_port"]), "--pod-stream", str(pod["stream_port"])]
         self.proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                                      start_new_session=True)
@@ -128,6 +130,35 @@ class Desk:
     def close(self):
         os.killpg(self.proc.pid, signal.SIGKILL)
         self.proc.wait(timeout=10)
+
+
+class SerialBridge:
+    """A pseudo-terminal whose far end is one of the served pod's TCP ports: the port as the
+    serial device a USB CDC-ACM port is (the desk opens it by path, raw, as /dev/ttyACMn)."""
+
+    def __init__(self, port):
+        import threading
+        import tty
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.slave)
+        self.path = os.ttyname(self.slave)
+        self.sock = socket.create_connection(("127.0.0.1", port))
+
+        def pump(read, write):
+            try:
+                while data := read(1 << 16):
+                    write(data)
+            except OSError:
+                pass
+        threading.Thread(target=pump, args=(lambda n: os.read(self.master, n), self.sock.sendall),
+                         daemon=True).start()
+        threading.Thread(target=pump, args=(self.sock.recv, lambda d: os.write(self.master, d)),
+                         daemon=True).start()
+
+    def close(self):
+        self.sock.close()
+        for fd in (self.master, self.slave):
+            os.close(fd)
 
 
 def call_raw(desk, path, body):
@@ -471,3 +502,25 @@ def test_a_database_server_that_is_down_keeps_runs_in_the_spool(pod, tmp_path, p
         assert len(again.ok("/api/runs")) == 1
     finally:
         again.close()
+
+
+def test_a_pod_on_serial_ports(pod, tmp_path):
+    """The pod's two ports as serial devices (pseudo-terminals carrying the served pod's ports,
+    as a USB pod's /dev/ttyACMn): a circle pair recorded and checked as over TCP; a desk asked
+    for a USB pod where there is none says so."""
+    stream = SerialBridge(pod["stream_port"])
+    command = SerialBridge(pod["usb_port"])
+    desk = Desk(tmp_path, link=["--pod-command-port", command.path, "--pod-stream-port", stream.path])
+    try:
+        assert desk.ok("/api/pod")["identity"].startswith("BALLPOD,")
+        mid = desk.ok("/api/machines", {"name": "VF-2"})["id"]
+        run_id, _ = run_circle_pair(desk, mid)
+        run = desk.ok(f"/api/runs/{run_id}")["run"]
+        assert run["state"] == "done" and run["replay_check"] == "", run
+    finally:
+        desk.close()
+        stream.close()
+        command.close()
+    none = subprocess.run([host_binary("desk"), "--db", str(tmp_path / "x.sqlite"), "--pod-serial", "0BA11000"],
+                          capture_output=True, text=True, timeout=30)
+    assert none.returncode != 0 and "no pod with serial number 0BA11000 on USB" in none.stderr, none

@@ -1,4 +1,5 @@
-//! `cargo desk [--db FILE] [--port N] [--pod-usb PORT --pod-stream PORT]`: the technician's
+//! `cargo desk [--db FILE|URL] [--port N] [--pod-serial SN|any | --pod-command-port TTY
+//! --pod-stream-port TTY | --pod-usb PORT --pod-stream PORT]`: the technician's
 //! desk — a local web page (loopback only) that keeps machines and their tolerances, runs tests
 //! on a pod, draws the trace live, checks the pod's results against a replay of the recorded
 //! stream, decides each figure with its U (ISO 14253-1) and keeps the history with a report
@@ -8,7 +9,7 @@ use std::path::PathBuf;
 
 use clap::Parser;
 
-use ballpod_host::desk::pod::Pod;
+use ballpod_host::desk::pod::{Pod, find_usb};
 use ballpod_host::desk::spool::Spool;
 use ballpod_host::desk::store::StoreHandle;
 use ballpod_host::desk::{Desk, web};
@@ -28,6 +29,16 @@ struct Args {
     /// Port on 127.0.0.1 for the page (0: any free port).
     #[arg(long, default_value_t = 8230)]
     port: u16,
+    /// The pod on USB: its serial number (`*IDN?`'s third field), or `any` for the one pod
+    /// attached (found by VID:PID 1209:0001).
+    #[arg(long, conflicts_with_all = ["pod_usb", "pod_command_port"])]
+    pod_serial: Option<String>,
+    /// The pod's command port by path (e.g. /dev/ttyACM0), with --pod-stream-port.
+    #[arg(long, requires = "pod_stream_port", conflicts_with = "pod_usb")]
+    pod_command_port: Option<PathBuf>,
+    /// The pod's stream port by path (e.g. /dev/ttyACM1), with --pod-command-port.
+    #[arg(long, requires = "pod_command_port")]
+    pod_stream_port: Option<PathBuf>,
     /// The pod's USB command port served on loopback TCP (`sim --serve`'s `usb_port`).
     #[arg(long, requires = "pod_stream")]
     pod_usb: Option<u16>,
@@ -60,9 +71,15 @@ fn run(args: Args) -> Result<(), String> {
             spool.display()
         );
     }
-    let pod = match (args.pod_usb, args.pod_stream) {
-        (Some(u), Some(s)) => Some(Pod::connect_tcp(u, s)?),
-        _ => None,
+    let pod = if let (Some(u), Some(s)) = (args.pod_usb, args.pod_stream) {
+        Some(Pod::connect_tcp(u, s)?)
+    } else if let (Some(c), Some(s)) = (&args.pod_command_port, &args.pod_stream_port) {
+        Some(Pod::connect_serial(c, s)?)
+    } else if let Some(sn) = &args.pod_serial {
+        let (c, s) = find_usb((sn != "any").then_some(sn.as_str()))?;
+        Some(Pod::connect_serial(&c, &s)?)
+    } else {
+        None
     };
     let desk = Desk::new(store, Spool::new(spool), pod);
     tokio::runtime::Builder::new_multi_thread()

@@ -342,7 +342,7 @@ pub fn html(store: &mut Store, id: i64) -> Result<String, String> {
         r#"<!doctype html><html lang="en"><head><meta charset="utf-8"><title>ballpod report — {name}, run {id}</title>
 <style>body{{font-family:sans-serif;max-width:60em;margin:2em auto;color:#222}}table{{border-collapse:collapse}}td,th{{border:1px solid #ccc;padding:2px 6px;text-align:left}}
 .conforms{{background:#d8f5d8}}.does_not_conform{{background:#f8d0d0}}.undecided{{background:#fff3c4}}svg{{max-width:100%;height:auto}}figure{{margin:0}}
-@media print{{body{{margin:0;max-width:none}}figure svg{{max-height:14cm;width:auto}}figure,svg.trend,tr{{break-inside:avoid}}}}</style></head><body>
+@media print{{body{{margin:0;max-width:none}}figure svg{{max-height:11cm;width:auto}}figure,svg.trend,tr{{break-inside:avoid}}}}</style></head><body>
 <h1>Ball-bar test report</h1><p id="summary">Machine <b>{name}</b> · test <b>{test}</b> · run {id} · {started} · operator {op} · state <b id="state">{state}</b></p>"#,
         name = esc(&m.name),
         test = esc(&r.test),

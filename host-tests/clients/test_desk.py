@@ -295,6 +295,19 @@ def test_a_circle_pair_from_the_desk_with_decisions_trend_and_report(pod, tmp_pa
         assert "<svg" in html and 'id="figures"' in html and "DMU 50 #3" in html and "A. Tester" in html
         assert desk.ok("/api/pod")["identity"] in html
         assert html.count('class="point"') == 3 * len(limits)
+        # the diagnoses name the served machine's faults (its truth), largest share first, and
+        # no other: out-of-squareness, scale mismatch, both axes' reversals, the cyclic error
+        c = pod["truth"]["machine"]["circle"]
+        assert c["squareness_urad"] and c["scale_x_um_per_m"] != c["scale_y_um_per_m"]
+        assert c["backlash_x_um"] and c["backlash_y_um"] and c["cyclic_amplitude_um"]
+        assert not any(c[k] for k in ("straightness_x_along_y_um", "straightness_y_along_x_um", "lateral_play_x_um",
+                                      "lateral_play_y_um", "vibration_x_um", "stick_slip_x_um"))
+        items = html.split('<ul id="diagnoses">', 1)[1].split("</ul>", 1)[0].split("<li>")[1:]
+        named = sorted(i.split(":")[0] for i in items)
+        assert named == ["cyclic error", "out-of-squareness", "reversal steps of X", "reversal steps of Y",
+                         "scale mismatch"], items
+        shares = [float(i.split(": ")[1].split(" µm")[0]) for i in items]
+        assert shares == sorted(shares, reverse=True)
         for name, want in expected.items():
             row = html.split(f'<tr data-name="{name}" class="{want}">', 1)
             assert len(row) == 2, name

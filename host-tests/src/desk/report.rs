@@ -327,6 +327,83 @@ pub fn overlay_svg(store: &mut Store, ids: &[i64]) -> Result<String, String> {
     Ok(s)
 }
 
+/// The circle's diagnoses in words: each fault the pod named (`faults_named`, at least 3 u
+/// from zero) with its share of G, largest first, and the oscillations named
+/// (`oscillations_named`); `u`, `v` are the plane's axes.
+fn diagnoses(figures: &[FigureView], [u, v]: [&str; 2]) -> Vec<String> {
+    use ballpod::metrology::iso230_4::Fault;
+    let get = |n: &str| figures.iter().find(|f| f.name == n);
+    let mut out = Vec::new();
+    if let Some(bits) = get("faults_named").map(|f| f.value as u32) {
+        let mut named: Vec<(f64, String)> = Fault::ALL
+            .iter()
+            .filter(|f| bits & (1 << (**f as u8)) != 0)
+            .map(|f| {
+                // Debug names: Squareness, ReversalU, … → "squareness", "reversal of X"
+                let (what, share) = match f {
+                    Fault::Squareness => ("out-of-squareness".to_string(), "share_squareness"),
+                    Fault::ScaleMismatch => ("scale mismatch".to_string(), "share_scale_mismatch"),
+                    Fault::ReversalU => (format!("reversal steps of {u}"), "share_reversal_u"),
+                    Fault::ReversalV => (format!("reversal steps of {v}"), "share_reversal_v"),
+                    Fault::StraightnessU => {
+                        (format!("straightness of {u}"), "share_straightness_u")
+                    }
+                    Fault::StraightnessV => {
+                        (format!("straightness of {v}"), "share_straightness_v")
+                    }
+                    Fault::Cyclic => ("cyclic error".to_string(), "share_cyclic"),
+                    Fault::LateralPlayU => (format!("lateral play of {u}"), "share_lateral_play_u"),
+                    Fault::LateralPlayV => (format!("lateral play of {v}"), "share_lateral_play_v"),
+                };
+                let g = get(share).map_or(0.0, |f| f.value);
+                let text = get(share).map_or(what.clone(), |f| {
+                    format!("{what}: {:.2} µm of G (U {})", f.value, num(f.expanded_u))
+                });
+                (g, text)
+            })
+            .collect();
+        named.sort_by(|a, b| b.0.total_cmp(&a.0));
+        out.extend(named.into_iter().map(|(_, t)| t));
+    }
+    // oscillations_named's bits (the result's definition): 1, 2 vibration of u, v; 4, 8
+    // stick-slip of u, v
+    if let Some(bits) = get("oscillations_named").map(|f| f.value as u32) {
+        for (bit, what, amp, hz) in [
+            (
+                1,
+                format!("vibration of {u}"),
+                "vibration_u",
+                "vibration_frequency",
+            ),
+            (
+                2,
+                format!("vibration of {v}"),
+                "vibration_v",
+                "vibration_frequency",
+            ),
+            (
+                4,
+                format!("stick-slip of {u}"),
+                "stick_slip_u",
+                "stick_slip_frequency",
+            ),
+            (
+                8,
+                format!("stick-slip of {v}"),
+                "stick_slip_v",
+                "stick_slip_frequency",
+            ),
+        ] {
+            if bits & bit != 0 {
+                let a = get(amp).map_or(String::new(), |f| format!(": {:.2} µm", f.value));
+                let f = get(hz).map_or(String::new(), |f| format!(" at {:.1} Hz", f.value));
+                out.push(format!("{what}{a}{f}"));
+            }
+        }
+    }
+    out
+}
+
 fn num(v: Option<f64>) -> String {
     v.map_or("—".into(), |v| format!("{v:.4}"))
 }
@@ -388,7 +465,26 @@ pub fn html(store: &mut Store, id: i64) -> Result<String, String> {
             esc(&name)
         );
     }
-    s.push_str("</div><h2>Figures</h2><p>U = k·u for about 95 % (k = 2, or Student's t at the figure's degrees of freedom). Decisions by ISO 14253-1: conformance proven when the value is inside the tolerance by more than U, non-conformance when outside by more than U, else undecided.</p>");
+    s.push_str("</div>");
+    if let Some((_, r0)) = runs.first()
+        && r0.meta.pattern.name() == "CIRCLE"
+    {
+        let axes = match r0.meta.config.setup.circle_plane {
+            ballpod::config::CirclePlane::XY => ["X", "Y"],
+            ballpod::config::CirclePlane::YZ => ["Y", "Z"],
+            ballpod::config::CirclePlane::ZX => ["Z", "X"],
+        };
+        let d = diagnoses(&v.figures, axes);
+        s.push_str("<h2>Diagnoses</h2><ul id=\"diagnoses\">");
+        if d.is_empty() {
+            s.push_str("<li>no fault named (none at least 3 u from zero)</li>");
+        }
+        for line in d {
+            let _ = write!(s, "<li>{}</li>", esc(&line));
+        }
+        s.push_str("</ul>");
+    }
+    s.push_str("<h2>Figures</h2><p>U = k·u for about 95 % (k = 2, or Student's t at the figure's degrees of freedom). Decisions by ISO 14253-1: conformance proven when the value is inside the tolerance by more than U, non-conformance when outside by more than U, else undecided.</p>");
     s.push_str("<table id=\"figures\"><tr><th>figure</th><th>value</th><th>U</th><th>unit</th><th>tolerance</th><th>decision</th><th>largest contributors to u</th></tr>");
     for f in &v.figures {
         let tol = f.tolerance.map_or(String::new(), |t| {

@@ -177,10 +177,15 @@ def decision(value, big_u, lower, upper):
     return "undecided"
 
 
+TRACEABILITY = {"bar_serial": 40712, "bar_certificate": 2026117, "bar_calibrated": 20260315, "lvdt_serial": 9931}
+
+
 def run_circle_pair(desk, machine_id, watch=False):
-    """Starts a circle pair from the desk and waits for its end; the live sample counts seen."""
+    """Starts a circle pair from the desk (the bar's traceability fields set with it) and waits
+    for its end; the live sample counts seen."""
+    setup = dict(TRACEABILITY, circle_plane="XY", circle_radius=150, circle_feed=1000)
     test = desk.ok("/api/tests", {"machine_id": machine_id, "operator": "A. Tester", "test": "circle",
-                                  "setup": {"circle_plane": "XY", "circle_radius": 150, "circle_feed": 1000}})["test"]
+                                  "setup": setup})["test"]
     seen = []
     t0 = time.time()
     while True:
@@ -295,6 +300,12 @@ def test_a_circle_pair_from_the_desk_with_decisions_trend_and_report(pod, tmp_pa
         assert "<svg" in html and 'id="figures"' in html and "DMU 50 #3" in html and "A. Tester" in html
         assert desk.ok("/api/pod")["identity"] in html
         assert html.count('class="point"') == 3 * len(limits)
+        # traceability: the bar's fields as the run's header carried them, in the report and in
+        # results.json
+        assert ("serial 40712, calibration certificate 2026117 of 2026-03-15; LVDT serial 9931"
+                in html), html.split('id="trace"', 1)[1]
+        runs_json = json.loads((tmp_path / "out" / "results.json").read_text())["runs"]
+        assert all(r["instrument"] == TRACEABILITY for r in runs_json)
         # the diagnoses name the served machine's faults (its truth), largest share first, and
         # no other: out-of-squareness, scale mismatch, both axes' reversals, the cyclic error
         c = pod["truth"]["machine"]["circle"]

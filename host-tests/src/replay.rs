@@ -95,6 +95,35 @@ pub struct RunReport {
     pub counters: std::collections::BTreeMap<String, u32>,
     /// The run's own results (its fit, E, or sphere).
     pub results: Vec<Figure>,
+    /// The instrument it was measured with, as the pod's configuration named it (traceability
+    /// fields `bar_serial`, `bar_certificate`, `bar_calibrated`, `lvdt_serial`; 0: not entered).
+    #[serde(default)]
+    pub instrument: Instrument,
+}
+
+/// The instrument of a run (the pod's traceability fields; 0: not entered).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Instrument {
+    /// The ball bar's serial number.
+    pub bar_serial: u32,
+    /// Its calibration certificate's number.
+    pub bar_certificate: u32,
+    /// Its calibration date, YYYYMMDD.
+    pub bar_calibrated: u32,
+    /// Its LVDT's serial number.
+    pub lvdt_serial: u32,
+}
+
+impl Instrument {
+    /// The fields of a configuration.
+    pub fn of(c: &ballpod::config::Config) -> Self {
+        Self {
+            bar_serial: c.bar_serial,
+            bar_certificate: c.bar_certificate,
+            bar_calibrated: c.bar_calibrated,
+            lvdt_serial: c.lvdt_serial,
+        }
+    }
 }
 
 /// A session's report: each run, then the results table at the end (procedures included).
@@ -186,6 +215,7 @@ impl Report {
                 .map(|(n, v)| (n.to_string(), v))
                 .collect(),
             results: figures(app, ResultId::of_run(meta.pattern)),
+            instrument: Instrument::of(&meta.config),
         });
     }
 

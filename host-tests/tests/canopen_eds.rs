@@ -163,7 +163,7 @@ fn every_config_field_has_its_object_with_the_table_type_and_range() {
     assert_eq!(FIELDS[0x40].name, "probe_u_lobing");
     assert_eq!(
         (index(FIELDS.len() - 1), FIELDS[FIELDS.len() - 1].name),
-        (0x2047, "s002_u_r_b"),
+        (0x204B, "lvdt_serial"),
         "the last row"
     );
     for (i, f) in FIELDS.iter().enumerate() {

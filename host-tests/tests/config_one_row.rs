@@ -72,7 +72,7 @@ fn the_new_row_gives_storage_default_checks_and_lookup() {
 
 #[test]
 fn the_encoding_grows_by_one_version_and_reads_the_older_one() {
-    assert_eq!(ENCODING_VERSION, 11);
+    assert_eq!(ENCODING_VERSION, 12);
     let mut c = Config::default();
     c.set(Field::TestExtraUm, 7.0).unwrap();
     c.set(Field::BarLengthMm, 123.0).unwrap();
@@ -92,10 +92,10 @@ fn the_encoding_grows_by_one_version_and_reads_the_older_one() {
         f32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()),
         7.0
     );
-    // the version-10 record a pod wrote before the row existed: without those four bytes
+    // the version-11 record a pod wrote before the row existed: without those four bytes
     let mut old = Vec::new();
     old.extend_from_slice(b"BPOD");
-    old.extend_from_slice(&10u16.to_le_bytes());
+    old.extend_from_slice(&11u16.to_le_bytes());
     let payload = n - 12 - 4;
     old.extend_from_slice(&(payload as u16).to_le_bytes());
     old.extend_from_slice(&bytes[8..at]);

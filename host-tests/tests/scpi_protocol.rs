@@ -640,6 +640,10 @@ fn read(c: &Config, f: Field) -> f64 {
         Field::SsmUSocketUm => g(s.ssm_u_socket_um),
         Field::CircleUCentreUm => g(s.circle_u_centre_um),
         Field::S002URbUm => g(s.s002_u_r_b_um),
+        Field::BarSerial => f64::from(c.bar_serial),
+        Field::BarCertificate => f64::from(c.bar_certificate),
+        Field::BarCalibrated => f64::from(c.bar_calibrated),
+        Field::LvdtSerial => f64::from(c.lvdt_serial),
         Field::PeriodsPerSample | Field::AxisNameDuplicate(_) | Field::AxisCounterReach(_) => {
             unreachable!()
         }

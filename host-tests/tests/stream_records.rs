@@ -199,7 +199,8 @@ fn records_decode_to_the_log_s_text_and_replay_bit_for_bit() {
     let m = meta();
     let mut rng = Rng(0x05EE_D0B5);
     let ev = events(700, &mut rng);
-    let (bytes, dropped) = stream_bytes::<2048>(&m, &ev, 64);
+    let (bytes, dropped) =
+        stream_bytes::<{ ballpod::protocol::stream::FIRMWARE_RING_BYTES }>(&m, &ev, 64);
     assert_eq!(dropped, 0);
     let text = decoded(&bytes);
     // the log of the same run writes the same text but for how it was made

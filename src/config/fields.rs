@@ -221,11 +221,27 @@ config_fields! {
         S002URbUm = setup.s002_u_r_b_um (f32) "s002_u_r_b" = S002_U_R_B_UM as f32;
             Um [0.0, 1000.0] needed since 10 at NextRun
             "Seed 002 uncertainty budget: the tool lengths R_B and R′_B as entered, standard uncertainty of each one's difference from the length the steps ran with (default: a tool length measured to a few µm)",
+        // traceability: what a run's header, results.json and the desk's report name; numbers,
+        // not text (the configuration holds numbers), 0 until entered. The LVDT is calibrated
+        // in its bar (lvdt_poly is the bar's calibration): the bar's certificate covers it, and
+        // the LVDT is named by its serial number
+        BarSerial = config.bar_serial (u32) "bar_serial" = 0;
+            One [0.0, 4_294_967_295.0] needed since 11 at NextRun
+            "Traceability: the ball bar's serial number (0: not entered)",
+        BarCertificate = config.bar_certificate (u32) "bar_certificate" = 0;
+            One [0.0, 4_294_967_295.0] needed since 11 at NextRun
+            "Traceability: the number of the bar's calibration certificate (its length, bar_length, and its LVDT's, lvdt_poly), its digits (0: not entered)",
+        BarCalibrated = config.bar_calibrated (u32) "bar_calibrated" = 0;
+            One [0.0, 99_991_231.0] needed since 11 at NextRun
+            "Traceability: the date of the bar's calibration, YYYYMMDD (0: not entered)",
+        LvdtSerial = config.lvdt_serial (u32) "lvdt_serial" = 0;
+            One [0.0, 4_294_967_295.0] needed since 11 at NextRun
+            "Traceability: the serial number of the bar's LVDT (0: not entered)",
         // a field that exists only in the test build of the `one-more-field` feature: the host
         // test `config_one_row` checks that this one row is all a new field needs
         #[cfg(feature = "one-more-field")]
         TestExtraUm = setup.test_extra_um (f32) "test_extra" = 2.5;
-            Um [0.0, 10.0] needed since 11 at NextRun
+            Um [0.0, 10.0] needed since 12 at NextRun
             "Test build only: a field added by one row",
     }
 }

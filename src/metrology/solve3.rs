@@ -310,20 +310,30 @@ impl SolveFloat for f32 {
 /// solve in a few hundred bytes of code, where nalgebra's generic one costs kilobytes of flash
 /// per size.
 pub fn cholesky_solve<T: SolveFloat, const N: usize>(a: [[T; N]; N], b: [T; N]) -> Option<[T; N]> {
-    let scale = (0..N)
-        .filter_map(|i| a.get(i).and_then(|r| r.get(i)))
+    let mut l = [[T::ZERO; N]; N];
+    let mut x = b;
+    cholesky_in(a.as_flattened(), l.as_flattened_mut(), &mut x)?;
+    Some(x)
+}
+
+/// [`cholesky_solve`] on row-major `n × n` slices (`n` = `x.len()`), `x` holding `b` in and the
+/// solution out: one body per float type whatever the size — each size's own copy cost about
+/// 560 bytes of flash. The operations and their order are the array version's.
+#[inline(never)]
+fn cholesky_in<T: SolveFloat>(a: &[T], l: &mut [T], x: &mut [T]) -> Option<()> {
+    let n = x.len();
+    let scale = (0..n)
+        .filter_map(|i| a.get(i * n + i))
         .fold(T::ZERO, |m, v| if v.abs() > m { v.abs() } else { m });
     if !(scale > T::ZERO && scale.is_finite()) {
         return None;
     }
     // lower factor L, row by row: a = L Lᵀ
-    let mut l = [[T::ZERO; N]; N];
-    for i in 0..N {
+    for i in 0..n {
         for j in 0..=i {
-            let mut s = a.get(i).and_then(|r| r.get(j)).copied()?;
+            let mut s = *a.get(i * n + j)?;
             for k in 0..j {
-                let (lik, ljk) = (*l.get(i)?.get(k)?, *l.get(j)?.get(k)?);
-                s -= lik * ljk;
+                s -= *l.get(i * n + k)? * *l.get(j * n + k)?;
             }
             let v = if i == j {
                 if !(s > T::PIVOT_TOL * scale) {
@@ -331,27 +341,25 @@ pub fn cholesky_solve<T: SolveFloat, const N: usize>(a: [[T; N]; N], b: [T; N]) 
                 }
                 s.sqrt()
             } else {
-                s / *l.get(j)?.get(j)?
+                s / *l.get(j * n + j)?
             };
-            *l.get_mut(i)?.get_mut(j)? = v;
+            *l.get_mut(i * n + j)? = v;
         }
     }
-    // L y = b, then Lᵀ x = y
-    let mut y = [T::ZERO; N];
-    for i in 0..N {
-        let mut s = *b.get(i)?;
+    // L y = b, then Lᵀ x = y, each in place in x
+    for i in 0..n {
+        let mut s = *x.get(i)?;
         for k in 0..i {
-            s -= *l.get(i)?.get(k)? * *y.get(k)?;
+            s -= *l.get(i * n + k)? * *x.get(k)?;
         }
-        *y.get_mut(i)? = s / *l.get(i)?.get(i)?;
+        *x.get_mut(i)? = s / *l.get(i * n + i)?;
     }
-    let mut x = [T::ZERO; N];
-    for i in (0..N).rev() {
-        let mut s = *y.get(i)?;
-        for k in (i + 1)..N {
-            s -= *l.get(k)?.get(i)? * *x.get(k)?;
+    for i in (0..n).rev() {
+        let mut s = *x.get(i)?;
+        for k in (i + 1)..n {
+            s -= *l.get(k * n + i)? * *x.get(k)?;
         }
-        *x.get_mut(i)? = s / *l.get(i)?.get(i)?;
+        *x.get_mut(i)? = s / *l.get(i * n + i)?;
     }
-    x.iter().all(|v| v.is_finite()).then_some(x)
+    x.iter().all(|v| v.is_finite()).then_some(())
 }

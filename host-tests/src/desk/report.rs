@@ -404,6 +404,44 @@ fn diagnoses(figures: &[FigureView], [u, v]: [&str; 2]) -> Vec<String> {
     out
 }
 
+/// The traceability rows of the bar and its LVDT, from the runs' headers (the pod's fields
+/// `bar_serial`, `bar_certificate`, `bar_calibrated`, `lvdt_serial`); one row per distinct
+/// instrument.
+fn instrument_rows(runs: &[(String, RecordedRun)]) -> String {
+    let entered = |v: u32| {
+        if v == 0 {
+            "not entered".to_string()
+        } else {
+            v.to_string()
+        }
+    };
+    let date = |v: u32| {
+        if v == 0 {
+            "not entered".to_string()
+        } else {
+            format!("{:04}-{:02}-{:02}", v / 10_000, v / 100 % 100, v % 100)
+        }
+    };
+    let mut seen = Vec::new();
+    for (_, r) in runs {
+        let i = crate::replay::Instrument::of(&r.meta.config);
+        if !seen.contains(&i) {
+            seen.push(i);
+        }
+    }
+    seen.iter()
+        .map(|i| {
+            format!(
+                "<tr><th>ball bar</th><td class=\"instrument\">serial {}, calibration certificate {} of {}; LVDT serial {}</td></tr>",
+                entered(i.bar_serial),
+                entered(i.bar_certificate),
+                date(i.bar_calibrated),
+                entered(i.lvdt_serial)
+            )
+        })
+        .collect()
+}
+
 fn num(v: Option<f64>) -> String {
     v.map_or("—".into(), |v| format!("{v:.4}"))
 }
@@ -531,13 +569,14 @@ pub fn html(store: &mut Store, id: i64) -> Result<String, String> {
     }
     let _ = write!(
         s,
-        r#"<h2>Traceability</h2><table id="trace"><tr><th>machine</th><td>{} {} {}, serial {} ({})</td></tr><tr><th>pod</th><td>{}</td></tr><tr><th>replay of the recorded stream</th><td>{}</td></tr><tr><th>report made</th><td>{}</td></tr></table></body></html>"#,
+        r#"<h2>Traceability</h2><table id="trace"><tr><th>machine</th><td>{} {} {}, serial {} ({})</td></tr><tr><th>pod</th><td>{}</td></tr>{}<tr><th>replay of the recorded stream</th><td>{}</td></tr><tr><th>report made</th><td>{}</td></tr></table></body></html>"#,
         esc(&m.builder),
         esc(&m.model),
         esc(&m.name),
         esc(&m.serial),
         esc(&m.kinematics),
         esc(&r.pod_identity),
+        instrument_rows(&runs),
         if r.state != "done" {
             "not replayed".to_string()
         } else if r.replay_check.is_empty() {

@@ -18,7 +18,7 @@ use core::sync::atomic::{AtomicU32, Ordering};
 
 use embassy_futures::select::{Either5, select5};
 use embassy_time::{Duration, Instant, Ticker};
-use static_cell::StaticCell;
+use static_cell::{ConstStaticCell, StaticCell};
 
 use ballpod::acquisition::probe::TriggerOutcome;
 use ballpod::app::log::{LOG_CAPACITY, SampleLog};
@@ -55,7 +55,10 @@ pub struct PodState {
 }
 
 static APP: StaticCell<App> = StaticCell::new();
-static STREAM: StaticCell<SampleStream<STREAM_RING>> = StaticCell::new();
+/// The stream ring, initialised at compile time (all zeros: `.bss`): built by `init` it would be
+/// a 5 KiB value in main's frame at boot, the stack's deepest point.
+static STREAM: ConstStaticCell<SampleStream<STREAM_RING>> =
+    ConstStaticCell::new(SampleStream::new());
 static NODE: StaticCell<CanOpenNode> = StaticCell::new();
 static SCPI: StaticCell<ScpiServer> = StaticCell::new();
 /// The sample log's place, in CCM SRAM (`memory.x`: CPU-only memory, 22 KiB more stack in RAM).
@@ -99,7 +102,7 @@ impl PodState {
         let jobs = JobSlot::init(jobs);
         let node = NODE.init(CanOpenNode::new(app.config().can_node_id, serial));
         let scpi = SCPI.init(ScpiServer::new());
-        let stream = STREAM.init(SampleStream::new());
+        let stream = STREAM.take();
         Self {
             pod: Pod::boot(app, node, scpi, log, stream, serial, &boot),
             jobs,

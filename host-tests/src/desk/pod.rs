@@ -204,6 +204,14 @@ impl Pod {
         }
     }
 
+    /// Forgets what the stream port sent before now (a test keeps its own runs' bytes: the
+    /// buffer does not grow over a day of tests); what it sends from now on starts at 0.
+    pub fn stream_restart(&self) {
+        if let Ok(mut b) = self.stream.lock() {
+            b.bytes.clear();
+        }
+    }
+
     /// Bytes the stream port has sent so far.
     pub fn stream_len(&self) -> usize {
         self.stream.lock().map_or(0, |b| b.bytes.len())

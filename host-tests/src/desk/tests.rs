@@ -356,7 +356,9 @@ fn run_template(
     lines: &[(String, String)],
     config: &Config,
 ) -> Result<Recorded, Outcome> {
-    let start = pod.stream_len();
+    // (nothing else arms the pod while the desk holds it: what came before is no test's)
+    pod.stream_restart();
+    let start = 0;
     let with_stream = |pod: &Pod, note: String| {
         let (stream, closed) = pod.stream_since(start);
         Outcome {

@@ -180,7 +180,7 @@ def decision(value, big_u, lower, upper):
 TRACEABILITY = {"bar_serial": 40712, "bar_certificate": 2026117, "bar_calibrated": 20260315, "lvdt_serial": 9931}
 
 
-def run_circle_pair(desk, machine_id, watch=False):
+def run_circle_pair(desk, machine_id, watch=False, meanwhile=None):
     """Starts a circle pair from the desk (the bar's traceability fields set with it) and waits
     for its end; the live sample counts seen."""
     setup = dict(TRACEABILITY, circle_plane="XY", circle_radius=150, circle_feed=1000)
@@ -195,12 +195,18 @@ def run_circle_pair(desk, machine_id, watch=False):
             run_id = live["run_id"]
             assert run_id is not None, live
             break
+        if meanwhile and live["trace"]["samples"] > 1000:
+            (status, e), pod_info = meanwhile()
+            assert status == 400 and "a test is running" in e["error"], e
+            assert pod_info["identity"].startswith("BALLPOD,")
+            meanwhile = None
         if watch and live["trace"]["samples"]:
             # "run 1 of 2 (CIRCLE CCW): the machine moves"
             seen.append((live["step"].split(":")[0], live["trace"]["samples"], len(live["trace"]["points"]),
                          live["trace"]["lost"]))
         assert time.time() - t0 < 120, live
         time.sleep(0.1)
+    assert meanwhile is None, "the run ended before the checks to make while it ran"
     return run_id, seen
 
 
@@ -237,8 +243,11 @@ def test_a_circle_pair_from_the_desk_with_decisions_trend_and_report(pod, tmp_pa
         status, e = desk.call(f"/api/machines/{mid}/tolerances", {"figure": "G_ccw", "lower": 2, "upper": 1})
         assert status == 400 and "lower limit" in e["error"]
 
-        # the run, its trace growing while the machine moves
-        run_id, seen = run_circle_pair(desk, mid, watch=True)
+        # the run, its trace growing while the machine moves; a second test is refused while
+        # it runs, and the page still answers
+        run_id, seen = run_circle_pair(desk, mid, watch=True, meanwhile=lambda: (
+            desk.call("/api/tests", {"machine_id": mid, "operator": "B", "test": "circle"}),
+            desk.ok("/api/pod")))
         for run in ("run 1 of 2 (CIRCLE CCW)", "run 2 of 2 (CIRCLE CW)"):
             counts = [n for r, n, _, _ in seen if r == run]
             assert len(set(counts)) >= 3 and counts == sorted(counts), (run, seen)

@@ -53,8 +53,11 @@ pub struct Desk {
     pub store: StoreHandle,
     /// Runs waiting for the history.
     pub spool: Spool,
-    /// The pod (None: the desk serves the history without one).
+    /// The pod (None: the desk serves the history without one); a test's thread holds it
+    /// for the whole test.
     pub pod: Mutex<Option<Pod>>,
+    /// The pod's `*IDN?`, read when the desk connected (readable while a test holds the pod).
+    pub identity: Option<String>,
     /// The stream buffer of the pod (for the live view without holding the pod).
     pub stream: Option<Arc<Mutex<StreamBuffer>>>,
     /// The run under way, or the last.
@@ -71,7 +74,9 @@ impl Desk {
     /// spool every 5 s.
     pub fn new(store: StoreHandle, spool: Spool, pod: Option<Pod>) -> Arc<Self> {
         let stream = pod.as_ref().map(|p| p.stream.clone());
+        let identity = pod.as_ref().map(|p| p.identity.clone());
         let d = Arc::new(Self {
+            identity,
             store,
             spool,
             pod: Mutex::new(pod),

@@ -267,13 +267,10 @@ pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<u64, String> {
     let (lines, config) = setup_lines(&req)?;
     let machine_id = req.machine_id;
     desk.store.call(move |s| s.machine(machine_id))?;
-    let identity = {
-        let pod = lock(&desk.pod);
-        pod.as_ref()
-            .ok_or("the desk has no pod (start it with --pod-usb and --pod-stream)")?
-            .identity
-            .clone()
-    };
+    // (not from the pod's lock: a running test holds it)
+    let identity = desk.identity.clone().ok_or(
+        "the desk has no pod (start it with --pod-serial, --pod-command-port or --pod-usb)",
+    )?;
     let mut live = lock(&desk.live);
     if live.test != 0 && !live.finished {
         return Err("a test is running: wait for its end".into());

@@ -111,8 +111,7 @@ pub async fn serve(desk: Arc<Desk>, port: u16) -> std::io::Result<()> {
 }
 
 async fn pod(State(d): Shared) -> Response {
-    let identity = lock(&d.pod).as_ref().map(|p| p.identity.clone());
-    Json(json!({ "identity": identity })).into_response()
+    Json(json!({ "identity": d.identity })).into_response()
 }
 
 async fn catalogue() -> Response {

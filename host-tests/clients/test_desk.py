@@ -537,6 +537,31 @@ def test_a_database_server_that_is_down_keeps_runs_in_the_spool(pod, tmp_path, p
         again.close()
 
 
+def test_an_ssm_run_from_the_desk(pod, tmp_path):
+    """The SSM template: without its socket the pod names the field it lacks; with it, E
+    against the served machine's truth (within 3u, as test_scpi_client.py)."""
+    desk = Desk(tmp_path, pod)
+    try:
+        mid = desk.ok("/api/machines", {"name": "DMU 50 #3"})["id"]
+        desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "ssm"})
+        live = wait_finished(desk)
+        run = desk.ok(f"/api/runs/{live['run_id']}")["run"]
+        assert run["state"] == "failed" and "ssm_socket_x not set" in run["note"], run
+        desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "ssm",
+                               "setup": {"ssm_socket_x": 0, "ssm_socket_y": 0, "ssm_socket_z": 0}})
+        live = wait_finished(desk)
+        view = desk.ok(f"/api/runs/{live['run_id']}")
+        assert view["run"]["state"] == "done" and view["run"]["replay_check"] == "", view["run"]
+        figures = {f["name"]: f for f in view["figures"]}
+        for k, name in enumerate(("ssm_ex", "ssm_ey", "ssm_ez")):
+            f = figures[name]
+            assert abs(f["value"] - pod["truth"]["ssm_error_um"][k]) <= 3 * f["u"], (name, f)
+        status, e = desk.call("/api/program", {"machine_id": mid, "operator": "A", "test": "ssm"})
+        assert status == 400 and "ncgen -- ssm" in e["error"]
+    finally:
+        desk.close()
+
+
 def test_a_pod_on_serial_ports(pod, tmp_path):
     """The pod's two ports as serial devices (pseudo-terminals carrying the served pod's ports,
     as a USB pod's /dev/ttyACMn): a circle pair recorded and checked as over TCP; a desk asked

@@ -58,6 +58,10 @@ pub enum Template {
     /// the thesis Table 4.3 set-up fields `s002_*` (no defaults: the pod names the first it
     /// lacks; bar_length set to s002_l_b).
     Seed002,
+    /// A single-socket-method run (seed 000): the spindle's ball dwells at stations on the
+    /// bar's sphere about the socket (`ssm_socket_*`, no defaults: the pod names the first it
+    /// lacks); E, the tool point's position error.
+    Ssm,
 }
 
 impl Template {
@@ -77,6 +81,7 @@ impl Template {
                 ("CR2", "CW"),
                 ("CR2", "CCW"),
             ],
+            Self::Ssm => &[("SSM", "CCW")],
         }
     }
 
@@ -91,15 +96,17 @@ impl Template {
                 ("circle_radius", SetupValue::Number(150.0)),
                 ("circle_feed", SetupValue::Number(1000.0)),
             ],
-            Self::Seed002 => Vec::new(),
+            Self::Seed002 | Self::Ssm => Vec::new(),
         }
     }
 
-    /// The field `bar_length` follows unless the request sets it.
-    fn bar_length_from(self) -> &'static str {
+    /// The field `bar_length` follows unless the request sets it (an SSM run's bar keeps its
+    /// own).
+    fn bar_length_from(self) -> Option<&'static str> {
         match self {
-            Self::Circle => "circle_radius",
-            Self::Seed002 => "s002_l_b",
+            Self::Circle => Some("circle_radius"),
+            Self::Seed002 => Some("s002_l_b"),
+            Self::Ssm => None,
         }
     }
 
@@ -108,6 +115,15 @@ impl Template {
         match (self, pattern) {
             (Self::Seed002, "BX" | "BY") => TraceAxes::Rotary("b_deg"),
             (Self::Seed002, _) => TraceAxes::Rotary("c_deg"),
+            // the stations' directions about the socket, seen from above
+            (Self::Ssm, _) => TraceAxes::Plane {
+                u: "x_mm",
+                v: "y_mm",
+                centre_mm: [
+                    f64::from(c.setup.ssm_socket_mm[0]),
+                    f64::from(c.setup.ssm_socket_mm[1]),
+                ],
+            },
             (Self::Circle, _) => {
                 let t = &c.setup;
                 let [x, y, z] = t.circle_centre_mm.map(f64::from);
@@ -176,7 +192,12 @@ pub fn setup_lines(req: &TestRequest) -> Result<(Vec<(String, String)>, Config),
     // bar_length follows the template's field, written last (its own refusal names the field
     // it follows first)
     let derived = (!fields.contains_key("bar_length"))
-        .then(|| fields.get(req.test.bar_length_from()).cloned())
+        .then(|| {
+            req.test
+                .bar_length_from()
+                .and_then(|f| fields.get(f))
+                .cloned()
+        })
         .flatten()
         .map(|v| ("bar_length".to_string(), v));
     let mut c = Config::default();
@@ -255,6 +276,12 @@ pub fn part_program(req: &TestRequest, dialect: Dialect) -> Result<String, Strin
             }
             Ok(out)
         }
+        // its stations follow a target point the desk does not ask for
+        Template::Ssm => Err(
+            "part program: an SSM run's program needs its target point: \
+                              `cargo ncgen -- ssm SETUP --target X Y Z`"
+                .into(),
+        ),
     }
 }
 

@@ -44,6 +44,17 @@ def pixels_near(png, rgb, tol=60):
     return sum(1 for k in range(0, len(px), 3) if all(abs(px[k + c] - rgb[c]) <= tol for c in range(3)))
 
 
+def run_from_page(b, test, seconds=120):
+    """Presses Run and waits until the page says test number `test` is done."""
+    from selenium.webdriver.common.by import By
+    b.find_element(By.ID, "c-run").click()
+    t0 = time.time()
+    while not (b.find_element(By.ID, "live-run").text == str(test)
+               and b.find_element(By.ID, "live-step").text.startswith("done")):
+        assert time.time() - t0 < seconds, (b.find_element(By.ID, "live-step").text, b.find_element(By.ID, "error").text)
+        time.sleep(0.2)
+
+
 def test_the_page_in_a_browser_runs_a_circle_pair_and_prints_its_report(pod, tmp_path):
     if not (os.path.exists(CHROMIUM) and os.path.exists(DRIVER)):
         # .ci/run installs them and sets $BALLPOD_REQUIRE_CHROMIUM: CI fails rather than skips
@@ -122,6 +133,34 @@ def test_the_page_in_a_browser_runs_a_circle_pair_and_prints_its_report(pod, tmp
         assert pixels_near(page, TRACE_BLUE) > 100
         if keep:
             shutil.copy(next(tmp_path.glob("page*.png")), shots / "desk-report-pdf-page1.png")
+
+        # two more circle pairs from the page: the trend chart shows three points
+        b.get(desk.url)
+        wait.until(lambda b: Select(b.find_element(By.ID, "machine")).first_selected_option.text == "DMU 50 #3")
+        b.find_element(By.ID, "c-operator").send_keys("A. Tester")
+        for test in (2, 3):
+            run_from_page(b, test)
+        b.find_element(By.ID, "h-figure").send_keys("G_ccw")
+        b.find_element(By.ID, "h-show").click()
+        img = wait.until(lambda b: b.find_elements(By.CSS_SELECTOR, "#h-trend img"))[0]
+        wait.until(lambda b: b.execute_script("return arguments[0].complete && arguments[0].naturalWidth", img))
+        status, svg = desk.call(img.get_attribute("src").split("/", 3)[3])
+        assert status == 200 and svg.count('class="point"') == 3
+
+        # the seed 002 procedure from the page, its set-up typed into the form
+        from podlib import TABLE_4_3
+        Select(b.find_element(By.ID, "c-test")).select_by_value("seed002")
+        for name, value in TABLE_4_3.items():
+            field = b.find_element(By.ID, f"s-{name}")
+            field.clear()
+            field.send_keys(str(value))
+        run_from_page(b, 4, seconds=180)
+        wait.until(lambda b: "dx_BT" in b.find_element(By.ID, "r-figures").text)
+        assert "replay equals the pod's results" in b.find_element(By.ID, "r-head").text
+        truth = pod["truth"]["machine"]["seed002"]
+        row = b.find_element(By.CSS_SELECTOR, '#r-figures tr[data-name="alpha_XB"]')
+        value = float(row.find_elements(By.TAG_NAME, "td")[1].text)
+        assert abs(value - truth["alpha_xb_arcsec"]) <= 0.5, value
     finally:
         b.quit()
         desk.close()

@@ -391,6 +391,10 @@ fn run_template(
             stream,
         }
     };
+    // a test starts from a cleared session: the pod's results are then this test's alone, as
+    // the replay of its stream (which starts from a fresh application) has them; without it a
+    // circle after a seed 002 procedure reads the procedure's results as the pod's
+    pod.command("SESS:CLE").map_err(Outcome::failed)?;
     pod.command("CONF:UNL").map_err(Outcome::failed)?;
     for (name, value) in lines {
         pod.command(&format!("CONF:{name} {value}"))

@@ -16,7 +16,7 @@ import base64
 
 import pytest
 
-from test_desk import Desk
+from test_desk import Desk, decision
 
 pytestmark = pytest.mark.desk
 
@@ -111,7 +111,7 @@ def test_the_page_in_a_browser_runs_a_circle_pair_and_prints_its_report(pod, tmp
         view = desk.ok(f"/api/runs/{run_id}")
         g = next(f for f in view["figures"] if f["name"] == "G_ccw")
         row = b.find_element(By.CSS_SELECTOR, '#r-figures tr[data-name="G_ccw"]')
-        want = "does_not_conform" if g["value"] - g["expanded_u"] > 15 else "undecided"
+        want = decision(g["value"], g["expanded_u"], None, 15)
         assert row.get_attribute("class") == want
         assert row.find_elements(By.TAG_NAME, "td")[1].text == f'{g["value"]:.4f}'
         assert "replay equals the pod's results" in b.find_element(By.ID, "r-head").text

@@ -94,7 +94,7 @@ pub fn import(
     store.machine(machine)?;
     let started = super::store::now();
     // the file's own key: the same file imported again is the run stored the first time
-    let key = format!("import-{:08x}-{}", crc(bytes), bytes.len());
+    let key = format!("import-{:08x}-{}", ballpod::num::crc32(bytes), bytes.len());
     let mut run = RunRow {
         spool_key: key,
         machine_id: machine,
@@ -131,20 +131,4 @@ pub fn import(
         .map_or(String::new(), |f| format!("firmware {f}"));
     run.replay = serde_json::to_value(&report).map_err(|e| e.to_string())?;
     store.add_run(&run, bytes)
-}
-
-/// CRC-32 (IEEE) of the bytes: an imported file's key, so the same file is imported once.
-fn crc(bytes: &[u8]) -> u32 {
-    let mut c = !0u32;
-    for &b in bytes {
-        c ^= u32::from(b);
-        for _ in 0..8 {
-            c = if c & 1 != 0 {
-                (c >> 1) ^ 0xEDB8_8320
-            } else {
-                c >> 1
-            };
-        }
-    }
-    !c
 }

@@ -241,9 +241,10 @@ fn recorded(store: &mut Store, id: i64) -> Vec<(String, RecordedRun)> {
         .unwrap_or_default()
 }
 
-/// The polar plots of a run's stream (the replay's own SVGs; none if it does not replay).
-fn plots(runs: &[(String, RecordedRun)]) -> Vec<(String, String)> {
-    match crate::replay::replay(runs) {
+/// The polar plots of a run's stream with the replay the desk stored for it (the replay's own
+/// SVGs; none where the run was not replayed).
+fn plots(runs: &[(String, RecordedRun)], replay: &serde_json::Value) -> Vec<(String, String)> {
+    match serde_json::from_value::<Report>(replay.clone()) {
         Ok(report) => crate::report::plots(runs, &report),
         Err(_) => Vec::new(),
     }
@@ -495,7 +496,7 @@ pub fn html(store: &mut Store, id: i64) -> Result<String, String> {
     }
     s.push_str("</table>");
     s.push_str("<h2>Polar plots</h2><div id=\"plots\">");
-    for (name, svg) in plots(&runs) {
+    for (name, svg) in plots(&runs, &r.replay) {
         let body = svg.find("<svg").map_or(svg.as_str(), |k| &svg[k..]);
         let _ = write!(
             s,

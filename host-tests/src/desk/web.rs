@@ -36,6 +36,14 @@ fn bad(e: String) -> Response {
     (status, Json(json!({ "error": e }))).into_response()
 }
 
+/// A body of content type `ty`, or the error.
+fn typed<B: IntoResponse>(ty: &'static str, r: Result<B, String>) -> Response {
+    match r {
+        Ok(body) => ([(header::CONTENT_TYPE, ty)], body).into_response(),
+        Err(e) => bad(e),
+    }
+}
+
 fn answer<T: serde::Serialize>(r: Result<T, String>) -> Response {
     match r {
         Ok(v) => Json(v).into_response(),
@@ -204,13 +212,12 @@ async fn program(Query(q): Query<ProgramQuery>, Json(req): Json<serde_json::Valu
         Some("fanuc") => crate::ncgen::Dialect::Fanuc,
         Some(d) => return bad(format!("dialect {d:?} is not one of linuxcnc, fanuc")),
     };
-    match serde_json::from_value::<TestRequest>(req)
-        .map_err(|e| format!("test request: {e}"))
-        .and_then(|r| super::tests::part_program(&r, dialect))
-    {
-        Ok(text) => ([(header::CONTENT_TYPE, "text/plain; charset=utf-8")], text).into_response(),
-        Err(e) => bad(e),
-    }
+    typed(
+        "text/plain; charset=utf-8",
+        serde_json::from_value::<TestRequest>(req)
+            .map_err(|e| format!("test request: {e}"))
+            .and_then(|r| super::tests::part_program(&r, dialect)),
+    )
 }
 
 async fn live(State(d): Shared) -> Response {
@@ -246,10 +253,10 @@ async fn run(State(d): Shared, Path(id): Path<i64>) -> Response {
 }
 
 async fn stream(State(d): Shared, Path(id): Path<i64>) -> Response {
-    match db(&d, move |s| s.stream(id)).await {
-        Ok(b) => ([(header::CONTENT_TYPE, "application/octet-stream")], b).into_response(),
-        Err(e) => bad(e),
-    }
+    typed(
+        "application/octet-stream",
+        db(&d, move |s| s.stream(id)).await,
+    )
 }
 
 #[derive(Deserialize)]
@@ -269,10 +276,7 @@ async fn trend(State(d): Shared, Query(q): Query<TrendQuery>) -> Response {
         Ok(report::trend_svg(&points, tol, &q.figure, unit))
     })
     .await;
-    match r {
-        Ok(svg) => ([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response(),
-        Err(e) => bad(e),
-    }
+    typed("image/svg+xml", r)
 }
 
 #[derive(Deserialize)]
@@ -298,10 +302,7 @@ async fn overlay(State(d): Shared, Query(q): Query<OverlayQuery>) -> Response {
         Ok(_) => Err("runs: one to four run ids".into()),
         Err(e) => Err(e),
     };
-    match r {
-        Ok(svg) => ([(header::CONTENT_TYPE, "image/svg+xml")], svg).into_response(),
-        Err(e) => bad(e),
-    }
+    typed("image/svg+xml", r)
 }
 
 #[derive(Deserialize)]
@@ -314,10 +315,10 @@ async fn export_json(State(d): Shared, Query(q): Query<MachineQuery>) -> Respons
 }
 
 async fn export_csv(State(d): Shared, Query(q): Query<MachineQuery>) -> Response {
-    match db(&d, move |s| super::exchange::export_csv(s, q.machine)).await {
-        Ok(csv) => ([(header::CONTENT_TYPE, "text/csv; charset=utf-8")], csv).into_response(),
-        Err(e) => bad(e),
-    }
+    typed(
+        "text/csv; charset=utf-8",
+        db(&d, move |s| super::exchange::export_csv(s, q.machine)).await,
+    )
 }
 
 #[derive(Deserialize)]

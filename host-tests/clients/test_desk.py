@@ -562,6 +562,118 @@ def test_an_ssm_run_from_the_desk(pod, tmp_path):
         desk.close()
 
 
+@pytest.mark.sim_args("--speed", "40")
+def test_the_probe_procedure_from_the_desk(pod, tmp_path):
+    """The touch-probe template: eight PROBE runs, the second stylus's length written before run
+    7; every run's touches counted live; the C- and B-axis deviations against the served
+    machine's truth (as test_canopen_probe.py), the replay of the eight runs (each with its own
+    probe_length) equal to the pod's results."""
+    from test_canopen_probe import C_AXIS, ORIGIN, R_B, R_B2, b_axis_truth
+    desk = Desk(tmp_path, pod)
+    try:
+        mid = desk.ok("/api/machines", {"name": "Mill-turn B/C"})["id"]
+        setup = {"s002_origin_x": ORIGIN[0], "s002_origin_y": ORIGIN[1], "s002_origin_z": ORIGIN[2],
+                 "s002_z_c": pod["truth"]["sphere_rc_zc_mm"][1], "probe_u_lobing": 0.0, "probe_length": R_B}
+        req = {"machine_id": mid, "operator": "A", "test": "probe", "setup": setup}
+        # the two styli are named before anything starts
+        status, e = desk.call("/api/tests", dict(req))
+        assert status == 400 and "second_probe_length" in e["error"], e
+        status, e = desk.call("/api/tests", dict(req, setup={k: v for k, v in setup.items() if k != "probe_length"},
+                                                 second_probe_length=R_B2))
+        assert status == 400 and "needs probe_length" in e["error"], e
+        status, e = desk.call("/api/tests", dict(req, second_probe_length=-3))
+        assert status == 400 and "second_probe_length = -3 is outside" in e["error"], e
+        status, e = desk.call("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle",
+                                             "second_probe_length": R_B2})
+        assert status == 400 and "probe test's alone" in e["error"], e
+        status, e = desk.call("/api/program", dict(req, second_probe_length=R_B2))
+        assert status == 400 and "ncgen -- sphere" in e["error"], e
+
+        desk.ok("/api/tests", dict(req, second_probe_length=R_B2))
+        touches = {}
+        t0 = time.time()
+        while not (live := desk.ok("/api/live"))["finished"]:
+            run = live["step"].split(":")[0]
+            if run.startswith("run "):
+                touches.setdefault(run, set()).add(live["trace"]["touches"])
+            assert time.time() - t0 < 240, live
+            time.sleep(0.05)
+        # the touches of a run seen growing on the page (nine a run)
+        assert any(len(n) >= 3 for n in touches.values()), touches
+        assert all(max(n) <= 9 for n in touches.values()), touches
+        view = desk.ok(f"/api/runs/{live['run_id']}")
+        assert view["run"]["state"] == "done" and view["run"]["replay_check"] == "", view["run"]
+        assert view["run"]["setup"]["PROBE_LENGTH"] == str(R_B)
+        assert view["run"]["setup"]["PROBE_LENGTH from run 7"] == str(R_B2)
+        figures = {f["name"]: f for f in view["figures"]}
+        truth = pod["truth"]["machine"]["seed002"]
+        for name, key in C_AXIS.items():
+            assert abs(figures[name]["value"] - truth[key]) <= 0.5, (name, figures[name], truth[key])
+        for name, t in b_axis_truth(truth).items():
+            f = figures[name]
+            d = abs(f["value"] - t)
+            assert d <= max(4 * f["u"], 0.1) and d <= 0.5, (name, f, t)
+        # the recorded stream: eight runs, the last two with the second stylus
+        stream = urllib.request.urlopen(desk.url + f"api/runs/{live['run_id']}/stream").read()
+        assert stream.count(b"# stream_dropped=0") == 8
+        assert stream.count(f"probe_length={R_B2}".encode()) == 2, "the second stylus's runs"
+        status, html = desk.call(f"/report/{live['run_id']}")
+        assert status == 200 and "probe_alpha_CZ" in html and "PROBE CCW" in html, html[:2000]
+    finally:
+        desk.close()
+
+
+@pytest.mark.sim_args("--speed", "40")
+def test_a_feed_in_circle_from_the_desk(pod, tmp_path):
+    """A circle pair armed with run_trigger FEED_IN: the desk arms each run and waits; the
+    served CNC's program feeds in and the pod starts and ends each run itself."""
+    desk = Desk(tmp_path, pod)
+    try:
+        mid = desk.ok("/api/machines", {"name": "VF-2"})["id"]
+        desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle",
+                               "setup": {"run_trigger": "FEED_IN"}})
+        live = wait_finished(desk)
+        view = desk.ok(f"/api/runs/{live['run_id']}")
+        assert view["run"]["state"] == "done" and view["run"]["replay_check"] == "", view["run"]
+        assert view["run"]["setup"]["RUN_TRIGGER"] == "FEED_IN"
+        figures = {f["name"]: f for f in view["figures"]}
+        truth = pod["truth"]["machine"]["circle"]
+        # the eccentricity is the socket offset turned round (as test_canopen_trigger.py)
+        for k, name in enumerate(("ecc_u", "ecc_v")):
+            f = figures[name]
+            assert abs(f["value"] + truth["socket_offset_um"][k]) <= 3 * f["u"] + 0.05, (name, f)
+    finally:
+        desk.close()
+
+
+@pytest.mark.sim_args("--speed", "40", "--machine", str(pathlib.Path(__file__).with_name("machine_no_feed_in.toml")))
+def test_a_feed_in_run_that_never_starts_says_why_and_stops_on_request(pod, tmp_path):
+    """A part program without a feed-in: the desk never starts the run itself; the page shows
+    what the pod waits for, in the pod's words, until the operator stops the test (the run
+    aborted, the test kept as failed)."""
+    desk = Desk(tmp_path, pod)
+    try:
+        mid = desk.ok("/api/machines", {"name": "VF-2"})["id"]
+        assert desk.call("/api/tests/stop", {}) == (400, {"error": "there is no test running to stop"})
+        desk.ok("/api/tests", {"machine_id": mid, "operator": "A", "test": "circle",
+                               "setup": {"run_trigger": "FEED_IN"}})
+        t0 = time.time()
+        while "waiting for the feed-in" not in (live := desk.ok("/api/live"))["step"]:
+            assert time.time() - t0 < 30, live
+            time.sleep(0.05)
+        assert live["step"] == "run 1 of 2 (CIRCLE CCW): armed; the pod: FEED_IN: waiting for the feed-in", live
+        # the served program has run its whole arc (~1.6 s at 40 times): still armed, no sample
+        time.sleep(3)
+        live = desk.ok("/api/live")
+        assert not live["finished"] and live["trace"]["samples"] == 0 and "armed" in live["step"], live
+        desk.ok("/api/tests/stop", {})
+        live = wait_finished(desk, 30)
+        run = desk.ok(f"/api/runs/{live['run_id']}")["run"]
+        assert run["state"] == "failed" and "stopped by the operator" in run["note"], run
+    finally:
+        desk.close()
+
+
 def test_a_pod_on_serial_ports(pod, tmp_path):
     """The pod's two ports as serial devices (pseudo-terminals carrying the served pod's ports,
     as a USB pod's /dev/ttyACMn): a circle pair recorded and checked as over TCP; a desk asked

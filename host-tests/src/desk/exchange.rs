@@ -9,7 +9,7 @@ use std::path::Path;
 
 use super::report::{figures_of, view};
 use super::store::{RunRow, Store};
-use super::tests::stream_text;
+use super::tests::{Template, stream_text};
 use crate::replay::Report;
 
 /// A machine's record as JSON: the machine, its tolerances, its runs.
@@ -67,19 +67,20 @@ pub fn export_csv(store: &mut Store, machine: i64) -> Result<String, String> {
     Ok(out)
 }
 
-/// The template a recording's runs make up (`circle`, `seed002`), else `import`.
-fn template_of(patterns: &[&str]) -> &'static str {
-    if !patterns.is_empty() && patterns.iter().all(|p| *p == "CIRCLE") {
-        "circle"
-    } else if !patterns.is_empty()
-        && patterns
-            .iter()
-            .all(|p| ["BX", "BY", "CR", "CA", "CR2"].contains(p))
-    {
-        "seed002"
-    } else {
-        "import"
-    }
+/// The template whose runs' patterns a recording's runs are (`circle`, `seed002`, `ssm`,
+/// `probe`), else `import`.
+fn template_of(patterns: &[&str]) -> String {
+    Template::ALL
+        .into_iter()
+        .find(|t| {
+            !patterns.is_empty()
+                && patterns
+                    .iter()
+                    .all(|p| t.runs().iter().any(|(q, _)| q == p))
+        })
+        .and_then(|t| serde_json::to_value(t).ok())
+        .and_then(|v| v.as_str().map(String::from))
+        .unwrap_or_else(|| "import".into())
 }
 
 /// Imports a file into a machine's history as one run; its id. `name` is the file's name (for
@@ -108,7 +109,7 @@ pub fn import(
         let report: Report = serde_json::from_slice(bytes)
             .map_err(|e| format!("{name}: not a results.json: {e}"))?;
         let patterns: Vec<&str> = report.runs.iter().map(|r| r.pattern.as_str()).collect();
-        run.test = template_of(&patterns).into();
+        run.test = template_of(&patterns);
         run.replay = serde_json::to_value(&report).map_err(|e| e.to_string())?;
         run.note.push_str(" (results only: no stream)");
         if figures_of(&run).is_empty() {
@@ -124,7 +125,7 @@ pub fn import(
     let named: Vec<(String, _)> = runs.into_iter().map(|r| (name.to_string(), r)).collect();
     let report = crate::replay::replay(&named)?;
     let patterns: Vec<&str> = named.iter().map(|(_, r)| r.meta.pattern.name()).collect();
-    run.test = template_of(&patterns).into();
+    run.test = template_of(&patterns);
     run.pod_identity = named
         .first()
         .and_then(|(_, r)| r.firmware.clone())

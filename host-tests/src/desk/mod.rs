@@ -36,6 +36,10 @@ pub struct Live {
     pub step: String,
     /// The test is over (done or failed).
     pub finished: bool,
+    /// The operator asked to stop the test (`POST /api/tests/stop`): the run under way is
+    /// aborted (`SESS:ABOR`) and the test ends `failed`, kept with what was recorded.
+    #[serde(skip)]
+    pub stop: bool,
     /// The run's key in the spool and the history.
     #[serde(skip)]
     pub spool_key: String,

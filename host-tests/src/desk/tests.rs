@@ -1,6 +1,7 @@
 //! The test templates: what each writes to the pod, how it runs it, and what it keeps: the
-//! ISO 230-4 circular test as a pair of runs (CCW, then CW) in one plane, and the seed 002
-//! ball-bar procedure (ten runs).
+//! ISO 230-4 circular test as a pair of runs (CCW, then CW) in one plane, the seed 002
+//! ball-bar procedure (ten runs), a single-socket-method run and the seed 002 chapter 5
+//! touch-probe procedure (eight spheres, two styli).
 
 use std::path::Path;
 use std::sync::Arc;
@@ -15,7 +16,7 @@ use ballpod::protocol::stream::{DecodeError, decode};
 use std::collections::BTreeMap;
 
 use ballpod::app::{Direction, Pattern};
-use ballpod::config::{CirclePlane, Config, ConfigError};
+use ballpod::config::{CirclePlane, Config, ConfigError, RunTrigger};
 
 use super::pod::Pod;
 use super::store::RunRow;
@@ -44,6 +45,8 @@ pub enum TraceAxes {
     },
     /// The angle is this column's value, degrees (`b_deg`, `c_deg`).
     Rotary(&'static str),
+    /// A touch-probe run: no trace, the touches counted.
+    Touches,
 }
 
 /// A test template: its runs (pattern, direction, in order) and the set-up it writes, its
@@ -52,7 +55,8 @@ pub enum TraceAxes {
 #[serde(rename_all = "snake_case")]
 pub enum Template {
     /// ISO 230-4 circular test: CCW, then CW, in one plane (circle_plane), radius
-    /// circle_radius (bar_length set to it), feed circle_feed.
+    /// circle_radius (bar_length set to it), feed circle_feed; started by the desk, or with
+    /// run_trigger FEED_IN by the part program's feed-in (circle_arc 360° by default).
     Circle,
     /// The seed 002 ball-bar procedure (B/C axes): BX, BY, CR, CA, CR2, each CW then CCW, with
     /// the thesis Table 4.3 set-up fields `s002_*` (no defaults: the pod names the first it
@@ -62,9 +66,19 @@ pub enum Template {
     /// bar's sphere about the socket (`ssm_socket_*`, no defaults: the pod names the first it
     /// lacks); E, the tool point's position error.
     Ssm,
+    /// The seed 002 chapter 5 touch-probe procedure: eight PROBE runs — the sphere on the C
+    /// table at C = 0/90/180/270° (B = 0), then on the C centreline at B = 0°, 90° with the
+    /// first stylus (the set-up's `probe_length`) and again with the second
+    /// ([`TestRequest::second_probe_length`], written as `probe_length` before run 7); the C
+    /// axis's and the B axis's deviations. The identification's fields (`s002_origin_*`,
+    /// `s002_z_c`) have no defaults: the pod names the first it lacks in its note.
+    Probe,
 }
 
 impl Template {
+    /// Every template.
+    pub const ALL: [Self; 4] = [Self::Circle, Self::Seed002, Self::Ssm, Self::Probe];
+
     /// The runs, in order.
     pub fn runs(self) -> &'static [(&'static str, &'static str)] {
         match self {
@@ -82,6 +96,7 @@ impl Template {
                 ("CR2", "CCW"),
             ],
             Self::Ssm => &[("SSM", "CCW")],
+            Self::Probe => &[("PROBE", "CCW"); 8],
         }
     }
 
@@ -95,8 +110,11 @@ impl Template {
                 ("circle_centre_z", SetupValue::Number(0.0)),
                 ("circle_radius", SetupValue::Number(150.0)),
                 ("circle_feed", SetupValue::Number(1000.0)),
+                // a FEED_IN run's data arc: one turn, the part program's overshoot left out (an
+                // arc "until the feed-out" weighs the overshoot's 45° twice in the fit)
+                ("circle_arc", SetupValue::Number(360.0)),
             ],
-            Self::Seed002 | Self::Ssm => Vec::new(),
+            Self::Seed002 | Self::Ssm | Self::Probe => Vec::new(),
         }
     }
 
@@ -106,7 +124,7 @@ impl Template {
         match self {
             Self::Circle => Some("circle_radius"),
             Self::Seed002 => Some("s002_l_b"),
-            Self::Ssm => None,
+            Self::Ssm | Self::Probe => None,
         }
     }
 
@@ -115,6 +133,7 @@ impl Template {
         match (self, pattern) {
             (Self::Seed002, "BX" | "BY") => TraceAxes::Rotary("b_deg"),
             (Self::Seed002, _) => TraceAxes::Rotary("c_deg"),
+            (Self::Probe, _) => TraceAxes::Touches,
             // the stations' directions about the socket, seen from above
             (Self::Ssm, _) => TraceAxes::Plane {
                 u: "x_mm",
@@ -163,7 +182,14 @@ pub struct TestRequest {
     /// the template's defaults overridden.
     #[serde(default)]
     pub setup: BTreeMap<String, SetupValue>,
+    /// The probe template's second stylus: its tool length R′_B, mm, written as
+    /// `probe_length` before run 7 (the first stylus's is the set-up's `probe_length`).
+    #[serde(default)]
+    pub second_probe_length: Option<f64>,
 }
+
+/// The run (0-based) before which the probe template changes to the second stylus.
+const SECOND_STYLUS_RUN: usize = 6;
 
 /// Why the core's configuration refuses a value, in words.
 fn refusal(name: &str, e: ConfigError) -> String {
@@ -243,6 +269,40 @@ pub fn setup_lines(req: &TestRequest) -> Result<(Vec<(String, String)>, Config),
     Ok((lines, c))
 }
 
+/// The set-up a template changes between its runs: (run, field, value) — the probe
+/// template's second stylus before run 7, checked by the core's rules as the first is.
+pub fn changes(req: &TestRequest) -> Result<Vec<(usize, String, String)>, String> {
+    match (req.test, req.second_probe_length) {
+        (Template::Probe, Some(r)) => {
+            let first = req.setup.get("probe_length");
+            if !matches!(first, Some(SetupValue::Number(_))) {
+                return Err(
+                    "the probe test needs probe_length, the first stylus's tool length \
+                            (mm, runs 1–6)"
+                        .into(),
+                );
+            }
+            let f =
+                Config::field_by_name("probe_length").ok_or("the pod has no probe_length field")?;
+            Config::default()
+                .set(f, r)
+                .map_err(|e| refusal("second_probe_length", e))?;
+            Ok(vec![(
+                SECOND_STYLUS_RUN,
+                "PROBE_LENGTH".to_string(),
+                format!("{r}"),
+            )])
+        }
+        (Template::Probe, None) => Err(
+            "the probe test needs second_probe_length, the second stylus's tool length \
+             (mm, runs 7–8)"
+                .into(),
+        ),
+        (_, Some(_)) => Err("second_probe_length is the probe test's alone".into()),
+        (_, None) => Ok(Vec::new()),
+    }
+}
+
 /// The part program of a test, for the control to run (`ncgen`'s, from the same set-up): the
 /// circle's CCW and CW runs, or the seed 002 procedure's five steps, each CW then CCW, at
 /// 1000 mm/min, one after the other.
@@ -282,6 +342,12 @@ pub fn part_program(req: &TestRequest, dialect: Dialect) -> Result<String, Strin
                               `cargo ncgen -- ssm SETUP --target X Y Z`"
                 .into(),
         ),
+        // where the sphere stands on the C table is the technician's choice
+        Template::Probe => Err(
+            "part program: each sphere's program needs where the sphere stands: \
+             `cargo ncgen -- sphere --centre X Y Z --b-deg B --c-deg C`, one per run"
+                .into(),
+        ),
     }
 }
 
@@ -292,6 +358,7 @@ pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<u64, String> {
         return Err("operator is missing".into());
     }
     let (lines, config) = setup_lines(&req)?;
+    let changes = changes(&req)?;
     let machine_id = req.machine_id;
     desk.store.call(move |s| s.machine(machine_id))?;
     // (not from the pod's lock: a running test holds it)
@@ -317,8 +384,18 @@ pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<u64, String> {
         operator: req.operator.trim().to_string(),
         started,
         pod_identity: identity,
-        setup: serde_json::to_value(lines.iter().cloned().collect::<BTreeMap<_, _>>())
-            .map_err(|e| e.to_string())?,
+        setup: serde_json::to_value(
+            lines
+                .iter()
+                .cloned()
+                .chain(
+                    changes
+                        .iter()
+                        .map(|(k, n, v)| (format!("{n} from run {}", k + 1), v.clone())),
+                )
+                .collect::<BTreeMap<_, _>>(),
+        )
+        .map_err(|e| e.to_string())?,
         ..RunRow::default()
     };
     *live = super::Live {
@@ -326,6 +403,7 @@ pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<u64, String> {
         run_id: None,
         step: "writing the set-up".into(),
         finished: false,
+        stop: false,
         spool_key: run.spool_key.clone(),
         stream_from: 0,
         trace: None,
@@ -335,13 +413,24 @@ pub fn start(desk: &Arc<Desk>, req: TestRequest) -> Result<u64, String> {
     std::thread::spawn(move || {
         let mut guard = lock(&d.pod);
         let outcome = match guard.as_mut() {
-            Some(pod) => run_template(&d, pod, req.test, &lines, &config),
+            Some(pod) => run_template(&d, pod, req.test, &lines, &changes, &config),
             None => Err(Outcome::failed("the pod went away".into())),
         };
         drop(guard);
         finish(&d, run, outcome);
     });
     Ok(test)
+}
+
+/// Asks the test under way to stop (its run aborted, `SESS:ABOR`); the test's number.
+/// Refused when no test runs.
+pub fn stop(desk: &Desk) -> Result<u64, String> {
+    let mut live = lock(&desk.live);
+    if live.test == 0 || live.finished {
+        return Err("there is no test running to stop".into());
+    }
+    live.stop = true;
+    Ok(live.test)
 }
 
 /// What a test left: the pod's results, the stream of its runs.
@@ -378,6 +467,7 @@ fn run_template(
     pod: &mut Pod,
     template: Template,
     lines: &[(String, String)],
+    changes: &[(usize, String, String)],
     config: &Config,
 ) -> Result<Recorded, Outcome> {
     // (nothing else arms the pod while the desk holds it: what came before is no test's)
@@ -400,9 +490,18 @@ fn run_template(
         pod.command(&format!("CONF:{name} {value}"))
             .map_err(Outcome::failed)?;
     }
+    // a FEED_IN circle starts and ends itself with the part program's feed-in and data arc
+    // (`app::trigger`): the desk arms it and waits; otherwise the desk starts each run
+    let self_started =
+        config.setup.run_trigger == RunTrigger::FeedIn && template == Template::Circle;
     let runs = template.runs();
     for (k, &(pattern, dir)) in runs.iter().enumerate() {
         let what = format!("run {} of {} ({pattern} {dir})", k + 1, runs.len());
+        for (_, name, value) in changes.iter().filter(|(at, ..)| *at == k) {
+            step(desk, format!("{what}: {name} {value}"));
+            pod.command(&format!("CONF:{name} {value}"))
+                .map_err(|e| with_stream(pod, e))?;
+        }
         {
             let mut live = lock(&desk.live);
             live.stream_from = pod.stream_len();
@@ -411,11 +510,27 @@ fn run_template(
         }
         pod.command(&format!("SESS:PATT {pattern};DIR {dir};:SESS:ARM"))
             .map_err(|e| with_stream(pod, e))?;
-        pod.command("SESS:STAR").map_err(|e| with_stream(pod, e))?;
-        step(desk, format!("{what}: the machine moves"));
+        if !self_started {
+            pod.command("SESS:STAR").map_err(|e| with_stream(pod, e))?;
+            step(desk, format!("{what}: the machine moves"));
+        }
         let t0 = Instant::now();
         let state = loop {
+            if lock(&desk.live).stop {
+                pod.command("SESS:ABOR").map_err(|e| with_stream(pod, e))?;
+                return Err(with_stream(pod, format!("{what}: stopped by the operator")));
+            }
             let s = pod.query("SESS:STAT?").map_err(|e| with_stream(pod, e))?;
+            if s == "ARMED" && self_started {
+                // what the pod waits for, in its words
+                let note = pod.query("SESS:NOTE?").map_err(|e| with_stream(pod, e))?;
+                step(
+                    desk,
+                    format!("{what}: armed; the pod: {}", note.trim_matches('"')),
+                );
+            } else if s == "RUNNING" && self_started {
+                step(desk, format!("{what}: the machine moves"));
+            }
             if s != "RUNNING" && s != "ARMED" {
                 break s;
             }
@@ -627,14 +742,16 @@ fn finish(desk: &Desk, mut run: RunRow, outcome: Result<Recorded, Outcome>) {
     live.step = step;
 }
 
-/// The live trace of the run under way: its samples, samples lost (gaps in `seq`), and up to
-/// `max` points (angle °, ΔL µm) spread over it.
+/// The live trace of the run under way: its samples, samples lost (gaps in `seq`), touch
+/// points, and up to `max` points (angle °, ΔL µm) spread over it.
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct Trace {
     /// Samples recorded so far.
     pub samples: usize,
     /// Samples lost (gaps in the pod's sample counter).
     pub lost: u64,
+    /// Touch points recorded so far (a PROBE run's).
+    pub touches: usize,
     /// (angle in the plane, degrees; ΔL, µm).
     pub points: Vec<[f32; 2]>,
 }
@@ -652,9 +769,11 @@ pub fn trace_of_text(text: &str, axes: &TraceAxes, max: usize) -> Trace {
     let (cu, cv) = match axes {
         TraceAxes::Plane { u, v, .. } => (*u, *v),
         TraceAxes::Rotary(c) => (*c, *c),
+        TraceAxes::Touches => ("seq", "seq"),
     };
-    let mut cols: Option<[usize; 4]> = None;
+    let mut cols: Option<[usize; 5]> = None;
     let mut rows = Vec::new();
+    let (mut samples, mut touches) = (0, 0);
     let mut lost = 0;
     let mut last_seq: Option<u64> = None;
     for line in text.get(start..).unwrap_or("").lines() {
@@ -662,18 +781,24 @@ pub fn trace_of_text(text: &str, axes: &TraceAxes, max: usize) -> Trace {
             continue;
         }
         let f: Vec<&str> = line.split(',').collect();
-        let Some([s, d, u, v]) = cols else {
+        let Some([s, d, u, v, fl]) = cols else {
             if line.starts_with("seq,") {
                 let at = |n: &str| f.iter().position(|c| *c == n);
-                if let (Some(s), Some(d), Some(u), Some(v)) =
-                    (at("seq"), at("dl_um"), at(cu), at(cv))
+                if let (Some(s), Some(d), Some(u), Some(v), Some(fl)) =
+                    (at("seq"), at("dl_um"), at(cu), at(cv), at("flags"))
                 {
-                    cols = Some([s, d, u, v]);
+                    cols = Some([s, d, u, v, fl]);
                 }
             }
             continue;
         };
         let num = |k: usize| f.get(k).and_then(|x| x.parse::<f64>().ok());
+        let flags = f.get(fl).and_then(|x| x.parse::<u16>().ok()).unwrap_or(0);
+        if flags & ballpod::app::log::LogRecord::TOUCH != 0 {
+            touches += 1;
+            continue;
+        }
+        samples += 1;
         if let Some(seq) = num(s).map(|x| x as u64) {
             if let Some(l) = last_seq {
                 lost += seq.saturating_sub(l + 1);
@@ -688,14 +813,16 @@ pub fn trace_of_text(text: &str, axes: &TraceAxes, max: usize) -> Trace {
                     (pv - centre_mm[1]).atan2(pu - centre_mm[0]).to_degrees()
                 }
                 TraceAxes::Rotary(_) => pu,
+                TraceAxes::Touches => continue,
             };
             rows.push([a as f32, dl as f32]);
         }
     }
     let step = rows.len().div_ceil(max.max(1)).max(1);
     Trace {
-        samples: rows.len(),
+        samples,
         lost,
+        touches,
         points: rows.iter().step_by(step).copied().collect(),
     }
 }

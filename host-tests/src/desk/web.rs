@@ -83,6 +83,7 @@ pub fn router(desk: Arc<Desk>) -> Router {
             get(tolerances).post(set_tolerance),
         )
         .route("/api/tests", post(start_test))
+        .route("/api/tests/stop", post(stop_test))
         .route("/api/program", post(program))
         .route("/api/live", get(live))
         .route("/api/runs", get(runs))
@@ -196,6 +197,10 @@ async fn start_test(State(d): Shared, Json(req): Json<serde_json::Value>) -> Res
         Err(e) => Err(format!("test request: {e}")),
     };
     answer(r.map(|test| json!({ "test": test })))
+}
+
+async fn stop_test(State(d): Shared) -> Response {
+    answer(super::tests::stop(&d).map(|test| json!({ "test": test })))
 }
 
 #[derive(Deserialize)]

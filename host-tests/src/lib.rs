@@ -15,6 +15,7 @@
 
 // ---- products
 pub mod cli;
+#[cfg(feature = "desk")]
 pub mod desk;
 pub mod diagonals;
 pub mod docs_ref;

@@ -6,7 +6,7 @@
 //! data between peripherals and these functions; `host-tests/` tests them against independent
 //! oracles and drives them from the virtual machine tool.
 //!
-//! One folder per concern (see `../shared/DESIGN.md` §4):
+//! One folder per concern (see `design/DESIGN.md` §4):
 //! - [`acquisition`]: raw sensor readings → calibrated, flagged [`acquisition::Sample`]s;
 //! - [`config`]: the pod's configuration with units, defaults, ranges and a CRC'd binary encoding;
 //! - [`metrology`]: samples → SSM position errors, circle fits, ISO 230-4 figures;

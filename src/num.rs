@@ -12,7 +12,7 @@
 
 // Cortex-M4F hardware square root. `f32::sqrt` is not in `core` on stable, and inline `asm!`
 // with `sreg` operands is rejected on thumbv7em-none-eabihf, so this is a two-instruction
-// global_asm function (see ../shared/spec/embedded-toolchain.md §2, item 8). The `.fpu`
+// global_asm function (see design/spec/embedded-toolchain.md §2, item 8). The `.fpu`
 // directive is needed because LLVM re-parses module asm without the target's FPU features.
 // Under the eabihf calling convention the f32 argument and result are both in s0.
 #[cfg(all(target_arch = "arm", target_abi = "eabihf"))]

@@ -43,9 +43,10 @@ def programs(tmp_path, steps_of=None):
 
 
 def simulate(tmp_path, name, *args):
-    """One seed 002 procedure on the simulated pod: {deviation: (value, u)} and the truth."""
+    """One seed 002 procedure on the simulated pod, its balls mounted without offsets (the
+    programs' motion is what is checked): {deviation: (value, u)} and the truth."""
     out = tmp_path / name
-    p = subprocess.run([SIM, "--repeats", "1", "--out", str(out), *args],
+    p = subprocess.run([SIM, "--repeats", "1", "--perfect-mounting", "--out", str(out), *args],
                        capture_output=True, text=True, timeout=600)
     assert p.returncode == 0, p.stdout + p.stderr
     results = {r["name"]: r for r in json.loads((out / "results.json").read_text())["results"]}

@@ -1,5 +1,5 @@
 //! Seed 004 (Yamamoto): rotary-axis centreline from dial-gauge data, and eq 9 NC correction.
-//! Exact test vectors C12–C18 of `../shared/spec/seed-003-004.md` (numbers copied from the
+//! Exact test vectors C12–C18 of `design/spec/seed-003-004.md` (numbers copied from the
 //! spec, i.e. from the paper and the spec's check script), the paper's printed formulas
 //! transcribed here to show they are NOT what the pod computes, and round trips through the
 //! independent forward model `ballpod_host::forward_seed004`.

@@ -17,6 +17,7 @@ use ballpod::identify::mill_turn::patterns::{BallbarLengths, BallbarPattern};
 use ballpod::metrology::bar_budget::BarBudget;
 use ballpod_host::forward_seed002 as fwd;
 use ballpod_host::rng::Rng;
+use ballpod_host::vmt::mounting::{clamping_shift, t_ball_offset};
 
 /// Samples of the simulated measurement (the forward model) and of the pod's model.
 const N_MEASURED: usize = 181;
@@ -30,26 +31,6 @@ const RC: f64 = 50.0;
 /// Standard uncertainty of each step's eccentricity component from the bar noise (µm; the
 /// size the worked example's 0.2 µm bar noise gives).
 const U_ECC_UM: f64 = 0.005;
-
-/// A direction uniform on the sphere.
-fn direction(rng: &mut Rng) -> [f64; 3] {
-    let z = rng.range(-1.0, 1.0);
-    let a = rng.range(0.0, std::f64::consts::TAU);
-    let r = (1.0 - z * z).sqrt();
-    [r * a.cos(), r * a.sin(), z]
-}
-
-/// A clamping shift: 10–60 µm, uniform magnitude, random direction (µm).
-fn clamping_shift(rng: &mut Rng) -> [f64; 3] {
-    let m = rng.range(10.0, 60.0);
-    direction(rng).map(|c| m * c)
-}
-
-/// A T-ball offset: radial uniform in a 1 µm disc, axial from a clamping shift (µm).
-fn t_ball(rng: &mut Rng) -> [f64; 3] {
-    let (r, a) = (rng.uniform().sqrt(), rng.range(0.0, std::f64::consts::TAU));
-    [r * a.cos(), r * a.sin(), clamping_shift(rng)[2]]
-}
 
 struct Truth {
     deviations: [f64; 13],
@@ -138,7 +119,7 @@ fn monte_carlo(
         let truth = Truth {
             deviations,
             w: [clamping_shift(&mut rng), clamping_shift(&mut rng)].map(mounted),
-            t: [t_ball(&mut rng), t_ball(&mut rng)].map(mounted),
+            t: [t_ball_offset(&mut rng), t_ball_offset(&mut rng)].map(mounted),
             scale: errors.scale * rng.normal(),
             entered_mm: errors.entered_mm.map(|u| u * entries.normal()),
         };

@@ -1,7 +1,7 @@
 //! Seed 004 (Yamamoto, NIT Oita): rotary-axis centreline (direction + centre point) of a
 //! table-swivel 5-axis machine from dial-gauge readings, and NC-point correction (eq 9).
 //!
-//! Spec: `../shared/spec/seed-003-004.md` part B (B3 equations as printed, B4 consistency
+//! Spec: `design/spec/seed-003-004.md` part B (B3 equations as printed, B4 consistency
 //! analysis, C11–C18 test vectors).
 //!
 //! # Method, in the order of the procedure

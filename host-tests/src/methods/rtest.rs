@@ -1,7 +1,7 @@
 //! Seed 003 (Hsu, NSC 99-2221-E-216-037): R-test identification of the rotary-axis location
 //! errors of an A/C table-tilting 5-axis machine.
 //!
-//! Spec: `../shared/spec/seed-003-004.md` part A (A4 chain, A5 Table 1 corrected, A6 Table 2,
+//! Spec: `design/spec/seed-003-004.md` part A (A4 chain, A5 Table 1 corrected, A6 Table 2,
 //! A7 identifiability, A8 least squares, C1–C10 test vectors).
 //!
 //! # Model (A4)

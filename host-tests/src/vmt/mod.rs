@@ -26,6 +26,7 @@
 pub mod lvdt_channel;
 pub mod machine;
 pub mod motion;
+pub mod mounting;
 pub mod nc_motion;
 pub mod nc_program;
 pub mod probe_rig;

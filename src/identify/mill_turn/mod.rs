@@ -3,7 +3,7 @@
 //! the workpiece side, swivel B head on the tool side) from ball-bar patterns and from
 //! touch-probe sphere centres.
 //!
-//! Spec: `../shared/spec/seed-002.md`. Submodules:
+//! Spec: `design/spec/seed-002.md`. Submodules:
 //! - [`model`]: the literal HTM forward model, eqs 2.1–2.21, and the ball-bar reading 2.17;
 //! - [`patterns`]: commands of the measuring patterns (Tables 2.2/2.3), NC blocks (TV-6), the
 //!   sensitive direction of each pattern (§3.5) and the simulated eccentricity of a pattern;

@@ -97,7 +97,8 @@ fn pieces(line: &str) -> Vec<Result<f64, String>> {
             }
             out.push(Ok(line[start..i].parse().expect("digits")));
         } else {
-            i += 1;
+            // one character (µ, ″ are more than a byte)
+            i += line[i..].chars().next().map_or(1, char::len_utf8);
             match out.last_mut() {
                 Some(Err(text)) => text.push_str(&line[start..i]),
                 _ => out.push(Err(line[start..i].to_string())),
@@ -270,6 +271,13 @@ fn the_comparison_is_strict_where_the_page_is() {
         0.1
     ));
     assert!(!line_matches("x 1", "x 1.0001", 0.0));
+    // units of more than a byte between numbers
+    assert!(line_matches(
+        "+53.1 µm (u 0.1 µm)",
+        "+53.2 µm (u 0.1 µm)",
+        0.2
+    ));
+    assert!(!line_matches("+53.1 µm", "+53.1 mm", 0.2));
     assert!(line_matches(
         "{\"can_port\":...",
         "{\"can_port\":4242}",

@@ -220,6 +220,37 @@ fn the_readme_example_writes_its_program() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+#[test]
+fn the_set_up_files_arc_and_trigger_make_the_program_unless_an_option_overrides_them() {
+    let dir = std::env::temp_dir().join(format!("ballpod-ncgen-file-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(
+        dir.join("c.toml"),
+        "[setup]\ncircle_plane = \"XY\"\ncircle_centre_x = 0.0\ncircle_centre_y = 0.0\n\
+         circle_radius = 150.0\nbar_length = 150.0\ncircle_feed = 1000.0\n\
+         circle_arc = 300.0\nrun_trigger = \"FEED_IN\"\n",
+    )
+    .unwrap();
+    let ncgen = |extra: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_ncgen"))
+            .args(["circle", "c.toml"])
+            .args(extra)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        assert!(out.status.success(), "{out:?}");
+        String::from_utf8(out.stdout).unwrap()
+    };
+    let from_file = ncgen(&[]);
+    assert!(from_file.contains("data arc 300.0000 deg"), "{from_file}");
+    assert!(from_file.contains("circle_arc 300.0000"), "{from_file}");
+    assert!(from_file.contains("run_trigger FEED_IN"), "{from_file}");
+    let overridden = ncgen(&["--arc-deg", "360", "--trigger", "command"]);
+    assert!(overridden.contains("data arc 360.0000 deg"), "{overridden}");
+    assert!(overridden.contains("run_trigger COMMAND"), "{overridden}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 /// A program without what the dialects do differently: the framing (`%`, `O1000`, `M2` /
 /// `M30`), the comments' case and the dwell word (`G4 P` seconds / `G4 X` seconds).
 fn dialect_free(p: &str) -> Vec<String> {

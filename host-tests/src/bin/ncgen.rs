@@ -21,7 +21,7 @@ use std::path::PathBuf;
 use clap::{Parser, Subcommand, ValueEnum};
 
 use ballpod::app::Direction;
-use ballpod::config::{CirclePlane, RunTrigger};
+use ballpod::config::{CirclePlane, Config, RunTrigger};
 use ballpod_host::ncgen::{
     CircleOptions, CircleRun, Dialect, PatternTest, Session, SphereTest, SsmTest, TwoStepTest,
     centrelines_from_toml, check_travel, correct_program, correct_program_centrelines,
@@ -210,6 +210,15 @@ enum TriggerArg {
     FeedIn,
 }
 
+/// Who starts a circle's runs: `--trigger` when given, else the set-up's `run_trigger`.
+fn run_trigger(arg: Option<TriggerArg>, cfg: &Config) -> RunTrigger {
+    match arg {
+        Some(TriggerArg::Command) => RunTrigger::Command,
+        Some(TriggerArg::FeedIn) => RunTrigger::FeedIn,
+        None => cfg.setup.run_trigger,
+    }
+}
+
 /// A program that drives the pod itself.
 #[derive(clap::Args, Debug)]
 struct SessionArgs {
@@ -223,9 +232,9 @@ struct SessionArgs {
     /// The set-up's number (`M150 P<n>` applies `ballpod-setup-<n>.toml`).
     #[arg(long, default_value_t = 1000)]
     setup_number: u32,
-    /// Who starts and stops the runs.
-    #[arg(long, value_enum, default_value = "command")]
-    trigger: TriggerArg,
+    /// Who starts and stops the runs (default: the set-up's `run_trigger`).
+    #[arg(long, value_enum)]
+    trigger: Option<TriggerArg>,
     /// Write the set-up the program needs here (TOML: `[session]` pattern, `[setup]` fields),
     /// e.g. `DIR/ballpod-setup-1000.toml` beside the M-code scripts.
     #[arg(long)]
@@ -300,9 +309,10 @@ struct CircleArgs {
     /// Start of the data arc, degrees from the plane's first axis towards its second.
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     start_deg: f64,
-    /// Span of the data arc, degrees (0 < span ≤ 360).
-    #[arg(long, default_value_t = 360.0, allow_negative_numbers = true)]
-    arc_deg: f64,
+    /// Span of the data arc, degrees (0 < span ≤ 360; default: the set-up's `circle_arc`, else
+    /// 360).
+    #[arg(long, allow_negative_numbers = true)]
+    arc_deg: Option<f64>,
     /// Overshoot past the data arc, degrees (0 … 180).
     #[arg(long, default_value_t = 45.0, allow_negative_numbers = true)]
     overshoot_deg: f64,
@@ -401,20 +411,21 @@ fn run(args: &Args) -> Result<String, String> {
         Test::Circle(c) => {
             let text = read_text(&c.setup).map_err(|e| e.to_string())?;
             let cfg = setup_config(&c.setup, &text).map_err(|e| e.to_string())?;
+            let a = &c.session;
+            // the set-up file is the program's source; an option given overrides it, and the
+            // header then names what the program was made for
+            let file_arc = Some(f64::from(cfg.setup.circle_arc_deg)).filter(|x| x.is_finite());
+            let trigger = run_trigger(a.trigger, &cfg);
             let options = CircleOptions {
                 start_deg: c.start_deg,
-                arc_deg: c.arc_deg,
+                arc_deg: c.arc_deg.or(file_arc).unwrap_or(360.0),
                 overshoot_deg: c.overshoot_deg,
                 feed_in_mm: c.feed_in_mm,
                 directions: directions(c.direction),
+                trigger,
             };
             let test = CircleRun::from_config(&cfg, options)
                 .map_err(|e| format!("{}: {e}", c.setup.display()))?;
-            let a = &c.session;
-            let trigger = match a.trigger {
-                TriggerArg::Command => RunTrigger::Command,
-                TriggerArg::FeedIn => RunTrigger::FeedIn,
-            };
             let session = if a.session {
                 Some(Session::new(a.m_base, a.setup_number, trigger)?)
             } else {
@@ -424,7 +435,7 @@ fn run(args: &Args) -> Result<String, String> {
             if let Some(path) = &a.setup_out {
                 let text = setup_file(
                     "CIRCLE",
-                    &test.setup_fields(trigger),
+                    &test.setup_fields(),
                     &format!("ballpod set-up {} (ncgen circle)", a.setup_number),
                 );
                 std::fs::write(path, text).map_err(|e| format!("{}: {e}", path.display()))?;
@@ -470,7 +481,7 @@ fn run(args: &Args) -> Result<String, String> {
             let test = PatternTest::from_config(&cfg, step, steps, p.feed, directions(p.direction))
                 .map_err(|e| format!("{}: {e}", p.setup.display()))?;
             let a = &p.session;
-            if !matches!(a.trigger, TriggerArg::Command) {
+            if matches!(a.trigger, Some(TriggerArg::FeedIn)) {
                 return Err("--trigger feed-in: a seed 002 run starts and stops on command".into());
             }
             let session = if a.session {
@@ -908,10 +919,7 @@ fn three_planes(t: &ThreePlanesArgs, dialect: Dialect) -> Result<Vec<PathBuf>, S
     let text = read_text(&t.setup).map_err(|e| e.to_string())?;
     let cfg = setup_config(&t.setup, &text).map_err(|e| e.to_string())?;
     let a = &t.session;
-    let trigger = match a.trigger {
-        TriggerArg::Command => RunTrigger::Command,
-        TriggerArg::FeedIn => RunTrigger::FeedIn,
-    };
+    let trigger = run_trigger(a.trigger, &cfg);
     let mut files = Vec::new();
     for (k, plane) in [CirclePlane::XY, CirclePlane::YZ, CirclePlane::ZX]
         .into_iter()
@@ -927,6 +935,7 @@ fn three_planes(t: &ThreePlanesArgs, dialect: Dialect) -> Result<Vec<PathBuf>, S
             start_deg,
             arc_deg,
             feed_in_mm: t.feed_in_mm,
+            trigger,
             ..CircleOptions::default()
         };
         let name = CirclePlane::NAMES[plane as usize];
@@ -941,7 +950,7 @@ fn three_planes(t: &ThreePlanesArgs, dialect: Dialect) -> Result<Vec<PathBuf>, S
         let program = within_travel(&t.setup, test.program_with(dialect, session.as_ref()))?;
         let setup = setup_file(
             "CIRCLE",
-            &test.setup_fields(trigger),
+            &test.setup_fields(),
             &format!("ballpod set-up {number} (ncgen three-planes, {name})"),
         );
         files.push((t.out_dir.join(format!("{name}.ngc")), program));

@@ -83,10 +83,12 @@ pub struct CircleOptions {
     pub feed_in_mm: f64,
     /// The runs, in order.
     pub directions: Vec<Direction>,
+    /// Who starts and stops the runs: the header's `run_trigger` and the M-codes written.
+    pub trigger: RunTrigger,
 }
 
 impl Default for CircleOptions {
-    /// A full circle from 0°, 45° overshoot, 1 mm feed-in, CCW then CW.
+    /// A full circle from 0°, 45° overshoot, 1 mm feed-in, CCW then CW, started by command.
     fn default() -> Self {
         Self {
             start_deg: 0.0,
@@ -94,6 +96,7 @@ impl Default for CircleOptions {
             overshoot_deg: 45.0,
             feed_in_mm: 1.0,
             directions: vec![Direction::Ccw, Direction::Cw],
+            trigger: RunTrigger::Command,
         }
     }
 }
@@ -193,9 +196,9 @@ impl CircleRun {
         })
     }
 
-    /// Every configuration field the pod needs for this program's runs (`trigger`: who starts
-    /// and stops them), as the header names them and `M150` applies them.
-    pub fn setup_fields(&self, trigger: RunTrigger) -> Vec<SetupField> {
+    /// Every configuration field the pod needs for this program's runs, as the header names
+    /// them and `M150` applies them.
+    pub fn setup_fields(&self) -> Vec<SetupField> {
         let mut f: Vec<SetupField> = vec![("circle_plane", f64::from(self.plane as u8))];
         for (name, c) in ["circle_centre_x", "circle_centre_y", "circle_centre_z"]
             .into_iter()
@@ -216,7 +219,7 @@ impl CircleRun {
             // a partial arc: the pod's minimum (default 300°) would refuse it
             f.push(("circle_min_arc", arc_deg));
         }
-        f.push(("run_trigger", f64::from(trigger as u8)));
+        f.push(("run_trigger", f64::from(self.options.trigger as u8)));
         f
     }
 
@@ -282,7 +285,7 @@ impl CircleRun {
         ];
         let at = header.len() - 1;
         let mut header = header.to_vec();
-        let fields = self.setup_fields(session.map_or(RunTrigger::Command, |s| s.trigger));
+        let fields = self.setup_fields();
         header.splice(at..at, field_lines(&fields));
         dialect.begin(&mut out, &header);
         let _ = writeln!(out, "{}", dialect.modal(self.plane));

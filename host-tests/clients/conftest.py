@@ -37,6 +37,8 @@ def pytest_configure(config):
     config.addinivalue_line("markers", "sim_only: a behaviour of sim --serve itself (its TCP server, its speed-up)")
     config.addinivalue_line("markers", "desk: the desk's tests, against the simulated pod only (the emulated board "
                             "speaks the same SCPI and stream, at real time: a circle pair takes two minutes)")
+    config.addinivalue_line("markers", "client: a client's behaviour (a book's script), against the simulated pod "
+                            "only; the pod's side of it is tested on the emulated board by the protocol tests")
 
 
 EMU_ELF = ROOT / "host-tests/emu-board/target/thumbv7em-none-eabihf/release/ballpod-emu"
@@ -126,6 +128,8 @@ def pod(request, tmp_path_factory):
             pytest.skip("a behaviour of sim --serve itself (its TCP server, its speed-up)")
         if request.node.get_closest_marker("desk"):
             pytest.skip("the desk is tested against the simulated pod")
+        if request.node.get_closest_marker("client"):
+            pytest.skip("a client's behaviour: tested against the simulated pod")
         figures = tmp_path_factory.mktemp("emu") / "figures.json"
         # (runs at real time: the seed 002 procedure's ten runs take about four minutes)
         cmd = [host_binary("emu"), "--serve", "--max-seconds", "900", "--elf", str(EMU_ELF),

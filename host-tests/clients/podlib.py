@@ -398,3 +398,31 @@ def scpi_nan(x):
 
 
 SCPI_ERROR = re.compile(r'^(-?\d+),"(.*)"$')
+
+
+class SerialBridge:
+    """A pseudo-terminal whose far end is one of the served pod's TCP ports: the port as the
+    serial device a USB CDC-ACM port is (the desk opens it by path, raw, as /dev/ttyACMn)."""
+
+    def __init__(self, port):
+        import tty
+        self.master, self.slave = os.openpty()
+        tty.setraw(self.slave)
+        self.path = os.ttyname(self.slave)
+        self.sock = socket.create_connection(("127.0.0.1", port))
+
+        def pump(read, write):
+            try:
+                while data := read(1 << 16):
+                    write(data)
+            except OSError:
+                pass
+        threading.Thread(target=pump, args=(lambda n: os.read(self.master, n), self.sock.sendall),
+                         daemon=True).start()
+        threading.Thread(target=pump, args=(self.sock.recv, lambda d: os.write(self.master, d)),
+                         daemon=True).start()
+
+    def close(self):
+        self.sock.close()
+        for fd in (self.master, self.slave):
+            os.close(fd)

@@ -24,6 +24,7 @@ import urllib.request
 import pytest
 
 from conftest import host_binary
+from podlib import SerialBridge
 
 pytestmark = pytest.mark.desk
 
@@ -130,35 +131,6 @@ class Desk:
     def close(self):
         os.killpg(self.proc.pid, signal.SIGKILL)
         self.proc.wait(timeout=10)
-
-
-class SerialBridge:
-    """A pseudo-terminal whose far end is one of the served pod's TCP ports: the port as the
-    serial device a USB CDC-ACM port is (the desk opens it by path, raw, as /dev/ttyACMn)."""
-
-    def __init__(self, port):
-        import threading
-        import tty
-        self.master, self.slave = os.openpty()
-        tty.setraw(self.slave)
-        self.path = os.ttyname(self.slave)
-        self.sock = socket.create_connection(("127.0.0.1", port))
-
-        def pump(read, write):
-            try:
-                while data := read(1 << 16):
-                    write(data)
-            except OSError:
-                pass
-        threading.Thread(target=pump, args=(lambda n: os.read(self.master, n), self.sock.sendall),
-                         daemon=True).start()
-        threading.Thread(target=pump, args=(self.sock.recv, lambda d: os.write(self.master, d)),
-                         daemon=True).start()
-
-    def close(self):
-        self.sock.close()
-        for fd in (self.master, self.slave):
-            os.close(fd)
 
 
 def call_raw(desk, path, body):

@@ -1,12 +1,12 @@
 //! A configuration field is added by one row (issue 44): this test runs on a build of the core
 //! with the `one-more-field` feature, whose only change is one more row at the end of
-//! `src/config/fields.rs` (`test_extra`: µm, 0 … 10, default 2.5, encoding version 11, next
+//! `src/config/fields.rs` (`test_extra`: µm, 0 … 10, default 2.5, encoding version 12, next
 //! run). It checks that everything a field needs followed from that row: the storage and its
 //! default, the name and range checks, the encoding (one version more, four bytes more, the
 //! older version read with the new field at its default), the CANopen object in the EDS (every
 //! object of the committed baseline unchanged) and the book's reference row.
 //!
-//! Run by `.ci/run` as `cargo host-test --features one-more-field --test config_one_row` (the
+//! Run by `.ci/run` as `cargo host-test --release --features one-more-field --test config_one_row` (the
 //! other tests run without the feature: with it the EDS is no longer the committed one).
 use std::collections::BTreeMap;
 

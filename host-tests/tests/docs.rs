@@ -356,11 +356,29 @@ fn the_worked_examples_are_what_sim_prints() {
         .arg(&out_dir)
         .output()
         .expect("sim runs");
+    let results = std::fs::read_to_string(out_dir.join("results.json"));
     let _ = std::fs::remove_dir_all(&out_dir);
     assert!(
         run.status.success(),
         "{}",
         String::from_utf8_lossy(&run.stderr)
+    );
+    // the figures the pages quote from the results.json `sim` writes, to the digits they give
+    let results: serde_json::Value =
+        serde_json::from_str(&results.expect("sim writes results.json")).expect("its JSON");
+    let checked = quoted_results_are_these(
+        "methods/circle.md",
+        "In its `results.json` every figure carries its u",
+        &results,
+    );
+    assert!(checked >= 20, "circle.md: only {checked} figures found");
+    let seed002 = "methods/seed002-ballbar.md";
+    let marker = "In its `results.json` the model fit's residual";
+    assert_eq!(quoted_results_are_these(seed002, marker, &results), 1);
+    let rms = result_of(&results, "model_residual_rms").0;
+    assert!(
+        rms.abs() < 1e-9,
+        "{seed002}: model_residual_rms {rms} is not below 1e-9 µm"
     );
     let printed: Vec<String> = String::from_utf8_lossy(&run.stdout)
         .lines()
@@ -381,5 +399,477 @@ fn the_worked_examples_are_what_sim_prints() {
             "the worked example after {marker:?} is not what `sim` prints now:\n{}",
             printed.join("\n")
         );
+    }
+}
+
+/// A result of a results.json by name: (value, u).
+fn result_of(results: &serde_json::Value, name: &str) -> (f64, Option<f64>) {
+    let r = results["results"]
+        .as_array()
+        .and_then(|a| a.iter().find(|r| r["name"] == name))
+        .unwrap_or_else(|| panic!("no result {name} in results.json"));
+    (r["value"].as_f64().expect("a value"), r["u"].as_f64())
+}
+
+/// Checks each `name value [± u]` the paragraph of `page` starting at `marker` quotes, a name
+/// being a result of `results`, at the decimals the page gives; the number of names checked.
+fn quoted_results_are_these(page: &str, marker: &str, results: &serde_json::Value) -> usize {
+    let text = std::fs::read_to_string(root().join("docs/src").join(page)).expect(page);
+    let start = text
+        .find(marker)
+        .unwrap_or_else(|| panic!("{page}: no {marker:?}"));
+    let paragraph = text[start..].split("\n\n").next().unwrap_or_default();
+    let names: BTreeSet<&str> = results["results"]
+        .as_array()
+        .expect("results")
+        .iter()
+        .filter_map(|r| r["name"].as_str())
+        .collect();
+    let words: Vec<String> = paragraph
+        .split_whitespace()
+        .map(|w| {
+            w.replace('−', "-")
+                .trim_start_matches('(')
+                .trim_end_matches([',', ';', ':', ')', '.'])
+                .to_string()
+        })
+        .collect();
+    // a number as the page writes it, and the same number of decimals of the file's value
+    let same = |shown: &str, value: f64| {
+        let decimals = shown.split_once('.').map_or(0, |(_, d)| d.len());
+        format!("{value:.decimals$}") == shown
+    };
+    let mut checked = 0;
+    for (k, w) in words.iter().enumerate() {
+        let Some(shown) = words.get(k + 1).filter(|n| n.parse::<f64>().is_ok()) else {
+            continue;
+        };
+        if !names.contains(w.as_str()) {
+            continue;
+        }
+        let (value, u) = result_of(results, w);
+        assert!(
+            same(shown, value),
+            "{page}: {w} {shown}, results.json {value}"
+        );
+        if words.get(k + 2).is_some_and(|p| p == "±") {
+            let shown_u = words.get(k + 3).expect("a u after ±");
+            let u = u.unwrap_or_else(|| panic!("{page}: {w} has no u in results.json"));
+            assert!(
+                same(shown_u, u),
+                "{page}: {w} ± {shown_u}, results.json u {u}"
+            );
+        }
+        checked += 1;
+    }
+    checked
+}
+
+// The worked examples of the method pages that `replay` makes of committed inputs
+// (host-tests/tests/data/docs/, written by `make_inputs.py` there): each page's commands, run
+// as the page shows them, print what it shows, and its tables and the numbers its prose copies
+// are the output's, to the digits it gives.
+
+/// A scratch directory (the process id in its name), removed when dropped.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(tag: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("ballpod-docs-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap_or_else(|e| panic!("{}: {e}", dir.display()));
+        Self(dir)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+/// Runs the `console` block after `marker` as a reader at the repository root would: each line
+/// `$ cargo BIN [--] ARGS` runs this crate's binary BIN (`replay`, `ncgen`) in `dir`, a
+/// repository file (`host-tests/…`) by its path from the root and anything else (an output) in
+/// `dir`; what it prints must be the lines that follow it in the block, exactly.
+fn run_console_block(marker: &str, dir: &Path) {
+    let block = ballpod_host::docs::block_after(marker, "console");
+    let mut steps: Vec<(String, Vec<String>)> = Vec::new();
+    for line in block.lines() {
+        if let Some(command) = line.strip_prefix("$ ") {
+            steps.push((command.to_string(), Vec::new()));
+        } else if let Some((_, expected)) = steps.last_mut() {
+            expected.push(line.trim_end().to_string());
+        }
+    }
+    assert!(
+        !steps.is_empty(),
+        "no command in the console block after {marker:?}"
+    );
+    for (command, expected) in steps {
+        let mut words = command.split_whitespace();
+        assert_eq!(words.next(), Some("cargo"), "`{command}`");
+        let bin = match words.next() {
+            Some("replay") => env!("CARGO_BIN_EXE_replay"),
+            Some("ncgen") => env!("CARGO_BIN_EXE_ncgen"),
+            other => panic!("`{command}`: {other:?} is not a binary this test runs"),
+        };
+        let args: Vec<std::ffi::OsString> = words
+            .skip_while(|w| *w == "--")
+            .map(|w| {
+                if w.starts_with("host-tests/") {
+                    root().join(w).into_os_string()
+                } else {
+                    w.into()
+                }
+            })
+            .collect();
+        let run = std::process::Command::new(bin)
+            .args(args)
+            .current_dir(dir)
+            .output()
+            .expect("the binary runs");
+        assert!(
+            run.status.success(),
+            "`{command}`: {}",
+            String::from_utf8_lossy(&run.stderr)
+        );
+        let printed: Vec<String> = String::from_utf8_lossy(&run.stdout)
+            .lines()
+            .map(|l| l.trim_end().to_string())
+            .collect();
+        assert_eq!(
+            printed, expected,
+            "`{command}` (the console block after {marker:?}) prints otherwise now"
+        );
+    }
+}
+
+/// The `results.json` a replay wrote.
+fn replayed(path: &Path) -> ballpod_host::replay::Report {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The figure `name`.
+fn figure<'a>(
+    figures: &'a [ballpod_host::replay::Figure],
+    name: &str,
+) -> &'a ballpod_host::replay::Figure {
+    figures
+        .iter()
+        .find(|f| f.name == name)
+        .unwrap_or_else(|| panic!("no {name} among {figures:?}"))
+}
+
+/// A figure's u.
+fn u_of(f: &ballpod_host::replay::Figure) -> f32 {
+    f.u.unwrap_or_else(|| panic!("{}: u not evaluated", f.name))
+}
+
+/// The share of a figure's u that the contributor `name` gives.
+fn share(f: &ballpod_host::replay::Figure, name: &str) -> f32 {
+    f.contributors
+        .iter()
+        .find(|c| c.name == name)
+        .map(|c| c.u)
+        .unwrap_or_else(|| panic!("{}: no {name} share in {:?}", f.name, f.contributors))
+}
+
+/// `v` to `decimals` decimals as the book writes it (its minus sign −).
+fn shown(v: f32, decimals: usize) -> String {
+    format!("{v:.decimals$}").replace('-', "−")
+}
+
+/// `value ± u`, both to `decimals` decimals.
+fn pm(value: f32, u: f32, decimals: usize) -> String {
+    format!("{} ± {}", shown(value, decimals), shown(u, decimals))
+}
+
+/// The cells of the first table row after `marker` whose first cell starts with `first`.
+fn table_row(marker: &str, first: &str) -> Vec<String> {
+    let text = ballpod_host::docs::from(marker);
+    let line = text
+        .lines()
+        .find(|l| l.starts_with("| ") && l[2..].starts_with(first))
+        .unwrap_or_else(|| panic!("no table row {first:?} after {marker:?}"));
+    line.trim_end()
+        .trim_start_matches('|')
+        .trim_end_matches('|')
+        .split('|')
+        .map(|c| c.trim().to_string())
+        .collect()
+}
+
+/// The page's text from `marker` on with its line breaks as spaces (prose wraps anywhere).
+fn prose_from(marker: &str) -> String {
+    ballpod_host::docs::from(marker)
+        .split_whitespace()
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// centreline.md's worked example: `replay` of the committed dial readings prints what the page
+/// shows; its table (value ± the `type_a` share), the gauge's shares, u, the errors against the
+/// axis the readings were computed for, and the same readings without noise are the output's.
+#[test]
+fn the_dial_gauge_example_is_what_replay_prints() {
+    let dir = Scratch::new("dial");
+    let marker = "`dial.toml`, is `[dial]`";
+    run_console_block(marker, &dir.0);
+    let r = replayed(&dir.0.join("dial-out/results.json"));
+    let (x, z) = (
+        figure(&r.host, "dial_tilt_x"),
+        figure(&r.host, "dial_tilt_z"),
+    );
+    for f in [x, z] {
+        let row = table_row(marker, &format!("`{}`", f.name));
+        assert_eq!(row[2], pm(f.value, share(f, "type_a"), 3), "{row:?}");
+        assert_eq!(f.dof, Some(1), "{f:?}");
+    }
+    // the axis of make_inputs.py: normalize(150e-6, 1, −80e-6), in µrad
+    let norm = (150e-6f64.powi(2) + 1.0 + 80e-6f64.powi(2)).sqrt();
+    let truth = [150.0 / norm, -80.0 / norm];
+    let err = [0, 1].map(|k| f64::from([x, z][k].value) - truth[k]);
+    let ratio = [0, 1].map(|k| err[k].abs() / f64::from(u_of([x, z][k])));
+    let prose = prose_from(marker);
+    for want in [
+        format!(
+            "adds {} and {} µrad to that share",
+            shown(share(x, "gauge_scale"), 2),
+            shown(share(z, "gauge_scale"), 2)
+        ),
+        format!(
+            "makes u {} and {} µrad",
+            shown(u_of(x), 2),
+            shown(u_of(z), 2)
+        ),
+        format!(
+            "The errors, {} and {} µrad, are {:.2}u and {:.2}u",
+            shown(err[0] as f32, 2),
+            shown(err[1] as f32, 2),
+            ratio[0],
+            ratio[1]
+        ),
+        "(`dof` 1)".to_string(),
+    ] {
+        assert!(prose.contains(&want), "centreline.md does not say {want:?}");
+    }
+    // the same readings without noise
+    let marker = "session file `dial_noiseless.toml`)";
+    run_console_block(marker, &dir.0);
+    let r = replayed(&dir.0.join("dial-noiseless-out/results.json"));
+    let want = format!(
+        "give ({}, {}) µrad",
+        shown(figure(&r.host, "dial_tilt_x").value, 4),
+        shown(figure(&r.host, "dial_tilt_z").value, 4)
+    );
+    assert!(prose.contains(&want), "centreline.md does not say {want:?}");
+}
+
+/// volumetric.md's worked example: `replay` of the committed stop readings prints what the page
+/// shows; its table is the figures and the points of `vector_curves.csv` as that file writes
+/// them, and the Siemens table's line it quotes is one of `comp_siemens_840d.csv`.
+#[test]
+fn the_vector_method_example_is_what_replay_prints() {
+    let dir = Scratch::new("vector");
+    let marker = "`vector.toml`, has a `[vector]` table";
+    run_console_block(marker, &dir.0);
+    let out = dir.0.join("vector-out");
+    let r = replayed(&out.join("results.json"));
+    for name in ["vector_S_xy", "vector_S_yz", "vector_S_zx"] {
+        let f = figure(&r.host, name);
+        let row = table_row(marker, &format!("`{name}`"));
+        assert_eq!(row[2], pm(f.value, u_of(f), 2), "{row:?}");
+    }
+    let noise = figure(&r.host, "vector_reading_std");
+    assert_eq!(
+        table_row(marker, "`vector_reading_std`")[2],
+        shown(noise.value, 3)
+    );
+    // the curves' points as vector_curves.csv writes them (axis, position, D_x, D_y, D_z, their u)
+    let curves = std::fs::read_to_string(out.join("vector_curves.csv")).unwrap();
+    let point = |axis: &str, at: &str, k: usize| -> String {
+        let prefix = format!("{axis},{at},");
+        let f: Vec<&str> = curves
+            .lines()
+            .find(|l| l.starts_with(&prefix))
+            .unwrap_or_else(|| panic!("no {axis} {at} in vector_curves.csv:\n{curves}"))
+            .split(',')
+            .collect();
+        format!("{} ± {}", f[2 + k], f[5 + k]).replace('-', "−")
+    };
+    for (row, axis, at, k) in [
+        ("D_x(x) at X 0", "X", "0", 0),
+        ("D_y(y) at Y 400", "Y", "400", 1),
+        ("D_x(y) at Y 400", "Y", "400", 0),
+    ] {
+        assert_eq!(table_row(marker, row)[2], point(axis, at, k), "{row}");
+    }
+    // the Siemens tables: nine of 11 points, the quoted line one of them, its value in µm
+    let comp = std::fs::read_to_string(out.join("comp_siemens_840d.csv")).unwrap();
+    let rows: Vec<&str> = comp
+        .lines()
+        .filter(|l| !l.starts_with('#'))
+        .skip(1)
+        .collect();
+    assert_eq!(rows.len(), 9 * 11, "{comp}");
+    let page = ballpod_host::docs::from(marker);
+    let line = page
+        .split("e.g. `")
+        .nth(1)
+        .and_then(|r| r.split('`').next())
+        .expect("a quoted table line");
+    assert!(
+        rows.contains(&line),
+        "comp_siemens_840d.csv has no line {line}:\n{comp}"
+    );
+    let mm: f64 = line.split(',').nth(4).unwrap().parse().unwrap();
+    let um = format!("{:.4}", mm * 1e3).replace('-', "−");
+    let want = format!("the compensation {um} µm in mm");
+    assert!(
+        prose_from(marker).contains(&want),
+        "volumetric.md does not say {want:?}"
+    );
+}
+
+/// rtest.md's worked example: `replay` of the committed K4a readings, absolute and with
+/// `zero = "first_pose"`, and of the K1 readings prints what the page shows; its table is the
+/// figures with their shares, and the prose's COA head share and K1's AOC are the output's.
+#[test]
+fn the_rtest_example_is_what_replay_prints() {
+    let dir = Scratch::new("rtest");
+    let marker = "`rtest.toml` (absolute readings)";
+    run_console_block(marker, &dir.0);
+    let absolute = replayed(&dir.0.join("rtest-out/results.json"));
+    let first_pose = replayed(&dir.0.join("rtest-first-pose-out/results.json"));
+    for p in [
+        "XOW", "YOW", "ZOW", "YOA", "ZOA", "BOA", "COA", "XOC", "YOC", "AOC", "BOC",
+    ] {
+        let name = format!("rtest_{p}");
+        let row = table_row(marker, &format!("{p} ("));
+        let a = figure(&absolute.host, &name);
+        assert_eq!(row[2], pm(a.value, u_of(a), 3), "{row:?}");
+        let fp = first_pose
+            .host
+            .iter()
+            .find(|f| f.name == name)
+            .map_or_else(|| "not reported".to_string(), |f| pm(f.value, u_of(f), 3));
+        assert_eq!(row[3], fp, "{row:?}");
+        assert_eq!(
+            row[4],
+            format!(
+                "{}, {}",
+                shown(share(a, "type_a"), 3),
+                shown(share(a, "head_scale"), 3)
+            ),
+            "{row:?}"
+        );
+    }
+    // the Least squares section's COA head share is this example's
+    let page = std::fs::read_to_string(root().join("docs/src/methods/rtest.md")).unwrap();
+    let prose = page.split_whitespace().collect::<Vec<_>>().join(" ");
+    let coa = figure(&absolute.host, "rtest_COA");
+    let want = format!(
+        "COA's share is {:.1} % of its value",
+        share(coa, "head_scale") / coa.value.abs() * 100.0
+    );
+    assert!(prose.contains(&want), "rtest.md does not say {want:?}");
+    // K1 alone: AOC only
+    let marker = "session file `rtest_k1.toml`)";
+    run_console_block(marker, &dir.0);
+    let k1 = replayed(&dir.0.join("rtest-k1-out/results.json"));
+    let names: Vec<&str> = k1.host.iter().map(|f| f.name.as_str()).collect();
+    assert_eq!(names, ["rtest_AOC"]);
+    let aoc = &k1.host[0];
+    let want = format!(
+        "`rtest_AOC`, {}″ (Type A {}″, head {}″)",
+        pm(aoc.value, u_of(aoc), 3),
+        shown(share(aoc, "type_a"), 3),
+        shown(share(aoc, "head_scale"), 3)
+    );
+    assert!(prose.contains(&want), "rtest.md does not say {want:?}");
+}
+
+/// ssm.md's worked example: `ncgen two-step` of the committed set-up writes the header the page
+/// shows, and `replay` of the committed stream of its two SSM runs prints what the page shows;
+/// its table (E of each run, the two-step angles) and the prose's samples, cond, shares and
+/// lever-arm figures are the output's.
+#[test]
+fn the_two_step_example_is_what_ncgen_and_replay_print() {
+    let dir = Scratch::new("two-step");
+    run_console_block(
+        "`host-tests/tests/data/docs/two_step_setup.toml` holds",
+        &dir.0,
+    );
+    let program = std::fs::read_to_string(dir.0.join("two-step.ngc")).unwrap();
+    let header = ballpod_host::docs::block_after(
+        "writes the program `two-step.ngc` with this header",
+        "text",
+    );
+    let want: Vec<&str> = header.lines().collect();
+    let got: Vec<&str> = program.lines().take(want.len()).collect();
+    assert_eq!(got, want, "`ncgen two-step` writes another header now");
+
+    let marker = "with 0.1 µm noise (seeded):";
+    run_console_block(marker, &dir.0);
+    let r = replayed(&dir.0.join("two-step-out/results.json"));
+    assert_eq!(r.runs.len(), 2);
+    let (run1, run2) = (&r.runs[0], &r.runs[1]);
+    for run in [run1, run2] {
+        assert_eq!(run.samples, run1.samples, "{run:?}");
+        assert_eq!(
+            run.counters.get("used"),
+            Some(&(run.samples as u32)),
+            "{run:?}"
+        );
+        assert_eq!(figure(&run.results, "ssm_stations").value, 3.0, "{run:?}");
+    }
+    let e = |run: &ballpod_host::replay::RunReport| {
+        let c = ["ssm_ex", "ssm_ey", "ssm_ez"].map(|n| {
+            let f = figure(&run.results, n);
+            pm(f.value, u_of(f), 2)
+        });
+        format!("({})", c.join(", "))
+    };
+    assert_eq!(table_row(marker, "run 1 E")[2], e(run1));
+    assert_eq!(table_row(marker, "run 2 E")[2], e(run2));
+    for name in ["ts_d_alpha", "ts_d_beta"] {
+        let f = figure(&r.results, name);
+        assert_eq!(
+            table_row(marker, &format!("`{name}`"))[2],
+            pm(f.value, u_of(f), 2)
+        );
+        assert!(
+            f.contributors.iter().all(|c| c.name != "socket"),
+            "the socket has a share in {f:?}"
+        );
+    }
+    let type_a = |run: &ballpod_host::replay::RunReport| {
+        ["ssm_ex", "ssm_ey", "ssm_ez"].map(|n| shown(share(figure(&run.results, n), "type_a"), 2))
+    };
+    let (a1, a2) = (type_a(run1), type_a(run2));
+    let cond = |run: &ballpod_host::replay::RunReport| figure(&run.results, "ssm_cond").value;
+    let prose = prose_from(marker);
+    for want in [
+        format!(
+            "Each run has {} samples, all used, 3 stations and `ssm_cond` {} (run 2: {})",
+            run1.samples,
+            shown(cond(run1), 2),
+            shown(cond(run2), 2)
+        ),
+        format!(
+            "(`ssm_u_socket`, {} µm",
+            share(figure(&run1.results, "ssm_ex"), "socket")
+        ),
+        format!(
+            "({}) µm in run 1 and ({}) µm in run 2",
+            a1.join(", "),
+            a2.join(", ")
+        ),
+        format!("0.1 µm × cond/3 = {:.2} µm", 0.1 * cond(run1) / 3.0),
+        format!("√({}² + {}²) µm", a1[0], a2[0]),
+    ] {
+        assert!(prose.contains(&want), "ssm.md does not say {want:?}");
     }
 }

@@ -391,7 +391,7 @@ impl Results {
         }
     }
 
-    /// [`Results::new`] built in place in `slot` (no stack copy of the 4 KiB table: the
+    /// [`Results::new`] built in place in `slot` (no stack copy of the table, 40 B a result: the
     /// application's construction runs at the bottom of the stack every job runs on).
     pub fn init(slot: &mut core::mem::MaybeUninit<Self>) -> &mut Self {
         crate::in_place::init_in_place!(slot, Self {} in place {
@@ -442,7 +442,7 @@ impl Results {
         }
     }
 
-    /// Invalidates every result, in place (no 3.5 KiB temporary on the stack).
+    /// Invalidates every result, in place (no temporary of the table on the stack).
     pub fn clear_all(&mut self) {
         self.entries.fill(ResultEntry::INVALID);
     }

@@ -4,7 +4,9 @@
 //! `lvdt_u_scale`; the book's budget table under "Uncertainty").
 //!
 //! Sensitivities (GUM §5.1.2, analytic, first order):
-//! - The pod measures ΔL = distance − L₂₀·(1 + α·(T − 20 °C)). An error δL₂₀ of the calibrated
+//! - The pod measures ΔL = distance − L₂₀, computed as ΔL = x + L₂₀·α·(T − 20 °C): x the LVDT's
+//!   reading, distance − L₂₀·(1 + α·(T − 20 °C)), the bar's expansion added back
+//!   (`acquisition::thermal::bar_expansion_um`). An error δL₂₀ of the calibrated
 //!   length, or δT of the measured temperature (δL = L₂₀·α·δT), shifts every ΔL of a run by the
 //!   same amount: a **radial** figure (r0, F_max, F_min, the mean bi-directional radial
 //!   deviation) moves by it 1:1; a **shape** figure (eccentricity, G, H, G(b), every diagnosis)

@@ -920,9 +920,9 @@ fn main() -> ! {
     ));
 
     // ---- a log download: the application task's longest pull ---------------------------------
-    // The firmware's log (600 records) filled with the circle's samples, decimated as on the
-    // pod; `DATA:LOG?` in pull mode; every pull as the application task makes it (64-byte USB
-    // packets): the counting pulls, the header, the CSV. The longest one is how long a
+    // The firmware's log (`LOG_CAPACITY` records) filled with the circle's samples, decimated as
+    // on the pod; `DATA:LOG?` in pull mode; every pull as the application task makes it (64-byte
+    // USB packets): the counting pulls, the header, the CSV. The longest one is how long a
     // download can hold up the task (and so the samples behind it).
     {
         let mut log: SampleLog<LOG_CAPACITY> = SampleLog::new();

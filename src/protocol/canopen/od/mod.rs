@@ -28,8 +28,8 @@
 //! - 0x2100–0x2103: live process values (REAL32 µm / °C, NaN while invalid), sample counter,
 //!   status word, live-value validity mask; PDO mappable; 0x2110: the device counters
 //!   (`app::device`);
-//! - 0x3000–0x300B: session control and state, the run's counters, the last refusal, the touch
-//!   points of the last PROBE run;
+//! - 0x3000–0x300C: session control and state, the run's counters, the last refusal, the touch
+//!   points of the last PROBE run, the axes' positions;
 //! - 0x4000–0x4002: the results table (value, standard uncertainty, validity).
 
 mod access;

@@ -120,3 +120,100 @@ fn the_lobing_budget_covers_the_truth_in_95_percent_of_procedures() {
         );
     }
 }
+
+/// ∫ cos(3kψ)/cos ψ dψ over ±60°, the k-th lobe harmonic of the kinematic 1/cos law (Simpson,
+/// 20 000 intervals; the integrand is smooth there).
+fn lobe_integral(k: usize) -> f64 {
+    let (a, n) = (60f64.to_radians(), 20_000);
+    let h = 2.0 * a / n as f64;
+    let f = |x: f64| (3.0 * k as f64 * x).cos() / x.cos();
+    let inner: f64 = (1..n)
+        .map(|i| f(-a + i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 })
+        .sum();
+    (f(-a) + inner + f(a)) * h / 3.0
+}
+
+/// The numbers the touch-probe page quotes after `before` (a list like "0.43, 0.90 and 0.90").
+fn quoted(before: &str) -> Vec<f64> {
+    let page =
+        std::fs::read_to_string(ballpod_host::docs::root().join("docs/src/methods/touch-probe.md"))
+            .expect("touch-probe.md");
+    let flat = page.split_whitespace().collect::<Vec<_>>().join(" ");
+    let rest = flat
+        .split_once(before)
+        .unwrap_or_else(|| panic!("no {before:?}"))
+        .1;
+    rest.split([',', ' '])
+        .take_while(|w| w.is_empty() || w.parse::<f64>().is_ok() || *w == "and")
+        .filter_map(|w| w.parse().ok())
+        .collect()
+}
+
+#[test]
+fn the_lobe_harmonics_and_the_sphere_centres_response_are_the_books() {
+    use ballpod::identify::mill_turn::lobing::lobing_basis;
+    use ballpod::identify::mill_turn::probe::fit_sphere;
+    // the harmonics' amplitudes relative to the third's, from the 1/cos law by quadrature
+    let ratio: Vec<f64> = (1..=6)
+        .map(|k| (lobe_integral(k) / lobe_integral(1)).abs())
+        .collect();
+    // the pod's basis at a touch across the stylus at φ = 0 holds them
+    let basis = lobing_basis([1.0, 0.0, 0.0], 0.0, 1.0);
+    for (k, r) in ratio.iter().enumerate() {
+        assert!(
+            (f64::from(basis[2 * k]) - r).abs() < 1e-3,
+            "harmonic {}: {r}",
+            3 * (k + 1)
+        );
+    }
+    let shown = quoted("and 18 have");
+    assert_eq!(shown.len(), 6, "{shown:?}");
+    for (s, r) in shown.iter().zip(&ratio) {
+        assert_eq!(
+            format!("{s:.2}"),
+            format!("{r:.2}"),
+            "the page's ratios {shown:?}"
+        );
+    }
+    // the nine touches of `ncgen sphere` at B = 0: the centre's response across the stylus per
+    // µm of the 3rd, 9th and 15th harmonics' amplitude, by the test's own least squares
+    // (n·δc + δR = g at each touch) and by the pod's sphere fit
+    let dirs = ballpod_host::vmt::motion::probing_directions();
+    let rows: Vec<Vec<f64>> = dirs.iter().map(|n| vec![n[0], n[1], n[2], 1.0]).collect();
+    let points: Vec<[f64; 3]> = dirs
+        .iter()
+        .map(|n| [100.0 + 12.5 * n[0], 20.0 + 12.5 * n[1], -40.0 + 12.5 * n[2]])
+        .collect();
+    let fit = fit_sphere(&points, 0.0).expect("the sphere fit");
+    let mut across = Vec::new();
+    for k in [1usize, 3, 5] {
+        let j = 2 * (k - 1); // the cosine component of harmonic 3k
+        let g: Vec<f64> = dirs
+            .iter()
+            .map(|n| {
+                let rho2 = n[0] * n[0] + n[1] * n[1];
+                rho2 * (3.0 * k as f64 * n[1].atan2(n[0])).cos()
+            })
+            .collect();
+        let (x, _) = ballpod_host::oracle::lstsq(&rows, &g);
+        let oracle = x[0].hypot(x[1]);
+        let [dx, dy, _] = fit.lobing_um_per_um[j].map(f64::from);
+        let pod = dx.hypot(dy) / ratio[k - 1];
+        // (the pod holds the ratios to three digits)
+        assert!(
+            (pod - oracle).abs() < 5e-3,
+            "harmonic {}: pod {pod}, oracle {oracle}",
+            3 * k
+        );
+        across.push(oracle);
+    }
+    let shown = quoted("move it across by");
+    assert_eq!(shown.len(), 3, "{shown:?}");
+    for (s, a) in shown.iter().zip(&across) {
+        assert_eq!(
+            format!("{s:.2}"),
+            format!("{a:.2}"),
+            "the page's responses {shown:?}"
+        );
+    }
+}

@@ -227,3 +227,39 @@ fn a_session_over_canopen_and_over_scpi_leaves_the_same_pod() {
     }
     assert_eq!(state(&cnc.0.app), state(&tech.0.app));
 }
+
+/// The lists of patterns kept as text (the SCPI refusal's and reference's choices, the LinuxCNC
+/// M-codes' python module) name `Pattern::ALL`, in code order: a pattern added to the core and
+/// not to them fails here (CANopen 0x3000's limits are derived from `Pattern::ALL`).
+#[test]
+fn the_pattern_lists_kept_as_text_are_pattern_all() {
+    let names: Vec<&str> = Pattern::ALL.iter().map(|p| p.name()).collect();
+    let choices = names.join("|");
+    let root = ballpod_host::docs::root();
+    for file in [
+        "src/protocol/scpi/exec.rs",
+        "src/protocol/scpi/reference.rs",
+    ] {
+        let text = std::fs::read_to_string(root.join(file)).expect(file);
+        assert!(
+            text.contains(&format!("\"{choices}\"")) || text.contains(&format!("<{choices}>")),
+            "{file} does not name the patterns {choices}"
+        );
+    }
+    let python = include_str!("../src/ncgen/ballpod_session.py");
+    let list = names
+        .iter()
+        .map(|n| format!("\"{n}\""))
+        .collect::<Vec<_>>()
+        .join(", ");
+    assert!(
+        python.contains(&format!("PATTERNS = [{list}]")),
+        "ballpod_session.py's PATTERNS is not [{list}]"
+    );
+    for (k, p) in Pattern::ALL.iter().enumerate() {
+        assert_eq!(
+            *p as usize, k,
+            "Pattern::ALL is in code order (0x3000's value)"
+        );
+    }
+}

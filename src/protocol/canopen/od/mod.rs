@@ -43,7 +43,8 @@ use super::pdo::{MAX_MAPPED, TPDO_COUNT};
 use crate::acquisition::MAX_AXES;
 use crate::app::probe::MAX_TOUCHES;
 use crate::app::{
-    DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, LIVE, LIVE_COUNT, RESULT_COUNT, ResultId, RunCounters,
+    DEVICE_COUNTER_COUNT, DEVICE_COUNTERS, LIVE, LIVE_COUNT, Pattern, RESULT_COUNT, ResultId,
+    RunCounters,
 };
 use crate::config::{FIELDS, FieldType, POS_MM};
 
@@ -497,7 +498,9 @@ pub fn entry(index: u16, sub: u8) -> Result<Entry, SdoAbort> {
         0x2102 => var(Unsigned16, Ro, Var::StatusWord).map(Entry::mappable),
         0x2103 => var(Unsigned16, Ro, Var::LiveValid).map(Entry::mappable),
         0x2110 => counters(index, sub, &DEVICE_COUNTERS, Var::DeviceCounter),
-        0x3000 => var(Unsigned8, Rw, Var::Pattern).map(|e| e.limits(0.0, 7.0)),
+        0x3000 => {
+            var(Unsigned8, Rw, Var::Pattern).map(|e| e.limits(0.0, (Pattern::ALL.len() - 1) as f64))
+        }
         0x3001 => var(Unsigned8, Rw, Var::Direction).map(|e| e.limits(0.0, 1.0)),
         0x3002 => var(Unsigned8, Wo, Var::Command).map(|e| e.limits(1.0, 8.0)),
         0x3003 => var(Unsigned8, Ro, Var::SessionState).map(Entry::mappable),

@@ -364,7 +364,7 @@ fn the_worked_examples_are_what_sim_prints() {
         String::from_utf8_lossy(&run.stderr)
     );
     // the figures the pages quote from the results.json `sim` writes, to the digits they give
-    let results: serde_json::Value =
+    let results: ballpod_host::replay::Report =
         serde_json::from_str(&results.expect("sim writes results.json")).expect("its JSON");
     let checked = quoted_results_are_these(
         "methods/circle.md",
@@ -375,7 +375,7 @@ fn the_worked_examples_are_what_sim_prints() {
     let seed002 = "methods/seed002-ballbar.md";
     let marker = "In its `results.json` the model fit's residual";
     assert_eq!(quoted_results_are_these(seed002, marker, &results), 1);
-    let rms = result_of(&results, "model_residual_rms").0;
+    let rms = figure(&results.results, "model_residual_rms").value;
     assert!(
         rms.abs() < 1e-9,
         "{seed002}: model_residual_rms {rms} is not below 1e-9 µm"
@@ -402,63 +402,40 @@ fn the_worked_examples_are_what_sim_prints() {
     }
 }
 
-/// A result of a results.json by name: (value, u).
-fn result_of(results: &serde_json::Value, name: &str) -> (f64, Option<f64>) {
-    let r = results["results"]
-        .as_array()
-        .and_then(|a| a.iter().find(|r| r["name"] == name))
-        .unwrap_or_else(|| panic!("no result {name} in results.json"));
-    (r["value"].as_f64().expect("a value"), r["u"].as_f64())
-}
-
 /// Checks each `name value [± u]` the paragraph of `page` starting at `marker` quotes, a name
-/// being a result of `results`, at the decimals the page gives; the number of names checked.
-fn quoted_results_are_these(page: &str, marker: &str, results: &serde_json::Value) -> usize {
+/// being a result of `report`, written as the book writes it ([`shown`]) to the decimals the page
+/// gives; the number of names checked.
+fn quoted_results_are_these(
+    page: &str,
+    marker: &str,
+    report: &ballpod_host::replay::Report,
+) -> usize {
     let text = std::fs::read_to_string(root().join("docs/src").join(page)).expect(page);
     let start = text
         .find(marker)
         .unwrap_or_else(|| panic!("{page}: no {marker:?}"));
     let paragraph = text[start..].split("\n\n").next().unwrap_or_default();
-    let names: BTreeSet<&str> = results["results"]
-        .as_array()
-        .expect("results")
-        .iter()
-        .filter_map(|r| r["name"].as_str())
-        .collect();
-    let words: Vec<String> = paragraph
+    let words: Vec<&str> = paragraph
         .split_whitespace()
         .map(|w| {
-            w.replace('−', "-")
-                .trim_start_matches('(')
+            w.trim_start_matches('(')
                 .trim_end_matches([',', ';', ':', ')', '.'])
-                .to_string()
         })
         .collect();
-    // a number as the page writes it, and the same number of decimals of the file's value
-    let same = |shown: &str, value: f64| {
-        let decimals = shown.split_once('.').map_or(0, |(_, d)| d.len());
-        format!("{value:.decimals$}") == shown
-    };
+    let number = |w: &str| w.replace('−', "-").parse::<f64>().is_ok();
+    let decimals = |w: &str| w.split_once('.').map_or(0, |(_, d)| d.len());
     let mut checked = 0;
     for (k, w) in words.iter().enumerate() {
-        let Some(shown) = words.get(k + 1).filter(|n| n.parse::<f64>().is_ok()) else {
+        let Some(value) = words.get(k + 1).filter(|w| number(w)) else {
             continue;
         };
-        if !names.contains(w.as_str()) {
+        let Some(f) = report.results.iter().find(|f| f.name == *w) else {
             continue;
-        }
-        let (value, u) = result_of(results, w);
-        assert!(
-            same(shown, value),
-            "{page}: {w} {shown}, results.json {value}"
-        );
-        if words.get(k + 2).is_some_and(|p| p == "±") {
-            let shown_u = words.get(k + 3).expect("a u after ±");
-            let u = u.unwrap_or_else(|| panic!("{page}: {w} has no u in results.json"));
-            assert!(
-                same(shown_u, u),
-                "{page}: {w} ± {shown_u}, results.json u {u}"
-            );
+        };
+        assert_eq!(*value, shown(f.value, decimals(value)), "{page}: {w}");
+        if words.get(k + 2) == Some(&"±") {
+            let u = words.get(k + 3).expect("a u after ±");
+            assert_eq!(*u, shown(u_of(f), decimals(u)), "{page}: {w}'s u");
         }
         checked += 1;
     }

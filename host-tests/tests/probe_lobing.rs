@@ -149,6 +149,13 @@ fn quoted(before: &str) -> Vec<f64> {
         .collect()
 }
 
+/// The numbers the page quotes after `before` are `computed`, to the two decimals it gives.
+fn page_shows(before: &str, computed: &[f64]) {
+    let want: Vec<String> = computed.iter().map(|c| format!("{c:.2}")).collect();
+    let got: Vec<String> = quoted(before).iter().map(|s| format!("{s:.2}")).collect();
+    assert_eq!(got, want, "touch-probe.md after {before:?}");
+}
+
 #[test]
 fn the_lobe_harmonics_and_the_sphere_centres_response_are_the_books() {
     use ballpod::identify::mill_turn::lobing::lobing_basis;
@@ -166,15 +173,7 @@ fn the_lobe_harmonics_and_the_sphere_centres_response_are_the_books() {
             3 * (k + 1)
         );
     }
-    let shown = quoted("and 18 have");
-    assert_eq!(shown.len(), 6, "{shown:?}");
-    for (s, r) in shown.iter().zip(&ratio) {
-        assert_eq!(
-            format!("{s:.2}"),
-            format!("{r:.2}"),
-            "the page's ratios {shown:?}"
-        );
-    }
+    page_shows("and 18 have", &ratio);
     // the nine touches of `ncgen sphere` at B = 0: the centre's response across the stylus per
     // µm of the 3rd, 9th and 15th harmonics' amplitude, by the test's own least squares
     // (n·δc + δR = g at each touch) and by the pod's sphere fit
@@ -207,13 +206,5 @@ fn the_lobe_harmonics_and_the_sphere_centres_response_are_the_books() {
         );
         across.push(oracle);
     }
-    let shown = quoted("move it across by");
-    assert_eq!(shown.len(), 3, "{shown:?}");
-    for (s, a) in shown.iter().zip(&across) {
-        assert_eq!(
-            format!("{s:.2}"),
-            format!("{a:.2}"),
-            "the page's responses {shown:?}"
-        );
-    }
+    page_shows("move it across by", &across);
 }

@@ -93,12 +93,17 @@ def test_the_page_in_a_browser_runs_a_circle_pair_and_prints_its_report(pod, tmp
         t0 = time.time()
         while not b.find_element(By.ID, "live-step").text.startswith("done"):
             assert time.time() - t0 < 120, b.find_element(By.ID, "live-step").text
-            step = b.find_element(By.ID, "live-step").text
-            if step == "run 1 of 2 (CIRCLE CCW): the machine moves":
+            moving = "run 1 of 2 (CIRCLE CCW): the machine moves"
+            # the page sets step, count and trace in one poll, but each read here is a separate
+            # round trip: a look counts only if the step still reads run 1 after it (the page
+            # may have moved on to run 2, whose count starts again, between two reads)
+            if b.find_element(By.ID, "live-step").text == moving:
                 png = b.find_element(By.ID, "trace").screenshot_as_png
-                blue.append((int(b.find_element(By.ID, "live-samples").text), pixels_near(png, TRACE_BLUE)))
-                if len(blue) == 3:
-                    (shots / "desk-live.png").write_bytes(b.get_screenshot_as_png())
+                n = int(b.find_element(By.ID, "live-samples").text)
+                if b.find_element(By.ID, "live-step").text == moving:
+                    blue.append((n, pixels_near(png, TRACE_BLUE)))
+                    if len(blue) == 3:
+                        (shots / "desk-live.png").write_bytes(b.get_screenshot_as_png())
             time.sleep(0.2)
         assert len(blue) >= 3, blue
         samples = [n for n, _ in blue]

@@ -65,3 +65,17 @@ pub fn block_after(marker: &str, lang: &str) -> String {
     let len = rest[start..].find("```").expect("block end");
     rest[start..start + len].to_string()
 }
+
+/// The steps of a `console` block's lines: each line `$ COMMAND` starts a step, the lines up to
+/// the next such line are what COMMAND prints (lines before the first command are not output).
+pub fn console_steps<'a>(lines: impl IntoIterator<Item = &'a str>) -> Vec<(String, Vec<String>)> {
+    let mut steps: Vec<(String, Vec<String>)> = Vec::new();
+    for line in lines {
+        if let Some(command) = line.strip_prefix("$ ") {
+            steps.push((command.to_string(), Vec::new()));
+        } else if let Some((_, printed)) = steps.last_mut() {
+            printed.push(line.to_string());
+        }
+    }
+    steps
+}

@@ -471,14 +471,7 @@ impl Drop for Scratch {
 /// `dir`; what it prints must be the lines that follow it in the block, exactly.
 fn run_console_block(marker: &str, dir: &Path) {
     let block = ballpod_host::docs::block_after(marker, "console");
-    let mut steps: Vec<(String, Vec<String>)> = Vec::new();
-    for line in block.lines() {
-        if let Some(command) = line.strip_prefix("$ ") {
-            steps.push((command.to_string(), Vec::new()));
-        } else if let Some((_, expected)) = steps.last_mut() {
-            expected.push(line.trim_end().to_string());
-        }
-    }
+    let steps = ballpod_host::docs::console_steps(block.lines().map(str::trim_end));
     assert!(
         !steps.is_empty(),
         "no command in the console block after {marker:?}"

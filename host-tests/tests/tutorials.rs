@@ -59,17 +59,15 @@ fn steps(page: &str) -> Vec<Step> {
             .take_while(|l| !l.starts_with("```"))
             .collect();
         if info == "console" {
-            for l in &block {
-                if let Some(command) = l.strip_prefix("$ ") {
-                    out.push(Step::Run {
-                        command: command.to_string(),
-                        expected: Vec::new(),
+            out.extend(
+                ballpod_host::docs::console_steps(block.iter().copied())
+                    .into_iter()
+                    .map(|(command, expected)| Step::Run {
+                        command,
+                        expected,
                         tolerance,
-                    });
-                } else if let Some(Step::Run { expected, .. }) = out.last_mut() {
-                    expected.push(l.to_string());
-                }
-            }
+                    }),
+            );
         } else if let Some(path) = block.first().and_then(|l| l.strip_prefix("# file: ")) {
             out.push(Step::File {
                 path: path.trim().to_string(),

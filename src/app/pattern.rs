@@ -100,7 +100,15 @@ impl Pattern {
     /// True for the patterns fitted as a circle or arc (ISO 230-4 and the seed 002 steps): the
     /// live eccentricity and r0, the run results.
     pub const fn is_circular(self) -> bool {
-        !matches!(self, Pattern::Ssm | Pattern::Probe)
+        match self {
+            Pattern::Circle
+            | Pattern::Bx
+            | Pattern::By
+            | Pattern::Cr
+            | Pattern::Ca
+            | Pattern::Cr2 => true,
+            Pattern::Ssm | Pattern::Probe => false,
+        }
     }
 
     /// True where the direction of the run matters (circular patterns; SSM and PROBE have none).

@@ -72,7 +72,7 @@ impl App {
                 Err(f) => return self.refuse(CommandError::Missing(f)),
             },
             Pattern::Probe => RunEstimator::Probe(ProbeRun::new(f64::from(setup.probe_length_mm))),
-            step => {
+            step @ (Pattern::Bx | Pattern::By | Pattern::Cr | Pattern::Ca | Pattern::Cr2) => {
                 let s = match Setup::from_config(&setup) {
                     Ok(s) => s,
                     Err(f) => return self.refuse(CommandError::Missing(f)),
@@ -110,7 +110,12 @@ impl App {
             Pattern::Probe => self
                 .results
                 .clear(ResultId::SphereX, ResultId::SphereResidualRms),
-            _ => {}
+            Pattern::Circle
+            | Pattern::Bx
+            | Pattern::By
+            | Pattern::Cr
+            | Pattern::Ca
+            | Pattern::Cr2 => {}
         }
         self.meta = RunMeta {
             run: self.meta.run.wrapping_add(1),

@@ -253,7 +253,7 @@ impl ResultId {
         let (first, last) = match pattern {
             P::Ssm => (ResultId::SsmEx, ResultId::SsmStations),
             P::Probe => (ResultId::SphereX, ResultId::SphereResidualRms),
-            _ => (ResultId::EccU, ResultId::Arc),
+            P::Circle | P::Bx | P::By | P::Cr | P::Ca | P::Cr2 => (ResultId::EccU, ResultId::Arc),
         };
         Self::ALL.get(first.index()..=last.index()).unwrap_or(&[])
     }

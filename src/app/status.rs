@@ -38,7 +38,12 @@ impl App {
             _ if self.session != SessionState::Running => false,
             Pattern::Ssm => self.live.all_valid(LIVE_SSM_E),
             Pattern::Probe => false,
-            _ => self.live.all_valid(LIVE_FIT),
+            Pattern::Circle
+            | Pattern::Bx
+            | Pattern::By
+            | Pattern::Cr
+            | Pattern::Ca
+            | Pattern::Cr2 => self.live.all_valid(LIVE_FIT),
         };
         let mut w = self.status_fixed | (self.last_flags.0 & StatusWord::SAMPLE_FLAGS_MASK);
         if live_valid {

@@ -121,7 +121,7 @@ impl Motion {
             }
             Pattern::Ssm => ssm_path(truth.ssm_error_um, cfg, SSM_ACCEL_MM_PER_S2)?,
             Pattern::Probe => probe_path(truth, cfg, probe_runs)?,
-            step => {
+            step @ (Pattern::Bx | Pattern::By | Pattern::Cr | Pattern::Ca | Pattern::Cr2) => {
                 let setup = Setup::from_config(t).map_err(|f| {
                     format!("seed 002 set-up: {} not set", ballpod::app::field_name(f))
                 })?;

@@ -48,6 +48,10 @@ EMU_FIGURES = ROOT / "host-tests/target/emulated-board-figures.md"
 # .ci/run sets it): the emulated board's high-water mark must stay 2 KiB under it
 STM32_STACK_BYTES = int(os.environ.get("BALLPOD_STM32_STACK", "0"))
 NOT_MEASURED = 0xFFFF_FFFF  # a device figure not measured (yet)
+# a heartbeat's way from the application task to the bus task that times it (emu-board's
+# board/can.rs), µs: seen at 10 kHz with the stream read, 3.23 ms late where tick and turn
+# allowed 3.04 (2026-12-02)
+HEARTBEAT_BUS_PATH_US = 500
 # what the application task's longest turn handled (src/board/compute.rs TurnKind)
 TURN_KINDS = {1: "block", 2: "CAN frame", 3: "USB", 4: "tick", 5: "work done"}
 
@@ -56,8 +60,8 @@ def check_emulated_figures(request, info, seconds):
     """After a test against the emulated firmware: what the board measured of itself in emulated
     time (its CAN adapter's SDO answer times and heartbeat gaps, the boots, the device counters
     the application task last set), one row of EMU_FIGURES; fails the test if the watchdog reset
-    the firmware (a lock-up ends QEMU and the test with it), a heartbeat came more than 2 ms off
-    its 1000 ms (or the longest turn + 1 ms, where a turn was longer; the gaps around a QEMU stall
+    the firmware (a lock-up ends QEMU and the test with it), a heartbeat came more than 2.5 ms off
+    its 1000 ms (or the longest turn + 1.5 ms, where a turn was longer; the gaps around a QEMU stall
     on the host, which the sample clock's late tick shows, are left out and counted), an SDO
     answer took longer
     than 10 ms, a sample period was lost (by the ADC or on the way to the application task while
@@ -93,9 +97,11 @@ def check_emulated_figures(request, info, seconds):
     assert f["watchdog_resets"] == 0, f"the watchdog reset the firmware during the test: {f}"
     # a heartbeat leaves at the 1 ms tick nearest its time, and a tick waits for the application
     # task's turn in front of it: 2 ms, or the longest turn + 1 ms where a turn between runs is
-    # longer (a line of several SCPI configuration writes, a probe run's sphere fit). A job in
-    # the application task would hold it for seconds.
-    hb_tolerance_us = max(2000, f.get("longest_turn_us", 0) + 1000)
+    # longer (a line of several SCPI configuration writes, a probe run's sphere fit); and the
+    # board times it where the bus task takes it, after the I/O executor's turn in front of
+    # that task (the USB task's stream bytes, a UART the host reads late): 0.5 ms more. A job
+    # in the application task would hold it for seconds.
+    hb_tolerance_us = max(2000, f.get("longest_turn_us", 0) + 1000) + HEARTBEAT_BUS_PATH_US
     if gaps:
         assert abs(f["heartbeat_gap_min_us"] - 1e6) <= hb_tolerance_us, f
         assert abs(f["heartbeat_gap_max_us"] - 1e6) <= hb_tolerance_us, f

@@ -10,6 +10,7 @@ import os
 import pathlib
 import signal
 import subprocess
+import sys
 import time
 
 import pytest
@@ -29,6 +30,14 @@ def host_binary(name):
     subprocess.run(["cargo", "build", "--manifest-path", "host-tests/Cargo.toml", "--target", "host-tuple",
                     "--release", "--bin", name], cwd=ROOT, check=True)
     return str(ROOT / "host-tests" / "target" / triple / "release" / name)
+
+
+def pytest_runtest_logreport(report):
+    """A test run again (`--reruns`, .ci/run): what failed in its first attempt, printed, since
+    pytest-rerunfailures reports only that it ran again (a flaky test is then read, not guessed)."""
+    if report.outcome == "rerun":
+        sys.stderr.write(f"\n{report.nodeid} ({report.when}) failed, run again:\n"
+                         f"{report.longreprtext[-3000:]}\n")
 
 
 def pytest_configure(config):

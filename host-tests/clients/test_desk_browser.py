@@ -96,11 +96,12 @@ def test_the_page_in_a_browser_runs_a_circle_pair_and_prints_its_report(pod, tmp
             moving = "run 1 of 2 (CIRCLE CCW): the machine moves"
             # the page sets step, count and trace in one poll, but each read here is a separate
             # round trip: a look counts only if the step still reads run 1 after it (the page
-            # may have moved on to run 2, whose count starts again, between two reads)
+            # may have moved on to run 2, whose count starts again, between two reads), and once
+            # a sample has come (the run's first poll shows none, and no trace)
             if b.find_element(By.ID, "live-step").text == moving:
                 png = b.find_element(By.ID, "trace").screenshot_as_png
                 n = int(b.find_element(By.ID, "live-samples").text)
-                if b.find_element(By.ID, "live-step").text == moving:
+                if n > 0 and b.find_element(By.ID, "live-step").text == moving:
                     blue.append((n, pixels_near(png, TRACE_BLUE)))
                     if len(blue) == 3:
                         (shots / "desk-live.png").write_bytes(b.get_screenshot_as_png())
@@ -108,7 +109,7 @@ def test_the_page_in_a_browser_runs_a_circle_pair_and_prints_its_report(pod, tmp
         assert len(blue) >= 3, blue
         samples = [n for n, _ in blue]
         assert samples == sorted(samples) and samples[-1] > samples[0], blue
-        assert blue[-1][1] > blue[0][1] > 0, blue  # more of the trace drawn, screenshot by screenshot
+        assert blue[-1][1] > blue[0][1], blue  # more of the trace drawn, screenshot by screenshot
 
         # the results: the decision shown per the rule, the figures equal the desk's API
         wait.until(lambda b: "G_ccw" in b.find_element(By.ID, "r-figures").text)

@@ -56,26 +56,36 @@ def test_a_usb_client_that_never_reads_holds_up_nothing(pod, eds):
         configure_circle(sdo, {**pod["truth"]["machine"]["circle"], "feed_mm_per_min": 6000.0})
         start_circle(sdo)
         wait_until(lambda: sdo["session_state"].raw != 2, 20, "the circle's end")
+
+        def round_trips():
+            """30 SDO reads at 10 Hz, as a CNC goes on reading: each one's round trip, s."""
+            times = []
+            for _ in range(30):
+                t = time.monotonic()
+                assert sdo["session_state"].raw == 3  # DONE
+                times.append(time.monotonic() - t)
+                time.sleep(0.1)
+            return times
+
+        # the round trip through python-can and the SLCAN socket with nobody else on the pod:
+        # medians of 1.5 ms (sim --serve) and 2.4 ms (the emulated board) on the development
+        # machine (2026-12-02); a loaded two-core CI runner is slower (10.7 ms to the emulated
+        # board that day, which a fixed bound of 10 ms failed)
+        alone = round_trips()
         # a technician asks for the log and never reads (a small receive window)
         usb = socket.socket()
         usb.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
         usb.connect(("127.0.0.1", pod["usb_port"]))
         usb.sendall(b"DATA:LOG?\n")
         time.sleep(0.5)
-        # the CNC goes on reading at 10 Hz: every SDO answered at once
-        times = []
-        for _ in range(30):
-            t = time.monotonic()
-            assert sdo["session_state"].raw == 3  # DONE
-            times.append(time.monotonic() - t)
-            time.sleep(0.1)
-        # the round trip through python-can and the SLCAN socket: ≈ 0.6 ms median, 1.1 ms
-        # at most on the development machine (2026-11-25); 2.2 ms median with outliers of 29 ms
-        # on a loaded two-core CI runner (2026-11-27: the scheduler, not the pod). A server
-        # held up by the unread download would answer none of them for the whole download:
-        # the median says "at once", the bound on the slowest says "never held up"
-        med = statistics.median(times)
-        assert med < 0.010 and max(times) < 0.100, f"median {med}, {times}"
+        held = round_trips()
+        # A server held up by the unread download would answer none of them for the whole
+        # download. The median says "at once" (as with nobody on the USB port, with 2 ms for
+        # the scheduler), the slowest "never held up": a stall of the host on a loaded runner
+        # holds one round trip or two, not the download's
+        med_alone, med_held = statistics.median(alone), statistics.median(held)
+        assert med_held < 1.5 * med_alone + 0.002, f"median {med_held} (alone {med_alone}), {held}"
+        assert sorted(held)[-3] < 0.100, held
         usb.close()
     finally:
         net.disconnect()

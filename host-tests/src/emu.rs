@@ -83,7 +83,7 @@ impl SharedLayout {
     /// "BPOD" once the firmware has booted.
     pub const MAGIC: u32 = 0x444F_5042;
     /// Layout version.
-    pub const VERSION: u32 = 5;
+    pub const VERSION: u32 = 6;
     const MAGIC_AT: u64 = 0;
     const VERSION_AT: u64 = 4;
     const BOOTS_AT: u64 = 8;
@@ -93,7 +93,7 @@ impl SharedLayout {
     const SESSION_AT: u64 = 24;
     const RUN_AT: u64 = 28;
     const FIGURES_AT: u64 = 32;
-    const FIGURES: u64 = 20;
+    const FIGURES: u64 = 21;
     /// Figures `RunBusyUs` and `RunMeasuredUs` (board/shared.rs `Figure`): a run's CPU time.
     const RUN_CPU_FIGURES: [usize; 2] = [10, 11];
     const CONFIG_LEN_AT: u64 = Self::FIGURES_AT + 4 * Self::FIGURES;
@@ -245,7 +245,8 @@ impl Region {
     /// longest turn, µs, and what it handled (1 block, 2 CAN frame, 3 USB, 4 tick, 5 work done);
     /// the blocks dropped while a run ran or a job computed; the periods delivered at a later
     /// tick than their own, the most periods owed at one tick (QEMU's stalls on the host); the
-    /// boots that would have entered the ROM bootloader.
+    /// boots that would have entered the ROM bootloader; the heartbeat gaps left out (a stall
+    /// of QEMU); the watchdog expiries excused (a stall of QEMU while the firmware slept).
     pub fn figures(&self) -> io::Result<[u32; SharedLayout::FIGURES as usize]> {
         let mut f = [0u32; SharedLayout::FIGURES as usize];
         for (k, v) in f.iter_mut().enumerate() {
@@ -680,13 +681,14 @@ pub fn run(opts: EmuOptions) -> io::Result<()> {
                     most_owed,
                     rom_bootloader,
                     heartbeat_gaps_left_out,
+                    stalls_excused,
                 ],
                 boots,
                 positioned,
             ) = figures;
             let (written, taken) = region.counts()?;
             let json = format!(
-                "{{\"sdo_answers\":{answers},\"sdo_worst_us\":{worst},\"heartbeat_gaps\":{gaps},\"heartbeat_gap_min_us\":{gap_min},\"heartbeat_gap_max_us\":{gap_max},\"boots\":{boots},\"watchdog_resets\":{watchdog},\"records_written\":{written},\"records_taken\":{taken},\"adc_blocks_lost\":{adc_lost},\"block_queue_overruns\":{queue},\"watchdog_misses\":{misses},\"stack_high_water_bytes\":{stack},\"run_busy_us\":{run_busy},\"run_measured_us\":{run_measured},\"run_load_peak_permille\":{run_peak},\"longest_turn_us\":{longest_turn},\"longest_turn_kind\":{longest_turn_kind},\"run_blocks_dropped\":{run_dropped},\"periods_delivered_late\":{delivered_late},\"most_periods_owed\":{most_owed},\"rom_bootloader_entries\":{rom_bootloader},\"heartbeat_gaps_left_out\":{heartbeat_gaps_left_out},\"positioned\":{positioned}}}\n"
+                "{{\"sdo_answers\":{answers},\"sdo_worst_us\":{worst},\"heartbeat_gaps\":{gaps},\"heartbeat_gap_min_us\":{gap_min},\"heartbeat_gap_max_us\":{gap_max},\"boots\":{boots},\"watchdog_resets\":{watchdog},\"records_written\":{written},\"records_taken\":{taken},\"adc_blocks_lost\":{adc_lost},\"block_queue_overruns\":{queue},\"watchdog_misses\":{misses},\"stack_high_water_bytes\":{stack},\"run_busy_us\":{run_busy},\"run_measured_us\":{run_measured},\"run_load_peak_permille\":{run_peak},\"longest_turn_us\":{longest_turn},\"longest_turn_kind\":{longest_turn_kind},\"run_blocks_dropped\":{run_dropped},\"periods_delivered_late\":{delivered_late},\"most_periods_owed\":{most_owed},\"rom_bootloader_entries\":{rom_bootloader},\"heartbeat_gaps_left_out\":{heartbeat_gaps_left_out},\"watchdog_stalls_excused\":{stalls_excused},\"positioned\":{positioned}}}\n"
             );
             // written whole, then renamed over the old (a reader never sees half of it)
             let tmp = path.with_extension("tmp");

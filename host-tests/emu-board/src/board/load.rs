@@ -15,7 +15,7 @@
 //! Another board's sleep has no such hook: this is the emulated board's figure.
 
 use core::cell::Cell;
-use core::sync::atomic::Ordering;
+use core::sync::atomic::{AtomicBool, Ordering};
 
 use ballpod::app::SessionState;
 use critical_section::Mutex;
@@ -45,6 +45,15 @@ struct State {
 
 static STATE: Mutex<Cell<Option<State>>> = Mutex::new(Cell::new(None));
 
+/// True from just before thread mode's WFI to just after it: read by the NMI, which then
+/// knows the core was asleep when it came (`watchdog`).
+static ASLEEP: AtomicBool = AtomicBool::new(false);
+
+/// Whether thread mode sleeps in its WFI (or is just about to, or just woke).
+pub fn asleep() -> bool {
+    ASLEEP.load(Ordering::Relaxed)
+}
+
 /// True while the published session is RUNNING.
 fn running() -> bool {
     region().session.load(Ordering::Relaxed) & 0xFF == SessionState::Running as u32
@@ -54,7 +63,9 @@ fn running() -> bool {
 pub fn sleep() {
     critical_section::with(|cs| {
         let went_us = Instant::now().as_micros();
+        ASLEEP.store(true, Ordering::Relaxed);
         cortex_m::asm::wfi();
+        ASLEEP.store(false, Ordering::Relaxed);
         let woke_us = Instant::now().as_micros();
         let work = WORK_BEGUN.load(Ordering::Relaxed);
         let dropped = BLOCK_QUEUE_OVERRUNS.get();

@@ -63,6 +63,25 @@ static LAST_STALL: critical_section::Mutex<core::cell::Cell<(u64, u32)>> =
 pub fn last_stall() -> (u64, u32) {
     critical_section::with(|cs| LAST_STALL.borrow(cs).get())
 }
+/// The time base's counter at the sample clock's latest tick ([`super::time::counter`]).
+static TICKED_AT: AtomicU32 = AtomicU32::new(0);
+/// Ticks of the sample clock since boot (0: none yet).
+static TICKS_SEEN: AtomicU32 = AtomicU32::new(0);
+
+/// The ticks of the sample clock so far and the µs since the latest, if it has ticked: the
+/// watchdog's NMI tells by them a stall of QEMU on the host from one of the firmware
+/// (`watchdog`). Read from the NMI: two words, no critical section (a tick between the two
+/// reads makes the gap read one period short).
+pub fn ticks_and_quiet_us() -> Option<(u32, u32)> {
+    let seen = TICKS_SEEN.load(Ordering::Acquire);
+    let at = TICKED_AT.load(Ordering::Relaxed);
+    (seen != 0).then(|| {
+        (
+            seen,
+            super::time::counter_gap_us(at, super::time::counter()),
+        )
+    })
+}
 /// The record the next period takes.
 static NEXT: AtomicU32 = AtomicU32::new(0);
 /// The sample period, µs.
@@ -103,6 +122,8 @@ pub fn start(period_us: u32) {
 pub extern "C" fn block_latch() {
     // SAFETY: the dual timer's interrupt clear.
     unsafe { write_volatile((DUAL + INTCLR) as *mut u32, 1) };
+    TICKED_AT.store(super::time::counter(), Ordering::Relaxed);
+    TICKS_SEEN.fetch_add(1, Ordering::Release);
     let now = embassy_time::Instant::now().as_micros();
     let period = u64::from(PERIOD_US.load(Ordering::Relaxed));
     let (mut next_t, mut due_t) = critical_section::with(|cs| GRID.borrow(cs).get());
@@ -213,7 +234,16 @@ pub async fn lvdt_task(len: usize, period_us: u32) {
         // host can stall (owed periods) and the task would miss a look for want of input.
         let tick = match embassy_futures::select::select(TICKS.receive(), STARVED.wait()).await {
             embassy_futures::select::Either::First(tick) => tick,
-            embassy_futures::select::Either::Second(()) => continue,
+            embassy_futures::select::Either::Second(()) => {
+                // the harness (this board's ADC) is behind: with no block waiting, the
+                // application task has none to go round for — its check-in is the block's,
+                // and the ADC that stopped is the host's, not the firmware's (a block waiting
+                // and not taken is the application task's: no check-in for it here)
+                if super::block::BLOCKS.is_empty() {
+                    super::safety::check_in(super::safety::Task::Compute);
+                }
+                continue;
+            }
         };
         let rec = shared::record(tick.record);
         // SAFETY: the record is the harness's until the firmware marks it taken (below): the

@@ -15,7 +15,7 @@ use ballpod::config::Config;
 use super::block::BLOCK_MAX;
 
 /// Words of [`Shared::figures`].
-pub const FIGURES: usize = 20;
+pub const FIGURES: usize = 21;
 
 /// What the emulated CAN adapter measures in emulated time, at the bus side of the node (the
 /// word of [`Shared::figures`] each is in).
@@ -70,6 +70,9 @@ pub enum Figure {
     /// tick of the sample clock (QEMU stalled on the host, its timers late in emulated time;
     /// `lvdt::last_stall`).
     HeartbeatGapsLeftOut = 19,
+    /// Watchdog expiries excused: QEMU stalled on the host while the firmware slept and
+    /// emulated time jumped past the watchdog's timeout (`watchdog`).
+    WatchdogStallsExcused = 20,
 }
 
 /// Sets a figure.
@@ -106,7 +109,7 @@ pub const BASE: usize = 0x2100_0000;
 /// `magic` once the firmware has booted ("BPOD").
 pub const MAGIC: u32 = 0x444F_5042;
 /// Layout version (`version`).
-pub const VERSION: u32 = 5;
+pub const VERSION: u32 = 6;
 /// Block records in the ring (the harness keeps 48 ms of them ahead: 480 at 10 kHz).
 pub const RING: usize = 512;
 /// Bytes of the configuration's encoding the session carries.

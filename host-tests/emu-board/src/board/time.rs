@@ -140,3 +140,15 @@ pub extern "C" fn timer1() {
     wr(TIMER1, INTSTATUS, 1);
     DRIVER.on_alarm();
 }
+
+/// The time base's counter as it is: 25 MHz, counting down, a wrap every 171.8 s. Read
+/// without a critical section, for the NMI (the watchdog's expiry): the clock ticks from one
+/// reading to a later one are `earlier.wrapping_sub(later)`, right for gaps under 171 s.
+pub fn counter() -> u32 {
+    rd(TIMER0, VALUE)
+}
+
+/// µs between two [`counter`] readings, `earlier` then `later`.
+pub fn counter_gap_us(earlier: u32, later: u32) -> u32 {
+    earlier.wrapping_sub(later) / PER_US as u32
+}

@@ -82,7 +82,7 @@ def check_emulated_figures(request, info, seconds):
     (the interrupts and the application task; a job in the worker and the windows where the
     board caught up on periods owed after a QEMU stall are left out: board/load.rs). 55 % of the
     emulated CPU (125 M instructions a second) is 40 % of the G474 at 170 MHz; the highest
-    sample rate's test runs at 47-49 % here."""
+    sample rate's test runs at 51-53 % here."""
     f = info["figures"]()
     stack = f.get("stack_high_water_bytes", NOT_MEASURED)
     if not EMU_FIGURES.exists():

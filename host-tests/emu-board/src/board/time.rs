@@ -19,8 +19,9 @@ const INTSTATUS: usize = 0x0C;
 const CTRL_EN: u32 = 1 << 0;
 const CTRL_IRQEN: u32 = 1 << 3;
 
-/// Timer clock ticks per µs (25 MHz).
-const PER_US: u64 = 25;
+/// Clock ticks per µs of the mps2's system clock (25 MHz), which the CMSDK timers and the
+/// watchdog count.
+pub const PER_US: u64 = 25;
 
 fn rd(base: usize, reg: usize) -> u32 {
     // SAFETY: a register of a CMSDK timer (mps2-an386 memory map).

@@ -33,8 +33,6 @@ const LOCK: usize = 0xC00;
 const UNLOCK: u32 = 0x1ACC_E551;
 /// Interrupt (NMI) and reset enabled.
 const CONTROL_ON: u32 = 0b11;
-/// Watchdog clock ticks per µs (25 MHz).
-const PER_US: u32 = 25;
 
 /// How long the sample clock must have been quiet for an expiry to be a stall of QEMU, µs: a
 /// hundred periods at 1 kHz. Its interrupt (priority 1) runs within microseconds of each
@@ -88,7 +86,7 @@ fn pet() {
 #[embassy_executor::task]
 pub async fn watchdog_task() {
     wr(LOCK, UNLOCK);
-    wr(LOAD, WATCHDOG_TIMEOUT_US * PER_US);
+    wr(LOAD, WATCHDOG_TIMEOUT_US * super::time::PER_US as u32);
     wr(CONTROL, CONTROL_ON);
     wr(LOCK, 0);
     PETTED_AT.store(super::time::counter(), Ordering::Relaxed);
